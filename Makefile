@@ -1,0 +1,45 @@
+# enctools — make demo (fresh machine: venv, install, calibration campaigns) and make test.
+PYTHON  ?= python3
+VENV    := .venv
+BIN     := $(VENV)/bin
+OUT     ?= demo-out
+ENC     := $(abspath $(BIN)/enc)
+
+.DEFAULT_GOAL := help
+.PHONY: help install demo test bench man lint clean
+
+help:  ## list the targets
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 12
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+
+$(VENV)/.installed: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install -q -e .
+	@touch $@
+
+$(VENV)/.installed-test: $(VENV)/.installed
+	$(BIN)/python -m pip install -q -e '.[test]'
+	@touch $@
+
+install: $(VENV)/.installed  ## create .venv and install enctools into it
+
+demo: $(VENV)/.installed  ## run both papers' campaigns on the simulated rigs into demo-out/
+	@mkdir -p $(OUT)
+	$(MAKE) --no-print-directory -f examples/sjtu-dual.mk ENC=$(ENC) OUT=$(OUT)/sjtu-dual
+	$(MAKE) --no-print-directory -f examples/ciomp-23bit.mk ENC=$(ENC) OUT=$(OUT)/ciomp-23bit
+	@echo "demo: results in $(OUT)/"
+
+test: $(VENV)/.installed-test  ## install what the tests need and run them
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+
+man:  ## check that every man page renders without warnings
+	@for f in man/*.[15]; do out=$$(LC_ALL=C.UTF-8 MANWIDTH=80 man --warnings -l $$f 2>&1 >/dev/null); \
+	  if [ -n "$$out" ]; then echo "$$f: $$out"; exit 1; fi; done; echo "man pages: ok"
+
+lint: $(VENV)/.installed-test  ## ruff over the code
+	$(BIN)/python -m pip install -q ruff && $(BIN)/ruff check enctools tests
+
+clean:  ## remove outputs (keeps .venv)
+	rm -rf $(OUT) bench-out .pytest_cache

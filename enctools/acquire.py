@@ -1,0 +1,297 @@
+"""Acquisition: drive a rig's devices in one of three modes and yield readings batches.
+
+- ``continuous``: turn at a speed for N revolutions, sample every head every
+  ``interval_s`` (hardware-timed blocks); seed 000's procedure.
+- ``steps``: move to each target, settle, take k readings of every head and sensor;
+  uni- or bidirectional runs (polygon work, ISO 230-2); seed 001's procedure.
+- ``sweep``: steps over a small range at a fine pitch (interpolation checks with
+  probes; seed 000 table 1).
+
+Counter values arrive raw and wrapped; they leave as unwrapped int64 counts. Batches
+are yielded as they are read, so a caller can flush them at once and lose nothing if
+the run is stopped.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from .errors import DeviceError, UsageError
+from .hw.base import Session
+from .rig import Rig
+from .schemas import make_field
+from .streams import BATCH_ROWS, Header
+from .units import ARCSEC, DEG, TWO_PI
+
+MODES = ("continuous", "steps", "sweep")
+
+DEFAULTS: dict[str, Any] = {
+    "mode": "continuous", "revolutions": 1.0, "speed_rpm": 1.0, "interval_s": 0.003,
+    "count": 24, "positions_deg": None, "settle_s": 1.0, "readings": 1, "runs": 1,
+    "bidirectional": False, "overshoot_deg": 0.5,
+    "start_deg": 0.0, "range_arcsec": 25.0, "step_arcsec": 0.5,
+}
+
+
+@dataclass
+class Settings:
+    """Effective acquisition settings (units in the names: deg, arcsec, s, r/min)."""
+
+    mode: str = "continuous"
+    revolutions: float = 1.0
+    speed_rpm: float = 1.0
+    interval_s: float = 0.003
+    count: int = 24
+    positions_deg: list[float] | None = None
+    settle_s: float = 1.0
+    readings: int = 1
+    runs: int = 1
+    bidirectional: bool = False
+    overshoot_deg: float = 0.5
+    start_deg: float = 0.0
+    range_arcsec: float = 25.0
+    step_arcsec: float = 0.5
+    seed: int | None = None
+    signals: bool = False
+    heads: list[str] | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in asdict(self).items() if k != "extra"} | self.extra
+
+
+def rig_defaults(rig: Rig, mode: str | None) -> dict[str, Any]:
+    """Acquisition defaults from the rig's ``[acquire]`` tables for a mode."""
+    a = rig.acquire
+    out: dict[str, Any] = {k: a[k] for k in ("mode", "revolutions", "speed_rpm", "interval_s")
+                           if k in a}
+    mode = mode or out.get("mode", "continuous")
+    if mode in ("steps", "sweep"):
+        out.update(a.get(mode, {}))
+    out["mode"] = mode
+    return out
+
+
+def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
+    """Settings from the options given (None = not given) over the rig's and built-in defaults."""
+    mode = given.get("mode")
+    merged = dict(DEFAULTS)
+    merged.update(rig_defaults(rig, mode))
+    merged.update({k: v for k, v in given.items() if v is not None})
+    s = Settings(**{k: merged[k] for k in Settings.__dataclass_fields__ if k in merged})
+    check(s)
+    if s.heads:
+        unknown = [h for h in s.heads if h not in rig.head_names]
+        if unknown:
+            msg = f"--heads: rig {rig.name} has no head {unknown[0]!r} (heads: {', '.join(rig.head_names)})"
+            raise UsageError(msg)
+    return s
+
+
+def check(s: Settings) -> None:
+    """Reject settings no rig could carry out, naming the option."""
+    if s.mode not in MODES:
+        msg = f"--mode must be one of {', '.join(MODES)}, not {s.mode!r}"
+        raise UsageError(msg)
+    positive = {"--revolutions": s.revolutions, "--interval": s.interval_s,
+                "--readings": s.readings, "--runs": s.runs}
+    if s.mode == "continuous":
+        positive["--speed"] = abs(s.speed_rpm)
+    if s.mode == "steps" and s.positions_deg is None:
+        positive["--count"] = s.count
+    if s.mode == "sweep":
+        positive["--step"] = s.step_arcsec
+    for name, v in positive.items():
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            msg = f"{name} must be a positive number, not {v!r}"
+            raise UsageError(msg)
+    if s.settle_s < 0 or not math.isfinite(s.settle_s):
+        msg = f"--settle must be >= 0 s, not {s.settle_s!r}"
+        raise UsageError(msg)
+    if s.mode == "sweep" and not (0 <= s.range_arcsec <= 3600 * 360):
+        msg = f"--range must be 0..1296000 arcsec, not {s.range_arcsec!r}"
+        raise UsageError(msg)
+    if s.mode == "continuous":
+        n = samples_total(s)
+        if n > 2_000_000_000:
+            msg = f"{n} samples requested (--revolutions/--speed/--interval): too many"
+            raise UsageError(msg)
+
+
+def samples_total(s: Settings) -> int:
+    """Samples of a continuous run: revolutions x (60 / speed) / interval."""
+    return int(round(s.revolutions * 60.0 / abs(s.speed_rpm) / s.interval_s))
+
+
+def targets(s: Settings) -> list[tuple[int, int, int, float]]:
+    """(step, run, direction, target [rad]) in the order a steps or sweep run visits them."""
+    if s.mode == "sweep":
+        n = int(math.floor(s.range_arcsec / s.step_arcsec + 1e-9)) + 1
+        pos = [s.start_deg * DEG + k * s.step_arcsec * ARCSEC for k in range(n)]
+    elif s.positions_deg is not None:
+        pos = [p * DEG for p in s.positions_deg]
+    else:
+        pos = [s.start_deg * DEG + k * TWO_PI / s.count for k in range(s.count)]
+    out = []
+    for run in range(s.runs):
+        out += [(k, run, 1, p) for k, p in enumerate(pos)]
+        if s.bidirectional:
+            out += [(k, run, -1, p) for k, p in reversed(list(enumerate(pos)))]
+    return out
+
+
+class Unwrapper:
+    """Turns raw counter values (mod 2**bits) into continuous int64 counts."""
+
+    def __init__(self, bits: int) -> None:
+        self.modulus = np.int64(1) << bits
+        self.half = np.int64(1) << (bits - 1)
+        self.last: np.int64 | None = None
+
+    def __call__(self, raw: np.ndarray, expected: float | None = None) -> np.ndarray:
+        """Unwrap a block; ``expected`` [count] picks the turn when moves are large."""
+        raw = np.asarray(raw, dtype=np.int64)
+        if raw.size == 0:
+            return raw
+        if expected is not None:
+            first = raw[0] + np.int64(round((expected - raw[0]) / float(self.modulus))) * self.modulus
+        elif self.last is None:
+            first = raw[0] - self.modulus if raw[0] >= self.half else raw[0]
+        else:
+            d0 = (raw[0] - self.last + self.half) % self.modulus - self.half
+            first = self.last + d0
+        d = (np.diff(raw) + self.half) % self.modulus - self.half
+        out = np.empty_like(raw)
+        out[0] = first
+        np.cumsum(d, out=out[1:])
+        out[1:] += first
+        self.last = out[-1]
+        return out
+
+
+def readings_schema(rig: Rig, session: Session, s: Settings) -> pa.Schema:
+    """The columns of the readings stream this acquisition writes."""
+    from .hw.sim import zero_count
+
+    fields = [make_field("t", pa.float64(), "s")]
+    for enc, h in rig.heads:
+        if s.heads and h.name not in s.heads:
+            continue
+        fields.append(make_field(
+            h.name, pa.int64(), "count", "head", encoder=enc.name,
+            alpha_deg=repr(round(h.angle / DEG, 12)), counts_per_rev=enc.counts_per_rev,
+            periods_per_rev=enc.periods_per_rev, interpolation=enc.interpolation,
+            radius_m=repr(enc.radius_m), zero_count=zero_count(enc, h.angle)))
+    for ch in session.channels():
+        if s.heads and ch.meta and ch.meta.get("head") not in s.heads:
+            continue
+        fields.append(make_field(ch.name, pa.float64(), ch.unit, ch.role, **(ch.meta or {})))
+    if s.mode != "continuous":
+        for sensor in session.sensors.values():
+            ch = sensor.channel
+            fields.append(make_field(ch.name, pa.float64(), ch.unit, ch.role, **(ch.meta or {})))
+        fields += [make_field("target", pa.float64(), "rad"), make_field("step", pa.int32(), ""),
+                   make_field("run", pa.int32(), ""), make_field("direction", pa.int8(), "")]
+    return pa.schema(fields)
+
+
+Progress = Callable[[int, int], None]
+
+
+def acquire(rig: Rig, session: Session, s: Settings,
+            progress: Progress | None = None) -> tuple[Header, Iterator[pa.RecordBatch]]:
+    """Header and batches of a readings stream; the batches are read lazily."""
+    schema = readings_schema(rig, session, s)
+    if s.mode == "continuous":
+        # Start turning and sampling first: the header then carries the motion's truth.
+        direction = 1.0 if s.speed_rpm > 0 else -1.0
+        session.axis.rotate(direction * abs(s.speed_rpm) * TWO_PI / 60.0)
+        session.counter.start(s.interval_s)
+    meta: dict[str, Any] = {"rig": rig.to_dict(), "mode": s.mode,
+                            "settings": s.to_dict() | {"backend": session.describe()}}
+    truth = session.truth()
+    if truth is not None:
+        meta["truth"] = truth
+    header = Header("readings", schema, meta)
+    run = _continuous if s.mode == "continuous" else _stepped
+    return header, run(rig, session, s, schema, progress)
+
+
+def _unwrappers(rig: Rig) -> dict[str, tuple[Unwrapper, int]]:
+    return {h.name: (Unwrapper(e.counter_bits), e.counts_per_rev) for e, h in rig.heads}
+
+
+def _continuous(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
+                progress: Progress | None) -> Iterator[pa.RecordBatch]:
+    total = samples_total(s)
+    unwrap = _unwrappers(rig)
+    heads = tuple(f.name for f in schema if f.name in unwrap)
+    done = 0
+    try:
+        while done < total:
+            n = min(BATCH_ROWS, total - done)
+            block = session.counter.read_block(n)
+            check_block(block, heads)
+            got = len(block["t"])
+            if got == 0:
+                continue
+            cols = []
+            for f in schema:
+                if f.name in unwrap:
+                    cols.append(pa.array(unwrap[f.name][0](block[f.name]), pa.int64()))
+                else:
+                    cols.append(pa.array(np.asarray(block[f.name], dtype=np.float64)))
+            done += got
+            yield pa.RecordBatch.from_arrays(cols, schema=schema)
+            if progress:
+                progress(done, total)
+    finally:
+        session.counter.stop()
+        session.axis.stop()
+
+
+def _stepped(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
+             progress: Progress | None) -> Iterator[pa.RecordBatch]:
+    plan = targets(s)
+    unwrap = _unwrappers(rig)
+    overshoot = s.overshoot_deg * DEG
+    for i, (step, run, direction, target) in enumerate(plan):
+        if s.mode == "steps" and overshoot > 0:
+            session.axis.move_to(target - direction * overshoot)
+        session.axis.move_to(target)
+        session.clock.sleep(s.settle_s)
+        rows: dict[str, list[Any]] = {f.name: [] for f in schema}
+        for _ in range(s.readings):
+            sample = session.counter.read_now()
+            for name, (uw, cpr) in unwrap.items():
+                if name in rows:
+                    rows[name].append(int(uw(sample[name], expected=target * cpr / TWO_PI)[0]))
+            rows["t"].append(float(sample["t"][0]))
+            for key, val in sample.items():
+                if key != "t" and key not in unwrap and key in rows:
+                    rows[key].append(float(val[0]))
+            for name, sensor in session.sensors.items():
+                rows[name].append(float(sensor.read()))
+            rows["target"].append(target)
+            rows["step"].append(step)
+            rows["run"].append(run)
+            rows["direction"].append(direction)
+        yield pa.RecordBatch.from_arrays([pa.array(rows[f.name], f.type) for f in schema],
+                                         schema=schema)
+        if progress:
+            progress(i + 1, len(plan))
+
+
+def check_block(block: dict[str, np.ndarray], heads: tuple[str, ...]) -> None:
+    """A device block must give every head and equal lengths (else a device fault)."""
+    n = len(block.get("t", ()))
+    for h in heads:
+        if h not in block or len(block[h]) != n:
+            msg = f"device returned a block without head {h!r} or of the wrong length"
+            raise DeviceError(msg)

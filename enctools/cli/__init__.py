@@ -1,0 +1,1 @@
+"""The ``enc`` commands: one thin module per command over the library."""

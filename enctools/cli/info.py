@@ -1,0 +1,19 @@
+"""enc info: describe a stream (kind, columns, units, rows, history) on stdout."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+@click.command("info")
+@options.input_arg
+@options.verbosity
+def command(input: str | None, verbose: int, quiet: int, debug: bool) -> None:
+    """Describe a stream: its kind, columns with units and roles, rows and history."""
+    runner.setup_logging(verbose, quiet)
+    from ..info import describe
+    from ..streams import open_input
+
+    click.echo(describe(open_input(input)))

@@ -1,0 +1,92 @@
+"""The ``enc`` driver: one click group whose subcommands are imported only when run.
+
+Commands are registered in :data:`COMMANDS` (name -> module, one-line help); a
+command whose module is not present is not listed. ``enc --help`` imports click and
+nothing of numpy, scipy, pyarrow, h5py or matplotlib.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import os
+import sys
+from typing import Any
+
+import click
+
+from .. import __version__
+from . import runner
+
+#: name -> (module under enctools.cli, one-line help)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "acquire": ("acquire", "Acquire readings from a rig (simulator, replay or instruments)."),
+    "average-heads": ("average_heads", "Average heads into a new channel; report A(n)."),
+    "selfcal": ("selfcal", "Self-calibrate graduation error (fourier, eda, esa)."),
+    "design": ("design", "Analyse and optimise head arrangements for self-calibration."),
+    "compare": ("compare", "Deviation of a device against a reference."),
+    "interp-check": ("interp_check", "Interpolation error within a signal period."),
+    "fit-rbf": ("fit_rbf", "Fit an RBF or Fourier error model to sparse points."),
+    "make-rom": ("make_rom", "Evaluate a model into a correction table (ROM)."),
+    "latency": ("latency", "Dynamic error and code-skip speed from readout latency."),
+    "points": ("points", "Turn step-run readings into calibration points."),
+    "report": ("report", "Figures, uncertainty, ISO 230-2, plots and thresholds."),
+    "info": ("info", "Describe a stream: kind, columns, units, rows, history."),
+}
+
+
+def _available() -> list[str]:
+    return [name for name, (mod, _) in COMMANDS.items()
+            if importlib.util.find_spec(f"enctools.cli.{mod}") is not None]
+
+
+class LazyGroup(click.Group):
+    """A group that imports a subcommand's module only when that command runs."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return _available()
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name not in COMMANDS or name not in _available():
+            return None
+        runner.set_command(name)
+        module = importlib.import_module(f"enctools.cli.{COMMANDS[name][0]}")
+        return module.command
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"],
+                                              "auto_envvar_prefix": "ENC"})
+@click.version_option(__version__, prog_name="enctools")
+@click.option("--debug", is_flag=True, default=False, envvar="ENC_DEBUG",
+              help="Show a traceback on errors.")
+def cli(debug: bool) -> None:
+    """enctools: calibrate angle encoders and precision rotary tables.
+
+    Small commands that pass typed tables (Arrow IPC on pipes; Parquet, HDF5 or
+    Arrow files) to each other. See enc(1) and enc COMMAND --help.
+    """
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of the ``enc`` executable."""
+    args = sys.argv[1:] if argv is None else argv
+    debug = "--debug" in args or os.environ.get("ENC_DEBUG", "") not in ("", "0")
+
+    def invoke() -> Any:
+        # make_context + invoke rather than cli.main: click's own handling of a closed
+        # pipe (exit 1) and of errors (several lines) is replaced by runner.run's.
+        with cli.make_context("enc", list(args)) as ctx:
+            return cli.invoke(ctx)
+
+    status = runner.run(invoke, debug)
+    sys.exit(status)
+
+
+if __name__ == "__main__":
+    main()

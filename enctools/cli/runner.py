@@ -1,0 +1,151 @@
+"""What every command shares: logging on stderr, progress, errors as one line.
+
+``main()`` of :mod:`enctools.cli.main` calls :func:`run`, which turns every way a
+command can end into the documented exit status:
+
+0 done; 1 a check failed; 2 bad usage or bad input; 3 device fault;
+130 interrupted (SIGINT), 143 terminated (SIGTERM). A closed downstream pipe ends
+the command quietly with 0.
+"""
+
+from __future__ import annotations
+
+import errno
+import logging
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable
+from typing import Any, NoReturn
+
+import click
+
+from ..errors import EncError, Interrupted
+
+log = logging.getLogger("enctools")
+
+
+def setup_logging(verbose: int = 0, quiet: int = 0) -> None:
+    """Log to stderr: WARNING by default, -v INFO, -vv DEBUG, -q ERROR."""
+    level = logging.WARNING - 10 * verbose + 10 * quiet
+    handler = logging.StreamHandler(sys.stderr)
+    name = command_name()
+    handler.setFormatter(logging.Formatter(f"{name}: %(levelname)s: %(message)s"))
+    root = logging.getLogger("enctools")
+    root.handlers[:] = [handler]
+    root.setLevel(max(logging.DEBUG, min(logging.CRITICAL, level)))
+    root.propagate = False
+    _state["quiet"] = quiet > 0
+
+
+_state: dict[str, Any] = {"command": "enc", "quiet": False}
+
+
+def set_command(name: str) -> None:
+    _state["command"] = f"enc {name}"
+
+
+def command_name() -> str:
+    return str(_state["command"])
+
+
+class Progress:
+    """A progress line on stderr, only when stderr is a terminal and not quiet."""
+
+    def __init__(self, what: str, unit: str = "") -> None:
+        self.what = what
+        self.unit = unit
+        self.enabled = sys.stderr.isatty() and not _state["quiet"]
+        self._last = 0.0
+        self._start = time.monotonic()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        now = time.monotonic()
+        if now - self._last < 0.2 and done < total:
+            return
+        self._last = now
+        pct = 100.0 * done / total if total else 100.0
+        sys.stderr.write(f"\r{command_name()}: {self.what} {pct:5.1f}% "
+                         f"({done}/{total}{' ' + self.unit if self.unit else ''}, "
+                         f"{now - self._start:.1f} s)")
+        if done >= total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _terminate(signum: int, frame: Any) -> NoReturn:
+    raise Interrupted("terminated", exit_code=143)
+
+
+def install_sigterm() -> None:
+    """Turn SIGTERM into an Interrupted exception so outputs close cleanly (exit 143)."""
+    signal.signal(signal.SIGTERM, _terminate)
+
+
+def _quiet_stdout() -> None:
+    # Python flushes stdout at exit; point it at /dev/null so that raises nothing.
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+def error(message: str) -> None:
+    """Print one line: ``enc CMD: error: message``."""
+    first = " ".join(str(message).split()) or "error"
+    sys.stderr.write(f"{command_name()}: error: {first}\n")
+    sys.stderr.flush()
+
+
+def run(invoke: Callable[[], Any], debug: bool) -> int:
+    """Run a command; map its ending to an exit status with one line on stderr."""
+    try:
+        invoke()
+        return 0
+    except click.exceptions.Exit as exc:
+        return int(exc.exit_code)
+    except click.UsageError as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError" and exc.ctx is not None:
+            sys.stderr.write(exc.ctx.get_help() + "\n")
+            return 2
+        if exc.ctx is not None:
+            _state["command"] = exc.ctx.command_path
+        hint = f" (see '{command_name()} --help')"
+        error(exc.format_message() + hint)
+        return 2
+    except click.Abort:
+        error("interrupted")
+        return 130
+    except KeyboardInterrupt:
+        error("interrupted")
+        return 130
+    except EncError as exc:
+        if debug:
+            import traceback
+            traceback.print_exc()
+        error(str(exc))
+        return exc.exit_code
+    except BrokenPipeError:
+        _quiet_stdout()
+        return 0
+    except OSError as exc:
+        if exc.errno == errno.EPIPE:
+            _quiet_stdout()
+            return 0
+        if debug:
+            import traceback
+            traceback.print_exc()
+        where = f" ({exc.filename})" if exc.filename else ""
+        error(f"{exc.strerror or exc}{where}")
+        return 2 if exc.errno in (errno.ENOENT, errno.EACCES, errno.EISDIR, errno.ENOSPC,
+                                  errno.EROFS, errno.ENOTDIR) else 3
+    except Exception as exc:  # a bug: say so in one line unless --debug
+        if debug:
+            import traceback
+            traceback.print_exc()
+        error(f"internal error: {type(exc).__name__}: {exc} (run with --debug for a traceback)")
+        return 2

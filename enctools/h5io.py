@@ -1,0 +1,140 @@
+"""HDF5 tables: one group per table (named after its kind), columns as datasets.
+
+Group attributes: ``kind``, ``enctools`` (the stream metadata as JSON) and
+``columns`` (column order). Dataset attributes: the field metadata (``unit``,
+``role``, ...) and ``arrow_type``, so a table reads back to the same Arrow schema.
+Datasets are chunked and resizable: a table is written batch by batch and read
+batch by batch without holding it whole.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterator
+from typing import IO, Any
+
+import numpy as np
+import pyarrow as pa
+
+from .errors import DataError
+
+_CHUNK = 65536
+
+
+def _arrow_type_name(t: pa.DataType) -> str:
+    if pa.types.is_string(t) or pa.types.is_large_string(t):
+        return "string"
+    return str(t)
+
+
+def _arrow_type(name: str) -> pa.DataType:
+    if name == "string":
+        return pa.string()
+    return pa.type_for_alias(name)
+
+
+class TableWriter:
+    """Writes record batches into a new HDF5 file at ``path`` (pyarrow writer protocol)."""
+
+    def __init__(self, path: str, schema: pa.Schema) -> None:
+        import h5py
+
+        self._h5 = h5py
+        md = schema.metadata or {}
+        kind = md.get(b"kind", b"table").decode()
+        self._file = h5py.File(path, "w")
+        self._group = self._file.create_group(kind)
+        self._group.attrs["kind"] = kind
+        self._group.attrs["enctools"] = md.get(b"enctools", b"{}").decode()
+        self._group.attrs["columns"] = json.dumps(schema.names)
+        self._names = schema.names
+        for f in schema:
+            if pa.types.is_string(f.type) or pa.types.is_large_string(f.type):
+                dtype: Any = h5py.string_dtype()
+            else:
+                try:
+                    dtype = f.type.to_pandas_dtype()
+                except NotImplementedError:
+                    msg = f"HDF5 output cannot hold column {f.name!r} of type {f.type}"
+                    raise DataError(msg) from None
+            ds = self._group.create_dataset(f.name, shape=(0,), maxshape=(None,), dtype=dtype,
+                                            chunks=(_CHUNK,))
+            ds.attrs["arrow_type"] = _arrow_type_name(f.type)
+            for k, v in (f.metadata or {}).items():
+                ds.attrs[k.decode()] = v.decode()
+
+    def write_batch(self, batch: pa.RecordBatch) -> None:
+        n = batch.num_rows
+        for name, col in zip(self._names, batch.columns):
+            if col.null_count:
+                msg = f"HDF5 output cannot hold missing values (column {name!r})"
+                raise DataError(msg)
+            ds = self._group[name]
+            start = ds.shape[0]
+            ds.resize((start + n,))
+            if pa.types.is_string(col.type) or pa.types.is_large_string(col.type):
+                ds[start:] = np.asarray(col.to_pylist(), dtype=object)
+            else:
+                ds[start:] = col.to_numpy(zero_copy_only=False)
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def open_table(f: IO[bytes], source: str,
+               kind: str | None = None) -> tuple[Any, Iterator[pa.RecordBatch], Callable[[], None]]:
+    """Open the table in an HDF5 file object: (Header, batch iterator, closer)."""
+    import h5py
+
+    from .streams import Header
+
+    h5 = h5py.File(f, "r")
+    groups = [k for k, v in h5.items() if isinstance(v, h5py.Group) and "kind" in v.attrs]
+    if not groups:
+        h5.close()
+        msg = f"{source}: HDF5 file holds no enctools table (no group with a 'kind' attribute)"
+        raise DataError(msg)
+    if kind in groups:
+        name = kind
+    elif len(groups) == 1:
+        name = groups[0]
+    else:
+        h5.close()
+        msg = f"{source}: HDF5 file holds several tables ({', '.join(groups)}); which one?"
+        raise DataError(msg)
+    g = h5[name]
+    try:
+        meta = json.loads(g.attrs.get("enctools", "{}"))
+        names = json.loads(g.attrs["columns"])
+        fields = []
+        for n in names:
+            ds = g[n]
+            attrs = {k: str(v) for k, v in ds.attrs.items() if k != "arrow_type"}
+            fields.append(pa.field(n, _arrow_type(str(ds.attrs["arrow_type"])),
+                                   metadata=attrs or None))
+        nrows = {g[n].shape[0] for n in names}
+    except (KeyError, ValueError, TypeError) as exc:
+        h5.close()
+        msg = f"{source}: HDF5 table {name!r} is not an enctools table ({exc})"
+        raise DataError(msg) from None
+    if len(nrows) > 1:
+        h5.close()
+        msg = f"{source}: HDF5 table {name!r} has columns of different lengths"
+        raise DataError(msg)
+    schema = pa.schema(fields)
+    meta.setdefault("kind", str(g.attrs["kind"]))
+    header = Header(str(meta["kind"]), schema, meta)
+    total = nrows.pop() if nrows else 0
+
+    def batches() -> Iterator[pa.RecordBatch]:
+        for start in range(0, total, _CHUNK):
+            stop = min(start + _CHUNK, total)
+            arrays = []
+            for fld in schema:
+                data = g[fld.name][start:stop]
+                if pa.types.is_string(fld.type):
+                    data = [x.decode() if isinstance(x, bytes) else x for x in data]
+                arrays.append(pa.array(data, type=fld.type))
+            yield pa.RecordBatch.from_arrays(arrays, schema=schema)
+
+    return header, batches(), h5.close

@@ -1,0 +1,335 @@
+"""The virtual rig: the measurement model of seed 000 eq. (1) as a device backend.
+
+Head k of an encoder at nominal angle alpha_k reads::
+
+    H_k(theta) = theta + eps(theta + alpha_k)
+                 + [x(theta) sin alpha_k - y(theta) cos alpha_k] / R
+                 + psi_k + noise
+
+with eps the graduation error, x, y the spindle radial error motion in the encoder's
+plane, psi_k the interpolation error caused by the head's signal faults (an
+arctangent interpolator fed Heydemann-faulty signals) and white noise. The reading is
+taken ``latency_s`` late (seed 001 eq. 2), quantised to counts and wrapped by a
+counter of ``counter_bits``. The head's counter is zeroed at the grating line
+nearest its nominal position, so ``counts mod interpolation`` is the phase within
+the signal period.
+
+Time is virtual: settling and moves advance the session's clock without sleeping,
+so a 20-minute run takes about a second. Deterministic by seed: the truth by the
+rig file's seeds, the noise by the session seed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from ..rig import Encoder, Rig
+from ..truth import Motion, Series, interpolation_error, signal_phase_error
+from ..units import ARCSEC, DEG, TWO_PI
+from .base import Axis, Channel, Clock, Counter, Sensor, Session
+from .sim_truth import jitter_motion, make_truth
+
+_GRID = 1 << 18  # points per turn of the tabulated periodic errors
+_READ_TIME = 0.001  # s taken by one software-timed reading
+_MOVE_RPM = 10.0  # r/min of positioning moves
+
+
+class VirtualClock(Clock):
+    """Virtual time [s] that only moves when told to."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def now(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        self.t += max(0.0, seconds)
+
+
+class _Tabulated:
+    """A periodic Series tabulated on a fine grid, evaluated by linear interpolation."""
+
+    def __init__(self, series: Series) -> None:
+        sync = series.band(synchronous=True)
+        self.rest = series.band(synchronous=False)
+        spec = np.zeros(_GRID // 2 + 1, dtype=np.complex128)
+        c = sync.harmonics(int(sync.freq.max()) if sync.freq.size else 0)
+        spec[: c.size] = c
+        spec[0] = c[0] * 2 if c.size else 0
+        table = np.fft.irfft(spec, _GRID) * _GRID / 2
+        self.table = np.append(table, table[0])
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        u = np.mod(x, TWO_PI) * (_GRID / TWO_PI)
+        i = np.minimum(u.astype(np.int64), _GRID - 1)
+        f = u - i
+        out = self.table[i] * (1.0 - f) + self.table[i + 1] * f
+        if self.rest.freq.size:
+            out += self.rest(x)
+        return out
+
+
+class VirtualRig(Session):
+    """A simulated rig: counter, probes, autocollimator, axis, all on one virtual clock."""
+
+    def __init__(self, rig: Rig, seed: int | None = None, signals: bool = False) -> None:
+        self.rig = rig
+        self.seed = int(seed if seed is not None else rig.backend.get("seed", 0))
+        self.rng = np.random.default_rng(self.seed)
+        self.signals = signals
+        self.clock = VirtualClock()
+        self._truth = make_truth(rig)
+        start = float(rig.motion.get("start_deg", 0.0)) * DEG
+        self.motion = Motion(theta0=start, omega=0.0)
+        self._eps = {e.name: _Tabulated(self._truth.graduation[e.name]) for e in rig.encoders}
+        self._radial = {e.name: {ax: _Tabulated(s) for ax, s in self._truth.radial[e.name].items()}
+                        for e in rig.encoders}
+        self._held = start
+        self.feedback = self._feedback_encoder()
+        self.counter = SimCounter(self)
+        self.axis = SimAxis(self)
+        self.sensors: dict[str, Sensor] = {}
+        arm_plane = rig.encoders[0].name
+        for p in rig.probes:
+            self.sensors[p.name] = SimProbe(self, p.name, p.arm_mm / 1000.0, p.side,
+                                            p.noise_nm, arm_plane)
+        if rig.polygon:
+            name = rig.autocollimator.get("name", "AC")
+            self.sensors[name] = SimAutocollimator(
+                self, name, int(rig.polygon.get("faces", 24)),
+                float(rig.autocollimator.get("noise_arcsec", 0.0)), start)
+
+    def _feedback_encoder(self) -> Encoder:
+        name = self.rig.motion.get("feedback")
+        for e in self.rig.encoders:
+            if e.name == name:
+                return e
+        return self.rig.encoders[0]
+
+    # -- the model -------------------------------------------------------------
+    def angle(self, t: np.ndarray) -> np.ndarray:
+        """True table angle [rad] at times ``t`` [s]."""
+        return self.motion(t)
+
+    def radial_motion(self, enc: Encoder, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Spindle radial error motion x, y [nm] in the encoder's plane at angles theta."""
+        rad = self._radial[enc.name]
+        return rad["x"](theta), rad["y"](theta)
+
+    def head_reading(self, enc: Encoder, head_index: int, theta: np.ndarray,
+                     noise: bool = True, xy: tuple[np.ndarray, np.ndarray] | None = None,
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """(reading [rad] relative to the head's zero, signal phase [rad]) at true angles."""
+        h = enc.heads[head_index]
+        x, y = xy if xy is not None else self.radial_motion(enc, theta)
+        radial = (x * np.sin(h.angle) - y * np.cos(h.angle)) * 1e-9 / enc.radius_m
+        ideal = theta + self._eps[enc.name](theta + h.angle) * ARCSEC + radial
+        phase = np.mod(ideal + h.angle, TWO_PI) * enc.periods_per_rev
+        psi = signal_phase_error(self._truth.signals[h.name], phase) / enc.periods_per_rev
+        reading = ideal + psi
+        if noise and h.noise_arcsec > 0:
+            reading = reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, theta.shape)
+        return reading, phase
+
+    def counts(self, enc: Encoder, head_index: int, reading: np.ndarray) -> np.ndarray:
+        """Raw counter values: quantised, zeroed near the head, wrapped to counter_bits."""
+        h = enc.heads[head_index]
+        c = np.rint((reading + h.angle) * (enc.counts_per_rev / TWO_PI)).astype(np.int64)
+        c -= zero_count(enc, h.angle)
+        return np.mod(c, np.int64(1) << enc.counter_bits)
+
+    def sample(self, t: np.ndarray, with_signals: bool = False,
+               held: bool = False) -> dict[str, np.ndarray]:
+        """Raw counter values of every head (and signals) at times ``t``."""
+        out: dict[str, np.ndarray] = {"t": t}
+        for enc in self.rig.encoders:
+            if held:
+                theta = np.full(t.shape, self._held)
+            else:
+                theta = self.angle(t - enc.latency_s)
+            xy = self.radial_motion(enc, theta)
+            for k, h in enumerate(enc.heads):
+                reading, phase = self.head_reading(enc, k, theta, xy=xy)
+                out[h.name] = self.counts(enc, k, reading)
+                if with_signals:
+                    f = self._truth.signals[h.name]
+                    amp = float(h.signal.get("amplitude_v", 0.5))
+                    sn = float(h.signal.get("noise_v", 0.0))
+                    i = amp * (f.offset_cos + np.cos(phase))
+                    q = amp * (f.offset_sin + f.ratio * np.sin(phase + f.phase))
+                    if sn > 0:
+                        i = i + self.rng.normal(0, sn, t.shape)
+                        q = q + self.rng.normal(0, sn, t.shape)
+                    out[f"{h.name}.cos"] = i
+                    out[f"{h.name}.sin"] = q
+        return out
+
+    def feedback_error(self, theta: float) -> float:
+        """Error [rad] of the feedback encoder's head average at true angle ``theta``."""
+        enc = self.feedback
+        idx = [k for k, h in enumerate(enc.heads) if h.name in enc.measure_heads]
+        th = np.array([theta])
+        return float(np.mean([self.head_reading(enc, k, th, noise=False)[0][0] - theta
+                               for k in idx]))
+
+    # -- session ---------------------------------------------------------------
+    def channels(self) -> list[Channel]:
+        if not self.signals:
+            return []
+        out = []
+        for _, h in self.rig.heads:
+            out.append(Channel(f"{h.name}.cos", "V", "signal", {"head": h.name,
+                                                                "component": "cos"}))
+            out.append(Channel(f"{h.name}.sin", "V", "signal", {"head": h.name,
+                                                                "component": "sin"}))
+        return out
+
+    def truth(self) -> dict[str, Any]:
+        d = self._truth.to_dict()
+        d["motion"] = self.motion.to_dict()
+        d["conventions"] = {
+            "graduation": "arcsec; argument: scale angle under the head theta + alpha [rad]",
+            "radial": "nm; argument: unwrapped spindle angle theta [rad]",
+            "signals": "Heydemann faults; interpolation error = truth.interpolation_error("
+                       "faults, head reading + alpha, periods_per_rev) [arcsec]",
+            "motion": "theta(t) [rad] of the stream's t [s] (continuous mode)",
+            "polygon": "face angle errors [arcsec]; autocollimator = (theta - theta0 - "
+                       "j * 2pi/faces) [arcsec] + face error + noise",
+        }
+        return d
+
+    def describe(self) -> dict[str, Any]:
+        return {"backend": "sim", "seed": self.seed}
+
+
+def zero_count(enc: Encoder, alpha: float) -> int:
+    """The count a head's counter is zeroed at: the grating line nearest ``alpha`` [rad]."""
+    return int(round(alpha * enc.periods_per_rev / TWO_PI)) * enc.interpolation
+
+
+class SimCounter(Counter):
+    def __init__(self, rig: VirtualRig) -> None:
+        self.sim = rig
+        self.heads = tuple(h.name for _, h in rig.rig.heads)
+        self.counter_bits = {h.name: e.counter_bits for e, h in rig.rig.heads}
+        self._interval = 0.0
+        self._next = 0.0
+
+    def start(self, interval_s: float) -> None:
+        self._interval = interval_s
+        self._next = self.sim.clock.now()
+        self._k = 0
+        self._t0 = self._next
+
+    def read_block(self, max_samples: int) -> dict[str, np.ndarray]:
+        k = np.arange(self._k, self._k + max_samples)
+        t = self._t0 + k * self._interval
+        self._k += max_samples
+        self.sim.clock.t = float(t[-1])
+        return self.sim.sample(t, with_signals=self.sim.signals)
+
+    def stop(self) -> None:
+        self._interval = 0.0
+
+    def read_now(self) -> dict[str, np.ndarray]:
+        self.sim.clock.sleep(_READ_TIME)
+        t = np.array([self.sim.clock.now()])
+        return self.sim.sample(t, with_signals=self.sim.signals, held=self.sim.axis.holding)
+
+
+class SimAxis(Axis):
+    """Closed-loop axis: positions so that the feedback encoder reads the target."""
+
+    def __init__(self, rig: VirtualRig) -> None:
+        self.sim = rig
+        self.holding = True
+        self.position_noise = float(rig.rig.motion.get("position_noise_arcsec", 0.0)) * ARCSEC
+
+    def rotate(self, speed: float) -> None:
+        sim = self.sim
+        now = sim.clock.now()
+        theta = float(sim.angle(np.array([now]))[0]) if not self.holding else sim._held
+        sim.motion = dataclasses.replace(jitter_motion(sim.rig, theta, speed), t0=now)
+        self.holding = False
+
+    def stop(self) -> None:
+        sim = self.sim
+        sim._held = float(sim.angle(np.array([sim.clock.now()]))[0])
+        sim.motion = Motion(theta0=sim._held, omega=0.0, t0=sim.clock.now())
+        self.holding = True
+
+    def move_to(self, angle: float) -> None:
+        sim = self.sim
+        if not self.holding:
+            self.stop()
+        # The controller closes the loop on the feedback encoder: find theta whose
+        # reading is the target (a fixed-point iteration: the error is tiny).
+        theta = angle
+        for _ in range(4):
+            theta = angle - sim.feedback_error(theta)
+        if self.position_noise > 0:
+            theta += float(sim.rng.normal(0.0, self.position_noise))
+        travel = abs(theta - sim._held)
+        sim.clock.sleep(travel / (_MOVE_RPM * TWO_PI / 60.0))
+        sim._held = theta
+        sim.motion = Motion(theta0=theta, omega=0.0, t0=sim.clock.now())
+
+
+class SimProbe(Sensor):
+    """A displacement probe on an arm [m]: side * arm * rotation + translation + noise.
+
+    Zeroed at its first reading. The translation is the radial motion (y) in the
+    plane of the rig's first encoder; two probes on opposite sides cancel it.
+    """
+
+    def __init__(self, rig: VirtualRig, name: str, arm_m: float, side: int, noise_nm: float,
+                 plane: str) -> None:
+        self.sim = rig
+        self.arm = arm_m
+        self.side = side
+        self.noise = noise_nm * 1e-9
+        self.plane = plane
+        self.zero: float | None = None
+        self.channel = Channel(name, "m", "probe", {"arm_m": arm_m, "side": side})
+
+    def read(self) -> float:
+        sim = self.sim
+        theta = sim._held if sim.axis.holding else float(sim.angle(np.array([sim.clock.now()]))[0])
+        if self.zero is None:
+            self.zero = theta
+        translation = float(sim._radial[self.plane]["y"](np.array([theta]))[0]) * 1e-9
+        noise = float(sim.rng.normal(0.0, self.noise)) if self.noise > 0 else 0.0
+        return self.side * self.arm * (theta - self.zero) + translation + noise
+
+
+class SimAutocollimator(Sensor):
+    """An autocollimator looking at a polygon on the table [arcsec]; NaN off any face."""
+
+    RANGE_ARCSEC = 1000.0
+
+    def __init__(self, rig: VirtualRig, name: str, faces: int, noise_arcsec: float,
+                 theta0: float) -> None:
+        self.sim = rig
+        self.faces = faces
+        self.noise = noise_arcsec
+        self.theta0 = theta0
+        self.channel = Channel(name, "arcsec", "autocollimator")
+
+    def read(self) -> float:
+        sim = self.sim
+        theta = sim._held if sim.axis.holding else float(sim.angle(np.array([sim.clock.now()]))[0])
+        step = TWO_PI / self.faces
+        j = int(np.round((theta - self.theta0) / step))
+        dev = (theta - self.theta0 - j * step) / ARCSEC
+        if abs(dev) > self.RANGE_ARCSEC:
+            return float("nan")
+        face = sim._truth.polygon[j % self.faces] if sim._truth.polygon is not None else 0.0
+        noise = float(sim.rng.normal(0.0, self.noise)) if self.noise > 0 else 0.0
+        return dev + face + noise
+
+
+__all__ = ["VirtualRig", "zero_count", "interpolation_error"]

@@ -1,0 +1,40 @@
+"""A plain-text description of a stream: kind, columns with units, rows, history."""
+
+from __future__ import annotations
+
+from .schemas import field_meta
+from .streams import InputStream
+
+
+def describe(stream: InputStream) -> str:
+    """Read through a stream and describe it in a few lines (like ``ncdump -h``)."""
+    rows = 0
+    batches = 0
+    for b in stream.batches():
+        rows += b.num_rows
+        batches += 1
+    h = stream.header
+    lines = [f"{stream.source}: {h.kind} stream (schema v{h.meta.get('schema_version', '?')}, "
+             f"{stream.format}), {rows} rows in {batches} batches"]
+    rig = h.meta.get("rig")
+    if isinstance(rig, dict):
+        lines.append(f"  rig: {rig.get('name')} — {rig.get('description', '')}".rstrip(" —"))
+    if "mode" in h.meta:
+        lines.append(f"  mode: {h.meta['mode']}")
+    lines.append("  columns:")
+    for f in h.schema:
+        fm = field_meta(f)
+        unit = fm.pop("unit", "")
+        role = fm.pop("role", "")
+        extra = ", ".join(f"{k}={v}" for k, v in fm.items())
+        desc = f"    {f.name:<12} {str(f.type):<8} [{unit}]"
+        if role:
+            desc += f" {role}"
+        if extra:
+            desc += f" ({extra})"
+        lines.append(desc)
+    keys = [k for k in h.meta if k not in ("history", "kind", "schema_version")]
+    lines.append(f"  metadata: {', '.join(keys) or '-'}")
+    lines.append("  history:")
+    lines += [f"    {line}" for line in h.history] or ["    -"]
+    return "\n".join(lines)

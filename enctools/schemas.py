@@ -1,0 +1,175 @@
+"""Stream kinds: the versioned schema files in ``schemas/`` and validation against them.
+
+A kind names its columns either by ``name`` or by ``role`` (a field-metadata key, so
+that a kind can have any number of head or curve columns). Validation checks the
+kind and version in the metadata, the presence, type and unit of every column, the
+field metadata each role needs, and the required metadata keys; it raises
+:class:`~enctools.errors.DataError` with one line naming what does not fit.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+
+from .errors import DataError
+
+KINDS = ("readings", "deviations", "spectrum", "points", "model", "rom")
+
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One column (by name) or a family of columns (by role) of a kind."""
+
+    type: str
+    unit: str
+    name: str | None = None
+    role: str | None = None
+    required: bool = False
+    min: int = 0
+    field_metadata: tuple[str, ...] = ()
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class KindSpec:
+    """A stream kind as described by its schema file."""
+
+    kind: str
+    version: int
+    description: str
+    columns: tuple[ColumnSpec, ...]
+    required_meta: tuple[str, ...]
+
+    def column(self, name: str) -> ColumnSpec | None:
+        return next((c for c in self.columns if c.name == name), None)
+
+    def role(self, role: str) -> ColumnSpec | None:
+        return next((c for c in self.columns if c.role == role), None)
+
+
+def _schema_dir() -> Path:
+    """Where the schema files are: inside the wheel, else the source tree's schemas/."""
+    packaged = resources.files("enctools") / "schemas"
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parent.parent / "schemas"
+
+
+@functools.cache
+def kind_spec(kind: str) -> KindSpec:
+    """The newest schema of a kind."""
+    if kind not in KINDS:
+        msg = f"unknown stream kind {kind!r} (kinds: {', '.join(KINDS)})"
+        raise DataError(msg)
+    files = sorted(_schema_dir().glob(f"{kind}.v*.json"),
+                   key=lambda p: int(p.name.split(".v")[1].split(".")[0]))
+    raw: dict[str, Any] = json.loads(files[-1].read_text())
+    cols = tuple(ColumnSpec(type=c["type"], unit=c.get("unit", ""), name=c.get("name"),
+                            role=c.get("role"), required=c.get("required", False),
+                            min=c.get("min", 0), field_metadata=tuple(c.get("field_metadata", ())),
+                            description=c.get("description", ""))
+                 for c in raw["columns"])
+    return KindSpec(raw["kind"], int(raw["version"]), raw["description"], cols,
+                    tuple(raw["metadata"]["required"]))
+
+
+def field_meta(field: pa.Field) -> dict[str, str]:
+    """A field's metadata as str -> str."""
+    return {k.decode(): v.decode() for k, v in (field.metadata or {}).items()}
+
+
+def make_field(name: str, type_: pa.DataType, unit: str, role: str | None = None,
+               **meta: Any) -> pa.Field:
+    """A field with enctools field metadata (unit, role and role keys, as strings)."""
+    md = {"unit": unit}
+    if role:
+        md["role"] = role
+    md.update({k: str(v) for k, v in meta.items()})
+    return pa.field(name, type_, metadata=md)
+
+
+def _type_ok(want: str, t: pa.DataType) -> bool:
+    if want == "float":
+        return pa.types.is_floating(t)
+    if want == "int":
+        return pa.types.is_integer(t)
+    if want == "string":
+        return pa.types.is_string(t) or pa.types.is_large_string(t)
+    return False
+
+
+def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, ...] | None,
+             source: str) -> str:
+    """Check a stream header against its kind; return the kind.
+
+    ``expect``: the kind(s) the caller accepts (None accepts any). ``source`` names
+    the input in messages.
+    """
+    kind = meta.get("kind")
+    if kind is None:
+        msg = f"{source}: not an enctools stream (no 'kind' in its metadata)"
+        raise DataError(msg)
+    if isinstance(expect, str):
+        expect = (expect,)
+    if expect is not None and kind not in expect:
+        msg = f"{source}: is a {kind} stream; this command reads {' or '.join(expect)}"
+        raise DataError(msg)
+    spec = kind_spec(kind)
+    version = int(meta.get("schema_version", 0))
+    if version > spec.version:
+        msg = (f"{source}: {kind} schema version {version} is newer than this enctools "
+               f"reads ({spec.version}); upgrade enctools")
+        raise DataError(msg)
+    names = set(schema.names)
+    for col in spec.columns:
+        if col.required and col.name not in names:
+            msg = f"{source}: {kind} stream lacks the required column {col.name!r}"
+            raise DataError(msg)
+    role_counts: dict[str, int] = {}
+    for f in schema:
+        fm = field_meta(f)
+        col = spec.column(f.name)
+        role = fm.get("role")
+        if col is None and role is not None:
+            col = spec.role(role)
+            if col is None:
+                msg = f"{source}: column {f.name!r} has role {role!r}, unknown to kind {kind}"
+                raise DataError(msg)
+            role_counts[role] = role_counts.get(role, 0) + 1
+        if col is None:
+            known = [c.name for c in spec.columns if c.name]
+            msg = (f"{source}: column {f.name!r} is not part of a {kind} stream "
+                   f"(columns: {', '.join(known)}; others need a 'role')")
+            raise DataError(msg)
+        if not _type_ok(col.type, f.type):
+            msg = f"{source}: column {f.name!r} must be {col.type}, not {f.type}"
+            raise DataError(msg)
+        unit = fm.get("unit")
+        if unit is not None and unit != col.unit:
+            msg = f"{source}: column {f.name!r} is in {unit!r}; a {kind} stream wants {col.unit!r}"
+            raise DataError(msg)
+        missing = [k for k in col.field_metadata if k not in fm]
+        if missing:
+            msg = f"{source}: column {f.name!r} lacks field metadata {', '.join(missing)}"
+            raise DataError(msg)
+    for col in spec.columns:
+        if col.role and role_counts.get(col.role, 0) < col.min:
+            msg = f"{source}: {kind} stream has no {col.role} column"
+            raise DataError(msg)
+    for key in spec.required_meta:
+        if key not in meta:
+            msg = f"{source}: {kind} stream lacks the metadata key {key!r}"
+            raise DataError(msg)
+    return kind
+
+
+def columns_with_role(schema: pa.Schema, role: str) -> list[str]:
+    """Names of the columns whose field metadata has this role, in schema order."""
+    return [f.name for f in schema if field_meta(f).get("role") == role]

@@ -1,0 +1,510 @@
+"""Reading and writing enctools streams: Arrow IPC, Parquet and HDF5, files and pipes.
+
+A stream is a :class:`Header` (kind, Arrow schema with field metadata, and a JSON
+metadata dict carrying the rig, the settings, the ground truth and the ``history``)
+plus Arrow record batches.
+
+- Input: a path, or ``-``/``None`` for stdin. The format is found from the magic
+  bytes (``PAR1``, ``ARROW1``, ``FF FF FF FF``, ``\\x89HDF\\r\\n\\x1a\\n``), whatever
+  the name. Arrow IPC streams are read batch by batch; Parquet, Arrow files and HDF5
+  arriving on a pipe are buffered in memory first (they need seeking).
+- Output: a path, whose extension chooses the format, or stdout (Arrow IPC stream,
+  or Parquet with ``fmt="parquet"``). Named outputs are written to a temporary file
+  in the same folder and renamed only on success; binary data never goes to a terminal.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+import pyarrow as pa
+
+from . import __version__
+from .errors import DataError, UsageError
+from .schemas import validate
+
+META_KEY = b"enctools"
+KIND_KEY = b"kind"
+BATCH_ROWS = 65536
+
+MAGIC = {
+    b"PAR1": "parquet",
+    b"ARROW1": "arrow",
+    b"\xff\xff\xff\xff": "arrows",
+    b"\x89HDF\r\n\x1a\n": "hdf5",
+}
+EXTENSIONS = {".parquet": "parquet", ".pq": "parquet", ".h5": "hdf5", ".hdf5": "hdf5",
+              ".arrow": "arrow", ".feather": "arrow", ".arrows": "arrows", ".ipc": "arrows"}
+FORMATS = ("arrows", "parquet", "arrow", "hdf5")
+
+
+@dataclass
+class Header:
+    """What a stream says of itself: kind, column schema, metadata (JSON-able dict)."""
+
+    kind: str
+    schema: pa.Schema
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def history(self) -> list[str]:
+        return list(self.meta.get("history", []))
+
+    def arrow_schema(self) -> pa.Schema:
+        """The Arrow schema with the kind and the metadata in its schema metadata."""
+        meta = dict(self.meta)
+        meta["kind"] = self.kind
+        meta.setdefault("schema_version", _spec_version(self.kind))
+        return self.schema.with_metadata({KIND_KEY: self.kind.encode(),
+                                          META_KEY: json.dumps(meta).encode()})
+
+    def derive(self, kind: str, schema: pa.Schema, **meta: Any) -> "Header":
+        """A header for a command's output: keeps rig, truth and history, sets the rest."""
+        keep = {k: v for k, v in self.meta.items() if k in ("rig", "truth", "history")}
+        keep.update(meta)
+        keep["schema_version"] = _spec_version(kind)
+        return Header(kind, schema, keep)
+
+
+def _spec_version(kind: str) -> int:
+    from .schemas import kind_spec
+    return kind_spec(kind).version
+
+
+def history_line(argv: list[str] | None = None) -> str:
+    """One NCO-style history line: UTC time, enctools version, full command line."""
+    import shlex
+    argv = sys.argv if argv is None else argv
+    cmd = "enc " + shlex.join(argv[1:]) if argv else "enc"
+    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    return f"{stamp} enctools {__version__}: {cmd}"
+
+
+def with_history(header: Header, line: str | None = None) -> Header:
+    """The header with one more history line (this command's)."""
+    meta = dict(header.meta)
+    meta["history"] = header.history + [line or history_line()]
+    return Header(header.kind, header.schema, meta)
+
+
+def _header_from_arrow(schema: pa.Schema, source: str) -> Header:
+    md = schema.metadata or {}
+    if META_KEY not in md:
+        msg = f"{source}: not an enctools stream (its schema carries no enctools metadata)"
+        raise DataError(msg)
+    try:
+        meta = json.loads(md[META_KEY])
+    except ValueError:
+        msg = f"{source}: enctools metadata is not valid JSON"
+        raise DataError(msg) from None
+    if not isinstance(meta, dict):
+        msg = f"{source}: enctools metadata is not a JSON object"
+        raise DataError(msg)
+    return Header(str(meta.get("kind")), schema.remove_metadata(), meta)
+
+
+# --------------------------------------------------------------------------- input
+
+
+class _Prefixed(io.RawIOBase):
+    """A read-only file: some bytes already read, then the rest of another file."""
+
+    def __init__(self, prefix: bytes, rest: IO[bytes]) -> None:
+        self._prefix = prefix
+        self._rest = rest
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, b: Any) -> int:
+        if self._prefix:
+            n = min(len(b), len(self._prefix))
+            b[:n] = self._prefix[:n]
+            self._prefix = self._prefix[n:]
+            return n
+        data = self._rest.read(len(b))
+        n = len(data)
+        b[:n] = data
+        return n
+
+
+def _read_fully(f: IO[bytes], n: int) -> bytes:
+    out = b""
+    while len(out) < n:
+        chunk = f.read(n - len(out))
+        if not chunk:
+            break
+        out += chunk
+    return out
+
+
+def detect_format(prefix: bytes) -> str | None:
+    """The format named by a file's first bytes, or None."""
+    for magic, fmt in MAGIC.items():
+        if prefix.startswith(magic):
+            return fmt
+    return None
+
+
+class InputStream:
+    """An open input stream: ``header`` now, ``batches()`` once, or ``read_all()``."""
+
+    def __init__(self, header: Header, batches: Iterator[pa.RecordBatch], source: str,
+                 fmt: str, closer: Any = None) -> None:
+        self.header = header
+        self._batches = batches
+        self.source = source
+        self.format = fmt
+        self._closer = closer
+
+    @property
+    def kind(self) -> str:
+        return self.header.kind
+
+    @property
+    def schema(self) -> pa.Schema:
+        return self.header.schema
+
+    @property
+    def meta(self) -> dict[str, Any]:
+        return self.header.meta
+
+    def batches(self) -> Iterator[pa.RecordBatch]:
+        """The record batches, in order (a truncated stream raises DataError)."""
+        try:
+            for b in self._batches:
+                yield b.replace_schema_metadata(None) if b.schema.metadata else b
+        except (pa.ArrowInvalid, pa.ArrowIOError, OSError, EOFError, ValueError) as exc:
+            if isinstance(exc, BrokenPipeError):
+                raise
+            msg = f"{self.source}: truncated or corrupt {self.format} data ({_short(exc)})"
+            raise DataError(msg) from None
+        finally:
+            self.close()
+
+    def read_all(self) -> pa.Table:
+        """All batches as one table (schema without metadata)."""
+        return pa.Table.from_batches(list(self.batches()), schema=self.schema)
+
+    def close(self) -> None:
+        if self._closer is not None:
+            try:
+                self._closer()
+            except Exception:
+                pass
+            self._closer = None
+
+    def __enter__(self) -> "InputStream":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _short(exc: BaseException) -> str:
+    return str(exc).strip().splitlines()[0][:200] if str(exc).strip() else type(exc).__name__
+
+
+def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...] | None = None,
+               stdin: IO[bytes] | None = None) -> InputStream:
+    """Open a stream from a path or stdin (``None`` or ``-``) and validate its header.
+
+    ``expect``: the kind(s) the caller reads; anything else is a one-line DataError.
+    """
+    if path is None or str(path) == "-":
+        source = "stdin"
+        raw = stdin if stdin is not None else sys.stdin.buffer
+        if stdin is None and sys.stdin.isatty():
+            msg = "no input: give an input file, or pipe a stream into the command"
+            raise UsageError(msg)
+        prefix = _read_fully(raw, 8)
+        if not prefix:
+            msg = "stdin: no input (empty stream); was the command before it in the pipe ok?"
+            raise DataError(msg)
+        fmt = detect_format(prefix)
+        if fmt is None:
+            raise DataError(_unknown_bytes("stdin", prefix))
+        if fmt == "arrows":
+            f: IO[bytes] = io.BufferedReader(_Prefixed(prefix, raw), buffer_size=1 << 20)
+            stream = _open_arrows(f, source)
+        else:  # needs seeking: buffer in memory
+            data = prefix + raw.read()
+            stream = _open_seekable(io.BytesIO(data), fmt, source, data=data)
+    else:
+        source = str(path)
+        p = Path(path)
+        if p.is_dir():
+            msg = f"{source}: is a directory, not a stream file"
+            raise DataError(msg)
+        try:
+            fh = open(p, "rb")  # noqa: SIM115 - closed by the stream
+        except FileNotFoundError:
+            msg = f"{source}: no such file"
+            raise DataError(msg) from None
+        except OSError as exc:
+            msg = f"{source}: cannot open: {exc.strerror}"
+            raise DataError(msg) from None
+        prefix = fh.read(8)
+        fh.seek(0)
+        if not prefix:
+            fh.close()
+            msg = f"{source}: empty file"
+            raise DataError(msg)
+        fmt = detect_format(prefix)
+        if fmt is None:
+            fh.close()
+            raise DataError(_unknown_bytes(source, prefix))
+        stream = _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
+    try:
+        validate(stream.header.schema, stream.header.meta, expect, source)
+    except DataError:
+        stream.close()
+        raise
+    return stream
+
+
+def _unknown_bytes(source: str, prefix: bytes) -> str:
+    return (f"{source}: not an Arrow, Parquet or HDF5 stream "
+            f"(starts with bytes {prefix[:8].hex(' ')})")
+
+
+def _open_arrows(f: IO[bytes], source: str) -> InputStream:
+    try:
+        reader = pa.ipc.open_stream(f)
+    except (pa.ArrowInvalid, OSError, ValueError) as exc:
+        msg = f"{source}: truncated or corrupt Arrow stream ({_short(exc)})"
+        raise DataError(msg) from None
+    header = _header_from_arrow(reader.schema, source)
+    return InputStream(header, iter(reader), source, "Arrow IPC stream", f.close)
+
+
+def _open_seekable(f: IO[bytes], fmt: str, source: str, data: bytes | None = None) -> InputStream:
+    try:
+        if fmt == "parquet":
+            return _open_parquet(f, source)
+        if fmt == "arrow":
+            return _open_arrow_file(f, source)
+        return _open_hdf5(f, source)
+    except DataError:
+        f.close()
+        raise
+    except (pa.ArrowInvalid, OSError, ValueError, KeyError, EOFError) as exc:
+        f.close()
+        msg = f"{source}: truncated or corrupt {fmt} file ({_short(exc)})"
+        raise DataError(msg) from None
+
+
+def _open_parquet(f: IO[bytes], source: str) -> InputStream:
+    import pyarrow.parquet as pq
+
+    pf = pq.ParquetFile(f)
+    header = _header_from_arrow(pf.schema_arrow, source)
+    return InputStream(header, pf.iter_batches(batch_size=BATCH_ROWS), source, "Parquet",
+                       f.close)
+
+
+def _open_arrow_file(f: IO[bytes], source: str) -> InputStream:
+    reader = pa.ipc.open_file(f)
+    header = _header_from_arrow(reader.schema, source)
+    batches = (reader.get_batch(i) for i in range(reader.num_record_batches))
+    return InputStream(header, batches, source, "Arrow file", f.close)
+
+
+def _open_hdf5(f: IO[bytes], source: str) -> InputStream:
+    from . import h5io
+
+    header, batches, closer = h5io.open_table(f, source)
+    return InputStream(header, batches, source, "HDF5", lambda: (closer(), f.close()))
+
+
+def read_table(path: str | os.PathLike[str] | None,
+               expect: str | tuple[str, ...] | None = None) -> tuple[Header, pa.Table]:
+    """Read a whole stream: its header and one table."""
+    with open_input(path, expect) as s:
+        return s.header, s.read_all()
+
+
+# -------------------------------------------------------------------------- output
+
+
+def format_for_path(path: str, fmt: str | None = None) -> str:
+    """The output format: ``fmt`` if given, else from the file's extension."""
+    if fmt:
+        if fmt not in FORMATS:
+            msg = f"unknown format {fmt!r} (formats: {', '.join(FORMATS)})"
+            raise UsageError(msg)
+        return fmt
+    ext = Path(path).suffix.lower()
+    if ext not in EXTENSIONS:
+        msg = (f"cannot tell the format of {path!r} from its extension; use one of "
+               f"{', '.join(sorted(EXTENSIONS))} or --format")
+        raise UsageError(msg)
+    return EXTENSIONS[ext]
+
+
+def check_output(path: str | None, force: bool = False, fmt: str | None = None,
+                 stdout: IO[bytes] | None = None) -> None:
+    """Fail early (before any work) when the output cannot be written."""
+    if path is None or path == "-":
+        fmt = fmt or "arrows"
+        if fmt not in ("arrows", "parquet"):
+            msg = f"{fmt} cannot be written to a pipe (it needs seeking); use -o FILE"
+            raise UsageError(msg)
+        out = stdout if stdout is not None else sys.stdout
+        if hasattr(out, "isatty") and out.isatty():
+            msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
+            raise UsageError(msg)
+        return
+    format_for_path(path, fmt)
+    p = Path(path)
+    if p.is_dir():
+        msg = f"output {path}: is a directory; give a file name"
+        raise UsageError(msg)
+    if p.exists() and not force:
+        msg = f"output {path} exists; use --force to replace it"
+        raise UsageError(msg)
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        msg = f"output {path}: folder {parent} does not exist"
+        raise UsageError(msg)
+    if not os.access(parent, os.W_OK):
+        msg = f"output {path}: folder {parent} is not writable"
+        raise UsageError(msg)
+
+
+class OutputStream:
+    """Writes one stream batch by batch; a named file appears only when closed cleanly.
+
+    Use as a context manager: an exception inside the block removes the temporary file
+    (nothing partial is left), except for ``keep_partial=True`` (acquisition), where
+    everything written so far is closed into a valid file under the final name.
+    """
+
+    def __init__(self, path: str | None, header: Header, force: bool = False,
+                 fmt: str | None = None, stdout: IO[bytes] | None = None,
+                 keep_partial: bool = False) -> None:
+        check_output(path, force, fmt, stdout)
+        self.path = None if path in (None, "-") else str(path)
+        self.header = header
+        self.force = force
+        self.keep_partial = keep_partial
+        self.rows = 0
+        self._schema = header.arrow_schema()
+        if self.path is None:
+            self.format = fmt or "arrows"
+            self._sink: Any = stdout if stdout is not None else sys.stdout.buffer
+            self._tmp = None
+        else:
+            self.format = format_for_path(self.path, fmt)
+            p = Path(self.path)
+            fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp",
+                                       dir=str(p.parent) if str(p.parent) else ".")
+            os.close(fd)
+            self._tmp = tmp
+            self._sink = None
+        self._writer = self._make_writer()
+
+    def _make_writer(self) -> Any:
+        target = self._tmp if self._tmp is not None else self._sink
+        try:
+            if self.format == "arrows":
+                return pa.ipc.new_stream(target, self._schema)
+            if self.format == "arrow":
+                return pa.ipc.new_file(target, self._schema)
+            if self.format == "parquet":
+                import pyarrow.parquet as pq
+                return pq.ParquetWriter(target, self._schema)
+            from . import h5io
+            return h5io.TableWriter(target, self._schema)
+        except BaseException:
+            self._discard()
+            raise
+
+    def write(self, batch: pa.RecordBatch | pa.Table) -> None:
+        """Append a batch (or table) whose columns match the header's schema."""
+        if isinstance(batch, pa.Table):
+            for b in batch.to_batches(max_chunksize=BATCH_ROWS):
+                self.write(b)
+            return
+        if batch.schema.remove_metadata() != self._schema.remove_metadata():
+            batch = pa.RecordBatch.from_arrays(batch.columns, schema=self._schema)
+        if self.format == "parquet":
+            self._writer.write_batch(batch)
+        else:
+            self._writer.write_batch(batch)
+        self.rows += batch.num_rows
+
+    def close(self) -> None:
+        """Finish the stream; a named file is renamed into place."""
+        if self._writer is None:
+            return
+        writer, self._writer = self._writer, None
+        writer.close()
+        if self._tmp is not None:
+            if Path(self.path).exists() and not self.force:  # appeared meanwhile
+                os.unlink(self._tmp)
+                msg = f"output {self.path} exists; use --force to replace it"
+                raise UsageError(msg)
+            os.chmod(self._tmp, 0o666 & ~_umask())
+            os.replace(self._tmp, self.path)
+            self._tmp = None
+        else:
+            try:
+                self._sink.flush()
+            except AttributeError:
+                pass
+
+    def _discard(self) -> None:
+        if self._tmp is not None:
+            try:
+                os.unlink(self._tmp)
+            except OSError:
+                pass
+            self._tmp = None
+
+    def abort(self) -> None:
+        """Stop writing: remove a temporary file, or (keep_partial) finish it."""
+        if self.keep_partial:
+            try:
+                self.close()
+                return
+            except Exception:
+                pass
+        writer, self._writer = self._writer, None
+        if writer is not None:
+            try:
+                writer.close()
+            except Exception:
+                pass
+        self._discard()
+
+    def __enter__(self) -> "OutputStream":
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def write_table(path: str | None, header: Header, table: pa.Table, force: bool = False,
+                fmt: str | None = None) -> None:
+    """Write a whole table as one stream."""
+    with OutputStream(path, header, force=force, fmt=fmt) as out:
+        out.write(table)
