@@ -364,11 +364,11 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
             msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
             raise UsageError(msg)
         return
-    format_for_path(path, fmt)
     p = Path(path)
     if p.is_dir():
         msg = f"output {path}: is a directory; give a file name"
         raise UsageError(msg)
+    format_for_path(path, fmt)
     if p.exists() and not force:
         msg = f"output {path} exists; use --force to replace it"
         raise UsageError(msg)
@@ -385,8 +385,9 @@ class OutputStream:
     """Writes one stream batch by batch; a named file appears only when closed cleanly.
 
     Use as a context manager: an exception inside the block removes the temporary file
-    (nothing partial is left), except for ``keep_partial=True`` (acquisition), where
-    everything written so far is closed into a valid file under the final name.
+    (nothing partial is left). With ``keep_partial=True`` (acquisition), a device fault or
+    an interruption (SIGINT, SIGTERM) instead closes everything written so far into a
+    valid file under the final name; bad input or usage still leaves nothing.
     """
 
     def __init__(self, path: str | None, header: Header, force: bool = False,
@@ -471,9 +472,9 @@ class OutputStream:
                 pass
             self._tmp = None
 
-    def abort(self) -> None:
+    def abort(self, keep: bool | None = None) -> None:
         """Stop writing: remove a temporary file, or (keep_partial) finish it."""
-        if self.keep_partial:
+        if self.keep_partial if keep is None else keep:
             try:
                 self.close()
                 return
@@ -494,7 +495,10 @@ class OutputStream:
         if exc_type is None:
             self.close()
         else:
-            self.abort()
+            from .errors import DeviceError, Interrupted
+            keep = self.keep_partial and issubclass(exc_type, (DeviceError, Interrupted,
+                                                               KeyboardInterrupt))
+            self.abort(keep)
 
 
 def _umask() -> int:

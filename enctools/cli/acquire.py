@@ -9,7 +9,7 @@ import click
 from . import options, runner
 
 
-@click.command("acquire", context_settings={"auto_envvar_prefix": "ENC_ACQUIRE"})
+@click.command("acquire")
 @options.rig
 @click.option("--mode", type=click.Choice(["continuous", "steps", "sweep"]), default=None,
               help="continuous: turn and sample; steps: target positions; sweep: fine steps.")

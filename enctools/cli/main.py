@@ -40,6 +40,24 @@ def _available() -> list[str]:
             if importlib.util.find_spec(f"enctools.cli.{mod}") is not None]
 
 
+def envvar_name(command: str, option: click.Option) -> str:
+    """ENC_<COMMAND>_<OPTION>, from the option's first long flag (--interval -> INTERVAL)."""
+    flag = next((o for o in option.opts if o.startswith("--")), option.opts[0])
+    return f"ENC_{command}_{flag.lstrip('-')}".upper().replace("-", "_")
+
+
+def set_envvars(command: click.Command, name: str) -> None:
+    """Give every valued option without an explicit variable its ENC_<COMMAND>_<OPTION>.
+
+    Plain flags (--force, --pace) get none: an environment must not force an overwrite.
+    """
+    for p in command.params:
+        if not isinstance(p, click.Option) or p.envvar is not None:
+            continue
+        if not p.is_flag or p.secondary_opts:
+            p.envvar = envvar_name(name, p)
+
+
 class LazyGroup(click.Group):
     """A group that imports a subcommand's module only when that command runs."""
 
@@ -51,7 +69,9 @@ class LazyGroup(click.Group):
             return None
         runner.set_command(name)
         module = importlib.import_module(f"enctools.cli.{COMMANDS[name][0]}")
-        return module.command
+        command: click.Command = module.command
+        set_envvars(command, name)
+        return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
@@ -60,8 +80,7 @@ class LazyGroup(click.Group):
                 formatter.write_dl(rows)
 
 
-@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"],
-                                              "auto_envvar_prefix": "ENC"})
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="enctools")
 @click.option("--debug", is_flag=True, default=False, envvar="ENC_DEBUG",
               help="Show a traceback on errors.")

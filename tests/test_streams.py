@@ -1,0 +1,206 @@
+"""The stream layer: every format round-trips; bad bytes give one line and exit 2."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import numpy as np
+import pyarrow as pa
+import pytest
+
+from enctools import streams
+from enctools.errors import DataError, UsageError
+from enctools.schemas import make_field
+
+from conftest import run
+
+
+def _deviations(n: int = 1000) -> tuple[streams.Header, pa.Table]:
+    theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    schema = pa.schema([make_field("theta", pa.float64(), "rad"),
+                        make_field("H", pa.float64(), "arcsec", "deviation")])
+    table = pa.table([theta, 0.1 * np.sin(4 * theta)], schema=schema)
+    header = streams.Header("deviations", schema, {"history": ["made by a test"],
+                                                   "note": {"nested": [1, 2.5, "x"]}})
+    return header, table
+
+
+@pytest.mark.parametrize("ext", [".parquet", ".h5", ".arrow", ".arrows"])
+def test_round_trip_every_format(tmp_path, ext):
+    header, table = _deviations(200_000)
+    path = tmp_path / f"dev{ext}"
+    streams.write_table(str(path), header, table)
+    h2, t2 = streams.read_table(str(path), "deviations")
+    assert t2.equals(table)
+    assert h2.schema.equals(table.schema, check_metadata=True)
+    assert h2.meta["note"] == header.meta["note"]
+    assert h2.history == ["made by a test"]
+    assert h2.kind == "deviations"
+
+
+def test_format_detected_from_magic_not_name(tmp_path):
+    header, table = _deviations()
+    p = tmp_path / "really-parquet.parquet"
+    streams.write_table(str(p), header, table)
+    disguised = tmp_path / "misnamed.h5"
+    disguised.write_bytes(p.read_bytes())
+    with streams.open_input(str(disguised)) as s:
+        assert s.format == "Parquet"
+        assert s.read_all().equals(table)
+
+
+def test_parquet_and_hdf5_on_a_pipe_are_buffered(tmp_path):
+    header, table = _deviations()
+    for ext in (".parquet", ".h5", ".arrow"):
+        p = tmp_path / f"x{ext}"
+        streams.write_table(str(p), header, table)
+        with streams.open_input(None, stdin=io.BytesIO(p.read_bytes())) as s:
+            assert s.read_all().equals(table)
+
+
+def test_wrong_kind_is_refused(tmp_path):
+    header, table = _deviations()
+    p = tmp_path / "dev.parquet"
+    streams.write_table(str(p), header, table)
+    with pytest.raises(DataError, match="is a deviations stream; this command reads readings"):
+        streams.open_input(str(p), "readings")
+
+
+def test_missing_unit_and_unknown_column_are_named(tmp_path):
+    schema = pa.schema([make_field("theta", pa.float64(), "rad"),
+                        make_field("H", pa.float64(), "nm", "deviation")])
+    table = pa.table([[0.0], [1.0]], schema=schema)
+    p = tmp_path / "bad.arrows"
+    streams.write_table(str(p), streams.Header("deviations", schema, {}), table)
+    with pytest.raises(DataError, match="column 'H' is in 'nm'"):
+        streams.open_input(str(p))
+    schema = pa.schema([make_field("theta", pa.float64(), "rad"),
+                        pa.field("mystery", pa.float64())])
+    streams.write_table(str(p), streams.Header("deviations", schema, {}),
+                        pa.table([[0.0], [1.0]], schema=schema), force=True)
+    with pytest.raises(DataError, match="column 'mystery' is not part of a deviations stream"):
+        streams.open_input(str(p))
+
+
+def test_foreign_arrow_file_is_not_an_enctools_stream(tmp_path):
+    p = tmp_path / "foreign.arrows"
+    with pa.OSFile(str(p), "wb") as f, pa.ipc.new_stream(f, pa.schema([("a", pa.int64())])) as w:
+        w.write_table(pa.table({"a": [1, 2]}))
+    with pytest.raises(DataError, match="not an enctools stream"):
+        streams.open_input(str(p))
+
+
+def test_output_rules(tmp_path):
+    header, table = _deviations()
+    p = tmp_path / "out.parquet"
+    streams.write_table(str(p), header, table)
+    with pytest.raises(UsageError, match="exists; use --force"):
+        streams.write_table(str(p), header, table)
+    streams.write_table(str(p), header, table, force=True)
+    with pytest.raises(UsageError, match="cannot tell the format"):
+        streams.check_output(str(tmp_path / "out.txt"))
+    with pytest.raises(UsageError, match="is a directory"):
+        streams.check_output(str(tmp_path))
+    with pytest.raises(UsageError, match="does not exist"):
+        streams.check_output(str(tmp_path / "nope" / "x.parquet"))
+    with pytest.raises(UsageError, match="cannot be written to a pipe"):
+        streams.check_output(None, fmt="hdf5")
+
+
+def test_failure_inside_a_write_leaves_no_file(tmp_path):
+    header, table = _deviations()
+    p = tmp_path / "out.h5"
+    with pytest.raises(RuntimeError):
+        with streams.OutputStream(str(p), header) as out:
+            out.write(table)
+            raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_history_line_names_the_command():
+    line = streams.history_line(["/usr/bin/enc", "selfcal", "--method", "esa", "a b.parquet"])
+    assert line.endswith("enc selfcal --method esa 'a b.parquet'")
+    assert "enctools" in line
+
+
+# ------------------------------------------------------------------ as a user, through a shell
+
+
+@pytest.fixture(scope="module")
+def small_raw(tmp_path_factory):
+    d = tmp_path_factory.mktemp("small")
+    r = run(f"enc acquire --rig sjtu-dual --revolutions 0.5 -o {d}/raw.arrows")
+    assert r.returncode == 0, r.stderr
+    return d / "raw.arrows"
+
+
+def _one_line_error(r, code=2, cmd="enc info"):
+    err = r.stderr.decode()
+    assert r.returncode == code, err
+    assert err.count("\n") == 1 and err.startswith(f"{cmd}: error: "), err
+    assert "Traceback" not in err
+    return err
+
+
+def test_empty_stdin(tmp_path):
+    err = _one_line_error(run("enc info < /dev/null"))
+    assert "empty" in err
+
+
+def test_random_bytes(tmp_path):
+    err = _one_line_error(run("head -c 4096 /dev/urandom | enc info"))
+    assert "not an Arrow, Parquet or HDF5 stream" in err
+
+
+def test_truncated_arrow_stream(small_raw, tmp_path):
+    out = tmp_path / "copy.parquet"
+    r = run(f"head -c 300000 {small_raw} | enc acquire --replay - -o {out}")
+    err = _one_line_error(r, cmd="enc acquire")
+    assert "truncated" in err
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_truncated_parquet_file(small_raw, tmp_path):
+    pq = tmp_path / "raw.parquet"
+    assert run(f"enc acquire --replay {small_raw} -o {pq}").returncode == 0
+    cut = tmp_path / "cut.parquet"
+    cut.write_bytes(pq.read_bytes()[:-5000])
+    err = _one_line_error(run(f"enc info {cut}"))
+    assert "corrupt" in err
+
+
+def test_wrong_kind_through_a_command(tmp_path):
+    header, table = _deviations()
+    p = tmp_path / "dev.parquet"
+    streams.write_table(str(p), header, table)
+    out = tmp_path / "out.parquet"
+    err = _one_line_error(run(f"enc acquire --replay {p} -o {out}"), cmd="enc acquire")
+    assert "deviations" in err and "readings" in err
+    assert not out.exists()
+
+
+def test_binary_never_to_a_terminal(tmp_path):
+    import os
+    import subprocess
+
+    from conftest import enc_exe
+
+    master, slave = os.openpty()
+    try:
+        r = subprocess.run([enc_exe(), "acquire", "--rig", "sjtu-dual", "--revolutions", "0.01"],
+                           stdout=slave, stderr=subprocess.PIPE, timeout=60)
+    finally:
+        os.close(slave)
+        os.close(master)
+    assert r.returncode == 2
+    assert b"refusing to write binary data to a terminal" in r.stderr
+
+
+def test_metadata_is_json_readable_by_any_arrow_tool(small_raw):
+    with pa.OSFile(str(small_raw)) as f:
+        schema = pa.ipc.open_stream(f).schema
+    meta = json.loads(schema.metadata[b"enctools"])
+    assert schema.metadata[b"kind"] == b"readings"
+    assert meta["kind"] == "readings" and meta["schema_version"] == 1
+    assert meta["history"][-1].endswith("--revolutions 0.5 -o " + str(small_raw))
