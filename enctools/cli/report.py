@@ -1,0 +1,74 @@
+"""enc report: figures, uncertainty, ISO 230-2, plots, thresholds and drift history."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+def _limit(ctx: click.Context, param: click.Parameter, value: float | None) -> float | None:
+    if value is not None and not value >= 0:
+        msg = f"must be >= 0, not {value}"
+        raise click.BadParameter(msg)
+    return value
+
+
+@click.command("report")
+@click.argument("inputs", nargs=-1, metavar="[INPUT...]",
+                type=click.Path(dir_okay=False, allow_dash=True))
+@click.option("--json", "as_json", is_flag=True, default=False,
+              help="Print the summary as JSON instead of text.")
+@click.option("--html", "html_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
+              help="Write a standalone HTML calibration report (plots embedded).")
+@click.option("--pdf", "pdf_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
+              help="Write the plots and tables as a PDF.")
+@click.option("--title", default=None, help="Title of the HTML/PDF report.")
+@click.option("--harmonics", "top_harmonics", type=int, default=5, callback=options.positive,
+              help="List this many largest harmonics per curve (default 5).")
+@click.option("--nmax", type=int, default=100, callback=options.positive,
+              help="Highest harmonic order considered (default 100).")
+@click.option("--max-pp", type=float, default=None, callback=_limit, metavar="ARCSEC",
+              help="Fail (exit 1) when a curve's peak-to-peak exceeds this.")
+@click.option("--max-std", type=float, default=None, callback=_limit, metavar="ARCSEC",
+              help="Fail when a curve's Bessel standard deviation exceeds this.")
+@click.option("--max-abs", type=float, default=None, callback=_limit, metavar="ARCSEC",
+              help="Fail when a curve's largest |deviation| exceeds this.")
+@click.option("--max-u", type=float, default=None, callback=_limit, metavar="ARCSEC",
+              help="Fail when the expanded uncertainty U (k=2) exceeds this.")
+@click.option("--max-radial-pp", type=float, default=None, callback=_limit, metavar="NM",
+              help="Fail when radial error motion peak-to-peak exceeds this [nm].")
+@click.option("--max-harmonic", multiple=True, metavar="N:ARCSEC",
+              help="Fail when harmonic N's amplitude exceeds ARCSEC (repeatable).")
+@click.option("--max-iso", multiple=True, metavar="FIG:ARCSEC",
+              help="Fail when an ISO 230-2 figure (A, R, E, B, M, A_up, ...) exceeds ARCSEC.")
+@click.option("--history", "history_dir", default=None, metavar="DIR",
+              type=click.Path(file_okay=False),
+              help="Tabulate (and plot, with --html/--pdf) the nightly history in DIR.")
+@options.force
+@options.verbosity
+def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
+            pdf_path: str | None, title: str | None, top_harmonics: int, nmax: int,
+            max_pp: float | None, max_std: float | None, max_abs: float | None,
+            max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
+            max_iso: tuple[str, ...], history_dir: str | None, force: bool,
+            verbose: int, quiet: int, debug: bool) -> None:
+    """Summarise enctools streams: figures, harmonics, U (k=2), ISO 230-2.
+
+    Reads every INPUT (any kind; stdin when none is given and no --history) and
+    prints a summary per input on stdout. Thresholds turn it into a check for cron:
+    exceeding any exits 1 and names it on stderr; the summary is still printed.
+    """
+    runner.setup_logging(verbose, quiet)
+    from ..report.output import check_paths, run_report
+    from ..report.sections import Options
+    from ..report.thresholds import Thresholds, parse_pairs
+
+    limits = Thresholds(max_pp=max_pp, max_std=max_std, max_abs=max_abs, max_u=max_u,
+                        max_radial_pp=max_radial_pp,
+                        max_harmonic=parse_pairs(max_harmonic, "--max-harmonic", int),
+                        max_iso=parse_pairs(max_iso, "--max-iso", str))
+    check_paths([html_path, pdf_path], force)
+    sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
+    run_report(sources, Options(top_harmonics, nmax), limits, as_json=as_json,
+               html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir)

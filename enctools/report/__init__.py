@@ -1,0 +1,11 @@
+"""Calibration reports: figures, ISO 230-2, thresholds, history, text/JSON/HTML/PDF.
+
+- :mod:`.figures`: p-p, +/-, mean, Bessel standard deviation (seed 001 eq. (8)),
+  harmonics, expanded uncertainty U (k = 2).
+- :mod:`.iso230`: ISO 230-2 figures of a bidirectional step run (B, R, E, M, A).
+- :mod:`.sections`: one section per stream kind, built from a stream's header and table.
+- :mod:`.summary`: the report of several inputs (sections + comparisons).
+- :mod:`.text`, :mod:`.jsonout`, :mod:`.html`, :mod:`.pdf`, :mod:`.plots`: renderings.
+- :mod:`.thresholds`: the cron contract (``--max-pp`` ...).
+- :mod:`.history`: the nightly history dataset (one Parquet file per run).
+"""

@@ -1,0 +1,153 @@
+"""Summary figures of an error curve or a set of calibration points.
+
+All deviations are in arcsec (radial motion in nm: the functions are unit-blind and
+return the unit they are given). Angles are in rad.
+
+- :func:`curve_figures`: peak-to-peak, +/- (half the p-p), mean, Bessel standard
+  deviation ``s = sqrt(sum (x_i - mean)^2 / (n - 1))`` (seed 001 eq. (8)) and RMS.
+- :func:`harmonics`: amplitude and phase of the harmonics of a curve, by FFT on a
+  uniform full-period grid, by least squares on anything else.
+- :func:`expanded_uncertainty`: U = k u with k = 2 (GUM, about 95 % coverage).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..errors import DataError
+from ..units import TWO_PI
+
+#: coverage factor of the expanded uncertainty
+K_COVERAGE = 2.0
+
+
+@dataclass(frozen=True)
+class Figures:
+    """Figures of n values (unit of the input).
+
+    ``std`` is the Bessel (n - 1) standard deviation of seed 001 eq. (8), over the
+    values exactly as given (a closing 360 deg row that repeats 0 deg counts).
+    """
+
+    n: int
+    mean: float
+    minimum: float
+    maximum: float
+    pp: float
+    plus_minus: float
+    std: float
+    rms: float
+
+    def to_dict(self) -> dict[str, float | int]:
+        return asdict(self)
+
+
+def curve_figures(values: np.ndarray) -> Figures:
+    """Figures of a curve or point set (seed 001 sec. 5.3: p-p and eq. (8)).
+
+    Parameters
+    ----------
+    values : deviations [arcsec] (or nm); NaN values are an error, not skipped.
+    """
+    x = np.asarray(values, dtype=np.float64).ravel()
+    if x.size == 0:
+        msg = "no values to summarise"
+        raise DataError(msg)
+    if not np.all(np.isfinite(x)):
+        bad = int(np.count_nonzero(~np.isfinite(x)))
+        msg = f"{bad} of {x.size} values are NaN or infinite"
+        raise DataError(msg)
+    lo, hi = float(x.min()), float(x.max())
+    std = float(np.std(x, ddof=1)) if x.size > 1 else float("nan")
+    return Figures(n=int(x.size), mean=float(x.mean()), minimum=lo, maximum=hi, pp=hi - lo,
+                   plus_minus=(hi - lo) / 2.0, std=std, rms=float(np.sqrt(np.mean(x * x))))
+
+
+@dataclass(frozen=True)
+class Harmonics:
+    """Harmonics ``amplitude * cos(n x + phase)`` of a curve (spectrum-stream convention).
+
+    ``amplitude`` in the curve's unit, ``phase`` in rad; ``re = a``, ``im = -b`` for
+    ``a cos(n x) + b sin(n x)``.
+    """
+
+    n: np.ndarray
+    amplitude: np.ndarray
+    phase: np.ndarray
+
+    def largest(self, count: int, skip_zero: bool = True) -> "Harmonics":
+        """The ``count`` harmonics of largest amplitude, largest first."""
+        keep = self.n != 0 if skip_zero else np.ones(self.n.shape, bool)
+        idx = np.flatnonzero(keep)
+        order = idx[np.argsort(-self.amplitude[idx], kind="stable")][:count]
+        return Harmonics(self.n[order], self.amplitude[order], self.phase[order])
+
+    def amplitude_of(self, n: int) -> float:
+        """Amplitude of harmonic n (0 when it is not in the set)."""
+        hit = np.flatnonzero(self.n == n)
+        return float(self.amplitude[hit[0]]) if hit.size else 0.0
+
+    def rows(self) -> list[dict[str, float]]:
+        return [{"n": int(n), "amplitude": float(a), "phase": float(p)}
+                for n, a, p in zip(self.n, self.amplitude, self.phase)]
+
+
+def _uniform_full_period(x: np.ndarray, period: float) -> bool:
+    if x.size < 4:
+        return False
+    step = period / x.size
+    expected = x[0] + step * np.arange(x.size)
+    return bool(np.allclose(x, expected, rtol=0, atol=1e-6 * step))
+
+
+def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
+              period: float = TWO_PI) -> Harmonics:
+    """Harmonics of a periodic curve sampled at ``angle`` [rad] over ``period`` [rad].
+
+    A uniform grid covering one period exactly (no repeated end point) uses the FFT;
+    anything else (sparse polygon points, a closing 360 deg row) a least-squares fit of
+    ``a_n cos(n x) + b_n sin(n x)``, n = 0..nmax with ``nmax < m/2`` for m distinct
+    positions, so the fit is never under-determined. Harmonic order n counts cycles
+    per ``period``.
+    """
+    x = np.asarray(angle, dtype=np.float64).ravel()
+    y = np.asarray(values, dtype=np.float64).ravel()
+    if x.size != y.size:
+        msg = f"{x.size} angles but {y.size} values"
+        raise DataError(msg)
+    phase_arg = np.mod(x, period) * (TWO_PI / period)
+    distinct = np.unique(np.round(phase_arg, 9)).size
+    limit = (distinct - 1) // 2
+    if nmax is None or nmax > limit:
+        nmax = limit
+    if nmax < 1:
+        msg = f"{distinct} distinct positions are too few for harmonics (need 3 or more)"
+        raise DataError(msg)
+    order = np.argsort(x)
+    if _uniform_full_period(x[order], period):
+        c = np.fft.rfft(y[order]) / y.size
+        c[1:] *= 2.0
+        c *= np.exp(-1j * np.arange(c.size) * phase_arg[order][0])
+        c = c[: nmax + 1]
+        if y.size % 2 == 0 and nmax == y.size // 2:
+            c[-1] /= 2.0
+        a, b = c.real, -c.imag
+    else:
+        n = np.arange(nmax + 1)
+        design = np.hstack([np.cos(np.outer(phase_arg, n)), np.sin(np.outer(phase_arg, n[1:]))])
+        coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+        a = coef[: nmax + 1]
+        b = np.concatenate([[0.0], coef[nmax + 1:]])
+    n = np.arange(nmax + 1)
+    return Harmonics(n, np.hypot(a, b), np.arctan2(-b, a))
+
+
+def expanded_uncertainty(u: np.ndarray | float, k: float = K_COVERAGE) -> np.ndarray | float:
+    """Expanded uncertainty U = k u (k = 2 by default, GUM) of standard uncertainties u."""
+    u_arr = np.asarray(u, dtype=np.float64)
+    if np.any(u_arr < 0):
+        msg = "a standard uncertainty is negative"
+        raise DataError(msg)
+    return k * u if isinstance(u, float) else k * u_arr

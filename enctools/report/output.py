@@ -1,0 +1,80 @@
+"""What ``enc report`` does once its options are parsed: build, check, print, write."""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..errors import CheckFailed, UsageError
+from .sections import Options
+from .summary import build_report
+from .thresholds import Thresholds, check
+
+
+def check_paths(paths: Sequence[str | None], force: bool) -> None:
+    """Fail early when a report file cannot be written (exists without --force, no folder)."""
+    for p in paths:
+        if p is None:
+            continue
+        path = Path(p)
+        if path.exists() and not force:
+            msg = f"output {p} exists; use --force to replace it"
+            raise UsageError(msg)
+        parent = path.parent if str(path.parent) else Path(".")
+        if not parent.is_dir():
+            msg = f"output {p}: folder {parent} does not exist"
+            raise UsageError(msg)
+
+
+def write_atomic(path: str, data: bytes) -> None:
+    """Write a file through a temporary file in the same folder and a rename."""
+    p = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=str(p.parent or "."))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
+               as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
+               title: str | None = None, history_dir: str | None = None) -> None:
+    """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds."""
+    from ..cli.runner import command_name
+
+    report = build_report(sources, opts)
+    if history_dir is not None:
+        from .history import read_history
+        report.history = read_history(history_dir)
+    report.settings["thresholds"] = limits.to_dict()
+    failures = check(report, limits)
+    if as_json:
+        from .jsonout import to_json
+        sys.stdout.write(to_json(report, failures if limits.any else None) + "\n")
+    else:
+        from .text import to_text
+        sys.stdout.write(to_text(report) + "\n")
+    sys.stdout.flush()
+    if html_path is not None:
+        from .html import to_html
+        write_atomic(html_path, to_html(report, failures, title).encode())
+    if pdf_path is not None:
+        from .pdf import to_pdf
+        write_atomic(pdf_path, to_pdf(report, failures, title))
+    if failures:
+        for line in failures:
+            sys.stderr.write(f"{command_name()}: threshold exceeded: {line}\n")
+        msg = f"{len(failures)} threshold(s) exceeded"
+        raise CheckFailed(msg)

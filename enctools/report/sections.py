@@ -1,0 +1,378 @@
+"""One report section per stream kind: the figures and the plot data of one input.
+
+:func:`build_section` reads an open :class:`~enctools.streams.InputStream` and returns
+a :class:`Section` holding, for its kind:
+
+- deviations: every curve (role deviation [arcsec], radial [nm]) with its figures,
+  largest harmonics and, where a role-uncertainty column names it (field metadata
+  ``of``), its standard uncertainty and expanded uncertainty U (k = 2);
+- spectrum: the largest harmonics of each curve with U = 2 u and |W(n)|, and the
+  harmonics the method is blind to (metadata ``blind``);
+- points: the deviation per position (means when positions repeat), figures, the
+  harmonics by least squares and, for runs with repeats, ISO 230-2;
+- model and rom: their metadata and the figures of weights / corrections;
+- readings: what was recorded (mode, heads, rows, duration, turns), for step runs the
+  positioning deviation of the axis (encoder - target) with ISO 230-2, and the raw
+  sin/cos signals for a Lissajous plot when recorded.
+
+Readings are read batch by batch (memory does not grow with the run's length).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from ..errors import DataError
+from ..schemas import columns_with_role, field_meta
+from ..streams import InputStream
+from ..units import ARCSEC, DEG, TWO_PI
+from .figures import Figures, Harmonics, curve_figures, expanded_uncertainty, harmonics
+from .iso230 import Iso230, iso230_2
+
+#: Lissajous plots keep at most this many samples per head
+LISSAJOUS_POINTS = 4000
+
+
+@dataclass
+class Curve:
+    """One error curve of a section (angles in rad over ``period``)."""
+
+    name: str
+    unit: str                       # "arcsec", "nm" or "count"
+    role: str                       # deviation, radial, points, correction, positioning
+    angle: np.ndarray               # rad
+    values: np.ndarray
+    figures: Figures
+    harmonics: Harmonics | None = None   # every order 0..nmax (largest(): the top ones)
+    u: np.ndarray | None = None     # standard uncertainty per angle, same unit
+    period: float = TWO_PI          # rad: one revolution, or one signal period
+    head: str | None = None
+    extra: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def U_max(self) -> float | None:
+        """Largest expanded uncertainty U (k = 2) along the curve."""
+        return None if self.u is None else float(np.max(expanded_uncertainty(self.u)))
+
+
+@dataclass
+class SpectrumRows:
+    """The harmonics of one curve of a spectrum stream."""
+
+    curve: str
+    n: np.ndarray
+    amplitude: np.ndarray
+    phase: np.ndarray
+    u: np.ndarray | None = None
+    transfer: np.ndarray | None = None
+
+    def largest(self, count: int) -> np.ndarray:
+        """Row indices of the ``count`` largest amplitudes (n > 0), largest first."""
+        idx = np.flatnonzero(self.n > 0)
+        return idx[np.argsort(-self.amplitude[idx], kind="stable")][:count]
+
+
+@dataclass
+class Section:
+    """What the report says about one input."""
+
+    source: str
+    kind: str
+    meta: dict[str, Any]
+    domain: str = "revolution"      # or "period" (interpolation errors)
+    curves: list[Curve] = field(default_factory=list)
+    spectra: list[SpectrumRows] = field(default_factory=list)
+    iso: Iso230 | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+    signals: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def rig_name(self) -> str | None:
+        rig = self.meta.get("rig")
+        return rig.get("name") if isinstance(rig, dict) else None
+
+    @property
+    def history(self) -> list[str]:
+        return list(self.meta.get("history", []))
+
+
+@dataclass(frozen=True)
+class Options:
+    """Report settings: harmonics listed and the highest order considered."""
+
+    top_harmonics: int = 5
+    nmax: int = 100
+
+
+def build_section(stream: InputStream, opts: Options = Options()) -> Section:
+    """The section of one input stream (dispatch on its kind)."""
+    build = {"deviations": _deviations, "spectrum": _spectrum, "points": _points,
+             "model": _model, "rom": _rom, "readings": _readings}[stream.kind]
+    section = Section(stream.source, stream.kind, dict(stream.meta))
+    build(stream, section, opts)
+    return section
+
+
+def _col(table: pa.Table, name: str) -> np.ndarray:
+    return table.column(name).to_numpy(zero_copy_only=False).astype(np.float64)
+
+
+def _curve(name: str, unit: str, role: str, angle: np.ndarray, values: np.ndarray,
+           opts: Options, source: str, period: float = TWO_PI, **kw: Any) -> Curve:
+    try:
+        figs = curve_figures(values)
+    except DataError as exc:
+        msg = f"{source}: column {name!r}: {exc}"
+        raise DataError(msg) from None
+    try:
+        harm = harmonics(angle, values, opts.nmax, period)
+    except DataError:
+        harm = None
+    return Curve(name, unit, role, angle, np.asarray(values, np.float64), figs, harm,
+                 period=period, **kw)
+
+
+# ------------------------------------------------------------------ deviations
+
+
+def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
+    table = stream.read_all()
+    if table.num_rows == 0:
+        msg = f"{s.source}: deviations stream has no rows"
+        raise DataError(msg)
+    period = float(s.meta.get("period", TWO_PI)) if s.meta.get("domain") == "period" \
+        else TWO_PI
+    if s.meta.get("domain") == "period":
+        s.domain = "period"
+    theta = _col(table, "theta")
+    unc = {field_meta(f).get("of"): f.name for f in table.schema
+           if field_meta(f).get("role") == "uncertainty"}
+    for role, unit in (("deviation", "arcsec"), ("radial", "nm")):
+        for name in columns_with_role(table.schema, role):
+            fm = field_meta(table.schema.field(name))
+            u = _col(table, unc[name]) if name in unc else None
+            s.curves.append(_curve(name, unit, role, theta, _col(table, name), opts, s.source,
+                                   period if role == "deviation" else TWO_PI, u=u,
+                                   head=fm.get("head")))
+    s.info["grid points"] = table.num_rows
+    if s.domain == "period":
+        s.info["signal period"] = f"{period / ARCSEC:.4g} arcsec"
+
+
+# -------------------------------------------------------------------- spectrum
+
+
+def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
+    table = stream.read_all()
+    names = table.schema.names
+    curves = (table.column("curve").to_pylist() if "curve" in names
+              else [s.meta.get("curve", "spectrum")] * table.num_rows)
+    n_all = table.column("n").to_numpy(zero_copy_only=False).astype(np.int64)
+    for curve in dict.fromkeys(curves):
+        mask = np.array([c == curve for c in curves])
+        s.spectra.append(SpectrumRows(
+            curve=str(curve), n=n_all[mask], amplitude=_col(table, "amplitude")[mask],
+            phase=_col(table, "phase")[mask],
+            u=_col(table, "u")[mask] if "u" in names else None,
+            transfer=_col(table, "transfer")[mask] if "transfer" in names else None))
+    blind = s.meta.get("blind")
+    if blind:
+        s.info["blind harmonics"] = ", ".join(str(b) for b in blind) if isinstance(
+            blind, list) else str(blind)
+    if s.meta.get("domain") == "period":
+        s.domain = "period"
+
+
+# ---------------------------------------------------------------------- points
+
+
+def _points(stream: InputStream, s: Section, opts: Options) -> None:
+    table = stream.read_all()
+    if table.num_rows == 0:
+        msg = f"{s.source}: points stream has no rows"
+        raise DataError(msg)
+    pos = _col(table, "position")
+    dev = _col(table, "deviation")
+    direction = (table.column("direction").to_numpy(zero_copy_only=False)
+                 if "direction" in table.schema.names else None)
+    _points_into(s, pos, dev, direction, opts, "deviation", "points")
+
+
+def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
+                 direction: np.ndarray | None, opts: Options, name: str, role: str) -> None:
+    if not np.all(np.isfinite(pos_deg)):
+        msg = f"{s.source}: a position is NaN or infinite"
+        raise DataError(msg)
+    key = np.round(pos_deg, 6)
+    unique, index, counts = np.unique(key, return_inverse=True, return_counts=True)
+    if np.all(counts == 1):
+        curve = _curve(name, "arcsec", role, pos_deg * DEG, dev, opts, s.source)
+        closing = np.round(np.mod(key, 360.0), 6)
+        if np.unique(closing).size < closing.size:
+            # a closing 360 deg row repeating 0 deg (seed 001 tables 1 and 2)
+            keep = np.unique(closing, return_index=True)[1]
+            curve.extra["std_distinct"] = float(np.std(dev[np.sort(keep)], ddof=1))
+            s.notes.append("a position repeats modulo 360 deg (closing row): std counts "
+                           "every row as given; std_distinct drops the repeat")
+    else:
+        means = np.bincount(index, weights=dev) / counts
+        curve = _curve(name, "arcsec", role, unique * DEG, means, opts, s.source)
+        s.notes.append(f"{pos_deg.size} readings at {unique.size} positions: the curve and "
+                       "its figures use the mean deviation per position")
+        if np.min(counts) >= 2:
+            try:
+                s.iso = iso230_2(pos_deg, dev, direction)
+            except DataError as exc:
+                s.notes.append(f"no ISO 230-2 figures: {exc}")
+            else:
+                s.notes += s.iso.warnings
+                if s.iso.is_bidirectional:
+                    curve = _curve(name, "arcsec", role, s.iso.positions * DEG,
+                                   s.iso.bidirectional["mean_i"], opts, s.source)
+                    s.notes.append("with both directions the curve is the mean "
+                                   "bidirectional positioning deviation x_i")
+            # standard uncertainty of a position's mean: s / sqrt(n) (type A)
+            resid = dev - np.bincount(index, weights=dev)[index] / counts[index]
+            s_pos = np.sqrt(np.bincount(index, weights=resid ** 2) / (counts - 1))
+            if curve.values.size == unique.size:
+                curve.u = s_pos / np.sqrt(counts)
+    s.curves.append(curve)
+    s.info["positions"] = int(unique.size)
+    s.info["readings"] = int(pos_deg.size)
+
+
+# --------------------------------------------------------------- model and rom
+
+
+def _model(stream: InputStream, s: Section, opts: Options) -> None:
+    table = stream.read_all()
+    model = s.meta.get("model", {})
+    if isinstance(model, dict):
+        for k, v in model.items():
+            if isinstance(v, (str, int, float, bool)):
+                s.info[str(k)] = v
+    s.info["rows"] = table.num_rows
+    residuals = s.meta.get("residuals")
+    if isinstance(residuals, dict):
+        for k, v in residuals.items():
+            if isinstance(v, (int, float)):
+                s.info[f"residual {k}"] = v
+    weights = _col(table, "weight")
+    if "centre" in table.schema.names:
+        s.curves.append(_curve("weight", "arcsec", "model", _col(table, "centre") * DEG,
+                               weights, Options(opts.top_harmonics, 0), s.source))
+    elif "n" in table.schema.names:
+        n = table.column("n").to_numpy(zero_copy_only=False).astype(np.int64)
+        b = _col(table, "weight_sin") if "weight_sin" in table.schema.names else 0 * weights
+        s.spectra.append(SpectrumRows("model", n, np.hypot(weights, b), np.arctan2(-b, weights)))
+
+
+def _rom(stream: InputStream, s: Section, opts: Options) -> None:
+    table = stream.read_all()
+    if table.num_rows == 0:
+        msg = f"{s.source}: rom stream has no rows"
+        raise DataError(msg)
+    rom = s.meta.get("rom", {})
+    if isinstance(rom, dict):
+        for k, v in rom.items():
+            if isinstance(v, (str, int, float, bool)):
+                s.info[str(k)] = v
+    address = _col(table, "address")
+    corr = _col(table, "correction")
+    size = float(rom.get("size", address.max() + 1)) if isinstance(rom, dict) else address.max() + 1
+    s.curves.append(_curve("correction", "count", "correction", address * TWO_PI / size, corr,
+                           opts, s.source))
+    s.info["addresses"] = table.num_rows
+
+
+# -------------------------------------------------------------------- readings
+
+
+def _readings(stream: InputStream, s: Section, opts: Options) -> None:
+    schema = stream.schema
+    heads = columns_with_role(schema, "head")
+    hinfo = {h: field_meta(schema.field(h)) for h in heads}
+    signal_cols = {}
+    for name in columns_with_role(schema, "signal"):
+        fm = field_meta(schema.field(name))
+        signal_cols.setdefault(fm.get("head", name), {})[fm.get("component", "")] = name
+    stepped = "target" in schema.names
+    rows = 0
+    t_first = t_last = None
+    first = {h: None for h in heads}
+    last = {h: None for h in heads}
+    kept: dict[str, list[np.ndarray]] = {}
+    step_cols: dict[str, list[np.ndarray]] = {k: [] for k in ("target", "direction", "dev")}
+    stride = None
+    for batch in stream.batches():
+        if batch.num_rows == 0:
+            continue
+        rows += batch.num_rows
+        t = batch.column("t").to_numpy(zero_copy_only=False)
+        t_first = float(t[0]) if t_first is None else t_first
+        t_last = float(t[-1])
+        for h in heads:
+            c = batch.column(h)
+            first[h] = int(c[0].as_py()) if first[h] is None else first[h]
+            last[h] = int(c[-1].as_py())
+        if signal_cols:
+            if stride is None:
+                stride = max(1, batch.num_rows // 500)
+            for h, comp in signal_cols.items():
+                if "cos" in comp and "sin" in comp:
+                    kept.setdefault(h + ".cos", []).append(
+                        batch.column(comp["cos"]).to_numpy(zero_copy_only=False)[::stride])
+                    kept.setdefault(h + ".sin", []).append(
+                        batch.column(comp["sin"]).to_numpy(zero_copy_only=False)[::stride])
+        if stepped and heads:
+            step_cols["target"].append(batch.column("target").to_numpy(zero_copy_only=False))
+            if "direction" in schema.names:
+                step_cols["direction"].append(
+                    batch.column("direction").to_numpy(zero_copy_only=False))
+            step_cols["dev"].append(_encoder_angle(batch, heads, hinfo))
+    s.info["mode"] = s.meta.get("mode", "steps" if stepped else "continuous")
+    s.info["rows"] = rows
+    s.info["heads"] = ", ".join(f"{h} ({hinfo[h].get('encoder', '?')} at "
+                                f"{float(hinfo[h].get('alpha_deg', 0)):g} deg)" for h in heads)
+    if rows:
+        s.info["duration"] = f"{t_last - t_first:.4g} s"
+    if rows and heads and not stepped:
+        h = heads[0]
+        turns = (last[h] - first[h]) / float(hinfo[h]["counts_per_rev"])
+        s.info["turns"] = f"{turns:.4g} (head {h})"
+    for h in signal_cols:
+        if h + ".cos" in kept:
+            c = np.concatenate(kept[h + ".cos"])
+            sn = np.concatenate(kept[h + ".sin"])
+            step = max(1, c.size // LISSAJOUS_POINTS)
+            s.signals[h] = (c[::step], sn[::step])
+    if stepped and heads and rows:
+        target = np.concatenate(step_cols["target"])
+        angle = np.concatenate(step_cols["dev"])
+        dev = (np.mod(angle - target + np.pi, TWO_PI) - np.pi) / ARCSEC
+        dev -= dev.mean()
+        direction = np.concatenate(step_cols["direction"]) if step_cols["direction"] else None
+        enc = hinfo[heads[0]].get("encoder", "")
+        used = [h for h in heads if hinfo[h].get("encoder") == enc]
+        s.notes.append(f"positioning deviation = mean of heads {', '.join(used)} (encoder "
+                       f"{enc}) - target, mean removed (head zeros are set below one signal "
+                       "period)")
+        _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
+                     "positioning")
+
+
+def _encoder_angle(batch: pa.RecordBatch, heads: list[str],
+                   hinfo: dict[str, dict[str, str]]) -> np.ndarray:
+    """Mean angle [rad] of the heads of the first encoder (cancels odd harmonics, seed 000)."""
+    enc = hinfo[heads[0]].get("encoder")
+    used = [h for h in heads if hinfo[h].get("encoder") == enc]
+    total = np.zeros(batch.num_rows)
+    for h in used:
+        counts = batch.column(h).to_numpy(zero_copy_only=False).astype(np.float64)
+        total += counts * (TWO_PI / float(hinfo[h]["counts_per_rev"]))
+    return total / len(used)

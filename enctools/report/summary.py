@@ -1,0 +1,38 @@
+"""The report of several inputs: one section per input, in the order given."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..streams import open_input
+from .sections import Options, Section, build_section
+
+
+@dataclass
+class Report:
+    """Sections of every input, plus the nightly history when asked for."""
+
+    sections: list[Section] = field(default_factory=list)
+    history: Any = None                 # history.History or None
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def curves(self, unit: str | None = None):  # noqa: ANN201 - iterator of (section, curve)
+        """Every (section, curve) pair, optionally of one unit."""
+        for s in self.sections:
+            for c in s.curves:
+                if unit is None or c.unit == unit:
+                    yield s, c
+
+
+def build_report(inputs: Sequence[str | None], opts: Options = Options()) -> Report:
+    """Read every input (a path, or None/'-' for stdin) into its section.
+
+    Raises DataError (exit 2) naming the input when one cannot be read.
+    """
+    report = Report(settings={"top_harmonics": opts.top_harmonics, "nmax": opts.nmax})
+    for path in inputs:
+        with open_input(path) as stream:
+            report.sections.append(build_section(stream, opts))
+    return report

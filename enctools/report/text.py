@@ -1,0 +1,103 @@
+"""The report as a few lines of text per input (``enc report``'s stdout)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .sections import Curve, Section
+from .summary import Report
+
+
+def _g(x: float | None, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x:.{digits}f}"
+
+
+def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
+    f = c.figures
+    u = c.unit
+    sym = '"' if u == "arcsec" else f" {u}"
+    lines = [f"  {c.name} [{u}]{' (head ' + c.head + ')' if c.head else ''}: n={f.n}  "
+             f"p-p {_g(f.pp)}{sym}  +/-{_g(f.plus_minus)}{sym}  mean {_g(f.mean)}{sym}  "
+             f"s {_g(f.std)}{sym} (Bessel n-1, seed 001 eq. 8)"]
+    if "std_distinct" in c.extra:
+        lines.append(f"    s over distinct positions (closing row dropped) "
+                     f"{_g(c.extra['std_distinct'])}{sym}")
+    if c.u is not None:
+        lines.append(f"    expanded uncertainty U (k=2): max {_g(c.U_max)}{sym}")
+    h = c.harmonics.largest(top) if c.harmonics is not None else None
+    if h is not None and h.n.size:
+        per = "/period" if s.domain == "period" and c.role == "deviation" else "/rev"
+        parts = [f"n={int(n)} {_g(a)}{sym} @ {np.degrees(p):.0f} deg"
+                 for n, a, p in zip(h.n, h.amplitude, h.phase)]
+        lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
+    return lines
+
+
+def iso_lines(s: Section) -> list[str]:
+    iso = s.iso
+    if iso is None:
+        return []
+    axis = iso.axis()
+    lines = ["  ISO 230-2 (R = 4s, A with +/-2s) [arcsec]: "
+             + "  ".join(f"{k} {_g(v)}" for k, v in axis.items())]
+    head = "    pos [deg]"
+    cols = []
+    if iso.up is not None:
+        cols += ["mean up", "s up"]
+    if iso.down is not None:
+        cols += ["mean dn", "s dn"]
+    if iso.is_bidirectional:
+        cols += ["B_i", "R_i"]
+    lines.append(head + "".join(f"{c:>9}" for c in cols))
+    for row in iso.table():
+        vals = []
+        if iso.up is not None:
+            vals += [row["mean_up"], row["s_up"]]
+        if iso.down is not None:
+            vals += [row["mean_down"], row["s_down"]]
+        if iso.is_bidirectional:
+            vals += [row["B"], row["R"]]
+        lines.append(f"    {row['position_deg']:9.3f}" + "".join(f"{v:9.3f}" for v in vals))
+    return lines
+
+
+def section_lines(s: Section, top: int) -> list[str]:
+    rig = f", rig {s.rig_name}" if s.rig_name else ""
+    lines = [f"{s.source}: {s.kind}{rig}"]
+    for k, v in s.info.items():
+        lines.append(f"  {k}: {v}")
+    for c in s.curves:
+        lines += curve_lines(c, s, top)
+    for sp in s.spectra:
+        parts = []
+        for i in sp.largest(top):
+            p = f"n={int(sp.n[i])} {_g(float(sp.amplitude[i]))}\""
+            if sp.u is not None:
+                p += f" (U {_g(2 * float(sp.u[i]))}\")"
+            if sp.transfer is not None:
+                p += f" |W| {_g(float(sp.transfer[i]), 2)}"
+            parts.append(p)
+        lines.append(f"  spectrum {sp.curve}: largest " + "; ".join(parts))
+    lines += iso_lines(s)
+    lines += [f"  note: {n}" for n in s.notes]
+    return lines
+
+
+def history_lines(report: Report) -> list[str]:
+    h = report.history
+    if h is None:
+        return []
+    return h.text_lines()
+
+
+def to_text(report: Report) -> str:
+    top = int(report.settings.get("top_harmonics", 5))
+    out: list[str] = []
+    for s in report.sections:
+        out += section_lines(s, top)
+    out += history_lines(report)
+    return "\n".join(out)

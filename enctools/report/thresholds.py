@@ -1,0 +1,114 @@
+"""Thresholds for cron: a check per option; exceeding any is exit status 1.
+
+Each check names the figure, the curve and the input at fault, e.g.
+``p-p of deviation in before.parquet is 5.46 arcsec > --max-pp 3``.
+Figures in arcsec apply to deviation, points, positioning and model curves; radial
+motion [nm] has its own option; ROM corrections [count] are not checked.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import UsageError
+from .summary import Report
+
+ISO_FIGURES = ("A", "R", "E", "B", "M", "A_up", "A_down", "R_up", "R_down", "E_up", "E_down")
+
+
+@dataclass
+class Thresholds:
+    """Limits given on the command line (None: not checked). Units: arcsec, nm."""
+
+    max_pp: float | None = None
+    max_std: float | None = None
+    max_abs: float | None = None
+    max_u: float | None = None
+    max_radial_pp: float | None = None
+    max_harmonic: dict[int, float] = field(default_factory=dict)
+    max_iso: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def any(self) -> bool:
+        return any(v is not None for v in (self.max_pp, self.max_std, self.max_abs,
+                                           self.max_u, self.max_radial_pp)) \
+            or bool(self.max_harmonic) or bool(self.max_iso)
+
+    def to_dict(self) -> dict[str, object]:
+        return {k: v for k, v in self.__dict__.items() if v not in (None, {}, [])}
+
+
+def parse_pairs(values: tuple[str, ...], option: str, key_type: type) -> dict:
+    """``N:VALUE`` pairs of an option given several times -> {key: value}."""
+    out = {}
+    for v in values:
+        key, sep, limit = v.partition(":")
+        try:
+            k = key_type(key.strip())
+            lim = float(limit)
+        except ValueError:
+            k = lim = None
+        if not sep or k is None or not np.isfinite(lim) or lim < 0:
+            msg = f"{option} wants KEY:VALUE with VALUE >= 0 (e.g. {option} 2:0.5), not {v!r}"
+            raise UsageError(msg)
+        if key_type is str and k not in ISO_FIGURES:
+            msg = f"{option}: unknown ISO 230-2 figure {k!r} (figures: {', '.join(ISO_FIGURES)})"
+            raise UsageError(msg)
+        if key_type is int and k < 1:
+            msg = f"{option}: harmonic order must be >= 1, not {k}"
+            raise UsageError(msg)
+        out[k] = lim
+    return out
+
+
+def _arcsec_curves(report: Report):  # noqa: ANN202
+    for s, c in report.curves("arcsec"):
+        yield s, c
+
+
+def check(report: Report, limits: Thresholds) -> list[str]:
+    """Every threshold exceeded, one line each (empty: all within limits)."""
+    bad: list[str] = []
+
+    def over(value: float | None, limit: float | None, what: str, where: str, option: str,
+             unit: str = "arcsec") -> None:
+        if limit is not None and value is not None and value > limit:
+            sep = "" if option.endswith(":") else " "
+            bad.append(f"{what} of {where} is {value:.4g} {unit} > {option}{sep}{limit:g}")
+
+    for s, c in _arcsec_curves(report):
+        where = f"{c.name} in {s.source}"
+        f = c.figures
+        over(f.pp, limits.max_pp, "p-p", where, "--max-pp")
+        over(f.std, limits.max_std, "s (Bessel)", where, "--max-std")
+        over(max(abs(f.minimum), abs(f.maximum)), limits.max_abs, "max |deviation|", where,
+             "--max-abs")
+        over(c.U_max, limits.max_u, "U (k=2)", where, "--max-u")
+    for s, c in report.curves("nm"):
+        over(c.figures.pp, limits.max_radial_pp, "p-p", f"{c.name} in {s.source}",
+             "--max-radial-pp", "nm")
+    if limits.max_harmonic:
+        for s, c in _arcsec_curves(report):
+            h = c.harmonics
+            if h is None:
+                continue
+            for n, lim in sorted(limits.max_harmonic.items()):
+                over(h.amplitude_of(n), lim, f"harmonic {n}", f"{c.name} in {s.source}",
+                     f"--max-harmonic {n}:")
+        for s in report.sections:
+            for sp in s.spectra:
+                for n, lim in sorted(limits.max_harmonic.items()):
+                    hit = np.flatnonzero(sp.n == n)
+                    if hit.size:
+                        over(float(sp.amplitude[hit[0]]), lim, f"harmonic {n}",
+                             f"{sp.curve} in {s.source}", f"--max-harmonic {n}:")
+    if limits.max_iso:
+        for s in report.sections:
+            if s.iso is None:
+                continue
+            axis = s.iso.axis()
+            for key, lim in limits.max_iso.items():
+                over(axis.get(key), lim, f"ISO 230-2 {key}", s.source, f"--max-iso {key}:")
+    return bad
