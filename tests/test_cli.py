@@ -74,3 +74,11 @@ def test_sigterm_mid_run_keeps_a_valid_stream(tmp_path):
     _, table = streams.read_table(str(out), "readings")
     assert table.num_rows > 0 and table.num_rows % 65536 == 0
     assert not list(tmp_path.glob(".x.arrows.*"))
+
+
+def test_shell_completion_script():
+    r = run("_ENC_COMPLETE=bash_source enc")
+    assert r.returncode == 0
+    assert b"complete" in r.stdout and b"_ENC_COMPLETE" in r.stdout
+    r = run("COMP_WORDS='enc acq' COMP_CWORD=1 _ENC_COMPLETE=bash_complete enc")
+    assert b"acquire" in r.stdout

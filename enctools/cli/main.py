@@ -95,6 +95,8 @@ def cli(debug: bool) -> None:
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``enc`` executable."""
     args = sys.argv[1:] if argv is None else argv
+    if "_ENC_COMPLETE" in os.environ:  # shell completion: click's own entry point
+        cli.main(args=args, prog_name="enc", complete_var="_ENC_COMPLETE")
     debug = "--debug" in args or os.environ.get("ENC_DEBUG", "") not in ("", "0")
 
     def invoke() -> Any:
