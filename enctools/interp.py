@@ -1,0 +1,356 @@
+"""Interpolation error: the deviation of a head within its signal period (seed 000 sec. 4).
+
+A small-angle sweep (seed 000 table 1: 7.2" at 0.2" steps, 25" at 0.5") records a
+device head (or a head average) and a reference at once. The deviation
+``zeta = psi_E - psi_R`` (seed 000 eq. (19)) is modelled as
+
+    zeta(x) = trend(x) + sum_n [a_n cos(n phi) + b_n sin(n phi)]            (device)
+                       - sum_j [c_j cos(j phi_R) + d_j sin(j phi_R)]        (reference)
+
+with phi the device's signal phase (from its counts), x the swept angle, a
+polynomial ``trend`` per run (the graduation error and a probe arm-length error are
+close to linear over a few arcseconds), and optionally the reference's own
+interpolation error at the reference's signal phase phi_R. The harmonics n are in
+units of the device's signal period: n = 1 is one cycle per period. A least-squares
+fit gives them with standard uncertainties; the interpolation error is the device
+part as a function of phase.
+
+References:
+- capacitive probes on an arm L: psi_R = side * h / L (seed 000 eq. (20)), the
+  probes averaged (two probes on opposite sides cancel the spindle's translation);
+- another encoder's head. When its signal period differs, its own interpolation
+  error sits at other period-harmonics of the device: the device's curve keeps only
+  the chosen harmonics (default 1 and 2), as in seed 000 figs. 12-14. The period
+  ratio (device period / reference period) says where the reference's harmonics j
+  land (at j * ratio); when one lands on a kept harmonic the filter cannot separate
+  them and :func:`landing_harmonics` names it.
+
+The error is a function of the phase the head *reads* (its counts modulo the
+interpolation factor), which is what a correction table indexed by the counts needs.
+The grating's true phase differs from it by the error itself (periods_per_rev * psi),
+so the curve is psi(phi_true) seen through phi_read = phi_true + P psi: the same
+values, abscissae moved by up to psi (a shape change of about psi' psi, 0.01" for a
+0.2" error over a 25" period). The mean of the error is not observable (it is one
+with the reference's zero) and is removed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import DataError
+from .readings import HeadInfo, head_angle, signal_phase
+from .units import ARCSEC, TWO_PI
+
+
+@dataclass(frozen=True)
+class PeriodHarmonics:
+    """A periodic error as harmonics of a signal period.
+
+    ``orders`` (int, cycles per period), ``coef`` complex c_n = a_n - i b_n [arcsec]
+    so that the error is sum Re(c_n exp(i n phi)); ``cov`` the covariance of the
+    real pairs (a_1, b_1, a_2, b_2, ...) [arcsec^2].
+    """
+
+    orders: np.ndarray
+    coef: np.ndarray
+    cov: np.ndarray
+
+    def __call__(self, phase: np.ndarray) -> np.ndarray:
+        """The error [arcsec] at signal phase ``phase`` [rad]."""
+        phase = np.asarray(phase, dtype=np.float64)
+        out = np.zeros_like(phase)
+        for n, c in zip(self.orders, self.coef):
+            out += c.real * np.cos(n * phase) - c.imag * np.sin(n * phase)
+        return out
+
+    def basis(self, phase: np.ndarray) -> np.ndarray:
+        """Design columns cos(n phi), sin(n phi) for every order (rows: samples)."""
+        phase = np.asarray(phase, dtype=np.float64)
+        cols = []
+        for n in self.orders:
+            cols += [np.cos(n * phase), np.sin(n * phase)]
+        return np.column_stack(cols) if cols else np.zeros((phase.size, 0))
+
+    def uncertainty(self, phase: np.ndarray) -> np.ndarray:
+        """Standard uncertainty [arcsec] of the error at ``phase`` [rad]."""
+        g = self.basis(phase)
+        return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", g, self.cov, g), 0.0))
+
+    @property
+    def amplitude(self) -> np.ndarray:
+        """|c_n| [arcsec]."""
+        return np.abs(self.coef)
+
+    @property
+    def phase(self) -> np.ndarray:
+        """p_n of |c_n| cos(n phi + p_n) [rad]."""
+        return np.angle(self.coef)
+
+    @property
+    def amplitude_u(self) -> np.ndarray:
+        """Standard uncertainty of |c_n| [arcsec] (linearised)."""
+        out = np.empty(self.orders.size)
+        for k, c in enumerate(self.coef):
+            a, b = c.real, -c.imag
+            block = self.cov[2 * k:2 * k + 2, 2 * k:2 * k + 2]
+            r = abs(c)
+            if r > 0:
+                g = np.array([a, b]) / r
+                out[k] = np.sqrt(max(g @ block @ g, 0.0))
+            else:
+                out[k] = np.sqrt(max(np.trace(block) / 2, 0.0))
+        return out
+
+    def select(self, keep: Sequence[int]) -> "PeriodHarmonics":
+        """Only the orders in ``keep`` (those that were fitted)."""
+        idx = [k for k, n in enumerate(self.orders) if int(n) in set(int(x) for x in keep)]
+        cov_idx = np.array([[2 * k, 2 * k + 1] for k in idx], dtype=int).ravel()
+        return PeriodHarmonics(self.orders[idx], self.coef[idx],
+                               self.cov[np.ix_(cov_idx, cov_idx)])
+
+
+@dataclass
+class InterpResult:
+    """The interpolation error of one device against one reference.
+
+    ``error``: the device's interpolation error as harmonics of its signal period
+    (only the kept orders when a reference encoder's period differs); ``fitted``:
+    every device harmonic fitted; ``reference``: the reference's own harmonics (in
+    its period) when they were fitted; ``period`` [rad] the device's signal period;
+    ``ratio`` device period / reference period (None for probes); ``residual_rms``
+    [arcsec]; ``periods`` swept; ``landing`` (j, j * ratio, kept order) triples.
+    """
+
+    error: PeriodHarmonics
+    fitted: PeriodHarmonics
+    period: float
+    samples: int
+    periods: float
+    residual_rms: float
+    reference: PeriodHarmonics | None = None
+    ratio: float | None = None
+    landing: list[tuple[int, float, int]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    def figures(self, points: int = 3600) -> dict[str, float]:
+        """Figures of the error curve [arcsec]: p-p, +/- (max |e|), rms, max, min."""
+        return figures(self.error(np.linspace(0.0, TWO_PI, points, endpoint=False)))
+
+
+def figures(curve: np.ndarray) -> dict[str, float]:
+    """p-p, +/- (largest |value| about the mean), mean, rms, max, min of a curve [arcsec]."""
+    c = np.asarray(curve, dtype=np.float64)
+    m = float(c.mean())
+    return {"pp": float(c.max() - c.min()), "plus_minus": float(np.abs(c - m).max()),
+            "mean": m, "rms": float(np.sqrt(np.mean((c - m) ** 2))),
+            "max": float(c.max()), "min": float(c.min())}
+
+
+def probe_rotation(values: Sequence[np.ndarray], arms_m: Sequence[float],
+                   sides: Sequence[int]) -> np.ndarray:
+    """Rotation [rad] from displacement probes: mean of side * h / L (seed 000 eq. (20)).
+
+    ``values`` [m] per probe, ``arms_m`` L [m], ``sides`` +1/-1. Two probes on
+    opposite sides cancel the translation of the spindle.
+    """
+    if not values:
+        msg = "no probe to use as the reference"
+        raise DataError(msg)
+    out = np.zeros(np.asarray(values[0]).shape)
+    for h, arm, side in zip(values, arms_m, sides):
+        if not (np.isfinite(arm) and arm > 0):
+            msg = f"probe arm length L = {arm!r} m: must be > 0 (psi = h / L)"
+            raise DataError(msg)
+        out += side * np.asarray(h, dtype=np.float64) / arm
+    return out / len(values)
+
+
+def device_reading(counts: Sequence[np.ndarray], infos: Sequence[HeadInfo]
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(angle [rad], signal phase [rad]) of a head or a head average.
+
+    The average of heads of one encoder is periodic in that encoder's signal period
+    as a function of the first head's phase (the heads sit at fixed phase offsets).
+    """
+    if len({i.periods_per_rev for i in infos}) > 1:
+        names = ", ".join(i.name for i in infos)
+        msg = f"heads {names} have different signal periods: average heads of one encoder"
+        raise DataError(msg)
+    angle = np.mean([head_angle(c, i) for c, i in zip(counts, infos)], axis=0)
+    return angle, signal_phase(np.asarray(counts[0]), infos[0])
+
+
+def period_ratio(device_periods_per_rev: int, reference_periods_per_rev: int) -> float:
+    """Device signal period / reference signal period (reference cycles per device period)."""
+    return reference_periods_per_rev / device_periods_per_rev
+
+
+def landing_harmonics(ratio: float, keep: Sequence[int], reference_orders: Sequence[int] = (1, 2),
+                      tolerance: float = 0.5) -> list[tuple[int, float, int]]:
+    """Reference harmonics j that land within ``tolerance`` of a kept device harmonic.
+
+    The reference's j-th harmonic of its own period is at j * ratio harmonics of the
+    device period; when that is near a kept order k, keeping k keeps the reference's
+    error too. Returns (j, j * ratio, k) triples.
+    """
+    out = []
+    for j in reference_orders:
+        at = j * ratio
+        for k in keep:
+            if abs(at - k) < tolerance:
+                out.append((int(j), float(at), int(k)))
+    return out
+
+
+def _trend_columns(x: np.ndarray, groups: np.ndarray, degree: int) -> np.ndarray:
+    cols = []
+    for g in np.unique(groups):
+        m = groups == g
+        xs = x[m]
+        lo, hi = xs.min(), xs.max()
+        z = np.zeros_like(x)
+        z[m] = (xs - (lo + hi) / 2) / ((hi - lo) / 2 if hi > lo else 1.0)
+        for d in range(degree + 1):
+            col = np.zeros_like(x)
+            col[m] = z[m] ** d
+            cols.append(col)
+    return np.column_stack(cols)
+
+
+def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
+                            reference_rad: np.ndarray, periods_per_rev: int,
+                            harmonics: int = 4, keep: Sequence[int] | None = None,
+                            trend_degree: int = 1, groups: np.ndarray | None = None,
+                            reference_phase: np.ndarray | None = None,
+                            reference_orders: Sequence[int] = (),
+                            reference_periods_per_rev: int | None = None) -> InterpResult:
+    """Fit the device's interpolation error against a reference (seed 000 eqs. (19), (20)).
+
+    Parameters
+    ----------
+    device_rad, reference_rad : arrays [rad]
+        The device's and the reference's angles at the same samples (any offsets).
+    device_phase : array [rad]
+        The device's signal phase from its counts (:func:`enctools.readings.signal_phase`).
+    periods_per_rev : int
+        Signal periods per revolution of the device (the period is 2 pi / it).
+    harmonics : int
+        Device harmonics 1..harmonics are fitted (cycles per signal period).
+    keep : orders or None
+        Orders that make the reported error (default all fitted); with a reference
+        encoder of another signal period the seed keeps 1 and 2.
+    trend_degree : int
+        Degree of the polynomial in the swept angle removed per group (run).
+    groups : int array or None
+        Group (run) of each sample; each has its own trend.
+    reference_phase, reference_orders, reference_periods_per_rev :
+        The reference encoder's signal phase [rad] and the orders of its own
+        interpolation error to fit alongside (empty: none, the seed's plain filter).
+
+    Returns
+    -------
+    InterpResult. Raises DataError when the sweep is shorter than one signal period,
+    has too few samples for the model, or the model cannot tell the device's
+    harmonics from the reference's (near-collinear columns).
+    """
+    dev = np.asarray(device_rad, dtype=np.float64)
+    ref = np.asarray(reference_rad, dtype=np.float64)
+    phase0 = np.asarray(device_phase, dtype=np.float64)
+    n = dev.size
+    if not (ref.size == n and phase0.size == n):
+        msg = "device, phase and reference differ in length"
+        raise DataError(msg)
+    groups = np.zeros(n, dtype=np.int64) if groups is None else np.asarray(groups)
+    good = np.isfinite(dev) & np.isfinite(ref) & np.isfinite(phase0)
+    if reference_phase is not None:
+        reference_phase = np.asarray(reference_phase, dtype=np.float64)
+        good &= np.isfinite(reference_phase)
+    if not good.any():
+        msg = "no sample with finite device and reference readings"
+        raise DataError(msg)
+    dev, ref, phase0, groups = dev[good], ref[good], phase0[good], groups[good]
+    if reference_phase is not None:
+        reference_phase = reference_phase[good]
+    if harmonics < 1:
+        msg = f"harmonics must be >= 1, not {harmonics}"
+        raise DataError(msg)
+    period = TWO_PI / periods_per_rev
+
+    # Coverage: every group must sweep one signal period (to within a step).
+    spans = []
+    for g in np.unique(groups):
+        x = np.sort(ref[groups == g])
+        step = float(np.median(np.diff(np.unique(x)))) if np.unique(x).size > 1 else 0.0
+        span = float(x[-1] - x[0])
+        spans.append(span)
+        if span + step < period * 0.999:
+            msg = (f"the sweep covers {span / ARCSEC:.3g}\" but the signal period is "
+                   f"{period / ARCSEC:.4g}\": sweep at least one period (--range)")
+            raise DataError(msg)
+
+    orders = np.arange(1, harmonics + 1)
+    keep = list(orders) if keep is None else [int(k) for k in keep]
+    bad = [k for k in keep if k not in set(orders.tolist())]
+    if bad:
+        msg = f"kept harmonic {bad[0]} is not fitted (harmonics 1..{harmonics})"
+        raise DataError(msg)
+    ref_orders = np.asarray(list(reference_orders) if reference_phase is not None else [],
+                            dtype=int)
+    zeta = (dev - ref) / ARCSEC
+    trend = _trend_columns(ref, groups, trend_degree)
+    if ref_orders.size:
+        ref_cols = PeriodHarmonics(ref_orders, np.zeros(ref_orders.size, complex),
+                                   np.zeros((0, 0))).basis(reference_phase)
+    else:
+        ref_cols = np.zeros((dev.size, 0))
+    n_dev = 2 * orders.size
+    n_par = trend.shape[1] + n_dev + ref_cols.shape[1]
+    if dev.size <= n_par:
+        msg = (f"{dev.size} samples for {n_par} parameters: record more points "
+               f"or fit fewer harmonics")
+        raise DataError(msg)
+
+    proto = PeriodHarmonics(orders, np.zeros(orders.size, complex), np.zeros((0, 0)))
+    design = np.column_stack([trend, proto.basis(phase0), ref_cols])
+    norms = np.linalg.norm(design, axis=0)
+    norms[norms == 0] = 1.0
+    a = design / norms
+    sol, _, rank, sv = np.linalg.lstsq(a, zeta, rcond=None)
+    cond = sv[0] / sv[-1] if sv[-1] > 0 else np.inf
+    if rank < a.shape[1] or cond > 1e6:
+        what = ("the reference's harmonics cannot be told from the device's over this sweep"
+                if ref_cols.shape[1] else "the sweep does not determine every harmonic")
+        msg = f"{what} (condition number {cond:.3g}); sweep longer or fit fewer harmonics"
+        raise DataError(msg)
+    coef = sol / norms
+    resid = zeta - design @ coef
+    dof = dev.size - n_par
+    s2 = float(resid @ resid) / dof
+    cov = np.linalg.inv(a.T @ a) * s2 / np.outer(norms, norms)
+    nt = trend.shape[1]
+    ab = coef[nt:nt + n_dev]
+    fitted = PeriodHarmonics(orders, ab[0::2] - 1j * ab[1::2],
+                             cov[nt:nt + n_dev, nt:nt + n_dev])
+
+    reference = None
+    if ref_orders.size:
+        cd = coef[nt + n_dev:]
+        # zeta holds minus the reference's error
+        reference = PeriodHarmonics(ref_orders, -(cd[0::2] - 1j * cd[1::2]),
+                                    cov[nt + n_dev:, nt + n_dev:])
+    result = InterpResult(error=fitted.select(keep), fitted=fitted, period=period,
+                          samples=int(dev.size), periods=float(min(spans) / period),
+                          residual_rms=float(np.sqrt(s2)), reference=reference)
+    if reference_periods_per_rev is not None:
+        result.ratio = period_ratio(periods_per_rev, reference_periods_per_rev)
+        if reference_periods_per_rev != periods_per_rev:
+            result.landing = landing_harmonics(result.ratio, keep)
+            for j, at, k in result.landing:
+                result.warnings.append(
+                    f"the reference's harmonic {j} lands at {at:.3g} harmonics of the device "
+                    f"period, on kept harmonic {k}: the filter cannot remove it")
+    return result
