@@ -1,0 +1,103 @@
+"""enc fit-rbf: fit an RBF network (seed 001 eqs. 5-7) or a Fourier series to calibration points."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+@click.command("fit-rbf")
+@options.input_arg
+@click.option("--kernel", type=click.Choice(["rbf", "fourier"]), default="rbf", show_default=True,
+              help="rbf: Gaussian RBF network on the circle; fourier: trigonometric least squares.")
+@click.option("--spread", "spread_deg", type=float, default=None, callback=options.positive,
+              help="rbf: arc [deg] at which a unit's output falls to 1/2 (default: by leave-one-out).")
+@click.option("--goal", type=float, default=1e-4, show_default=True,
+              help="rbf: training goal, largest |residual| [arcsec].")
+@click.option("--harmonics", type=int, default=None, callback=options.positive,
+              help="fourier: highest harmonic order (default: points // 2).")
+@click.option("--holdout", "holdout_path", default=None, type=click.Path(dir_okay=False),
+              help="Points never used in the fit (a points stream or CSV): report their residuals.")
+@click.option("--check", "check_arcsec", type=float, default=None, callback=options.positive,
+              help="Exit 1 when the hold-out (else leave-one-out) Bessel s exceeds this [arcsec].")
+@options.outputs
+@options.verbosity
+def command(input: str | None, kernel: str, spread_deg: float | None, goal: float,
+            harmonics: int | None, holdout_path: str | None, check_arcsec: float | None,
+            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
+            debug: bool) -> None:
+    """Fit an error model to sparse calibration points and write it as a model stream.
+
+    INPUT is a points stream (`enc points`) or a CSV file position_deg,deviation_arcsec.
+    Points at the same angle (0 and 360 deg, repeated runs) are averaged. The summary
+    on stderr gives the Bessel s and p-p of the points (seed 001 eq. 8) and the
+    training, leave-one-out and hold-out residuals.
+    """
+    runner.setup_logging(verbose, quiet)
+    from .. import models, streams
+    from ..errors import CheckFailed, UsageError
+    from ..points import distinct
+    from ..streams import Header, with_history
+
+    if goal < 0:
+        raise UsageError(f"--goal must be >= 0 arcsec, not {goal}")
+    streams.check_output(output, force, fmt)
+    header, pts = _read_points(input)
+    x, y, closure = distinct(pts, source=header.meta.get("source", "input"))
+    if closure > 0:
+        runner.log.info("points at the same angle differ by up to %.4f arcsec; fitted their mean",
+                        closure)
+    hold = None
+    if holdout_path is not None:
+        _, hp = _read_points(holdout_path)
+        hold = distinct(hp, source=holdout_path)[:2]
+    fit = models.fit_points(x, y, kernel, spread_deg, goal, harmonics, hold)
+    table, meta = models.model_table(fit.model)
+    settings = {"kernel": kernel, "spread_deg": spread_deg, "goal_arcsec": goal,
+                "harmonics": harmonics, "holdout": holdout_path}
+    out = header.derive("model", table.schema, model=meta, residuals=fit.residuals(),
+                        settings=settings)
+    streams.write_table(output, with_history(out), table, force, fmt)
+    _summary(fit, meta)
+    if check_arcsec is not None:
+        which = "holdout" if fit.holdout else "leave_one_out"
+        s = fit.residuals()[which]["bessel_std_arcsec"]
+        if s > check_arcsec:
+            raise CheckFailed(f"{which} Bessel s {s:.4f} arcsec exceeds --check {check_arcsec}")
+
+
+def _read_points(path: str | None):
+    from .. import points as pts
+    from .. import streams
+    from ..streams import Header
+    from .points import _is_csv
+
+    if path not in (None, "-") and _is_csv(path):
+        p = pts.points_from_csv(path)
+        return Header("points", pts.points_schema(), {"source": f"CSV {path}"}), p
+    src = streams.open_input(path, "points")
+    return src.header, pts.from_table(src.read_all(), src.source)
+
+
+def _summary(fit, meta) -> None:
+    from .runner import _state
+    if _state.get("quiet"):
+        return
+    import sys
+    p, t, lo = fit.points, fit.training, fit.loo
+    kern = (f"rbf, {meta['units']} units, spread {meta['spread_deg']:.4g} deg"
+            if meta["kernel"] == "rbf" else f"fourier, harmonics 0..{meta['harmonics']}")
+    lines = [f"model: {kern}",
+             f"points: {p['n']} positions, Bessel s {p['bessel_std_arcsec']:.4f} arcsec, "
+             f"p-p {p['peak_to_peak_arcsec']:.4f} arcsec",
+             f"training: max |residual| {t['max_abs_arcsec']:.3g} arcsec",
+             f"leave-one-out: rms {lo['rms_arcsec']:.4f} arcsec, max {lo['max_abs_arcsec']:.4f} arcsec"]
+    if fit.holdout:
+        h = fit.holdout
+        lines.append(f"hold-out: {h['n']} positions, Bessel s {h['before_bessel_std_arcsec']:.4f}"
+                     f" -> {h['bessel_std_arcsec']:.4f} arcsec, p-p {h['peak_to_peak_arcsec']:.4f} arcsec")
+    if meta.get("undetermined"):
+        lines.append("undetermined by the points (set to 0): " + ", ".join(meta["undetermined"]))
+    for ln in lines:
+        sys.stderr.write(f"enc fit-rbf: {ln}\n")

@@ -1,0 +1,68 @@
+"""enc points: a steps-mode readings stream (polygon + autocollimator) or a CSV file -> points."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+@click.command("points")
+@options.input_arg
+@click.option("--heads", default=None, callback=options.name_list, metavar="H1,H2,...",
+              help="Heads averaged into the encoder reading (default: the rig's measuring heads).")
+@click.option("--autocollimator", default=None, metavar="COLUMN",
+              help="Autocollimator column (default: the only one).")
+@click.option("--faces", type=int, default=None, callback=options.positive,
+              help="Faces of the polygon (default: the rig's).")
+@options.outputs
+@options.verbosity
+def command(input: str | None, heads: list[str] | None, autocollimator: str | None,
+            faces: int | None, output: str | None, force: bool, fmt: str | None,
+            verbose: int, quiet: int, debug: bool) -> None:
+    """Turn a polygon step run, or a CSV table, into a points stream.
+
+    INPUT is a readings stream from `enc acquire --mode steps` on a rig with a
+    polygon and an autocollimator (one point per position: mean of the measuring
+    heads relative to the first position, against the polygon angle), or a CSV file
+    position_deg,deviation_arcsec[,direction,run] with # comment lines.
+    """
+    runner.setup_logging(verbose, quiet)
+    from .. import points as pts
+    from .. import streams
+    from ..streams import Header, with_history
+
+    streams.check_output(output, force, fmt)
+    settings = {"heads": heads, "autocollimator": autocollimator, "faces": faces}
+    if input not in (None, "-") and _is_csv(input):
+        p = pts.points_from_csv(input)
+        header = Header("points", pts.points_schema(),
+                        {"source": f"CSV {input}", "history": []})
+    else:
+        src = streams.open_input(input, "readings")
+        table = src.read_all()
+        p = pts.points_from_steps(src.header, table, heads, autocollimator, faces, src.source)
+        header = src.header.derive("points", pts.points_schema(),
+                                   source=f"steps run {src.source}")
+    header.meta["settings"] = settings
+    fig = pts.figures(pts.distinct(p)[1])
+    header.meta["figures"] = fig.to_dict()
+    runner.log.info("%d points; at %d distinct positions: Bessel s %.3f arcsec, p-p %.3f arcsec",
+                    len(p), fig.n, fig.bessel_std, fig.peak_to_peak)
+    streams.write_table(output, with_history(header), p.table(), force, fmt)
+
+
+def _is_csv(path: str) -> bool:
+    """A CSV file is text: it does not start with a stream's magic bytes."""
+    import os
+    import stat
+
+    from ..streams import detect_format
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return False  # a pipe: only a stream can be read from it (once)
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError:
+        return False  # let open_input say what is wrong
+    return bool(head) and detect_format(head) is None

@@ -1,0 +1,75 @@
+"""Trigonometric (Fourier-series) least-squares error model on the circle.
+
+The alternative to the RBF network of seed 001 sec. 4: the error [arcsec] at angle
+x as ``a_0 + sum_{n=1..K} a_n cos(n x) + b_n sin(n x)``, fitted by linear least
+squares to the calibration points. With N equally spaced points the terms above
+N/2 alias onto lower ones and ``sin(N/2 x)`` vanishes at every point: such terms
+are not determined by the data. The fit then returns the minimum-norm solution
+(those terms set to zero) and names them in ``undetermined``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .units import DEG
+
+
+@dataclass
+class FourierModel:
+    """Harmonics n = 0..K with cosine ``a`` and sine ``b`` coefficients [arcsec]."""
+
+    n: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    undetermined: list[str] = field(default_factory=list)
+
+    def __call__(self, angle_deg: np.ndarray | float, chunk: int = 1 << 21) -> np.ndarray:
+        """The model's error [arcsec] at angles [deg]."""
+        x = np.asarray(angle_deg, dtype=np.float64)
+        flat = x.reshape(-1)
+        out = np.empty(flat.shape, dtype=np.float64)
+        c = self.a - 1j * self.b  # a cos + b sin = Re(c e^{i n x})
+        for start in range(0, flat.size, chunk):
+            z = np.exp(1j * flat[start:start + chunk] * DEG)
+            # Horner in z over the integer orders 0..K (Re of a polynomial in z)
+            coef = np.zeros(int(self.n.max()) + 1 if self.n.size else 1, dtype=np.complex128)
+            np.add.at(coef, self.n.astype(int), c)
+            acc = np.full(z.shape, coef[-1], dtype=np.complex128)
+            for ck in coef[-2::-1]:
+                acc *= z
+                acc += ck
+            out[start:start + chunk] = acc.real
+        return out.reshape(x.shape)
+
+
+def design_matrix(x_rad: np.ndarray, harmonics: int) -> np.ndarray:
+    """Columns 1, cos x, sin x, ..., cos Kx, sin Kx at angles ``x_rad`` [rad]."""
+    x = np.asarray(x_rad, dtype=np.float64).reshape(-1, 1)
+    n = np.arange(1, harmonics + 1).reshape(1, -1)
+    cols = [np.ones((x.shape[0], 1))]
+    for k in range(harmonics):
+        cols += [np.cos(n[:, k:k + 1] * x), np.sin(n[:, k:k + 1] * x)]
+    return np.hstack(cols)
+
+
+def fit_fourier(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int) -> FourierModel:
+    """Least-squares Fourier series with harmonics 0..K through points [deg, arcsec]."""
+    x = np.asarray(angle_deg, dtype=np.float64) * DEG
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    a = design_matrix(x, harmonics)
+    u, s, vt = np.linalg.svd(a, full_matrices=False)
+    tol = s.max() * max(a.shape) * np.finfo(float).eps * 1e3
+    keep = s > tol
+    sol = vt[keep].T @ ((u[:, keep].T @ y) / s[keep])
+    # A coefficient is undetermined when a null-space direction loads on it.
+    null = vt[~keep]
+    names = ["a0"] + [f"{p}{k}" for k in range(1, harmonics + 1) for p in ("a", "b")]
+    undetermined = [names[j] for j in range(len(names))
+                    if null.size and np.max(np.abs(null[:, j])) > 1e-6]
+    n = np.arange(harmonics + 1)
+    acoef = np.concatenate([[sol[0]], sol[1::2]])
+    bcoef = np.concatenate([[0.0], sol[2::2]])
+    return FourierModel(n, acoef, bcoef, undetermined)

@@ -1,0 +1,212 @@
+"""Model streams: error models any command can evaluate at any angle.
+
+A ``model`` stream holds an RBF network (one row per unit: ``centre`` [deg],
+``weight`` [arcsec]) or a Fourier series (one row per harmonic: ``n``, ``weight``
+= cosine and ``weight_sin`` = sine coefficient [arcsec]); its metadata key
+``model`` names the kernel and its parameters. A ``deviations`` stream (a curve on
+a uniform grid of ``theta`` [rad]) is a model too: it is evaluated by periodic
+linear interpolation.
+
+Sign: a model gives the *deviation* (indicated minus true angle, arcsec) at an
+indicated angle [deg]; the correction to add to a reading is its negative.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from .errors import DataError
+from .fourier_fit import FourierModel
+from .rbf import SPREAD_FACTOR, RBFModel
+from .schemas import columns_with_role, make_field
+from .units import DEG, TWO_PI
+
+KERNELS = ("rbf", "fourier")
+
+
+@dataclass
+class CurveModel:
+    """A deviations curve [arcsec] on a uniform grid of angles [deg], periodic."""
+
+    theta_deg: np.ndarray
+    values: np.ndarray
+    name: str = ""
+
+    def __call__(self, angle_deg: np.ndarray | float) -> np.ndarray:
+        x = np.asarray(angle_deg, dtype=np.float64)
+        return np.interp(np.mod(x, 360.0), self.theta_deg, self.values, period=360.0)
+
+
+Evaluator = Callable[[np.ndarray], np.ndarray]
+
+
+def model_table(model: RBFModel | FourierModel) -> tuple[pa.Table, dict[str, Any]]:
+    """The rows and the ``model`` metadata of a model stream."""
+    if isinstance(model, RBFModel):
+        schema = pa.schema([make_field("centre", pa.float64(), "deg"),
+                            make_field("weight", pa.float64(), "arcsec")])
+        table = pa.table([pa.array(model.centres_deg), pa.array(model.weights)], schema=schema)
+        meta = {"kernel": "rbf", "spread_deg": float(model.spread_deg),
+                "spread_factor": SPREAD_FACTOR, "distance": "chord on the unit circle",
+                "bias_arcsec": float(model.bias), "units": int(model.centres_deg.size),
+                "equation": "seed 001 eqs. (5)-(7): y = sum w_i exp(-0.8326^2 d^2 / c^2)"}
+    else:
+        schema = pa.schema([make_field("n", pa.int32(), ""),
+                            make_field("weight", pa.float64(), "arcsec"),
+                            make_field("weight_sin", pa.float64(), "arcsec")])
+        table = pa.table([pa.array(model.n.astype(np.int32)), pa.array(model.a),
+                          pa.array(model.b)], schema=schema)
+        meta = {"kernel": "fourier", "harmonics": int(model.n.max()),
+                "undetermined": list(model.undetermined),
+                "equation": "y = sum_n weight cos(n x) + weight_sin sin(n x)"}
+    meta |= {"argument": "indicated angle [deg], periodic in 360",
+             "output": "deviation [arcsec] = indicated - true; correction = -deviation"}
+    return table, meta
+
+
+def _col(table: pa.Table, name: str, source: str) -> np.ndarray:
+    if name not in table.column_names:
+        msg = f"{source}: model stream lacks the column {name!r} its kernel needs"
+        raise DataError(msg)
+    a = table.column(name).to_numpy()
+    if not np.all(np.isfinite(a)):
+        msg = f"{source}: column {name!r} holds NaN or infinite values"
+        raise DataError(msg)
+    return a
+
+
+def from_stream(header: Any, table: pa.Table, source: str = "input",
+                curve: str | None = None) -> Evaluator:
+    """An evaluator (angles [deg] -> deviation [arcsec]) from a model or deviations stream."""
+    if header.kind == "deviations":
+        return curve_model(header, table, source, curve)
+    m = header.meta.get("model", {})
+    kernel = m.get("kernel") if isinstance(m, dict) else None
+    if table.num_rows == 0:
+        msg = f"{source}: the model stream has no rows"
+        raise DataError(msg)
+    if kernel == "rbf":
+        spread = float(m.get("spread_deg", 0.0))
+        if not spread > 0:
+            msg = f"{source}: rbf model without a positive spread_deg in its metadata"
+            raise DataError(msg)
+        return RBFModel(_col(table, "centre", source), _col(table, "weight", source),
+                        float(m.get("bias_arcsec", 0.0)), spread)
+    if kernel == "fourier":
+        n = _col(table, "n", source).astype(np.int64)
+        if n.min() < 0:
+            msg = f"{source}: negative harmonic order in column 'n'"
+            raise DataError(msg)
+        return FourierModel(n, _col(table, "weight", source), _col(table, "weight_sin", source))
+    msg = f"{source}: unknown model kernel {kernel!r} (kernels: {', '.join(KERNELS)})"
+    raise DataError(msg)
+
+
+def curve_model(header: Any, table: pa.Table, source: str, curve: str | None) -> CurveModel:
+    """A deviations curve as a model: periodic linear interpolation on its grid."""
+    curves = columns_with_role(header.schema, "deviation")
+    if curve is None:
+        if len(curves) != 1:
+            msg = (f"{source}: {len(curves)} deviation curves ({', '.join(curves) or 'none'}); "
+                   "choose one with --curve")
+            raise DataError(msg)
+        curve = curves[0]
+    elif curve not in curves:
+        msg = f"{source}: no deviation curve {curve!r} (curves: {', '.join(curves) or 'none'})"
+        raise DataError(msg)
+    theta = table.column("theta").to_numpy().astype(np.float64)
+    values = table.column(curve).to_numpy().astype(np.float64)
+    ok = np.isfinite(theta) & np.isfinite(values)
+    if ok.sum() < 2:
+        msg = f"{source}: curve {curve!r} has fewer than 2 finite points"
+        raise DataError(msg)
+    th = np.mod(theta[ok], TWO_PI) / DEG
+    order = np.argsort(th)
+    return CurveModel(th[order], values[ok][order], curve)
+
+
+# ------------------------------------------------------------------ fitting points
+
+
+@dataclass
+class Fit:
+    """A model fitted to points, with its residuals (all in arcsec)."""
+
+    model: RBFModel | FourierModel
+    points: dict[str, Any]
+    training: dict[str, Any]
+    loo: dict[str, Any]
+    holdout: dict[str, Any] | None = None
+
+    def residuals(self) -> dict[str, Any]:
+        out = {"points": self.points, "training": self.training, "leave_one_out": self.loo}
+        if self.holdout is not None:
+            out["holdout"] = self.holdout
+        return out
+
+
+def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, kernel: str = "rbf",
+               spread_deg: float | None = None, goal: float = 1e-4,
+               harmonics: int | None = None, holdout: tuple[np.ndarray, np.ndarray] | None = None,
+               ) -> Fit:
+    """Fit an RBF network or a Fourier series to distinct points; report its residuals.
+
+    Parameters
+    ----------
+    angle_deg, error_arcsec : distinct positions [deg] and deviations [arcsec].
+    kernel : ``rbf`` (seed 001 eqs. 5-7) or ``fourier``.
+    spread_deg : RBF spread [deg]; None chooses it by leave-one-out.
+    goal : RBF training goal, largest |residual| [arcsec].
+    harmonics : Fourier order K (default N // 2 for N points: interpolating).
+    holdout : other points (positions [deg], deviations [arcsec]) never used in the
+        fit (seed 001 table 3). Their deviations may carry any constant offset (a
+        run is referenced to its own first position): the residuals are reported
+        about their mean.
+
+    Returns
+    -------
+    Fit: training residuals (max |r|), leave-one-out residuals (each point
+    predicted by the model fitted without it) and hold-out residuals, each with
+    the Bessel standard deviation of seed 001 eq. (8).
+    """
+    from .fourier_fit import fit_fourier
+    from .points import figures
+    from .rbf import choose_spread, fit_rbf, loo_residuals
+
+    x = np.asarray(angle_deg, dtype=np.float64)
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    n = x.size
+    if kernel == "rbf":
+        spread = choose_spread(x, y, goal) if spread_deg is None else float(spread_deg)
+        model: RBFModel | FourierModel = fit_rbf(x, y, spread, goal)
+        loo = loo_residuals(x, y, spread, goal) if n > 2 else np.full(n, np.nan)
+    elif kernel == "fourier":
+        k = n // 2 if harmonics is None else int(harmonics)
+        model = fit_fourier(x, y, k)
+        loo = np.array([y[i] - fit_fourier(np.delete(x, i), np.delete(y, i), k)(x[i:i + 1])[0]
+                        for i in range(n)]) if n > 2 else np.full(n, np.nan)
+    else:
+        msg = f"unknown kernel {kernel!r} (kernels: {', '.join(KERNELS)})"
+        raise DataError(msg)
+    train = y - model(x)
+    tf, lf = figures(train), figures(loo)
+    fit = Fit(model, figures(y).to_dict(),
+              {"max_abs_arcsec": tf.max_abs,
+               "rms_arcsec": float(np.sqrt(np.mean(train ** 2)))},
+              {"max_abs_arcsec": lf.max_abs, "rms_arcsec": float(np.sqrt(np.mean(loo ** 2))),
+               "bessel_std_arcsec": lf.bessel_std})
+    if holdout is not None:
+        hx, hy = (np.asarray(v, dtype=np.float64) for v in holdout)
+        r = hy - model(hx)
+        before, after = figures(hy), figures(r - r.mean())
+        fit.holdout = {"n": after.n, "before_bessel_std_arcsec": before.bessel_std,
+                       "before_peak_to_peak_arcsec": before.peak_to_peak,
+                       "bessel_std_arcsec": after.bessel_std,
+                       "peak_to_peak_arcsec": after.peak_to_peak,
+                       "max_abs_arcsec": after.max_abs}
+    return fit

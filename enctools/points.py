@@ -1,0 +1,282 @@
+"""Calibration points: the error of an encoder at a few angles (polygon work, seed 001 sec. 5.3).
+
+Two sources:
+
+- a ``steps`` readings stream with an autocollimator looking at a polygon: at each
+  position the encoder reading is the mean of the encoder's measuring heads, taken
+  relative to the first position of the run; the polygon gives the true angle,
+  ``j * 360/faces`` plus the autocollimator's reading relative to the first
+  position (the simulator's convention: autocollimator = (theta - theta0 - j *
+  2pi/faces) [arcsec] + face error). The deviation is indicated minus true angle
+  [arcsec]; it is 0 at the first position.
+- a CSV file ``position_deg,deviation_arcsec[,direction,run]`` with ``#`` comments
+  (seed 001 table 1 is such a file).
+
+Also the figures of a set of points: Bessel standard deviation (seed 001 eq. 8)
+and peak-to-peak.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+
+from .errors import DataError
+from .readings import head_angle, head_info
+from .schemas import columns_with_role, make_field
+from .units import ARCSEC, DEG, TWO_PI
+
+log = logging.getLogger("enctools")
+
+
+@dataclass
+class Points:
+    """Calibration points: positions [deg], deviations [arcsec], direction, run."""
+
+    position_deg: np.ndarray
+    deviation: np.ndarray
+    direction: np.ndarray
+    run: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.position_deg.size)
+
+    def table(self) -> pa.Table:
+        """The rows of a ``points`` stream."""
+        schema = points_schema()
+        return pa.table([pa.array(self.position_deg, pa.float64()),
+                         pa.array(self.deviation, pa.float64()),
+                         pa.array(self.direction, pa.int8()),
+                         pa.array(self.run, pa.int32())], schema=schema)
+
+
+def points_schema() -> pa.Schema:
+    return pa.schema([make_field("position", pa.float64(), "deg"),
+                      make_field("deviation", pa.float64(), "arcsec"),
+                      make_field("direction", pa.int8(), ""),
+                      make_field("run", pa.int32(), "")])
+
+
+@dataclass(frozen=True)
+class Figures:
+    """Figures of a set of errors [arcsec]."""
+
+    n: int
+    mean: float
+    bessel_std: float  # seed 001 eq. (8)
+    peak_to_peak: float
+    max_abs: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {"n": self.n, "mean_arcsec": self.mean, "bessel_std_arcsec": self.bessel_std,
+                "peak_to_peak_arcsec": self.peak_to_peak, "max_abs_arcsec": self.max_abs}
+
+
+def figures(errors: np.ndarray) -> Figures:
+    """n, mean, Bessel standard deviation (seed 001 eq. 8), p-p and max |e| [arcsec]."""
+    e = np.asarray(errors, dtype=np.float64)
+    if e.size == 0:
+        return Figures(0, float("nan"), float("nan"), float("nan"), float("nan"))
+    std = float(np.std(e, ddof=1)) if e.size > 1 else float("nan")
+    return Figures(int(e.size), float(e.mean()), std, float(np.ptp(e)), float(np.abs(e).max()))
+
+
+# ------------------------------------------------------------------ from a steps run
+
+
+def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
+                      autocollimator: str | None = None, faces: int | None = None,
+                      source: str = "input") -> Points:
+    """Calibration points from a steps-mode readings stream with an autocollimator.
+
+    Parameters
+    ----------
+    header, table : the readings stream (columns ``step``, ``run``, ``direction``,
+        head columns [count], an autocollimator column [arcsec]).
+    heads : heads averaged into the encoder reading (default: the rig's
+        ``measure_heads`` of the first head's encoder, else every head of it).
+    autocollimator : the autocollimator column (default: the only one).
+    faces : faces of the polygon (default: the rig's ``polygon.faces``).
+
+    Returns
+    -------
+    One point per (run, direction, step): position = mean encoder reading [deg,
+    0..360), deviation = indicated - true angle relative to the run's first
+    position [arcsec].
+    """
+    for col in ("step", "run", "direction"):
+        if col not in table.column_names:
+            msg = f"{source}: no {col!r} column: is this a steps-mode run (enc acquire --mode steps)?"
+            raise DataError(msg)
+    if table.num_rows == 0:
+        msg = f"{source}: the readings stream has no rows"
+        raise DataError(msg)
+    rig = header.meta.get("rig") or {}
+    all_heads = columns_with_role(header.schema, "head")
+    if not all_heads:
+        msg = f"{source}: no head columns in the readings"
+        raise DataError(msg)
+    if heads is None:
+        enc = head_info(header.schema, all_heads[0], source).encoder
+        wanted: list[str] = []
+        for e in rig.get("encoders", []):
+            if e.get("name") == enc:
+                wanted = list(e.get("measure_heads") or [])
+        heads = [h for h in wanted if h in all_heads] or \
+            [h for h in all_heads if head_info(header.schema, h, source).encoder == enc]
+    infos = [head_info(header.schema, h, source) for h in heads]
+    acs = columns_with_role(header.schema, "autocollimator")
+    if autocollimator is None:
+        if len(acs) != 1:
+            msg = (f"{source}: {len(acs)} autocollimator columns ({', '.join(acs) or 'none'}); "
+                   "name one with --autocollimator")
+            raise DataError(msg)
+        autocollimator = acs[0]
+    elif autocollimator not in table.column_names:
+        msg = f"{source}: no autocollimator column {autocollimator!r} (have: {', '.join(acs) or 'none'})"
+        raise DataError(msg)
+    if faces is None:
+        faces = int((rig.get("polygon") or {}).get("faces", 0)) or None
+        if faces is None:
+            msg = f"{source}: the rig names no polygon; give --faces"
+            raise DataError(msg)
+
+    angle = np.mean([head_angle(table.column(i.name), i) for i in infos], axis=0)  # rad
+    ac = table.column(autocollimator).to_numpy(zero_copy_only=False).astype(np.float64)
+    step = table.column("step").to_numpy(zero_copy_only=False)
+    run = table.column("run").to_numpy(zero_copy_only=False)
+    direction = table.column("direction").to_numpy(zero_copy_only=False)
+    # One point per visit: consecutive rows with the same (run, direction, step).
+    key = np.stack([run, direction, step]).T
+    starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
+    bounds = np.r_[starts, key.shape[0]]
+    vis_angle, vis_ac, vis_run, vis_dir = [], [], [], []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        ok = np.isfinite(ac[a:b])
+        if not ok.any():
+            msg = (f"{source}: no autocollimator reading at step {int(step[a])} of run "
+                   f"{int(run[a])} (off the face: is the polygon aligned?)")
+            raise DataError(msg)
+        vis_angle.append(np.mean(angle[a:b][ok]))
+        vis_ac.append(np.mean(ac[a:b][ok]))
+        vis_run.append(int(run[a]))
+        vis_dir.append(int(direction[a]))
+    va, vac = np.array(vis_angle), np.array(vis_ac)
+    vr, vd = np.array(vis_run, dtype=np.int32), np.array(vis_dir, dtype=np.int8)
+    pitch = TWO_PI / faces
+    dev = np.empty(va.size)
+    for r in np.unique(vr):
+        sel = np.flatnonzero(vr == r)
+        first = sel[0]
+        rel = va[sel] - va[first]
+        j = np.round(rel / pitch)
+        true_rel = j * pitch + (vac[sel] - vac[first]) * ARCSEC
+        dev[sel] = (rel - true_rel) / ARCSEC
+        off = np.abs(rel - j * pitch) / ARCSEC
+        if off.max() > 1000.0:
+            msg = (f"{source}: run {int(r)}: a position is {off.max():.0f} arcsec off the "
+                   f"nearest of {faces} polygon faces; wrong --faces?")
+            raise DataError(msg)
+    return Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+
+
+# --------------------------------------------------------------------- from CSV
+
+
+def points_from_csv(path: str | Path) -> Points:
+    """Points from ``position_deg,deviation_arcsec[,direction,run]`` (``#`` comments)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        msg = f"{path}: no such file"
+        raise DataError(msg) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        msg = f"{path}: cannot read as text ({exc})"
+        raise DataError(msg) from None
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        msg = f"{path}: no points (the file is empty or only comments)"
+        raise DataError(msg)
+    rows = list(csv.reader(io.StringIO("\n".join(lines))))
+    head = [c.strip().lower() for c in rows[0]]
+    if head[:2] != ["position_deg", "deviation_arcsec"]:
+        msg = (f"{path}: the first line must be the header "
+               f"'position_deg,deviation_arcsec[,direction,run]', not {','.join(rows[0])!r}")
+        raise DataError(msg)
+    extra = head[2:]
+    if any(c not in ("direction", "run") for c in extra):
+        msg = f"{path}: unknown column(s) {', '.join(extra)} (allowed: direction, run)"
+        raise DataError(msg)
+    data = rows[1:]
+    if not data:
+        msg = f"{path}: no points after the header line"
+        raise DataError(msg)
+    vals = np.zeros((len(data), 4))
+    vals[:, 2] = 1
+    for k, row in enumerate(data):
+        if len(row) != len(head):
+            msg = f"{path}: data line {k + 1} has {len(row)} fields, the header {len(head)}"
+            raise DataError(msg)
+        try:
+            nums = [float(v) for v in row]
+        except ValueError:
+            msg = f"{path}: data line {k + 1} is not numbers: {','.join(row)!r}"
+            raise DataError(msg) from None
+        if not all(np.isfinite(nums)):
+            msg = f"{path}: data line {k + 1} holds NaN or infinity"
+            raise DataError(msg)
+        vals[k, :2] = nums[:2]
+        for name, v in zip(extra, nums[2:]):
+            vals[k, 2 if name == "direction" else 3] = v
+    return Points(vals[:, 0], vals[:, 1], vals[:, 2].astype(np.int8), vals[:, 3].astype(np.int32))
+
+
+def from_table(table: pa.Table, source: str = "input") -> Points:
+    """Points from the rows of a ``points`` stream."""
+    n = table.num_rows
+    if n == 0:
+        msg = f"{source}: the points stream has no rows"
+        raise DataError(msg)
+    pos = table.column("position").to_numpy(zero_copy_only=False).astype(np.float64)
+    dev = table.column("deviation").to_numpy(zero_copy_only=False).astype(np.float64)
+    if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(dev))):
+        msg = f"{source}: position or deviation holds NaN or infinite values"
+        raise DataError(msg)
+    d = (table.column("direction").to_numpy(zero_copy_only=False) if "direction" in table.column_names
+         else np.ones(n))
+    r = (table.column("run").to_numpy(zero_copy_only=False) if "run" in table.column_names
+         else np.zeros(n))
+    return Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32))
+
+
+def distinct(points: Points, tol_deg: float = 1e-6, source: str = "input"
+             ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Distinct angles [deg, 0..360) and the mean deviation at each [arcsec].
+
+    Points at the same angle (0 and 360 deg, several runs or directions) are
+    averaged; the largest spread among them [arcsec] is returned (the closure
+    error of a 0/360 pair).
+    """
+    pos = np.mod(points.position_deg, 360.0)
+    pos = np.where(360.0 - pos < tol_deg, 0.0, pos)
+    order = np.argsort(pos, kind="stable")
+    ps, ds = pos[order], points.deviation[order]
+    group = np.r_[0, np.cumsum(np.diff(ps) > tol_deg)]
+    ng = int(group[-1]) + 1 if group.size else 0
+    counts = np.bincount(group, minlength=ng)
+    mean_pos = np.bincount(group, ps, ng) / counts
+    mean_dev = np.bincount(group, ds, ng) / counts
+    spread = 0.0
+    for g in np.flatnonzero(counts > 1):
+        spread = max(spread, float(np.ptp(ds[group == g])))
+    if ng < 2:
+        msg = f"{source}: fewer than 2 distinct positions; a model needs points around the circle"
+        raise DataError(msg)
+    return mean_pos, mean_dev, spread
