@@ -1,0 +1,253 @@
+"""A standalone HTML calibration report: every plot embedded as a PNG data URI.
+
+Contents: result of the checks, rig and method, a summary table, one part per input
+(plots, harmonics, ISO 230-2 table, notes, the data's history), before/after
+comparison when several inputs carry deviation curves, the nightly history, and the
+conventions used (Bessel s, U with k = 2, ISO 230-2 definitions).
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from . import plots
+from .sections import Curve, Section
+from .summary import Report
+
+CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;max-width:1000px;
+margin:1.5em auto;padding:0 1em;color:#222;line-height:1.4}
+h1{font-size:1.6em;border-bottom:3px solid #1f77b4;padding-bottom:.2em}
+h2{font-size:1.25em;margin-top:1.6em;border-bottom:1px solid #ccc}
+h3{font-size:1.05em;margin-bottom:.3em}
+table{border-collapse:collapse;font-size:.85em;margin:.5em 0}
+th,td{border:1px solid #ccc;padding:.2em .5em;text-align:right}
+th{background:#f0f4f8}td.l,th.l{text-align:left}
+figure{margin:.8em 0}figcaption{font-size:.85em;color:#555}
+img{max-width:100%}pre{background:#f6f6f6;padding:.5em;font-size:.75em;overflow-x:auto}
+.ok{background:#e6f4ea;border-left:5px solid #2ca02c;padding:.5em}
+.fail{background:#fdecea;border-left:5px solid #d62728;padding:.5em}
+.note{font-size:.85em;color:#555}
+"""
+
+
+def _e(x: Any) -> str:
+    return html.escape(str(x))
+
+
+def _f(x: float | None, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return f"{x:.{digits}f}"
+
+
+def _img(fig: Any, caption: str) -> str:
+    data = base64.b64encode(plots.to_png(fig)).decode()
+    return (f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{_e(caption)}</figcaption></figure>")
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1) -> str:
+    th = "".join(f'<th class="{"l" if i < left else ""}">{_e(h)}</th>'
+                 for i, h in enumerate(header))
+    body = "".join("<tr>" + "".join(f'<td class="{"l" if i < left else ""}">{_e(v)}</td>'
+                                    for i, v in enumerate(r)) + "</tr>" for r in rows)
+    return f"<table><tr>{th}</tr>{body}</table>"
+
+
+def _rig_html(rigs: dict[str, dict[str, Any]]) -> str:
+    if not rigs:
+        return "<p>The inputs do not describe their rig.</p>"
+    out = []
+    for name, rig in rigs.items():
+        out.append(f"<h3>{_e(name)}</h3><p>{_e(rig.get('description', ''))}</p>")
+        rows = []
+        for enc in rig.get("encoders", []):
+            heads = ", ".join(f"{h.get('name')} {math.degrees(float(h.get('angle', 0))):g}°"
+                              for h in enc.get("heads", []))
+            rows.append([enc.get("name"), enc.get("model", ""), enc.get("periods_per_rev"),
+                         enc.get("interpolation"), enc.get("diameter_mm"), heads])
+        if rows:
+            out.append(_table(["encoder", "model", "periods/rev", "interpolation",
+                               "diameter [mm]", "heads (nominal angle)"], rows, left=2))
+        extras = [k for k in ("polygon", "autocollimator", "probes") if rig.get(k)]
+        if extras:
+            out.append(f"<p class='note'>Also: {_e(', '.join(extras))}; backend "
+                       f"{_e((rig.get('backend') or {}).get('kind', '?'))}.</p>")
+    return "".join(out)
+
+
+def _method_rows(report: Report) -> list[list[str]]:
+    rows = []
+    for s in report.sections:
+        hist = s.history
+        last = hist[-1].split(": ", 1)[-1] if hist else "(no history)"
+        settings = s.meta.get("settings", {})
+        brief = ", ".join(f"{k}={v}" for k, v in settings.items()
+                          if isinstance(v, (int, float, str)) and k not in ("backend",))[:160]
+        rows.append([s.source, s.kind, last, brief or "–"])
+    return rows
+
+
+def _summary_rows(report: Report) -> list[list[str]]:
+    rows = []
+    for s, c in report.curves():
+        f = c.figures
+        rows.append([s.source, c.name, c.unit, f.n, _f(f.pp), _f(f.plus_minus), _f(f.mean),
+                     _f(f.std), _f(c.U_max)])
+    return rows
+
+
+def _harmonics_table(c: Curve, top: int) -> str:
+    if c.harmonics is None:
+        return ""
+    h = c.harmonics.largest(top)
+    rows = [[int(n), _f(float(a)), f"{math.degrees(float(p)):.1f}"]
+            for n, a, p in zip(h.n, h.amplitude, h.phase)]
+    return (f"<p class='note'>Largest harmonics of {_e(c.name)} "
+            f"(A cos(n x + p), [{_e(c.unit)}]):</p>"
+            + _table(["n", f"A [{c.unit}]", "p [deg]"], rows, left=0))
+
+
+def _iso_html(s: Section) -> str:
+    iso = s.iso
+    if iso is None:
+        return ""
+    axis = iso.axis()
+    out = ["<h3>ISO 230-2 (2014)</h3>",
+           _table(list(axis), [[_f(v) for v in axis.values()]], left=0),
+           "<p class='note'>[arcsec]. R_i = 4 s_i (±2 s); bidirectional R = max R_i with "
+           "R_i = max(2 s_i↑ + 2 s_i↓ + |B_i|, R_i↑, R_i↓); E over both directions' mean "
+           "deviations; M = range of x̄_i; A = max(x̄ + 2s) − min(x̄ − 2s) over both "
+           "directions; B = max |B_i|.</p>"]
+    cols = ["position [deg]"]
+    if iso.up is not None:
+        cols += ["x̄↑", "s↑", "R↑", "n↑"]
+    if iso.down is not None:
+        cols += ["x̄↓", "s↓", "R↓", "n↓"]
+    if iso.is_bidirectional:
+        cols += ["x̄", "B_i", "R_i"]
+    rows = []
+    for r in iso.table():
+        row = [f"{r['position_deg']:.3f}"]
+        if iso.up is not None:
+            row += [_f(r["mean_up"]), _f(r["s_up"]), _f(r["R_up"]), r["n_up"]]
+        if iso.down is not None:
+            row += [_f(r["mean_down"]), _f(r["s_down"]), _f(r["R_down"]), r["n_down"]]
+        if iso.is_bidirectional:
+            row += [_f(r["mean"]), _f(r["B"]), _f(r["R"])]
+        rows.append(row)
+    out.append(_table(cols, rows, left=0))
+    for w in iso.warnings:
+        out.append(f"<p class='note'>⚠ {_e(w)}</p>")
+    return "".join(out)
+
+
+def _section_html(s: Section, top: int) -> str:
+    out = [f"<h2>{_e(s.source)} — {_e(s.kind)}</h2>"]
+    if s.info:
+        out.append(_table(["", ""], [[k, v] for k, v in s.info.items()]))
+    for caption, fig in plots.section_figures(s, top):
+        out.append(_img(fig, caption))
+    for c in s.curves:
+        out.append(_harmonics_table(c, top))
+        if "std_distinct" in c.extra:
+            out.append(f"<p class='note'>{_e(c.name)}: s over the {c.figures.n} rows as given "
+                       f"{_f(c.figures.std)}; over distinct positions (closing row dropped) "
+                       f"{_f(c.extra['std_distinct'])}.</p>")
+    out.append(_iso_html(s))
+    for n in s.notes:
+        out.append(f"<p class='note'>Note: {_e(n)}</p>")
+    out.append("<p class='note'>How these data were made (history):</p><pre>"
+               + _e("\n".join(s.history) or "(none)") + "</pre>")
+    return "".join(out)
+
+
+def _compare_html(report: Report) -> str:
+    pairs = [(s.source.rsplit("/", 1)[-1] + ("" if c.name in ("deviation",) else f":{c.name}"), c)
+             for s, c in report.curves("arcsec")
+             if c.period == 2 * np.pi and c.role in ("deviation", "points", "positioning")]
+    if len(pairs) < 2 or len({id(c) for _, c in pairs}) < 2:
+        return ""
+    if len({p[0] for p in pairs}) < 2 and len(report.sections) < 2:
+        return ""
+    rows = [[label, _f(c.figures.pp), _f(c.figures.std)] for label, c in pairs]
+    first = pairs[0][1].figures.std
+    ratio = "".join(f"<li>{_e(label)}: s ratio first/this = {first / c.figures.std:.2f}</li>"
+                    for label, c in pairs[1:] if c.figures.std > 0)
+    return ("<h2>Before / after compensation</h2>"
+            + _img(plots.compare_plot(pairs[:8], "deviation of every input"),
+                   "Deviation of every input on one plot (first input: before)")
+            + _table(["input", "p-p [arcsec]", "s [arcsec]"], rows) + f"<ul>{ratio}</ul>")
+
+
+def _history_html(report: Report) -> str:
+    h = report.history
+    if h is None:
+        return ""
+    out = [f"<h2>Nightly history — {_e(h.folder)}</h2>",
+           f"<p>{h.runs} run(s)"
+           + (f"; {len(h.skipped)} unreadable file(s) skipped" if h.skipped else "") + ".</p>"]
+    if h.runs:
+        t = h.times()
+        series = {name: h.column(name).astype(float) for name in ("pp", "std", "drift_max")}
+        bad = np.array([s != "ok" for s in h.column("status")])
+        out.append(_img(plots.history_plot(t, series, "figures of each nightly run", bad),
+                        "p-p, s and drift of every run (× marks runs that failed)"))
+        rows = [[r["time"], r["rig"] or "–", r["status"] or "–", _f(r["pp"]), _f(r["std"]),
+                 _f(r["drift_max"]), _f(r["tolerance"])] for r in h.to_records()]
+        out.append(_table(["time (UTC)", "rig", "status", "p-p", "s", "drift", "tolerance"],
+                          rows, left=3))
+    return "".join(out)
+
+
+def to_html(report: Report, failures: Sequence[str] | None = None,
+            title: str | None = None) -> str:
+    """The whole report as one HTML document (str)."""
+    top = int(report.settings.get("top_harmonics", 5))
+    rigs = {s.rig_name: s.meta["rig"] for s in report.sections if s.rig_name}
+    title = title or ("Calibration report" + (f" — {', '.join(rigs)}" if rigs else ""))
+    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+             f"<title>{_e(title)}</title><style>{CSS}</style></head><body>",
+             f"<h1>{_e(title)}</h1><p class='note'>Made {now} by enctools {__version__} "
+             f"from {len(report.sections)} input(s).</p>"]
+    limits = report.settings.get("thresholds") or {}
+    if limits:
+        if failures:
+            parts.append("<div class='fail'><b>Check failed:</b><ul>"
+                         + "".join(f"<li>{_e(f)}</li>" for f in failures) + "</ul></div>")
+        else:
+            parts.append(f"<div class='ok'><b>Within every threshold</b> "
+                         f"({_e(', '.join(f'{k}={v}' for k, v in limits.items()))}).</div>")
+    if report.sections:
+        parts.append("<h2>Rig and method</h2>" + _rig_html(rigs))
+        parts.append(_table(["input", "kind", "made by", "settings"], _method_rows(report),
+                            left=4))
+        parts.append("<h2>Summary</h2>" + _table(
+            ["input", "curve", "unit", "n", "p-p", "±", "mean", "s (Bessel)", "U max (k=2)"],
+            _summary_rows(report), left=3))
+    parts.append(_compare_html(report))
+    for s in report.sections:
+        parts.append(_section_html(s, top))
+    parts.append(_history_html(report))
+    parts.append(
+        "<h2>Conventions</h2><ul class='note'>"
+        "<li>Deviation = indicated − true angle [arcsec]; angles in degrees.</li>"
+        "<li>s: Bessel standard deviation √(Σ(x_i − x̄)²/(n − 1)) over the values as "
+        "given (seed 001 eq. 8); ± is half the peak-to-peak.</li>"
+        "<li>U: expanded uncertainty, U = k·u with k = 2, from the standard "
+        "uncertainties the input carries (or s/√n of repeated readings).</li>"
+        "<li>Harmonics: A cos(n x + p), n per revolution (per signal period for "
+        "interpolation errors).</li>"
+        "<li>ISO 230-2:2014 definitions; repeatability uses ±2 s (R = 4 s).</li></ul>")
+    parts.append("</body></html>")
+    return "\n".join(p for p in parts if p)

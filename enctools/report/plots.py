@@ -1,0 +1,246 @@
+"""The report's plots, as matplotlib Figures (object API: no pyplot state, no display).
+
+Every plot labels both axes with units: angle [deg] (or phase within the signal
+period [deg]), deviation [arcsec], radial motion [nm], signals [V], harmonic order
+[1/rev or 1/period], time [UTC].
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .sections import Curve, Section, SpectrumRows
+
+SIZE = (7.2, 3.4)
+COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf",
+          "#7f7f7f", "#bcbd22", "#e377c2"]
+
+
+def to_png(fig: Figure, dpi: int = 110) -> bytes:
+    """The figure as PNG bytes."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    return buf.getvalue()
+
+
+def _angle_deg(c: Curve) -> np.ndarray:
+    return np.degrees(np.asarray(c.angle)) if c.period == 2 * np.pi \
+        else np.degrees(np.mod(c.angle, c.period) * (2 * np.pi / c.period))
+
+
+def _angle_label(c: Curve) -> str:
+    return "angle [deg]" if c.period == 2 * np.pi else "phase within the signal period [deg]"
+
+
+def _unit_label(unit: str) -> str:
+    return {"arcsec": "deviation [arcsec]", "nm": "radial motion [nm]",
+            "count": "correction [count]"}.get(unit, f"[{unit}]")
+
+
+def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
+    """Deviation curves against angle with the U (k = 2) band where known."""
+    fig = Figure(figsize=SIZE)
+    ax = fig.add_subplot()
+    for i, c in enumerate(curves):
+        x = _angle_deg(c)
+        order = np.argsort(x)
+        x, y = x[order], c.values[order]
+        color = COLORS[i % len(COLORS)]
+        sparse = c.values.size <= 100
+        ax.plot(x, y, "o-" if sparse else "-", ms=3.5, lw=1.2, color=color,
+                label=f"{c.name} (p-p {c.figures.pp:.3g}, s {c.figures.std:.3g})")
+        if c.u is not None:
+            U = 2.0 * np.asarray(c.u)[order]
+            ax.fill_between(x, y - U, y + U, color=color, alpha=0.2, lw=0,
+                            label=f"{c.name} ± U (k=2)")
+    ax.axhline(0, color="0.6", lw=0.6)
+    ax.set_xlabel(_angle_label(curves[0]))
+    ax.set_ylabel(_unit_label(curves[0].unit))
+    if curves[0].period == 2 * np.pi:
+        ax.set_xlim(0, 360)
+        ax.set_xticks(np.arange(0, 361, 45))
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    return fig
+
+
+def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") -> Figure:
+    """Harmonic amplitudes [arcsec] against order, with U (k = 2) as error bars."""
+    fig = Figure(figsize=SIZE)
+    ax = fig.add_subplot()
+    width = 0.8 / max(1, len(rows))
+    for i, sp in enumerate(rows):
+        keep = sp.n > 0
+        n = sp.n[keep] + (i - (len(rows) - 1) / 2) * width
+        err = 2 * sp.u[keep] if sp.u is not None else None
+        ax.bar(n, sp.amplitude[keep], width=width, color=COLORS[i % len(COLORS)],
+               yerr=err, capsize=1.5, error_kw={"lw": 0.6}, label=sp.curve)
+    ax.set_xlabel(f"harmonic order n [1/{per}]")
+    ax.set_ylabel("amplitude [arcsec]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3, axis="y")
+    if len(rows) > 1 or rows[0].u is not None:
+        ax.legend(fontsize=7)
+    return fig
+
+
+def harmonics_rows(curves: Sequence[Curve]) -> list[SpectrumRows]:
+    """The harmonics of curves as spectrum rows (for :func:`spectrum_plot`)."""
+    return [SpectrumRows(c.name, c.harmonics.n, c.harmonics.amplitude, c.harmonics.phase)
+            for c in curves if c.harmonics is not None]
+
+
+def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:
+    """Radial error motion [nm] on a polar plot around a base circle.
+
+    With x and y curves the plotted error is the radial motion in a direction that
+    turns with the spindle, r = x cos(theta) + y sin(theta); a single curve is
+    plotted as it is. Radial tick labels are nm of error (base circle = 0).
+    """
+    fig = Figure(figsize=(4.8, 4.8))
+    ax = fig.add_subplot(projection="polar")
+    byname = {c.name.lower(): c for c in curves}
+    xs = [c for n, c in byname.items() if n.endswith("x")]
+    ys = [c for n, c in byname.items() if n.endswith("y")]
+    if xs and ys:
+        cx, cy = xs[0], ys[0]
+        theta = np.asarray(cx.angle)
+        err = cx.values * np.cos(theta) + np.interp(theta, cy.angle, cy.values) * np.sin(theta)
+        traces = [("radial (x cos θ + y sin θ)", theta, err)]
+    else:
+        traces = [(c.name, np.asarray(c.angle), c.values) for c in curves]
+    span = max(float(np.ptp(t[2])) for t in traces) or 1.0
+    lo = min(float(np.min(t[2])) for t in traces)
+    base = 1.5 * span
+    for i, (name, th, e) in enumerate(traces):
+        order = np.argsort(th)
+        th_c = np.append(th[order], th[order][0] + 2 * np.pi)
+        r = np.append(e[order], e[order][0]) - lo + base
+        ax.plot(th_c, r, color=COLORS[i % len(COLORS)], lw=1.0, label=name)
+    ax.plot(np.linspace(0, 2 * np.pi, 361), np.full(361, base), color="0.6", lw=0.6, ls="--")
+    ticks = np.linspace(base, base + span, 3)
+    ax.set_rticks(ticks)
+    ax.set_yticklabels([f"{t - base + lo:.0f} nm" for t in ticks], fontsize=7)
+    ax.set_rlim(0, base + 1.1 * span)
+    ax.set_xlabel("spindle angle [deg]; radius: radial error motion [nm]", fontsize=8)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(-0.1, -0.15))
+    return fig
+
+
+def lissajous_plot(signals: dict[str, tuple[np.ndarray, np.ndarray]], title: str) -> Figure:
+    """Raw quadrature signals: sin [V] against cos [V] for every head."""
+    fig = Figure(figsize=(4.8, 4.8))
+    ax = fig.add_subplot()
+    for i, (head, (c, s)) in enumerate(signals.items()):
+        ax.plot(c, s, ".", ms=1.0, color=COLORS[i % len(COLORS)], label=head)
+    ax.set_aspect("equal")
+    ax.set_xlabel("cos signal (I) [V]")
+    ax.set_ylabel("sin signal (Q) [V]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, markerscale=6)
+    return fig
+
+
+def iso_plot(iso: Any, title: str) -> Figure:
+    """ISO 230-2: mean positioning deviation per direction with the +/-2 s bands."""
+    fig = Figure(figsize=SIZE)
+    ax = fig.add_subplot()
+    for d, name, color, shift in ((iso.up, "up (+)", COLORS[0], -0.4),
+                                  (iso.down, "down (-)", COLORS[1], 0.4)):
+        if d is None:
+            continue
+        x = iso.positions + (shift if iso.is_bidirectional else 0)
+        ax.errorbar(x, d.mean, yerr=2 * d.s, fmt="o-", ms=3, lw=1, capsize=2, color=color,
+                    label=f"mean {name} ± 2s")
+    ax.set_xlabel("target position [deg]")
+    ax.set_ylabel("positioning deviation [arcsec]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
+def compare_plot(pairs: Sequence[tuple[str, Curve]], title: str) -> Figure:
+    """Curves of several inputs on one plot (before/after compensation)."""
+    fig = Figure(figsize=SIZE)
+    ax = fig.add_subplot()
+    for i, (label, c) in enumerate(pairs):
+        x = _angle_deg(c)
+        order = np.argsort(x)
+        ax.plot(x[order], c.values[order], "o-" if c.values.size <= 100 else "-", ms=3, lw=1.1,
+                color=COLORS[i % len(COLORS)],
+                label=f"{label} (p-p {c.figures.pp:.3g}\", s {c.figures.std:.3g}\")")
+    ax.axhline(0, color="0.6", lw=0.6)
+    ax.set_xlabel("angle [deg]")
+    ax.set_ylabel("deviation [arcsec]")
+    ax.set_xlim(0, 360)
+    ax.set_xticks(np.arange(0, 361, 45))
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
+def history_plot(times: np.ndarray, series: dict[str, np.ndarray], title: str,
+                 bad: np.ndarray | None = None) -> Figure:
+    """Figures of the nightly runs against time [UTC], drift runs marked."""
+    fig = Figure(figsize=SIZE)
+    ax = fig.add_subplot()
+    for i, (name, y) in enumerate(series.items()):
+        ax.plot(times, y, "o-", ms=3, lw=1, color=COLORS[i % len(COLORS)], label=name)
+        if bad is not None and np.any(bad):
+            ax.plot(times[bad], y[bad], "x", ms=8, color="k")
+    ax.set_xlabel("run time [UTC]")
+    ax.set_ylabel("figure [arcsec]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.autofmt_xdate()
+    return fig
+
+
+def section_figures(s: Section, top: int = 5) -> list[tuple[str, Figure]]:
+    """Every plot of one section, with a caption."""
+    out: list[tuple[str, Figure]] = []
+    name = s.source
+    dev = [c for c in s.curves if c.unit == "arcsec"]
+    radial = [c for c in s.curves if c.unit == "nm"]
+    other = [c for c in s.curves if c.unit not in ("arcsec", "nm")]
+    if dev:
+        if s.domain == "period":
+            out.append(("Interpolation error per head within one signal period",
+                        deviation_plot(dev, f"interpolation error — {name}")))
+        else:
+            label = "with U band (k=2)" if any(c.u is not None for c in dev) else ""
+            out.append((f"Deviation curve {label}".strip(),
+                        deviation_plot(dev, f"deviation — {name}")))
+        rows = harmonics_rows(dev)
+        if rows:
+            out.append(("Spectrum of the deviation (amplitude A of A cos(n x + p))",
+                        spectrum_plot(rows, f"harmonics — {name}",
+                                      "period" if s.domain == "period" else "rev")))
+    if radial:
+        out.append(("Spindle radial error motion (polar)",
+                    radial_polar_plot(radial, f"radial motion — {name}")))
+        out.append(("Radial error motion against angle", deviation_plot(radial, name)))
+    for c in other:
+        out.append((f"{c.name} against angle", deviation_plot([c], name)))
+    if s.spectra:
+        per = "period" if s.domain == "period" else "rev"
+        out.append(("Spectrum (error bars: U, k=2)",
+                    spectrum_plot(s.spectra, f"spectrum — {name}", per)))
+    if s.iso is not None:
+        out.append(("ISO 230-2 mean positioning deviations with ±2s",
+                    iso_plot(s.iso, f"ISO 230-2 — {name}")))
+    if s.signals:
+        out.append(("Lissajous plot of the raw quadrature signals",
+                    lissajous_plot(s.signals, f"signals — {name}")))
+    return out
