@@ -22,6 +22,8 @@ rig file's seeds, the noise by the session seed.
 from __future__ import annotations
 
 import dataclasses
+import math
+import time
 from typing import Any
 
 import numpy as np
@@ -35,6 +37,7 @@ from .sim_truth import jitter_motion, make_truth
 _GRID = 1 << 18  # points per turn of the tabulated periodic errors
 _READ_TIME = 0.001  # s taken by one software-timed reading
 _MOVE_RPM = 10.0  # r/min of positioning moves
+_REALTIME_BLOCK_S = 0.2  # real-time mode: a counter block at least this often
 
 
 class VirtualClock(Clock):
@@ -48,6 +51,23 @@ class VirtualClock(Clock):
 
     def sleep(self, seconds: float) -> None:
         self.t += max(0.0, seconds)
+        self.pace()
+
+    def pace(self) -> None:
+        """Hold until the wall clock reaches the virtual time (a no-op unless real-time)."""
+
+
+class RealtimeClock(VirtualClock):
+    """Virtual time paced by the wall clock: a run takes as long as it would on a rig."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.start = time.monotonic()
+
+    def pace(self) -> None:
+        wait = self.start + self.t - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
 
 
 class _Tabulated:
@@ -76,12 +96,14 @@ class _Tabulated:
 class VirtualRig(Session):
     """A simulated rig: counter, probes, autocollimator, axis, all on one virtual clock."""
 
-    def __init__(self, rig: Rig, seed: int | None = None, signals: bool = False) -> None:
+    def __init__(self, rig: Rig, seed: int | None = None, signals: bool = False,
+                 realtime: bool = False) -> None:
         self.rig = rig
         self.seed = int(seed if seed is not None else rig.backend.get("seed", 0))
         self.rng = np.random.default_rng(self.seed)
         self.signals = signals
-        self.clock = VirtualClock()
+        self.realtime = realtime
+        self.clock = RealtimeClock() if realtime else VirtualClock()
         self._truth = make_truth(rig)
         start = float(rig.motion.get("start_deg", 0.0)) * DEG
         self.motion = Motion(theta0=start, omega=0.0)
@@ -203,7 +225,10 @@ class VirtualRig(Session):
         return d
 
     def describe(self) -> dict[str, Any]:
-        return {"backend": "sim", "seed": self.seed}
+        d: dict[str, Any] = {"backend": "sim", "seed": self.seed}
+        if self.realtime:
+            d["realtime"] = True
+        return d
 
 
 def zero_count(enc: Encoder, alpha: float) -> int:
@@ -226,10 +251,13 @@ class SimCounter(Counter):
         self._t0 = self._next
 
     def read_block(self, max_samples: int) -> dict[str, np.ndarray]:
+        if self.sim.realtime:
+            max_samples = min(max_samples, max(1, math.ceil(_REALTIME_BLOCK_S / self._interval)))
         k = np.arange(self._k, self._k + max_samples)
         t = self._t0 + k * self._interval
         self._k += max_samples
         self.sim.clock.t = float(t[-1])
+        self.sim.clock.pace()
         return self.sim.sample(t, with_signals=self.sim.signals)
 
     def stop(self) -> None:
