@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import signal
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import click
@@ -45,11 +49,20 @@ from . import options, runner
               help="Re-stream a recorded readings file instead of acquiring.")
 @click.option("--pace", is_flag=True, default=False,
               help="replay: at the recorded pace (default: as fast as possible).")
+@click.option("--realtime", is_flag=True, default=False,
+              help="Simulator: run at wall-clock pace (live pipelines, interrupt drills).")
+@click.option("--timeout", "timeout_s", type=float, default=None, callback=options.positive,
+              help="Instruments: seconds to wait for each reply (default: the rig's, 1).")
+@click.option("--retries", type=click.IntRange(min=0), default=None,
+              help="Instruments: retries after a timeout before giving up (default: the rig's, 2).")
+@click.option("--tee", "tee_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
+              help="Also keep a copy of the stream in FILE (format from its extension).")
 @options.outputs
 @options.verbosity
-def command(rig: str | None, replay_path: str | None, pace: bool, output: str | None,
-            force: bool, fmt: str | None, verbose: int, quiet: int, debug: bool,
-            **given: Any) -> None:
+def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool,
+            timeout_s: float | None, retries: int | None, tee_path: str | None,
+            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
+            debug: bool, **given: Any) -> None:
     """Acquire readings from a rig and write them as a readings stream.
 
     Defaults come from the rig file's [acquire] tables: `enc acquire --rig sjtu-dual`
@@ -61,6 +74,10 @@ def command(rig: str | None, replay_path: str | None, pace: bool, output: str | 
     runner.install_sigterm()
     from .. import streams
 
+    if tee_path is not None:
+        if output not in (None, "-") and Path(tee_path).resolve() == Path(output).resolve():
+            raise click.UsageError("--tee FILE must differ from -o PATH")
+        streams.check_output(tee_path, force)
     if replay_path is not None:
         from ..hw.replay import replay
 
@@ -69,9 +86,7 @@ def command(rig: str | None, replay_path: str | None, pace: bool, output: str | 
         header = streams.with_history(source.header)
         header.meta["settings"] = dict(header.meta.get("settings", {}), replayed=replay_path,
                                        pace=pace)
-        with streams.OutputStream(output, header, force, fmt, keep_partial=True) as out:
-            for batch in replay(source, pace):
-                out.write(batch)
+        _write(header, replay(source, pace), output, force, fmt, tee_path)
         return
 
     if rig is None:
@@ -84,10 +99,76 @@ def command(rig: str | None, replay_path: str | None, pace: bool, output: str | 
     settings = acq.resolve(rig_, given)
     streams.check_output(output, force, fmt)
     unit = "samples" if settings.mode == "continuous" else "positions"
-    with open_session(rig_, seed=settings.seed, signals=bool(settings.signals)) as session:
+    if realtime:
+        settings.extra["realtime"] = True
+    with open_session(rig_, seed=settings.seed, signals=bool(settings.signals),
+                      realtime=realtime, timeout_s=timeout_s, retries=retries) as session:
         header, batches = acq.acquire(rig_, session, settings, runner.Progress(settings.mode, unit))
-        with streams.OutputStream(output, streams.with_history(header), force, fmt,
-                                  keep_partial=True) as out:
-            for batch in batches:
+        rows = _write(streams.with_history(header), batches, output, force, fmt, tee_path)
+    runner.log.info("%d rows written to %s", rows, output or "stdout")
+
+
+def _write(header: Any, batches: Iterator[Any], output: str | None, force: bool,
+           fmt: str | None, tee_path: str | None) -> int:
+    """Write every batch as it arrives (and to the tee); on any ending keep what was read.
+
+    SIGINT and SIGTERM are held while a batch is being written, so the files hold
+    whole batches; they stop the run between batches (or inside a device wait).
+    """
+    from .. import streams
+
+    with contextlib.ExitStack() as stack:
+        out = stack.enter_context(streams.OutputStream(output, header, force, fmt,
+                                                       keep_partial=True))
+        tee = (stack.enter_context(streams.OutputStream(tee_path, header, force,
+                                                        keep_partial=True))
+               if tee_path else None)
+        guard = stack.enter_context(_SignalGuard())
+        for batch in batches:
+            with guard.held():
+                if tee is not None:
+                    tee.write(batch)
                 out.write(batch)
-    runner.log.info("%d rows written to %s", out.rows, output or "stdout")
+        return out.rows
+
+
+class _SignalGuard:
+    """SIGINT -> KeyboardInterrupt (130), SIGTERM -> Interrupted (143), deferred while held."""
+
+    def __init__(self) -> None:
+        self._held = False
+        self._pending: int | None = None
+        self._old: dict[int, Any] = {}
+
+    def __enter__(self) -> "_SignalGuard":
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._old[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+
+    def _raise(self, signum: int) -> None:
+        from ..errors import Interrupted
+
+        if signum == signal.SIGTERM:
+            raise Interrupted("terminated", exit_code=143)
+        raise KeyboardInterrupt
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        if self._held:
+            self._pending = signum
+            return
+        self._raise(signum)
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[None]:
+        self._held = True
+        try:
+            yield
+        finally:
+            self._held = False
+            if self._pending is not None:
+                signum, self._pending = self._pending, None
+                self._raise(signum)
