@@ -1,0 +1,187 @@
+"""The ``visa`` backend: SCPI instruments through PyVISA (GPIB, USB-TMC, LAN, VISA serial).
+
+An instrument is a table ``[backend.instrument.NAME]`` with a VISA ``resource``; the
+roles (head counters, probes, autocollimator, motion) and what to say to each are
+described in :mod:`enctools.hw.dialogue` and enc-rig(5). ``[backend] visa_library``
+chooses the PyVISA backend: empty for the system VISA (NI-VISA, Keysight), ``"@py"``
+for pyvisa-py, ``"FILE.yaml@sim"`` for pyvisa-sim (the path is relative to the rig file).
+
+Example: a counter/interpolation box reading both heads in one query and a motion
+controller, on the LAN::
+
+    [backend]
+    kind = "visa"
+    timeout_s = 0.5          # per attempt
+    retries = 2              # after the first attempt
+
+    [backend.instrument.box]
+    resource = "TCPIP0::192.168.0.21::inst0::INSTR"
+    init = ["*CLS", "CONF:COUN F1,F2"]
+    error_query = "SYST:ERR?"
+    idn = "*IDN?"
+
+    [backend.instrument.table]
+    resource = "TCPIP0::192.168.0.22::5025::SOCKET"
+    read_termination = "\\n"
+    ack = "OK"
+
+    [backend.counter]
+    instrument = "box"
+    read = "FETC:COUN? F1,F2"
+    heads = ["F1", "F2"]
+
+    [motion.backend]
+    instrument = "table"
+    move = "MOVE:ABS {deg:.6f}"
+    in_position = "MOVE:DONE?"
+    in_position_reply = "1"
+    rotate = "JOG {rpm:.4f}"
+    stop = "STOP"
+
+Missing pieces give one line: PyVISA not installed is exit 2 (install
+``enctools[visa]``); no VISA library, an unknown or unplugged resource is exit 3.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+from ..errors import DataError, DeviceError, UsageError
+from ..rig import Rig
+from . import retry
+
+log = logging.getLogger("enctools.hw")
+
+_MANAGERS: dict[str, Any] = {}
+
+
+def _pyvisa() -> Any:
+    try:
+        import pyvisa
+    except ImportError:
+        msg = ("the visa backend needs the Python package pyvisa: "
+               "pip install 'enctools[visa]' (and a VISA library, or pyvisa-py)")
+        raise UsageError(msg) from None
+    return pyvisa
+
+
+def library_spec(rig: Rig) -> str:
+    """The PyVISA library string of a rig, with a pyvisa-sim file made absolute."""
+    spec = str(rig.backend.get("visa_library", ""))
+    if spec.endswith("@sim") and len(spec) > 4:
+        path = Path(spec[:-4])
+        if not path.is_absolute():
+            from .dialogue import rig_dir
+            path = rig_dir(rig) / path
+        if not path.is_file():
+            msg = f"rig file {rig.source}: backend.visa_library: no such file {path}"
+            raise DataError(msg)
+        spec = f"{path}@sim"
+    return spec
+
+
+def resource_manager(rig: Rig) -> Any:
+    """One PyVISA ResourceManager per library string (cached for the process)."""
+    pyvisa = _pyvisa()
+    spec = library_spec(rig)
+    if spec not in _MANAGERS:
+        try:
+            _MANAGERS[spec] = pyvisa.ResourceManager(spec) if spec else pyvisa.ResourceManager()
+        except (OSError, ValueError, pyvisa.errors.Error) as exc:
+            what = spec or "the system VISA library"
+            msg = (f"cannot load {what}: {retry_text(exc)} (install NI-VISA or pyvisa-py, "
+                   "or set [backend] visa_library)")
+            raise DeviceError(msg) from None
+        except Exception as exc:  # pyvisa-sim raises plain exceptions on bad yaml
+            msg = f"cannot load the VISA library {spec!r}: {type(exc).__name__}: {retry_text(exc)}"
+            raise DeviceError(msg) from None
+    return _MANAGERS[spec]
+
+
+def retry_text(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text[:200] or type(exc).__name__
+
+
+def _unescape(s: str) -> str:
+    return s.replace("\\r", "\r").replace("\\n", "\n")
+
+
+class VisaPort:
+    """A message-based VISA resource as a line port."""
+
+    def __init__(self, name: str, resource: Any, address: str, timeout_s: float) -> None:
+        self.name = name
+        self.resource = resource
+        self.address = address
+        self.timeout_s = timeout_s
+        self._errors = _pyvisa().errors
+
+    def write(self, text: str) -> None:
+        log.debug("%s <- %r", self.name, text)
+        try:
+            self.resource.write(text)
+        except self._errors.VisaIOError as exc:
+            msg = f"instrument {self.name} ({self.address}): cannot send {text!r}: {exc.description}"
+            raise DeviceError(msg) from None
+
+    def read_line(self) -> str:
+        errors = self._errors
+        try:
+            reply = self.resource.read()
+        except errors.VisaIOError as exc:
+            if exc.error_code == errors.StatusCode.error_timeout:
+                raise retry.Timeout() from None
+            msg = f"instrument {self.name} ({self.address}): read failed: {exc.description}"
+            raise DeviceError(msg) from None
+        except UnicodeDecodeError as exc:
+            msg = (f"instrument {self.name} ({self.address}): garbled reply "
+                   f"{exc.object[:40]!r}: not text")
+            raise DeviceError(msg) from None
+        log.debug("%s -> %r", self.name, reply)
+        return reply
+
+    def clear(self) -> None:
+        try:
+            self.resource.clear()
+        except Exception as exc:  # noqa: BLE001 - not every interface or simulator clears
+            log.debug("%s: clear: %s", self.name, exc)
+
+    def close(self) -> None:
+        try:
+            self.resource.close()
+        except Exception as exc:  # noqa: BLE001
+            log.debug("%s: close: %s", self.name, exc)
+
+    def hint(self) -> str:
+        return "is it on, connected, and does it understand this command?"
+
+
+def open_port(name: str, cfg: dict[str, Any], rig: Rig, policy: retry.Policy) -> VisaPort:
+    """Open ``[backend.instrument.NAME]`` as a VISA resource."""
+    where = f"backend.instrument.{name}"
+    address = cfg.get("resource")
+    if not isinstance(address, str) or not address:
+        msg = f"rig file {rig.source}: [{where}] needs the key 'resource' (a VISA resource name)"
+        raise DataError(msg)
+    rm = resource_manager(rig)
+    pyvisa = _pyvisa()
+    kw: dict[str, Any] = {"timeout": int(round(policy.timeout_s * 1000)),
+                          "read_termination": _unescape(str(cfg.get("read_termination", "\n"))),
+                          "write_termination": _unescape(str(cfg.get("write_termination", "\n")))}
+    if "encoding" in cfg:
+        kw["encoding"] = str(cfg["encoding"])
+    if "baudrate" in cfg:
+        kw["baud_rate"] = int(cfg["baudrate"])
+    try:
+        res = rm.open_resource(address, **kw)
+    except pyvisa.errors.VisaIOError as exc:
+        msg = (f"instrument {name}: cannot open VISA resource {address!r}: {exc.description} "
+               "(unplugged, switched off, or a wrong resource name?)")
+        raise DeviceError(msg) from None
+    except (ValueError, AttributeError, TypeError) as exc:
+        msg = f"instrument {name}: cannot open VISA resource {address!r}: {retry_text(exc)}"
+        raise DeviceError(msg) from None
+    return VisaPort(name, res, address, policy.timeout_s)
