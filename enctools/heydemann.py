@@ -251,7 +251,7 @@ def fit_ellipse(i: np.ndarray, q: np.ndarray, min_arc: float = 90 * DEG,
                f"{arc / DEG:.0f} deg with noise {noise:.3g} V; record a longer arc")
         raise DataError(msg)
     warnings = []
-    if arc < TWO_PI * 0.98:
+    if arc < 270 * DEG:
         warnings.append(f"partial arc: the signals cover {arc / DEG:.0f} deg of the "
                         f"Lissajous ellipse; uncertainties are larger than over a full period")
     return EllipseFit(float(p[0]), float(p[1]), float(p[2]), float(p[3]), float(p[4]),
@@ -310,3 +310,17 @@ def radius_variation(i: np.ndarray, q: np.ndarray) -> dict[str, float]:
     mean = float(r.mean())
     return {"min_v": float(r.min()), "max_v": float(r.max()), "mean_v": mean,
             "variation": float((r.max() - r.min()) / mean) if mean > 0 else float("inf")}
+
+
+def read_phase_error(fit: EllipseFit, phi_read: np.ndarray, iterations: int = 40) -> np.ndarray:
+    """Phase error [rad] as a function of the phase the interpolator *reads* [rad].
+
+    The read phase is phi + e(phi); this inverts it by a fixed-point iteration (a
+    contraction: |e'| is about the size of the faults), so the error can be looked
+    up by the reading, as a correction table indexed by counts does.
+    """
+    phi_read = np.asarray(phi_read, dtype=np.float64)
+    phi = phi_read.copy()
+    for _ in range(iterations):
+        phi = phi_read - phase_error(fit, phi)
+    return phase_error(fit, phi)

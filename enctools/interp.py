@@ -354,3 +354,271 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
                     f"the reference's harmonic {j} lands at {at:.3g} harmonics of the device "
                     f"period, on kept harmonic {k}: the filter cannot remove it")
     return result
+
+
+# ------------------------------------------------------------- readings-level checks
+
+
+@dataclass
+class Curve:
+    """One checked device: its error on a phase grid and what made it.
+
+    ``error`` [arcsec] and ``u`` [arcsec] on ``phase`` [rad] (zero mean);
+    ``meta`` JSON-able facts (period, reference, figures, harmonics, warnings).
+    """
+
+    name: str
+    encoder: str
+    periods_per_rev: int
+    phase: np.ndarray
+    error: np.ndarray
+    u: np.ndarray
+    harmonics: PeriodHarmonics
+    meta: dict
+    warnings: list[str] = field(default_factory=list)
+
+
+def _column(table, name: str) -> np.ndarray:
+    return table.column(name).to_numpy(zero_copy_only=False).astype(np.float64) \
+        if not str(table.schema.field(name).type).startswith("int") \
+        else table.column(name).to_numpy(zero_copy_only=False)
+
+
+def _harmonics_meta(h: PeriodHarmonics) -> list[dict[str, float]]:
+    return [{"n": int(n), "amplitude": float(a), "phase": float(p), "u": float(u)}
+            for n, a, p, u in zip(h.orders, h.amplitude, h.phase, h.amplitude_u)]
+
+
+def probe_reference(table, probes: Sequence[str] | None, arm_m: float | None,
+                    ) -> tuple[np.ndarray, dict]:
+    """The probes' rotation [rad] (seed 000 eq. (20)) and a description of it."""
+    from .schemas import columns_with_role, field_meta
+
+    names = list(probes) if probes else columns_with_role(table.schema, "probe")
+    if not names:
+        msg = "input: no probe column (role=probe); give --reference HEAD or --reference-file"
+        raise DataError(msg)
+    values, arms, sides = [], [], []
+    for p in names:
+        if p not in table.schema.names or field_meta(table.schema.field(p)).get("role") != "probe":
+            msg = f"input: no probe {p!r} (probes: {', '.join(columns_with_role(table.schema, 'probe')) or 'none'})"
+            raise DataError(msg)
+        fm = field_meta(table.schema.field(p))
+        arm = float(arm_m) if arm_m is not None else float(fm.get("arm_m", "nan"))
+        if not (np.isfinite(arm) and arm > 0):
+            msg = f"probe {p}: arm length L = {arm:g} m; it must be > 0 (give --arm)"
+            raise DataError(msg)
+        values.append(_column(table, p))
+        arms.append(arm)
+        sides.append(int(float(fm.get("side", "1"))))
+    return probe_rotation(values, arms, sides), {"reference": "probes", "probes": names,
+                                                 "arm_m": arms, "sides": sides}
+
+
+def align_in_time(t: np.ndarray, t_ref: np.ndarray, values: Sequence[np.ndarray],
+                  source: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Reference values interpolated to times ``t`` [s]; a mask of the rows covered.
+
+    DataError when the two records do not overlap in time.
+    """
+    order = np.argsort(t_ref, kind="stable")
+    tr = np.asarray(t_ref, float)[order]
+    inside = (t >= tr[0]) & (t <= tr[-1])
+    if not inside.any():
+        msg = (f"{source}: covers t = {tr[0]:.6g}..{tr[-1]:.6g} s, the input "
+               f"{np.min(t):.6g}..{np.max(t):.6g} s: no overlap in time")
+        raise DataError(msg)
+    return inside, [np.interp(t, tr, np.asarray(v, float)[order]) for v in values]
+
+
+def check_readings(table, heads: Sequence[str] | None = None, average: bool = False,
+                   reference: str = "probes", reference_table=None,
+                   probes: Sequence[str] | None = None, arm_m: float | None = None,
+                   harmonics: int = 4, keep: Sequence[int] | None = None,
+                   reference_harmonics: int = 2, trend_degree: int = 1,
+                   points: int = 256, reference_source: str = "reference") -> list[Curve]:
+    """Interpolation error of heads of a readings table against a reference.
+
+    ``heads`` (default every head but the reference) are checked one by one, or
+    averaged into one device with ``average``. ``reference``: "probes" or a head
+    name, taken from ``reference_table`` (matched by time t) when given, else from
+    ``table``. See :func:`fit_interpolation_error` for the rest.
+    """
+    from .readings import head_info
+    from .schemas import columns_with_role
+
+    all_heads = columns_with_role(table.schema, "head")
+    rtab = reference_table if reference_table is not None else table
+    rsrc = reference_source if reference_table is not None else "input"
+    t = _column(table, "t") if "t" in table.schema.names else None
+    rows = np.ones(table.num_rows, dtype=bool)
+    ref_phase = None
+    ref_info = None
+    if reference == "probes":
+        ref_rad, ref_meta = probe_reference(rtab, probes, arm_m)
+    else:
+        ref_info = head_info(rtab.schema, reference, rsrc)
+        rc = _column(rtab, reference)
+        ref_rad = head_angle(rc, ref_info)
+        ref_phase = signal_phase(rc, ref_info)
+        ref_meta = {"reference": reference, "encoder": ref_info.encoder,
+                    "periods_per_rev": ref_info.periods_per_rev}
+    if reference_table is not None:
+        if t is None or "t" not in rtab.schema.names:
+            msg = f"{rsrc}: both streams need a time column t to be matched"
+            raise DataError(msg)
+        vals = [ref_rad] + ([np.unwrap(ref_phase)] if ref_phase is not None else [])
+        rows, vals = align_in_time(t, _column(rtab, "t"), vals, rsrc)
+        ref_rad = vals[0]
+        if ref_phase is not None:
+            ref_phase = np.mod(vals[1], TWO_PI)
+        ref_meta["file"] = reference_source
+
+    names = list(heads) if heads else [h for h in all_heads
+                                       if not (reference_table is None and h == reference)]
+    if not names:
+        msg = "input: no head to check"
+        raise DataError(msg)
+    groups = _column(table, "run") if "run" in table.schema.names else None
+    devices = [names] if average else [[n] for n in names]
+    curves = []
+    grid = np.linspace(0.0, TWO_PI, points, endpoint=False)
+    for dev_names in devices:
+        infos = [head_info(table.schema, n) for n in dev_names]
+        dev_rad, dev_phase = device_reading([_column(table, n) for n in dev_names], infos)
+        info = infos[0]
+        name = dev_names[0] if len(dev_names) == 1 else "mean(" + ",".join(dev_names) + ")"
+        if ref_info is not None and ref_info.name == info.name and reference_table is None:
+            msg = f"--reference {reference} is the device itself; choose another head or probes"
+            raise DataError(msg)
+        other_period = ref_info is not None and ref_info.periods_per_rev != info.periods_per_rev
+        k_keep = list(keep) if keep is not None else ([1, 2] if other_period else None)
+        warnings = []
+        if ref_info is not None and not other_period:
+            warnings.append(f"{name}: the reference {ref_info.name} has the same signal period; "
+                            f"the result is the difference of both heads' interpolation errors")
+        r = fit_interpolation_error(
+            dev_rad[rows], dev_phase[rows], ref_rad[rows], info.periods_per_rev,
+            harmonics=harmonics, keep=k_keep, trend_degree=trend_degree,
+            groups=None if groups is None else groups[rows],
+            reference_phase=ref_phase[rows] if other_period else None,
+            reference_orders=range(1, reference_harmonics + 1) if other_period else (),
+            reference_periods_per_rev=ref_info.periods_per_rev if ref_info else None)
+        warnings += [f"{name}: {w}" for w in r.warnings]
+        fig = r.figures()
+        meta = {"encoder": info.encoder, "heads": dev_names,
+                "periods_per_rev": info.periods_per_rev,
+                "period_arcsec": r.period / ARCSEC, "periods_swept": r.periods,
+                "samples": r.samples, "residual_rms_arcsec": r.residual_rms,
+                "kept": [int(n) for n in r.error.orders],
+                "harmonics": _harmonics_meta(r.fitted), "figures": fig} | ref_meta
+        if r.ratio is not None:
+            meta["period_ratio"] = r.ratio
+        if r.reference is not None:
+            meta["reference_harmonics"] = _harmonics_meta(r.reference)
+        curves.append(Curve(name, info.encoder, info.periods_per_rev, grid, r.error(grid),
+                            r.error.uncertainty(grid), r.fitted, meta, warnings))
+    return curves
+
+
+def check_signals(table, heads: Sequence[str] | None = None, min_arc_deg: float = 90.0,
+                  points: int = 256) -> tuple[list[Curve], dict]:
+    """Heydemann fit of every head's raw signals; the interpolation error they predict.
+
+    Signals are the role=signal columns of a head: components cos/sin, or the four
+    phases 0/90/180/270. Returns the curves (error [arcsec] at the read phase, mean
+    removed) and, per head, the fit (:meth:`EllipseFit.to_dict`) and the Lissajous
+    radius variation.
+    """
+    from . import heydemann as hd
+    from .readings import head_info
+    from .schemas import columns_with_role, field_meta
+    from .units import DEG
+
+    by_head: dict[str, dict[str, str]] = {}
+    for c in columns_with_role(table.schema, "signal"):
+        fm = field_meta(table.schema.field(c))
+        by_head.setdefault(fm.get("head", ""), {})[fm.get("component", "")] = c
+    if not by_head:
+        msg = "input: no raw signal columns (role=signal); record them with enc acquire --signals"
+        raise DataError(msg)
+    names = list(heads) if heads else list(by_head)
+    curves, fits = [], {}
+    grid = np.linspace(0.0, TWO_PI, points, endpoint=False)
+    for name in names:
+        comp = by_head.get(name)
+        if comp is None:
+            msg = f"input: no signals of head {name!r} (signals of: {', '.join(by_head)})"
+            raise DataError(msg)
+        if {"cos", "sin"} <= comp.keys():
+            i, q = _column(table, comp["cos"]), _column(table, comp["sin"])
+        elif {"0", "90", "180", "270"} <= comp.keys():
+            i, q = hd.from_four_phase(*(_column(table, comp[k]) for k in ("0", "90", "180", "270")))
+        else:
+            msg = (f"input: head {name} has signal components {', '.join(sorted(comp))}; "
+                   f"need cos and sin, or 0, 90, 180 and 270")
+            raise DataError(msg)
+        try:
+            fit = hd.fit_ellipse(i, q, min_arc=min_arc_deg * DEG)
+        except DataError as exc:
+            raise DataError(f"head {name}: {exc}") from None
+        info = head_info(table.schema, name) if name in table.schema.names else None
+        ppr = info.periods_per_rev if info else 0
+        err_rad = hd.read_phase_error(fit, grid)
+        meta = {"signals": fit.to_dict(), "lissajous": hd.radius_variation(i, q),
+                "reference": "signals"}
+        fits[name] = meta
+        if ppr:
+            scale = 1.0 / ppr / ARCSEC
+            unit_err = err_rad * scale
+            mean = float(unit_err.mean())
+            err = unit_err - mean
+            u = hd.interpolation_error_u(fit, grid, ppr)
+            meta |= {"encoder": info.encoder, "periods_per_rev": ppr,
+                     "period_arcsec": TWO_PI / ppr / ARCSEC, "mean_arcsec": mean,
+                     "figures": figures(err)}
+            c = np.fft.rfft(err)[1:9] * 2 / grid.size
+            meta["harmonics"] = [{"n": k + 1, "amplitude": float(abs(v)),
+                                  "phase": float(np.angle(v))} for k, v in enumerate(c)]
+            curves.append(Curve(name, info.encoder, ppr, grid, err, u,
+                                PeriodHarmonics(np.arange(1, 9), c, np.zeros((16, 16))),
+                                meta, [f"{name}: {w}" for w in fit.warnings]))
+    return curves, fits
+
+
+def corrected_counts(table, fits: dict[str, dict], names: Sequence[str]) -> dict[str, np.ndarray]:
+    """Counts of each head with the interpolation redone from the corrected phase.
+
+    The period index comes from the head's counts; the fraction from the
+    Heydemann-corrected phase (the sample's phase nearest the counted one is
+    taken, so a correction across a period boundary moves to the next period).
+    """
+    from . import heydemann as hd
+    from .readings import head_info
+    from .schemas import columns_with_role, field_meta
+
+    comps: dict[str, dict[str, str]] = {}
+    for c in columns_with_role(table.schema, "signal"):
+        fm = field_meta(table.schema.field(c))
+        comps.setdefault(fm.get("head", ""), {})[fm.get("component", "")] = c
+    out = {}
+    for name in names:
+        info = head_info(table.schema, name)
+        f = fits[name]["signals"]
+        comp = comps[name]
+        if "cos" in comp:
+            i, q = _column(table, comp["cos"]), _column(table, comp["sin"])
+        else:
+            i, q = hd.from_four_phase(*(_column(table, comp[k]) for k in ("0", "90", "180", "270")))
+        phi = hd.corrected_phase(i, q, f["offset_cos_v"], f["offset_sin_v"], f["amplitude_v"],
+                                 f["ratio"], f["phase_rad"])
+        counts = _column(table, name).astype(np.int64)
+        n = info.interpolation
+        absolute = counts + info.zero_count
+        frac = np.mod(phi, TWO_PI) * (n / TWO_PI)
+        base = np.floor_divide(absolute, n) * n
+        new = base + np.rint(frac).astype(np.int64)
+        # choose the period so the corrected count is nearest the counted one
+        new += n * np.rint((absolute - new) / n).astype(np.int64)
+        out[name] = new - info.zero_count
+    return out

@@ -1,0 +1,222 @@
+"""enc interp-check: interpolation error within a signal period (seed 000 sec. 4).
+
+Against probes or another encoder's head (counts mode), or from the heads' raw
+sin/cos signals by a Heydemann ellipse fit (--signals). Writes a deviations stream:
+the error of each device against its phase within the signal period.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+from . import options, runner
+
+
+def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> list[int] | None:
+    if value is None:
+        return None
+    try:
+        out = [int(v) for v in value.split(",") if v.strip()]
+    except ValueError:
+        msg = f"expected harmonic orders separated by commas, not {value!r}"
+        raise click.BadParameter(msg) from None
+    if not out or min(out) < 1:
+        msg = f"harmonic orders are integers >= 1, not {value!r}"
+        raise click.BadParameter(msg)
+    return out
+
+
+@click.command("interp-check", context_settings={"auto_envvar_prefix": "ENC_INTERP_CHECK"})
+@options.input_arg
+@click.option("--heads", default=None, callback=options.name_list, metavar="H1,H2,...",
+              help="Heads to check (default: every head but the reference; with "
+                   "--signals every head with signals).")
+@click.option("--average", is_flag=True, default=False,
+              help="Check the mean of --heads (one encoder) as one device.")
+@click.option("--reference", default="probes", show_default=True, metavar="probes|HEAD",
+              help="Reference: the averaged probes (psi = side h / L) or a head.")
+@click.option("--reference-file", default=None, type=click.Path(dir_okay=False),
+              help="Take the reference from this readings file, matched by time t.")
+@click.option("--probes", default=None, callback=options.name_list, metavar="S1,S2",
+              help="Probe columns to average (default: every probe).")
+@click.option("--arm", "arm_m", type=float, default=None,
+              help="Probe arm length L [m] (default: each probe's arm_m).")
+@click.option("--harmonics", type=int, default=4, show_default=True, callback=options.positive,
+              help="Harmonics of the signal period fitted.")
+@click.option("--keep", default=None, callback=_int_list, metavar="N,N,...",
+              help="Harmonics kept in the error curve (default: 1,2 against an encoder "
+                   "of another signal period, else all fitted).")
+@click.option("--reference-harmonics", type=click.IntRange(0, 8), default=2, show_default=True,
+              help="Harmonics of the reference encoder's own period fitted alongside "
+                   "(0: the seed's plain filter).")
+@click.option("--trend", "trend_degree", type=click.IntRange(0, 5), default=1, show_default=True,
+              help="Degree of the polynomial in angle removed per run.")
+@click.option("--points", type=click.IntRange(8, 1 << 20), default=256, show_default=True,
+              help="Points of the output curve per signal period.")
+@click.option("--signals", "signals_mode", is_flag=True, default=False,
+              help="Raw-signal mode: Heydemann ellipse fit of each head's sin/cos signals.")
+@click.option("--min-arc", "min_arc_deg", type=click.FloatRange(10, 360), default=90.0,
+              show_default=True, help="--signals: refuse a fit over a shorter arc [deg].")
+@click.option("--corrected", default=None, type=click.Path(dir_okay=False),
+              help="--signals: also write the readings with each head's counts "
+                   "re-interpolated from the corrected phase.")
+@click.option("--spectrum", "spectrum_path", default=None, type=click.Path(dir_okay=False),
+              help="Also write the harmonics (per signal period) as a spectrum stream.")
+@click.option("--check", "tolerance", type=float, default=None, callback=options.positive,
+              metavar="ARCSEC", help="Exit 1 when any curve's +/- exceeds this [arcsec].")
+@options.outputs
+@options.verbosity
+def command(input: str | None, heads: list[str] | None, average: bool, reference: str,
+            reference_file: str | None, probes: list[str] | None, arm_m: float | None,
+            harmonics: int, keep: list[int] | None, reference_harmonics: int,
+            trend_degree: int, points: int, signals_mode: bool, min_arc_deg: float,
+            corrected: str | None, spectrum_path: str | None, tolerance: float | None,
+            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
+            debug: bool) -> None:
+    """Interpolation error of heads within their signal period (seed 000 sec. 4).
+
+    Reads a readings stream of a small-angle sweep (enc acquire --mode sweep) and
+    writes a deviations stream: for each head, its error [arcsec] against the
+    phase within its signal period [rad], with its standard uncertainty. Figures
+    (p-p, +/-) and harmonics go to stderr and into the output's metadata.
+    """
+    runner.setup_logging(verbose, quiet)
+    from .. import interp, streams
+    from ..errors import CheckFailed, UsageError
+
+    if arm_m is not None and not arm_m > 0:
+        raise UsageError(f"--arm must be > 0 m (psi = h / L), not {arm_m!r}")
+    if corrected and not signals_mode:
+        raise UsageError("--corrected needs --signals")
+    streams.check_output(output, force, fmt)
+    for extra in (spectrum_path, corrected):
+        if extra:
+            streams.check_output(extra, force, None)
+    source = streams.open_input(input, "readings")
+    table = source.read_all()
+    settings: dict[str, Any] = {
+        "heads": heads, "average": average, "harmonics": harmonics, "points": points,
+        "trend": trend_degree}
+    fits = None
+    if signals_mode:
+        if average:
+            raise UsageError("--average does not apply to --signals (each head has its signals)")
+        curves, fits = interp.check_signals(table, heads, min_arc_deg, points)
+        settings |= {"mode": "signals", "min_arc_deg": min_arc_deg}
+    else:
+        ref_table = None
+        if reference_file is not None:
+            ref_table = streams.open_input(reference_file, "readings").read_all()
+        curves = interp.check_readings(
+            table, heads, average, reference, ref_table, probes, arm_m, harmonics, keep,
+            reference_harmonics, trend_degree, points, reference_file or "reference")
+        settings |= {"mode": "reference", "reference": reference,
+                     "reference_file": reference_file, "probes": probes, "arm_m": arm_m,
+                     "keep": keep, "reference_harmonics": reference_harmonics}
+    if not curves:
+        raise UsageError("no curve: the heads with signals carry no encoder geometry")
+
+    header, out_table = _deviations(source.header, curves, settings, fits)
+    for c in curves:
+        for w in c.warnings:
+            runner.log.warning("%s", w)
+    streams.write_table(output, streams.with_history(header), out_table, force, fmt)
+    if spectrum_path:
+        sh, st = _spectrum(source.header, curves, settings)
+        streams.write_table(spectrum_path, streams.with_history(sh), st, force, None)
+    if corrected:
+        _write_corrected(source.header, table, fits, [c.name for c in curves], corrected, force)
+    if not quiet:
+        for c in curves:
+            click.echo(_summary(c), err=True)
+    if tolerance is not None:
+        worst = max(curves, key=lambda c: c.meta["figures"]["plus_minus"])
+        pm = worst.meta["figures"]["plus_minus"]
+        if pm > tolerance:
+            raise CheckFailed(f"{worst.name}: interpolation error +/-{pm:.4f}\" exceeds "
+                              f"--check {tolerance:g}\"")
+
+
+def _summary(c: Any) -> str:
+    f = c.meta["figures"]
+    h = c.meta.get("harmonics", [])[:2]
+    harm = ", ".join(f"n={x['n']}: {x['amplitude']:.4f}\"" for x in h)
+    ref = c.meta.get("reference", "")
+    ratio = f", period ratio {c.meta['period_ratio']:.4g}" if "period_ratio" in c.meta else ""
+    kept = f", kept {','.join(map(str, c.meta['kept']))}" if "kept" in c.meta and ratio else ""
+    return (f"{c.name}: +/-{f['plus_minus']:.4f}\" p-p {f['pp']:.4f}\" ({harm}; period "
+            f"{c.meta['period_arcsec']:.4g}\", ref {ref}{ratio}{kept})")
+
+
+def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) -> tuple[Any, Any]:
+    import numpy as np
+    import pyarrow as pa
+
+    from ..schemas import make_field
+
+    fields = [make_field("theta", pa.float64(), "rad")]
+    arrays = [pa.array(curves[0].phase)]
+    for c in curves:
+        fields.append(make_field(c.name, pa.float64(), "arcsec", "deviation",
+                                 encoder=c.encoder, periods_per_rev=c.periods_per_rev,
+                                 period_arcsec=repr(c.meta["period_arcsec"]),
+                                 reference=c.meta.get("reference", "")))
+        arrays.append(pa.array(np.asarray(c.error, dtype=np.float64)))
+        fields.append(make_field(f"u({c.name})", pa.float64(), "arcsec", "uncertainty",
+                                 of=c.name))
+        arrays.append(pa.array(np.asarray(c.u, dtype=np.float64)))
+    schema = pa.schema(fields)
+    periods = {c.meta["period_arcsec"] for c in curves}
+    meta: dict[str, Any] = {
+        "settings": settings, "domain": "signal period: theta is the phase the head reads",
+        "curves": {c.name: c.meta for c in curves}}
+    if len(periods) == 1:
+        meta["period"] = periods.pop()
+    if fits is not None:
+        meta["signals"] = fits
+    return header.derive("deviations", schema, **meta), pa.Table.from_arrays(arrays, schema=schema)
+
+
+def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
+    import numpy as np
+    import pyarrow as pa
+
+    from ..schemas import make_field
+
+    rows: dict[str, list] = {k: [] for k in ("n", "amplitude", "phase", "re", "im", "u", "curve")}
+    for c in curves:
+        h = c.harmonics
+        u = h.amplitude_u if h.cov.size and np.any(h.cov) else np.full(h.orders.size, np.nan)
+        for n, coef, uu in zip(h.orders, h.coef, u):
+            rows["n"].append(int(n))
+            rows["amplitude"].append(float(abs(coef)))
+            rows["phase"].append(float(np.angle(coef)))
+            rows["re"].append(float(coef.real))
+            rows["im"].append(float(coef.imag))
+            rows["u"].append(float(uu))
+            rows["curve"].append(c.name)
+    schema = pa.schema([make_field("n", pa.int64(), ""), make_field("amplitude", pa.float64(), "arcsec"),
+                        make_field("phase", pa.float64(), "rad"), make_field("re", pa.float64(), "arcsec"),
+                        make_field("im", pa.float64(), "arcsec"), make_field("u", pa.float64(), "arcsec"),
+                        make_field("curve", pa.string(), "")])
+    table = pa.Table.from_pydict(rows, schema=schema)
+    return header.derive("spectrum", schema, settings=settings,
+                         domain="harmonics per signal period"), table
+
+
+def _write_corrected(header: Any, table: Any, fits: dict, names: list[str], path: str,
+                     force: bool) -> None:
+    import pyarrow as pa
+
+    from .. import interp, streams
+
+    new = interp.corrected_counts(table, fits, names)
+    for name, counts in new.items():
+        idx = table.schema.get_field_index(name)
+        table = table.set_column(idx, table.schema.field(name), pa.array(counts, pa.int64()))
+    meta = dict(header.meta)
+    meta["settings"] = dict(meta.get("settings", {}), heydemann_corrected=names)
+    h = streams.Header("readings", table.schema, meta)
+    streams.write_table(path, streams.with_history(h), table, force, None)
