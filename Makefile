@@ -34,6 +34,9 @@ demo: $(VENV)/.installed  ## run both papers' campaigns on the simulated rigs in
 test: $(VENV)/.installed-test  ## install what the tests need and run them
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
+bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
+	$(BIN)/python benchmarks/bench.py --out bench-out
+
 man:  ## check that every man page renders without warnings
 	@for f in man/*.[15]; do out=$$(LC_ALL=C.UTF-8 MANWIDTH=80 man --warnings -l $$f 2>&1 >/dev/null); \
 	  if [ -n "$$out" ]; then echo "$$f: $$out"; exit 1; fi; done; echo "man pages: ok"

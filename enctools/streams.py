@@ -46,6 +46,11 @@ EXTENSIONS = {".parquet": "parquet", ".pq": "parquet", ".h5": "hdf5", ".hdf5": "
               ".arrow": "arrow", ".feather": "arrow", ".arrows": "arrows", ".ipc": "arrows"}
 FORMATS = ("arrows", "parquet", "arrow", "hdf5")
 
+# What the Arrow, Parquet and HDF5 decoders raise on corrupt or truncated input (h5py
+# raises RuntimeError and KeyError for damaged B-trees and heaps).
+_DECODE_ERRORS = (pa.ArrowException, OSError, EOFError, ValueError, KeyError, TypeError,
+                  RuntimeError, IndexError, NotImplementedError)
+
 
 @dataclass
 class Header:
@@ -183,7 +188,7 @@ class InputStream:
         try:
             for b in self._batches:
                 yield b.replace_schema_metadata(None) if b.schema.metadata else b
-        except (pa.ArrowInvalid, pa.ArrowIOError, OSError, EOFError, ValueError) as exc:
+        except _DECODE_ERRORS as exc:
             if isinstance(exc, BrokenPipeError):
                 raise
             msg = f"{self.source}: truncated or corrupt {self.format} data ({_short(exc)})"
@@ -269,6 +274,10 @@ def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...
     except DataError:
         stream.close()
         raise
+    except (UnicodeDecodeError, TypeError, ValueError) as exc:
+        stream.close()
+        msg = f"{source}: corrupt metadata ({_short(exc)})"
+        raise DataError(msg) from None
     return stream
 
 
@@ -280,7 +289,7 @@ def _unknown_bytes(source: str, prefix: bytes) -> str:
 def _open_arrows(f: IO[bytes], source: str) -> InputStream:
     try:
         reader = pa.ipc.open_stream(f)
-    except (pa.ArrowInvalid, OSError, ValueError) as exc:
+    except _DECODE_ERRORS as exc:
         msg = f"{source}: truncated or corrupt Arrow stream ({_short(exc)})"
         raise DataError(msg) from None
     header = _header_from_arrow(reader.schema, source)
@@ -297,7 +306,7 @@ def _open_seekable(f: IO[bytes], fmt: str, source: str, data: bytes | None = Non
     except DataError:
         f.close()
         raise
-    except (pa.ArrowInvalid, OSError, ValueError, KeyError, EOFError) as exc:
+    except _DECODE_ERRORS as exc:
         f.close()
         msg = f"{source}: truncated or corrupt {fmt} file ({_short(exc)})"
         raise DataError(msg) from None
