@@ -1,0 +1,277 @@
+"""enc interp-check against the simulator's truth (seed 000 sec. 4, figs. 10-15).
+
+Noise conditions (the sjtu-dual rig's): head noise 0.01" (P) and 0.02" (H) per
+reading, probes 1 nm each on L = 200 mm arms, positioning noise 0.005"; sweep of
+25" at 0.5" steps from 60 deg with 20 readings per step (1020 samples; the rig's
+default of 5 readings gives max differences just under 0.01" for the H heads).
+The counts are quantised to 1/4096 of a period (0.0018" for P, 0.0061" for H).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pyarrow as pa
+import pytest
+
+from conftest import run
+from enctools import interp
+from enctools.readings import head_info, signal_phase
+from enctools.streams import Header, read_table, write_table
+from enctools.truth import SignalFaults, Truth, signal_phase_error
+from enctools.units import ARCSEC, TWO_PI
+
+HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]
+
+
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory: pytest.TempPathFactory):
+    d = tmp_path_factory.mktemp("interp")
+    out = d / "sweep.parquet"
+    r = run(f"enc acquire --rig sjtu-dual --mode sweep --readings 20 --signals -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    return out
+
+
+def read_phase_truth(faults: SignalFaults, phi_read: np.ndarray, periods: int) -> np.ndarray:
+    """Truth [arcsec] as a function of the phase the head reads (phi_read = phi + e(phi))."""
+    phi = np.array(phi_read, dtype=float)
+    for _ in range(50):
+        phi = phi_read - signal_phase_error(faults, phi)
+    return signal_phase_error(faults, phi) / periods / ARCSEC
+
+
+def zero_mean(x: np.ndarray) -> np.ndarray:
+    return x - x.mean()
+
+
+def check(args: str, out) -> tuple:
+    r = run(f"enc interp-check {args} -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    return (*read_table(out, "deviations"), r)
+
+
+def test_every_head_against_probes_matches_truth(sweep, tmp_path):
+    header, table, r = check(str(sweep), tmp_path / "ic.parquet")
+    truth = Truth.from_dict(header.meta["truth"])
+    theta = table["theta"].to_numpy()
+    assert [c for c in table.column_names if not c.startswith(("theta", "u("))] == HEADS
+    for name in HEADS:
+        curve = header.meta["curves"][name]
+        ppr = curve["periods_per_rev"]
+        want = zero_mean(read_phase_truth(truth.signals[name], theta, ppr))
+        got = table[name].to_numpy()
+        assert abs(got.mean()) < 1e-9
+        diff = np.abs(got - want).max()
+        assert diff < 0.01, f"{name}: {diff:.4f}\" from the truth"
+        # the stated uncertainty is honest: within 4.5 u at every phase
+        u = table[f"u({name})"].to_numpy()
+        assert np.all(np.abs(got - want) < 4.5 * u + 0.003), name
+        fig = curve["figures"]
+        assert fig["pp"] == pytest.approx(np.ptp(want), abs=0.015)
+        assert curve["reference"] == "probes" and curve["probes"] == ["S1", "S2"]
+    # summary on stderr: one line per head with +/- and p-p
+    lines = r.stderr.decode().splitlines()
+    assert len(lines) == len(HEADS) and all("p-p" in x for x in lines)
+
+
+def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
+    _, probes, _ = check(f"{sweep} --heads H1,H2", tmp_path / "cs.parquet")
+    header, by_p1, r = check(f"{sweep} --heads H1,H2 --reference P1", tmp_path / "p1.parquet")
+    meta = header.meta["curves"]["H1"]
+    assert meta["period_ratio"] == pytest.approx(180000 / 52000)
+    assert meta["kept"] == [1, 2]
+    assert "lands" not in r.stderr.decode()
+    theta = probes["theta"].to_numpy()
+    # the probe result restricted to the same harmonics
+    for name in ("H1", "H2"):
+        cs = probes[name].to_numpy()
+        c = np.fft.rfft(cs) / theta.size * 2
+        cs12 = sum((c[n] * np.exp(1j * n * theta)).real for n in (1, 2))
+        diff = np.abs(by_p1[name].to_numpy() - cs12).max()
+        assert diff < 0.02, f"{name} by P1: {diff:.4f}\" from the probe result"
+        assert np.abs(by_p1[name].to_numpy() - cs).max() < 0.02
+    # the unfiltered difference H1 - P1 carries P1's error: clearly worse
+    _, raw, _ = check(f"{sweep} --heads H1 --reference P1 --keep 1,2,3,4 "
+                      "--reference-harmonics 0", tmp_path / "raw.parquet")
+    assert np.abs(raw["H1"].to_numpy() - probes["H1"].to_numpy()).max() > 0.03
+
+
+def test_reference_with_longer_period_warns(sweep, tmp_path):
+    header, _, r = check(f"{sweep} --heads P1 --reference H1", tmp_path / "w.parquet")
+    err = r.stderr.decode()
+    assert "WARNING" in err and "lands at 0.578" in err and "kept harmonic 1" in err
+    assert header.meta["curves"]["P1"]["period_ratio"] == pytest.approx(52000 / 180000)
+
+
+def test_head_average_matches_mean_of_truths(sweep, tmp_path):
+    header, table, _ = check(f"{sweep} --heads H1,H2,H3,H4 --average", tmp_path / "a.parquet")
+    name = "mean(H1,H2,H3,H4)"
+    assert table.column_names == ["theta", name, f"u({name})"]
+    truth = Truth.from_dict(header.meta["truth"])
+    _, raw = read_table(sweep)
+    infos = [head_info(raw.schema, h) for h in ("H1", "H2", "H3", "H4")]
+    phases = [signal_phase(raw[i.name].to_numpy(), i) for i in infos]
+    want = np.mean([read_phase_truth(truth.signals[i.name], p, i.periods_per_rev)
+                    for i, p in zip(infos, phases)], axis=0)
+    theta = table["theta"].to_numpy()
+    got = np.interp(phases[0], theta, table[name].to_numpy(), period=TWO_PI)
+    diff = zero_mean(got) - zero_mean(want)
+    assert np.abs(diff).max() < 0.01
+
+
+def test_signals_mode_recovers_faults_and_error(sweep, tmp_path):
+    header, table, r = check(f"{sweep} --signals --spectrum {tmp_path / 's.parquet'} "
+                             f"--corrected {tmp_path / 'c.parquet'}", tmp_path / "sig.parquet")
+    truth = Truth.from_dict(header.meta["truth"])
+    theta = table["theta"].to_numpy()
+    for name in HEADS:
+        fit = header.meta["signals"][name]["signals"]
+        f = truth.signals[name]
+        # noise-free simulated signals: the fit is exact
+        assert fit["offset_cos"] == pytest.approx(f.offset_cos, abs=1e-9)
+        assert fit["offset_sin"] == pytest.approx(f.offset_sin, abs=1e-9)
+        assert fit["ratio"] == pytest.approx(f.ratio, abs=1e-9)
+        assert fit["phase_rad"] == pytest.approx(f.phase, abs=1e-9)
+        ppr = header.meta["curves"][name]["periods_per_rev"]
+        want = zero_mean(read_phase_truth(f, theta, ppr))
+        assert np.abs(table[name].to_numpy() - want).max() < 1e-6
+        liss = header.meta["signals"][name]["lissajous"]
+        assert liss["variation"] > 0.02
+    spec_h, spec = read_table(tmp_path / "s.parquet", "spectrum")
+    assert set(spec["curve"].to_pylist()) == set(HEADS)
+    # counts re-interpolated from the corrected phase: interpolation error gone
+    _, fixed, _ = check(f"{tmp_path / 'c.parquet'} --heads H1,P2", tmp_path / "f.parquet")
+    for name in ("H1", "P2"):
+        assert np.ptp(fixed[name].to_numpy()) < 0.01
+
+
+def test_check_tolerance_exit_1(sweep, tmp_path):
+    r = run(f"enc interp-check {sweep} --heads P1 --check 0.01 -o {tmp_path / 'k.parquet'}")
+    assert r.returncode == 1
+    assert r.stderr.decode().splitlines()[-1].startswith("enc interp-check: error: P1:")
+    r = run(f"enc interp-check {sweep} --heads P1 --check 0.5 -q > {tmp_path / 'k2.arrows'}")
+    assert r.returncode == 0 and r.stderr == b""
+
+
+def test_pipeline_from_acquire(tmp_path):
+    out = tmp_path / "p.arrows"
+    r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 8 --step 0.25 --heads P1,P2 "
+            f"| enc interp-check | enc info > {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    text = out.read_text()
+    assert "deviations stream" in text and "u(P2)" in text
+
+
+# ----------------------------------------------------------------- bad input
+
+
+def one_line_error(r, out) -> str:
+    err = r.stderr.decode().strip().splitlines()
+    assert r.returncode == 2, r.stderr.decode()
+    assert len(err) == 1 and err[0].startswith("enc interp-check: error:"), err
+    assert not out.exists()
+    return err[0]
+
+
+def test_sweep_shorter_than_one_period(tmp_path):
+    out = tmp_path / "o.parquet"
+    r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 10 --readings 1 --heads H1 "
+            f"| enc interp-check -o {out}")
+    assert "signal period is 24.92" in one_line_error(r, out)
+
+
+def test_reference_without_overlap_in_time(sweep, tmp_path):
+    header, table = read_table(sweep)
+    t = table["t"].to_numpy() + 1e6
+    moved = table.set_column(0, table.schema.field("t"), pa.array(t))
+    ref = tmp_path / "later.parquet"
+    write_table(str(ref), header, moved)
+    out = tmp_path / "o.parquet"
+    r = run(f"enc interp-check {sweep} --heads H1 --reference P1 --reference-file {ref} -o {out}")
+    assert "no overlap in time" in one_line_error(r, out)
+    # the same file in time works (the reference matched by t)
+    r = run(f"enc interp-check {sweep} --heads H1 --reference P1 --reference-file {sweep} -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+
+
+def test_zero_arm_length(sweep, tmp_path):
+    out = tmp_path / "o.parquet"
+    assert "--arm" in one_line_error(run(f"enc interp-check {sweep} --arm 0 -o {out}"), out)
+    header, table = read_table(sweep)
+    fields = []
+    for f in table.schema:
+        if f.name == "S1":
+            md = dict(f.metadata)
+            md[b"arm_m"] = b"0"
+            f = f.with_metadata(md)
+        fields.append(f)
+    bad = tmp_path / "arm0.parquet"
+    schema = pa.schema(fields)
+    write_table(str(bad), Header("readings", schema, header.meta), table.cast(schema))
+    assert "L = 0" in one_line_error(run(f"enc interp-check {bad} -o {out}"), out)
+
+
+@pytest.mark.parametrize("args, words", [
+    ("--heads H9", "no head 'H9'"),
+    ("--reference Q1", "no head 'Q1'"),
+    ("--heads H1 --reference H1", "device itself"),
+    ("--heads H1 --keep 7", "kept harmonic 7"),
+    ("--signals --heads H1 --min-arc 400", "--min-arc"),
+    ("--corrected x.parquet", "--corrected needs --signals"),
+])
+def test_bad_options(sweep, tmp_path, args, words):
+    out = tmp_path / "o.parquet"
+    assert words in one_line_error(run(f"enc interp-check {sweep} {args} -o {out}"), out)
+
+
+def test_wrong_kind_and_short_arc(sweep, tmp_path):
+    dev = tmp_path / "dev.parquet"
+    assert run(f"enc interp-check {sweep} --heads P1 -o {dev}").returncode == 0
+    out = tmp_path / "o.parquet"
+    assert "readings" in one_line_error(run(f"enc interp-check {dev} -o {out}"), out)
+    r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 1 --step 0.1 --readings 1 "
+            f"--signals --heads H1 | enc interp-check --signals -o {out}")
+    assert "head H1" in one_line_error(r, out) and "deg" in r.stderr.decode()
+
+
+# ------------------------------------------------------------------ library
+
+
+def test_landing_harmonics():
+    assert interp.landing_harmonics(180000 / 52000, [1, 2]) == []
+    assert interp.landing_harmonics(52000 / 180000, [1, 2]) == [(2, pytest.approx(0.5778, abs=1e-3), 1)]
+    assert interp.landing_harmonics(1.0, [1, 2]) == [(1, 1.0, 1), (2, 2.0, 2)]
+
+
+def test_fit_recovers_synthetic_error_with_trend():
+    rng = np.random.default_rng(3)
+    ppr = 52000
+    theta = np.linspace(0, 30 * ARCSEC, 400)
+    phase = np.mod(theta * ppr + 0.3, TWO_PI)
+    err = 0.1 * np.cos(phase + 0.2) + 0.05 * np.sin(2 * phase)
+    dev = theta + (err + 0.02 + 3e-3 * theta / ARCSEC) * ARCSEC + rng.normal(0, 1e-3, 400) * ARCSEC
+    r = interp.fit_interpolation_error(dev, phase, theta, ppr, harmonics=3)
+    g = np.linspace(0, TWO_PI, 100)
+    want = 0.1 * np.cos(g + 0.2) + 0.05 * np.sin(2 * g)
+    assert np.abs(r.error(g) - want).max() < 6 * r.error.uncertainty(g).max()
+    assert r.error.amplitude[0] == pytest.approx(0.1, abs=5e-4)
+    assert r.residual_rms == pytest.approx(1e-3, rel=0.2)
+    assert interp.figures(want)["pp"] == pytest.approx(r.figures()["pp"], abs=2e-3)
+
+
+def test_probe_rotation_cancels_translation():
+    rot = np.linspace(0, 1e-4, 11)
+    y = 50e-9 * np.sin(np.arange(11))
+    s1, s2 = 0.2 * rot + y, -0.2 * rot + y
+    assert np.allclose(interp.probe_rotation([s1, s2], [0.2, 0.2], [1, -1]), rot, atol=1e-15)
+    with pytest.raises(Exception, match="L = 0"):
+        interp.probe_rotation([s1], [0.0], [1])
+
+
+def test_summary_meta_is_json(sweep, tmp_path):
+    header, _, _ = check(f"{sweep} --heads P2", tmp_path / "j.parquet")
+    json.dumps(header.meta)
+    h = header.meta["curves"]["P2"]["harmonics"]
+    assert [x["n"] for x in h] == [1, 2, 3, 4]
