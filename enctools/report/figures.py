@@ -118,7 +118,8 @@ def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
         msg = f"{x.size} angles but {y.size} values"
         raise DataError(msg)
     phase_arg = np.mod(x, period) * (TWO_PI / period)
-    distinct = np.unique(np.round(phase_arg, 9)).size
+    # positions closer than 1e-4 of the period are one position (repeated readings)
+    distinct = int(np.sum(np.diff(np.sort(phase_arg)) > 1e-4 * TWO_PI)) + 1
     limit = (distinct - 1) // 2
     if nmax is None or nmax > limit:
         nmax = limit
@@ -135,9 +136,18 @@ def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
             c[-1] /= 2.0
         a, b = c.real, -c.imag
     else:
-        n = np.arange(nmax + 1)
-        design = np.hstack([np.cos(np.outer(phase_arg, n)), np.sin(np.outer(phase_arg, n[1:]))])
-        coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+        while True:   # lower nmax until the positions determine every harmonic well
+            n = np.arange(nmax + 1)
+            design = np.hstack([np.cos(np.outer(phase_arg, n)),
+                                np.sin(np.outer(phase_arg, n[1:]))])
+            if nmax <= 1 or np.linalg.cond(design) < 1e6:
+                break
+            nmax -= 1
+        coef, _, rank, _ = np.linalg.lstsq(design, y, rcond=1e-8)
+        if rank < design.shape[1]:
+            msg = (f"harmonics up to n={nmax} are not determined by these positions "
+                   f"(rank {rank} of {design.shape[1]}); lower --nmax")
+            raise DataError(msg)
         a = coef[: nmax + 1]
         b = np.concatenate([[0.0], coef[nmax + 1:]])
     n = np.arange(nmax + 1)

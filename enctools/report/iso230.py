@@ -116,8 +116,35 @@ def _direction(pos_index: np.ndarray, x: np.ndarray, m: int, label: str,
                             A=float((mean + 2 * s).max() - (mean - 2 * s).min()))
 
 
+def target_positions(position_deg: np.ndarray, tol_deg: float = 0.01, circular: bool = False
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Group measured positions [deg] into targets: positions closer than ``tol_deg``
+    (after sorting) are one target; ``circular``: modulo 360 deg, so 359.999 and 0.001
+    are one target. Returns (target [deg], index of each reading's target, readings
+    per target); a target is its group's mean (circular mean when circular)."""
+    p = np.asarray(position_deg, dtype=np.float64)
+    if circular:
+        p = np.mod(p, 360.0)
+    order = np.argsort(p, kind="stable")
+    new = np.concatenate([[True], np.diff(p[order]) > tol_deg])
+    group_sorted = np.cumsum(new) - 1
+    if circular and group_sorted[-1] > 0 and p[order][0] + 360.0 - p[order][-1] <= tol_deg:
+        group_sorted[group_sorted == group_sorted[-1]] = 0     # the wrap joins last to first
+    index = np.empty(p.size, np.int64)
+    index[order] = group_sorted
+    counts = np.bincount(index)
+    if circular:
+        z = np.bincount(index, weights=np.cos(np.radians(p))) + \
+            1j * np.bincount(index, weights=np.sin(np.radians(p)))
+        targets = np.mod(np.degrees(np.angle(z)), 360.0)
+        targets[np.abs(targets - 360.0) < 1e-9] = 0.0
+    else:
+        targets = np.bincount(index, weights=p) / counts
+    return targets, index, counts
+
+
 def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
-             decimals: int = 6) -> Iso230:
+             tol_deg: float = 0.01, circular: bool = False) -> Iso230:
     """ISO 230-2 figures from every reading of a step run.
 
     Parameters
@@ -127,9 +154,10 @@ def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndar
     direction : +1 (approach from below) / -1 (from above) per reading; None: all up.
         Each reading counts as one run at its position (average the readings of one
         visit first if a run takes several readings per target).
-    decimals : positions equal to this many decimals of a degree are one target.
+    tol_deg : measured positions closer than this [deg] are one target position.
+    circular : group positions modulo 360 deg (rotary axis, measured positions).
     """
-    p = np.round(np.asarray(position_deg, dtype=np.float64), decimals)
+    p = np.asarray(position_deg, dtype=np.float64)
     x = np.asarray(deviation, dtype=np.float64)
     d = np.ones(p.shape, np.int64) if direction is None else np.asarray(direction, np.int64)
     if not (p.size == x.size == d.size) or p.size == 0:
@@ -142,7 +170,10 @@ def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndar
     if np.any(bad):
         msg = f"ISO 230-2: direction must be +1 or -1, found {int(d[bad][0])}"
         raise DataError(msg)
-    positions, index = np.unique(p, return_inverse=True)
+    if not np.all(np.isfinite(p)):
+        msg = "ISO 230-2: a position is NaN or infinite"
+        raise DataError(msg)
+    positions, index, _ = target_positions(p, tol_deg, circular)
     m = positions.size
     warnings: list[str] = []
     up = _direction(index[d == UP], x[d == UP], m, "up", warnings) if np.any(d == UP) else None

@@ -31,7 +31,7 @@ from ..schemas import columns_with_role, field_meta
 from ..streams import InputStream
 from ..units import ARCSEC, DEG, TWO_PI
 from .figures import Figures, Harmonics, curve_figures, expanded_uncertainty, harmonics
-from .iso230 import Iso230, iso230_2
+from .iso230 import Iso230, iso230_2, target_positions
 
 #: Lissajous plots keep at most this many samples per head
 LISSAJOUS_POINTS = 4000
@@ -208,8 +208,14 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
     if not np.all(np.isfinite(pos_deg)):
         msg = f"{s.source}: a position is NaN or infinite"
         raise DataError(msg)
+    unique, index, counts = target_positions(pos_deg)
     key = np.round(pos_deg, 6)
-    unique, index, counts = np.unique(key, return_inverse=True, return_counts=True)
+    if not np.all(counts == 1):
+        unique, index, counts = target_positions(pos_deg, circular=True)
+        order = np.argsort(unique)          # targets in increasing angle
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        unique, index, counts = unique[order], rank[index], counts[order]
     if np.all(counts == 1):
         curve = _curve(name, "arcsec", role, pos_deg * DEG, dev, opts, s.source)
         closing = np.round(np.mod(key, 360.0), 6)
@@ -226,7 +232,7 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                        "its figures use the mean deviation per position")
         if np.min(counts) >= 2:
             try:
-                s.iso = iso230_2(pos_deg, dev, direction)
+                s.iso = iso230_2(pos_deg, dev, direction, circular=True)
             except DataError as exc:
                 s.notes.append(f"no ISO 230-2 figures: {exc}")
             else:
@@ -262,14 +268,13 @@ def _model(stream: InputStream, s: Section, opts: Options) -> None:
         for k, v in residuals.items():
             if isinstance(v, (int, float)):
                 s.info[f"residual {k}"] = v
-    weights = _col(table, "weight")
-    if "centre" in table.schema.names:
-        s.curves.append(_curve("weight", "arcsec", "model", _col(table, "centre") * DEG,
-                               weights, Options(opts.top_harmonics, 0), s.source))
-    elif "n" in table.schema.names:
-        n = table.column("n").to_numpy(zero_copy_only=False).astype(np.int64)
-        b = _col(table, "weight_sin") if "weight_sin" in table.schema.names else 0 * weights
-        s.spectra.append(SpectrumRows("model", n, np.hypot(weights, b), np.arctan2(-b, weights)))
+    from ..models import from_stream  # the model's own evaluator (rbf or fourier)
+
+    evaluate = from_stream(stream.header, table, s.source)
+    grid = np.arange(720) * 0.5
+    s.curves.append(_curve("model", "arcsec", "model", grid * DEG,
+                           np.asarray(evaluate(grid), np.float64), opts, s.source))
+    s.notes.append("the model curve is evaluated every 0.5 deg; thresholds do not apply to it")
 
 
 def _rom(stream: InputStream, s: Section, opts: Options) -> None:

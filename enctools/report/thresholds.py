@@ -2,8 +2,9 @@
 
 Each check names the figure, the curve and the input at fault, e.g.
 ``p-p of deviation in before.parquet is 5.46 arcsec > --max-pp 3``.
-Figures in arcsec apply to deviation, points, positioning and model curves; radial
-motion [nm] has its own option; ROM corrections [count] are not checked.
+Figures in arcsec apply to deviation, points and positioning curves; radial
+motion [nm] has its own option; ROM corrections [count] and model curves (a fit,
+not a measurement) are not checked.
 """
 
 from __future__ import annotations
@@ -65,7 +66,8 @@ def parse_pairs(values: tuple[str, ...], option: str, key_type: type) -> dict:
 
 def _arcsec_curves(report: Report):  # noqa: ANN202
     for s, c in report.curves("arcsec"):
-        yield s, c
+        if c.role != "model":
+            yield s, c
 
 
 def check(report: Report, limits: Thresholds) -> list[str]:
