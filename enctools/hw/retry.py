@@ -87,7 +87,7 @@ def query(port: Port, text: str, policy: Policy) -> str:
         try:
             return port.read_line()
         except Timeout as exc:
-            partial = exc.partial
+            partial = exc.partial or partial
             got = f"; received {partial[:40]!r} without a line end" if partial else ""
             log.warning("%s: no answer to %r within %g s (attempt %d of %d)%s", where(port),
                         text, port.timeout_s, attempt, attempts, got)
@@ -101,14 +101,17 @@ def query(port: Port, text: str, policy: Policy) -> str:
 def read_line(port: Port, policy: Policy, what: str) -> str:
     """Read one line an instrument sends by itself (a streaming instrument), with retries."""
     attempts = policy.retries + 1
+    partial = b""
     for attempt in range(1, attempts + 1):
         try:
             return port.read_line()
-        except Timeout:
+        except Timeout as exc:
+            partial = exc.partial or partial
             log.warning("%s: no %s within %g s (attempt %d of %d)", where(port), what,
                         port.timeout_s, attempt, attempts)
+    got = (f"; received only {partial[:40]!r}, no line end" if partial else "")
     msg = (f"{where(port)}: no {what} after {attempts} attempt{'s' if attempts > 1 else ''} "
-           f"of {port.timeout_s:g} s ({port.hint()})")
+           f"of {port.timeout_s:g} s{got} ({port.hint()})")
     raise DeviceError(msg)
 
 

@@ -32,6 +32,7 @@ reported with the raw bytes and the port's settings. pyserial not installed is e
 from __future__ import annotations
 
 import logging
+import os
 from typing import Any
 
 from ..errors import DataError, DeviceError, UsageError
@@ -150,7 +151,9 @@ def open_port(name: str, cfg: dict[str, Any], rig: Rig, policy: retry.Policy) ->
                             write_timeout=policy.timeout_s, rtscts=bool(cfg.get("rtscts", False)),
                             xonxoff=bool(cfg.get("xonxoff", False)))
     except (serial.SerialException, OSError, ValueError) as exc:
-        msg = (f"instrument {name}: cannot open serial port {address}: {retry_text(exc)} "
+        errno_ = getattr(exc, "errno", None)
+        why = os.strerror(errno_) if isinstance(errno_, int) else retry_text(exc)
+        msg = (f"instrument {name}: cannot open serial port {address}: {why} "
                "(unplugged, busy, or a wrong port name?)")
         raise DeviceError(msg) from None
     port = SerialPort(name, ser, address, policy.timeout_s,
