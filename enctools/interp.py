@@ -434,7 +434,7 @@ def align_in_time(t: np.ndarray, t_ref: np.ndarray, values: Sequence[np.ndarray]
 def check_readings(table, heads: Sequence[str] | None = None, average: bool = False,
                    reference: str = "probes", reference_table=None,
                    probes: Sequence[str] | None = None, arm_m: float | None = None,
-                   harmonics: int = 4, keep: Sequence[int] | None = None,
+                   harmonics: int | None = None, keep: Sequence[int] | None = None,
                    reference_harmonics: int = 2, trend_degree: int = 1,
                    points: int = 256, reference_source: str = "reference") -> list[Curve]:
     """Interpolation error of heads of a readings table against a reference.
@@ -442,7 +442,10 @@ def check_readings(table, heads: Sequence[str] | None = None, average: bool = Fa
     ``heads`` (default every head but the reference) are checked one by one, or
     averaged into one device with ``average``. ``reference``: "probes" or a head
     name, taken from ``reference_table`` (matched by time t) when given, else from
-    ``table``. See :func:`fit_interpolation_error` for the rest.
+    ``table``. ``harmonics`` defaults to 4, or against an encoder of another signal
+    period to the highest kept order (the device's higher harmonics are small and
+    would share the sweep's few cycles with the reference's own error). See
+    :func:`fit_interpolation_error` for the rest.
     """
     from .readings import head_info
     from .schemas import columns_with_role
@@ -493,13 +496,14 @@ def check_readings(table, heads: Sequence[str] | None = None, average: bool = Fa
             raise DataError(msg)
         other_period = ref_info is not None and ref_info.periods_per_rev != info.periods_per_rev
         k_keep = list(keep) if keep is not None else ([1, 2] if other_period else None)
+        n_fit = harmonics if harmonics is not None else (max(k_keep) if other_period else 4)
         warnings = []
         if ref_info is not None and not other_period:
             warnings.append(f"{name}: the reference {ref_info.name} has the same signal period; "
                             f"the result is the difference of both heads' interpolation errors")
         r = fit_interpolation_error(
             dev_rad[rows], dev_phase[rows], ref_rad[rows], info.periods_per_rev,
-            harmonics=harmonics, keep=k_keep, trend_degree=trend_degree,
+            harmonics=n_fit, keep=k_keep, trend_degree=trend_degree,
             groups=None if groups is None else groups[rows],
             reference_phase=ref_phase[rows] if other_period else None,
             reference_orders=range(1, reference_harmonics + 1) if other_period else (),

@@ -43,8 +43,9 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
               help="Probe columns to average (default: every probe).")
 @click.option("--arm", "arm_m", type=float, default=None,
               help="Probe arm length L [m] (default: each probe's arm_m).")
-@click.option("--harmonics", type=int, default=4, show_default=True, callback=options.positive,
-              help="Harmonics of the signal period fitted.")
+@click.option("--harmonics", type=int, default=None, callback=options.positive,
+              help="Harmonics of the signal period fitted (default 4; against an encoder "
+                   "of another period, the highest --keep).")
 @click.option("--keep", default=None, callback=_int_list, metavar="N,N,...",
               help="Harmonics kept in the error curve (default: 1,2 against an encoder "
                    "of another signal period, else all fitted).")
@@ -70,7 +71,7 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @options.verbosity
 def command(input: str | None, heads: list[str] | None, average: bool, reference: str,
             reference_file: str | None, probes: list[str] | None, arm_m: float | None,
-            harmonics: int, keep: list[int] | None, reference_harmonics: int,
+            harmonics: int | None, keep: list[int] | None, reference_harmonics: int,
             trend_degree: int, points: int, signals_mode: bool, min_arc_deg: float,
             corrected: str | None, spectrum_path: str | None, tolerance: float | None,
             output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
