@@ -45,6 +45,7 @@ Missing pieces give one line: PyVISA not installed is exit 2 (install
 from __future__ import annotations
 
 import logging
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -130,7 +131,9 @@ class VisaPort:
     def read_line(self) -> str:
         errors = self._errors
         try:
-            reply = self.resource.read()
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                reply = self.resource.read()
         except errors.VisaIOError as exc:
             if exc.error_code == errors.StatusCode.error_timeout:
                 raise retry.Timeout() from None
@@ -140,6 +143,9 @@ class VisaPort:
             msg = (f"instrument {self.name} ({self.address}): garbled reply "
                    f"{exc.object[:40]!r}: not text")
             raise DeviceError(msg) from None
+        if any("termination" in str(w.message) for w in caught):
+            # The message ended (END) without the read termination: an incomplete line.
+            raise retry.Timeout(reply.encode(errors="replace"))
         log.debug("%s -> %r", self.name, reply)
         return reply
 
@@ -175,6 +181,11 @@ def open_port(name: str, cfg: dict[str, Any], rig: Rig, policy: retry.Policy) ->
         kw["encoding"] = str(cfg["encoding"])
     if "baudrate" in cfg:
         kw["baud_rate"] = int(cfg["baudrate"])
+    if library_spec(rig).endswith("@sim") and address not in rm.list_resources():
+        # pyvisa-sim opens any name; a real VISA library refuses unknown ones.
+        msg = (f"instrument {name}: cannot open VISA resource {address!r}: not in the "
+               "simulation file (unplugged, switched off, or a wrong resource name?)")
+        raise DeviceError(msg)
     try:
         res = rm.open_resource(address, **kw)
     except pyvisa.errors.VisaIOError as exc:
