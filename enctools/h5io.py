@@ -9,7 +9,9 @@ batch by batch without holding it whole.
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 from collections.abc import Callable, Iterator
 from typing import IO, Any
 
@@ -18,7 +20,16 @@ import pyarrow as pa
 
 from .errors import DataError
 
-_CHUNK = 65536
+_CHUNK = 65536  # rows per batch read
+_CHUNK_ROWS = 8192  # rows per HDF5 chunk: 64 KiB per float64 column
+_MARGIN = 4 << 20  # bytes kept free for HDF5's metadata when the file is closed
+
+
+def _ensure_space(path: str, nbytes: int) -> None:
+    """Raise ENOSPC before HDF5 meets a full disk: its failed writes can crash the process."""
+    st = os.statvfs(os.path.dirname(os.path.abspath(path)))
+    if st.f_bavail * st.f_frsize < nbytes + _MARGIN:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
 
 
 def _arrow_type_name(t: pa.DataType) -> str:
@@ -42,6 +53,8 @@ class TableWriter:
         self._h5 = h5py
         md = schema.metadata or {}
         kind = md.get(b"kind", b"table").decode()
+        self._path = path
+        _ensure_space(path, 0)
         self._file = h5py.File(path, "w")
         self._group = self._file.create_group(kind)
         self._group.attrs["kind"] = kind
@@ -58,12 +71,13 @@ class TableWriter:
                     msg = f"HDF5 output cannot hold column {f.name!r} of type {f.type}"
                     raise DataError(msg) from None
             ds = self._group.create_dataset(f.name, shape=(0,), maxshape=(None,), dtype=dtype,
-                                            chunks=(_CHUNK,))
+                                            chunks=(_CHUNK_ROWS,))
             ds.attrs["arrow_type"] = _arrow_type_name(f.type)
             for k, v in (f.metadata or {}).items():
                 ds.attrs[k.decode()] = v.decode()
 
     def write_batch(self, batch: pa.RecordBatch) -> None:
+        _ensure_space(self._path, int(batch.nbytes * 1.1))
         n = batch.num_rows
         for name, col in zip(self._names, batch.columns):
             if col.null_count:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import sys
 import tempfile
 import time
@@ -416,8 +417,12 @@ class OutputStream:
         else:
             self.format = format_for_path(self.path, fmt)
             p = Path(self.path)
-            fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp",
-                                       dir=str(p.parent) if str(p.parent) else ".")
+            try:
+                fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp",
+                                           dir=str(p.parent) if str(p.parent) else ".")
+            except OSError as exc:
+                msg = f"output {self.path}: cannot create a file in {p.parent}: {exc.strerror}"
+                raise UsageError(msg) from None
             os.close(fd)
             self._tmp = tmp
             self._sink = None
@@ -435,6 +440,9 @@ class OutputStream:
                 return pq.ParquetWriter(target, self._schema)
             from . import h5io
             return h5io.TableWriter(target, self._schema)
+        except OSError as exc:
+            self._discard()
+            raise self._write_error(exc) from None
         except BaseException:
             self._discard()
             raise
@@ -447,18 +455,31 @@ class OutputStream:
             return
         if batch.schema.remove_metadata() != self._schema.remove_metadata():
             batch = pa.RecordBatch.from_arrays(batch.columns, schema=self._schema)
-        if self.format == "parquet":
+        try:
             self._writer.write_batch(batch)
-        else:
-            self._writer.write_batch(batch)
+        except OSError as exc:
+            raise self._write_error(exc) from None
         self.rows += batch.num_rows
+
+    def _write_error(self, exc: OSError) -> OSError | UsageError:
+        """A failed write as a one-line error naming the output (a closed pipe stays EPIPE)."""
+        text = str(exc)
+        if isinstance(exc, BrokenPipeError) or "Broken pipe" in text or "errno 32" in text:
+            return BrokenPipeError(32, "Broken pipe")
+        m = re.search(r"\[errno \d+\] (.*)", text)
+        reason = exc.strerror or (m.group(1) if m else text)
+        return UsageError(f"output {self.path or 'stdout'}: {reason}")
 
     def close(self) -> None:
         """Finish the stream; a named file is renamed into place."""
         if self._writer is None:
             return
         writer, self._writer = self._writer, None
-        writer.close()
+        try:
+            writer.close()
+        except OSError as exc:
+            self._discard()
+            raise self._write_error(exc) from None
         if self._tmp is not None:
             if Path(self.path).exists() and not self.force:  # appeared meanwhile
                 os.unlink(self._tmp)
