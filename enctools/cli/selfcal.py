@@ -1,0 +1,63 @@
+"""enc selfcal: graduation error (and radial motion) of a scale from several of its heads."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+@click.command("selfcal")
+@options.input_arg
+@click.option("--method", type=click.Choice(["fourier", "eda", "esa"]), default=None,
+              help="fourier: basic transfer-function method; eda: equal-division averaging; "
+                   "esa: four-head error separation (default with 4 heads).")
+@click.option("--ref", default=None, metavar="HEAD",
+              help="Reference head (default: the encoder's head nearest 0 deg).")
+@click.option("--heads", default=None, callback=options.name_list, metavar="H5,H6,H7",
+              help="The other heads (default: the encoder's heads that do not measure).")
+@click.option("--angle-from", "angle_from", default=None, callback=options.name_list,
+              metavar="H1,H2,...", help="Heads whose mean is the angle coordinate "
+              "(default: the encoder's measuring heads, else the reference).")
+@click.option("--band", type=int, default=100, show_default=True, callback=options.positive,
+              help="Highest harmonic K solved for.")
+@click.option("--points", type=int, default=1024, show_default=True, callback=options.positive,
+              help="Points of the output angle grid.")
+@click.option("--min-transfer", "min_transfer", type=float, default=0.1, show_default=True,
+              callback=options.positive,
+              help="Harmonics whose normalised |W(n)| is below this are ill-conditioned.")
+@click.option("--strict", is_flag=True, default=False,
+              help="Blind or ill-conditioned harmonics in the band are an error (exit 2).")
+@click.option("--spectrum", "spectrum_path", default=None, metavar="FILE",
+              type=click.Path(dir_okay=False),
+              help="Also write the spectrum (|W(n)|, u per harmonic) to FILE.")
+@options.outputs
+@options.verbosity
+def command(input: str | None, method: str | None, ref: str | None, heads: list[str] | None,
+            angle_from: list[str] | None, band: int, points: int, min_transfer: float,
+            strict: bool, spectrum_path: str | None, output: str | None, force: bool,
+            fmt: str | None, verbose: int, quiet: int, debug: bool) -> None:
+    """Self-calibrate a scale's graduation error from a continuous run of its heads.
+
+    Reads a readings stream, averages the revolutions and writes a deviations
+    stream: the graduation error [arcsec] on a uniform grid of the scale angle, its
+    standard uncertainty, and with esa the spindle's radial error motion x, y [nm].
+    """
+    runner.setup_logging(verbose, quiet)
+    runner.install_sigterm()
+    from .. import streams
+    from ..errors import UsageError
+    from ..selfcal import run
+
+    if points <= 2 * band:
+        raise UsageError(f"--points {points} cannot carry --band {band}: give more than {2 * band}")
+    streams.check_output(output, force, fmt)
+    if spectrum_path is not None:
+        streams.check_output(spectrum_path, force)
+    source = streams.open_input(input, "readings")
+    settings = {"method": method, "ref": ref, "heads": heads, "angle_from": angle_from,
+                "band": band, "points": points, "min_transfer": min_transfer, "strict": strict}
+    deviations, spectrum = run(source, settings, runner.Progress("revolutions", "rev"))
+    streams.write_table(output, streams.with_history(deviations[0]), deviations[1], force, fmt)
+    if spectrum_path is not None:
+        streams.write_table(spectrum_path, streams.with_history(spectrum[0]), spectrum[1], force)

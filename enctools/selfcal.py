@@ -1,0 +1,484 @@
+"""Self-calibration of a scale's graduation error from several heads of one encoder.
+
+Every method works harmonic by harmonic on the per-revolution spectra G_k(n) of
+the head errors relative to the angle coordinate (:mod:`enctools.harmonics`), all
+in rad. The head model is seed 000 eq. (1): ``G_k(n) = exp(i n alpha_k) F(n) + C(n)
++ [X(n) sin alpha_k - Y(n) cos alpha_k] / R`` with F the graduation error, C what
+all heads share (the coordinate's own error) and X, Y the spindle's radial error
+motion.
+
+- ``fourier``: the basic transfer-function method (Geckeler 2006; seed 000 refs
+  [13, 14]): least squares for F(n) and C(n) across all heads, radial motion
+  ignored. ``|W(n)| = sqrt(sum_k |exp(i n alpha_k) - mean_j exp(i n alpha_j)|^2)``;
+  blind where every head sees the same phase. Gives the 1st harmonic.
+- ``eda``: the equal-division averaged method: N equally spaced heads,
+  ``F(n) = mean_k exp(-i n alpha_k) G_k(n)``; the multiples of N are blind, and
+  radial motion leaks into the harmonics n = +/-1 (mod N).
+- ``esa``: the four-head error separation (seed 000 eqs. (11)-(18)): the weights
+  a1..a3 of eq. (14) cancel radial motion in the weighted sum of the differences to
+  the reference head, ``F(n) = E(n) / W(n)`` for n >= 2 (eqs. (15), (16)), the 1st
+  harmonic from the basic model, and x(theta), y(theta) from eqs. (17), (18).
+
+The 1st harmonic of radial motion cannot be told from the scale's eccentricity:
+it is reported as part of the graduation error (the simulator's truth does the same).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .errors import UsageError
+from .heads import format_orders
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+    from .readings import HeadInfo
+    from .streams import Header, InputStream
+
+METHODS = ("fourier", "eda", "esa")
+#: default: a harmonic whose normalised transfer |W(n)| / |a| is below this is ill-conditioned
+MIN_TRANSFER = 0.1
+_BLIND = 1e-9
+
+
+@dataclass
+class Solution:
+    """Coefficients c_0..c_K [rad] of the graduation error F and radial motion X, Y [m]."""
+
+    graduation: np.ndarray
+    x: np.ndarray | None = None
+    y: np.ndarray | None = None
+
+
+@dataclass
+class Conditioning:
+    """How well each harmonic 0..K is determined.
+
+    ``transfer``: |W(n)| as the method defines it (seed 000 eq. (15) with C = 1 for
+    esa); ``gain``: noise amplification, the factor from one head's noise to F(n)
+    (1 / normalised transfer); ``blind``/``ill``: harmonic orders 1..K that are not
+    determined / whose gain exceeds 1 / ``min_transfer``.
+    """
+
+    transfer: np.ndarray
+    gain: np.ndarray
+    blind: list[int] = field(default_factory=list)
+    ill: list[int] = field(default_factory=list)
+
+    def message(self) -> str | None:
+        parts = []
+        if self.blind:
+            parts.append(f"blind harmonics (|W(n)| = 0): {format_orders(self.blind)}")
+        if self.ill:
+            parts.append(f"ill-conditioned harmonics (noise gain > "
+                         f"{1 / self._limit:g}): {format_orders(self.ill)}")
+        return "; ".join(parts) or None
+
+    _limit: float = MIN_TRANSFER
+
+
+def esa_weights(alpha_ref: float, alphas: np.ndarray) -> np.ndarray:
+    """Weights a1..a3 that cancel radial motion in sum_j a_j (H_j - H_ref) (seed 000 eq. (14), C = 1).
+
+    They solve eq. (13) with the angles relative to the reference head: ``a = s x c`` with
+    ``s_j = sin(alpha_j) - sin(alpha_ref)``, ``c_j = cos(alpha_j) - cos(alpha_ref)``, which
+    is eq. (14) for alpha_ref = 0. Angles in rad.
+    """
+    al = np.asarray(alphas, dtype=np.float64)
+    if al.size != 3:
+        msg = f"esa needs exactly 3 heads besides the reference, not {al.size}"
+        raise UsageError(msg)
+    s = np.sin(al) - np.sin(alpha_ref)
+    c = np.cos(al) - np.cos(alpha_ref)
+    return np.cross(s, c)
+
+
+def esa_transfer(alpha_ref: float, alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """W(n) = sum_j a_j (exp(i n alpha_j) - exp(i n alpha_ref)) (seed 000 eq. (15)); angles in rad."""
+    a = esa_weights(alpha_ref, alphas)
+    n = np.asarray(n, dtype=np.float64)
+    return (a[None, :] * (np.exp(1j * np.outer(n, alphas)) - np.exp(1j * n * alpha_ref)[:, None])).sum(axis=1)
+
+
+def esa_noise_norm(alpha_ref: float, alphas: np.ndarray) -> float:
+    """sqrt(sum a_j^2 + (sum a_j)^2): the noise of E(n) per unit noise of one head."""
+    a = esa_weights(alpha_ref, alphas)
+    return float(np.sqrt(np.sum(a**2) + np.sum(a) ** 2))
+
+
+def fourier_transfer(alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Effective |W(n)| of the least-squares basic method over heads at ``alphas`` [rad].
+
+    ``sqrt(sum_k |exp(i n alpha_k) - mean_j exp(i n alpha_j)|^2)``: for two heads it is
+    |W_21(n)| / sqrt(2); the noise gain is its inverse.
+    """
+    w = np.exp(1j * np.outer(np.asarray(n, dtype=np.float64), alphas))
+    return np.sqrt(np.sum(np.abs(w - w.mean(axis=1, keepdims=True)) ** 2, axis=1))
+
+
+def fourier_solve(spectra: np.ndarray, alphas: np.ndarray) -> np.ndarray:
+    """Graduation coefficients F(n) [rad] by least squares across heads, radial motion ignored.
+
+    ``spectra``: (heads, K + 1) coefficients G_k(n) of each head's error relative to
+    any common coordinate. Blind harmonics come out 0.
+    """
+    n = np.arange(spectra.shape[1])
+    w = np.exp(1j * np.outer(alphas, n))  # (heads, K+1)
+    wc = w - w.mean(axis=0)
+    gc = spectra - spectra.mean(axis=0)
+    den = np.sum(np.abs(wc) ** 2, axis=0)
+    num = np.sum(np.conj(wc) * gc, axis=0)
+    out = np.zeros(spectra.shape[1], dtype=np.complex128)
+    ok = den > _BLIND * len(alphas)
+    out[ok] = num[ok] / den[ok]
+    out[0] = 0
+    return out
+
+
+def check_equal_spacing(alphas: np.ndarray, names: list[str], tol_deg: float = 0.05) -> None:
+    """UsageError unless the heads divide the circle equally (eda)."""
+    n = len(alphas)
+    a = np.sort(np.mod(alphas, 2 * np.pi))
+    gaps = np.diff(np.append(a, a[0] + 2 * np.pi))
+    if n < 2 or np.max(np.abs(gaps - 2 * np.pi / n)) > np.radians(tol_deg):
+        msg = (f"eda needs equally spaced heads; {', '.join(names)} are at "
+               f"{'/'.join(f'{np.degrees(x):g}' for x in alphas)} deg (use --method fourier or esa)")
+        raise UsageError(msg)
+
+
+class Method:
+    """A self-calibration method bound to a head arrangement and a band.
+
+    ``ref`` and ``heads``: the reference head's angle and the others' [rad]
+    (``fourier``/``eda`` treat them alike); ``radius_m``: scale radius [m].
+    """
+
+    def __init__(self, name: str, alpha_ref: float, alphas: np.ndarray, band: int,
+                 radius_m: float, names: list[str] | None = None,
+                 min_transfer: float = MIN_TRANSFER) -> None:
+        if name not in METHODS:
+            msg = f"--method must be one of {', '.join(METHODS)}, not {name!r}"
+            raise UsageError(msg)
+        self.name = name
+        self.alpha_ref = float(alpha_ref)
+        self.alphas = np.asarray(alphas, dtype=np.float64)
+        self.all_alphas = np.concatenate([[self.alpha_ref], self.alphas])
+        self.band = int(band)
+        self.radius_m = float(radius_m)
+        self.names = names or [f"head{k}" for k in range(len(self.all_alphas))]
+        self.min_transfer = float(min_transfer)
+        if name == "eda":
+            check_equal_spacing(self.all_alphas, self.names)
+        if name == "esa":
+            a = esa_weights(self.alpha_ref, self.alphas)
+            if np.max(np.abs(a)) < 1e-9:
+                msg = (f"esa: heads {', '.join(self.names)} cannot separate radial motion "
+                       "(collinear arrangement); choose other heads")
+                raise UsageError(msg)
+            self.weights = a
+        self.conditioning = self._conditioning()
+
+    @property
+    def separates_radial(self) -> bool:
+        return self.name == "esa"
+
+    def _conditioning(self) -> Conditioning:
+        n = np.arange(self.band + 1)
+        basic = fourier_transfer(self.all_alphas, n)
+        if self.name == "esa":
+            transfer = np.abs(esa_transfer(self.alpha_ref, self.alphas, n))
+            norm = esa_noise_norm(self.alpha_ref, self.alphas)
+            transfer[:2] = basic[:2]  # n = 1 from the basic model
+            normalised = transfer / norm
+            normalised[:2] = basic[:2]
+        else:
+            transfer = basic
+            normalised = basic
+        with np.errstate(divide="ignore"):
+            gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
+        blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
+        ill = [int(k) for k in n[1:] if _BLIND < normalised[k] < self.min_transfer]
+        cond = Conditioning(transfer, gain, blind, ill)
+        cond._limit = self.min_transfer
+        return cond
+
+    def solve(self, spectra: np.ndarray) -> Solution:
+        """Solve one set of head spectra (heads: ref first, then ``alphas``; rad) for F, X, Y."""
+        bad = self.conditioning.blind
+        if self.name in ("fourier", "eda"):
+            f = fourier_solve(spectra, self.all_alphas)
+            f[bad] = 0
+            return Solution(f)
+        return self._esa(spectra)
+
+    def _esa(self, spectra: np.ndarray) -> Solution:
+        """Seed 000 eqs. (12)-(18) on spectra (ref first, then the three heads)."""
+        n = np.arange(spectra.shape[1])
+        d = spectra[1:] - spectra[0]  # delta_j1(n), eq. (11)
+        e = (self.weights[:, None] * d).sum(axis=0)  # E(n), eqs. (12), (15)
+        w = esa_transfer(self.alpha_ref, self.alphas, n)
+        f = np.zeros_like(e)
+        ok = np.abs(w) / esa_noise_norm(self.alpha_ref, self.alphas) > _BLIND
+        ok[:2] = False
+        f[ok] = e[ok] / w[ok]  # eq. (16)
+        f[1] = fourier_solve(spectra[:, :2], self.all_alphas)[1]  # basic model
+        # radial motion: what the differences leave once F is removed (eqs. (17), (18)),
+        # least squares over the three differences
+        wj = np.exp(1j * np.outer(self.alphas, n)) - np.exp(1j * n * self.alpha_ref)
+        resid = (d - wj * f) * self.radius_m  # (3, K+1), [m]
+        s = np.sin(self.alphas) - np.sin(self.alpha_ref)
+        c = -(np.cos(self.alphas) - np.cos(self.alpha_ref))
+        m = np.stack([s, c], axis=1)  # resid = m @ [X, Y]
+        xy = np.linalg.lstsq(m, resid, rcond=None)[0]
+        x, y = xy[0], xy[1]
+        x[:2] = 0  # DC: not observable; 1st harmonic: counted as eccentricity in F
+        y[:2] = 0
+        return Solution(f, x, y)
+
+    def coordinate_error(self, sol: Solution, alphas: np.ndarray) -> np.ndarray:
+        """Coefficients [rad] of the error of a coordinate that is the mean of heads at ``alphas``."""
+        n = np.arange(sol.graduation.size)
+        c = np.exp(1j * np.outer(n, alphas)).mean(axis=1) * sol.graduation
+        if sol.x is not None and sol.y is not None:
+            c = c + (sol.x * np.mean(np.sin(alphas)) - sol.y * np.mean(np.cos(alphas))) / self.radius_m
+        c[0] = 0
+        return c
+
+
+def coordinate_correction(spectra: np.ndarray, coordinate_error: np.ndarray) -> np.ndarray:
+    """Spectra of the head errors against the true angle, from those against the coordinate.
+
+    Samples taken against u = theta + e(theta) give g(u - e(u)) ~ g(u) - g'(u) e(u);
+    this adds g'(u) e(u) back (first order; ``spectra`` (heads, K+1) and
+    ``coordinate_error`` (K+1,) in rad). Products are formed on a grid fine enough
+    that the band 0..K is free of aliasing.
+    """
+    from .harmonics import analyse, synthesize
+
+    k = spectra.shape[1] - 1
+    points = 1 << max(6, int(np.ceil(np.log2(3 * k + 2))))
+    n = np.arange(k + 1)
+    dg = synthesize(spectra * (1j * n), points)
+    e = synthesize(coordinate_error, points)
+    return spectra + analyse(dg * e, k)
+
+
+@dataclass
+class Result:
+    """What a self-calibration found, averaged over revolutions.
+
+    Coefficients c_0..c_K of the graduation error [arcsec] (function of the scale
+    angle) and of radial motion x, y [nm] (function of the spindle angle; esa only),
+    each with its standard uncertainty per harmonic [same unit] from the spread
+    between revolutions; curves on a ``points`` grid with pointwise uncertainties.
+    """
+
+    method: str
+    heads: list[str]
+    coordinate: list[str]
+    band: int
+    revolutions: int
+    conditioning: Conditioning
+    coefficients: dict[str, np.ndarray]
+    uncertainty: dict[str, np.ndarray]
+    curves: dict[str, np.ndarray]
+    curve_uncertainty: dict[str, np.ndarray]
+
+
+def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Method,
+              coordinate_alphas: np.ndarray, points: int, coordinate: list[str],
+              iterations: int = 2) -> Result:
+    """Average per-revolution head spectra and solve them with ``method``.
+
+    ``revolutions``: (index, spectra (heads, K+1) [rad], _) per revolution, heads in
+    the method's order (reference first); ``coordinate_alphas`` [rad]: the heads whose
+    mean is the angle coordinate, whose own error is corrected for afterwards
+    (:func:`coordinate_correction`, ``iterations`` times). Uncertainties are the
+    standard deviations of the per-revolution solutions over sqrt(revolutions).
+    Memory does not grow with the number of revolutions.
+    """
+    from .harmonics import RunningMean, synthesize
+    from .units import ARCSEC
+
+    spectra = RunningMean()
+    coef = {"graduation": RunningMean(), "x": RunningMean(), "y": RunningMean()}
+    curves = {"graduation": RunningMean(), "x": RunningMean(), "y": RunningMean()}
+    scale = {"graduation": 1.0 / ARCSEC, "x": 1e9, "y": 1e9}
+    for _, g, _ in revolutions:
+        spectra.add(g)
+        sol = method.solve(g)
+        for name, c in (("graduation", sol.graduation), ("x", sol.x), ("y", sol.y)):
+            if c is not None:
+                coef[name].add(c * scale[name])
+                curves[name].add(synthesize(c * scale[name], points))
+    if spectra.count < 2:
+        from .errors import DataError
+        msg = (f"input: {spectra.count} complete revolution(s) of the angle coordinate; "
+               "self-calibration needs at least 2 (record more: enc acquire --revolutions N)")
+        raise DataError(msg)
+    assert spectra.mean is not None
+    g = spectra.mean
+    sol = method.solve(g)
+    for _ in range(iterations):
+        sol = method.solve(coordinate_correction(g, method.coordinate_error(sol, coordinate_alphas)))
+    out_c: dict[str, np.ndarray] = {}
+    out_u: dict[str, np.ndarray] = {}
+    out_curves: dict[str, np.ndarray] = {}
+    out_cu: dict[str, np.ndarray] = {}
+    for name, c in (("graduation", sol.graduation), ("x", sol.x), ("y", sol.y)):
+        if c is None:
+            continue
+        out_c[name] = c * scale[name]
+        out_u[name] = coef[name].sem()
+        out_curves[name] = synthesize(out_c[name], points)
+        out_cu[name] = curves[name].sem()
+    return Result(method.name, list(method.names), coordinate, method.band, spectra.count,
+                  method.conditioning, out_c, out_u, out_curves, out_cu)
+
+
+@dataclass
+class Plan:
+    """Which heads a self-calibration reads, and how: resolved from a readings header."""
+
+    method: Method
+    heads: list["HeadInfo"]          # reference first
+    coordinate: list["HeadInfo"]
+    encoder: str
+
+
+def plan(schema: "pa.Schema", meta: dict, method: str | None, ref: str | None,
+         heads: list[str] | None, angle_from: list[str] | None, band: int,
+         min_transfer: float = MIN_TRANSFER, source: str = "input") -> Plan:
+    """Resolve the method, reference head, other heads and angle coordinate.
+
+    Defaults: the encoder with the most heads; the reference is its head nearest
+    0 deg; the other heads are those not among the rig's measuring heads
+    (``measure_heads``), else all others; ``esa`` when that makes three heads,
+    ``fourier`` otherwise. The angle coordinate is the mean of the encoder's measuring
+    heads when all are recorded (their average cancels radial motion), else the
+    reference head.
+    """
+    from .readings import head_info
+    from .readings import heads as all_heads
+
+    infos = all_heads(schema)
+    if not infos:
+        msg = f"{source}: readings stream has no head column"
+        raise UsageError(msg)
+    by_name = {h.name: h for h in infos}
+    for name in ([ref] if ref else []) + (heads or []) + (angle_from or []):
+        head_info(schema, name, source)  # DataError naming the heads present
+    if ref:
+        encoder = by_name[ref].encoder
+    elif heads:
+        encoder = by_name[heads[0]].encoder
+    else:
+        counts: dict[str, int] = {}
+        for h in infos:
+            counts[h.encoder] = counts.get(h.encoder, 0) + 1
+        encoder = max(counts, key=lambda e: counts[e])
+    enc_heads = [h for h in infos if h.encoder == encoder]
+    rig_enc = next((e for e in (meta.get("rig") or {}).get("encoders", [])
+                    if e.get("name") == encoder), {})
+    measure = [n for n in rig_enc.get("measure_heads", []) if n in by_name]
+    if ref is None:
+        ref = min(enc_heads, key=lambda h: min(h.alpha % (2 * np.pi),
+                                               2 * np.pi - h.alpha % (2 * np.pi))).name
+    if heads is None:
+        others = [h.name for h in enc_heads if h.name != ref and h.name not in measure]
+        heads = others if len(others) >= 1 else [h.name for h in enc_heads if h.name != ref]
+    if ref in heads:
+        heads = [h for h in heads if h != ref]
+    chosen = [by_name[ref]] + [by_name[h] for h in heads]
+    mixed = [h.name for h in chosen if h.encoder != encoder]
+    if mixed:
+        msg = (f"--heads: {', '.join(mixed)} belong to another encoder than {ref} ({encoder}); "
+               "self-calibration uses heads of one scale")
+        raise UsageError(msg)
+    if len(chosen) < 2:
+        msg = f"self-calibration needs at least 2 heads of encoder {encoder}; give --heads"
+        raise UsageError(msg)
+    if method is None:
+        method = "esa" if len(chosen) == 4 else "fourier"
+    if method == "esa" and len(chosen) != 4:
+        msg = (f"esa needs the reference and exactly 3 more heads, not {len(chosen)} heads "
+               f"({', '.join(h.name for h in chosen)}); use --method fourier")
+        raise UsageError(msg)
+    if angle_from is None:
+        full = len(measure) == len(rig_enc.get("measure_heads", [None])) and len(measure) > 1
+        angle_from = measure if full else [ref]
+    coordinate = [by_name[n] for n in angle_from]
+    m = Method(method, chosen[0].alpha, np.array([h.alpha for h in chosen[1:]]), band,
+               chosen[0].radius_m, [h.name for h in chosen], min_transfer)
+    return Plan(m, chosen, coordinate, encoder)
+
+
+def run(source: "InputStream", settings: dict, progress: object = None
+        ) -> tuple[tuple["Header", "pa.Table"], tuple["Header", "pa.Table"]]:
+    """A readings stream in, (deviations, spectrum) headers and tables out.
+
+    ``settings``: method, ref, heads, angle_from, band, points, min_transfer, strict
+    (the options of enc selfcal). Warns about (or, strict, refuses) blind and
+    ill-conditioned harmonics before reading any data.
+    """
+    import logging
+
+    from .curves import Column, deviations_table, spectrum_table
+    from .errors import DataError
+    from .harmonics import ChannelSpec, grid, revolution_spectra
+
+    log = logging.getLogger("enctools")
+    if source.meta.get("mode") not in (None, "continuous"):
+        msg = (f"{source.source}: a {source.meta.get('mode')} run; self-calibration needs a "
+               "continuous run (enc acquire --mode continuous)")
+        raise DataError(msg)
+    p = plan(source.schema, source.meta, settings.get("method"), settings.get("ref"),
+             settings.get("heads"), settings.get("angle_from"), int(settings["band"]),
+             float(settings.get("min_transfer", MIN_TRANSFER)), source.source)
+    cond = p.method.conditioning
+    problem = cond.message()
+    if problem:
+        where = f"{p.method.name} with {'/'.join(p.method.names)} up to n = {p.method.band}"
+        if settings.get("strict"):
+            raise UsageError(f"{where}: {problem} (--strict; narrow --band or move heads)")
+        log.warning("%s: %s; these harmonics are set to 0, not divided through", where, problem)
+    points = int(settings["points"])
+    spec = ChannelSpec(tuple(p.heads), tuple(p.coordinate))
+    total = int(float((source.meta.get("settings") or {}).get("revolutions") or 0))
+
+    def tick(done: int) -> None:
+        if progress is not None:
+            progress(done, max(total, done))  # type: ignore[operator]
+
+    revs = revolution_spectra(source.batches(), spec, p.method.band, source.source, tick)
+    res = calibrate(revs, p.method, np.array([h.alpha for h in p.coordinate]), points,
+                    [h.name for h in p.coordinate])
+    log.info("%s: %d revolutions of %s, harmonics 1..%d", p.method.name, res.revolutions,
+             "/".join(res.heads), res.band)
+    eff = {"method": p.method.name, "ref": p.heads[0].name, "heads": [h.name for h in p.heads[1:]],
+           "angle_from": res.coordinate, "band": p.method.band, "points": points,
+           "min_transfer": p.method.min_transfer, "strict": bool(settings.get("strict")),
+           "encoder": p.encoder, "revolutions": res.revolutions}
+    cols = [Column("graduation", res.curves["graduation"], "deviation", "arcsec",
+                   {"encoder": p.encoder, "argument": "scale angle",
+                    "method": p.method.name}),
+            Column("u_graduation", res.curve_uncertainty["graduation"], "uncertainty", "arcsec",
+                   {"of": "graduation"})]
+    for ax in ("x", "y"):
+        if ax in res.curves:
+            cols.append(Column(ax, res.curves[ax], "radial", "nm",
+                               {"encoder": p.encoder, "argument": "spindle angle",
+                                "u_rms_nm": f"{float(np.sqrt(np.mean(res.curve_uncertainty[ax] ** 2))):.4g}"}))
+    table = deviations_table(grid(points), cols)
+    meta = {"settings": eff, "blind": cond.blind, "ill_conditioned": cond.ill,
+            "domain": "revolution"}
+    dev_header = source.header.derive("deviations", table.schema, **meta)
+    st = spectrum_table([("graduation", res.coefficients["graduation"], cond.transfer,
+                          res.uncertainty["graduation"])])
+    spec_header = source.header.derive("spectrum", st.schema, **meta)
+    return (dev_header, table), (spec_header, st)
