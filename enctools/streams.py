@@ -467,7 +467,7 @@ class OutputStream:
         if isinstance(exc, BrokenPipeError) or "Broken pipe" in text or "errno 32" in text:
             return BrokenPipeError(32, "Broken pipe")
         m = re.search(r"\[errno \d+\] (.*)", text)
-        reason = exc.strerror or (m.group(1) if m else text)
+        reason = m.group(1) if m else (exc.strerror or text)
         return UsageError(f"output {self.path or 'stdout'}: {reason}")
 
     def close(self) -> None:
