@@ -106,15 +106,20 @@ def _summary_rows(report: Report) -> list[list[str]]:
     return rows
 
 
-def _harmonics_table(c: Curve, top: int) -> str:
-    if c.harmonics is None:
+def _harmonics_table(curves: Sequence[Curve], top: int) -> str:
+    """One row per curve: its largest harmonics as n: A @ p."""
+    rows = []
+    for c in curves:
+        if c.harmonics is None:
+            continue
+        h = c.harmonics.largest(top)
+        cells = [f"n={int(n)}: {float(a):.3f} @ {math.degrees(float(p)):.0f}°"
+                 for n, a, p in zip(h.n, h.amplitude, h.phase)]
+        rows.append([c.name, c.unit] + cells + [""] * (top - len(cells)))
+    if not rows:
         return ""
-    h = c.harmonics.largest(top)
-    rows = [[int(n), _f(float(a)), f"{math.degrees(float(p)):.1f}"]
-            for n, a, p in zip(h.n, h.amplitude, h.phase)]
-    return (f"<p class='note'>Largest harmonics of {_e(c.name)} "
-            f"(A cos(n x + p), [{_e(c.unit)}]):</p>"
-            + _table(["n", f"A [{c.unit}]", "p [deg]"], rows, left=0))
+    return ("<p class='note'>Largest harmonics, A cos(n x + p): n, amplitude A, phase p.</p>"
+            + _table(["curve", "unit"] + [f"#{i + 1}" for i in range(top)], rows, left=2))
 
 
 def _iso_html(s: Section) -> str:
@@ -157,8 +162,8 @@ def _section_html(s: Section, top: int) -> str:
         out.append(_table(["", ""], [[k, v] for k, v in s.info.items()]))
     for caption, fig in plots.section_figures(s, top):
         out.append(_img(fig, caption))
+    out.append(_harmonics_table(s.curves, top))
     for c in s.curves:
-        out.append(_harmonics_table(c, top))
         if "std_distinct" in c.extra:
             out.append(f"<p class='note'>{_e(c.name)}: s over the {c.figures.n} rows as given "
                        f"{_f(c.figures.std)}; over distinct positions (closing row dropped) "

@@ -66,8 +66,23 @@ def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
         ax.set_xticks(np.arange(0, 361, 45))
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
+    _legend(ax, len(curves))
     return fig
+
+
+def _legend(ax: Any, count: int) -> None:
+    if count > 3:   # many curves: beside the plot, not over the data
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    else:
+        ax.legend(fontsize=7, loc="best")
+
+
+def _last_significant(rows: Sequence[SpectrumRows]) -> int:
+    """Highest order whose amplitude reaches 2 % of the largest (at least 10)."""
+    top = max(float(np.max(sp.amplitude[sp.n > 0], initial=0.0)) for sp in rows) or 1.0
+    last = max((int(sp.n[(sp.n > 0) & (sp.amplitude >= 0.02 * top)].max(initial=0))
+                for sp in rows), default=0)
+    return max(10, last + 2)
 
 
 def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") -> Figure:
@@ -83,10 +98,11 @@ def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") ->
                yerr=err, capsize=1.5, error_kw={"lw": 0.6}, label=sp.curve)
     ax.set_xlabel(f"harmonic order n [1/{per}]")
     ax.set_ylabel("amplitude [arcsec]")
+    ax.set_xlim(0, min(_last_significant(rows), max(int(sp.n.max()) for sp in rows)) + 0.6)
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3, axis="y")
     if len(rows) > 1 or rows[0].u is not None:
-        ax.legend(fontsize=7)
+        _legend(ax, len(rows))
     return fig
 
 
@@ -128,9 +144,11 @@ def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:
     ax.set_rticks(ticks)
     ax.set_yticklabels([f"{t - base + lo:.0f} nm" for t in ticks], fontsize=7)
     ax.set_rlim(0, base + 1.1 * span)
-    ax.set_xlabel("spindle angle [deg]; radius: radial error motion [nm]", fontsize=8)
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(-0.1, -0.15))
+    ax.set_xlabel("spindle angle [deg]; radius: radial error motion [nm]", fontsize=8,
+                  labelpad=14)
+    ax.set_title(f"{title}\n{traces[0][0] if len(traces) == 1 else ''}", fontsize=9)
+    if len(traces) > 1:
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.05, 1.0))
     return fig
 
 
@@ -145,7 +163,7 @@ def lissajous_plot(signals: dict[str, tuple[np.ndarray, np.ndarray]], title: str
     ax.set_ylabel("sin signal (Q) [V]")
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, markerscale=6)
+    _legend(ax, len(signals))
     return fig
 
 

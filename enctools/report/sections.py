@@ -204,14 +204,19 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
 
 
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
-                 direction: np.ndarray | None, opts: Options, name: str, role: str) -> None:
+                 direction: np.ndarray | None, opts: Options, name: str, role: str,
+                 tol_deg: float = 0.01) -> None:
+    """Points -> one curve (means per target when positions repeat) and ISO 230-2.
+
+    ``tol_deg``: measured positions closer than this are one target (commanded
+    targets of a readings stream are exact: a tiny tolerance)."""
     if not np.all(np.isfinite(pos_deg)):
         msg = f"{s.source}: a position is NaN or infinite"
         raise DataError(msg)
-    unique, index, counts = target_positions(pos_deg)
+    unique, index, counts = target_positions(pos_deg, tol_deg)
     key = np.round(pos_deg, 6)
     if not np.all(counts == 1):
-        unique, index, counts = target_positions(pos_deg, circular=True)
+        unique, index, counts = target_positions(pos_deg, tol_deg, circular=True)
         order = np.argsort(unique)          # targets in increasing angle
         rank = np.empty_like(order)
         rank[order] = np.arange(order.size)
@@ -232,7 +237,7 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                        "its figures use the mean deviation per position")
         if np.min(counts) >= 2:
             try:
-                s.iso = iso230_2(pos_deg, dev, direction, circular=True)
+                s.iso = iso230_2(pos_deg, dev, direction, tol_deg, circular=True)
             except DataError as exc:
                 s.notes.append(f"no ISO 230-2 figures: {exc}")
             else:
@@ -368,7 +373,7 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
                        f"{enc}) - target, mean removed (head zeros are set below one signal "
                        "period)")
         _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                     "positioning")
+                     "positioning", tol_deg=1e-9)
 
 
 def _encoder_angle(batch: pa.RecordBatch, heads: list[str],
