@@ -356,6 +356,8 @@ def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
         last_u = float(u[-1])
         values = np.stack([head_reading(_column(batch, h.name, source), h.counts_per_rev,
                                         h.zero_count, h.alpha) - u for h in spec.channels])
+        if du.size and not np.isfinite(spacing):
+            _check_stroboscopic(float(np.median(np.abs(du))), spec)
         spacing = float(np.median(np.abs(du))) if du.size else spacing
         for rev in splitter.feed(u, values):
             yield _analyse(rev, band, grid_points)
@@ -364,6 +366,40 @@ def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
     last = splitter.close(2.5 * spacing) if np.isfinite(spacing) else None
     if last is not None:
         yield _analyse(last, band, grid_points)
+
+
+#: a sample step within this many signal periods of a whole number is "stroboscopic"
+STROBOSCOPIC = 0.05
+
+
+def stroboscopic_heads(step: float, heads: tuple[HeadInfo, ...]) -> list[tuple[str, float]]:
+    """Heads whose signal phase barely moves from one sample to the next.
+
+    ``step``: angle between samples [rad]. When it is within :data:`STROBOSCOPIC` of
+    a whole number of signal periods, every sample meets the head's interpolation
+    error at nearly the same phase: speed jitter then turns it into low harmonics
+    that no averaging removes (seed 000 assumes them high-frequency). Returns
+    (head, periods per sample).
+    """
+    out = []
+    for h in heads:
+        periods = step * h.periods_per_rev / TWO_PI
+        if abs(periods - round(periods)) < STROBOSCOPIC and periods > 0.5:
+            out.append((h.name, periods))
+    return out
+
+
+def _check_stroboscopic(step: float, spec: ChannelSpec) -> None:
+    import logging
+
+    seen = {h.name: h for h in spec.channels + spec.coordinate}
+    bad = stroboscopic_heads(step, tuple(seen.values()))
+    if bad:
+        names = ", ".join(f"{n} ({p:.3f} signal periods per sample)" for n, p in bad)
+        logging.getLogger("enctools").warning(
+            "sampling is nearly synchronous with the signal period of %s: their "
+            "interpolation error aliases into low harmonics; record with another "
+            "sample interval (enc acquire --interval)", names)
 
 
 def _analyse(rev: Revolution, band: int,

@@ -15,8 +15,16 @@ eps(theta + alpha_k) and the spindle's radial error motion through
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    import pyarrow as pa
+
+    from .streams import Header, InputStream
 
 #: |A(n)| below this counts as cancelled, above 1 - this as passed
 TOLERANCE = 1e-9
@@ -116,3 +124,148 @@ def _ranges(ns: tuple[int, ...] | list[int], limit: int = 12) -> str:
 def format_orders(ns: list[int] | tuple[int, ...]) -> str:
     """A short human list of harmonic orders (ranges and arithmetic runs folded)."""
     return _ranges(ns)
+
+
+@dataclass(frozen=True)
+class AverageGroup:
+    """A new channel ``name`` = mean of ``heads`` (all of one encoder)."""
+
+    name: str
+    heads: tuple[str, ...]
+
+
+def default_name(heads: list[str] | tuple[str, ...], taken: set[str]) -> str:
+    """The paper's naming: H1..H4 -> H, P1,P2 -> P (the common letters), kept unique."""
+    import os.path
+
+    prefix = os.path.commonprefix(list(heads)).rstrip("0123456789_.-") or "avg"
+    name = prefix
+    k = 2
+    while name in taken:
+        name = f"{prefix}avg" if k == 2 else f"{prefix}avg{k}"
+        k += 1
+    return name
+
+
+def average_field(schema: "pa.Schema", group: AverageGroup, band: int = 100,
+                  source: str = "input") -> "pa.Field":
+    """The head field of an average of heads: exact integer sum of their counts.
+
+    The new column holds ``sum_k (counts_k)`` with ``counts_per_rev = N * cpr``,
+    ``interpolation = N * interpolation`` and ``zero_count = sum_k zero_count_k`` and
+    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.harmonics.head_reading`)
+    is exactly the mean of the heads' readings (seed 000 eqs. (3), (6)); no rounding.
+    Field metadata ``average_of`` names the heads; ``passes`` lists what A(n) keeps.
+    """
+    import pyarrow as pa
+
+    from .errors import DataError, UsageError
+    from .readings import head_info
+    from .schemas import make_field
+
+    infos = [head_info(schema, h, source) for h in group.heads]
+    if len(infos) < 1:
+        raise UsageError(f"--average {group.name}: no heads given")
+    encs = {i.encoder for i in infos}
+    cprs = {i.counts_per_rev for i in infos}
+    if len(encs) > 1 or len(cprs) > 1:
+        msg = (f"--average {group.name}: heads {', '.join(group.heads)} are of different "
+               f"encoders ({', '.join(sorted(encs))}); average heads of one scale")
+        raise UsageError(msg)
+    if len(set(group.heads)) != len(group.heads):
+        raise UsageError(f"--average {group.name}: a head is named twice")
+    if group.name in schema.names:
+        raise UsageError(f"--average {group.name}: the input already has a column {group.name!r}")
+    n = len(infos)
+    alphas = np.array([i.alpha for i in infos])
+    s = summarize_average(alphas, band)
+    i0 = infos[0]
+    if n * i0.counts_per_rev > (1 << 62) // 1024:
+        raise DataError(f"--average {group.name}: counts would overflow int64")
+    return make_field(group.name, pa.int64(), "count", "head", encoder=i0.encoder,
+                      alpha_deg=repr(float(np.degrees(alphas.mean()))),
+                      counts_per_rev=n * i0.counts_per_rev, periods_per_rev=i0.periods_per_rev,
+                      interpolation=n * i0.interpolation, radius_m=repr(i0.radius_m),
+                      zero_count=sum(i.zero_count for i in infos),
+                      average_of=",".join(group.heads),
+                      average_alphas_deg=",".join(repr(float(np.degrees(a))) for a in alphas),
+                      passes=format_orders(s.passed) or "none",
+                      radial_gain=f"{s.radial_gain:.3g}" if s.radial_gain > 1e-12 else "0")
+
+
+def average_column(batch: "pa.RecordBatch", group: AverageGroup) -> "pa.Array":
+    """The summed counts of the group's heads in one batch (int64, exact)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    total = batch.column(group.heads[0])
+    for h in group.heads[1:]:
+        total = pc.add_checked(total, batch.column(h))
+    return pa.array(total, pa.int64())
+
+
+def head_alphas(field: "pa.Field") -> np.ndarray:
+    """The angles [rad] of the heads behind a head column: one, or those it averages."""
+    from .schemas import field_meta
+
+    fm = field_meta(field)
+    if "average_alphas_deg" in fm:
+        return np.radians([float(a) for a in fm["average_alphas_deg"].split(",")])
+    return np.radians([float(fm["alpha_deg"])])
+
+
+def run(source: "InputStream", groups: list[tuple[str | None, list[str]]], band: int,
+        drop: bool = False) -> tuple["Header", "Iterator[pa.RecordBatch]"]:
+    """A readings stream in; the same stream with the averaged channels added, batch by batch.
+
+    ``groups``: (name or None, heads). Empty: each encoder's measuring heads
+    (rig metadata ``measure_heads``) that are recorded, when there are two or more.
+    """
+    import logging
+
+    import pyarrow as pa
+
+    from .errors import UsageError
+    from .readings import head_info
+    from .schemas import columns_with_role
+
+    log = logging.getLogger("enctools")
+    schema = source.schema
+    if not groups:
+        present = set(columns_with_role(schema, "head"))
+        for enc in (source.meta.get("rig") or {}).get("encoders", []):
+            hs = [h for h in enc.get("measure_heads", []) if h in present]
+            if len(hs) >= 2:
+                groups.append((None, hs))
+        if not groups:
+            msg = "no --average given and the rig names no measuring heads to average"
+            raise UsageError(msg)
+    taken = set(schema.names)
+    resolved: list[AverageGroup] = []
+    fields = []
+    for name, hs in groups:
+        g = AverageGroup(name or default_name(hs, taken), tuple(hs))
+        f = average_field(schema, g, band, source.source)
+        taken.add(g.name)
+        resolved.append(g)
+        fields.append(f)
+        alphas = np.array([head_info(schema, h).alpha for h in hs])
+        s = summarize_average(alphas, band)
+        log.info("%s", s.describe(g.name, list(hs)))
+        if s.radial_gain > 1e-9 and len(hs) > 1:
+            log.warning("%s: heads %s are not equally spaced: radial motion does not cancel "
+                        "(%.3g of it remains)", g.name, ",".join(hs), s.radial_gain)
+    dropped = {h for g in resolved for h in g.heads} if drop else set()
+    keep = [f for f in schema if f.name not in dropped]
+    out_schema = pa.schema(keep + fields)
+    header = source.header.derive("readings", out_schema,
+                                  **{k: v for k, v in source.meta.items()
+                                     if k in ("settings", "mode")})
+    header.meta["averages"] = {g.name: list(g.heads) for g in resolved}
+
+    def batches() -> "Iterator[pa.RecordBatch]":
+        for b in source.batches():
+            cols = [b.column(f.name) for f in keep] + [average_column(b, g) for g in resolved]
+            yield pa.RecordBatch.from_arrays(cols, schema=out_schema)
+
+    return header, batches()

@@ -1,0 +1,60 @@
+"""enc compare: deviation of a device (a head or head average) against a reference."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+@click.command("compare")
+@options.input_arg
+@click.option("--device", required=True, callback=options.name_list, metavar="HEAD[,HEAD...]",
+              help="Device channel: a head, an average channel, or heads to average.")
+@click.option("--ref", required=True, callback=options.name_list, metavar="HEAD[,HEAD...]",
+              help="Reference channel (its reading is the angle): a head, an average or heads.")
+@click.option("--band", type=int, default=100, show_default=True,
+              help="Keep harmonics 1..K (0: no band limit, angle bins instead).")
+@click.option("--points", type=int, default=1024, show_default=True, callback=options.positive,
+              help="Points of the output angle grid.")
+@click.option("--name", default=None, help="Name of the deviation column (default DEVICE-REF).")
+@click.option("--ref-curve", "ref_curve", default=None, metavar="FILE",
+              type=click.Path(dir_okay=False, allow_dash=False),
+              help="Calibrated error of the reference (deviations stream) to add back.")
+@click.option("--ref-column", "ref_column", default=None, metavar="NAME",
+              help="Column of --ref-curve (default: its first deviation column).")
+@click.option("--spectrum", "spectrum_path", default=None, metavar="FILE",
+              type=click.Path(dir_okay=False), help="Also write the spectrum to FILE (needs --band).")
+@options.outputs
+@options.verbosity
+def command(input: str | None, device: list[str], ref: list[str], band: int, points: int,
+            name: str | None, ref_curve: str | None, ref_column: str | None,
+            spectrum_path: str | None, output: str | None, force: bool, fmt: str | None,
+            verbose: int, quiet: int, debug: bool) -> None:
+    """Deviation of a device against a reference over a continuous run (seed 000 eqs. 7, 8, 10).
+
+    Averages the revolutions of the reference and keeps the first --band harmonics.
+    `enc compare --device H --ref P` after `enc average-heads` is eq. (10).
+    """
+    runner.setup_logging(verbose, quiet)
+    runner.install_sigterm()
+    from .. import streams
+    from ..compare import run
+    from ..errors import UsageError
+
+    if band < 0:
+        raise UsageError(f"--band must be >= 0, not {band}")
+    if spectrum_path is not None and band == 0:
+        raise UsageError("--spectrum needs a band limit (--band K > 0)")
+    streams.check_output(output, force, fmt)
+    if spectrum_path is not None:
+        streams.check_output(spectrum_path, force)
+    curve = None
+    if ref_curve is not None:
+        h, t = streams.read_table(ref_curve, "deviations")
+        curve = (h, t, ref_curve)
+    source = streams.open_input(input, "readings")
+    (dh, dt), spec = run(source, device, ref, band, points, name, curve, ref_column)
+    streams.write_table(output, streams.with_history(dh), dt, force, fmt)
+    if spectrum_path is not None and spec is not None:
+        streams.write_table(spectrum_path, streams.with_history(spec[0]), spec[1], force)
