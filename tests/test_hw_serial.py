@@ -53,7 +53,8 @@ class Emulator:
     """A table controller with counter inputs and a streaming autocollimator, on two ptys."""
 
     def __init__(self, ctl_baud: int = 115200, ac_baud: int = 9600, ac_period: float = 0.01,
-                 ac_silent_after_moves: int | None = None, ctl_garbage: bool = False) -> None:
+                 ac_silent_after_moves: int | None = None, ctl_garbage: bool = False,
+                 ctl_silent_after_counts: int | None = None) -> None:
         self.ctl_m, self.ctl_s = os.openpty()
         self.ac_m, self.ac_s = os.openpty()
         for fd in (self.ctl_s, self.ac_s):
@@ -65,6 +66,8 @@ class Emulator:
         self.ac_period = ac_period
         self.ac_silent_after_moves = ac_silent_after_moves
         self.moves = 0
+        self.ctl_silent_after_counts = ctl_silent_after_counts
+        self.counts_read = 0
         self.ctl_garbage = ctl_garbage
         self.theta = 0.0  # true table angle [rad]
         self.moving = 0
@@ -103,6 +106,9 @@ class Emulator:
 
     def _answer(self, line: str) -> None:
         self.commands.append(line)
+        if (self.ctl_silent_after_counts is not None
+                and self.counts_read >= self.ctl_silent_after_counts):
+            return  # the controller has hung: no reply to anything
         if self.ctl_garbage and line == "CNT?":
             self._send(self.ctl_m, "E-07 OVERFLOW")
             return
@@ -119,10 +125,11 @@ class Emulator:
             self._send(self.ctl_m, "1" if self.moving else "0")
             self.moving = max(0, self.moving - 1)
         elif line == "CNT?":
+            self.counts_read += 1
             self._send(self.ctl_m, self._counts())
         elif line == "ERR?":
             self._send(self.ctl_m, "0")
-        elif line == "ST":
+        elif line == "ST" or line.startswith("JOG "):
             self._send(self.ctl_m, "OK")
         else:
             self._send(self.ctl_m, "?")
@@ -203,6 +210,7 @@ in_position = "MS?"
 in_position_reply = "0"
 poll_s = 0.005
 stop = "ST"
+rotate = "JOG {{rpm:.3f}}"
 
 [polygon]
 faces = 24
@@ -352,3 +360,23 @@ def test_unknown_key_in_instrument_table_is_exit_2(tmp_path: Path) -> None:
         r = run(f"enc acquire --rig {rig} -o {tmp_path / 'x.parquet'}")
     line = one_error_line(r, 2)
     assert "unknown key 'baud'" in line and "baudrate" in line, line
+
+
+def test_counter_hangs_in_continuous_run(tmp_path: Path) -> None:
+    """The controller stops answering after 40 samples of a 100-sample run: exit 3,
+    the error names the counter query (not the failed stop that follows), the file
+    keeps every block read before."""
+    with Emulator(ctl_silent_after_counts=40) as emu:
+        rig = write_rig(tmp_path, rig_text(emu, timeout_s=0.1, retries=1))
+        out = tmp_path / "c.parquet"
+        r = run(f"enc acquire --rig {rig} --mode continuous --speed 60 --revolutions 1 "
+                f"--interval 0.01 -o {out}")
+    line = one_error_line(r, 3)
+    assert "no answer to 'CNT?' after 2 attempts" in line, line
+    assert "could not stop the table" in r.stderr.decode()
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(out)
+    assert 0 < t.num_rows < 40
+    ts = t.column("t").to_numpy()
+    assert np.all(np.diff(ts) > 0)

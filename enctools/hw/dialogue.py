@@ -30,6 +30,7 @@ from __future__ import annotations
 import difflib
 import logging
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -326,8 +327,16 @@ class LineAxis(Axis):
         self.link.command(tpl.format(rpm=speed * 60.0 / TWO_PI, deg_s=speed / DEG, rad_s=speed))
 
     def stop(self) -> None:
-        if self.stop_cmd:
+        """Stop turning; while another fault is being handled, a failure is only logged."""
+        if not self.stop_cmd:
+            return
+        unwinding = sys.exc_info()[0] is not None  # called from a finally during a fault
+        try:
             self.link.command(self.stop_cmd)
+        except DeviceError as exc:
+            if not unwinding:
+                raise
+            log.error("could not stop the table: %s", exc)
 
     def move_to(self, angle: float) -> None:
         text = self._need("move", self.move_tpl).format(
