@@ -83,6 +83,7 @@ def append_run(folder: str | os.PathLike[str], record: dict[str, Any]) -> Path:
         raise DataError(msg)
     table = pa.table({f.name: pa.array([rec.get(f.name)], f.type) for f in SCHEMA},
                      schema=SCHEMA)
+    _remove_stale(d)
     final = d / f"run-{rec['run_id']}.parquet"
     fd, tmp = tempfile.mkstemp(prefix=".run-", suffix=".parquet.tmp", dir=str(d))
     try:
@@ -107,6 +108,18 @@ def append_run(folder: str | os.PathLike[str], record: dict[str, Any]) -> Path:
     except OSError:
         pass
     return final
+
+
+def _remove_stale(d: Path, age_s: float = 86400.0) -> None:
+    """Remove temporary files of runs killed mid-write more than a day ago."""
+    import time
+    now = time.time()
+    for p in d.glob(".run-*.parquet.tmp"):
+        try:
+            if now - p.stat().st_mtime > age_s:
+                p.unlink()
+        except OSError:
+            pass
 
 
 @dataclass

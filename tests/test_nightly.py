@@ -1,0 +1,212 @@
+"""bin/enc-nightly and the history dataset: drift against the stored calibration, one
+row per run, two runs at once, a run killed mid-write, enc report --history."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from conftest import DATA, ROOT, run
+from enctools.report.history import SCHEMA, append_run, read_history
+
+NIGHTLY = str(ROOT / "bin" / "enc-nightly")
+
+
+def csv_campaign(table_no: int, sleep: float = 0.0) -> str:
+    """A campaign that 'measures' seed 001 table N (fast, deterministic)."""
+    pause = f"sleep {sleep} && " if sleep else ""
+    return f'{pause}enc points {DATA}/seed001_table{table_no}.csv -o "$OUT/result.parquet"'
+
+
+def nightly(hist: Path, cal: Path, *args: str, campaign: str | None = None):
+    cmd = [NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist), "--calibration", str(cal),
+           *args]
+    if campaign is not None:
+        cmd += ["--campaign", campaign]
+    return run(cmd)
+
+
+def test_first_night_stores_calibration_then_rechecks(tmp_path):
+    """Default campaign (re-acquire the polygon, enc points): night 1 stores the
+    calibration, night 2 with another noise seed stays within 0.2" of it."""
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    r = nightly(hist, cal, "--init")
+    assert r.returncode == 0, r.stderr.decode()
+    assert cal.exists() and "stored this run as the calibration" in r.stderr.decode()
+    seed2 = ('enc acquire --rig "$RIG" --mode steps --seed 77 | '
+             'enc points -o "$OUT/result.parquet"')
+    r = nightly(hist, cal, "--tolerance", "0.2", "--html", str(tmp_path / "n.html"),
+                campaign=seed2)
+    assert r.returncode == 0, r.stderr.decode()
+    assert ": ok: p-p" in r.stdout.decode()
+    h = read_history(hist)
+    assert h.runs == 2 and list(h.column("status")) == ["ok", "ok"]
+    drift = h.column("drift_max")
+    assert drift[0] == 0.0 and 0 < drift[1] < 0.2        # noise only: 0.05" per head
+    # the polygon run's figures: about 1.5" Bessel s, p-p about 5" (ciomp-23bit rig)
+    assert 1.0 < h.column("std")[1] < 2.0
+    summary = json.loads(h.column("summary_json")[1])
+    assert summary["drift"]["tolerance"] == 0.2
+    html = (tmp_path / "n.html").read_text()
+    assert "Nightly history" in html and "Within every threshold" in html
+
+
+def test_drift_beyond_tolerance_exits_1_and_is_recorded(tmp_path):
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    r = nightly(hist, cal, "--tolerance", "0.5", campaign=csv_campaign(2))   # "compensated"
+    assert r.returncode == 1
+    err = r.stderr.decode().strip().splitlines()
+    assert err[-1].startswith("enc-nightly: error: drift 2.628 arcsec > --tolerance 0.5")
+    h = read_history(hist)
+    assert list(h.column("status")) == ["ok", "drift"]
+    assert list(h.column("exit_code")) == [0, 1]
+    # drift = table 2 - table 1 at the same positions, mean removed
+    import numpy as np
+    t1 = np.loadtxt(DATA / "seed001_table1.csv", delimiter=",", comments="#", skiprows=3)
+    t2 = np.loadtxt(DATA / "seed001_table2.csv", delimiter=",", comments="#", skiprows=3)
+    d = t2[:, 1] - t1[:, 1]
+    d -= d.mean()
+    assert h.column("drift_max")[1] == pytest.approx(np.abs(d).max(), abs=1e-9)
+    r = run(["enc", "report", "--history", str(hist)])
+    assert r.returncode == 0
+    out = r.stdout.decode()
+    assert "2 run(s)" in out and "drift" in out and "2.628" in out
+
+
+@pytest.mark.parametrize("case, campaign, code", [
+    ("no calibration", None, 2),
+    ("device fault", "echo 'enc acquire: error: timeout' >&2; exit 3", 3),
+    ("no result", "true", 2),
+])
+def test_failed_runs_are_recorded(tmp_path, case, campaign, code):
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    if case != "no calibration":
+        assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    r = nightly(hist, cal, campaign=campaign or csv_campaign(1))
+    assert r.returncode == code
+    line = r.stderr.decode().strip().splitlines()[-1]
+    assert line.startswith("enc-nightly: error:")
+    h = read_history(hist)
+    assert h.column("status")[-1] == "error" and h.column("exit_code")[-1] == code
+
+
+def test_two_runs_at_once_both_land(tmp_path, enc):
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    env = dict(os.environ, PATH=f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}")
+    procs = [subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
+                               "--calibration", str(cal), "--campaign",
+                               csv_campaign(t, sleep=0.5), "--tolerance", "9"],
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+             for t in (1, 3)]
+    results = [p.communicate(timeout=120) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], results
+    h = read_history(hist)
+    assert h.runs == 3 and len(set(h.column("run_id"))) == 3
+    assert sorted(h.column("pp")[1:]) == pytest.approx([2.29, 5.46])
+
+
+_WRITERS = textwrap.dedent("""
+    import sys
+    from enctools.report.history import append_run
+    for i in range(int(sys.argv[2])):
+        append_run(sys.argv[1], {"rig": "w" + sys.argv[3], "status": "ok", "pp": float(i)})
+""")
+
+
+def test_many_concurrent_writers_lose_nothing(tmp_path):
+    procs = [subprocess.Popen([sys.executable, "-c", _WRITERS, str(tmp_path / "h"), "15", str(k)])
+             for k in range(4)]
+    assert [p.wait(timeout=120) for p in procs] == [0, 0, 0, 0]
+    h = read_history(tmp_path / "h")
+    assert h.runs == 60 and not h.skipped
+    assert sorted(h.column("rig").tolist()).count("w0") == 15
+
+
+_KILLED = textwrap.dedent("""
+    import os, signal, sys
+    import pyarrow.parquet as pq
+    from enctools.report import history
+
+    def half_then_die(table, where, **kw):
+        where.write(b"PAR1" + b"x" * 100)      # part of a file ...
+        where.flush()
+        os.kill(os.getpid(), signal.SIGKILL)   # ... then the power goes
+    pq.write_table = half_then_die
+    history.append_run(sys.argv[1], {"rig": "killed", "status": "ok"})
+""")
+
+
+def test_run_killed_mid_write_leaves_history_readable(tmp_path):
+    hist = tmp_path / "hist"
+    append_run(hist, {"rig": "before", "status": "ok", "pp": 1.0})
+    p = subprocess.run([sys.executable, "-c", _KILLED, str(hist)], capture_output=True)
+    assert p.returncode == -signal.SIGKILL
+    leftovers = [f.name for f in hist.iterdir()]
+    assert any(n.startswith(".run-") for n in leftovers)           # the half-written file
+    h = read_history(hist)
+    assert h.runs == 1 and h.column("rig").tolist() == ["before"] and not h.skipped
+    append_run(hist, {"rig": "after", "status": "ok"})
+    assert read_history(hist).runs == 2
+    import pyarrow.dataset as ds                                   # any Parquet reader
+    assert ds.dataset(str(hist), format="parquet").to_table().num_rows == 2
+    r = run(["enc", "report", "--history", str(hist)])
+    assert r.returncode == 0 and "2 run(s)" in r.stdout.decode()
+
+
+def test_killed_nightly_process_leaves_history_readable(tmp_path, enc):
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    env = dict(os.environ, PATH=f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}")
+    p = subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
+                          "--calibration", str(cal), "--campaign", "sleep 30"], env=env,
+                         start_new_session=True)
+    import time
+    time.sleep(1.0)
+    os.killpg(p.pid, signal.SIGKILL)
+    p.wait(timeout=30)
+    h = read_history(hist)
+    assert h.runs == 1 and not h.skipped
+
+
+def test_a_damaged_history_file_is_skipped_with_a_warning(tmp_path):
+    hist = tmp_path / "hist"
+    append_run(hist, {"rig": "good", "status": "ok"})
+    (hist / "run-damaged.parquet").write_bytes(b"PAR1 not really")
+    r = run(["enc", "report", "--history", str(hist), "--json"])
+    assert r.returncode == 0
+    assert "skipping unreadable run-damaged.parquet" in r.stderr.decode()
+    assert [row["rig"] for row in json.loads(r.stdout)["history"]] == ["good"]
+
+
+def test_history_files_have_the_schema(tmp_path):
+    f = append_run(tmp_path, {"rig": "x", "status": "ok", "drift_max": 0.1})
+    t = pq.read_table(f)
+    assert t.schema.remove_metadata() == SCHEMA.remove_metadata() and t.num_rows == 1
+
+
+def test_history_errors(tmp_path):
+    r = run(["enc", "report", "--history", str(tmp_path / "none")])
+    assert r.returncode == 2 and "no such folder" in r.stderr.decode()
+    r = run([NIGHTLY, "--rig", "x", "--history", str(tmp_path), "--calibration", "c.parquet",
+             "--tolerance", "-1"])
+    assert r.returncode == 2 and r.stderr.decode().startswith("enc-nightly: error:")
+    r = run([NIGHTLY, "--history", str(tmp_path)])
+    assert r.returncode == 2 and "--rig" in r.stderr.decode()
+
+
+def test_nightly_man_page_lists_every_option():
+    from enctools.report.nightly import command
+    page = (ROOT / "man" / "enc-nightly.1").read_text()
+    for p in command.params:
+        for opt in p.opts:
+            assert opt.replace("-", r"\-") in page, opt
