@@ -275,3 +275,39 @@ def test_summary_meta_is_json(sweep, tmp_path):
     json.dumps(header.meta)
     h = header.meta["curves"]["P2"]["harmonics"]
     assert [x["n"] for x in h] == [1, 2, 3, 4]
+
+
+def test_seed000_test1_p1_figures(tmp_path):
+    """Seed 000 table 1, test 1 (7.2" at 0.2", 37 points) on P1 and P2; fig. 10/11 figures:
+    P1 p-p 0.086-0.100" within +/-0.06", P2 p-p 0.124-0.140", encoder I within +/-0.1"."""
+    out = tmp_path / "t1.parquet"
+    r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 7.2 --step 0.2 --heads P1,P2 "
+            f"| enc interp-check -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    header, table = read_table(out)
+    truth = Truth.from_dict(header.meta["truth"])
+    theta = table["theta"].to_numpy()
+    for name in ("P1", "P2"):
+        want = zero_mean(read_phase_truth(truth.signals[name], theta, 180000))
+        assert np.abs(table[name].to_numpy() - want).max() < 0.01
+        assert header.meta["curves"][name]["periods_swept"] == pytest.approx(1.0, abs=0.01)
+        assert header.meta["curves"][name]["figures"]["plus_minus"] < 0.1
+    p1 = header.meta["curves"]["P1"]["figures"]
+    assert 0.08 < p1["pp"] < 0.12 and p1["plus_minus"] < 0.065
+    # P1 is dominated by its 1st harmonic, P2 has a clear 2nd (figs. 10, 11)
+    h1 = [h["amplitude"] for h in header.meta["curves"]["P1"]["harmonics"]]
+    h2 = [h["amplitude"] for h in header.meta["curves"]["P2"]["harmonics"]]
+    assert h1[1] < 0.1 * h1[0] and h2[1] > 0.4 * h2[0]
+
+
+def test_missing_probe_readings_are_skipped(sweep, tmp_path):
+    header, table = read_table(sweep)
+    s1 = table["S1"].to_numpy().copy()
+    s1[::7] = np.nan
+    holed = table.set_column(table.schema.get_field_index("S1"), table.schema.field("S1"),
+                             pa.array(s1))
+    src = tmp_path / "holes.parquet"
+    write_table(str(src), header, holed)
+    _, t, _ = check(f"{src} --heads H1", tmp_path / "h.parquet")
+    _, ref, _ = check(f"{sweep} --heads H1", tmp_path / "r.parquet")
+    assert np.abs(t["H1"].to_numpy() - ref["H1"].to_numpy()).max() < 0.005
