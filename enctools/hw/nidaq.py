@@ -49,7 +49,7 @@ from .base import Clock, Counter
 log = logging.getLogger("enctools.hw")
 
 COUNTER_KEYS = {"kind", "decoding", "sample_clock", "clock_counter", "buffer_s", "timeout_s"}
-HEAD_KEYS = {"channel", "z_index", "z_phase"}
+HEAD_KEYS = {"channel", "z_index"}
 DECODING = {"X1": 1, "X2": 2, "X4": 4}
 TIMEOUT_CODE = -200284  # DAQmx: some or all requested samples have not yet been acquired
 
