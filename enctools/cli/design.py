@@ -1,0 +1,72 @@
+"""enc design: analyse a head arrangement for self-calibration, or search for the best."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+@click.command("design")
+@click.option("--angles", default=None, callback=options.float_list, metavar="DEG,DEG,...",
+              help="Head angles [deg], the reference first (e.g. 0,60,135,228).")
+@click.option("--method", type=click.Choice(["esa", "fourier", "average"]), default=None,
+              help="Transfer function to analyse (default: esa for 4 heads, else fourier).")
+@click.option("--band", type=int, default=100, show_default=True, callback=options.positive,
+              help="Highest harmonic K.")
+@click.option("--min-transfer", "min_transfer", type=float, default=0.1, show_default=True,
+              callback=options.positive, help="Normalised |W(n)| below this is ill-conditioned.")
+@click.option("--mounting-error", "mounting_error", type=float, default=0.01, show_default=True,
+              help="RMS error of each head's mounting angle [deg] for the sensitivity.")
+@click.option("--search", "search_heads", type=int, default=None, metavar="M",
+              help="Search the arrangement of M heads maximising min |W(n)|.")
+@click.option("--step", "step_deg", type=float, default=1.0, show_default=True,
+              callback=options.positive, help="search: grid step [deg] before refinement.")
+@click.option("--min-gap", "min_gap", type=float, default=10.0, show_default=True,
+              help="search: least angle between neighbouring heads [deg].")
+@click.option("--criterion", type=click.Choice(["w", "gain"]), default="w", show_default=True,
+              help="search (esa): maximise min |W(n)| (w, as Jiao 2017) or min |W|/noise norm.")
+@click.option("--table", is_flag=True, default=False,
+              help="Print n, |W(n)|, normalised |W(n)|, noise gain, sensitivity as TSV.")
+@click.option("--strict", is_flag=True, default=False,
+              help="Exit 2 when the band holds blind or ill-conditioned harmonics.")
+@options.verbosity
+def command(angles: list[float] | None, method: str | None, band: int, min_transfer: float,
+            mounting_error: float, search_heads: int | None, step_deg: float, min_gap: float,
+            criterion: str, table: bool, strict: bool, verbose: int, quiet: int,
+            debug: bool) -> None:
+    """Transfer function |W(n)|, blind harmonics, noise gain and mounting sensitivity
+    of a head arrangement; with --search, the arrangement that maximises min |W(n)|."""
+    runner.setup_logging(verbose, quiet)
+    from .. import design
+    from ..errors import UsageError
+    from ..heads import format_orders
+
+    if angles is None and search_heads is None:
+        raise UsageError("give --angles DEG,... to analyse, or --search M to search")
+    if search_heads is not None:
+        res = design.search(search_heads, band, method or ("esa" if search_heads == 4 else "fourier"),
+                            step_deg, min_gap, criterion)
+        click.echo(f"best {search_heads}-head arrangement for n <= {band}: "
+                   f"{'/'.join(f'{a:g}' for a in res.angles_deg)} deg "
+                   f"({res.evaluated} arrangements scored, criterion {criterion})")
+        angles = list(res.angles_deg)
+    a = design.analyse(angles, band, method, min_transfer)
+    if table:
+        click.echo("n\ttransfer\tnormalised\tgain\tsensitivity_per_deg")
+        import numpy as np
+        for k in range(1, band + 1):
+            click.echo(f"{k}\t{a.transfer[k]:.6g}\t{a.normalised[k]:.6g}\t{a.gain[k]:.6g}\t"
+                       f"{a.sensitivity[k] * np.radians(1.0):.6g}")
+    else:
+        click.echo(design.report(a, mounting_error))
+    problems = []
+    if a.blind:
+        problems.append(f"blind harmonics {format_orders(a.blind)}")
+    if a.ill:
+        problems.append(f"ill-conditioned harmonics {format_orders(a.ill)}")
+    if problems:
+        msg = f"{'/'.join(f'{x:g}' for x in a.angles_deg)} deg up to n = {band}: {'; '.join(problems)}"
+        if strict:
+            raise UsageError(msg + " (--strict)")
+        runner.log.warning("%s", msg)

@@ -1,0 +1,280 @@
+"""Head arrangements for self-calibration: analyse one, or search for the best.
+
+For heads at angles alpha_k (the first is the reference) and a band of harmonics
+K this module gives |W(n)| of the method (esa: seed 000 eq. (15) with the weights of
+eq. (14), C = 1; fourier: the least-squares |W|; average: |A(n)|), the blind and
+ill-conditioned harmonics, min |W| and where, the noise amplification, and the
+sensitivity of the result to errors in the heads' mounting angles. The search
+finds the arrangement of m heads that maximises min |W(n)| over n = 2..K (esa) or
+1..K (fourier), as in Jiao et al. 2017 (seed 000 ref. [16]), on a grid refined
+around the best candidates.
+
+For 0/60/135/228 deg and esa, min |W| over 2..100 is 1.18 at n = 42; all four
+angles are multiples of 3 deg, so W(n) = 0 at n = 120 (and at 119, 121, aliases of
+n = 1 where W is always 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import UsageError
+from .heads import average_transfer
+from .selfcal import MIN_TRANSFER, esa_noise_norm, esa_transfer, esa_weights, fourier_transfer
+
+_BLIND = 1e-9
+
+
+@dataclass
+class Analysis:
+    """Per harmonic n = 0..K of an arrangement (angles in deg)."""
+
+    method: str
+    angles_deg: tuple[float, ...]
+    band: int
+    transfer: np.ndarray          # |W(n)| as the method defines it
+    normalised: np.ndarray        # |W(n)| / noise norm: 1 / noise gain
+    gain: np.ndarray              # noise amplification (one head's noise -> F(n))
+    sensitivity: np.ndarray       # RMS relative error of F(n) per rad of mounting error
+    first: int                    # first harmonic the criterion looks at
+    blind: list[int]
+    ill: list[int]
+    min_transfer: float
+
+    @property
+    def worst(self) -> tuple[float, int]:
+        """(min |W(n)|, n) over first..K, blind harmonics excluded."""
+        n = np.arange(self.first, self.band + 1)
+        w = self.transfer[n]
+        ok = self.normalised[n] > _BLIND
+        if not ok.any():
+            return 0.0, int(n[0])
+        i = int(np.argmin(np.where(ok, w, np.inf)))
+        return float(w[i]), int(n[i])
+
+    @property
+    def max_gain(self) -> tuple[float, int]:
+        """(largest finite noise gain, n) over first..K."""
+        n = np.arange(self.first, self.band + 1)
+        g = np.where(np.isfinite(self.gain[n]), self.gain[n], -np.inf)
+        i = int(np.argmax(g))
+        return float(g[i]), int(n[i])
+
+
+def analyse(angles_deg: list[float], band: int, method: str | None = None,
+            min_transfer: float = MIN_TRANSFER) -> Analysis:
+    """|W(n)|, blind/ill harmonics, noise gain and mounting sensitivity of an arrangement.
+
+    ``angles_deg``: head angles [deg], the reference first. ``method``: esa (4 heads),
+    fourier (any >= 2) or average (the mean of the heads: |A(n)|); default esa for 4
+    heads, else fourier. Sensitivity: first-order RMS relative error of F(n) when each
+    non-reference head is off its nominal angle by 1 rad (iid): ``n sqrt(sum a_j^2) /
+    |W(n)|`` for esa, ``n / |W(n)|`` scaled likewise for fourier.
+    """
+    al = np.radians(np.asarray(angles_deg, dtype=np.float64))
+    if al.size < 2 and method != "average":
+        raise UsageError("give at least 2 head angles (--angles 0,60,135,228)")
+    if len(set(np.round(np.mod(angles_deg, 360.0), 9))) != al.size:
+        raise UsageError(f"--angles: two heads at the same angle ({angles_deg})")
+    method = method or ("esa" if al.size == 4 else "fourier")
+    n = np.arange(band + 1)
+    if method == "esa":
+        if al.size != 4:
+            raise UsageError(f"esa needs 4 head angles, not {al.size}")
+        a = esa_weights(al[0], al[1:])
+        if np.max(np.abs(a)) < 1e-12:
+            raise UsageError(f"esa: heads at {angles_deg} cannot separate radial motion")
+        transfer = np.abs(esa_transfer(al[0], al[1:], n))
+        norm = esa_noise_norm(al[0], al[1:])
+        normalised = transfer / norm
+        basic = fourier_transfer(al, n)
+        transfer[1], normalised[1] = basic[1], basic[1]
+        sens = n * np.sqrt(np.sum(a**2)) / np.maximum(transfer, 1e-300)
+        sens[1] = 1.0 / max(basic[1], 1e-300)
+        first = 2
+    elif method == "fourier":
+        transfer = fourier_transfer(al, n)
+        normalised = transfer
+        sens = n * np.sqrt(al.size - 1) / np.maximum(transfer, 1e-300) / np.sqrt(al.size)
+        first = 1
+    elif method == "average":
+        transfer = np.abs(average_transfer(al, n))
+        normalised = transfer
+        sens = np.zeros(n.size)
+        first = 1
+    else:
+        raise UsageError(f"--method must be esa, fourier or average, not {method!r}")
+    transfer[0] = normalised[0] = 0.0
+    with np.errstate(divide="ignore"):
+        gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
+    sens = np.where(normalised > _BLIND, sens, np.inf)
+    blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
+    ill = [int(k) for k in n[1:] if _BLIND < normalised[k] < min_transfer]
+    if method == "average":
+        ill = []
+    return Analysis(method, tuple(float(x) for x in angles_deg), band, transfer, normalised,
+                    gain, sens, first, blind, ill, min_transfer)
+
+
+@dataclass
+class SearchResult:
+    """The best arrangement found and its min |W| (or min normalised |W|) over the band."""
+
+    angles_deg: tuple[float, ...]
+    score: float
+    criterion: str
+    evaluated: int
+
+
+def _esa_scores(angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray:
+    """min over n of |W(n)| (or |W| / noise norm) for candidate rows (ref at 0) [rad]."""
+    s = np.sin(angles)
+    c = np.cos(angles) - 1.0
+    a = np.cross(s, c)  # (N, 3), eq. (14)
+    out = np.empty(angles.shape[0])
+    for i0 in range(0, angles.shape[0], 8192):
+        sl = slice(i0, i0 + 8192)
+        w = np.zeros((a[sl].shape[0], n.size), dtype=np.complex128)
+        for j in range(3):
+            w += a[sl, j, None] * (np.exp(1j * angles[sl, j, None] * n[None, :]) - 1.0)
+        m = np.abs(w)
+        if criterion == "gain":
+            m = m / np.sqrt(np.sum(a[sl] ** 2, axis=1) + np.sum(a[sl], axis=1) ** 2)[:, None]
+        out[sl] = m.min(axis=1)
+    return out
+
+
+def _esa_grid_scores(idx: np.ndarray, step: float, n: np.ndarray, criterion: str) -> np.ndarray:
+    """As :func:`_esa_scores` for angles on a grid (indices into k * step deg): a table lookup."""
+    slots = np.arange(int(round(360.0 / step))) * np.radians(step)
+    table = np.exp(1j * np.outer(slots, n)) - 1.0  # (slots, K)
+    sn, cs = np.sin(slots), np.cos(slots) - 1.0
+    out = np.empty(idx.shape[0])
+    for i0 in range(0, idx.shape[0], 8192):
+        ii = idx[i0:i0 + 8192]
+        a = np.cross(sn[ii], cs[ii])
+        w = (a[:, 0, None] * table[ii[:, 0]] + a[:, 1, None] * table[ii[:, 1]]
+             + a[:, 2, None] * table[ii[:, 2]])
+        m = np.abs(w)
+        if criterion == "gain":
+            m = m / np.sqrt(np.sum(a**2, axis=1) + np.sum(a, axis=1) ** 2)[:, None]
+        out[i0:i0 + 8192] = m.min(axis=1)
+    return out
+
+
+def _fourier_scores(angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray:
+    full = np.concatenate([np.zeros((angles.shape[0], 1)), angles], axis=1)
+    out = np.empty(angles.shape[0])
+    for i0 in range(0, angles.shape[0], 4096):
+        sl = slice(i0, i0 + 4096)
+        w = np.exp(1j * full[sl, :, None] * n[None, None, :])
+        t = np.sqrt(np.sum(np.abs(w - w.mean(axis=1, keepdims=True)) ** 2, axis=1))
+        out[sl] = t.min(axis=1)
+    return out
+
+
+def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
+           min_gap_deg: float = 10.0, criterion: str = "w", keep: int = 100) -> SearchResult:
+    """The arrangement of ``heads`` heads (reference at 0 deg) maximising min |W(n)|.
+
+    esa: over n = 2..band (Jiao 2017), ``criterion`` "w" (|W| with C = 1, as the
+    seed) or "gain" (|W| / noise norm); fourier: normalised |W| over 1..band. Every
+    arrangement on a ``step_deg`` grid with neighbours at least ``min_gap_deg`` apart
+    (head bodies need room) is scored (a coarser grid first when that is too many),
+    then the ``keep`` best are refined locally down to 0.01 deg.
+    """
+    if method == "esa" and heads != 4:
+        raise UsageError(f"esa arrangements have 4 heads, not {heads} (use --method fourier)")
+    if heads < 2 or heads > 8:
+        raise UsageError(f"--search: 2 to 8 heads, not {heads}")
+    if min_gap_deg * heads >= 360:
+        raise UsageError(f"--min-gap {min_gap_deg} deg leaves no room for {heads} heads")
+    first = 2 if method == "esa" else 1
+    n = np.arange(first, band + 1, dtype=np.float64)
+    score = _esa_scores if method == "esa" else _fourier_scores
+    m = heads - 1
+    step = float(step_deg)
+    while _count(m, step, min_gap_deg) > 1_500_000:
+        step *= 1.5
+    cand = _grid(m, step, min_gap_deg)
+    evaluated = cand.shape[0]
+    if method == "esa":
+        sc = _esa_grid_scores(np.rint(cand / step).astype(np.int64), step, n, criterion)
+    else:
+        sc = score(np.radians(cand), n, criterion)
+    order = np.argsort(-sc)[:keep]
+    best = [(float(sc[i]), cand[i]) for i in order]
+    h = step
+    while h > 0.01:
+        h = max(h / 3.0, 0.01)
+        offsets = np.array(np.meshgrid(*[[-h, 0.0, h]] * m)).reshape(m, -1).T
+        refined = []
+        for s0, a0 in best:
+            pts = a0[None, :] + offsets
+            for _ in range(6):
+                pts_ok = pts[_feasible(pts, min_gap_deg)]
+                if pts_ok.size == 0:
+                    break
+                s = score(np.radians(pts_ok), n, criterion)
+                evaluated += s.size
+                j = int(np.argmax(s))
+                if s[j] <= s0 + 1e-12:
+                    break
+                s0, a0 = float(s[j]), pts_ok[j]
+                pts = a0[None, :] + offsets
+            refined.append((s0, a0))
+        best = sorted(refined, key=lambda p: -p[0])[: max(4, keep // 4)]
+    s0, a0 = best[0]
+    angles = (0.0,) + tuple(float(np.round(x, 2)) for x in a0)
+    return SearchResult(angles, s0, criterion, evaluated)
+
+
+def _count(m: int, step: float, gap: float) -> int:
+    from math import comb
+
+    slots = int(360.0 / step)
+    return comb(max(slots, m), m)
+
+
+def _grid(m: int, step: float, gap: float) -> np.ndarray:
+    """All increasing m-tuples of angles on the step grid in (0, 360) at least ``gap`` apart."""
+    from itertools import combinations
+
+    vals = np.arange(1, int(round(360.0 / step))) * step
+    rows = np.array(list(combinations(vals, m)), dtype=np.float64) if m > 0 else np.zeros((1, 0))
+    return rows[_feasible(rows, gap)]
+
+
+def _feasible(rows: np.ndarray, gap: float) -> np.ndarray:
+    full = np.concatenate([np.zeros((rows.shape[0], 1)), rows, np.full((rows.shape[0], 1), 360.0)],
+                          axis=1)
+    d = np.diff(full, axis=1)
+    return np.all(d >= gap - 1e-9, axis=1)
+
+
+def report(a: Analysis, mounting_error_deg: float) -> str:
+    """A short text report of an analysis."""
+    from .heads import format_orders
+
+    w, nw = a.worst
+    g, ng = a.max_gain
+    lines = [f"arrangement: {'/'.join(f'{x:g}' for x in a.angles_deg)} deg, method {a.method}, "
+             f"harmonics {a.first}..{a.band}"]
+    label = "|A(n)|" if a.method == "average" else "|W(n)|"
+    lines.append(f"min {label} over {a.first}..{a.band}: {w:.4g} at n = {nw}"
+                 + (" (blind harmonics excluded)" if a.blind else ""))
+    lines.append(f"blind harmonics: {format_orders(a.blind) or 'none'}")
+    if a.method != "average":
+        lines.append(f"ill-conditioned (noise gain > {1 / a.min_transfer:g}): "
+                     f"{format_orders(a.ill) or 'none'}")
+        lines.append(f"noise gain: max {g:.3g} at n = {ng}; "
+                     f"RMS over the band {np.sqrt(np.mean(np.square(a.gain[a.first:][np.isfinite(a.gain[a.first:])]))):.3g}")
+        sens = a.sensitivity[a.first:] * np.radians(mounting_error_deg)
+        fin = np.isfinite(sens)
+        k = int(np.argmax(np.where(fin, sens, -1))) + a.first
+        lines.append(f"mounting error {mounting_error_deg:g} deg (RMS per head): relative error "
+                     f"of F(n) up to {np.nanmax(np.where(fin, sens, np.nan)):.3g} (n = {k}), "
+                     f"{sens[fin].mean():.3g} on average")
+    return "\n".join(lines)
