@@ -1,0 +1,662 @@
+"""Writers and readers of correction tables for FPGAs and motion controllers.
+
+Every writer takes the signed table values (one per address) and writes one file;
+every reader gives the values back, so an export can be checked. Big tables are
+formatted with numpy (fixed-width lines built as byte arrays) or Arrow's CSV
+writer, never a Python loop per line.
+
+========  ==================================================================
+bin       raw two's-complement words, little or big endian, 1/2/4 bytes each
+ihex      Intel HEX: the raw image, 16 data bytes a record, type 04 extended
+          linear address records (32-bit byte addresses: at most 4 GiB)
+mif       Altera/Intel Memory Initialization File (WIDTH, DEPTH, HEX radix)
+coe       Xilinx coefficient file (memory_initialization_radix=16;
+          memory_initialization_vector=...;)
+mem       Verilog ``$readmemh`` text: one hex word a line, // comments
+csv       ``address,correction`` in decimal
+acs       ACS SPiiPlus ACSPL+ program: a REAL array filled element by
+          element, then ``ERRORMAP1D axis, zone, base, step, array`` and
+          ``ERRORMAPON``; values in degrees
+siemens   SINUMERIK interpolatory compensation (``$AA_ENC_COMP``) for a
+          rotary axis with modulo: points 0..k, 0 deg and 360 deg both present
+          with the same value, no gaps, ``$AA_ENC_COMP_STEP/MIN/MAX/IS_MODULO``;
+          values in degrees
+========  ==================================================================
+
+Hex words are two's complement in ``width`` bits, ``ceil(width / 4)`` digits.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from .errors import DataError, UsageError
+
+FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens")
+EXTENSIONS = {".bin": "bin", ".rom": "bin", ".hex": "ihex", ".ihex": "ihex", ".mif": "mif",
+              ".coe": "coe", ".mem": "mem", ".csv": "csv", ".prg": "acs", ".acs": "acs",
+              ".spf": "siemens", ".mpf": "siemens", ".ini": "siemens"}
+#: formats whose table is a controller's interpolation-point table (0 and 360 deg)
+CONTROLLER = ("acs", "siemens")
+#: entries a target accepts at most (None: only the 2^28 of enctools.rom).
+#: Intel HEX: 32-bit byte addresses. The controllers' tables are sized by the
+#: control's configuration (SINUMERIK MD38000 MM_ENC_COMP_MAX_POINTS, the ACS
+#: controller's user memory): conservative defaults, raised with --max-entries.
+MAX_ENTRIES: dict[str, int | None] = {"bin": None, "ihex": None, "mif": None, "coe": None,
+                                      "mem": None, "csv": None, "acs": 100_000, "siemens": 5_000}
+IHEX_MAX_BYTES = 1 << 32
+_HEX = np.frombuffer(b"0123456789ABCDEF", dtype=np.uint8)
+_HEX_VALUE = np.full(256, 255, dtype=np.uint8)
+_HEX_VALUE[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
+_HEX_VALUE[np.frombuffer(b"ABCDEF", np.uint8)] = np.arange(10, 16)
+_HEX_VALUE[np.frombuffer(b"abcdef", np.uint8)] = np.arange(10, 16)
+
+
+@dataclass(frozen=True)
+class Target:
+    """How to write a table: format and its options."""
+
+    fmt: str
+    width: int = 16
+    endian: str = "little"
+    count_deg: float = 360.0 / 2 ** 23  # one LSB of the stored value [deg] (controllers)
+    axis: str = "AX1"  # siemens axis name, or ACS axis number
+    zone: int = 0  # ACS zone / SINUMERIK measuring system index
+    name: str = "ENC_COMP"  # ACS array name
+    max_entries: int | None = None
+
+    @property
+    def storage_bytes(self) -> int:
+        return 1 if self.width <= 8 else 2 if self.width <= 16 else 4
+
+    @property
+    def hex_digits(self) -> int:
+        return (self.width + 3) // 4
+
+
+def format_for(path: str, fmt: str | None) -> str:
+    """The table format: ``fmt`` if given, else from the file's extension."""
+    if fmt:
+        if fmt not in FORMATS:
+            raise UsageError(f"unknown table format {fmt!r} (formats: {', '.join(FORMATS)})")
+        return fmt
+    ext = Path(path).suffix.lower()
+    if ext not in EXTENSIONS:
+        raise UsageError(f"cannot tell the table format of {path!r} from its extension; "
+                         f"use --target ({', '.join(FORMATS)})")
+    return EXTENSIONS[ext]
+
+
+def check_capacity(target: Target, entries: int) -> None:
+    """Refuse (UsageError, one line) a table the target cannot hold."""
+    rows = entries + 1 if target.fmt in CONTROLLER else entries
+    limit = target.max_entries if target.max_entries is not None else MAX_ENTRIES[target.fmt]
+    if limit is not None and rows > limit:
+        raise UsageError(
+            f"{target.fmt}: {rows} table points exceed the {limit} this target holds; use fewer "
+            f"--address-bits, or --max-entries if your control is configured for more")
+    if target.fmt == "ihex" and entries * target.storage_bytes > IHEX_MAX_BYTES:
+        raise UsageError(f"ihex: {entries * target.storage_bytes} bytes exceed the 4 GiB of "
+                         "32-bit Intel HEX addresses")
+    if target.fmt == "bin" and target.endian not in ("little", "big"):
+        raise UsageError(f"--endian must be little or big, not {target.endian!r}")
+
+
+# --------------------------------------------------------------------- helpers
+
+
+def _twos(values: np.ndarray, width: int) -> np.ndarray:
+    """Two's complement of signed values in ``width`` bits, as uint64."""
+    return values.astype(np.int64).astype(np.uint64) & np.uint64((1 << width) - 1)
+
+
+def _hex_columns(u: np.ndarray, digits: int) -> np.ndarray:
+    """(N, digits) uint8 ASCII upper-case hex of unsigned values."""
+    out = np.empty((u.size, digits), dtype=np.uint8)
+    for k in range(digits):
+        out[:, k] = _HEX[((u >> np.uint64(4 * (digits - 1 - k))) & np.uint64(15)).astype(np.intp)]
+    return out
+
+
+def _lines(parts: list[np.ndarray | bytes], n: int) -> np.ndarray:
+    """Concatenate fixed-width byte columns (arrays (n, w) or constant bytes) into lines."""
+    widths = [p.shape[1] if isinstance(p, np.ndarray) else len(p) for p in parts]
+    out = np.empty((n, sum(widths)), dtype=np.uint8)
+    col = 0
+    for p, w in zip(parts, widths):
+        out[:, col:col + w] = p if isinstance(p, np.ndarray) else np.frombuffer(p, np.uint8)
+        col += w
+    return out
+
+
+def _write_chunked(f: IO[bytes], values: np.ndarray, make: Any, chunk: int = 1 << 20) -> None:
+    for start in range(0, values.size, chunk):
+        f.write(make(values[start:start + chunk], start).tobytes())
+
+
+def _decimal(values: np.ndarray) -> list[bytes]:
+    """Shortest round-trip decimal text of floats (Arrow's cast, not a Python loop)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    return pc.cast(pa.array(values), pa.string())
+
+
+def _parse_hex_tokens(tokens: list[bytes] | np.ndarray, width: int, source: str) -> np.ndarray:
+    """Signed values from hex tokens (two's complement in ``width`` bits)."""
+    if len(tokens) == 0:
+        return np.zeros(0, dtype=np.int64)
+    lens = {len(t) for t in tokens} if isinstance(tokens, list) else {tokens.shape[1]}
+    if isinstance(tokens, list) and len(lens) == 1:
+        arr = np.frombuffer(b"".join(tokens), dtype=np.uint8).reshape(len(tokens), -1)
+    elif isinstance(tokens, list):
+        try:
+            u = np.array([int(t, 16) for t in tokens], dtype=np.uint64)
+        except ValueError:
+            raise DataError(f"{source}: a value is not hexadecimal") from None
+        return _signed(u, width)
+    else:
+        arr = tokens
+    d = _HEX_VALUE[arr]
+    if (d == 255).any():
+        raise DataError(f"{src}: a value is not hexadecimal")
+    if arr.shape[1] > 16:
+        raise DataError(f"{src}: a hex value has more than 16 digits")
+    acc = np.uint32 if arr.shape[1] <= 8 else np.uint64
+    u = np.zeros(arr.shape[0], dtype=acc)
+    for k in range(arr.shape[1]):
+        u <<= acc(4)
+        u |= d[:, k]
+    return _signed(u.astype(np.uint64, copy=False), width)
+
+
+def _signed(u: np.ndarray, width: int) -> np.ndarray:
+    """Signed int64 from two's complement in ``width`` bits (u: uint64)."""
+    s = u.astype(np.int64)
+    if width >= 63:
+        return s
+    s &= (1 << width) - 1
+    s -= (s >> (width - 1)) << width
+    return s
+
+
+def _lines_array(data: bytes):
+    """Every line of ``data`` (with its newline) as an Arrow string array: no Python objects."""
+    import pyarrow as pa
+    buf = np.frombuffer(data, dtype=np.uint8)
+    ends = np.flatnonzero(buf == 10) + 1
+    if not data.endswith(b"\n"):
+        ends = np.r_[ends, len(data)]
+    offsets = np.r_[0, ends].astype(np.int64)
+    arr = pa.Array.from_buffers(pa.large_binary(), offsets.size - 1,
+                                [None, pa.py_buffer(offsets), pa.py_buffer(data)])
+    try:
+        return arr.cast(pa.large_string())
+    except pa.ArrowInvalid:
+        raise DataError("the file is not text (invalid UTF-8)") from None
+
+
+def _hex_array(arr, width: int, src: str) -> np.ndarray:
+    """Signed values of an Arrow string array of hex tokens (fixed width: vectorised)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    arr = pc.utf8_trim_whitespace(arr)
+    if len(arr) == 0:
+        return np.zeros(0, dtype=np.int64)
+    arr = arr.cast(pa.large_string()) if arr.type != pa.large_string() else arr
+    lens = pc.binary_length(arr).to_numpy(zero_copy_only=False)
+    if arr.null_count == 0 and lens.min() == lens.max() and lens[0] > 0:
+        offs = np.frombuffer(arr.buffers()[1], dtype=np.int64)[arr.offset:arr.offset + len(arr) + 1]
+        raw = np.frombuffer(arr.buffers()[2], dtype=np.uint8)[offs[0]:offs[-1]]
+        return _parse_hex_tokens(raw.reshape(len(arr), int(lens[0])), width, src)
+    return _parse_hex_tokens([x.encode() for x in arr.to_pylist()], width, src)
+
+
+def _body_lines(data: bytes, comment: str):
+    """Lines without comments (starting with ``comment``) and blank lines."""
+    import pyarrow.compute as pc
+    lines = pc.utf8_trim_whitespace(_lines_array(data))
+    keep = pc.and_(pc.invert(pc.starts_with(lines, comment)), pc.greater(pc.utf8_length(lines), 0))
+    return lines.filter(keep)
+
+
+# --------------------------------------------------------------------- writers
+
+
+def write_table(path: str, values: np.ndarray, target: Target, force: bool = False,
+                comment: list[str] | None = None) -> int:
+    """Write ``values`` to ``path`` atomically (temporary file, then rename); return its size."""
+    check_capacity(target, values.size)
+    p = Path(path)
+    if p.is_dir():
+        raise UsageError(f"output {path}: is a directory; give a file name")
+    if p.exists() and not force:
+        raise UsageError(f"output {path} exists; use --force to replace it")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"output {path}: folder {parent} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=str(parent))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            WRITERS[target.fmt](f, values, target, comment or [])
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return p.stat().st_size
+
+
+def _write_bin(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    dt = np.dtype(f"{'<' if t.endian == 'little' else '>'}i{t.storage_bytes}")
+    values.astype(dt, copy=False).tofile(f)
+
+
+def _write_ihex(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    dt = np.dtype(f"{'<' if t.endian == 'little' else '>'}i{t.storage_bytes}")
+    image = np.ascontiguousarray(values.astype(dt, copy=False)).view(np.uint8)
+    seg = 1 << 16
+    for base in range(0, image.size, seg):
+        f.write(_ihex_record(4, 0, [(base >> 24) & 0xFF, (base >> 16) & 0xFF]))
+        data = image[base:base + seg]
+        full = data.size // 16
+        if full:
+            rec = np.empty((full, 21), dtype=np.uint8)
+            rec[:, 0] = 16
+            off = np.arange(full, dtype=np.int64) * 16
+            rec[:, 1] = off >> 8
+            rec[:, 2] = off & 0xFF
+            rec[:, 3] = 0
+            rec[:, 4:20] = data[:full * 16].reshape(full, 16)
+            rec[:, 20] = (-rec[:, :20].astype(np.int64).sum(axis=1)) & 0xFF
+            hexed = _hex_columns(rec.reshape(-1).astype(np.uint64), 2).reshape(full, 42)
+            f.write(_lines([b":", hexed, b"\n"], full).tobytes())
+        rest = data[full * 16:]
+        if rest.size:
+            f.write(_ihex_record(0, full * 16, rest.tolist()))
+    f.write(b":00000001FF\n")
+
+
+def _ihex_record(rtype: int, addr: int, data: list[int]) -> bytes:
+    body = [len(data), (addr >> 8) & 0xFF, addr & 0xFF, rtype] + list(data)
+    body.append((-sum(body)) & 0xFF)
+    return b":" + bytes(body).hex().upper().encode() + b"\n"
+
+
+def _write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    adig = max(1, (int(values.size - 1).bit_length() + 3) // 4)
+    head = "".join(f"-- {c}\n" for c in comment)
+    head += (f"WIDTH={t.width};\nDEPTH={values.size};\n\nADDRESS_RADIX=HEX;\nDATA_RADIX=HEX;\n\n"
+             "CONTENT BEGIN\n")
+    f.write(head.encode())
+
+    def make(v: np.ndarray, start: int) -> np.ndarray:
+        addr = _hex_columns(np.arange(start, start + v.size, dtype=np.uint64), adig)
+        return _lines([b"\t", addr, b" : ", _hex_columns(_twos(v, t.width), t.hex_digits),
+                       b";\n"], v.size)
+
+    _write_chunked(f, values, make)
+    f.write(b"END;\n")
+
+
+def _write_coe(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    head = "".join(f"; {c}\n" for c in comment)
+    f.write((head + "memory_initialization_radix=16;\nmemory_initialization_vector=\n").encode())
+
+    def make(v: np.ndarray, start: int) -> np.ndarray:
+        lines = _lines([_hex_columns(_twos(v, t.width), t.hex_digits), b",\n"], v.size)
+        if start + v.size == values.size:
+            lines[-1, -2] = ord(";")
+        return lines
+
+    _write_chunked(f, values, make)
+
+
+def _write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    f.write("".join(f"// {c}\n" for c in comment).encode())
+    f.write(b"@0\n")
+    _write_chunked(f, values, lambda v, s: _lines([_hex_columns(_twos(v, t.width),
+                                                                t.hex_digits), b"\n"], v.size))
+
+
+def _write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+    f.write("".join(f"# {c}\n" for c in comment).encode() + b"address,correction\n")
+    table = pa.table({"address": pa.array(np.arange(values.size, dtype=np.int64)),
+                      "correction": pa.array(values.astype(np.int64))})
+    pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
+
+
+def _closed(values: np.ndarray) -> np.ndarray:
+    """The table with its first value repeated at 360 deg (rotary tables)."""
+    return np.append(values, values[:1])
+
+
+def _write_assignments(f: IO[bytes], values: np.ndarray, before: str, between: str) -> None:
+    """Lines ``<before><index><between><value>`` (shortest round-trip decimals), by Arrow."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    for start in range(0, values.size, 1 << 20):
+        chunk = values[start:start + (1 << 20)]
+        idx = pc.cast(pa.array(np.arange(start, start + chunk.size)), pa.string())
+        val = pc.cast(pa.array(chunk), pa.string())
+        lines = pc.binary_join_element_wise(before, idx, between, val, "\n", "")
+        offsets = np.frombuffer(lines.buffers()[1], dtype=np.int32)[lines.offset:]
+        data = lines.buffers()[2]
+        f.write(memoryview(data)[offsets[0]:offsets[lines.__len__()]])
+
+
+def _write_acs(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    v = _closed(values)
+    step = 360.0 / values.size
+    head = "".join(f"! {c}\n" for c in comment)
+    head += (f"! enctools table: {v.size} points 0..360 deg, step {step!r} deg, "
+             f"lsb {t.count_deg!r} deg\n"
+             f"GLOBAL REAL {t.name}({v.size})\nINT AXIS_NO\nAXIS_NO = {t.axis}\n")
+    f.write(head.encode())
+    _write_assignments(f, v * t.count_deg, f"{t.name}(", ")=")
+    f.write((f"ERRORUNMAP AXIS_NO, {t.zone}\n"
+             f"ERRORMAP1D AXIS_NO, {t.zone}, 0, {step!r}, {t.name}\n"
+             f"ERRORMAPON AXIS_NO, {t.zone}\nSTOP\n").encode())
+
+
+def _write_siemens(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    v = _closed(values)
+    step = 360.0 / values.size
+    e, ax = t.zone, t.axis
+    head = "".join(f"; {c}\n" for c in comment)
+    head += (f"; enctools table: {v.size} points 0..360 deg, lsb {t.count_deg!r} deg\n"
+             "%_N_AX_EEC_INI\nCHANDATA(1)\n")
+    f.write(head.encode())
+    _write_assignments(f, v * t.count_deg, f"$AA_ENC_COMP[{e},", f",{ax}]=")
+    f.write((f"$AA_ENC_COMP_STEP[{e},{ax}]={step!r}\n$AA_ENC_COMP_MIN[{e},{ax}]=0.0\n"
+             f"$AA_ENC_COMP_MAX[{e},{ax}]=360.0\n$AA_ENC_COMP_IS_MODULO[{e},{ax}]=1\nM17\n").encode())
+
+
+WRITERS = {"bin": _write_bin, "ihex": _write_ihex, "mif": _write_mif, "coe": _write_coe,
+           "mem": _write_mem, "csv": _write_csv, "acs": _write_acs, "siemens": _write_siemens}
+
+
+# --------------------------------------------------------------------- readers
+
+
+def read_table(path: str, target: Target) -> np.ndarray:
+    """The signed values of a table file (DataError, one line, when it is malformed)."""
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such file") from None
+    return READERS[target.fmt](data, target, str(path))
+
+
+def _read_bin(data: bytes, t: Target, src: str) -> np.ndarray:
+    if len(data) % t.storage_bytes:
+        raise DataError(f"{src}: {len(data)} bytes is not a whole number of "
+                        f"{t.storage_bytes}-byte words")
+    dt = np.dtype(f"{'<' if t.endian == 'little' else '>'}i{t.storage_bytes}")
+    return np.frombuffer(data, dtype=dt).astype(np.int64)
+
+
+def _read_ihex(data: bytes, t: Target, src: str) -> np.ndarray:
+    chunks: dict[int, bytes] = {}
+    upper = 0
+    eof = False
+    for no, raw in enumerate(data.splitlines(), 1):
+        line = raw.strip()
+        if not line:
+            continue
+        if not line.startswith(b":"):
+            raise DataError(f"{src}: line {no} does not start with ':'")
+        try:
+            rec = bytes.fromhex(line[1:].decode("ascii"))
+        except ValueError:
+            raise DataError(f"{src}: line {no} is not hexadecimal") from None
+        if len(rec) < 5 or len(rec) != rec[0] + 5 or sum(rec) & 0xFF:
+            raise DataError(f"{src}: line {no}: bad record length or checksum")
+        rtype, addr, payload = rec[3], (rec[1] << 8) | rec[2], rec[4:-1]
+        if rtype == 0:
+            chunks[upper + addr] = payload
+        elif rtype == 1:
+            eof = True
+            break
+        elif rtype == 4:
+            upper = int.from_bytes(payload, "big") << 16
+        elif rtype == 2:
+            upper = int.from_bytes(payload, "big") << 4
+        elif rtype not in (3, 5):
+            raise DataError(f"{src}: line {no}: unknown record type {rtype}")
+    if not eof:
+        raise DataError(f"{src}: no end-of-file record (truncated?)")
+    size = max((a + len(b) for a, b in chunks.items()), default=0)
+    image = bytearray(size)
+    filled = 0
+    for a, b in chunks.items():
+        image[a:a + len(b)] = b
+        filled += len(b)
+    if filled != size:
+        raise DataError(f"{src}: the records leave gaps in the image")
+    return _read_bin(bytes(image), t, src)
+
+
+def _read_mif(data: bytes, t: Target, src: str) -> np.ndarray:
+    text = re.sub(rb"--[^\n]*", b"", data)
+    text = re.sub(rb"%[^%]*%", b"", text)
+    head, sep, body = text.partition(b"CONTENT")
+    if not sep:
+        raise DataError(f"{src}: no CONTENT section (not a MIF file)")
+    keys = {k.strip().upper(): v.strip().upper()
+            for k, v in re.findall(rb"(\w+)\s*=\s*([^;]+);", head)}
+    try:
+        width, depth = int(keys[b"WIDTH"]), int(keys[b"DEPTH"])
+    except (KeyError, ValueError):
+        raise DataError(f"{src}: WIDTH and DEPTH must be given before CONTENT") from None
+    radix = {b"HEX": 16, b"DEC": 10, b"UNS": 10, b"BIN": 2, b"OCT": 8}
+    arad = radix.get(keys.get(b"ADDRESS_RADIX", b"HEX"), 16)
+    drad = keys.get(b"DATA_RADIX", b"HEX")
+    body = body.partition(b"BEGIN")[2].rpartition(b"END")[0]
+    out = np.zeros(depth, dtype=np.int64)
+    seen = np.zeros(depth, dtype=bool)
+    if arad == 16 and drad == b"HEX" and b"[" not in body:
+        import pyarrow.compute as pc
+        lines = _body_lines(body, "--")
+        pattern = r"^(?P<a>[0-9A-Fa-f]+)\s*:\s*(?P<v>[0-9A-Fa-f]+)\s*;$"
+        if pc.all(pc.match_substring_regex(lines, pattern)).as_py():
+            parts = pc.extract_regex(lines, pattern)
+            a = _hex_array(parts.field("a"), 63, src)
+            if a.size and (a.min() < 0 or a.max() >= depth):
+                raise DataError(f"{src}: an address is outside DEPTH={depth}")
+            out[a] = _hex_array(parts.field("v"), width, src)
+            seen[a] = True
+            if not seen.all():
+                raise DataError(f"{src}: {int((~seen).sum())} of {depth} addresses have no value")
+            return out
+    stmts = body.split(b";")
+    simple = re.compile(rb"^\s*([0-9A-Fa-f]+)\s*:\s*([0-9A-Fa-f]+)\s*$")
+    addrs, vals = [], []
+    for s in stmts:
+        if not s.strip():
+            continue
+        m = simple.match(s)
+        if m and arad == 16 and drad == b"HEX":
+            addrs.append(m.group(1))
+            vals.append(m.group(2))
+            continue
+        lhs, _, rhs = s.partition(b":")
+        words = rhs.split()
+        lhs = lhs.strip()
+        if lhs.startswith(b"["):
+            a0, a1 = (int(x, arad) for x in lhs.strip(b"[]").split(b".."))
+            rng = range(a0, a1 + 1)
+        else:
+            a0 = int(lhs, arad)
+            rng = range(a0, a0 + len(words))
+        for i, a in enumerate(rng):
+            w = words[i % len(words)] if lhs.startswith(b"[") else words[i]
+            v = int(w, radix.get(drad, 16))
+            if drad == b"DEC" and v < 0:
+                v &= (1 << width) - 1
+            out[a] = _signed(np.array([v], np.uint64), width)[0]
+            seen[a] = True
+    if addrs:
+        a = _parse_hex_tokens(addrs, 63, src)
+        if a.min() < 0 or a.max() >= depth:
+            raise DataError(f"{src}: an address is outside DEPTH={depth}")
+        out[a] = _parse_hex_tokens(vals, width, src)
+        seen[a] = True
+    if not seen.all():
+        raise DataError(f"{src}: {int((~seen).sum())} of {depth} addresses have no value")
+    return out
+
+
+def _read_coe(data: bytes, t: Target, src: str) -> np.ndarray:
+    m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", data, re.I)
+    v = re.search(rb"memory_initialization_vector\s*=([^;]*);", data, re.I)
+    if not (m and v):
+        raise DataError(f"{src}: no memory_initialization_radix/vector (not a COE file)")
+    if int(m.group(1)) == 16:
+        import pyarrow.compute as pc
+        lines = _body_lines(v.group(1), ";")
+        if not pc.any(pc.match_substring_regex(lines, r",.*,|\s")).as_py():
+            return _hex_array(pc.replace_substring(lines, ",", ""), t.width, src)
+    tokens = v.group(1).replace(b",", b" ").split()
+    if int(m.group(1)) == 16:
+        return _parse_hex_tokens(tokens, t.width, src)
+    u = np.array([int(x, int(m.group(1))) for x in tokens], dtype=np.int64)
+    return _signed(u.astype(np.uint64), t.width)
+
+
+def _read_mem(data: bytes, t: Target, src: str) -> np.ndarray:
+    import pyarrow.compute as pc
+    if b"/*" not in data:
+        lines = _body_lines(data, "//")
+        if len(lines) and lines[0].as_py() == "@0":
+            lines = lines.slice(1)
+        if not pc.any(pc.match_substring_regex(lines, r"[@\s/]")).as_py():
+            return _hex_array(lines, t.width, src)
+    text = re.sub(rb"//[^\n]*", b"", data)
+    text = re.sub(rb"/\*.*?\*/", b"", text, flags=re.S)
+    tokens = text.split()
+    if not any(tok.startswith(b"@") for tok in tokens[1:]):
+        if tokens and tokens[0].startswith(b"@"):
+            if int(tokens[0][1:], 16) != 0:
+                raise DataError(f"{src}: the table does not start at address 0")
+            tokens = tokens[1:]
+        return _parse_hex_tokens(tokens, t.width, src)
+    out: dict[int, int] = {}
+    addr = 0
+    for tok in tokens:
+        if tok.startswith(b"@"):
+            addr = int(tok[1:], 16)
+        else:
+            out[addr] = int(tok, 16)
+            addr += 1
+    n = max(out) + 1
+    if len(out) != n:
+        raise DataError(f"{src}: addresses have gaps")
+    return _signed(np.array([out[i] for i in range(n)], dtype=np.uint64), t.width)
+
+
+def _read_csv(data: bytes, t: Target, src: str) -> np.ndarray:
+    import io
+
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+    body = data
+    while body.startswith(b"#"):
+        body = body.partition(b"\n")[2]
+    try:
+        table = pcsv.read_csv(io.BytesIO(body))
+    except pa.ArrowInvalid as exc:
+        raise DataError(f"{src}: not a CSV table ({str(exc).splitlines()[0]})") from None
+    if table.column_names[:2] != ["address", "correction"]:
+        raise DataError(f"{src}: the header must be 'address,correction'")
+    a = table.column("address").to_numpy()
+    if not np.array_equal(a, np.arange(a.size)):
+        raise DataError(f"{src}: addresses are not 0, 1, 2, ... without gaps")
+    return table.column("correction").to_numpy().astype(np.int64)
+
+
+def _indexed(data: bytes, prefix: bytes, pattern: str, src: str) -> np.ndarray:
+    """Values of the lines starting with ``prefix`` that match ``pattern`` (groups i, v), by index."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    lines = pc.utf8_trim_whitespace(_lines_array(data))
+    lines = lines.filter(pc.starts_with(lines, prefix.decode()))
+    if len(lines) == 0:
+        raise DataError(f"{src}: no table entries found")
+    ok = pc.match_substring_regex(lines, pattern)
+    if not pc.all(ok).as_py():
+        bad = lines.filter(pc.invert(ok))[0].as_py().decode(errors="replace")
+        raise DataError(f"{src}: cannot read the table line {bad.strip()!r}")
+    parts = pc.extract_regex(lines, pattern)
+    idx = pc.cast(parts.field("i"), pa.int64()).to_numpy()
+    try:
+        val = pc.cast(parts.field("v"), pa.float64()).to_numpy()
+    except pa.ArrowInvalid:
+        raise DataError(f"{src}: a table value is not a number") from None
+    if not np.array_equal(np.sort(idx), np.arange(idx.size)):
+        raise DataError(f"{src}: the table's indices have gaps or repeats")
+    out = np.empty(idx.size)
+    out[idx] = val
+    return out
+
+
+def _from_closed(values_deg: np.ndarray, t: Target, src: str) -> np.ndarray:
+    counts = values_deg / t.count_deg
+    q = np.rint(counts)
+    if np.max(np.abs(q - counts)) > 1e-3:
+        raise DataError(f"{src}: values are not whole multiples of the lsb {t.count_deg!r} deg")
+    if q[0] != q[-1]:
+        raise DataError(f"{src}: the 0 deg and 360 deg values differ (a rotary table must close)")
+    return q[:-1].astype(np.int64)
+
+
+def _read_acs(data: bytes, t: Target, src: str) -> np.ndarray:
+    name = re.escape(t.name.encode())
+    vals = _indexed(data, t.name.encode() + b"(",
+                    r"^\s*" + re.escape(t.name) + r"\((?P<i>\d+)\)\s*=\s*(?P<v>[-+0-9.eE]+)\s*$", src)
+    m = re.search(rb"ERRORMAP1D\s+[^,]+,\s*[^,]+,\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*,\s*" + name,
+                  data)
+    if not m:
+        raise DataError(f"{src}: no ERRORMAP1D statement for array {t.name}")
+    base, step = float(m.group(1)), float(m.group(2))
+    if base != 0.0 or abs(step * (vals.size - 1) - 360.0) > 1e-9:
+        raise DataError(f"{src}: the map does not span 0..360 deg")
+    return _from_closed(vals, t, src)
+
+
+def _read_siemens(data: bytes, t: Target, src: str) -> np.ndarray:
+    vals = _indexed(data, b"$AA_ENC_COMP[",
+                    r"^\s*\$AA_ENC_COMP\[\s*\d+\s*,\s*(?P<i>\d+)\s*,\s*\w+\s*\]\s*="
+                    r"\s*(?P<v>[-+0-9.eE]+)\s*$", src)
+    def key(name: bytes) -> float:
+        m = re.search(rb"\$AA_ENC_COMP_" + name + rb"\[[^]]*\]\s*=\s*([-+0-9.eE]+)", data)
+        if not m:
+            raise DataError(f"{src}: no $AA_ENC_COMP_{name.decode()}")
+        return float(m.group(1))
+    step, lo, hi, modulo = key(b"STEP"), key(b"MIN"), key(b"MAX"), key(b"IS_MODULO")
+    if lo != 0.0 or hi != 360.0 or modulo != 1:
+        raise DataError(f"{src}: a rotary table needs MIN=0, MAX=360 and IS_MODULO=1")
+    if abs(step * (vals.size - 1) - 360.0) > 1e-9:
+        raise DataError(f"{src}: {vals.size} points at STEP={step} do not span 0..360 deg")
+    return _from_closed(vals, t, src)
+
+
+READERS = {"bin": _read_bin, "ihex": _read_ihex, "mif": _read_mif, "coe": _read_coe,
+           "mem": _read_mem, "csv": _read_csv, "acs": _read_acs, "siemens": _read_siemens}
