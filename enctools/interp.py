@@ -206,6 +206,24 @@ def landing_harmonics(ratio: float, keep: Sequence[int], reference_orders: Seque
     return out
 
 
+def resolvable_harmonics(phase: np.ndarray, positions: np.ndarray | None = None) -> int:
+    """Highest harmonic of the period the sampled phases [rad] can resolve: pi / largest gap.
+
+    With ``positions``, the readings at one position are averaged (circular mean)
+    first, so their noise does not pose as finer sampling.
+    """
+    phase = np.asarray(phase, dtype=np.float64)
+    if positions is not None:
+        _, inv = np.unique(np.asarray(positions), return_inverse=True)
+        z = np.bincount(inv, np.cos(phase)) + 1j * np.bincount(inv, np.sin(phase))
+        phase = np.angle(z)
+    p = np.sort(np.mod(phase, TWO_PI))
+    if p.size < 2:
+        return 0
+    gap = float(np.max(np.diff(np.append(p, p[0] + TWO_PI))))
+    return int(np.floor(np.pi / gap - 1e-9)) if gap > 0 else p.size
+
+
 def _trend_columns(x: np.ndarray, groups: np.ndarray, degree: int) -> np.ndarray:
     cols = []
     for g in np.unique(groups):
@@ -227,7 +245,8 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
                             trend_degree: int = 1, groups: np.ndarray | None = None,
                             reference_phase: np.ndarray | None = None,
                             reference_orders: Sequence[int] = (),
-                            reference_periods_per_rev: int | None = None) -> InterpResult:
+                            reference_periods_per_rev: int | None = None,
+                            positions: np.ndarray | None = None) -> InterpResult:
     """Fit the device's interpolation error against a reference (seed 000 eqs. (19), (20)).
 
     Parameters
@@ -250,6 +269,10 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
     reference_phase, reference_orders, reference_periods_per_rev :
         The reference encoder's signal phase [rad] and the orders of its own
         interpolation error to fit alongside (empty: none, the seed's plain filter).
+    positions : array or None
+        Commanded position of each sample (e.g. the sweep's target), so that
+        repeated readings at one position count once when judging how finely the
+        sweep samples the period (default: every sample is a position).
 
     Returns
     -------
@@ -275,6 +298,8 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
     dev, ref, phase0, groups = dev[good], ref[good], phase0[good], groups[good]
     if reference_phase is not None:
         reference_phase = reference_phase[good]
+    if positions is not None:
+        positions = np.asarray(positions)[good]
     if harmonics < 1:
         msg = f"harmonics must be >= 1, not {harmonics}"
         raise DataError(msg)
@@ -292,6 +317,12 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
                    f"{period / ARCSEC:.4g}\": sweep at least one period (--range)")
             raise DataError(msg)
 
+    # Nyquist within the period: harmonics must be finer than the largest phase gap.
+    k_max = resolvable_harmonics(phase0, positions)
+    if harmonics > k_max:
+        msg = (f"{harmonics} harmonics asked but the sweep samples the signal period "
+               f"only finely enough for {k_max}: fit fewer (--harmonics) or step finer")
+        raise DataError(msg)
     orders = np.arange(1, harmonics + 1)
     keep = list(orders) if keep is None else [int(k) for k in keep]
     bad = [k for k in keep if k not in set(orders.tolist())]
@@ -335,6 +366,12 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
     ab = coef[nt:nt + n_dev]
     fitted = PeriodHarmonics(orders, ab[0::2] - 1j * ab[1::2],
                              cov[nt:nt + n_dev, nt:nt + n_dev])
+    gain = fitted.amplitude_u / max(np.sqrt(s2), 1e-300)
+    if np.any(gain > 1.0):
+        n_bad = int(orders[np.argmax(gain)])
+        msg = (f"harmonic {n_bad} is undetermined by this sweep (its uncertainty exceeds "
+               f"the scatter of one reading): fit fewer harmonics or sweep longer")
+        raise DataError(msg)
 
     reference = None
     if ref_orders.size:
@@ -348,11 +385,17 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
     if reference_periods_per_rev is not None:
         result.ratio = period_ratio(periods_per_rev, reference_periods_per_rev)
         if reference_periods_per_rev != periods_per_rev:
-            result.landing = landing_harmonics(result.ratio, keep)
+            if ref_orders.size:
+                # fitted alongside: separable when they differ by a cycle over the sweep
+                result.landing = landing_harmonics(result.ratio, keep, ref_orders.tolist(),
+                                                   tolerance=1.0 / result.periods)
+            else:
+                result.landing = landing_harmonics(result.ratio, keep)
             for j, at, k in result.landing:
                 result.warnings.append(
                     f"the reference's harmonic {j} lands at {at:.3g} harmonics of the device "
-                    f"period, on kept harmonic {k}: the filter cannot remove it")
+                    f"period, on kept harmonic {k}: the filter cannot remove it "
+                    f"over {result.periods:.3g} periods swept")
     return result
 
 
@@ -483,6 +526,7 @@ def check_readings(table, heads: Sequence[str] | None = None, average: bool = Fa
         msg = "input: no head to check"
         raise DataError(msg)
     groups = _column(table, "run") if "run" in table.schema.names else None
+    targets = _column(table, "target") if "target" in table.schema.names else None
     devices = [names] if average else [[n] for n in names]
     curves = []
     grid = np.linspace(0.0, TWO_PI, points, endpoint=False)
@@ -507,7 +551,8 @@ def check_readings(table, heads: Sequence[str] | None = None, average: bool = Fa
             groups=None if groups is None else groups[rows],
             reference_phase=ref_phase[rows] if other_period else None,
             reference_orders=range(1, reference_harmonics + 1) if other_period else (),
-            reference_periods_per_rev=ref_info.periods_per_rev if ref_info else None)
+            reference_periods_per_rev=ref_info.periods_per_rev if ref_info else None,
+            positions=None if targets is None else targets[rows])
         warnings += [f"{name}: {w}" for w in r.warnings]
         fig = r.figures()
         meta = {"encoder": info.encoder, "heads": dev_names,

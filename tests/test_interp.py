@@ -99,10 +99,29 @@ def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
 
 
 def test_reference_with_longer_period_warns(sweep, tmp_path):
-    header, _, r = check(f"{sweep} --heads P1 --reference H1", tmp_path / "w.parquet")
+    # the plain filter cannot remove H1's 2nd harmonic, at 0.578 of P1's period
+    header, _, r = check(f"{sweep} --heads P1 --reference H1 --reference-harmonics 0",
+                         tmp_path / "w.parquet")
     err = r.stderr.decode()
     assert "WARNING" in err and "lands at 0.578" in err and "kept harmonic 1" in err
     assert header.meta["curves"]["P1"]["period_ratio"] == pytest.approx(52000 / 180000)
+    # fitted alongside over 3.47 P1 periods it is separable (1.46 cycles apart): no warning,
+    # and P1's error by H1 matches the probes' 1st/2nd harmonics
+    header, by_h1, r = check(f"{sweep} --heads P1 --reference H1", tmp_path / "w2.parquet")
+    assert "WARNING" not in r.stderr.decode()
+    _, probes, _ = check(f"{sweep} --heads P1", tmp_path / "w3.parquet")
+    assert np.abs(by_h1["P1"].to_numpy() - probes["P1"].to_numpy()).max() < 0.01
+    # too many reference harmonics: H1's 3rd..8th crowd P1's 1st and 2nd
+    out = tmp_path / "w4.parquet"
+    r = run(f"enc interp-check {sweep} --heads P1 --reference H1 --reference-harmonics 8 -o {out}")
+    assert r.returncode == 2 and "undetermined" in r.stderr.decode()
+
+
+@pytest.mark.parametrize("head, k", [("P1", 60), ("H1", 40)])
+def test_harmonics_beyond_the_sampling_are_refused(sweep, tmp_path, head, k):
+    out = tmp_path / "o.parquet"
+    r = run(f"enc interp-check {sweep} --heads {head} --harmonics {k} -o {out}")
+    assert "finely enough" in one_line_error(r, out)
 
 
 def test_head_average_matches_mean_of_truths(sweep, tmp_path):

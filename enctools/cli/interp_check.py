@@ -147,7 +147,8 @@ def _summary(c: Any) -> str:
     ref = c.meta.get("reference", "")
     ratio = f", period ratio {c.meta['period_ratio']:.4g}" if "period_ratio" in c.meta else ""
     kept = f", kept {','.join(map(str, c.meta['kept']))}" if "kept" in c.meta and ratio else ""
-    return (f"{c.name}: +/-{f['plus_minus']:.4f}\" p-p {f['pp']:.4f}\" ({harm}; period "
+    return (f"{c.name}: +/-{f['plus_minus']:.4f}\" p-p {f['pp']:.4f}\" u<={c.u.max():.4f}\" "
+            f"({harm}; period "
             f"{c.meta['period_arcsec']:.4g}\", ref {ref}{ratio}{kept})")
 
 
