@@ -60,19 +60,22 @@ def make_deviations(path: Path, grid: int = 1440) -> Path:
 
 
 def make_interp(path: Path, grid: int = 256) -> Path:
-    """Interpolation error of every head of encoder II within one signal period."""
+    """Interpolation error of every head of encoder II against the phase [rad] within
+    its signal period, as enc interp-check writes it."""
     rig = load_rig("sjtu-dual")
     truth = make_truth(rig)
     enc = next(e for e in rig.encoders if e.name == "II")
-    period = TWO_PI / enc.periods_per_rev
-    phase = np.arange(grid) * period / grid
+    phase = np.arange(grid) * TWO_PI / grid
     fields = [make_field("theta", pa.float64(), "rad")]
     cols = [phase]
     for h in enc.heads:
-        fields.append(make_field(h.name, pa.float64(), "arcsec", "deviation", head=h.name))
-        cols.append(interpolation_error(truth.signals[h.name], phase, enc.periods_per_rev))
+        fields.append(make_field(h.name, pa.float64(), "arcsec", "deviation", encoder="II",
+                                 period_arcsec=TWO_PI / enc.periods_per_rev / ARCSEC))
+        cols.append(interpolation_error(truth.signals[h.name], phase / enc.periods_per_rev,
+                                        enc.periods_per_rev))
     schema = pa.schema(fields)
-    meta = _meta("sjtu-dual", "enc interp-check") | {"domain": "period", "period": period}
+    meta = _meta("sjtu-dual", "enc interp-check") | {
+        "domain": "signal period: theta is the phase the head reads"}
     write_table(str(path), Header("deviations", schema, meta), pa.table(cols, schema=schema),
                 force=True)
     return path
@@ -197,10 +200,10 @@ def test_interp_section_per_period(streams):
     sec = report_json(streams["interp"])["sections"][0]
     assert sec["domain"] == "period"
     assert [c["head"] for c in sec["curves"]] == ["H1", "H2", "H3", "H4", "H5", "H6", "H7"]
-    period = TWO_PI / 52000
-    phase = np.arange(256) * period / 256
+    assert sec["info"]["signal period"] == "24.92 arcsec"
+    phase = np.arange(256) * TWO_PI / 256
     for c in sec["curves"]:
-        want = interpolation_error(truth.signals[c["head"]], phase, 52000)
+        want = interpolation_error(truth.signals[c["head"]], phase / 52000, 52000)
         assert c["pp"] == pytest.approx(np.ptp(want), rel=1e-9)
         # harmonics are counted per signal period: 1st and 2nd dominate (seed 000 sec. 4)
         assert {h["n"] for h in c["harmonics"][:2]} <= {1, 2}

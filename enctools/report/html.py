@@ -46,6 +46,8 @@ def _e(x: Any) -> str:
 def _f(x: float | None, digits: int = 3) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "–"
+    if x != 0 and abs(x) < 0.5 * 10 ** -digits:
+        return f"{x:.2g}"
     return f"{x:.{digits}f}"
 
 
@@ -179,7 +181,7 @@ def _section_html(s: Section, top: int) -> str:
 def _compare_html(report: Report) -> str:
     pairs = [(s.source.rsplit("/", 1)[-1] + ("" if c.name in ("deviation",) else f":{c.name}"), c)
              for s, c in report.curves("arcsec")
-             if c.period == 2 * np.pi and c.role in ("deviation", "points", "positioning")]
+             if c.domain == "revolution" and c.role in ("deviation", "points", "positioning")]
     if len(pairs) < 2 or len({id(c) for _, c in pairs}) < 2:
         return ""
     if len({p[0] for p in pairs}) < 2 and len(report.sections) < 2:

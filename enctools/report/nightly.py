@@ -55,7 +55,8 @@ class Drift:
 def main_curve(section: Any) -> Any:
     """The curve a nightly run tracks: the first deviation curve [arcsec] of a section."""
     for c in section.curves:
-        if c.unit == "arcsec" and c.role in ("deviation", "points", "positioning"):
+        if c.unit == "arcsec" and c.role in ("deviation", "points", "positioning") \
+                and c.domain == "revolution":
             return c
     from ..errors import DataError
     msg = f"{section.source}: no deviation curve [arcsec] to compare ({section.kind} stream)"

@@ -29,12 +29,12 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
 
 
 def _angle_deg(c: Curve) -> np.ndarray:
-    return np.degrees(np.asarray(c.angle)) if c.period == 2 * np.pi \
-        else np.degrees(np.mod(c.angle, c.period) * (2 * np.pi / c.period))
+    return np.degrees(np.mod(np.asarray(c.angle), 2 * np.pi)) if c.domain == "period" \
+        else np.degrees(np.asarray(c.angle))
 
 
 def _angle_label(c: Curve) -> str:
-    return "angle [deg]" if c.period == 2 * np.pi else "phase within the signal period [deg]"
+    return "angle [deg]" if c.domain != "period" else "phase within the signal period [deg]"
 
 
 def _unit_label(unit: str) -> str:
@@ -61,7 +61,7 @@ def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
     ax.axhline(0, color="0.6", lw=0.6)
     ax.set_xlabel(_angle_label(curves[0]))
     ax.set_ylabel(_unit_label(curves[0].unit))
-    if curves[0].period == 2 * np.pi:
+    if curves[0].domain != "period":
         ax.set_xlim(0, 360)
         ax.set_xticks(np.arange(0, 361, 45))
     ax.set_title(title, fontsize=10)

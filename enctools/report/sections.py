@@ -39,7 +39,8 @@ LISSAJOUS_POINTS = 4000
 
 @dataclass
 class Curve:
-    """One error curve of a section (angles in rad over ``period``)."""
+    """One error curve of a section: values at angles [rad] over one revolution, or at the
+    phase [rad, 0..2 pi] within one signal period (``domain == "period"``)."""
 
     name: str
     unit: str                       # "arcsec", "nm" or "count"
@@ -49,7 +50,7 @@ class Curve:
     figures: Figures
     harmonics: Harmonics | None = None   # every order 0..nmax (largest(): the top ones)
     u: np.ndarray | None = None     # standard uncertainty per angle, same unit
-    period: float = TWO_PI          # rad: one revolution, or one signal period
+    domain: str = "revolution"      # or "period": angle is the phase in a signal period
     head: str | None = None
     extra: dict[str, float] = field(default_factory=dict)
 
@@ -123,18 +124,18 @@ def _col(table: pa.Table, name: str) -> np.ndarray:
 
 
 def _curve(name: str, unit: str, role: str, angle: np.ndarray, values: np.ndarray,
-           opts: Options, source: str, period: float = TWO_PI, **kw: Any) -> Curve:
+           opts: Options, source: str, **kw: Any) -> Curve:
     try:
         figs = curve_figures(values)
     except DataError as exc:
         msg = f"{source}: column {name!r}: {exc}"
         raise DataError(msg) from None
     try:
-        harm = harmonics(angle, values, opts.nmax, period)
+        harm = harmonics(angle, values, opts.nmax)
     except DataError:
         harm = None
     return Curve(name, unit, role, angle, np.asarray(values, np.float64), figs, harm,
-                 period=period, **kw)
+                 **kw)
 
 
 # ------------------------------------------------------------------ deviations
@@ -145,9 +146,7 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
     if table.num_rows == 0:
         msg = f"{s.source}: deviations stream has no rows"
         raise DataError(msg)
-    period = float(s.meta.get("period", TWO_PI)) if s.meta.get("domain") == "period" \
-        else TWO_PI
-    if s.meta.get("domain") == "period":
+    if _period_domain(s.meta, table.schema):
         s.domain = "period"
     theta = _col(table, "theta")
     unc = {field_meta(f).get("of"): f.name for f in table.schema
@@ -156,12 +155,17 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
         for name in columns_with_role(table.schema, role):
             fm = field_meta(table.schema.field(name))
             u = _col(table, unc[name]) if name in unc else None
+            in_period = s.domain == "period" and role == "deviation"
             s.curves.append(_curve(name, unit, role, theta, _col(table, name), opts, s.source,
-                                   period if role == "deviation" else TWO_PI, u=u,
-                                   head=fm.get("head")))
+                                   u=u, head=fm.get("head", name if in_period else None),
+                                   domain="period" if in_period else "revolution"))
+            if in_period and "period_arcsec" in fm:
+                s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
     s.info["grid points"] = table.num_rows
     if s.domain == "period":
-        s.info["signal period"] = f"{period / ARCSEC:.4g} arcsec"
+        periods = sorted({f"{c.extra['period_arcsec']:.4g}" for c in s.curves
+                          if "period_arcsec" in c.extra})
+        s.info["signal period"] = (", ".join(periods) + " arcsec") if periods else "-"
 
 
 # -------------------------------------------------------------------- spectrum
@@ -184,8 +188,19 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
     if blind:
         s.info["blind harmonics"] = ", ".join(str(b) for b in blind) if isinstance(
             blind, list) else str(blind)
-    if s.meta.get("domain") == "period":
+    if _period_domain(s.meta, table.schema):
         s.domain = "period"
+    for key in ("ill_conditioned",):
+        if s.meta.get(key):
+            s.info[key.replace("_", "-") + " harmonics"] = ", ".join(map(str, s.meta[key]))
+
+
+def _period_domain(meta: dict[str, Any], schema: pa.Schema) -> bool:
+    """True when theta is the phase within a signal period (interpolation errors)."""
+    domain = str(meta.get("domain", ""))
+    return domain == "period" or domain.startswith("signal period") or any(
+        "period_arcsec" in field_meta(f) for f in schema
+        if field_meta(f).get("role") == "deviation")
 
 
 # ---------------------------------------------------------------------- points

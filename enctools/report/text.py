@@ -13,6 +13,8 @@ from .summary import Report
 def _g(x: float | None, digits: int = 3) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
+    if x != 0 and abs(x) < 0.5 * 10 ** -digits:   # tiny: significant digits, not 0.000
+        return f"{x:.2g}"
     return f"{x:.{digits}f}"
 
 
@@ -30,7 +32,7 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
         lines.append(f"    expanded uncertainty U (k=2): max {_g(c.U_max)}{sym}")
     h = c.harmonics.largest(top) if c.harmonics is not None else None
     if h is not None and h.n.size:
-        per = "/period" if s.domain == "period" and c.role == "deviation" else "/rev"
+        per = "/period" if c.domain == "period" else "/rev"
         parts = [f"n={int(n)} {_g(a)}{sym} @ {np.degrees(p):.0f} deg"
                  for n, a, p in zip(h.n, h.amplitude, h.phase)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
