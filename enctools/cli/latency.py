@@ -1,0 +1,145 @@
+"""enc latency: dynamic error and code-skip speed (seed 001 eqs. 1-4); measured lag of runs."""
+
+from __future__ import annotations
+
+import click
+
+from . import options, runner
+
+
+@click.command("latency")
+@click.argument("inputs", nargs=-1, type=click.Path(dir_okay=False, allow_dash=True),
+                metavar="[RUN]...")
+@click.option("--bits", type=int, default=None,
+              help="Bits n of the code (default: from the run's rig).")
+@click.option("--delay", "delay_s", type=float, default=None, callback=options.positive,
+              help="Readout delay t_d [s] (seed 001 eq. 1); default: the measured lag.")
+@click.option("--speed", "speeds", default=None, callback=options.float_list, metavar="RPM,...",
+              help="Speeds [r/min] at which to state the dynamic error (seed 001 eq. 2).")
+@click.option("--heads", default=None, callback=options.name_list, metavar="H1,H2,...",
+              help="Runs: heads averaged into the device reading (default: the rig's measuring heads).")
+@click.option("--reference", default=None, callback=options.name_list, metavar="truth|H1,...",
+              help="Runs: the reference angle: 'truth' (simulator) or heads of a reference encoder.")
+@click.option("--fit-offset", is_flag=True, default=False,
+              help="Runs at several speeds: fit the zero offset too, instead of assuming it is 0.")
+@click.option("--json", "as_json", is_flag=True, default=False, help="Print the figures as JSON.")
+@options.verbosity
+def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
+            speeds: list[float] | None, heads: list[str] | None, reference: list[str] | None,
+            fit_offset: bool, as_json: bool, verbose: int, quiet: int, debug: bool) -> None:
+    """Dynamic error t_d*v and the code-skip speed 360/(2^n t_d) of an encoder.
+
+    Without RUN: from --bits and --delay. With continuous runs (enc acquire
+    --mode continuous) at known speeds: the measured readout lag of the device
+    heads against a reference (the simulator's truth or another encoder's heads),
+    then the same figures from it.
+    """
+    runner.setup_logging(verbose, quiet)
+    import json
+
+    from .. import latency as lat
+    from ..errors import UsageError
+
+    out: dict = {}
+    if inputs:
+        runs, rig_bits = _measure(inputs, heads, reference)
+        lag, offset = lat.lag_from_runs(runs, None if fit_offset else 0.0)
+        out["runs"] = [r.__dict__ for r in runs]
+        out["measured_lag_s"] = lag
+        out["offset_arcsec"] = offset
+        bits = bits or rig_bits
+        if delay_s is None:
+            delay_s = lag
+    if bits is None or delay_s is None:
+        raise UsageError("give --bits and --delay, or continuous runs to measure the lag from")
+    if not 1 <= bits <= 64:
+        raise UsageError(f"--bits must be 1..64, not {bits}")
+    if not delay_s > 0:
+        raise UsageError(f"the readout delay must be > 0 s (measured {delay_s:.3g} s); "
+                         "is the reference right?")
+    skip = lat.code_skip_speed_deg_s(bits, delay_s)
+    out |= {"bits": bits, "delay_s": delay_s, "resolution_arcsec": lat.resolution_deg(bits) * 3600,
+            "code_skip_speed_deg_s": skip, "code_skip_speed_rev_s": skip / 360.0,
+            "code_skip_speed_rpm": skip / 6.0}
+    rows = []
+    for rpm in speeds or []:
+        v = rpm * 6.0
+        err = lat.dynamic_error_deg(delay_s, v) * 3600.0
+        rows.append({"speed_rpm": rpm, "dynamic_error_arcsec": err,
+                     "dynamic_error_codes": err / out["resolution_arcsec"],
+                     "skips_codes": abs(v) > skip})
+    out["speeds"] = rows
+    if as_json:
+        click.echo(json.dumps(out, indent=2))
+        return
+    for r in out.get("runs", []):
+        click.echo(f"run: {r['speed_deg_s'] / 6:.6g} r/min over {r['turns']:.3g} turns, "
+                   f"device - reference {r['mean_difference_arcsec']:.6g} arcsec")
+    if "measured_lag_s" in out:
+        click.echo(f"measured lag: {out['measured_lag_s']:.6g} s (offset {out['offset_arcsec']:.4g} arcsec"
+                   f"{', fitted' if fit_offset else ', assumed'})")
+    click.echo(f"resolution: {out['resolution_arcsec']:.6g} arcsec ({bits} bits, seed 001 eq. 3)")
+    click.echo(f"code-skip speed: {skip:.9g} deg/s = {skip / 360:.6g} r/s = {skip / 6:.6g} r/min "
+               f"(t_d {delay_s:.6g} s, seed 001 eq. 4)")
+    for r in rows:
+        click.echo(f"at {r['speed_rpm']:g} r/min: dynamic error {r['dynamic_error_arcsec']:.6g} arcsec "
+                   f"= {r['dynamic_error_codes']:.4g} codes{' (codes skipped)' if r['skips_codes'] else ''}")
+
+
+def _measure(inputs, heads, reference):
+    import numpy as np
+
+    from .. import latency as lat
+    from ..errors import DataError
+    from ..readings import head_angle, head_info
+    from ..schemas import columns_with_role
+    from ..streams import open_input
+    from ..truth import Motion
+
+    runs, bits = [], None
+    for path in inputs:
+        src = open_input(path, "readings")
+        table = src.read_all()
+        if "step" in table.column_names:
+            raise DataError(f"{src.source}: a steps run; the lag needs a continuous run")
+        schema, meta = src.header.schema, src.header.meta
+        all_heads = columns_with_role(schema, "head")
+        dev_heads = heads or _measure_heads(meta, schema, all_heads, src.source)
+        t = table.column("t").to_numpy()
+        device = _mean_angle(table, schema, dev_heads, src.source)
+        info = head_info(schema, dev_heads[0], src.source)
+        cpr = info.counts_per_rev
+        if cpr & (cpr - 1) == 0:
+            bits = bits or cpr.bit_length() - 1
+        if reference in (None, ["truth"]):
+            motion = (meta.get("truth") or {}).get("motion")
+            if motion is None:
+                raise DataError(f"{src.source}: no true motion in the stream; give --reference HEADS")
+            ref = Motion.from_dict(motion)(t)
+        else:
+            ref = _mean_angle(table, schema, reference, src.source)
+        runs.append(lat.run_difference(t, device, ref))
+    return runs, bits
+
+
+def _measure_heads(meta, schema, all_heads, source):
+    from ..readings import head_info
+    enc = head_info(schema, all_heads[0], source).encoder
+    for e in (meta.get("rig") or {}).get("encoders", []):
+        if e.get("name") == enc and e.get("measure_heads"):
+            return [h for h in e["measure_heads"] if h in all_heads]
+    return [h for h in all_heads if head_info(schema, h, source).encoder == enc]
+
+
+def _mean_angle(table, schema, names, source):
+    """Mean reading [rad] of heads, each with its zero offset (alpha - zero count) removed."""
+    import numpy as np
+
+    from ..readings import head_angle, head_info
+    from ..units import TWO_PI
+    out = []
+    for h in names:
+        info = head_info(schema, h, source)
+        offset = info.alpha - info.zero_count * TWO_PI / info.counts_per_rev
+        out.append(head_angle(table.column(h), info) - offset)
+    return np.mean(out, axis=0)
