@@ -105,9 +105,9 @@ class PeriodHarmonics:
                 out[k] = np.sqrt(max(np.trace(block) / 2, 0.0))
         return out
 
-    def select(self, keep: Sequence[int]) -> "PeriodHarmonics":
+    def select(self, keep: Sequence[int]) -> PeriodHarmonics:
         """Only the orders in ``keep`` (those that were fitted)."""
-        idx = [k for k, n in enumerate(self.orders) if int(n) in set(int(x) for x in keep)]
+        idx = [k for k, n in enumerate(self.orders) if int(n) in {int(x) for x in keep}]
         cov_idx = np.array([[2 * k, 2 * k + 1] for k in idx], dtype=int).ravel()
         return PeriodHarmonics(self.orders[idx], self.coef[idx],
                                self.cov[np.ix_(cov_idx, cov_idx)])
@@ -422,9 +422,13 @@ class Curve:
 
 
 def _column(table, name: str) -> np.ndarray:
-    return table.column(name).to_numpy(zero_copy_only=False).astype(np.float64) \
-        if not str(table.schema.field(name).type).startswith("int") \
-        else table.column(name).to_numpy(zero_copy_only=False)
+    """A column as numpy: int64 stays integer (counts), the rest float64 (nulls -> NaN)."""
+    import pyarrow as pa
+
+    col = table.column(name)
+    if pa.types.is_integer(col.type) and col.null_count == 0:
+        return col.to_numpy()
+    return col.cast(pa.float64()).to_numpy(zero_copy_only=False)
 
 
 def _harmonics_meta(h: PeriodHarmonics) -> list[dict[str, float]]:

@@ -14,8 +14,8 @@ import json
 import numpy as np
 import pyarrow as pa
 import pytest
-
 from conftest import run
+
 from enctools import interp
 from enctools.readings import head_info, signal_phase
 from enctools.streams import Header, read_table, write_table
@@ -141,7 +141,7 @@ def test_head_average_matches_mean_of_truths(sweep, tmp_path):
 
 
 def test_signals_mode_recovers_faults_and_error(sweep, tmp_path):
-    header, table, r = check(f"{sweep} --signals --spectrum {tmp_path / 's.parquet'} "
+    header, table, _r = check(f"{sweep} --signals --spectrum {tmp_path / 's.parquet'} "
                              f"--corrected {tmp_path / 'c.parquet'}", tmp_path / "sig.parquet")
     truth = Truth.from_dict(header.meta["truth"])
     theta = table["theta"].to_numpy()
@@ -158,7 +158,7 @@ def test_signals_mode_recovers_faults_and_error(sweep, tmp_path):
         assert np.abs(table[name].to_numpy() - want).max() < 1e-6
         liss = header.meta["signals"][name]["lissajous"]
         assert liss["variation"] > 0.02
-    spec_h, spec = read_table(tmp_path / "s.parquet", "spectrum")
+    _spec_h, spec = read_table(tmp_path / "s.parquet", "spectrum")
     assert set(spec["curve"].to_pylist()) == set(HEADS)
     # counts re-interpolated from the corrected phase: interpolation error gone
     _, fixed, _ = check(f"{tmp_path / 'c.parquet'} --heads H1,P2", tmp_path / "f.parquet")
