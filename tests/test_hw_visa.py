@@ -82,8 +82,10 @@ def test_settings_name_the_backend_and_instruments(visa_steps: Path) -> None:
     meta = json.loads(pq.read_schema(visa_steps).metadata[b"enctools"])
     be = meta["settings"]["backend"]
     assert be["backend"] == "visa" and be["retries"] == 2 and be["timeout_s"] == 0.2
-    assert be["instruments"] == {"table": "TCPIP0::192.168.0.21::inst0::INSTR",
-                                 "ac": "GPIB0::7::INSTR"}
+    assert be["instruments"] == {  # where each instrument was, and what it said it is
+        "table": {"address": "TCPIP0::192.168.0.21::inst0::INSTR",
+                  "idn": "enctools,ROTSIM-1,0001,1.0"},
+        "ac": {"address": "GPIB0::7::INSTR"}}
     assert "truth" not in meta  # real instruments know no truth
 
 

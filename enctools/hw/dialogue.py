@@ -105,6 +105,7 @@ class Link:
         self.error_query = error_query
         self.no_error = no_error
         self.name = port.name
+        self.idn: str | None = None  # the instrument's identification, when asked
 
     def query(self, text: str) -> str:
         """Send a query; its reply line (timeouts retried, then DeviceError with the errors)."""
@@ -191,7 +192,8 @@ def open_link(name: str, cfg: dict[str, Any], rig: Rig, default_kind: str,
         for text in need(cfg, "init", list, rig, where, []):
             link.command(str(text))
         if cfg.get("idn"):
-            log.info("%s: %s", retry.where(port), link.query(str(cfg["idn"])).strip())
+            link.idn = link.query(str(cfg["idn"])).strip()
+            log.info("%s: %s", retry.where(port), link.idn)
         for e in link.errors():
             log.warning("%s: error queue at start: %s", retry.where(port), e)
     except BaseException:
@@ -475,7 +477,9 @@ class InstrumentSession(Session):
     def describe(self) -> dict[str, Any]:
         return {"backend": self.kind, "timeout_s": self.policy.timeout_s,
                 "retries": self.policy.retries,
-                "instruments": {n: lk.port.address for n, lk in self.links.items()}}
+                "instruments": {n: {"address": lk.port.address} | ({"idn": lk.idn} if lk.idn
+                                                                     else {})
+                                for n, lk in self.links.items()}}
 
     def close(self) -> None:
         counter = getattr(self, "counter", None)
