@@ -337,7 +337,7 @@ def test_html_report_stands_alone(demo_html):
     text = demo_html.read_text()
     assert text.startswith("<!DOCTYPE html>")
     assert "src=\"http" not in text and "<script" not in text       # nothing fetched
-    for part in ("Rig and method", "Before / after compensation", "ISO 230-2 (2014)",
+    for part in ("Rig and method", "(before / after compensation)", "ISO 230-2 (2014)",
                  "Lissajous", "Interpolation error per head", "radial error motion",
                  "with U band (k=2)", "How these data were made", "Within every threshold"):
         assert part in text, part
@@ -441,3 +441,49 @@ def test_report_help_is_documented_in_man_page():
         r = run("MANWIDTH=80 man --warnings -l " + str(ROOT / "man" / "enc-report.1")
                 + " 2>&1 >/dev/null")
         assert r.stdout == b"", r.stdout.decode()
+
+
+# ------------------------------------------------------- through the real pipeline
+
+
+def _have(*commands: str) -> bool:
+    r = run("enc --help")
+    return all(f"  {c} " in r.stdout.decode() for c in commands)
+
+
+@pytest.mark.skipif(not _have("selfcal", "compare", "interp-check"),
+                    reason="selfcal/compare/interp-check not available")
+def test_real_pipeline_selfcal_compare_interp(sjtu_raw, tmp_path):
+    """enc acquire | enc selfcal / compare / interp-check | enc report: every section is
+    read, its figures equal the columns' own (numpy on the file), the HTML is written."""
+    d = tmp_path
+    r = run(f"enc selfcal {sjtu_raw} --spectrum {d}/spec.parquet -o {d}/selfcal.parquet && "
+            f"enc compare {sjtu_raw} --device H1 --ref P1,P2 -o {d}/compare.parquet && "
+            f"enc acquire --rig sjtu-dual --mode sweep | enc interp-check -o {d}/interp.parquet")
+    assert r.returncode == 0, r.stderr.decode()
+    files = [d / f for f in ("selfcal.parquet", "spec.parquet", "compare.parquet",
+                             "interp.parquet")]
+    out = report_json(*files, "--html", d / "r.html")
+    kinds = [s["kind"] for s in out["sections"]]
+    assert kinds == ["deviations", "spectrum", "deviations", "deviations"]
+    import pyarrow.parquet as pq
+    for sec, f in zip(out["sections"], files):
+        if sec["kind"] != "deviations":
+            continue
+        t = pq.read_table(f)
+        for c in sec["curves"]:
+            col = t.column(c["name"]).to_numpy()
+            assert c["pp"] == pytest.approx(np.ptp(col), rel=1e-12)
+            assert c["std"] == pytest.approx(np.std(col, ddof=1), rel=1e-12)
+    selfcal, _, _, interp = out["sections"]
+    assert {c["unit"] for c in selfcal["curves"]} == {"arcsec", "nm"}
+    assert any("U_max" in c for c in selfcal["curves"])
+    assert interp["domain"] == "period"
+    assert all(c["harmonics"][0]["n"] in (1, 2) for c in interp["curves"])
+    # the graduation error the self-calibration found vs the truth: p-p within 0.1"
+    truth = _truth_of(d / "selfcal.parquet")
+    grid = np.arange(1024) * TWO_PI / 1024
+    grad = next(c for c in selfcal["curves"] if c["unit"] == "arcsec")
+    want = truth.graduation["II"].band(n_max=100)(grid)
+    assert grad["pp"] == pytest.approx(np.ptp(want), abs=0.1)
+    assert (d / "r.html").stat().st_size > 50_000

@@ -46,6 +46,8 @@ def _e(x: Any) -> str:
 def _f(x: float | None, digits: int = 3) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "–"
+    if abs(x) < 1e-9:           # a mean removed to rounding: 0, not -3.5e-18
+        x = 0.0
     if x != 0 and abs(x) < 0.5 * 10 ** -digits:
         return f"{x:.2g}"
     return f"{x:.{digits}f}"
@@ -57,10 +59,13 @@ def _img(fig: Any, caption: str) -> str:
             f"<figcaption>{_e(caption)}</figcaption></figure>")
 
 
-def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1) -> str:
-    th = "".join(f'<th class="{"l" if i < left else ""}">{_e(h)}</th>'
-                 for i, h in enumerate(header))
-    body = "".join("<tr>" + "".join(f'<td class="{"l" if i < left else ""}">{_e(v)}</td>'
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
+           also_left: Sequence[int] = ()) -> str:
+    """A table; the first ``left`` columns (and those in ``also_left``) are text."""
+    def cls(i: int) -> str:
+        return "l" if i < left or i in also_left else ""
+    th = "".join(f'<th class="{cls(i)}">{_e(h)}</th>' for i, h in enumerate(header))
+    body = "".join("<tr>" + "".join(f'<td class="{cls(i)}">{_e(v)}</td>'
                                     for i, v in enumerate(r)) + "</tr>" for r in rows)
     return f"<table><tr>{th}</tr>{body}</table>"
 
@@ -79,7 +84,8 @@ def _rig_html(rigs: dict[str, dict[str, Any]]) -> str:
                          enc.get("interpolation"), enc.get("diameter_mm"), heads])
         if rows:
             out.append(_table(["encoder", "model", "periods/rev", "interpolation",
-                               "diameter [mm]", "heads (nominal angle)"], rows, left=2))
+                               "diameter [mm]", "heads (nominal angle)"], rows, left=2,
+                              also_left=(5,)))
         extras = [k for k in ("polygon", "autocollimator", "probes") if rig.get(k)]
         if extras:
             out.append(f"<p class='note'>Also: {_e(', '.join(extras))}; backend "
@@ -179,21 +185,29 @@ def _section_html(s: Section, top: int) -> str:
 
 
 def _compare_html(report: Report) -> str:
-    pairs = [(s.source.rsplit("/", 1)[-1] + ("" if c.name in ("deviation",) else f":{c.name}"), c)
-             for s, c in report.curves("arcsec")
-             if c.domain == "revolution" and c.role in ("deviation", "points", "positioning")]
-    if len(pairs) < 2 or len({id(c) for _, c in pairs}) < 2:
-        return ""
-    if len({p[0] for p in pairs}) < 2 and len(report.sections) < 2:
-        return ""
-    rows = [[label, _f(c.figures.pp), _f(c.figures.std)] for label, c in pairs]
-    first = pairs[0][1].figures.std
-    ratio = "".join(f"<li>{_e(label)}: s ratio first/this = {first / c.figures.std:.2f}</li>"
-                    for label, c in pairs[1:] if c.figures.std > 0)
-    return ("<h2>Before / after compensation</h2>"
-            + _img(plots.compare_plot(pairs[:8], "deviation of every input"),
-                   "Deviation of every input on one plot (first input: before)")
-            + _table(["input", "p-p [arcsec]", "s [arcsec]"], rows) + f"<ul>{ratio}</ul>")
+    """Inputs of one kind with deviation curves over a turn, on one plot (before/after)."""
+    groups: dict[str, list[tuple[str, Curve]]] = {}
+    for s, c in report.curves("arcsec"):
+        if c.domain == "revolution" and c.role in ("deviation", "points", "positioning"):
+            label = s.source.rsplit("/", 1)[-1]
+            if len([x for x in s.curves if x.unit == "arcsec"]) > 1:
+                label += f":{c.name}"
+            groups.setdefault(s.kind, []).append((label, c))
+    out = []
+    for kind, pairs in groups.items():
+        if len({label.split(":")[0] for label, _ in pairs}) < 2:
+            continue
+        rows = [[label, _f(c.figures.pp), _f(c.figures.std)] for label, c in pairs]
+        first = pairs[0][1].figures.std
+        ratio = "".join(f"<li>{_e(label)}: s of the first / s of this = "
+                        f"{first / c.figures.std:.2f}</li>"
+                        for label, c in pairs[1:] if c.figures.std > 0)
+        out.append(f"<h2>Comparison of the {_e(kind)} inputs (before / after compensation)</h2>"
+                   + _img(plots.compare_plot(pairs[:8], f"{kind}: every input"),
+                          "Deviation of every input on one plot (the first: before)")
+                   + _table(["input", "p-p [arcsec]", "s [arcsec]"], rows)
+                   + f"<ul class='note'>{ratio}</ul>")
+    return "".join(out)
 
 
 def _history_html(report: Report) -> str:
@@ -236,13 +250,14 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
             parts.append(f"<div class='ok'><b>Within every threshold</b> "
                          f"({_e(', '.join(f'{k}={v}' for k, v in limits.items()))}).</div>")
     if report.sections:
-        parts.append("<h2>Rig and method</h2>" + _rig_html(rigs))
-        parts.append(_table(["input", "kind", "made by", "settings"], _method_rows(report),
-                            left=4))
         parts.append("<h2>Summary</h2>" + _table(
             ["input", "curve", "unit", "n", "p-p", "±", "mean", "s (Bessel)", "U max (k=2)"],
             _summary_rows(report), left=3))
     parts.append(_compare_html(report))
+    if report.sections:
+        parts.append("<h2>Rig and method</h2>" + _rig_html(rigs))
+        parts.append(_table(["input", "kind", "made by", "settings"], _method_rows(report),
+                            left=4))
     for s in report.sections:
         parts.append(_section_html(s, top))
     parts.append(_history_html(report))
