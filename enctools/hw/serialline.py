@@ -91,7 +91,7 @@ class SerialPort:
             raise retry.Timeout(raw)
         log.debug("%s -> %r", self.name, raw)
         try:
-            text = raw[: -len(self.read_term)].decode(self.encoding)
+            text = raw[: -len(self.read_term)].decode(self.encoding).rstrip("\r\n")
         except UnicodeDecodeError:
             text = ""
             bad = True
