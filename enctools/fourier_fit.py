@@ -60,12 +60,12 @@ def fit_fourier(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int)
     x = np.asarray(angle_deg, dtype=np.float64) * DEG
     y = np.asarray(error_arcsec, dtype=np.float64)
     a = design_matrix(x, harmonics)
-    u, s, vt = np.linalg.svd(a, full_matrices=False)
+    u, s, vt = np.linalg.svd(a, full_matrices=True)
     tol = s.max() * max(a.shape) * np.finfo(float).eps * 1e3
-    keep = s > tol
-    sol = vt[keep].T @ ((u[:, keep].T @ y) / s[keep])
+    rank = int(np.sum(s > tol))
+    sol = vt[:rank].T @ ((u[:, :rank].T @ y) / s[:rank])
     # A coefficient is undetermined when a null-space direction loads on it.
-    null = vt[~keep]
+    null = vt[rank:]
     names = ["a0"] + [f"{p}{k}" for k in range(1, harmonics + 1) for p in ("a", "b")]
     undetermined = [names[j] for j in range(len(names))
                     if null.size and np.max(np.abs(null[:, j])) > 1e-6]

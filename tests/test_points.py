@@ -1,0 +1,95 @@
+"""enc points: calibration points from a polygon step run or a CSV table (seed 001 sec. 5.3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import DATA, run
+
+from enctools import streams
+from enctools.points import distinct, figures, from_table
+from enctools.truth import Truth, interpolation_error
+from enctools.units import DEG
+
+
+def test_seed001_table1_as_points(tmp_path):
+    out = tmp_path / "t1.parquet"
+    r = run(f"enc points {DATA}/seed001_table1.csv -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    header, table = streams.read_table(str(out), "points")
+    assert table.num_rows == 25  # the 360 deg row repeats 0 deg
+    pts = from_table(table)
+    x, y, closure = distinct(pts)
+    assert x.size == 24 and closure == 0.0
+    fig = figures(y)
+    assert fig.peak_to_peak == pytest.approx(5.46, abs=1e-9)  # seed 001: 5.46"
+    # Bessel s (seed 001 eq. 8) of the 24 distinct positions; the paper prints 1.30"
+    assert fig.bessel_std == pytest.approx(1.2674, abs=1e-4)
+    assert header.meta["figures"]["peak_to_peak_arcsec"] == pytest.approx(5.46)
+    assert "enc points" in header.history[-1]
+
+
+def test_steps_run_gives_the_head_average_error(ciomp_steps, tmp_path):
+    out = tmp_path / "p.parquet"
+    r = run(f"enc points {ciomp_steps} -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    header, table = streams.read_table(str(out), "points")
+    truth = Truth.from_dict(header.meta["truth"])
+    pos = table.column("position").to_numpy()
+    dev = table.column("deviation").to_numpy()
+    assert table.num_rows == 24
+    assert np.allclose(np.diff(pos), 15.0, atol=0.01)
+    th = pos * DEG
+    eps = truth.graduation["A"]
+    psi = sum(interpolation_error(truth.signals[h], th + a, 4096) for h, a in (("F1", 0.0),
+                                                                             ("F2", np.pi))) / 2
+    e = (eps(th) + eps(th + np.pi)) / 2 + psi
+    j = np.round(pos / 15).astype(int) % 24
+    face = truth.polygon[j]
+    want = (e - e[0]) - (face - face[0])
+    # noise: heads 0.05"/sqrt(10), autocollimator 0.03"/sqrt(5), positioning
+    assert np.abs(dev - want).max() < 0.1
+    assert dev[0] == 0.0
+
+
+def test_csv_with_direction_and_run(tmp_path):
+    f = tmp_path / "p.csv"
+    f.write_text("# two runs\nposition_deg,deviation_arcsec,direction,run\n"
+                 "0,0,1,0\n90,1.5,1,0\n180,-1,-1,1\n270,0.5,-1,1\n")
+    r = run(f"enc points {f} | enc info")
+    assert r.returncode == 0, r.stderr.decode()
+    assert b"4 rows" in r.stdout
+
+
+@pytest.mark.parametrize("content, what", [
+    ("# nothing but comments\n", "no points"),
+    ("", "empty file"),
+    ("position_deg,deviation_arcsec\n", "no points after the header"),
+    ("angle,error\n0,1\n", "header"),
+    ("position_deg,deviation_arcsec\n0,nan\n", "NaN"),
+    ("position_deg,deviation_arcsec\n0,abc\n", "not numbers"),
+])
+def test_bad_csv_is_refused(tmp_path, content, what):
+    f = tmp_path / "bad.csv"
+    f.write_text(content)
+    out = tmp_path / "p.parquet"
+    r = run(f"enc points {f} -o {out}")
+    assert r.returncode == 2
+    err = r.stderr.decode()
+    assert err.startswith("enc points: error:") and err.count("\n") == 1, err
+    assert what in err
+    assert not out.exists()
+
+
+def test_continuous_run_is_not_a_polygon_run(tmp_path):
+    out = tmp_path / "p.parquet"
+    r = run(f"enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 | enc points -o {out}")
+    assert r.returncode == 2
+    assert b"steps" in r.stderr and r.stderr.count(b"\n") == 1
+    assert not out.exists()
+
+
+def test_points_need_a_readings_stream(ciomp_steps, tmp_path):
+    r = run(f"enc points {DATA}/seed001_table1.csv | enc points -o {tmp_path}/x.parquet")
+    assert r.returncode == 2
+    assert b"is a points stream" in r.stderr
