@@ -492,3 +492,21 @@ def test_real_pipeline_selfcal_compare_interp(sjtu_raw, tmp_path):
     grad = next(c for c in selfcal["curves"] if c["unit"] == "arcsec")
     want = truth.graduation["II"].band(n_max=100)(grid)
     assert grad["pp"] == pytest.approx(np.ptp(want), abs=0.1)
+
+
+def test_rom_section_counts(tmp_path):
+    """A correction table: figures in counts over the addresses, not checked by --max-pp."""
+    size = 4096
+    address = np.arange(size)
+    corr = np.round(-20 * np.sin(2 * TWO_PI * address / size)).astype(np.int64)
+    schema = pa.schema([make_field("address", pa.int64(), ""),
+                        make_field("correction", pa.int64(), "count")])
+    rom = tmp_path / "rom.parquet"
+    write_table(str(rom), Header("rom", schema, {"rom": {"size": size, "bits": 12}}),
+                pa.table([address, corr], schema=schema))
+    r = run(["enc", "report", "--json", str(rom), "--max-pp", "1"])
+    assert r.returncode == 0, r.stderr.decode()
+    sec = json.loads(r.stdout)["sections"][0]
+    c = sec["curves"][0]
+    assert c["unit"] == "count" and c["pp"] == 40 and c["harmonics"][0]["n"] == 2
+    assert sec["info"]["bits"] == 12

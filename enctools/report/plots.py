@@ -70,11 +70,12 @@ def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
     return fig
 
 
-def _legend(ax: Any, count: int) -> None:
+def _legend(ax: Any, count: int, markerscale: float = 1.0) -> None:
     if count > 3:   # many curves: beside the plot, not over the data
-        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5),
+                  markerscale=markerscale)
     else:
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=7, loc="best", markerscale=markerscale)
 
 
 def _last_significant(rows: Sequence[SpectrumRows]) -> int:
@@ -163,7 +164,7 @@ def lissajous_plot(signals: dict[str, tuple[np.ndarray, np.ndarray]], title: str
     ax.set_ylabel("sin signal (Q) [V]")
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    _legend(ax, len(signals))
+    _legend(ax, len(signals), markerscale=6)
     return fig
 
 
