@@ -475,6 +475,9 @@ def _read_mif(data: bytes, t: Target, src: str) -> np.ndarray:
     if arad == 16 and drad == b"HEX" and b"[" not in body:
         import pyarrow.compute as pc
         lines = _body_lines(body, "--")
+        fixed = _fixed_mif(lines, width, depth, src)
+        if fixed is not None:
+            return fixed
         pattern = r"^(?P<a>[0-9A-Fa-f]+)\s*:\s*(?P<v>[0-9A-Fa-f]+)\s*;$"
         if pc.all(pc.match_substring_regex(lines, pattern)).as_py():
             parts = pc.extract_regex(lines, pattern)
@@ -521,6 +524,36 @@ def _read_mif(data: bytes, t: Target, src: str) -> np.ndarray:
         seen[a] = True
     if not seen.all():
         raise DataError(f"{src}: {int((~seen).sum())} of {depth} addresses have no value")
+    return out
+
+
+def _fixed_mif(lines, width: int, depth: int, src: str) -> np.ndarray | None:
+    """MIF body lines all alike (``addr : value;`` at fixed columns): parsed as one 2D array."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    if len(lines) != depth or depth == 0:
+        return None
+    lines = lines.cast(pa.large_string())
+    lens = pc.binary_length(lines).to_numpy(zero_copy_only=False)
+    if lens.min() != lens.max():
+        return None
+    offs = np.frombuffer(lines.buffers()[1], dtype=np.int64)[lines.offset:lines.offset + depth + 1]
+    raw = np.frombuffer(lines.buffers()[2], dtype=np.uint8)[offs[0]:offs[-1]].reshape(depth, -1)
+    first = bytes(raw[0])
+    m = re.fullmatch(rb"([0-9A-Fa-f]+)(\s*:\s*)([0-9A-Fa-f]+)(\s*;)", first)
+    if m is None:
+        return None
+    for g in (2, 4):
+        a, b = m.span(g)
+        if not (raw[:, a:b] == raw[0, a:b]).all():
+            return None
+    addr = _parse_hex_tokens(np.ascontiguousarray(raw[:, m.start(1):m.end(1)]), 63, src)
+    if not np.array_equal(addr, np.arange(depth)):
+        order = np.argsort(addr)
+        if not np.array_equal(addr[order], np.arange(depth)):
+            raise DataError(f"{src}: addresses do not cover 0..DEPTH-1={depth - 1} once each")
+    out = np.empty(depth, dtype=np.int64)
+    out[addr] = _parse_hex_tokens(np.ascontiguousarray(raw[:, m.start(3):m.end(3)]), width, src)
     return out
 
 

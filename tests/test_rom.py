@@ -1,0 +1,178 @@
+"""enc make-rom: correction tables from a model, in every format, read back equal."""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+import pyarrow as pa
+import pytest
+from conftest import DATA, run
+
+from enctools import romformats as rf
+from enctools import streams
+from enctools.fourier_fit import FourierModel
+from enctools.models import from_stream
+from enctools.rom import RomSpec, build_rom
+from enctools.schemas import make_field
+
+MEMORY = ("bin", "ihex", "mif", "coe", "mem", "csv")
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rom")
+    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv -q -o {d}/m.parquet")
+    assert r.returncode == 0, r.stderr.decode()
+    return d / "m.parquet"
+
+
+@pytest.fixture(scope="module")
+def rom23(model_file):
+    """The full 23-bit table, int16, of the table-1 RBF model."""
+    header, table = streams.read_table(str(model_file), "model")
+    return build_rom(from_stream(header, table), RomSpec(23, width=16)), from_stream(header, table)
+
+
+def test_quantisation_within_half_an_lsb(rom23):
+    rom, model = rom23
+    assert rom.values.size == 1 << 23 and rom.values.dtype == np.int16
+    assert rom.max_quantisation_lsb <= 0.5
+    # spot-check against the model: value = round(-deviation / LSB) at the code's angle
+    lsb = 1_296_000 / 2 ** 23
+    k = np.random.default_rng(0).integers(0, 1 << 23, 2000)
+    want = -model(k * 360.0 / 2 ** 23) / lsb
+    assert np.abs(rom.values[k] - want).max() <= 0.5 + 1e-9
+    assert np.array_equal(rom.values[k], np.rint(want))
+    assert rom.crc32 == zlib.crc32(rom.values.astype("<i2").tobytes())
+
+
+@pytest.mark.parametrize("fmt", MEMORY)
+def test_full_23_bit_table_reads_back(rom23, tmp_path, fmt):
+    rom, _ = rom23
+    for endian in (("little", "big") if fmt in ("bin", "ihex") else ("little",)):
+        target = rf.Target(fmt, 16, endian)
+        path = tmp_path / f"t.{fmt}"
+        rf.write_table(str(path), rom.values, target, force=True, comment=["test"])
+        assert np.array_equal(rf.read_table(str(path), target), rom.values)
+
+
+@pytest.mark.parametrize("fmt", ("acs", "siemens"))
+def test_controller_tables_read_back(rom23, tmp_path, fmt):
+    values = rom23[0].values[::32]  # 2^18 points: a big controller table
+    target = rf.Target(fmt, 16, count_deg=360 / 2 ** 23, axis="0" if fmt == "acs" else "C1",
+                       max_entries=1 << 19)
+    path = tmp_path / f"t.{fmt}"
+    rf.write_table(str(path), values, target)
+    assert np.array_equal(rf.read_table(str(path), target), values)
+
+
+def test_odd_widths_in_text_formats(tmp_path):
+    values = np.array([-2048, -1, 0, 1, 2047, -7], dtype=np.int16)
+    for fmt in ("mif", "coe", "mem"):
+        target = rf.Target(fmt, 12)
+        rf.write_table(str(tmp_path / f"x.{fmt}"), values, target)
+        assert np.array_equal(rf.read_table(str(tmp_path / f"x.{fmt}"), target), values)
+    assert "\t0 : 800;" in (tmp_path / "x.mif").read_text()  # two's complement, 3 digits
+
+
+def test_mif_reader_takes_ranges_and_decimal(tmp_path):
+    f = tmp_path / "q.mif"
+    f.write_text("-- by hand\nWIDTH=8;\nDEPTH=6;\nADDRESS_RADIX=UNS;\nDATA_RADIX=DEC;\n"
+                 "CONTENT BEGIN\n[0..2] : -1;\n3 : 5 6;\n5 : 127;\nEND;\n")
+    assert rf.read_table(str(f), rf.Target("mif", 8)).tolist() == [-1, -1, -1, 5, 6, 127]
+
+
+def test_make_rom_command_every_format(model_file, tmp_path):
+    crcs = set()
+    for fmt, ext in (("bin", "bin"), ("ihex", "hex"), ("mif", "mif"), ("coe", "coe"),
+                     ("mem", "mem"), ("csv", "csv"), ("acs", "prg"), ("siemens", "spf")):
+        out = tmp_path / f"t.{ext}"
+        r = run(f"enc make-rom {model_file} --bits 23 --address-bits 12 --verify -o {out}")
+        assert r.returncode == 0, r.stderr.decode()
+        err = r.stderr.decode()
+        assert "read back equal" in err and "largest quantisation error" in err
+        crcs.add(err.split("CRC-32 ")[1].split()[0])
+    # controller tables sample the start of each address range, memories its centre
+    assert len(crcs) == 2
+    data = (tmp_path / "t.bin").read_bytes()
+    assert f"{zlib.crc32(data):08x}" in crcs and len(data) == 2 * 4096
+
+
+def test_siemens_rotary_rules(model_file, tmp_path):
+    out = tmp_path / "c.spf"
+    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 8 --axis C1 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    lines = out.read_text().splitlines()
+    comp = [ln for ln in lines if ln.startswith("$AA_ENC_COMP[")]
+    assert len(comp) == 257  # 0 deg .. 360 deg, no gaps
+    assert comp[0].startswith("$AA_ENC_COMP[0,0,C1]=") and comp[-1].startswith("$AA_ENC_COMP[0,256,C1]=")
+    assert comp[0].split("=")[1] == comp[-1].split("=")[1]  # 0 and 360 deg agree
+    assert "$AA_ENC_COMP_STEP[0,C1]=1.40625" in lines and "$AA_ENC_COMP_MAX[0,C1]=360.0" in lines
+    assert "$AA_ENC_COMP_IS_MODULO[0,C1]=1" in lines
+    target = rf.Target("siemens", count_deg=360 / 2 ** 23, axis="C1")
+    gap = tmp_path / "gap.spf"
+    gap.write_text("\n".join(ln for ln in lines if not ln.startswith("$AA_ENC_COMP[0,7,")))
+    with pytest.raises(Exception, match="gaps"):
+        rf.read_table(str(gap), target)
+    opened = tmp_path / "open.spf"
+    opened.write_text("\n".join(ln if not ln.startswith("$AA_ENC_COMP[0,256,") else
+                                "$AA_ENC_COMP[0,256,C1]=0.004291534423828125" for ln in lines))
+    with pytest.raises(Exception, match="0 deg and 360 deg"):
+        rf.read_table(str(opened), target)
+
+
+def test_deviations_curve_as_model(tmp_path):
+    theta = np.arange(3600) * 2 * np.pi / 3600
+    schema = pa.schema([make_field("theta", pa.float64(), "rad"),
+                        make_field("A", pa.float64(), "arcsec", "deviation")])
+    table = pa.table([theta, 3.0 * np.sin(2 * theta)], schema=schema)
+    streams.write_table(str(tmp_path / "d.parquet"), streams.Header("deviations", schema, {}), table)
+    r = run(f"enc make-rom {tmp_path}/d.parquet --bits 16 --width 8 --lsb 4 -o {tmp_path}/d.bin")
+    assert r.returncode == 0, r.stderr.decode()
+    v = np.fromfile(tmp_path / "d.bin", dtype=np.int8)
+    lsb = 4 * 1_296_000 / 2 ** 16
+    x = np.arange(v.size) * 2 * np.pi / v.size
+    assert np.abs(v - (-3.0 * np.sin(2 * x) / lsb)).max() < 0.5 + 1e-3  # + linear interpolation
+
+
+def test_rom_stream_output(model_file):
+    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 10 -q | enc info")
+    assert r.returncode == 0, r.stderr.decode()
+    assert b"rom stream" in r.stdout and b"1024 rows" in r.stdout
+
+
+@pytest.mark.parametrize("args, what", [
+    ("--bits 23 --width 4", "use --width"),               # corrections do not fit 4 bits
+    ("--bits 32", "2^32 = 4294967296 entries"),   # 2^32 entries
+    ("--bits 23 --target siemens", "exceed the 5000"),
+    ("--bits 23 --address-bits 24", "--address-bits"),
+])
+def test_make_rom_refuses(model_file, tmp_path, args, what):
+    out = tmp_path / "t.bin"
+    r = run(f"enc make-rom {model_file} {args} -o {out}")
+    assert r.returncode == 2, r.stderr.decode()
+    err = r.stderr.decode()
+    assert err.startswith("enc make-rom: error:") and err.count("\n") == 1, err
+    assert what in err
+    assert not out.exists() and not list(tmp_path.iterdir())  # no partial or temporary file
+
+
+def test_make_rom_wrong_kind_and_existing_output(tmp_path, model_file):
+    out = tmp_path / "t.bin"
+    r = run(f"enc points {DATA}/seed001_table1.csv | enc make-rom --bits 16 -o {out}")
+    assert r.returncode == 2 and b"this command reads model or deviations" in r.stderr
+    assert not out.exists()
+    out.write_bytes(b"keep")
+    r = run(f"enc make-rom {model_file} --bits 16 -o {out}")
+    assert r.returncode == 2 and b"--force" in r.stderr and out.read_bytes() == b"keep"
+
+
+def test_fourier_model_table_exact():
+    m = FourierModel(np.array([0, 1, 2]), np.array([0.0, 10.0, 0.0]), np.array([0.0, 0.0, -5.0]))
+    rom = build_rom(m, RomSpec(10, width=12, lsb=8))
+    lsb = 8 * 1_296_000 / 2 ** 10
+    x = np.arange(1024) * 2 * np.pi / 1024
+    want = -(10 * np.cos(x) - 5 * np.sin(2 * x)) / lsb
+    assert np.array_equal(rom.values, np.rint(want))
+    assert rom.max_quantisation_lsb == pytest.approx(np.abs(np.rint(want) - want).max())
