@@ -129,7 +129,8 @@ def reference_error(curve_header: "Header", curve_table: "pa.Table", column: str
             r = float(field_meta(rf)["radius_m"])
             x = analyse(curve_table.column("x").to_numpy(), band)
             yy = analyse(curve_table.column("y").to_numpy(), band)
-            total += (x * np.mean(np.sin(alphas)) - yy * np.mean(np.cos(alphas))) * 1e-9 / r / ARCSEC
+            radial_nm = x * np.mean(np.sin(alphas)) - yy * np.mean(np.cos(alphas))
+            total += radial_nm * 1e-9 / r / ARCSEC
     total /= len(ref_fields)
     total[0] = 0
     return total
@@ -157,9 +158,9 @@ def run(source: "InputStream", device: list[str], ref: list[str], band: int, poi
         raise UsageError(f"--points {points} cannot carry --band {band}: give more than {2 * band}")
     correction = None
     if ref_curve is not None:
+        kmax = band if band > 0 else (points - 1) // 2
         correction = reference_error(ref_curve[0], ref_curve[1], ref_column,
-                                     [source.schema.field(h) for h in ref], max(band, 1) if band else
-                                     (points - 1) // 2, ref_curve[2])
+                                     [source.schema.field(h) for h in ref], kmax, ref_curve[2])
     spec = ChannelSpec(tuple(dev), tuple(refs))
     revs = revolution_spectra(source.batches(), spec, max(band, 0), source.source, progress,
                               grid_points=0 if band > 0 else points)

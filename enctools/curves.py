@@ -54,8 +54,9 @@ def spectrum_table(curves: list[tuple[str, np.ndarray, np.ndarray | None, np.nda
         rows["phase"] += np.angle(cc).tolist()
         rows["re"] += cc.real.tolist()
         rows["im"] += cc.imag.tolist()
-        rows["transfer"] += (np.full(n.size, np.nan) if transfer is None else transfer[first:]).tolist()
-        rows["u"] += (np.full(n.size, np.nan) if u is None else u[first:]).tolist()
+        none = np.full(n.size, np.nan)
+        rows["transfer"] += (none if transfer is None else transfer[first:]).tolist()
+        rows["u"] += (none if u is None else u[first:]).tolist()
         rows["curve"] += [name] * n.size
     fields = [make_field("n", pa.int64(), ""), make_field("amplitude", pa.float64(), "arcsec"),
               make_field("phase", pa.float64(), "rad"), make_field("re", pa.float64(), "arcsec"),

@@ -269,8 +269,10 @@ def report(a: Analysis, mounting_error_deg: float) -> str:
     if a.method != "average":
         lines.append(f"ill-conditioned (noise gain > {1 / a.min_transfer:g}): "
                      f"{format_orders(a.ill) or 'none'}")
+        gains = a.gain[a.first:]
+        gains = gains[np.isfinite(gains)]
         lines.append(f"noise gain: max {g:.3g} at n = {ng}; "
-                     f"RMS over the band {np.sqrt(np.mean(np.square(a.gain[a.first:][np.isfinite(a.gain[a.first:])]))):.3g}")
+                     f"RMS over the band {np.sqrt(np.mean(np.square(gains))):.3g}")
         sens = a.sensitivity[a.first:] * np.radians(mounting_error_deg)
         fin = np.isfinite(sens)
         k = int(np.argmax(np.where(fin, sens, -1))) + a.first

@@ -76,7 +76,8 @@ class AverageSummary:
             keeps = f"keeps the multiples of {eq} of the graduation error and cancels the rest"
         else:
             keeps = (f"keeps {_ranges(self.passed) or 'no harmonic'} fully, cancels "
-                     f"{_ranges(self.cancelled) or 'none'}, attenuates {_ranges(self.partial) or 'none'}")
+                     f"{_ranges(self.cancelled) or 'none'}, "
+                     f"attenuates {_ranges(self.partial) or 'none'}")
         radial = ("cancels radial motion" if self.radial_gain < 1e-9 else
                   f"keeps {self.radial_gain:.3g} of the radial motion")
         return (f"{name} = mean({', '.join(heads)}) at "
@@ -85,7 +86,7 @@ class AverageSummary:
 
 
 def summarize_average(alphas: np.ndarray, band: int) -> AverageSummary:
-    """Passed, cancelled and attenuated harmonics 1..band of the average of heads at ``alphas`` [rad]."""
+    """Passed, cancelled and attenuated harmonics 1..band of a mean of heads at ``alphas`` [rad]."""
     n = np.arange(1, band + 1)
     mag = np.abs(average_transfer(alphas, n))
     passed = tuple(int(k) for k in n[mag > 1 - 1e-9])

@@ -69,21 +69,23 @@ class Conditioning:
     gain: np.ndarray
     blind: list[int] = field(default_factory=list)
     ill: list[int] = field(default_factory=list)
+    limit: float = MIN_TRANSFER
 
     def message(self) -> str | None:
+        """One line naming the blind and ill-conditioned harmonics, or None."""
         parts = []
         if self.blind:
             parts.append(f"blind harmonics (|W(n)| = 0): {format_orders(self.blind)}")
         if self.ill:
             parts.append(f"ill-conditioned harmonics (noise gain > "
-                         f"{1 / self._limit:g}): {format_orders(self.ill)}")
+                         f"{1 / self.limit:g}): {format_orders(self.ill)}")
         return "; ".join(parts) or None
-
-    _limit: float = MIN_TRANSFER
 
 
 def esa_weights(alpha_ref: float, alphas: np.ndarray) -> np.ndarray:
-    """Weights a1..a3 that cancel radial motion in sum_j a_j (H_j - H_ref) (seed 000 eq. (14), C = 1).
+    """Weights a1..a3 cancelling radial motion in sum_j a_j (H_j - H_ref) (seed 000 eq. (14)).
+
+    C = 1, as the seed.
 
     They solve eq. (13) with the angles relative to the reference head: ``a = s x c`` with
     ``s_j = sin(alpha_j) - sin(alpha_ref)``, ``c_j = cos(alpha_j) - cos(alpha_ref)``, which
@@ -99,10 +101,11 @@ def esa_weights(alpha_ref: float, alphas: np.ndarray) -> np.ndarray:
 
 
 def esa_transfer(alpha_ref: float, alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """W(n) = sum_j a_j (exp(i n alpha_j) - exp(i n alpha_ref)) (seed 000 eq. (15)); angles in rad."""
+    """W(n) = sum_j a_j (exp(i n alpha_j) - exp(i n alpha_ref)) (seed 000 eq. (15)); rad."""
     a = esa_weights(alpha_ref, alphas)
     n = np.asarray(n, dtype=np.float64)
-    return (a[None, :] * (np.exp(1j * np.outer(n, alphas)) - np.exp(1j * n * alpha_ref)[:, None])).sum(axis=1)
+    diff = np.exp(1j * np.outer(n, alphas)) - np.exp(1j * n * alpha_ref)[:, None]
+    return (a[None, :] * diff).sum(axis=1)
 
 
 def esa_noise_norm(alpha_ref: float, alphas: np.ndarray) -> float:
@@ -147,7 +150,8 @@ def check_equal_spacing(alphas: np.ndarray, names: list[str], tol_deg: float = 0
     gaps = np.diff(np.append(a, a[0] + 2 * np.pi))
     if n < 2 or np.max(np.abs(gaps - 2 * np.pi / n)) > np.radians(tol_deg):
         msg = (f"eda needs equally spaced heads; {', '.join(names)} are at "
-               f"{'/'.join(f'{np.degrees(x):g}' for x in alphas)} deg (use --method fourier or esa)")
+               f"{'/'.join(f'{np.degrees(x):g}' for x in alphas)} deg "
+               "(use --method fourier or esa)")
         raise UsageError(msg)
 
 
@@ -203,9 +207,7 @@ class Method:
             gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
         blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
         ill = [int(k) for k in n[1:] if _BLIND < normalised[k] < self.min_transfer]
-        cond = Conditioning(transfer, gain, blind, ill)
-        cond._limit = self.min_transfer
-        return cond
+        return Conditioning(transfer, gain, blind, ill, self.min_transfer)
 
     def solve(self, spectra: np.ndarray) -> Solution:
         """Solve one set of head spectra (heads: ref first, then ``alphas``; rad) for F, X, Y."""
@@ -241,11 +243,12 @@ class Method:
         return Solution(f, x, y)
 
     def coordinate_error(self, sol: Solution, alphas: np.ndarray) -> np.ndarray:
-        """Coefficients [rad] of the error of a coordinate that is the mean of heads at ``alphas``."""
+        """Coefficients [rad] of the error of a coordinate: the mean of heads at ``alphas``."""
         n = np.arange(sol.graduation.size)
         c = np.exp(1j * np.outer(n, alphas)).mean(axis=1) * sol.graduation
         if sol.x is not None and sol.y is not None:
-            c = c + (sol.x * np.mean(np.sin(alphas)) - sol.y * np.mean(np.cos(alphas))) / self.radius_m
+            radial = sol.x * np.mean(np.sin(alphas)) - sol.y * np.mean(np.cos(alphas))
+            c = c + radial / self.radius_m
         c[0] = 0
         return c
 
@@ -325,7 +328,8 @@ def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Met
     g = spectra.mean
     sol = method.solve(g)
     for _ in range(iterations):
-        sol = method.solve(coordinate_correction(g, method.coordinate_error(sol, coordinate_alphas)))
+        error = method.coordinate_error(sol, coordinate_alphas)
+        sol = method.solve(coordinate_correction(g, error))
     out_c: dict[str, np.ndarray] = {}
     out_u: dict[str, np.ndarray] = {}
     out_curves: dict[str, np.ndarray] = {}
@@ -391,7 +395,10 @@ def plan(schema: "pa.Schema", meta: dict, method: str | None, ref: str | None,
                                                2 * np.pi - h.alpha % (2 * np.pi))).name
     if heads is None:
         others = [h.name for h in enc_heads if h.name != ref and h.name not in measure]
-        heads = others if len(others) >= 1 else [h.name for h in enc_heads if h.name != ref]
+        if method == "eda" or not others:
+            others = [n for n in measure if n != ref] if method == "eda" and measure else \
+                [h.name for h in enc_heads if h.name != ref]
+        heads = others
     if ref in heads:
         heads = [h for h in heads if h != ref]
     chosen = [by_name[ref]] + [by_name[h] for h in heads]
@@ -413,6 +420,11 @@ def plan(schema: "pa.Schema", meta: dict, method: str | None, ref: str | None,
         full = len(measure) == len(rig_enc.get("measure_heads", [None])) and len(measure) > 1
         angle_from = measure if full else [ref]
     coordinate = [by_name[n] for n in angle_from]
+    foreign = [h.name for h in coordinate if h.encoder != encoder]
+    if foreign:
+        msg = (f"--angle-from: {', '.join(foreign)} belong to another encoder than {encoder}; "
+               "the angle coordinate must come from the calibrated scale's heads")
+        raise UsageError(msg)
     m = Method(method, chosen[0].alpha, np.array([h.alpha for h in chosen[1:]]), band,
                chosen[0].radius_m, [h.name for h in chosen], min_transfer)
     return Plan(m, chosen, coordinate, encoder)
@@ -471,9 +483,10 @@ def run(source: "InputStream", settings: dict, progress: object = None
                    {"of": "graduation"})]
     for ax in ("x", "y"):
         if ax in res.curves:
+            u_rms = float(np.sqrt(np.mean(res.curve_uncertainty[ax] ** 2)))
             cols.append(Column(ax, res.curves[ax], "radial", "nm",
                                {"encoder": p.encoder, "argument": "spindle angle",
-                                "u_rms_nm": f"{float(np.sqrt(np.mean(res.curve_uncertainty[ax] ** 2))):.4g}"}))
+                                "u_rms_nm": f"{u_rms:.4g}"}))
     table = deviations_table(grid(points), cols)
     meta = {"settings": eff, "blind": cond.blind, "ill_conditioned": cond.ill,
             "domain": "revolution"}

@@ -47,7 +47,8 @@ def test_eq10_h_minus_p(raw31: Path, tmp_path: Path) -> None:
     assert r.returncode == 0, r.stderr.decode()
     header, table = read_table(tmp_path / "d.parquet", "deviations")
     truth = Truth.from_dict(header.meta["truth"])
-    want = synthesize(combined(truth, "II", [0, 90, 180, 270]) - combined(truth, "I", [0, 180]), 1024)
+    diff = combined(truth, "II", [0, 90, 180, 270]) - combined(truth, "I", [0, 180])
+    want = synthesize(diff, 1024)
     got = table.column("H-P").to_numpy()
     assert np.max(np.abs(got - want)) <= 0.01
     u = table.column("u_H-P").to_numpy()
@@ -59,7 +60,8 @@ def test_eq10_h_minus_p(raw31: Path, tmp_path: Path) -> None:
 def test_heads_averaged_on_the_fly(raw31: Path, tmp_path: Path) -> None:
     """--device H1,H2,H3,H4 --ref P1,P2 is the same as averaging first."""
     r = run(f"enc compare {raw31} --device H1,H2,H3,H4 --ref P1,P2 --name d -o {tmp_path}/a.parquet"
-            f" && enc average-heads {raw31} | enc compare --device H --ref P --name d -o {tmp_path}/b.parquet")
+            f" && enc average-heads {raw31} | enc compare --device H --ref P --name d "
+            f"-o {tmp_path}/b.parquet")
     assert r.returncode == 0, r.stderr.decode()
     a = pq.read_table(tmp_path / "a.parquet").column("d").to_numpy()
     b = pq.read_table(tmp_path / "b.parquet").column("d").to_numpy()

@@ -28,7 +28,8 @@ def test_coefficients_from_jittered_samples() -> None:
     c = series(rng, 100)
     s = 20000
     k = np.arange(s + 1)
-    u = 0.3 + k * TWO_PI / s + 2e-5 * np.sin(3 * TWO_PI * k / s) + 4e-6 * np.sin(42 * TWO_PI * k / s)
+    jitter = 2e-5 * np.sin(3 * TWO_PI * k / s) + 4e-6 * np.sin(42 * TWO_PI * k / s)
+    u = 0.3 + k * TWO_PI / s + jitter
     u[-1] = 0.3 + TWO_PI
     got = revolution_coefficients(u, evaluate(c, u)[None, :], 0.3, 100)[0]
     assert np.max(np.abs(got - c)) < 1e-8 * np.max(np.abs(c))

@@ -115,8 +115,8 @@ def test_esa_pipeline_arrow_on_stdout(tmp_path: Path) -> None:
 
 def test_esa_noise_free(tmp_path: Path) -> None:
     rig = quiet_rig(tmp_path)
-    r = run(f"enc acquire --rig {rig} --revolutions 4 | enc selfcal --spectrum {tmp_path}/s.parquet "
-            f"-o {tmp_path}/g.parquet")
+    r = run(f"enc acquire --rig {rig} --revolutions 4 | "
+            f"enc selfcal --spectrum {tmp_path}/s.parquet -o {tmp_path}/g.parquet")
     assert r.returncode == 0, r.stderr.decode()
     c, _ = spectrum(tmp_path / "s.parquet")
     truth = truth_of(tmp_path / "g.parquet")
@@ -163,8 +163,8 @@ def test_fourier_machine_precision() -> None:
 def test_fourier_three_heads_pipeline(tmp_path: Path) -> None:
     """0/38/67 deg heads, no radial motion, no noise: the basic method recovers the truth."""
     rig = quiet_rig(tmp_path, {"H5": 38.0, "H6": 67.0}, radial=False, max_harmonic=K)
-    r = run(f"enc acquire --rig {rig} --revolutions 3 --heads H1,H5,H6 | enc selfcal --method fourier "
-            f"--ref H1 --heads H5,H6 --spectrum {tmp_path}/s.parquet -o {tmp_path}/g.parquet")
+    r = run(f"enc acquire --rig {rig} --revolutions 3 --heads H1,H5,H6 | "
+            f"enc selfcal --method fourier --ref H1 --heads H5,H6 --spectrum {tmp_path}/s.parquet -o {tmp_path}/g.parquet")
     assert r.returncode == 0, r.stderr.decode()
     c, _ = spectrum(tmp_path / "s.parquet")
     truth = truth_of(tmp_path / "g.parquet")
@@ -197,7 +197,8 @@ def test_eda_four_equal_heads(sjtu_raw: Path, tmp_path: Path) -> None:
 
 
 def test_eda_refuses_unequal_spacing(sjtu_raw: Path, tmp_path: Path) -> None:
-    r = run(f"enc selfcal --method eda --ref H1 --heads H5,H6,H7 {sjtu_raw} -o {tmp_path}/g.parquet")
+    r = run(f"enc selfcal --method eda --ref H1 --heads H5,H6,H7 {sjtu_raw} "
+            f"-o {tmp_path}/g.parquet")
     assert r.returncode == 2
     assert r.stderr.decode().startswith("enc selfcal: error: eda needs equally spaced heads")
     assert not (tmp_path / "g.parquet").exists()
@@ -212,7 +213,8 @@ def test_blind_harmonic_named_and_strict(sjtu_raw: Path, tmp_path: Path) -> None
     assert c[119] == 0
     header, _ = read_table(tmp_path / "s.parquet")
     assert 120 in header.meta["blind"]
-    r = run(f"enc selfcal --band 130 --strict --ref H1 --heads H5,H6,H7 {sjtu_raw} -o {tmp_path}/h.parquet")
+    r = run(f"enc selfcal --band 130 --strict --ref H1 --heads H5,H6,H7 {sjtu_raw} "
+            f"-o {tmp_path}/h.parquet")
     assert r.returncode == 2
     lines = r.stderr.decode().strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("enc selfcal: error:") and "120" in lines[0]

@@ -7,7 +7,8 @@ import click
 from . import options, runner
 
 
-def _groups(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]) -> list[tuple[str | None, list[str]]]:
+def _groups(ctx: click.Context, param: click.Parameter,
+            value: tuple[str, ...]) -> list[tuple[str | None, list[str]]]:
     out: list[tuple[str | None, list[str]]] = []
     for v in value:
         name, sep, rest = v.partition("=")

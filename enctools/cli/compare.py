@@ -24,7 +24,8 @@ from . import options, runner
 @click.option("--ref-column", "ref_column", default=None, metavar="NAME",
               help="Column of --ref-curve (default: its first deviation column).")
 @click.option("--spectrum", "spectrum_path", default=None, metavar="FILE",
-              type=click.Path(dir_okay=False), help="Also write the spectrum to FILE (needs --band).")
+              type=click.Path(dir_okay=False),
+              help="Also write the spectrum to FILE (needs --band).")
 @options.outputs
 @options.verbosity
 def command(input: str | None, device: list[str], ref: list[str], band: int, points: int,

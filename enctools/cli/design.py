@@ -45,8 +45,8 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
     if angles is None and search_heads is None:
         raise UsageError("give --angles DEG,... to analyse, or --search M to search")
     if search_heads is not None:
-        res = design.search(search_heads, band, method or ("esa" if search_heads == 4 else "fourier"),
-                            step_deg, min_gap, criterion)
+        how = method or ("esa" if search_heads == 4 else "fourier")
+        res = design.search(search_heads, band, how, step_deg, min_gap, criterion)
         click.echo(f"best {search_heads}-head arrangement for n <= {band}: "
                    f"{'/'.join(f'{a:g}' for a in res.angles_deg)} deg "
                    f"({res.evaluated} arrangements scored, criterion {criterion})")
@@ -66,7 +66,8 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
     if a.ill:
         problems.append(f"ill-conditioned harmonics {format_orders(a.ill)}")
     if problems:
-        msg = f"{'/'.join(f'{x:g}' for x in a.angles_deg)} deg up to n = {band}: {'; '.join(problems)}"
+        where = "/".join(f"{x:g}" for x in a.angles_deg)
+        msg = f"{where} deg up to n = {band}: {'; '.join(problems)}"
         if strict:
             raise UsageError(msg + " (--strict)")
         runner.log.warning("%s", msg)
