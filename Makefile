@@ -6,7 +6,7 @@ OUT     ?= demo-out
 ENC     := $(abspath $(BIN)/enc)
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo test bench man lint clean
+.PHONY: help install demo test bench fuzz man lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 12
@@ -37,6 +37,13 @@ test: $(VENV)/.installed-test  ## install what the tests need and run them
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out
 
+FUZZ_SECONDS ?= 300
+fuzz: $(VENV)/.installed  ## fuzz the stream readers with atheris (findings in fuzz-out/)
+	$(BIN)/python -m pip install -q atheris
+	@mkdir -p fuzz-out
+	$(BIN)/python tests/fuzz_readers.py fuzz-out/corpus -max_total_time=$(FUZZ_SECONDS) \
+	    -artifact_prefix=fuzz-out/ -rss_limit_mb=4096
+
 man:  ## check that every man page renders without warnings
 	@for f in man/*.[15]; do out=$$(LC_ALL=C.UTF-8 MANWIDTH=80 man --warnings -l $$f 2>&1 >/dev/null); \
 	  if [ -n "$$out" ]; then echo "$$f: $$out"; exit 1; fi; done; echo "man pages: ok"
@@ -45,4 +52,4 @@ lint: $(VENV)/.installed-test  ## ruff over the code
 	$(BIN)/python -m pip install -q ruff && $(BIN)/ruff check enctools tests
 
 clean:  ## remove outputs (keeps .venv)
-	rm -rf $(OUT) bench-out .pytest_cache
+	rm -rf $(OUT) bench-out fuzz-out .pytest_cache

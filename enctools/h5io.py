@@ -44,6 +44,15 @@ def _arrow_type(name: str) -> pa.DataType:
     return pa.type_for_alias(name)
 
 
+def _set_text(obj: Any, name: str, value: bytes) -> None:
+    """Store UTF-8 text as a fixed-length string attribute.
+
+    Fixed length, not HDF5's variable-length strings: reading those follows pointers
+    into a global heap, and libhdf5 can crash on a damaged one.
+    """
+    obj.attrs.create(name, np.bytes_(value), dtype=f"S{max(len(value), 1)}")
+
+
 class TableWriter:
     """Writes record batches into a new HDF5 file at ``path`` (pyarrow writer protocol)."""
 
@@ -57,9 +66,9 @@ class TableWriter:
         _ensure_space(path, 0)
         self._file = h5py.File(path, "w")
         self._group = self._file.create_group(kind)
-        self._group.attrs["kind"] = kind
-        self._group.attrs["enctools"] = md.get(b"enctools", b"{}").decode()
-        self._group.attrs["columns"] = json.dumps(schema.names)
+        _set_text(self._group, "kind", kind.encode())
+        _set_text(self._group, "enctools", md.get(b"enctools", b"{}"))
+        _set_text(self._group, "columns", json.dumps(schema.names).encode())
         self._names = schema.names
         for f in schema:
             if pa.types.is_string(f.type) or pa.types.is_large_string(f.type):
@@ -72,9 +81,9 @@ class TableWriter:
                     raise DataError(msg) from None
             ds = self._group.create_dataset(f.name, shape=(0,), maxshape=(None,), dtype=dtype,
                                             chunks=(_CHUNK_ROWS,))
-            ds.attrs["arrow_type"] = _arrow_type_name(f.type)
+            _set_text(ds, "arrow_type", _arrow_type_name(f.type).encode())
             for k, v in (f.metadata or {}).items():
-                ds.attrs[k.decode()] = v.decode()
+                _set_text(ds, k.decode(), v)
 
     def write_batch(self, batch: pa.RecordBatch) -> None:
         _ensure_space(self._path, int(batch.nbytes * 1.1))
@@ -95,6 +104,26 @@ class TableWriter:
         self._file.close()
 
 
+def _text_attrs(obj: Any) -> dict[str, str]:
+    """An object's attributes as text, reading only scalar string or number attributes.
+
+    The shape and type of each attribute are checked before its value is read: a
+    damaged attribute can crash libhdf5 when read, never when inspected.
+    """
+    out: dict[str, str] = {}
+    for name in obj.attrs.keys():
+        aid = obj.attrs.get_id(name)
+        if aid.shape not in ((), (1,)) or aid.dtype.kind not in "OSUifb":
+            msg = f"attribute {name!r} is not a scalar"
+            raise ValueError(msg)
+        if aid.dtype.kind in "SU" and aid.dtype.itemsize > (1 << 20):
+            msg = f"attribute {name!r} is too large"
+            raise ValueError(msg)
+        v = obj.attrs[name]
+        out[name] = v.decode() if isinstance(v, bytes) else str(v)
+    return out
+
+
 def open_table(f: IO[bytes], source: str,
                kind: str | None = None) -> tuple[Any, Iterator[pa.RecordBatch], Callable[[], None]]:
     """Open the table in an HDF5 file object: (Header, batch iterator, closer)."""
@@ -103,7 +132,7 @@ def open_table(f: IO[bytes], source: str,
     from .streams import Header
 
     h5 = h5py.File(f, "r")
-    groups = [k for k, v in h5.items() if isinstance(v, h5py.Group) and "kind" in v.attrs]
+    groups = [k for k, v in h5.items() if isinstance(v, h5py.Group) and "kind" in v.attrs.keys()]
     if not groups:
         h5.close()
         msg = f"{source}: HDF5 file holds no enctools table (no group with a 'kind' attribute)"
@@ -118,14 +147,21 @@ def open_table(f: IO[bytes], source: str,
         raise DataError(msg)
     g = h5[name]
     try:
-        meta = json.loads(g.attrs.get("enctools", "{}"))
-        names = json.loads(g.attrs["columns"])
+        gattrs = _text_attrs(g)
+        meta = json.loads(gattrs.get("enctools", "{}"))
+        names = json.loads(gattrs["columns"])
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            msg = "'columns' is not a list of names"
+            raise ValueError(msg)
         fields = []
         for n in names:
             ds = g[n]
-            attrs = {k: str(v) for k, v in ds.attrs.items() if k != "arrow_type"}
-            fields.append(pa.field(n, _arrow_type(str(ds.attrs["arrow_type"])),
-                                   metadata=attrs or None))
+            if not isinstance(ds, h5py.Dataset) or len(ds.shape) != 1:
+                msg = f"column {n!r} is not a one-dimensional dataset"
+                raise ValueError(msg)
+            attrs = _text_attrs(ds)
+            arrow_type = attrs.pop("arrow_type")
+            fields.append(pa.field(n, _arrow_type(arrow_type), metadata=attrs or None))
         nrows = {g[n].shape[0] for n in names}
     except (KeyError, ValueError, TypeError) as exc:
         h5.close()
@@ -136,7 +172,7 @@ def open_table(f: IO[bytes], source: str,
         msg = f"{source}: HDF5 table {name!r} has columns of different lengths"
         raise DataError(msg)
     schema = pa.schema(fields)
-    meta.setdefault("kind", str(g.attrs["kind"]))
+    meta.setdefault("kind", gattrs["kind"])
     header = Header(str(meta["kind"]), schema, meta)
     total = nrows.pop() if nrows else 0
 

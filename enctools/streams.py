@@ -50,7 +50,7 @@ FORMATS = ("arrows", "parquet", "arrow", "hdf5")
 # What the Arrow, Parquet and HDF5 decoders raise on corrupt or truncated input (h5py
 # raises RuntimeError and KeyError for damaged B-trees and heaps).
 _DECODE_ERRORS = (pa.ArrowException, OSError, EOFError, ValueError, KeyError, TypeError,
-                  RuntimeError, IndexError, NotImplementedError)
+                  RuntimeError, IndexError, NotImplementedError, ArithmeticError, MemoryError)
 
 
 @dataclass

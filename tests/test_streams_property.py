@@ -4,6 +4,7 @@ makes a reader crash or hang — it reads, or it says why in one DataError."""
 from __future__ import annotations
 
 import io
+from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
@@ -104,3 +105,12 @@ def test_truncated_or_flipped_valid_files(valid_files, ext, cut, flip):
     b = bytearray(data)
     b[flip % len(b)] ^= 0xFF
     _read_bytes(bytes(b))
+
+
+FUZZ = Path(__file__).resolve().parent / "data" / "fuzz"
+
+
+@pytest.mark.parametrize("path", sorted(FUZZ.glob("*")), ids=lambda p: p.name)
+def test_fuzz_findings_stay_fixed(path):
+    """Inputs the atheris fuzzer (make fuzz) once broke the readers with."""
+    _read_bytes(path.read_bytes())
