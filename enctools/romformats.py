@@ -141,13 +141,6 @@ def _write_chunked(f: IO[bytes], values: np.ndarray, make: Any, chunk: int = 1 <
         f.write(make(values[start:start + chunk], start).tobytes())
 
 
-def _decimal(values: np.ndarray) -> list[bytes]:
-    """Shortest round-trip decimal text of floats (Arrow's cast, not a Python loop)."""
-    import pyarrow as pa
-    import pyarrow.compute as pc
-    return pc.cast(pa.array(values), pa.string())
-
-
 def _parse_hex_tokens(tokens: list[bytes] | np.ndarray, width: int, source: str) -> np.ndarray:
     """Signed values from hex tokens (two's complement in ``width`` bits)."""
     if len(tokens) == 0:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 from conftest import DATA, ROOT, run
@@ -15,7 +13,7 @@ from enctools.points import distinct, points_from_csv
 from enctools.rbf import design_matrix, fit_rbf
 from enctools.readings import head_angle, head_info
 from enctools.truth import Motion
-from enctools.units import ARCSEC, DEG, TWO_PI
+from enctools.units import ARCSEC, DEG
 
 
 @pytest.fixture(scope="module")

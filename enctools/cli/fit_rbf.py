@@ -38,7 +38,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     from .. import models, streams
     from ..errors import CheckFailed, UsageError
     from ..points import distinct
-    from ..streams import Header, with_history
+    from ..streams import with_history
 
     if goal < 0:
         raise UsageError(f"--goal must be >= 0 arcsec, not {goal}")

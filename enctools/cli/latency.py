@@ -87,11 +87,9 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
 
 
 def _measure(inputs, heads, reference):
-    import numpy as np
-
     from .. import latency as lat
     from ..errors import DataError
-    from ..readings import head_angle, head_info
+    from ..readings import head_info
     from ..schemas import columns_with_role
     from ..streams import open_input
     from ..truth import Motion
