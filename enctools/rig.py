@@ -48,7 +48,7 @@ _SPEC: dict[str, dict[str, tuple[type, ...]]] = {
     "polygon": {"faces": (int,), "face_error_arcsec": (int, float), "seed": (int,)},
     "autocollimator": {"name": (str,), "noise_arcsec": (int, float), "backend": (dict,)},
     "motion": {"speed_rpm": (int, float), "jitter_arcsec": (list,), "jitter_hz": (list,),
-               "start_deg": (int, float), "feedback": (str,),
+               "start_deg": (int, float), "feedback": (str,), "speed_error_ppm": (int, float),
                "position_noise_arcsec": (int, float), "backend": (dict,)},
     "acquire": {"mode": (str,), "revolutions": (int, float), "speed_rpm": (int, float),
                 "interval_s": (int, float), "steps": (dict,), "sweep": (dict,)},
@@ -264,8 +264,8 @@ def parse_rig(raw: dict[str, Any], source: str = "<rig>") -> Rig:
                 msg = f"rig file {source}: {where}.{key} must be positive"
                 raise DataError(msg)
         bits = int(e.get("counter_bits", 32))
-        if not 8 <= bits <= 63:
-            msg = f"rig file {source}: {where}.counter_bits must be 8..63, not {bits}"
+        if not 8 <= bits <= 62:
+            msg = f"rig file {source}: {where}.counter_bits must be 8..62, not {bits}"
             raise DataError(msg)
         measure = tuple(e.get("measure_heads", [h.name for h in heads]))
         unknown = [m for m in measure if m not in {h.name for h in heads}]

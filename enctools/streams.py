@@ -227,24 +227,10 @@ def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...
     ``expect``: the kind(s) the caller reads; anything else is a one-line DataError.
     """
     if path is None or str(path) == "-":
-        source = "stdin"
-        raw = stdin if stdin is not None else sys.stdin.buffer
         if stdin is None and sys.stdin.isatty():
             msg = "no input: give an input file, or pipe a stream into the command"
             raise UsageError(msg)
-        prefix = _read_fully(raw, 8)
-        if not prefix:
-            msg = "stdin: no input (empty stream); was the command before it in the pipe ok?"
-            raise DataError(msg)
-        fmt = detect_format(prefix)
-        if fmt is None:
-            raise DataError(_unknown_bytes("stdin", prefix))
-        if fmt == "arrows":
-            f: IO[bytes] = io.BufferedReader(_Prefixed(prefix, raw), buffer_size=1 << 20)
-            stream = _open_arrows(f, source)
-        else:  # needs seeking: buffer in memory
-            data = prefix + raw.read()
-            stream = _open_seekable(io.BytesIO(data), fmt, source, data=data)
+        stream = _open_pipe(stdin if stdin is not None else sys.stdin.buffer, "stdin")
     else:
         source = str(path)
         p = Path(path)
@@ -259,17 +245,47 @@ def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...
         except OSError as exc:
             msg = f"{source}: cannot open: {exc.strerror}"
             raise DataError(msg) from None
-        prefix = fh.read(8)
-        fh.seek(0)
-        if not prefix:
+        try:
+            # a named pipe, e.g. <(enc acquire ...), reads like stdin
+            stream = _open_pipe(fh, source) if not fh.seekable() else _open_file(fh, source)
+        except BaseException:
             fh.close()
-            msg = f"{source}: empty file"
-            raise DataError(msg)
-        fmt = detect_format(prefix)
-        if fmt is None:
-            fh.close()
-            raise DataError(_unknown_bytes(source, prefix))
-        stream = _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
+            raise
+    return _validated(stream, expect)
+
+
+def _open_file(fh: IO[bytes], source: str) -> InputStream:
+    """A stream from a seekable file: the format from its first bytes."""
+    prefix = fh.read(8)
+    fh.seek(0)
+    if not prefix:
+        msg = f"{source}: empty file"
+        raise DataError(msg)
+    fmt = detect_format(prefix)
+    if fmt is None:
+        raise DataError(_unknown_bytes(source, prefix))
+    return _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
+
+
+def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
+    """A stream from a pipe: Arrow IPC streams as they come, other formats buffered."""
+    prefix = _read_fully(raw, 8)
+    if not prefix:
+        msg = f"{source}: no input (empty stream); was the command before it in the pipe ok?"
+        raise DataError(msg)
+    fmt = detect_format(prefix)
+    if fmt is None:
+        raise DataError(_unknown_bytes(source, prefix))
+    if fmt == "arrows":
+        return _open_arrows(io.BufferedReader(_Prefixed(prefix, raw), buffer_size=1 << 20),
+                            source)
+    data = prefix + raw.read()  # needs seeking: buffer in memory
+    return _open_seekable(io.BytesIO(data), fmt, source)
+
+
+def _validated(stream: InputStream, expect: str | tuple[str, ...] | None) -> InputStream:
+    """The stream, once its header fits its kind (and the kind the caller reads)."""
+    source = stream.source
     try:
         validate(stream.header.schema, stream.header.meta, expect, source)
     except DataError:
@@ -297,7 +313,7 @@ def _open_arrows(f: IO[bytes], source: str) -> InputStream:
     return InputStream(header, iter(reader), source, "Arrow IPC stream", f.close)
 
 
-def _open_seekable(f: IO[bytes], fmt: str, source: str, data: bytes | None = None) -> InputStream:
+def _open_seekable(f: IO[bytes], fmt: str, source: str) -> InputStream:
     try:
         if fmt == "parquet":
             return _open_parquet(f, source)
@@ -316,7 +332,7 @@ def _open_seekable(f: IO[bytes], fmt: str, source: str, data: bytes | None = Non
 def _open_parquet(f: IO[bytes], source: str) -> InputStream:
     import pyarrow.parquet as pq
 
-    pf = pq.ParquetFile(f)
+    pf = pq.ParquetFile(f, pre_buffer=False)  # pre-buffering holds the whole file
     header = _header_from_arrow(pf.schema_arrow, source)
     return InputStream(header, pf.iter_batches(batch_size=BATCH_ROWS), source, "Parquet",
                        f.close)

@@ -204,3 +204,11 @@ def test_metadata_is_json_readable_by_any_arrow_tool(small_raw):
     assert schema.metadata[b"kind"] == b"readings"
     assert meta["kind"] == "readings" and meta["schema_version"] == 1
     assert meta["history"][-1].endswith("--revolutions 0.5 -o " + str(small_raw))
+
+
+def test_named_pipe_input(small_raw):
+    r = run(f"enc info <(cat {small_raw})")
+    assert r.returncode == 0, r.stderr
+    assert b"/dev/fd/" in r.stdout and b"readings stream" in r.stdout
+    r = run("enc info <(printf hello)")
+    assert r.returncode == 2 and b"not an Arrow, Parquet or HDF5 stream" in r.stderr

@@ -134,4 +134,7 @@ def jitter_motion(rig: Rig, theta0: float, omega: float) -> Motion:
     phase = np.linspace(0.3, 2.1, amp.size) if amp.size else np.zeros(0)
     if omega == 0:
         amp = np.zeros_like(amp)
+    # A drive never turns at exactly its nominal speed: without this, sampling at a
+    # whole number of signal periods would read every head at one phase forever.
+    omega = omega * (1.0 + float(m.get("speed_error_ppm", 0.0)) * 1e-6)
     return Motion(theta0, omega, amp, hz, phase)
