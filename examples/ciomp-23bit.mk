@@ -1,14 +1,44 @@
-# Calibration campaign of seed 001 (23-bit reference encoder, polygon + ROM) — copy and adapt.
-#   make -f ciomp-23bit.mk RIG=my-encoder.toml OUT=results/unit-0042
+# Calibration campaign of seed 001: 23-bit reference encoder, polygon, RBF model, ROM.
+# Copy and adapt:  make -f ciomp-23bit.mk RIG=my-encoder.toml OUT=results/unit-0042
 ENC ?= enc
 RIG ?= ciomp-23bit
 OUT ?= out
 
 .PHONY: all
-all: $(OUT)/polygon.parquet
-	@$(ENC) info $(OUT)/polygon.parquet
+all: $(OUT)/report.html $(OUT)/correction.mif $(OUT)/correction.bin $(OUT)/ENC_COMP.SPF \
+     $(OUT)/latency.txt
+	@$(ENC) report -q $(OUT)/points.parquet $(OUT)/model.parquet
 
-# 24-face polygon + autocollimator: 24 positions every 15 deg, 5 readings each
+# 1. Readout latency: dynamic error and code-skip speed (eqs. 1-4), 1 and 10 r/s
+$(OUT)/latency.txt:
+	@mkdir -p $(OUT)
+	$(ENC) latency --bits 23 --delay 10e-6 --speed 360,3600 > $@
+
+# 2. 24-face polygon + autocollimator: 24 positions every 15 deg, 5 readings each (sec. 5.3)
 $(OUT)/polygon.parquet:
 	@mkdir -p $(OUT)
 	$(ENC) acquire --rig $(RIG) --mode steps -o $@ --force
+
+# 3. Calibration points (table 1)
+$(OUT)/points.parquet: $(OUT)/polygon.parquet
+	$(ENC) points $< -o $@ --force
+
+# 4. RBF network through the points (eqs. 5-7), leave-one-out residuals (sec. 5.4)
+$(OUT)/model.parquet: $(OUT)/points.parquet
+	$(ENC) fit-rbf $< -o $@ --force
+
+# 5. Full 23-bit correction ROM in 16-bit words: FPGA init file and raw image, read back
+$(OUT)/correction.mif: $(OUT)/model.parquet
+	$(ENC) make-rom $< --width 16 --verify -o $@ --force
+
+$(OUT)/correction.bin: $(OUT)/model.parquet
+	$(ENC) make-rom $< --width 16 --verify -o $@ --force
+
+# 6. A 256-point table for a SINUMERIK rotary axis (0..360 deg, both ends present)
+$(OUT)/ENC_COMP.SPF: $(OUT)/model.parquet
+	$(ENC) make-rom $< --address-bits 8 --axis C1 --verify -o $@ --force
+
+# 7. The calibration report
+$(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet
+	$(ENC) report $^ --title "Encoder $(RIG): polygon calibration and RBF model" \
+	    --html $@ --pdf $(OUT)/report.pdf --force > $(OUT)/report.txt

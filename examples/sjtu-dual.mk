@@ -1,21 +1,69 @@
-# Calibration campaign of seed 000 (dual-encoder rotary table) — copy and adapt.
-#   make -f sjtu-dual.mk RIG=my-table.toml OUT=results/2026-11
-# Each step is one enc command; make reruns only what is out of date.
+# Calibration campaign of seed 000: dual-encoder ultra-precision rotary table.
+# Copy and adapt:  make -f sjtu-dual.mk RIG=my-table.toml OUT=results/2026-11
+# Each target is one enc command; make reruns only what is out of date, and a failed
+# step leaves no half-written file behind.
 ENC ?= enc
 RIG ?= sjtu-dual
 OUT ?= out
 
 .PHONY: all
-all: $(OUT)/raw.parquet $(OUT)/sweep.parquet
-	@$(ENC) info $(OUT)/raw.parquet
-	@$(ENC) info $(OUT)/sweep.parquet
+all: $(OUT)/report.html $(OUT)/design.txt $(OUT)/p-error.parquet $(OUT)/signals.parquet
+	@$(ENC) report -q $(OUT)/grad.parquet $(OUT)/h-p.parquet $(OUT)/interp.parquet
 
-# 20 revolutions at 1 r/min, every head sampled every 3 ms (the rig's defaults)
+# 1. Continuous run: 20 r at 1 r/min, all nine heads every 3 ms (seed 000 sec. 3.2)
 $(OUT)/raw.parquet:
 	@mkdir -p $(OUT)
 	$(ENC) acquire --rig $(RIG) -o $@ --force
 
-# interpolation check: 25" at 0.5" steps from 60 deg, probes and all heads (seed 000 table 1)
+# 2. Self-calibration of encoder II: four-head error separation (eqs. 11-18) gives the
+#    graduation error (harmonics 1..100) and the spindle's radial error motion x, y
+$(OUT)/grad.parquet: $(OUT)/raw.parquet
+	$(ENC) selfcal $< --method esa --ref H1 --heads H5,H6,H7 \
+	    --spectrum $(OUT)/grad-spectrum.parquet -o $@ --force
+
+# 3. Multi-head averages H = mean(H1..H4), P = mean(P1, P2) (eqs. 3-6)
+$(OUT)/avg.parquet: $(OUT)/raw.parquet
+	$(ENC) average-heads $< -o $@ --force
+
+# 4. Direct comparison of the two encoders, 100 harmonics, 20 revolutions (eq. 10)
+$(OUT)/h-p.parquet: $(OUT)/avg.parquet
+	$(ENC) compare $< --device H --ref P -o $@ --force
+
+# 5. Encoder I's own error: H corrected with the self-calibrated curve (fig. 8)
+$(OUT)/p-error.parquet: $(OUT)/avg.parquet $(OUT)/grad.parquet
+	$(ENC) compare $< --device P --ref H --ref-curve $(OUT)/grad.parquet --name P \
+	    -o $@ --force
+
+# 6. What the 0/60/135/228 deg arrangement can recover (|W(n)|, blind harmonics)
+$(OUT)/design.txt:
+	@mkdir -p $(OUT)
+	$(ENC) design --angles 0,60,135,228 --band 100 > $@
+
+# 7. Interpolation error: 25" at 0.5" from 60 deg, probes at L = 200 mm (table 1, sec. 4)
 $(OUT)/sweep.parquet:
 	@mkdir -p $(OUT)
 	$(ENC) acquire --rig $(RIG) --mode sweep -o $@ --force
+
+$(OUT)/interp.parquet: $(OUT)/sweep.parquet
+	$(ENC) interp-check $< --spectrum $(OUT)/interp-harmonics.parquet -o $@ --force
+
+# 8. H1, H2 against P1 (another signal period), 1st/2nd harmonics kept (figs. 12-15)
+$(OUT)/interp-by-p1.parquet: $(OUT)/sweep.parquet
+	$(ENC) interp-check $< --heads H1,H2 --reference P1 -o $@ --force
+
+# 9. Signal quality from raw sin/cos (Heydemann), and the readings corrected with it
+$(OUT)/sweep-signals.parquet:
+	@mkdir -p $(OUT)
+	$(ENC) acquire --rig $(RIG) --mode sweep --signals -o $@ --force
+
+$(OUT)/signals.parquet: $(OUT)/sweep-signals.parquet
+	$(ENC) interp-check $< --signals --corrected $(OUT)/sweep-corrected.parquet \
+	    -o $@ --force
+
+# 10. The calibration report: text on stdout, HTML and PDF for the customer
+$(OUT)/report.html: $(OUT)/grad.parquet $(OUT)/h-p.parquet $(OUT)/interp.parquet \
+                    $(OUT)/interp-by-p1.parquet
+	$(ENC) report $(OUT)/grad.parquet $(OUT)/grad-spectrum.parquet $(OUT)/h-p.parquet \
+	    $(OUT)/interp.parquet $(OUT)/interp-by-p1.parquet \
+	    --title "Rotary table $(RIG): graduation, radial motion, interpolation" \
+	    --html $@ --pdf $(OUT)/report.pdf --force > $(OUT)/report.txt

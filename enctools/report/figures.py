@@ -80,6 +80,8 @@ class Harmonics:
     def largest(self, count: int, skip_zero: bool = True) -> "Harmonics":
         """The ``count`` harmonics of largest amplitude, largest first."""
         keep = self.n != 0 if skip_zero else np.ones(self.n.shape, bool)
+        if self.amplitude.size:  # rounding residue (1e-17") is not a harmonic
+            keep &= self.amplitude > 1e-9 * float(np.max(self.amplitude))
         idx = np.flatnonzero(keep)
         order = idx[np.argsort(-self.amplitude[idx], kind="stable")][:count]
         return Harmonics(self.n[order], self.amplitude[order], self.phase[order])
