@@ -210,3 +210,20 @@ def test_nightly_man_page_lists_every_option():
     for p in command.params:
         for opt in p.opts:
             assert opt.replace("-", r"\-") in page, opt
+
+
+def test_first_night_makes_the_calibration_folder(tmp_path):
+    """A lab's first cron night: neither the history nor the calibration folder exists."""
+    hist, cal = tmp_path / "n" / "history", tmp_path / "n" / "cal" / "calibration.parquet"
+    r = nightly(hist, cal, "--init", campaign=csv_campaign(1))
+    assert r.returncode == 0, r.stderr.decode()
+    assert cal.exists() and read_history(hist).runs == 1
+
+
+def test_unwritable_calibration_is_one_line(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    r = nightly(tmp_path / "h", blocker / "cal.parquet", "--init", campaign=csv_campaign(1))
+    err = r.stderr.decode()
+    assert r.returncode == 2 and err.startswith("enc-nightly: error: ") and "Traceback" not in err
+    assert read_history(tmp_path / "h").runs == 1  # the failed night is recorded

@@ -117,6 +117,7 @@ def run_nightly(rig: str, history_dir: str, calibration: str, campaign: str, tol
                      "run as the calibration)")
                 record["summary_json"] = json.dumps({"error": "no stored calibration"})
                 return 2
+            Path(calibration).parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(result, calibration + ".tmp")
             os.replace(calibration + ".tmp", calibration)
             _info(f"stored this run as the calibration {calibration}")
@@ -153,6 +154,12 @@ def run_nightly(rig: str, history_dir: str, calibration: str, campaign: str, tol
         _err(str(exc))
         code = exc.exit_code
         record["summary_json"] = json.dumps({"error": str(exc)})
+        return code
+    except OSError as exc:  # a folder that cannot be made, a full disk: one line, exit 2
+        why = f"{exc.strerror or exc}" + (f" ({exc.filename})" if exc.filename else "")
+        _err(why)
+        code = 2
+        record["summary_json"] = json.dumps({"error": why})
         return code
     finally:  # a run that failed early is recorded too
         if record:
