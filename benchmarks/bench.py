@@ -30,8 +30,8 @@ HEADS = 9  # sjtu-dual
 
 #: filter name -> arguments; a filter whose command is not installed is skipped
 FILTERS: dict[str, list[str]] = {
-    "average-heads": ["average-heads", "--heads", "H1,H2,H3,H4"],
-    "compare": ["compare", "--device", "H1,H2,H3,H4", "--reference", "P1,P2"],
+    "average-heads": ["average-heads"],
+    "compare": ["compare", "--device", "H1,H2,H3,H4", "--ref", "P1,P2"],
     "selfcal": ["selfcal", "--method", "esa", "--ref", "H1", "--heads", "H5,H6,H7"],
     "info": ["info"],
 }
