@@ -189,8 +189,43 @@ def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
 # --------------------------------------------------------------------- from CSV
 
 
+def _is_comparator_header(head: list[str]) -> bool:
+    """A two-column table of a reference angle and the device's measured angle [deg]."""
+    return len(head) == 2 and "reference" in head[0] and "measured" in head[1]
+
+
+def _comparator_points(path: str | Path, rows: list[list[str]]) -> Points:
+    """Points from ``reference_deg,measured_deg`` rows (e.g. a precision stage and a sensor).
+
+    deviation [arcsec] = measured - reference, wrapped to +/-180 deg, less its circular
+    mean (the device's zero is arbitrary); position [deg] = reference mod 360.
+    """
+    try:
+        vals = np.array([[float(v) for v in r] for r in rows[1:]], dtype=np.float64)
+    except ValueError:
+        msg = f"{path}: a data line is not two numbers"
+        raise DataError(msg) from None
+    if vals.ndim != 2 or vals.shape[0] == 0 or vals.shape[1] != 2:
+        msg = f"{path}: expected lines of two numbers: reference, measured [deg]"
+        raise DataError(msg)
+    if not np.all(np.isfinite(vals)):
+        msg = f"{path}: the table holds NaN or infinity"
+        raise DataError(msg)
+    diff = np.radians(vals[:, 1] - vals[:, 0])
+    offset = np.angle(np.mean(np.exp(1j * diff)))
+    dev = np.angle(np.exp(1j * (diff - offset))) / ARCSEC
+    n = len(dev)
+    return Points(np.mod(vals[:, 0], 360.0), dev, np.ones(n, np.int8), np.zeros(n, np.int32))
+
+
 def points_from_csv(path: str | Path) -> Points:
-    """Points from ``position_deg,deviation_arcsec[,direction,run]`` (``#`` comments)."""
+    """Points from a CSV table (``#`` comments), in one of two layouts.
+
+    ``position_deg,deviation_arcsec[,direction,run]``: calibration points as measured;
+    ``reference_deg,measured_deg`` (any header naming a reference then a measured angle,
+    e.g. ``Reference Angle [degree],Measured Angle [degree]``): a comparator's table,
+    see :func:`_comparator_points`.
+    """
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -206,6 +241,8 @@ def points_from_csv(path: str | Path) -> Points:
         raise DataError(msg)
     rows = list(csv.reader(io.StringIO("\n".join(lines))))
     head = [c.strip().lower() for c in rows[0]]
+    if _is_comparator_header(head):
+        return _comparator_points(path, rows)
     if head[:2] != ["position_deg", "deviation_arcsec"]:
         msg = (f"{path}: the first line must be the header "
                f"'position_deg,deviation_arcsec[,direction,run]', not {','.join(rows[0])!r}")

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import DATA, run
 
 from enctools import streams
+from enctools.streams import read_table
 from enctools.points import distinct, figures, from_table
 from enctools.truth import Truth, interpolation_error
 from enctools.units import DEG
@@ -93,3 +96,30 @@ def test_points_need_a_readings_stream(ciomp_steps, tmp_path):
     r = run(f"enc points {DATA}/seed001_table1.csv | enc points -o {tmp_path}/x.parquet")
     assert r.returncode == 2
     assert b"is a points stream" in r.stderr
+
+
+MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
+
+
+@pytest.mark.skipif(not MAGALPHA.is_dir(), reason="../shared/data/magalpha is not beside the clone")
+@pytest.mark.parametrize("name", ["calibration_data_input_example.csv",
+                                  "calibration_data_input_example_add_75.csv",
+                                  "calibration_data_input_example_add_260.csv"])
+def test_real_comparator_table_magalpha(tmp_path, name):
+    """Real data: a magnetic angle sensor against a precision stage (reference and
+    measured angle in degrees, wrapping at 360). The deviation is dominated by its first
+    four harmonics (../shared/data/README.md) and does not depend on the sensor's zero."""
+    out = tmp_path / "p.parquet"
+    r = run(f"enc points {MAGALPHA / name} -o {out} && enc report --json {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    _, table = read_table(str(out), "points")
+    pos = table.column("position").to_numpy()
+    dev = table.column("deviation").to_numpy()
+    assert table.num_rows == 200 and np.all((0 <= pos) & (pos < 360))
+    assert abs(dev.mean()) < 1.0 and np.ptp(dev) < 20 * 3600  # offset removed, no wraps
+    # harmonics by least squares on the (non-uniform) reference angles
+    x = np.radians(pos)
+    cols = [np.ones_like(x)] + [f(n * x) for n in range(1, 11) for f in (np.cos, np.sin)]
+    coef, *_ = np.linalg.lstsq(np.column_stack(cols), dev, rcond=None)
+    amp = np.hypot(coef[1::2], coef[2::2])
+    assert set(np.argsort(-amp)[:4] + 1) == {1, 2, 3, 4}
