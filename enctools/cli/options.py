@@ -70,3 +70,60 @@ def verbosity(f: Callable[..., Any]) -> Callable[..., Any]:
 def outputs(f: Callable[..., Any]) -> Callable[..., Any]:
     """-o/--output, --force, --format."""
     return output(force(out_format(f)))
+
+
+# Ideas several commands share: one spelling, one metavar, one check.
+
+def non_negative(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+    """Callback: a threshold or a count that may be 0 but not negative (nor NaN)."""
+    if value is not None and not value >= 0:
+        msg = f"must be >= 0, not {value}"
+        raise click.BadParameter(msg)
+    return value
+
+
+def heads(help: str, flag: str = "--heads", dest: str | None = None) -> Callable[..., Any]:
+    """A comma-separated list of head (or channel) names, e.g. --heads H1,H2."""
+    decls = [flag] if dest is None else [flag, dest]
+    return click.option(*decls, default=None, callback=name_list, metavar="H1,H2,...",
+                        help=help)
+
+
+def ref(help: str, dest: str = "ref", metavar: str = "HEAD", **kw: Any) -> Callable[..., Any]:
+    """--ref (also --reference): the reference a command measures against."""
+    kw.setdefault("default", None)
+    return click.option("--ref", "--reference", dest, metavar=metavar, help=help, **kw)
+
+
+def band(help: str, default: int | None = 100, dest: str = "band",
+         callback: Callable[..., Any] | None = positive) -> Callable[..., Any]:
+    """--band K: the highest harmonic order n = 1..K a command fits, keeps or considers."""
+    return click.option("--band", dest, type=int, default=default, metavar="K",
+                        show_default=default is not None, callback=callback, help=help)
+
+
+def spectrum(help: str) -> Callable[..., Any]:
+    """--spectrum FILE: also write the harmonics as a spectrum stream (format from FILE)."""
+    return click.option("--spectrum", "spectrum_path", default=None, metavar="FILE",
+                        type=click.Path(dir_okay=False), help=help)
+
+
+def threshold(flag: str, help: str, dest: str | None = None,
+              metavar: str = "ARCSEC") -> Callable[..., Any]:
+    """--max-<figure> VALUE: exit 1 (CheckFailed) when the figure exceeds VALUE."""
+    decls = [flag] if dest is None else [flag, dest]
+    return click.option(*decls, type=float, default=None, callback=non_negative,
+                        metavar=metavar, help=help)
+
+
+def min_transfer(help: str = "Normalised |W(n)| below this is ill-conditioned.") \
+        -> Callable[..., Any]:
+    """--min-transfer: the normalised |W(n)| under which a harmonic is ill-conditioned."""
+    return click.option("--min-transfer", "min_transfer", type=float, default=0.1,
+                        show_default=True, callback=positive, help=help)
+
+
+strict = click.option("--strict", is_flag=True, default=False,
+                      help="Exit 2 when the band holds blind or ill-conditioned harmonics.")
+as_json = click.option("--json", "as_json", is_flag=True, default=False,
+                       help="Print the figures as JSON instead of text.")
