@@ -73,12 +73,12 @@ class TableWriter:
         for f in schema:
             if pa.types.is_string(f.type) or pa.types.is_large_string(f.type):
                 dtype: Any = h5py.string_dtype()
+            elif (pa.types.is_integer(f.type) or pa.types.is_floating(f.type)
+                  or pa.types.is_boolean(f.type)):
+                dtype = f.type.to_pandas_dtype()
             else:
-                try:
-                    dtype = f.type.to_pandas_dtype()
-                except NotImplementedError:
-                    msg = f"HDF5 output cannot hold column {f.name!r} of type {f.type}"
-                    raise DataError(msg) from None
+                msg = f"HDF5 output cannot hold column {f.name!r} of type {f.type}"
+                raise DataError(msg)
             ds = self._group.create_dataset(f.name, shape=(0,), maxshape=(None,), dtype=dtype,
                                             chunks=(_CHUNK_ROWS,))
             _set_text(ds, "arrow_type", _arrow_type_name(f.type).encode())

@@ -48,9 +48,10 @@ EXTENSIONS = {".parquet": "parquet", ".pq": "parquet", ".h5": "hdf5", ".hdf5": "
 FORMATS = ("arrows", "parquet", "arrow", "hdf5")
 
 # What the Arrow, Parquet and HDF5 decoders raise on corrupt or truncated input (h5py
-# raises RuntimeError and KeyError for damaged B-trees and heaps).
+# raises RuntimeError and KeyError for damaged B-trees and heaps; pyarrow's "not
+# implemented" for a damaged type is an ArrowException).
 _DECODE_ERRORS = (pa.ArrowException, OSError, EOFError, ValueError, KeyError, TypeError,
-                  RuntimeError, IndexError, NotImplementedError, ArithmeticError, MemoryError)
+                  RuntimeError, IndexError, ArithmeticError, MemoryError)
 
 
 @dataclass
