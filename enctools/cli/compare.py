@@ -11,10 +11,10 @@ from . import options, runner
 @options.input_arg
 @click.option("--device", required=True, callback=options.name_list, metavar="HEAD[,HEAD...]",
               help="Device channel: a head, an average channel, or heads to average.")
-@click.option("--ref", required=True, callback=options.name_list, metavar="HEAD[,HEAD...]",
-              help="Reference channel (its reading is the angle): a head, an average or heads.")
-@click.option("--band", type=int, default=100, show_default=True,
-              help="Keep harmonics 1..K (0: no band limit, angle bins instead).")
+@options.ref("Reference channel (its reading is the angle): a head, an average or heads.",
+             metavar="HEAD[,HEAD...]", required=True, callback=options.name_list)
+@options.band("Keep harmonics 1..K (0: no band limit, angle bins instead).",
+              callback=options.non_negative)
 @click.option("--points", type=int, default=1024, show_default=True, callback=options.positive,
               help="Points of the output angle grid.")
 @click.option("--name", default=None, help="Name of the deviation column (default DEVICE-REF).")
@@ -23,9 +23,7 @@ from . import options, runner
               help="Calibrated error of the reference (deviations stream) to add back.")
 @click.option("--ref-column", "ref_column", default=None, metavar="NAME",
               help="Column of --ref-curve (default: its first deviation column).")
-@click.option("--spectrum", "spectrum_path", default=None, metavar="FILE",
-              type=click.Path(dir_okay=False),
-              help="Also write the spectrum to FILE (needs --band).")
+@options.spectrum("Also write the spectrum to FILE (needs --band).")
 @options.outputs
 @options.verbosity
 def command(input: str | None, device: list[str], ref: list[str], band: int, points: int,

@@ -12,25 +12,16 @@ from . import options, runner
 @click.option("--method", type=click.Choice(["fourier", "eda", "esa"]), default=None,
               help="fourier: basic transfer-function method; eda: equal-division averaging; "
                    "esa: four-head error separation (default with 4 heads).")
-@click.option("--ref", default=None, metavar="HEAD",
-              help="Reference head (default: the encoder's head nearest 0 deg).")
-@click.option("--heads", default=None, callback=options.name_list, metavar="H5,H6,H7",
-              help="The other heads (default: the encoder's heads that do not measure).")
-@click.option("--angle-from", "angle_from", default=None, callback=options.name_list,
-              metavar="H1,H2,...", help="Heads whose mean is the angle coordinate "
-              "(default: the encoder's measuring heads, else the reference).")
-@click.option("--band", type=int, default=100, show_default=True, callback=options.positive,
-              help="Highest harmonic K solved for.")
+@options.ref("Reference head (default: the encoder's head nearest 0 deg).")
+@options.heads("The other heads (default: the encoder's heads that do not measure).")
+@options.heads("Heads whose mean is the angle coordinate (default: the encoder's measuring "
+               "heads, else the reference).", flag="--angle-from", dest="angle_from")
+@options.band("Highest harmonic K solved for.")
 @click.option("--points", type=int, default=1024, show_default=True, callback=options.positive,
               help="Points of the output angle grid.")
-@click.option("--min-transfer", "min_transfer", type=float, default=0.1, show_default=True,
-              callback=options.positive,
-              help="Harmonics whose normalised |W(n)| is below this are ill-conditioned.")
-@click.option("--strict", is_flag=True, default=False,
-              help="Blind or ill-conditioned harmonics in the band are an error (exit 2).")
-@click.option("--spectrum", "spectrum_path", default=None, metavar="FILE",
-              type=click.Path(dir_okay=False),
-              help="Also write the spectrum (|W(n)|, u per harmonic) to FILE.")
+@options.min_transfer("Harmonics whose normalised |W(n)| is below this are ill-conditioned.")
+@options.strict
+@options.spectrum("Also write the spectrum (|W(n)|, u per harmonic) to FILE.")
 @options.outputs
 @options.verbosity
 def command(input: str | None, method: str | None, ref: str | None, heads: list[str] | None,
