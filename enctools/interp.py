@@ -321,7 +321,7 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
     k_max = resolvable_harmonics(phase0, positions)
     if harmonics > k_max:
         msg = (f"{harmonics} harmonics asked but the sweep samples the signal period "
-               f"only finely enough for {k_max}: fit fewer (--harmonics) or step finer")
+               f"only finely enough for {k_max}: fit fewer (--band) or step finer")
         raise DataError(msg)
     orders = np.arange(1, harmonics + 1)
     keep = list(orders) if keep is None else [int(k) for k in keep]
@@ -443,7 +443,7 @@ def probe_reference(table, probes: Sequence[str] | None, arm_m: float | None,
 
     names = list(probes) if probes else columns_with_role(table.schema, "probe")
     if not names:
-        msg = "input: no probe column (role=probe); give --reference HEAD or --reference-file"
+        msg = "input: no probe column (role=probe); give --ref HEAD or --ref-file"
         raise DataError(msg)
     values, arms, sides = [], [], []
     for p in names:
@@ -540,7 +540,7 @@ def check_readings(table, heads: Sequence[str] | None = None, average: bool = Fa
         info = infos[0]
         name = dev_names[0] if len(dev_names) == 1 else "mean(" + ",".join(dev_names) + ")"
         if ref_info is not None and ref_info.name == info.name and reference_table is None:
-            msg = f"--reference {reference} is the device itself; choose another head or probes"
+            msg = f"--ref {reference} is the device itself; choose another head or probes"
             raise DataError(msg)
         other_period = ref_info is not None and ref_info.periods_per_rev != info.periods_per_rev
         k_keep = list(keep) if keep is not None else ([1, 2] if other_period else None)

@@ -49,7 +49,7 @@ $(OUT)/interp.parquet: $(OUT)/sweep.parquet
 
 # 8. H1, H2 against P1 (another signal period), 1st/2nd harmonics kept (figs. 12-15)
 $(OUT)/interp-by-p1.parquet: $(OUT)/sweep.parquet
-	$(ENC) interp-check $< --heads H1,H2 --reference P1 -o $@ --force
+	$(ENC) interp-check $< --heads H1,H2 --ref P1 -o $@ --force
 
 # 9. Signal quality from raw sin/cos (Heydemann), and the readings corrected with it
 $(OUT)/sweep-signals.parquet:

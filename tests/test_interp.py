@@ -78,7 +78,7 @@ def test_every_head_against_probes_matches_truth(sweep, tmp_path):
 
 def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
     _, probes, _ = check(f"{sweep} --heads H1,H2", tmp_path / "cs.parquet")
-    header, by_p1, r = check(f"{sweep} --heads H1,H2 --reference P1", tmp_path / "p1.parquet")
+    header, by_p1, r = check(f"{sweep} --heads H1,H2 --ref P1", tmp_path / "p1.parquet")
     meta = header.meta["curves"]["H1"]
     assert meta["period_ratio"] == pytest.approx(180000 / 52000)
     assert meta["kept"] == [1, 2]
@@ -93,34 +93,34 @@ def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
         assert diff < 0.02, f"{name} by P1: {diff:.4f}\" from the probe result"
         assert np.abs(by_p1[name].to_numpy() - cs).max() < 0.02
     # the unfiltered difference H1 - P1 carries P1's error: clearly worse
-    _, raw, _ = check(f"{sweep} --heads H1 --reference P1 --keep 1,2,3,4 "
-                      "--reference-harmonics 0", tmp_path / "raw.parquet")
+    _, raw, _ = check(f"{sweep} --heads H1 --ref P1 --keep 1,2,3,4 "
+                      "--ref-band 0", tmp_path / "raw.parquet")
     assert np.abs(raw["H1"].to_numpy() - probes["H1"].to_numpy()).max() > 0.03
 
 
 def test_reference_with_longer_period_warns(sweep, tmp_path):
     # the plain filter cannot remove H1's 2nd harmonic, at 0.578 of P1's period
-    header, _, r = check(f"{sweep} --heads P1 --reference H1 --reference-harmonics 0",
+    header, _, r = check(f"{sweep} --heads P1 --ref H1 --ref-band 0",
                          tmp_path / "w.parquet")
     err = r.stderr.decode()
     assert "WARNING" in err and "lands at 0.578" in err and "kept harmonic 1" in err
     assert header.meta["curves"]["P1"]["period_ratio"] == pytest.approx(52000 / 180000)
     # fitted alongside over 3.47 P1 periods it is separable (1.46 cycles apart): no warning,
     # and P1's error by H1 matches the probes' 1st/2nd harmonics
-    header, by_h1, r = check(f"{sweep} --heads P1 --reference H1", tmp_path / "w2.parquet")
+    header, by_h1, r = check(f"{sweep} --heads P1 --ref H1", tmp_path / "w2.parquet")
     assert "WARNING" not in r.stderr.decode()
     _, probes, _ = check(f"{sweep} --heads P1", tmp_path / "w3.parquet")
     assert np.abs(by_h1["P1"].to_numpy() - probes["P1"].to_numpy()).max() < 0.01
     # too many reference harmonics: H1's 3rd..8th crowd P1's 1st and 2nd
     out = tmp_path / "w4.parquet"
-    r = run(f"enc interp-check {sweep} --heads P1 --reference H1 --reference-harmonics 8 -o {out}")
+    r = run(f"enc interp-check {sweep} --heads P1 --ref H1 --ref-band 8 -o {out}")
     assert r.returncode == 2 and "undetermined" in r.stderr.decode()
 
 
 @pytest.mark.parametrize("head, k", [("P1", 60), ("H1", 40)])
 def test_harmonics_beyond_the_sampling_are_refused(sweep, tmp_path, head, k):
     out = tmp_path / "o.parquet"
-    r = run(f"enc interp-check {sweep} --heads {head} --harmonics {k} -o {out}")
+    r = run(f"enc interp-check {sweep} --heads {head} --band {k} -o {out}")
     assert "finely enough" in one_line_error(r, out)
 
 
@@ -167,10 +167,10 @@ def test_signals_mode_recovers_faults_and_error(sweep, tmp_path):
 
 
 def test_check_tolerance_exit_1(sweep, tmp_path):
-    r = run(f"enc interp-check {sweep} --heads P1 --check 0.01 -o {tmp_path / 'k.parquet'}")
+    r = run(f"enc interp-check {sweep} --heads P1 --max-pm 0.01 -o {tmp_path / 'k.parquet'}")
     assert r.returncode == 1
     assert r.stderr.decode().splitlines()[-1].startswith("enc interp-check: error: P1:")
-    r = run(f"enc interp-check {sweep} --heads P1 --check 0.5 -q > {tmp_path / 'k2.arrows'}")
+    r = run(f"enc interp-check {sweep} --heads P1 --max-pm 0.5 -q > {tmp_path / 'k2.arrows'}")
     assert r.returncode == 0 and r.stderr == b""
 
 
@@ -208,10 +208,10 @@ def test_reference_without_overlap_in_time(sweep, tmp_path):
     ref = tmp_path / "later.parquet"
     write_table(str(ref), header, moved)
     out = tmp_path / "o.parquet"
-    r = run(f"enc interp-check {sweep} --heads H1 --reference P1 --reference-file {ref} -o {out}")
+    r = run(f"enc interp-check {sweep} --heads H1 --ref P1 --ref-file {ref} -o {out}")
     assert "no overlap in time" in one_line_error(r, out)
     # the same file in time works (the reference matched by t)
-    r = run(f"enc interp-check {sweep} --heads H1 --reference P1 --reference-file {sweep} -o {out}")
+    r = run(f"enc interp-check {sweep} --heads H1 --ref P1 --ref-file {sweep} -o {out}")
     assert r.returncode == 0, r.stderr.decode()
 
 
@@ -234,8 +234,8 @@ def test_zero_arm_length(sweep, tmp_path):
 
 @pytest.mark.parametrize("args, words", [
     ("--heads H9", "no head 'H9'"),
-    ("--reference Q1", "no head 'Q1'"),
-    ("--heads H1 --reference H1", "device itself"),
+    ("--ref Q1", "no head 'Q1'"),
+    ("--heads H1 --ref H1", "device itself"),
     ("--heads H1 --keep 7", "kept harmonic 7"),
     ("--signals --heads H1 --min-arc 400", "--min-arc"),
     ("--corrected x.parquet", "--corrected needs --signals"),

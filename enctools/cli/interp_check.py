@@ -30,27 +30,27 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 
 @click.command("interp-check", context_settings={"auto_envvar_prefix": "ENC_INTERP_CHECK"})
 @options.input_arg
-@click.option("--heads", default=None, callback=options.name_list, metavar="H1,H2,...",
-              help="Heads to check (default: every head but the reference; with "
-                   "--signals every head with signals).")
+@options.heads("Heads to check (default: every head but the reference; with "
+               "--signals every head with signals).")
 @click.option("--average", is_flag=True, default=False,
               help="Check the mean of --heads (one encoder) as one device.")
-@click.option("--reference", default="probes", show_default=True, metavar="probes|HEAD",
-              help="Reference: the averaged probes (psi = side h / L) or a head.")
-@click.option("--reference-file", default=None, type=click.Path(dir_okay=False),
+@options.ref("Reference: the averaged probes (psi = side h / L) or a head.", dest="reference",
+             default="probes", show_default=True, metavar="probes|HEAD")
+@click.option("--ref-file", "--reference-file", "reference_file", default=None,
+              type=click.Path(dir_okay=False), metavar="FILE",
               help="Take the reference from this readings file, matched by time t.")
 @click.option("--probes", default=None, callback=options.name_list, metavar="S1,S2",
               help="Probe columns to average (default: every probe).")
 @click.option("--arm", "arm_m", type=float, default=None,
               help="Probe arm length L [m] (default: each probe's arm_m).")
-@click.option("--harmonics", type=int, default=None, callback=options.positive,
-              help="Harmonics of the signal period fitted (default 4; against an encoder "
-                   "of another period, the highest --keep).")
+@options.band("Harmonics 1..K of the signal period fitted (default 4; against an encoder "
+              "of another period, the highest --keep).", default=None, dest="harmonics")
 @click.option("--keep", default=None, callback=_int_list, metavar="N,N,...",
               help="Harmonics kept in the error curve (default: 1,2 against an encoder "
                    "of another signal period, else all fitted).")
-@click.option("--reference-harmonics", type=click.IntRange(0, 8), default=2, show_default=True,
-              help="Harmonics of the reference encoder's own period fitted alongside "
+@click.option("--ref-band", "reference_harmonics", type=click.IntRange(0, 8), default=2,
+              show_default=True, metavar="J",
+              help="Harmonics 1..J of the reference encoder's own period fitted alongside "
                    "(0: the seed's plain filter).")
 @click.option("--trend", "trend_degree", type=click.IntRange(0, 5), default=1, show_default=True,
               help="Degree of the polynomial in angle removed per run.")
@@ -63,10 +63,9 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @click.option("--corrected", default=None, type=click.Path(dir_okay=False),
               help="--signals: also write the readings with each head's counts "
                    "re-interpolated from the corrected phase.")
-@click.option("--spectrum", "spectrum_path", default=None, type=click.Path(dir_okay=False),
-              help="Also write the harmonics (per signal period) as a spectrum stream.")
-@click.option("--check", "tolerance", type=float, default=None, callback=options.positive,
-              metavar="ARCSEC", help="Exit 1 when any curve's +/- exceeds this [arcsec].")
+@options.spectrum("Also write the harmonics (per signal period) as a spectrum stream.")
+@options.threshold("--max-pm", "Exit 1 when any curve's +/- (largest |error - mean|) "
+                   "exceeds this [arcsec].", dest="tolerance")
 @options.outputs
 @options.verbosity
 def command(input: str | None, heads: list[str] | None, average: bool, reference: str,
@@ -137,7 +136,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         pm = worst.meta["figures"]["plus_minus"]
         if pm > tolerance:
             raise CheckFailed(f"{worst.name}: interpolation error +/-{pm:.4f}\" exceeds "
-                              f"--check {tolerance:g}\"")
+                              f"--max-pm {tolerance:g}\"")
 
 
 def _summary(c: Any) -> str:
