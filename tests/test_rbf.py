@@ -51,7 +51,7 @@ def test_fourier_12_harmonics_reproduces_table1(table1):
 
 
 def test_fit_rbf_command_on_table1(tmp_path):
-    for kernel, extra in (("rbf", ""), ("fourier", "--harmonics 12")):
+    for kernel, extra in (("rbf", ""), ("fourier", "--band 12")):
         out = tmp_path / f"{kernel}.parquet"
         r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --kernel {kernel} {extra} -o {out}")
         assert r.returncode == 0, r.stderr.decode()
@@ -137,5 +137,5 @@ def test_fit_rbf_bad_input(tmp_path, ciomp_steps):
 
 
 def test_check_threshold_exit_1(tmp_path):
-    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --check 0.01 -q -o {tmp_path}/m.parquet")
+    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --max-std 0.01 -q -o {tmp_path}/m.parquet")
     assert r.returncode == 1 and b"leave_one_out" in r.stderr

@@ -210,7 +210,7 @@ def test_interp_section_per_period(streams):
 
 
 def test_spectrum_section_U_and_transfer(streams):
-    sec = report_json(streams["spectrum"], "--harmonics", "3")["sections"][0]
+    sec = report_json(streams["spectrum"], "--top", "3")["sections"][0]
     rows = sec["spectra"][0]["harmonics"]
     assert len(rows) == 3
     assert rows[0]["amplitude"] >= rows[1]["amplitude"] >= rows[2]["amplitude"]
@@ -390,7 +390,7 @@ def test_html_report_renders_in_headless_chromium(demo_html, tmp_path):
     (["--max-harmonic", "0:1", "X"], "harmonic order must be >= 1"),
     (["--max-iso", "Q:1", "X"], "unknown ISO 230-2 figure 'Q'"),
     (["--max-pp", "-1", "X"], "--max-pp"),
-    (["--harmonics", "0", "X"], "--harmonics"),
+    (["--top", "0", "X"], "--top"),
 ])
 def test_bad_usage_one_line_exit2(args, needle, streams):
     args = [str(streams["table1"]) if a == "X" else a for a in args]

@@ -15,12 +15,12 @@ from . import options, runner
               help="rbf: arc [deg] at which a unit's output falls to 1/2 (default: by leave-one-out).")
 @click.option("--goal", type=float, default=1e-4, show_default=True,
               help="rbf: training goal, largest |residual| [arcsec].")
-@click.option("--harmonics", type=int, default=None, callback=options.positive,
-              help="fourier: highest harmonic order (default: points // 2).")
+@options.band("fourier: highest harmonic order K (default: half the distinct positions).",
+              default=None, dest="harmonics")
 @click.option("--holdout", "holdout_path", default=None, type=click.Path(dir_okay=False),
               help="Points never used in the fit (a points stream or CSV): report their residuals.")
-@click.option("--check", "check_arcsec", type=float, default=None, callback=options.positive,
-              help="Exit 1 when the hold-out (else leave-one-out) Bessel s exceeds this [arcsec].")
+@options.threshold("--max-std", "Exit 1 when the hold-out (else leave-one-out) Bessel s "
+                   "exceeds this [arcsec].", dest="check_arcsec")
 @options.outputs
 @options.verbosity
 def command(input: str | None, kernel: str, spread_deg: float | None, goal: float,
@@ -64,7 +64,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
         which = "holdout" if fit.holdout else "leave_one_out"
         s = fit.residuals()[which]["bessel_std_arcsec"]
         if s > check_arcsec:
-            raise CheckFailed(f"{which} Bessel s {s:.4f} arcsec exceeds --check {check_arcsec}")
+            raise CheckFailed(f"{which} Bessel s {s:.4f} arcsec exceeds --max-std {check_arcsec}")
 
 
 def _read_points(path: str | None):

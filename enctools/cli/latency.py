@@ -16,13 +16,12 @@ from . import options, runner
               help="Readout delay t_d [s] (seed 001 eq. 1); default: the measured lag.")
 @click.option("--speed", "speeds", default=None, callback=options.float_list, metavar="RPM,...",
               help="Speeds [r/min] at which to state the dynamic error (seed 001 eq. 2).")
-@click.option("--heads", default=None, callback=options.name_list, metavar="H1,H2,...",
-              help="Runs: heads averaged into the device reading (default: the rig's measuring heads).")
-@click.option("--reference", default=None, callback=options.name_list, metavar="truth|H1,...",
-              help="Runs: the reference angle: 'truth' (simulator) or heads of a reference encoder.")
+@options.heads("Runs: heads averaged into the device reading (default: the rig's measuring heads).")
+@options.ref("Runs: the reference angle: 'truth' (simulator) or heads of a reference encoder.",
+             dest="reference", metavar="truth|H1,...", callback=options.name_list)
 @click.option("--fit-offset", is_flag=True, default=False,
               help="Runs at several speeds: fit the zero offset too, instead of assuming it is 0.")
-@click.option("--json", "as_json", is_flag=True, default=False, help="Print the figures as JSON.")
+@options.as_json
 @options.verbosity
 def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
             speeds: list[float] | None, heads: list[str] | None, reference: list[str] | None,
@@ -112,7 +111,7 @@ def _measure(inputs, heads, reference):
         if reference in (None, ["truth"]):
             motion = (meta.get("truth") or {}).get("motion")
             if motion is None:
-                raise DataError(f"{src.source}: no true motion in the stream; give --reference HEADS")
+                raise DataError(f"{src.source}: no true motion in the stream; give --ref HEADS")
             ref = Motion.from_dict(motion)(t)
         else:
             ref = _mean_angle(table, schema, reference, src.source)

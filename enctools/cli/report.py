@@ -7,37 +7,24 @@ import click
 from . import options, runner
 
 
-def _limit(ctx: click.Context, param: click.Parameter, value: float | None) -> float | None:
-    if value is not None and not value >= 0:
-        msg = f"must be >= 0, not {value}"
-        raise click.BadParameter(msg)
-    return value
-
-
 @click.command("report")
 @click.argument("inputs", nargs=-1, metavar="[INPUT...]",
                 type=click.Path(dir_okay=False, allow_dash=True))
-@click.option("--json", "as_json", is_flag=True, default=False,
-              help="Print the summary as JSON instead of text.")
+@options.as_json
 @click.option("--html", "html_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Write a standalone HTML calibration report (plots embedded).")
 @click.option("--pdf", "pdf_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Write the plots and tables as a PDF.")
 @click.option("--title", default=None, help="Title of the HTML/PDF report.")
-@click.option("--harmonics", "top_harmonics", type=int, default=5, callback=options.positive,
-              help="List this many largest harmonics per curve (default 5).")
-@click.option("--nmax", type=int, default=100, callback=options.positive,
-              help="Highest harmonic order considered (default 100).")
-@click.option("--max-pp", type=float, default=None, callback=_limit, metavar="ARCSEC",
-              help="Fail (exit 1) when a curve's peak-to-peak exceeds this.")
-@click.option("--max-std", type=float, default=None, callback=_limit, metavar="ARCSEC",
-              help="Fail when a curve's Bessel standard deviation exceeds this.")
-@click.option("--max-abs", type=float, default=None, callback=_limit, metavar="ARCSEC",
-              help="Fail when a curve's largest |deviation| exceeds this.")
-@click.option("--max-u", type=float, default=None, callback=_limit, metavar="ARCSEC",
-              help="Fail when the expanded uncertainty U (k=2) exceeds this.")
-@click.option("--max-radial-pp", type=float, default=None, callback=_limit, metavar="NM",
-              help="Fail when radial error motion peak-to-peak exceeds this [nm].")
+@click.option("--top", "top_harmonics", type=int, default=5, show_default=True, metavar="N",
+              callback=options.positive, help="List the N largest harmonics per curve.")
+@options.band("Highest harmonic order K considered.", dest="nmax")
+@options.threshold("--max-pp", "Fail (exit 1) when a curve's peak-to-peak exceeds this.")
+@options.threshold("--max-std", "Fail when a curve's Bessel standard deviation exceeds this.")
+@options.threshold("--max-abs", "Fail when a curve's largest |deviation| exceeds this.")
+@options.threshold("--max-u", "Fail when the expanded uncertainty U (k=2) exceeds this.")
+@options.threshold("--max-radial-pp", "Fail when radial error motion peak-to-peak exceeds "
+                   "this [nm].", metavar="NM")
 @click.option("--max-harmonic", multiple=True, metavar="N:ARCSEC",
               help="Fail when harmonic N's amplitude exceeds ARCSEC (repeatable).")
 @click.option("--max-iso", multiple=True, metavar="FIG:ARCSEC",

@@ -148,7 +148,7 @@ def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
         coef, _, rank, _ = np.linalg.lstsq(design, y, rcond=1e-8)
         if rank < design.shape[1]:
             msg = (f"harmonics up to n={nmax} are not determined by these positions "
-                   f"(rank {rank} of {design.shape[1]}); lower --nmax")
+                   f"(rank {rank} of {design.shape[1]}); lower --band")
             raise DataError(msg)
         a = coef[: nmax + 1]
         b = np.concatenate([[0.0], coef[nmax + 1:]])
