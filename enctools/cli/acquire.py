@@ -19,7 +19,7 @@ from . import options, runner
               help="continuous: turn and sample; steps: target positions; sweep: fine steps.")
 @click.option("--revolutions", type=float, default=None, callback=options.positive,
               help="continuous: revolutions to record.")
-@click.option("--speed", "speed_rpm", type=float, default=None,
+@click.option("--speed", "speed_rpm", type=float, default=None, metavar="RPM",
               help="continuous: speed [r/min]; negative turns backwards.")
 @click.option("--interval", "interval_s", type=float, default=None, callback=options.positive,
               help="continuous: sample interval [s].")
@@ -40,8 +40,7 @@ from . import options, runner
               help="sweep (and steps with --count): first position [deg].")
 @click.option("--range", "range_arcsec", type=float, default=None, help="sweep: range [arcsec].")
 @click.option("--step", "step_arcsec", type=float, default=None, help="sweep: step [arcsec].")
-@click.option("--heads", default=None, callback=options.name_list, metavar="H1,H2,...",
-              help="Record only these heads (default: all).")
+@options.heads("Record only these heads (default: all).")
 @click.option("--signals/--no-signals", default=None,
               help="Also record each head's raw sin/cos signals [V] (simulator).")
 @click.option("--seed", type=int, default=None, help="Simulator noise seed (default: the rig's).")

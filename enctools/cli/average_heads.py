@@ -27,8 +27,7 @@ def _groups(ctx: click.Context, param: click.Parameter,
               metavar="NAME=H1,H2,...",
               help="A new channel NAME = mean of the heads (repeatable; NAME defaults to "
                    "their common prefix). Default: each encoder's measuring heads.")
-@click.option("--band", type=int, default=100, show_default=True, callback=options.positive,
-              help="Harmonics 1..K over which A(n) is summarised.")
+@options.band("Harmonics 1..K over which A(n) is summarised.")
 @click.option("--drop", is_flag=True, default=False,
               help="Drop the averaged heads from the output (keep the new channels).")
 @options.outputs

@@ -12,10 +12,8 @@ from . import options, runner
               help="Head angles [deg], the reference first (e.g. 0,60,135,228).")
 @click.option("--method", type=click.Choice(["esa", "fourier", "average"]), default=None,
               help="Transfer function to analyse (default: esa for 4 heads, else fourier).")
-@click.option("--band", type=int, default=100, show_default=True, callback=options.positive,
-              help="Highest harmonic K.")
-@click.option("--min-transfer", "min_transfer", type=float, default=0.1, show_default=True,
-              callback=options.positive, help="Normalised |W(n)| below this is ill-conditioned.")
+@options.band("Highest harmonic K analysed.")
+@options.min_transfer()
 @click.option("--mounting-error", "mounting_error", type=float, default=0.01, show_default=True,
               help="RMS error of each head's mounting angle [deg] for the sensitivity.")
 @click.option("--search", "search_heads", type=int, default=None, metavar="M",
@@ -28,8 +26,7 @@ from . import options, runner
               help="search (esa): maximise min |W(n)| (w, as Jiao 2017) or min |W|/noise norm.")
 @click.option("--table", is_flag=True, default=False,
               help="Print n, |W(n)|, normalised |W(n)|, noise gain, sensitivity as TSV.")
-@click.option("--strict", is_flag=True, default=False,
-              help="Exit 2 when the band holds blind or ill-conditioned harmonics.")
+@options.strict
 @options.verbosity
 def command(angles: list[float] | None, method: str | None, band: int, min_transfer: float,
             mounting_error: float, search_heads: int | None, step_deg: float, min_gap: float,

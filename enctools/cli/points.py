@@ -9,8 +9,7 @@ from . import options, runner
 
 @click.command("points")
 @options.input_arg
-@click.option("--heads", default=None, callback=options.name_list, metavar="H1,H2,...",
-              help="Heads averaged into the encoder reading (default: the rig's measuring heads).")
+@options.heads("Heads averaged into the encoder reading (default: the rig's measuring heads).")
 @click.option("--autocollimator", default=None, metavar="COLUMN",
               help="Autocollimator column (default: the only one).")
 @click.option("--faces", type=int, default=None, callback=options.positive,
