@@ -43,7 +43,7 @@ def test_first_night_stores_calibration_then_rechecks(tmp_path):
     assert cal.exists() and "stored this run as the calibration" in r.stderr.decode()
     seed2 = ('enc acquire --rig "$RIG" --mode steps --seed 77 | '
              'enc points -o "$OUT/result.parquet"')
-    r = nightly(hist, cal, "--tolerance", "0.2", "--html", str(tmp_path / "n.html"),
+    r = nightly(hist, cal, "--max-drift", "0.2", "--html", str(tmp_path / "n.html"),
                 campaign=seed2)
     assert r.returncode == 0, r.stderr.decode()
     assert ": ok: p-p" in r.stdout.decode()
@@ -62,10 +62,10 @@ def test_first_night_stores_calibration_then_rechecks(tmp_path):
 def test_drift_beyond_tolerance_exits_1_and_is_recorded(tmp_path):
     hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
     assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
-    r = nightly(hist, cal, "--tolerance", "0.5", campaign=csv_campaign(2))   # "compensated"
+    r = nightly(hist, cal, "--max-drift", "0.5", campaign=csv_campaign(2))   # "compensated"
     assert r.returncode == 1
     err = r.stderr.decode().strip().splitlines()
-    assert err[-1].startswith("enc-nightly: error: drift 2.628 arcsec > --tolerance 0.5")
+    assert err[-1].startswith("enc-nightly: error: drift 2.628 arcsec > --max-drift 0.5")
     h = read_history(hist)
     assert list(h.column("status")) == ["ok", "drift"]
     assert list(h.column("exit_code")) == [0, 1]
@@ -105,7 +105,7 @@ def test_two_runs_at_once_both_land(tmp_path, enc):
     env = dict(os.environ, PATH=f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}")
     procs = [subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
                                "--calibration", str(cal), "--campaign",
-                               csv_campaign(t, sleep=0.5), "--tolerance", "9"],
+                               csv_campaign(t, sleep=0.5), "--max-drift", "9"],
                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
              for t in (1, 3)]
     results = [p.communicate(timeout=120) for p in procs]

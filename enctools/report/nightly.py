@@ -137,7 +137,7 @@ def run_nightly(rig: str, history_dir: str, calibration: str, campaign: str, tol
                 f"{d.max_abs:.3f}\" (tolerance {tolerance:g}\")")
         print(line)
         if status != "ok":
-            _err(f"drift {d.max_abs:.3f} arcsec > --tolerance {tolerance:g} against {calibration}")
+            _err(f"drift {d.max_abs:.3f} arcsec > --max-drift {tolerance:g} against {calibration}")
         record |= {"status": status, "exit_code": code}
         append_run(history_dir, record)
         record = {}                      # landed: nothing left for the finally clause
@@ -190,7 +190,7 @@ def _info(msg: str) -> None:
 @click.option("--campaign", envvar="ENC_NIGHTLY_CAMPAIGN", default=DEFAULT_CAMPAIGN,
               show_default=True, metavar="CMD",
               help="Shell command writing $OUT/result.parquet.")
-@click.option("--tolerance", type=float, default=0.5, show_default=True, metavar="ARCSEC",
+@click.option("--max-drift", "--tolerance", "tolerance", type=float, default=0.5, show_default=True, metavar="ARCSEC",
               help="Largest allowed |drift| against the calibration.")
 @click.option("--keep", default=None, metavar="DIR", type=click.Path(file_okay=False),
               help="Keep the campaign's outputs in DIR (default: a removed temporary folder).")
@@ -204,7 +204,7 @@ def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: 
     fault in the campaign.
     """
     if not (tolerance >= 0 and np.isfinite(tolerance)):
-        _err(f"--tolerance must be >= 0, not {tolerance}")
+        _err(f"--max-drift must be >= 0, not {tolerance}")
         sys.exit(2)
     sys.exit(run_nightly(rig, history_dir, calibration, campaign, tolerance, init, keep, html))
 
