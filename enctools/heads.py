@@ -202,7 +202,7 @@ def average_column(batch: "pa.RecordBatch", group: AverageGroup) -> "pa.Array":
     total = batch.column(group.heads[0])
     for h in group.heads[1:]:
         total = pc.add_checked(total, batch.column(h))
-    return pa.array(total, pa.int64())
+    return total if total.type == pa.int64() else total.cast(pa.int64())
 
 
 def head_alphas(field: "pa.Field") -> np.ndarray:
