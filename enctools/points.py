@@ -28,7 +28,7 @@ import numpy as np
 import pyarrow as pa
 
 from .errors import DataError
-from .readings import head_angle, head_info
+from .readings import head_angle, head_info, measuring_heads
 from .schemas import columns_with_role, make_field
 from .units import ARCSEC, DEG, TWO_PI
 
@@ -118,18 +118,8 @@ def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
         msg = f"{source}: the readings stream has no rows"
         raise DataError(msg)
     rig = header.meta.get("rig") or {}
-    all_heads = columns_with_role(header.schema, "head")
-    if not all_heads:
-        msg = f"{source}: no head columns in the readings"
-        raise DataError(msg)
     if heads is None:
-        enc = head_info(header.schema, all_heads[0], source).encoder
-        wanted: list[str] = []
-        for e in rig.get("encoders", []):
-            if e.get("name") == enc:
-                wanted = list(e.get("measure_heads") or [])
-        heads = [h for h in wanted if h in all_heads] or \
-            [h for h in all_heads if head_info(header.schema, h, source).encoder == enc]
+        heads = measuring_heads(header.schema, header.meta, source)
     infos = [head_info(header.schema, h, source) for h in heads]
     acs = columns_with_role(header.schema, "autocollimator")
     if autocollimator is None:

@@ -58,6 +58,25 @@ def heads(schema: pa.Schema) -> list[HeadInfo]:
     return [head_info(schema, n) for n in columns_with_role(schema, "head")]
 
 
+def measuring_heads(schema: pa.Schema, meta: dict, source: str = "input") -> list[str]:
+    """Names of the heads that read the angle of the first head's encoder.
+
+    The rig's ``measure_heads`` of that encoder (``meta["rig"]``) that are recorded,
+    else every recorded head of that encoder. DataError when there is no head.
+    """
+    recorded = columns_with_role(schema, "head")
+    if not recorded:
+        msg = f"{source}: no head columns in the readings"
+        raise DataError(msg)
+    enc = head_info(schema, recorded[0], source).encoder
+    wanted: list[str] = []
+    for e in (meta.get("rig") or {}).get("encoders", []):
+        if e.get("name") == enc:
+            wanted = list(e.get("measure_heads") or [])
+    return [h for h in wanted if h in recorded] or \
+        [h for h in recorded if head_info(schema, h, source).encoder == enc]
+
+
 def head_angle(counts: np.ndarray | pa.Array, info: HeadInfo) -> np.ndarray:
     """Head reading [rad] from counts: counts * 2 pi / counts_per_rev (zero at the head)."""
     c = counts.to_numpy(zero_copy_only=False) if isinstance(counts, (pa.Array, pa.ChunkedArray)) \

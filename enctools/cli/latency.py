@@ -88,8 +88,7 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
 def _measure(inputs, heads, reference):
     from .. import latency as lat
     from ..errors import DataError
-    from ..readings import head_info
-    from ..schemas import columns_with_role
+    from ..readings import head_info, measuring_heads
     from ..streams import open_input
     from ..truth import Motion
 
@@ -100,8 +99,7 @@ def _measure(inputs, heads, reference):
         if "step" in table.column_names:
             raise DataError(f"{src.source}: a steps run; the lag needs a continuous run")
         schema, meta = src.header.schema, src.header.meta
-        all_heads = columns_with_role(schema, "head")
-        dev_heads = heads or _measure_heads(meta, schema, all_heads, src.source)
+        dev_heads = heads or measuring_heads(schema, meta, src.source)
         t = table.column("t").to_numpy()
         device = _mean_angle(table, schema, dev_heads, src.source)
         info = head_info(schema, dev_heads[0], src.source)
@@ -117,15 +115,6 @@ def _measure(inputs, heads, reference):
             ref = _mean_angle(table, schema, reference, src.source)
         runs.append(lat.run_difference(t, device, ref))
     return runs, bits
-
-
-def _measure_heads(meta, schema, all_heads, source):
-    from ..readings import head_info
-    enc = head_info(schema, all_heads[0], source).encoder
-    for e in (meta.get("rig") or {}).get("encoders", []):
-        if e.get("name") == enc and e.get("measure_heads"):
-            return [h for h in e["measure_heads"] if h in all_heads]
-    return [h for h in all_heads if head_info(schema, h, source).encoder == enc]
 
 
 def _mean_angle(table, schema, names, source):
