@@ -29,6 +29,7 @@ import pyarrow as pa
 
 from .errors import DataError
 from .readings import head_angle, head_info, measuring_heads
+from .report.figures import curve_figures
 from .schemas import columns_with_role, make_field
 from .units import ARCSEC, DEG, TWO_PI
 
@@ -79,12 +80,18 @@ class Figures:
 
 
 def figures(errors: np.ndarray) -> Figures:
-    """n, mean, Bessel standard deviation (seed 001 eq. 8), p-p and max |e| [arcsec]."""
-    e = np.asarray(errors, dtype=np.float64)
-    if e.size == 0:
-        return Figures(0, float("nan"), float("nan"), float("nan"), float("nan"))
-    std = float(np.std(e, ddof=1)) if e.size > 1 else float("nan")
-    return Figures(int(e.size), float(e.mean()), std, float(np.ptp(e)), float(np.abs(e).max()))
+    """n, mean, Bessel standard deviation (seed 001 eq. 8), p-p and max |e| [arcsec].
+
+    The figures of :func:`enctools.report.figures.curve_figures`, named for points;
+    no value, or a NaN among them (residuals of an undetermined fit), gives NaN figures
+    instead of an error.
+    """
+    e = np.asarray(errors, dtype=np.float64).ravel()
+    if e.size == 0 or not np.all(np.isfinite(e)):
+        nan = float("nan")
+        return Figures(int(e.size), nan, nan, nan, nan)
+    f = curve_figures(e)
+    return Figures(f.n, f.mean, f.std, f.pp, max(abs(f.minimum), abs(f.maximum)))
 
 
 # ------------------------------------------------------------------ from a steps run
