@@ -151,32 +151,34 @@ def _block_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
         if terms > 40:
             return None
     s = (xb - centre[:, None]) * (1.0 / h)
-    spow = np.empty((nb, block, terms))  # s^p
-    spow[:, :, 0] = 1.0
-    for p in range(1, terms):
-        np.multiply(spow[:, :, p - 1], s, out=spow[:, :, p])
+    # powers s^p, the even ones first: p = 0, 2, 4, ..., 1, 3, 5, ...
+    order = np.concatenate([np.arange(0, terms, 2), np.arange(1, terms, 2)])
+    ne = (terms + 1) // 2
+    s2 = s * s
+    spow = np.empty((terms, nb, block))
+    spow[0] = 1.0
+    for k in range(1, ne):
+        np.multiply(spow[k - 1], s2, out=spow[k])
+    np.multiply(spow[: terms - ne], s, out=spow[ne:])
     c = v.shape[0]
     g = (v.reshape(c, nb, block) * w.reshape(nb, block)).transpose(1, 0, 2)  # (B, C, L)
-    moments = np.matmul(g, spow).reshape(nb * c, terms).T  # (P, B*C)
+    moments = np.matmul(g, spow.transpose(1, 2, 0)).reshape(nb * c, terms)  # (B*C, P)
     n = np.arange(band + 1, dtype=np.float64)
-    p = np.arange(terms)
-    fact = np.array([math.factorial(k) for k in range(terms)], dtype=np.float64)
-    mag = (n[:, None] * h) ** p / fact  # (K+1, P): (n h)^p / p!
-    sign = np.array([1.0, -1.0, -1.0, 1.0])[p % 4]  # (-i)^p = 1, -i, -1, i
-    even = p % 2 == 0
-    q_re = (mag[:, even] * sign[even]) @ moments[even]  # (K+1, B*C)
-    q_im = (mag[:, ~even] * sign[~even]) @ moments[~even]
+    fact = np.array([math.factorial(k) for k in order], dtype=np.float64)
+    # (-i n h)^p / p!: real for even p (sign (-1)^(p/2)), imaginary for odd p
+    sign = np.array([1.0, -1.0, -1.0, 1.0])[order % 4]
+    t = (n[:, None] * h) ** order * (sign / fact)  # (K+1, P)
+    q_re = (moments[:, :ne] @ t[:, :ne].T).reshape(nb, c, band + 1)
+    q_im = (moments[:, ne:] @ t[:, ne:].T).reshape(nb, c, band + 1)
     # phases exp(-i n x_b) as exp(-i 10 m x_b) exp(-i r x_b), n = 10 m + r: rounding only
-    tens = np.exp(-1j * np.outer(np.arange(0, band + 1, 10), centre))
-    ones = np.exp(-1j * np.outer(np.arange(10), centre))
-    e = (tens[:, None, :] * ones[None, :, :]).reshape(-1, nb)[: band + 1]
-    er = np.ascontiguousarray(e.real)[:, None, :]
-    ei = np.ascontiguousarray(e.imag)[:, None, :]
-    q_re = q_re.reshape(band + 1, nb, c)
-    q_im = q_im.reshape(band + 1, nb, c)
+    tens = np.exp(-1j * np.outer(centre, np.arange(0, band + 1, 10)))
+    ones = np.exp(-1j * np.outer(centre, np.arange(10)))
+    e = (tens[:, :, None] * ones[:, None, :]).reshape(nb, -1)[:, : band + 1]  # (B, K+1)
+    er = np.ascontiguousarray(e.real)
+    ei = np.ascontiguousarray(e.imag)
     out = np.empty((c, band + 1), dtype=np.complex128)
-    out.real = (np.matmul(er, q_re) - np.matmul(ei, q_im))[:, 0, :].T
-    out.imag = (np.matmul(er, q_im) + np.matmul(ei, q_re))[:, 0, :].T
+    out.real = np.einsum("bn,bcn->cn", er, q_re) - np.einsum("bn,bcn->cn", ei, q_im)
+    out.imag = np.einsum("bn,bcn->cn", er, q_im) + np.einsum("bn,bcn->cn", ei, q_re)
     return out
 
 
