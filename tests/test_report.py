@@ -209,6 +209,21 @@ def test_interp_section_per_period(streams):
         assert {h["n"] for h in c["harmonics"][:2]} <= {1, 2}
 
 
+def test_harmonics_of_a_grid_finer_than_1e4_of_a_turn():
+    """A uniform 20000-point curve (selfcal --points 20000) keeps its harmonics: its
+    points once counted as one position, and the report listed no harmonic."""
+    from enctools.report.figures import harmonics
+    x = np.arange(20000) * (TWO_PI / 20000) + 0.25
+    y = 1.5 * np.cos(3 * x + 0.4) + 0.2 * np.cos(7 * x - 1.0) + 0.1
+    h = harmonics(x, y, 10)
+    assert list(h.n) == list(range(11))
+    assert h.amplitude_of(3) == pytest.approx(1.5, abs=1e-9)
+    assert h.amplitude_of(7) == pytest.approx(0.2, abs=1e-9)
+    assert h.amplitude_of(0) == pytest.approx(0.1, abs=1e-9)
+    assert h.phase[3] == pytest.approx(0.4, abs=1e-9)
+    assert h.phase[7] == pytest.approx(-1.0, abs=1e-9)
+
+
 def test_spectrum_section_U_and_transfer(streams):
     sec = report_json(streams["spectrum"], "--top", "3")["sections"][0]
     rows = sec["spectra"][0]["harmonics"]

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import DataError
+from ..harmonics import analyse
 from ..units import TWO_PI
 
 #: coverage factor of the expanded uncertainty
@@ -120,22 +121,19 @@ def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
         msg = f"{x.size} angles but {y.size} values"
         raise DataError(msg)
     phase_arg = np.mod(x, period) * (TWO_PI / period)
-    # positions closer than 1e-4 of the period are one position (repeated readings)
-    distinct = int(np.sum(np.diff(np.sort(phase_arg)) > 1e-4 * TWO_PI)) + 1
+    order = np.argsort(x)
+    uniform = _uniform_full_period(x[order], period)
+    # positions closer than 1e-4 of the period are one position (repeated readings);
+    # a uniform grid's points are all distinct, however fine the grid
+    distinct = x.size if uniform else int(np.sum(np.diff(np.sort(phase_arg)) > 1e-4 * TWO_PI)) + 1
     limit = (distinct - 1) // 2
     if nmax is None or nmax > limit:
         nmax = limit
     if nmax < 1:
         msg = f"{distinct} distinct positions are too few for harmonics (need 3 or more)"
         raise DataError(msg)
-    order = np.argsort(x)
-    if _uniform_full_period(x[order], period):
-        c = np.fft.rfft(y[order]) / y.size
-        c[1:] *= 2.0
-        c *= np.exp(-1j * np.arange(c.size) * phase_arg[order][0])
-        c = c[: nmax + 1]
-        if y.size % 2 == 0 and nmax == y.size // 2:
-            c[-1] /= 2.0
+    if uniform:  # the harmonic core's FFT, turned to the grid's first angle
+        c = analyse(y[order], nmax) * np.exp(-1j * np.arange(nmax + 1) * phase_arg[order][0])
         a, b = c.real, -c.imag
     else:
         while True:   # lower nmax until the positions determine every harmonic well
