@@ -421,6 +421,35 @@ class Curve:
     warnings: list[str] = field(default_factory=list)
 
 
+#: interp-check fits a sweep whole; a longer input (a continuous run) is refused
+MAX_SWEEP_SAMPLES = 1_000_000
+
+
+def read_sweep(source, max_samples: int = MAX_SWEEP_SAMPLES):
+    """All of a sweep's readings as one Arrow table, refusing more than ``max_samples`` rows.
+
+    A small-angle sweep has hundreds to thousands of samples and is fitted whole;
+    the limit keeps a long continuous run piped in by mistake from filling the
+    memory (reading stops at the first batch past it).
+    """
+    import pyarrow as pa
+
+    from .errors import DataError
+
+    batches = []
+    rows = 0
+    for b in source.batches():
+        rows += b.num_rows
+        if rows > max_samples:
+            source.close()
+            msg = (f"{source.source}: more than {max_samples:,} samples; interp-check fits a "
+                   "small-angle sweep whole (enc acquire --mode sweep), not a long run: "
+                   "record a sweep, or cut the run to fewer revolutions")
+            raise DataError(msg)
+        batches.append(b)
+    return pa.Table.from_batches(batches, schema=source.schema)
+
+
 def _column(table, name: str) -> np.ndarray:
     """A column as numpy: int64 stays integer (counts), the rest float64 (nulls -> NaN)."""
     import pyarrow as pa

@@ -100,7 +100,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         if extra:
             streams.check_output(extra, force, None)
     source = streams.open_input(input, "readings")
-    table = source.read_all()
+    table = interp.read_sweep(source)
     settings: dict[str, Any] = {
         "heads": heads, "average": average, "harmonics": harmonics, "points": points,
         "trend": trend_degree}
@@ -113,7 +113,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     else:
         ref_table = None
         if reference_file is not None:
-            ref_table = streams.open_input(reference_file, "readings").read_all()
+            ref_table = interp.read_sweep(streams.open_input(reference_file, "readings"))
         curves = interp.check_readings(
             table, heads, average, reference, ref_table, probes, arm_m, harmonics, keep,
             reference_harmonics, trend_degree, points, reference_file or "reference")

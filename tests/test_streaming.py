@@ -1,0 +1,84 @@
+"""Streaming filters at speed without losing accuracy: the block-expanded per-revolution
+sums against the exact direct sum, pipe buffers, and interp-check refusing a long run.
+Tolerances in the tests; no wall-clock assertions."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import run
+from enctools.harmonics import _direct_sums, _block_sums, revolution_coefficients, trapezoid_weights
+
+TWO_PI = 2 * np.pi
+
+
+def exact_sums(x: np.ndarray, v: np.ndarray, band: int) -> np.ndarray:
+    """sum_j w_j v_cj exp(-i n x_j) with every exponential evaluated on its own."""
+    w = trapezoid_weights(x)
+    e = np.exp(-1j * np.outer(np.arange(band + 1), x)) * w
+    return v @ e.T
+
+
+@pytest.mark.parametrize("samples,band,direction,wobble", [
+    (20000, 100, 1, 1e-4),     # the sjtu-dual default: 20 000 samples, 100 harmonics
+    (20000, 100, -1, 1e-4),    # turning backwards
+    (3001, 20, 1, 0.0),        # uniform
+    (200000, 100, 1, 1e-3),    # fine sampling, large speed variation
+    (1000, 150, 1, 2e-3),      # coarse: small blocks
+    (20000, 3, 1, 0.05),       # very uneven speed
+])
+def test_block_sums_equal_the_exact_sum(samples: int, band: int, direction: int,
+                                        wobble: float) -> None:
+    """The block expansion agrees with the exact sum to 1e-13 of the largest coefficient
+    (rounding only: its truncation is below 2^-56)."""
+    rng = np.random.default_rng(samples + band)
+    k = np.arange(samples + 1)
+    x = direction * (k * TWO_PI / samples + wobble * np.sin(TWO_PI * 3 * k / samples)
+                     + 1e-7 * rng.standard_normal(samples + 1))
+    x[0], x[-1] = 0.0, direction * TWO_PI
+    v = rng.standard_normal((3, samples + 1)) + np.cos(7 * x)
+    want = exact_sums(x, v, band)
+    got = _block_sums(x, v, trapezoid_weights(x), band)
+    assert got is not None
+    assert np.max(np.abs(got - want)) < 1e-13 * np.max(np.abs(want))
+    direct = _direct_sums(x, v, trapezoid_weights(x), band)
+    assert np.max(np.abs(direct - want)) < 1e-12 * np.max(np.abs(want))
+
+
+def test_few_samples_fall_back_to_the_direct_sum() -> None:
+    x = np.linspace(0, TWO_PI, 101)
+    v = np.sin(2 * x)[None, :]
+    assert _block_sums(x, v, trapezoid_weights(x), 10) is None
+    c = revolution_coefficients(x, v, 0.0, 10)[0]
+    assert abs(c[2] - (-1j)) < 1e-3  # sin 2u = Re(-i exp(2iu)), trapezoid on 100 steps
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="F_SETPIPE_SZ is Linux")
+def test_enlarge_pipe() -> None:
+    from enctools.streams import PIPE_BUFFER, enlarge_pipe
+
+    r, w = os.pipe()
+    try:
+        got = enlarge_pipe(r)
+        assert got is None or got >= min(PIPE_BUFFER, 1 << 16)
+    finally:
+        os.close(r)
+        os.close(w)
+    with open(os.devnull, "rb") as f:
+        assert enlarge_pipe(f) is None  # not a pipe: left alone
+
+
+def test_interp_check_refuses_a_long_run(tmp_path) -> None:
+    """A continuous run of 60 revolutions (1.2 M samples) is refused in one line, exit 2,
+    no output; reading stops at the limit (the run is never held whole)."""
+    out = tmp_path / "ic.arrows"
+    r = run(f"enc acquire --rig sjtu-dual --revolutions 60 | enc interp-check --ref P1 -o {out}")
+    err = r.stderr.decode().strip().splitlines()
+    assert r.returncode == 2, r.stderr.decode()
+    assert len(err) == 1 and err[0].startswith("enc interp-check: error:")
+    assert "sweep" in err[0] and "1,000,000" in err[0]
+    assert not out.exists()
