@@ -23,11 +23,16 @@ sec. 5.4). The spread can be chosen by leave-one-out cross-validation
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .units import DEG
+
+if TYPE_CHECKING:
+    from .fourier_fit import FourierModel
 
 #: the factor of seed 001 eq. (6): exp(-0.8326**2) = 0.5
 SPREAD_FACTOR = 0.8326
@@ -84,6 +89,48 @@ class RBFModel:
                 acc += tmp
             out[start:start + chunk] = acc
         return out.reshape(x.shape)
+
+    def as_fourier(self, max_harmonics: int | None = None) -> FourierModel | None:
+        """The network as a Fourier series [arcsec], exact to rounding; None if too long.
+
+        A Gaussian of the chord is smooth and periodic: its series (Jacobi-Anger:
+        ``exp(2k cos u) = sum_n I_n(2k) e^(i n u)``) falls faster than geometrically
+        once n passes the spread's 2k. The coefficients come from the FFT of the
+        network sampled at M points, M doubled until the top half of the spectrum
+        is below rounding (1e-15 of the largest value), so aliasing is below it
+        too; orders below that level are dropped. None when more than
+        ``max_harmonics`` (default 32 per unit: where evaluating the series stops
+        paying) would be needed.
+        """
+        from .fourier_fit import FourierModel
+
+        limit = 32 * max(1, self.centres_deg.size) if max_harmonics is None else max_harmonics
+        m = 64
+        while m <= 4 * limit:
+            y = self(np.arange(m) * (360.0 / m))
+            c = np.fft.rfft(y) / m
+            mag = np.abs(c)
+            floor = 1e-15 * max(float(np.max(np.abs(y))), 1e-300)
+            if np.all(mag[m // 4:] < floor):
+                k = int(np.flatnonzero(mag >= floor).max(initial=0))
+                n = np.arange(k + 1)
+                a = 2.0 * c.real[:k + 1]
+                b = -2.0 * c.imag[:k + 1]
+                a[0], b[0] = c.real[0], 0.0
+                return FourierModel(n, a, b)
+            m *= 2
+        return None
+
+    def on_grid(self, first_deg: float, step_deg: float) -> Callable[[int, int], np.ndarray]:
+        """The model [arcsec] at ``first_deg + k * step_deg``, k = start..stop-1: ``values(start, stop)``.
+
+        By its Fourier series (:meth:`as_fourier`, :meth:`FourierModel.on_grid`) when
+        that is short, else unit by unit.
+        """
+        series = self.as_fourier()
+        if series is not None:
+            return series.on_grid(first_deg, step_deg)
+        return lambda start, stop: self(first_deg + np.arange(start, stop) * step_deg)
 
 
 def _solve(x_rad: np.ndarray, y: np.ndarray, idx: list[int], spread_deg: float

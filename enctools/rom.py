@@ -16,6 +16,7 @@ the signed range of the word width.
 
 from __future__ import annotations
 
+import os
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,6 +28,8 @@ from .errors import DataError, UsageError
 #: the largest table this module builds (2**28 entries, 512 MiB of int16)
 MAX_ADDRESS_BITS = 28
 CHUNK = 1 << 20
+#: threads quantising chunks at once (at most 2: the evaluation itself may use BLAS threads)
+THREADS = min(2, os.cpu_count() or 1)
 
 
 @dataclass(frozen=True)
@@ -85,12 +88,17 @@ class RomSpec:
         if self.sample not in ("centre", "start"):
             raise UsageError(f"--sample must be centre or start, not {self.sample!r}")
 
+    def grid_deg(self) -> tuple[float, float]:
+        """First angle and step [deg] of the addresses: address k is at first + k * step."""
+        shift = self.code_bits - self.m
+        offset = (2.0 ** shift - 1) / 2.0 if self.sample == "centre" else 0.0
+        count = 360.0 / 2.0 ** self.code_bits
+        return offset * count, 2.0 ** shift * count
+
     def angles_deg(self, start: int, stop: int) -> np.ndarray:
         """Angles [deg] at which addresses start..stop-1 are evaluated."""
-        shift = self.code_bits - self.m
-        k = np.arange(start, stop, dtype=np.float64)
-        offset = (2.0 ** shift - 1) / 2.0 if self.sample == "centre" else 0.0
-        return (k * 2.0 ** shift + offset) * (360.0 / 2.0 ** self.code_bits)
+        first, step = self.grid_deg()
+        return first + np.arange(start, stop, dtype=np.float64) * step
 
 
 @dataclass
@@ -141,25 +149,47 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     dtype = {1: np.int8, 2: np.int16, 4: np.int32}[spec.storage_bytes]
     lo, hi = -(1 << (spec.width - 1)), (1 << (spec.width - 1)) - 1
     values = np.empty(n, dtype=dtype)
-    worst = 0.0
-    vmin, vmax = np.inf, -np.inf
-    overflow = False
     scale = -1.0 / spec.lsb_arcsec
-    for start in range(0, n, CHUNK):
+    on_grid = getattr(deviation, "on_grid", None)
+    if on_grid is not None:  # a model that evaluates a uniform grid faster than any angles
+        at = on_grid(*spec.grid_deg())
+    else:
+        def at(start: int, stop: int) -> np.ndarray:
+            return np.asarray(deviation(spec.angles_deg(start, stop)), dtype=np.float64)
+
+    def chunk(start: int) -> tuple[float, float, float]:
+        """Quantise addresses start..start+CHUNK-1; (min, max, largest |error|) [LSB]."""
         stop = min(n, start + CHUNK)
-        corr = np.asarray(deviation(spec.angles_deg(start, stop)), dtype=np.float64)
-        corr *= scale
-        if not np.all(np.isfinite(corr)):
-            raise DataError("the model gives NaN or infinite values; check the model stream")
+        corr = np.multiply(at(start, stop), scale, dtype=np.float64)
         q = np.rint(corr)
-        vmin, vmax = min(vmin, float(q.min())), max(vmax, float(q.max()))
-        if vmin < lo or vmax > hi:
-            overflow = True  # go on for the whole range, to name the width needed
-            continue
-        worst = max(worst, float(np.max(np.abs(q - corr))))
+        qmin, qmax = float(q.min()), float(q.max())  # NaN or inf if any value is
+        if not (np.isfinite(qmin) and np.isfinite(qmax)):
+            raise DataError("the model gives NaN or infinite values; check the model stream")
+        if qmin < lo or qmax > hi:
+            return qmin, qmax, 0.0  # go on for the whole range, to name the width needed
+        corr -= q
+        err = max(-float(corr.min()), float(corr.max()))
         values[start:stop] = q
-        if progress:
-            progress(stop, n)
+        return qmin, qmax, err
+
+    starts = range(0, n, CHUNK)
+    parts = []
+    if len(starts) > 1 and THREADS > 1:  # numpy releases the GIL: overlap the chunks
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(THREADS) as pool:
+            for start, part in zip(starts, pool.map(chunk, starts)):
+                parts.append(part)
+                if progress:
+                    progress(min(n, start + CHUNK), n)
+    else:
+        for start in starts:
+            parts.append(chunk(start))
+            if progress:
+                progress(min(n, start + CHUNK), n)
+    vmin = min(p[0] for p in parts)
+    vmax = max(p[1] for p in parts)
+    worst = max(p[2] for p in parts)
+    overflow = vmin < lo or vmax > hi
     if overflow:
         need = _bits_needed(vmin, vmax)
         raise DataError(

@@ -113,32 +113,86 @@ def check_capacity(target: Target, entries: int) -> None:
 
 
 def _twos(values: np.ndarray, width: int) -> np.ndarray:
-    """Two's complement of signed values in ``width`` bits, as uint64."""
-    return values.astype(np.int64).astype(np.uint64) & np.uint64((1 << width) - 1)
+    """Two's complement of signed values in ``width`` bits, as non-negative int64."""
+    return values.astype(np.int64) & ((1 << width) - 1)
 
 
-def _hex_columns(u: np.ndarray, digits: int) -> np.ndarray:
-    """(N, digits) uint8 ASCII upper-case hex of unsigned values."""
-    out = np.empty((u.size, digits), dtype=np.uint8)
-    for k in range(digits):
-        out[:, k] = _HEX[((u >> np.uint64(4 * (digits - 1 - k))) & np.uint64(15)).astype(np.intp)]
-    return out
+def _hex_tables() -> dict[int, np.ndarray]:
+    """ASCII upper-case hex of every 4-, 8- and 16-bit value: {digits: uint8/16/32 words}."""
+    if not _HEX_TABLES:
+        k = np.arange(1 << 16)
+        digits = np.ascontiguousarray(np.stack([_HEX[(k >> s) & 15] for s in (12, 8, 4, 0)], 1))
+        _HEX_TABLES[4] = digits.view(np.uint32).reshape(-1)
+        _HEX_TABLES[2] = np.ascontiguousarray(digits[:256, 2:]).view(np.uint16).reshape(-1)
+        _HEX_TABLES[1] = _HEX.copy()
+    return _HEX_TABLES
 
 
-def _lines(parts: list[np.ndarray | bytes], n: int) -> np.ndarray:
-    """Concatenate fixed-width byte columns (arrays (n, w) or constant bytes) into lines."""
-    widths = [p.shape[1] if isinstance(p, np.ndarray) else len(p) for p in parts]
-    out = np.empty((n, sum(widths)), dtype=np.uint8)
+_HEX_TABLES: dict[int, np.ndarray] = {}
+
+
+def _hex_columns(u: np.ndarray, digits: int) -> list[np.ndarray]:
+    """ASCII hex of non-negative integers, ``digits`` wide, as pieces for :func:`_lines`.
+
+    The pieces are words of 4, 2 and 1 characters (uint32, uint16, uint8), left to
+    right: one table look-up per 16 bits, and :func:`_lines` places each with one
+    strided word copy rather than a byte loop.
+    """
+    tables = _hex_tables()
+    u = u.astype(np.int64, copy=False)
+    pieces = []
+    left = digits
+    while left:
+        width = 4 if left >= 4 else 2 if left >= 2 else 1
+        left -= width
+        word = (u >> (4 * left)) & ((1 << (4 * width)) - 1) if left else u & ((1 << (4 * width)) - 1)
+        pieces.append(tables[width][word])
+    return pieces
+
+
+def _hex_bytes(b: np.ndarray) -> np.ndarray:
+    """ASCII hex (two digits a byte) of a uint8 array, as uint16 words of the same shape."""
+    return _hex_tables()[2][b]
+
+
+def _lines(parts: list[np.ndarray | bytes | list[np.ndarray]], n: int) -> np.ndarray:
+    """Fixed-width lines (n, W) uint8 from parts placed left to right.
+
+    A part is constant bytes, an array of n words (any unsigned dtype: its bytes in
+    memory order) or of shape (n, k) (k words a line), or a list of such arrays.
+    Every part is written with one strided copy of whole words.
+    """
+    flat: list[np.ndarray | bytes] = []
+    for p in parts:
+        flat.extend(p if isinstance(p, list) else [p])
+    widths = [p.itemsize * (p.shape[1] if p.ndim == 2 else 1) if isinstance(p, np.ndarray)
+              else len(p) for p in flat]
+    w = sum(widths)
+    buf = np.empty(n * w, dtype=np.uint8)
     col = 0
-    for p, w in zip(parts, widths):
-        out[:, col:col + w] = p if isinstance(p, np.ndarray) else np.frombuffer(p, np.uint8)
-        col += w
-    return out
+    for p, width in zip(flat, widths):
+        if isinstance(p, np.ndarray):
+            strides = (w,) if p.ndim == 1 else (w, p.itemsize)
+            np.ndarray(p.shape, p.dtype, buffer=buf, offset=col, strides=strides)[...] = p
+        else:
+            at = col
+            while p:
+                size = 4 if len(p) >= 4 else 2 if len(p) >= 2 else 1
+                dt = np.dtype(f"u{size}")
+                view = np.ndarray((n,), dt, buffer=buf, offset=at, strides=(w,))
+                view[...] = np.frombuffer(p[:size], dt)[0]
+                p, at = p[size:], at + size
+        col += width
+    return buf.reshape(n, w)
 
 
-def _write_chunked(f: IO[bytes], values: np.ndarray, make: Any, chunk: int = 1 << 20) -> None:
+#: lines formatted at once: about 1 MB of text, which stays in the CPU's cache until written
+LINES = 1 << 16
+
+
+def _write_chunked(f: IO[bytes], values: np.ndarray, make: Any, chunk: int = LINES) -> None:
     for start in range(0, values.size, chunk):
-        f.write(make(values[start:start + chunk], start).tobytes())
+        f.write(make(values[start:start + chunk], start).reshape(-1).data)
 
 
 def _parse_hex_tokens(tokens: list[bytes] | np.ndarray, width: int, source: str) -> np.ndarray:
@@ -158,9 +212,9 @@ def _parse_hex_tokens(tokens: list[bytes] | np.ndarray, width: int, source: str)
         arr = tokens
     d = _HEX_VALUE[arr]
     if (d == 255).any():
-        raise DataError(f"{src}: a value is not hexadecimal")
+        raise DataError(f"{source}: a value is not hexadecimal")
     if arr.shape[1] > 16:
-        raise DataError(f"{src}: a hex value has more than 16 digits")
+        raise DataError(f"{source}: a hex value has more than 16 digits")
     acc = np.uint32 if arr.shape[1] <= 8 else np.uint64
     u = np.zeros(arr.shape[0], dtype=acc)
     for k in range(arr.shape[1]):
@@ -273,8 +327,7 @@ def _write_ihex(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str])
             rec[:, 3] = 0
             rec[:, 4:20] = data[:full * 16].reshape(full, 16)
             rec[:, 20] = (-rec[:, :20].astype(np.int64).sum(axis=1)) & 0xFF
-            hexed = _hex_columns(rec.reshape(-1).astype(np.uint64), 2).reshape(full, 42)
-            f.write(_lines([b":", hexed, b"\n"], full).tobytes())
+            f.write(_lines([b":", _hex_bytes(rec), b"\n"], full).reshape(-1).data)
         rest = data[full * 16:]
         if rest.size:
             f.write(_ihex_record(0, full * 16, rest.tolist()))
@@ -295,7 +348,7 @@ def _write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) 
     f.write(head.encode())
 
     def make(v: np.ndarray, start: int) -> np.ndarray:
-        addr = _hex_columns(np.arange(start, start + v.size, dtype=np.uint64), adig)
+        addr = _hex_columns(np.arange(start, start + v.size, dtype=np.int64), adig)
         return _lines([b"\t", addr, b" : ", _hex_columns(_twos(v, t.width), t.hex_digits),
                        b";\n"], v.size)
 
