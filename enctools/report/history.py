@@ -22,7 +22,6 @@ import logging
 import os
 import secrets
 import socket
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +30,7 @@ import numpy as np
 import pyarrow as pa
 
 from ..errors import DataError
+from ..files import write_atomic
 
 log = logging.getLogger("enctools")
 
@@ -85,28 +85,7 @@ def append_run(folder: str | os.PathLike[str], record: dict[str, Any]) -> Path:
                      schema=SCHEMA)
     _remove_stale(d)
     final = d / f"run-{rec['run_id']}.parquet"
-    fd, tmp = tempfile.mkstemp(prefix=".run-", suffix=".parquet.tmp", dir=str(d))
-    try:
-        with os.fdopen(fd, "wb") as f:
-            pq.write_table(table, f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, final)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    try:  # make the rename itself durable
-        dfd = os.open(str(d), os.O_RDONLY)
-        try:
-            os.fsync(dfd)
-        finally:
-            os.close(dfd)
-    except OSError:
-        pass
+    write_atomic(final, lambda f: pq.write_table(table, f), durable=True, mode=0o644)
     return final
 
 
@@ -114,7 +93,7 @@ def _remove_stale(d: Path, age_s: float = 86400.0) -> None:
     """Remove temporary files of runs killed mid-write more than a day ago."""
     import time
     now = time.time()
-    for p in d.glob(".run-*.parquet.tmp"):
+    for p in d.glob(".run-*.tmp"):
         try:
             if now - p.stat().st_mtime > age_s:
                 p.unlink()

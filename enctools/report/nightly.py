@@ -142,9 +142,9 @@ def run_nightly(rig: str, history_dir: str, calibration: str, campaign: str, tol
         append_run(history_dir, record)
         record = {}                      # landed: nothing left for the finally clause
         if html:
+            from ..files import write_atomic
             from .history import read_history
             from .html import to_html
-            from .output import write_atomic
             rep.history = read_history(history_dir)
             rep.settings["thresholds"] = {"drift tolerance": tolerance}
             fails = [] if status == "ok" else [f"drift {d.max_abs:.3f} arcsec > {tolerance:g}"]

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 from collections.abc import Sequence
-from pathlib import Path
 
-from ..errors import CheckFailed, UsageError
+from ..errors import CheckFailed
+from ..files import check_new_file, write_atomic
 from .sections import Options
 from .summary import build_report
 from .thresholds import Thresholds, check
@@ -17,35 +15,8 @@ from .thresholds import Thresholds, check
 def check_paths(paths: Sequence[str | None], force: bool) -> None:
     """Fail early when a report file cannot be written (exists without --force, no folder)."""
     for p in paths:
-        if p is None:
-            continue
-        path = Path(p)
-        if path.exists() and not force:
-            msg = f"output {p} exists; use --force to replace it"
-            raise UsageError(msg)
-        parent = path.parent if str(path.parent) else Path(".")
-        if not parent.is_dir():
-            msg = f"output {p}: folder {parent} does not exist"
-            raise UsageError(msg)
-
-
-def write_atomic(path: str, data: bytes) -> None:
-    """Write a file through a temporary file in the same folder and a rename."""
-    p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=str(p.parent or "."))
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+        if p is not None:
+            check_new_file(p, force)
 
 
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
