@@ -31,10 +31,26 @@ HEADS = 9  # sjtu-dual
 #: filter name -> arguments; a filter whose command is not installed is skipped
 FILTERS: dict[str, list[str]] = {
     "average-heads": ["average-heads"],
-    "compare": ["compare", "--device", "H1,H2,H3,H4", "--ref", "P1,P2"],
+    "compare": ["compare", "-q", "--device", "H1,H2,H3,H4", "--ref", "P1,P2"],
     "selfcal": ["selfcal", "--method", "esa", "--ref", "H1", "--heads", "H5,H6,H7"],
     "info": ["info"],
+    # fits a sweep whole: a continuous run past its limit is refused (exit 2) after
+    # reading 1 000 000 samples; the row shows that memory stays bounded
+    "interp-check": ["interp-check", "-q", "--ref", "P1"],
 }
+#: exit statuses that count as a measured run (interp-check refusing a long run: 2)
+ACCEPT = {"interp-check": (0, 2)}
+#: the pipe buffer the filters ask for (enctools.streams.PIPE_BUFFER) and the default
+PIPE_BUFFERS = {"1 MiB": 1 << 20, "64 KiB": 0}
+SAMPLES_PER_REV = 20_000  # sjtu-dual default sampling
+
+
+def pipe_cat(size: int) -> str:
+    """``cat`` reading a pipe whose buffer it first sets to ``size`` bytes (0: as created)."""
+    code = ("import fcntl,os,sys;n=int(sys.argv[1]);"
+            "n and fcntl.fcntl(0,getattr(fcntl,'F_SETPIPE_SZ',1031),n);"
+            "os.execvp('cat',['cat'])")
+    return f"{sys.executable} -S -c \"{code}\" {size}"
 
 
 def available(command: str) -> bool:
@@ -42,20 +58,23 @@ def available(command: str) -> bool:
     return r.returncode == 0
 
 
-def timed(shell: str, repeat: int = 1) -> dict[str, float]:
+def timed(shell: str, repeat: int = 1, accept: tuple[int, ...] = (0,)) -> dict[str, float]:
     """Run a bash pipeline; the last stage's peak RSS comes from GNU time in the pipeline."""
     times = []
     peak = 0.0
+    status = 0
     for _ in range(repeat):
         t0 = time.perf_counter()
-        r = subprocess.run(["bash", "-o", "pipefail", "-c", shell], capture_output=True)
+        r = subprocess.run(["bash", "-c", shell], capture_output=True)
         times.append(time.perf_counter() - t0)
-        if r.returncode != 0:
+        if r.returncode not in accept:
             raise RuntimeError(f"{shell}: {r.stderr.decode()[-500:]}")
+        status = r.returncode
         for line in r.stderr.decode().splitlines():
             if line.startswith("PEAK_KB "):
                 peak = max(peak, float(line.split()[1]))
-    return {"seconds": min(times), "median": statistics.median(times), "peak_mb": peak / 1024}
+    return {"seconds": min(times), "median": statistics.median(times), "peak_mb": peak / 1024,
+            "status": status}
 
 
 def gnu_time() -> str:
@@ -72,6 +91,45 @@ def startup(repeat: int) -> dict[str, float]:
            "python -c 'import numpy, pyarrow'": np_pa, "enc --help": help_,
            "enc --help / import click": help_ / click_}
     return out
+
+
+def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
+            tiny: dict[str, float]) -> dict[str, object]:
+    """One input size: the simulator, the raw pipe (both buffers) and every filter."""
+    data = out / f"raw-{n}.arrows"
+    samples = n * SAMPLES_PER_REV
+    head_samples = samples * HEADS
+    acq = timed(f"{gnu_time()} {ENC} acquire --rig sjtu-dual --revolutions {n} -o {data} --force")
+    size = data.stat().st_size
+    row: dict[str, object] = {
+        "revolutions": n, "samples": samples, "head_samples": head_samples, "bytes": size,
+        "acquire": {"head_samples_per_s": head_samples / acq["seconds"],
+                    "samples_per_s": samples / acq["seconds"], "seconds": acq["seconds"],
+                    "peak_mb": acq["peak_mb"]}}
+    cat: dict[str, dict[str, float]] = {}
+    for label, buf in PIPE_BUFFERS.items():
+        c = timed(f"cat {data} | {pipe_cat(buf)} > /dev/null", max(repeat, 3))
+        cat[label] = {"seconds": c["seconds"], "bytes_per_s": size / c["seconds"],
+                      "head_samples_per_s": head_samples / c["seconds"]}
+    row["cat"] = cat
+    ref = cat["1 MiB"]  # the buffer the filters use
+    for name, argv in filters.items():
+        m = timed(f"cat {data} | {gnu_time()} {ENC} {' '.join(argv)} > /dev/null", repeat,
+                  ACCEPT.get(name, (0,)))
+        steady = m["seconds"] - tiny.get(name, 0.0)
+        r: dict[str, object] = {
+            "seconds": m["seconds"], "head_samples_per_s": head_samples / m["seconds"],
+            "ratio_to_cat": ref["seconds"] / m["seconds"],
+            "ratio_to_cat_64k": cat["64 KiB"]["seconds"] / m["seconds"],
+            "peak_mb": m["peak_mb"]}
+        if m["status"] != 0:
+            r["refused"] = True
+        elif steady > 0 and n > 1:
+            r["steady_head_samples_per_s"] = head_samples / steady
+            r["steady_ratio_to_cat"] = ref["seconds"] / steady
+        row[name] = r
+    data.unlink()
+    return row
 
 
 def main() -> None:
@@ -92,21 +150,15 @@ def main() -> None:
         "runs": [],
     }
     filters = {k: v for k, v in FILTERS.items() if available(v[0])}
+    tiny = out / "raw-tiny.arrows"
+    timed(f"{ENC} acquire --rig sjtu-dual --revolutions 2 -o {tiny} --force")
+    # start-up and the work on two revolutions: subtracted to give the steady pass-through rate
+    results["filters_tiny_input"] = {
+        name: timed(f"cat {tiny} | {ENC} {' '.join(argv)} > /dev/null", max(repeat, 3))["seconds"]
+        for name, argv in filters.items()}
+    tiny.unlink()
     for n in revs:
-        data = out / f"raw-{n}.arrows"
-        acq = timed(f"{gnu_time()} {ENC} acquire --rig sjtu-dual --revolutions {n} -o {data} --force")
-        samples = n * 20_000
-        row: dict[str, object] = {"revolutions": n, "samples": samples,
-                                  "acquire": {"head_samples_per_s": samples * HEADS / acq["seconds"],
-                                              "peak_mb": acq["peak_mb"]}}
-        cat = timed(f"cat {data} | cat > /dev/null", repeat)
-        row["cat_bytes_per_s"] = data.stat().st_size / cat["seconds"]
-        for name, argv in filters.items():
-            m = timed(f"cat {data} | {gnu_time()} {ENC} {' '.join(argv)} > /dev/null", repeat)
-            row[name] = {"head_samples_per_s": samples * HEADS / m["seconds"],
-                         "ratio_to_cat": cat["seconds"] / m["seconds"], "peak_mb": m["peak_mb"]}
-        results["runs"].append(row)
-        data.unlink()
+        results["runs"].append(measure(n, out, filters, repeat, results["filters_tiny_input"]))
         print(f"bench: {n} revolutions done", file=sys.stderr)
     (out / "bench.json").write_text(json.dumps(results, indent=2))
     print(markdown(results))
@@ -114,18 +166,43 @@ def main() -> None:
 
 def markdown(res: dict) -> str:
     lines = [f"Measured {res['date']} on {res['machine']} (`make bench`).", ""]
-    lines += ["| command | revolutions | head-samples/s | vs `cat` | peak memory |",
-              "|---|---:|---:|---:|---:|"]
+    lines += ["| command | revolutions | head-samples/s | vs `cat` | vs `cat`, after start-up "
+              "| peak memory |",
+              "|---|---:|---:|---:|---:|---:|"]
     for run in res["runs"]:
+        n = run["revolutions"]
+        for label, c in run.get("cat", {}).items():
+            lines.append(f"| `cat` ({label} pipe) | {n} | {c['head_samples_per_s']:.3g} | "
+                         f"{c['bytes_per_s'] / 1e9:.2f} GB/s | | |")
         for name, m in run.items():
-            if isinstance(m, dict):
-                ratio = f"{m['ratio_to_cat']:.2f}" if "ratio_to_cat" in m else ""
-                lines.append(f"| {name} | {run['revolutions']} | {m['head_samples_per_s']:.3g} | "
-                             f"{ratio} | {m['peak_mb']:.0f} MB |")
+            if not isinstance(m, dict) or name == "cat":
+                continue
+            ratio = f"{m['ratio_to_cat']:.2f}" if "ratio_to_cat" in m else ""
+            steady = f"{m['steady_ratio_to_cat']:.2f}" if "steady_ratio_to_cat" in m else ""
+            rate = f"{m['head_samples_per_s']:.3g}"
+            if m.get("refused"):
+                rate, ratio, steady = "refused (a sweep is fitted whole)", "", ""
+            elif name == "acquire":
+                rate += f" ({m['samples_per_s']:.3g} samples/s)"
+            lines.append(f"| {name} | {n} | {rate} | {ratio} | {steady} | "
+                         f"{m['peak_mb']:.0f} MB |")
+    memory = _memory_growth(res)
+    if memory:
+        lines += ["", "Peak memory at the most revolutions / at the fewest: " + ", ".join(
+            f"{k} {v:.2f}x" for k, v in memory.items())]
     s = res["startup"]
     lines += ["", "| start-up | seconds |", "|---|---:|"]
     lines += [f"| {k} | {v:.3f} |" for k, v in s.items()]
     return "\n".join(lines)
+
+
+def _memory_growth(res: dict) -> dict[str, float]:
+    runs = res["runs"]
+    if len(runs) < 2:
+        return {}
+    first, last = runs[0], runs[-1]
+    return {k: last[k]["peak_mb"] / first[k]["peak_mb"] for k, v in first.items()
+            if isinstance(v, dict) and "peak_mb" in v and k in last and v["peak_mb"] > 0}
 
 
 if __name__ == "__main__":
