@@ -23,6 +23,7 @@ import io
 import logging
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pyarrow as pa
@@ -32,6 +33,9 @@ from .readings import head_angle, head_info, measuring_heads
 from .report.figures import curve_figures
 from .schemas import columns_with_role, make_field
 from .units import ARCSEC, DEG, TWO_PI
+
+if TYPE_CHECKING:
+    from .streams import Header
 
 log = logging.getLogger("enctools")
 
@@ -288,6 +292,41 @@ def from_table(table: pa.Table, source: str = "input") -> Points:
     r = (table.column("run").to_numpy(zero_copy_only=False) if "run" in table.column_names
          else np.zeros(n))
     return Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32))
+
+
+def is_csv_file(path: str | None) -> bool:
+    """Whether ``path`` names a regular file of text (a CSV table), not a stream.
+
+    A stream starts with its format's magic bytes; stdin (None, "-") and pipes are
+    streams (a pipe can be read once only). An unreadable path is not CSV: opening it
+    as a stream then says what is wrong.
+    """
+    import os
+    import stat
+
+    from .streams import detect_format
+
+    if path in (None, "-"):
+        return False
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return False
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError:
+        return False
+    return bool(head) and detect_format(head) is None
+
+
+def read_points(path: str | None) -> tuple[Header, Points]:
+    """Points from a CSV file (:func:`points_from_csv`) or a points stream (stdin: None)."""
+    from . import streams
+
+    if is_csv_file(path):
+        header = streams.Header("points", points_schema(), {"source": f"CSV {path}"})
+        return header, points_from_csv(path)
+    src = streams.open_input(path, "points")
+    return src.header, from_table(src.read_all(), src.source)
 
 
 def distinct(points: Points, tol_deg: float = 1e-6, source: str = "input"

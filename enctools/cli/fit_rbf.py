@@ -37,20 +37,20 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     runner.setup_logging(verbose, quiet)
     from .. import models, streams
     from ..errors import CheckFailed, UsageError
-    from ..points import distinct
+    from ..points import distinct, read_points
     from ..streams import with_history
 
     if goal < 0:
         raise UsageError(f"--goal must be >= 0 arcsec, not {goal}")
     streams.check_output(output, force, fmt)
-    header, pts = _read_points(input)
+    header, pts = read_points(input)
     x, y, closure = distinct(pts, source=header.meta.get("source", "input"))
     if closure > 0:
         runner.log.info("points at the same angle differ by up to %.4f arcsec; fitted their mean",
                         closure)
     hold = None
     if holdout_path is not None:
-        _, hp = _read_points(holdout_path)
+        _, hp = read_points(holdout_path)
         hold = distinct(hp, source=holdout_path)[:2]
     fit = models.fit_points(x, y, kernel, spread_deg, goal, harmonics, hold)
     table, meta = models.model_table(fit.model)
@@ -65,19 +65,6 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
         s = fit.residuals()[which]["bessel_std_arcsec"]
         if s > check_arcsec:
             raise CheckFailed(f"{which} Bessel s {s:.4f} arcsec exceeds --max-std {check_arcsec}")
-
-
-def _read_points(path: str | None):
-    from .. import points as pts
-    from .. import streams
-    from ..streams import Header
-    from .points import _is_csv
-
-    if path not in (None, "-") and _is_csv(path):
-        p = pts.points_from_csv(path)
-        return Header("points", pts.points_schema(), {"source": f"CSV {path}"}), p
-    src = streams.open_input(path, "points")
-    return src.header, pts.from_table(src.read_all(), src.source)
 
 
 def _summary(fit, meta) -> None:

@@ -33,7 +33,7 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
 
     streams.check_output(output, force, fmt)
     settings = {"heads": heads, "autocollimator": autocollimator, "faces": faces}
-    if input not in (None, "-") and _is_csv(input):
+    if pts.is_csv_file(input):
         p = pts.points_from_csv(input)
         header = Header("points", pts.points_schema(),
                         {"source": f"CSV {input}", "history": []})
@@ -49,19 +49,3 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     runner.log.info("%d points; at %d distinct positions: Bessel s %.3f arcsec, p-p %.3f arcsec",
                     len(p), fig.n, fig.bessel_std, fig.peak_to_peak)
     streams.write_table(output, with_history(header), p.table(), force, fmt)
-
-
-def _is_csv(path: str) -> bool:
-    """A CSV file is text: it does not start with a stream's magic bytes."""
-    import os
-    import stat
-
-    from ..streams import detect_format
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            return False  # a pipe: only a stream can be read from it (once)
-        with open(path, "rb") as f:
-            head = f.read(8)
-    except OSError:
-        return False  # let open_input say what is wrong
-    return bool(head) and detect_format(head) is None
