@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..rig import Encoder, Rig
-from ..truth import Motion, Series, interpolation_error, signal_phase_error
+from ..truth import Motion, Series, interpolation_error
 from ..units import ARCSEC, DEG, TWO_PI
 from .base import Axis, Channel, Clock, Counter, Sensor, Session
 from .sim_truth import jitter_motion, make_truth
@@ -83,14 +83,44 @@ class _Tabulated:
         table = np.fft.irfft(spec, _GRID) * _GRID / 2
         self.table = np.append(table, table[0])
 
+        self.slope = np.diff(self.table)
+        # the rest as amplitude * cos(f x - phase): one cosine per component
+        self._amp = np.hypot(self.rest.a, self.rest.b)
+        self._phase = np.arctan2(self.rest.b, self.rest.a)
+
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        u = np.mod(x, TWO_PI) * (_GRID / TWO_PI)
-        i = np.minimum(u.astype(np.int64), _GRID - 1)
-        f = u - i
-        out = self.table[i] * (1.0 - f) + self.table[i + 1] * f
-        if self.rest.freq.size:
-            out += self.rest(x)
+        u = np.mod(x, TWO_PI)
+        u *= _GRID / TWO_PI
+        i = u.astype(np.int64)
+        np.minimum(i, _GRID - 1, out=i)
+        u -= i
+        out = self.slope[i]
+        out *= u
+        out += self.table[i]
+        for f, a, p in zip(self.rest.freq, self._amp, self._phase):
+            arg = f * x
+            arg -= p
+            np.cos(arg, out=arg)
+            arg *= a
+            out += arg
         return out
+
+
+def _phase_error(faults: Any, phi: np.ndarray) -> np.ndarray:
+    """:func:`enctools.truth.signal_phase_error` with three transcendentals, not six.
+
+    ``atan2(Q, I) - phi`` wrapped to (-pi, pi] is the angle of ``(I + iQ) exp(-i phi)``:
+    one arctangent of the signals rotated back by phi, sharing cos phi and sin phi
+    with the signals themselves.
+    """
+    c = np.cos(phi)
+    s = np.sin(phi)
+    i = faults.offset_cos + c
+    q = s * math.cos(faults.phase)
+    q += c * math.sin(faults.phase)
+    q *= faults.ratio
+    q += faults.offset_sin
+    return np.arctan2(q * c - i * s, i * c + q * s)
 
 
 class VirtualRig(Session):
@@ -151,7 +181,7 @@ class VirtualRig(Session):
         radial = (x * np.sin(h.angle) - y * np.cos(h.angle)) * 1e-9 / enc.radius_m
         ideal = theta + self._eps[enc.name](theta + h.angle) * ARCSEC + radial
         phase = np.mod(ideal + h.angle, TWO_PI) * enc.periods_per_rev
-        psi = signal_phase_error(self._truth.signals[h.name], phase) / enc.periods_per_rev
+        psi = _phase_error(self._truth.signals[h.name], phase) / enc.periods_per_rev
         reading = ideal + psi
         if noise and h.noise_arcsec > 0:
             reading = reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, theta.shape)
