@@ -448,7 +448,12 @@ def read_table(path: str, target: Target) -> np.ndarray:
         data = Path(path).read_bytes()
     except FileNotFoundError:
         raise DataError(f"{path}: no such file") from None
-    return READERS[target.fmt](data, target, str(path))
+    try:
+        return READERS[target.fmt](data, target, str(path))
+    except (ValueError, OverflowError, IndexError, KeyError) as exc:
+        # a malformed word the general readers meet one at a time
+        raise DataError(f"{path}: not a readable {target.fmt} table "
+                        f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
 
 
 def _read_bin(data: bytes, t: Target, src: str) -> np.ndarray:
@@ -500,7 +505,131 @@ def _read_ihex(data: bytes, t: Target, src: str) -> np.ndarray:
     return _read_bin(bytes(image), t, src)
 
 
+def _hex_pairs() -> np.ndarray:
+    """Value of every two ASCII bytes read as a native uint16: 0..255, or 256 if not hex."""
+    if "pairs" not in _HEX_TABLES:
+        v = _HEX_VALUE.astype(np.uint16)
+        v[v == 255] = 256
+        _HEX_TABLES["ones"] = v  # one digit: 0..15, or 256 if not hex
+        two = np.where((v[:, None] | v[None, :]) & 256, 256, (v[:, None] << 4) | v[None, :])
+        code = np.frombuffer(np.arange(1 << 16, dtype=np.uint16).tobytes(), np.uint8).reshape(-1, 2)
+        _HEX_TABLES["pairs"] = two[code[:, 0], code[:, 1]].astype(np.uint16)
+    return _HEX_TABLES["pairs"]
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """Lines of equal length in a byte buffer: ``n`` lines of ``width`` bytes from ``start``."""
+
+    data: bytes
+    start: int
+    n: int
+    width: int
+
+    def word(self, col: int, size: int) -> np.ndarray:
+        """Bytes col..col+size-1 of every line as one unsigned (native order) word each."""
+        return np.ndarray((self.n,), np.dtype(f"u{size}"), buffer=self.data,
+                          offset=self.start + col, strides=(self.width,))
+
+    def line(self, k: int) -> bytes:
+        return self.data[self.start + k * self.width:self.start + (k + 1) * self.width]
+
+    def same(self, a: int, b: int) -> bool:
+        """Whether bytes a..b-1 of every line equal those of the first line."""
+        while a < b:
+            size = 4 if b - a >= 4 else 2 if b - a >= 2 else 1
+            w = self.word(a, size)
+            if not (w == w[0]).all():
+                return False
+            a += size
+        return True
+
+    def hex(self, a: int, b: int, width: int) -> np.ndarray | None:
+        """Signed values (two's complement in ``width`` bits) of the hex digits in columns a..b-1.
+
+        Two digits a table look-up on unaligned uint16 words read straight from the
+        lines; None if a digit is not hex or there are more than 16.
+        """
+        digits = b - a
+        if not 0 < digits <= 16:
+            return None
+        acc = np.uint32 if digits <= 8 else np.uint64
+        u = np.zeros(self.n, dtype=acc)
+        bad = np.zeros(self.n, dtype=np.uint16)
+        if digits % 2:
+            _hex_pairs()
+            one = _HEX_TABLES["ones"][self.word(a, 1)]
+            bad |= one
+            u |= one
+            a += 1
+        pairs = _hex_pairs()
+        for col in range(a, b, 2):
+            v = pairs[self.word(col, 2)]
+            bad |= v
+            u <<= acc(8)
+            u |= v  # a non-hex pair (256) spoils u, but then bad says so
+        if (bad & 256).any():
+            return None
+        if width in (8, 16, 32) and 4 * digits == width:
+            return u.astype(np.dtype(f"u{width // 8}")).view(np.dtype(f"i{width // 8}")).astype(np.int64)
+        return _signed(u.astype(np.uint64), width) if width < 64 else u.astype(np.int64)
+
+
+def _fixed_rows(data: bytes, start: int, stop: int) -> _Rows | None:
+    """The lines of data[start:stop] when every one has the same length (newline included)."""
+    nl = data.find(b"\n", start, stop)
+    width = nl + 1 - start
+    if nl < 0 or (stop - start) % width:
+        return None
+    rows = _Rows(data, start, (stop - start) // width, width)
+    return rows if (rows.word(width - 1, 1) == 10).all() else None
+
+
+def _read_mif_fixed(data: bytes, src: str) -> np.ndarray | None:
+    """A MIF file whose content lines are all alike (``addr : value;``, hex): by columns.
+
+    None for anything else (the general reader then reads it or names the fault).
+    """
+    begin, end = data.find(b"BEGIN"), data.rfind(b"END")
+    if begin < 0 or end < begin:
+        return None
+    head = re.sub(rb"%[^%]*%", b"", re.sub(rb"--[^\n]*", b"", data[:begin]))
+    if not re.search(rb"CONTENT\s*$", head):
+        return None
+    keys = {k.strip().upper(): v.strip().upper()
+            for k, v in re.findall(rb"(\w+)\s*=\s*([^;]+);", head)}
+    try:
+        width, depth = int(keys[b"WIDTH"]), int(keys[b"DEPTH"])
+    except (KeyError, ValueError):
+        return None
+    if keys.get(b"ADDRESS_RADIX", b"HEX") != b"HEX" or keys.get(b"DATA_RADIX", b"HEX") != b"HEX":
+        return None
+    start = data.find(b"\n", begin, end) + 1
+    if start <= 0 or data[begin + 5:start].strip() or depth == 0:
+        return None
+    rows = _fixed_rows(data, start, end)
+    if rows is None or rows.n != depth:
+        return None
+    m = re.fullmatch(rb"(\s*)([0-9A-Fa-f]+)(\s*:\s*)([0-9A-Fa-f]+)(\s*;\s*)", rows.line(0))
+    if m is None or not all(rows.same(*m.span(g)) for g in (1, 3, 5)):
+        return None
+    addr = rows.hex(*m.span(2), 64)
+    values = rows.hex(*m.span(4), width)
+    if addr is None or values is None:
+        return None
+    if np.array_equal(addr, np.arange(depth)):
+        return values
+    if not np.array_equal(np.sort(addr), np.arange(depth)):
+        raise DataError(f"{src}: addresses do not cover 0..DEPTH-1={depth - 1} once each")
+    out = np.empty(depth, dtype=np.int64)
+    out[addr] = values
+    return out
+
+
 def _read_mif(data: bytes, t: Target, src: str) -> np.ndarray:
+    fixed = _read_mif_fixed(data, src)
+    if fixed is not None:
+        return fixed
     text = re.sub(rb"--[^\n]*", b"", data)
     text = re.sub(rb"%[^%]*%", b"", text)
     head, sep, body = text.partition(b"CONTENT")
@@ -603,7 +732,52 @@ def _fixed_mif(lines, width: int, depth: int, src: str) -> np.ndarray | None:
     return out
 
 
+def _hex_column_lines(data: bytes, start: int, stop: int, tail: bytes, width: int
+                      ) -> np.ndarray | None:
+    """Values of lines ``<hex><tail>`` all alike in data[start:stop], or None (general reader)."""
+    rows = _fixed_rows(data, start, stop)
+    if rows is None:
+        return None
+    m = re.fullmatch(rb"([ \t]*)([0-9A-Fa-f]+)(" + tail + rb")", rows.line(0))
+    if m is None or not (rows.same(*m.span(1)) and rows.same(*m.span(3))):
+        return None
+    return rows.hex(*m.span(2), width)
+
+
+def _read_coe_fixed(data: bytes, t: Target) -> np.ndarray | None:
+    """A hex COE file as written here: one ``value,`` a line, the last ``value;``."""
+    m = re.search(rb"memory_initialization_vector\s*=[ \t]*\r?\n", data, re.I)
+    if m is None or not re.search(rb"memory_initialization_radix\s*=\s*16\s*;", data[:m.start()],
+                                  re.I):
+        return None
+    end = data.rstrip().rfind(b"\n") + 1
+    last = re.fullmatch(rb"\s*([0-9A-Fa-f]+)\s*;\s*", data[end:])
+    if last is None or end <= m.end():
+        return None
+    body = _hex_column_lines(data, m.end(), end, rb"[ \t]*,[ \t]*\r?\n", t.width)
+    if body is None:
+        return None
+    return np.append(body, _parse_hex_tokens([last.group(1)], t.width, ""))
+
+
+def _read_mem_fixed(data: bytes, t: Target) -> np.ndarray | None:
+    """A $readmemh file as written here: // comment lines, @0, one hex word a line."""
+    pos = 0
+    while data.startswith(b"//", pos):
+        pos = data.find(b"\n", pos) + 1
+        if pos == 0:
+            return None
+    at = re.match(rb"@0+[ \t]*\r?\n", data[pos:pos + 64])
+    pos += at.end() if at else 0
+    if pos >= len(data):
+        return None
+    return _hex_column_lines(data, pos, len(data), rb"[ \t]*\r?\n", t.width)
+
+
 def _read_coe(data: bytes, t: Target, src: str) -> np.ndarray:
+    fixed = _read_coe_fixed(data, t)
+    if fixed is not None:
+        return fixed
     m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", data, re.I)
     v = re.search(rb"memory_initialization_vector\s*=([^;]*);", data, re.I)
     if not (m and v):
@@ -621,6 +795,9 @@ def _read_coe(data: bytes, t: Target, src: str) -> np.ndarray:
 
 
 def _read_mem(data: bytes, t: Target, src: str) -> np.ndarray:
+    fixed = _read_mem_fixed(data, t)
+    if fixed is not None:
+        return fixed
     import pyarrow.compute as pc
     if b"/*" not in data:
         lines = _body_lines(data, "//")
@@ -668,7 +845,10 @@ def _read_csv(data: bytes, t: Target, src: str) -> np.ndarray:
     a = table.column("address").to_numpy()
     if not np.array_equal(a, np.arange(a.size)):
         raise DataError(f"{src}: addresses are not 0, 1, 2, ... without gaps")
-    return table.column("correction").to_numpy().astype(np.int64)
+    corr = table.column("correction")
+    if not pa.types.is_integer(corr.type) or corr.null_count:
+        raise DataError(f"{src}: a correction is not a whole number")
+    return corr.to_numpy().astype(np.int64)
 
 
 def _indexed(data: bytes, prefix: bytes, pattern: str, src: str) -> np.ndarray:
@@ -681,7 +861,7 @@ def _indexed(data: bytes, prefix: bytes, pattern: str, src: str) -> np.ndarray:
         raise DataError(f"{src}: no table entries found")
     ok = pc.match_substring_regex(lines, pattern)
     if not pc.all(ok).as_py():
-        bad = lines.filter(pc.invert(ok))[0].as_py().decode(errors="replace")
+        bad = str(lines.filter(pc.invert(ok))[0].as_py())
         raise DataError(f"{src}: cannot read the table line {bad.strip()!r}")
     parts = pc.extract_regex(lines, pattern)
     idx = pc.cast(parts.field("i"), pa.int64()).to_numpy()
@@ -697,8 +877,12 @@ def _indexed(data: bytes, prefix: bytes, pattern: str, src: str) -> np.ndarray:
 
 
 def _from_closed(values_deg: np.ndarray, t: Target, src: str) -> np.ndarray:
+    if not np.all(np.isfinite(values_deg)):
+        raise DataError(f"{src}: a table value is not a finite number")
     counts = values_deg / t.count_deg
     q = np.rint(counts)
+    if np.max(np.abs(q)) >= 2.0 ** 62:
+        raise DataError(f"{src}: a table value is beyond any word width")
     if np.max(np.abs(q - counts)) > 1e-3:
         raise DataError(f"{src}: values are not whole multiples of the lsb {t.count_deg!r} deg")
     if q[0] != q[-1]:
