@@ -12,7 +12,6 @@ from __future__ import annotations
 import functools
 import json
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -56,10 +55,9 @@ class KindSpec:
 
 def _schema_dir() -> Path:
     """Where the schema files are: inside the wheel, else the source tree's schemas/."""
-    packaged = resources.files("enctools") / "schemas"
-    if packaged.is_dir():
-        return Path(str(packaged))
-    return Path(__file__).resolve().parent.parent / "schemas"
+    here = Path(__file__).resolve().parent
+    packaged = here / "schemas"  # as importlib.resources would find it, without its import cost
+    return packaged if packaged.is_dir() else here.parent / "schemas"
 
 
 @functools.cache

@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import signal
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import click
@@ -74,6 +73,7 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     from .. import streams
 
     if tee_path is not None:
+        from pathlib import Path
         if output not in (None, "-") and Path(tee_path).resolve() == Path(output).resolve():
             raise click.UsageError("--tee FILE must differ from -o PATH")
         streams.check_output(tee_path, force)

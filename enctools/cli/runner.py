@@ -11,9 +11,7 @@ the command quietly with 0.
 from __future__ import annotations
 
 import errno
-import logging
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable
@@ -23,11 +21,19 @@ import click
 
 from ..errors import EncError, Interrupted
 
-log = logging.getLogger("enctools")
+
+def __getattr__(name: str) -> Any:
+    """``runner.log``: the "enctools" logger, imported on first use (not by ``--help``)."""
+    if name == "log":
+        import logging
+        return logging.getLogger("enctools")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def setup_logging(verbose: int = 0, quiet: int = 0) -> None:
     """Log to stderr: WARNING by default, -v INFO, -vv DEBUG, -q ERROR."""
+    import logging
+
     level = logging.WARNING - 10 * verbose + 10 * quiet
     handler = logging.StreamHandler(sys.stderr)
     name = command_name()
@@ -82,6 +88,8 @@ def _terminate(signum: int, frame: Any) -> NoReturn:
 
 def install_sigterm() -> None:
     """Turn SIGTERM into an Interrupted exception so outputs close cleanly (exit 143)."""
+    import signal
+
     signal.signal(signal.SIGTERM, _terminate)
 
 
