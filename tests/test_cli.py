@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from conftest import run
+from conftest import DATA, run
 
 HEAVY = ("numpy", "scipy", "pyarrow.parquet", "h5py", "matplotlib")
 
@@ -18,12 +18,42 @@ def test_help_imports_nothing_heavy():
     assert r.stdout.decode().strip().splitlines()[-1] == "[]"
 
 
-def test_subcommand_help_imports_nothing_heavy():
+def test_every_command_help_imports_nothing_heavy():
+    """`enc CMD --help` for every registered command: click and enctools' own light modules only."""
+    from enctools.cli.main import COMMANDS
+
+    code = ("import sys\nfrom enctools.cli.main import main\nheavy = {}\n"
+            "for name in sys.argv[1:]:\n"
+            "    try:\n        main([name, '--help'])\n    except SystemExit:\n        pass\n"
+            f"    heavy[name] = [m for m in {HEAVY!r} if m in sys.modules]\n"
+            "print(heavy)")
+    r = subprocess.run([sys.executable, "-c", code, *COMMANDS], capture_output=True, timeout=120)
+    assert r.returncode == 0, r.stderr.decode()
+    heavy = eval(r.stdout.decode().strip().splitlines()[-1])
+    assert set(heavy) == set(COMMANDS)
+    assert heavy == {name: [] for name in COMMANDS}, heavy
+
+
+def test_a_run_imports_only_what_it_uses(tmp_path):
+    """A tiny run of a command that plots nothing and reads no HDF5 imports neither matplotlib
+    nor h5py (nor scipy where the command needs none)."""
+    run(f"enc acquire --rig sjtu-dual --revolutions 0.0005 -q -o {tmp_path}/t.arrows")
+    cases = {"info": ([str(tmp_path / "t.arrows")], ("scipy", "matplotlib", "h5py")),
+             "points": ([f"{DATA}/seed001_table1.csv"], ("scipy", "matplotlib", "h5py")),
+             "make-rom": ([str(tmp_path / "m.arrows"), "--bits", "10", "-o",
+                           str(tmp_path / "r.bin")], ("scipy", "matplotlib", "h5py"))}
+    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv -q -o {tmp_path}/m.arrows")
+    assert r.returncode == 0, r.stderr.decode()
     code = ("import sys\nfrom enctools.cli.main import main\n"
-            "try:\n    main(['acquire', '--help'])\nexcept SystemExit:\n    pass\n"
-            f"print([m for m in {HEAVY!r} if m in sys.modules])")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=60)
-    assert r.stdout.decode().strip().splitlines()[-1] == "[]"
+            "try:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n    assert not e.code, e.code\n"
+            "print(sorted(m for m in ('scipy', 'matplotlib', 'h5py') if m in sys.modules), "
+            "file=sys.stderr)")
+    for name, (args, banned) in cases.items():
+        r = subprocess.run([sys.executable, "-c", code, name, "-q", *args], capture_output=True,
+                           timeout=120)
+        assert r.returncode == 0, (name, r.stderr.decode())
+        loaded = eval(r.stderr.decode().strip().splitlines()[-1])
+        assert not set(loaded) & set(banned), (name, loaded)
 
 
 def test_unknown_command_is_one_line():
