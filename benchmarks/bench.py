@@ -93,6 +93,93 @@ def startup(repeat: int) -> dict[str, float]:
     return out
 
 
+#: a run of each command on a tiny input ({d}: a folder of inputs made by tiny_inputs)
+TINY_RUNS: dict[str, str] = {
+    "acquire": "acquire --rig sjtu-dual --revolutions 0.0005 -q",
+    "average-heads": "average-heads {d}/r001.arrows",
+    "selfcal": "selfcal {d}/r2.arrows",
+    "design": "design --angles 0,90,200 -q",
+    "compare": "compare {d}/r2.arrows --device H1,H2,H3,H4 --ref P1,P2 -q",
+    "interp-check": "interp-check {d}/r001.arrows --ref P1 -q",
+    "fit-rbf": "fit-rbf {d}/points.arrows --spread 15 -q",
+    "make-rom": "make-rom {d}/model.arrows --bits 10 -q",
+    "latency": "latency --bits 23 --delay 1e-6",
+    "points": "points {table1}",
+    "report": "report {d}/points.arrows",
+    "info": "info {d}/tiny.arrows",
+}
+
+
+def tiny_inputs(d: Path) -> None:
+    """The small inputs of TINY_RUNS: 10 rows, 0.01 and 2.2 revolutions, table 1 points, a model."""
+    table1 = ROOT / "tests" / "data" / "seed001_table1.csv"
+    for cmd in (f"acquire --rig sjtu-dual --revolutions 0.0005 -o {d}/tiny.arrows",
+                f"acquire --rig sjtu-dual --revolutions 0.01 -o {d}/r001.arrows",
+                f"acquire --rig sjtu-dual --revolutions 2.2 --interval 0.01 -o {d}/r2.arrows",
+                f"points {table1} -o {d}/points.arrows",
+                f"fit-rbf {d}/points.arrows -q -o {d}/model.arrows"):
+        timed(f"{ENC} {cmd} --force")
+
+
+def command_startup(out: Path, repeat: int, reference: dict[str, float]) -> dict[str, dict]:
+    """Every command's fixed cost: ``enc CMD --help`` and a run on a tiny input.
+
+    Ratios: --help to ``python -c pass`` and ``import click``; the run to ``import
+    numpy, pyarrow`` (what any command that reads a stream must load), all measured
+    in this run.
+    """
+    from enctools.cli.main import COMMANDS
+
+    d = out / "tiny"
+    d.mkdir(exist_ok=True)
+    tiny_inputs(d)
+    table1 = ROOT / "tests" / "data" / "seed001_table1.csv"
+    base = reference["python -c pass"]
+    click_ = reference["python -c 'import click'"]
+    np_pa = reference["python -c 'import numpy, pyarrow'"]
+    rows: dict[str, dict] = {}
+    for name in COMMANDS:
+        if not available(name):
+            continue
+        help_ = timed(f"{ENC} {name} --help > /dev/null", repeat)["seconds"]
+        row = {"help_seconds": help_, "help_vs_pass": help_ / base, "help_vs_click": help_ / click_}
+        if name in TINY_RUNS:
+            args = TINY_RUNS[name].format(d=d, table1=table1)
+            m = timed(f"{ENC} {args} > /dev/null", repeat)  # timed as the references: no GNU time
+            peak = timed(f"{gnu_time()} {ENC} {args} > /dev/null")["peak_mb"]
+            row |= {"tiny_run": f"enc {TINY_RUNS[name].format(d='D', table1='table1.csv')}",
+                    "tiny_seconds": m["seconds"], "tiny_vs_numpy_pyarrow": m["seconds"] / np_pa,
+                    "tiny_peak_mb": peak}
+        rows[name] = row
+    shutil.rmtree(d)
+    return rows
+
+
+#: make-rom rows: (address bits, table format) from the RBF model of seed 001 table 1
+ROM_SIZES = ((23, "bin"), (23, "mif"), (26, "bin"), (26, "mif"))
+
+
+def make_rom_rows(out: Path, repeat: int, quick: bool) -> list[dict]:
+    """make-rom of the table-1 RBF model into 2^23 and 2^26 entries, binary and MIF."""
+    d = out / "rom"
+    d.mkdir(exist_ok=True)
+    table1 = ROOT / "tests" / "data" / "seed001_table1.csv"
+    timed(f"{ENC} fit-rbf {table1} -q -o {d}/model.arrows --force")
+    rows = []
+    for bits, fmt in ROM_SIZES:
+        if quick and bits > 23:
+            continue
+        target = d / f"table.{fmt}"
+        m = timed(f"{gnu_time()} {ENC} make-rom {d}/model.arrows --bits {bits} -q "
+                  f"-o {target} --force", repeat if bits <= 23 else 1)
+        rows.append({"entries": 1 << bits, "bits": bits, "format": fmt, "seconds": m["seconds"],
+                     "peak_mb": m["peak_mb"], "bytes": target.stat().st_size,
+                     "entries_per_s": (1 << bits) / m["seconds"]})
+        target.unlink()
+    shutil.rmtree(d)
+    return rows
+
+
 def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
             tiny: dict[str, float]) -> dict[str, object]:
     """One input size: the simulator, the raw pipe (both buffers) and every filter."""
@@ -142,6 +229,9 @@ def main() -> None:
     repeat = 1 if args.quick else 3
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    # as installed: compiled bytecode cached (here in bench-out, not in the source tree)
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    os.environ.setdefault("PYTHONPYCACHEPREFIX", str(out.resolve() / "pycache"))
     results: dict[str, object] = {
         "date": time.strftime("%Y-%m-%d"),
         "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
@@ -149,6 +239,9 @@ def main() -> None:
         "startup": startup(5),
         "runs": [],
     }
+    results["commands"] = command_startup(out, 5, results["startup"])
+    results["make_rom"] = make_rom_rows(out, repeat, args.quick)
+    print("bench: start-up and make-rom done", file=sys.stderr)
     filters = {k: v for k, v in FILTERS.items() if available(v[0])}
     tiny = out / "raw-tiny.arrows"
     timed(f"{ENC} acquire --rig sjtu-dual --revolutions 2 -o {tiny} --force")
@@ -193,7 +286,36 @@ def markdown(res: dict) -> str:
     s = res["startup"]
     lines += ["", "| start-up | seconds |", "|---|---:|"]
     lines += [f"| {k} | {v:.3f} |" for k, v in s.items()]
+    lines += _startup_table(res) + _make_rom_table(res)
     return "\n".join(lines)
+
+
+def _startup_table(res: dict) -> list[str]:
+    cmds = res.get("commands") or {}
+    if not cmds:
+        return []
+    lines = ["", "| command | `--help` [s] | vs `python -c pass` | vs `import click` "
+             "| tiny run [s] | vs `import numpy, pyarrow` | peak memory | tiny run |",
+             "|---|---:|---:|---:|---:|---:|---:|---|"]
+    for name, r in cmds.items():
+        tiny = (f"{r['tiny_seconds']:.3f} | {r['tiny_vs_numpy_pyarrow']:.2f} | "
+                f"{r['tiny_peak_mb']:.0f} MB | `{r['tiny_run']}`") if "tiny_seconds" in r \
+            else "| | |"
+        lines.append(f"| {name} | {r['help_seconds']:.3f} | {r['help_vs_pass']:.2f} | "
+                     f"{r['help_vs_click']:.2f} | {tiny} |")
+    return lines
+
+
+def _make_rom_table(res: dict) -> list[str]:
+    rows = res.get("make_rom") or []
+    if not rows:
+        return []
+    lines = ["", "| make-rom (RBF model, seed 001 table 1) | format | seconds | entries/s "
+             "| file | peak memory |", "|---|---|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| 2^{r['bits']} entries | {r['format']} | {r['seconds']:.2f} | "
+                     f"{r['entries_per_s']:.3g} | {r['bytes'] / 1e6:.0f} MB | {r['peak_mb']:.0f} MB |")
+    return lines
 
 
 def _memory_growth(res: dict) -> dict[str, float]:
