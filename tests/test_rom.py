@@ -11,6 +11,7 @@ from conftest import DATA, run
 
 from enctools import romformats as rf
 from enctools import streams
+from enctools.errors import DataError
 from enctools.fourier_fit import FourierModel
 from enctools.models import from_stream
 from enctools.rom import RomSpec, build_rom
@@ -176,3 +177,61 @@ def test_fourier_model_table_exact():
     want = -(10 * np.cos(x) - 5 * np.sin(2 * x)) / lsb
     assert np.array_equal(rom.values, np.rint(want))
     assert rom.max_quantisation_lsb == pytest.approx(np.abs(np.rint(want) - want).max())
+
+
+def test_grid_evaluation_equals_the_model_everywhere(model_file):
+    """The fast uniform-grid path (Fourier series by BLAS) gives the model's own values."""
+    from enctools.rbf import RBFModel
+
+    header, table = streams.read_table(str(model_file), "model")
+    rbf = from_stream(header, table)
+    series = rbf.as_fourier()
+    assert series is not None and series.n.size < 32 * rbf.centres_deg.size
+    narrow = RBFModel(rbf.centres_deg, rbf.weights, 0.0, 0.05)  # too narrow: unit by unit
+    assert narrow.as_fourier() is None
+    fourier = FourierModel(np.arange(40), np.linspace(1, 0, 40), np.linspace(0, -2, 40))
+    for model in (rbf, narrow, fourier):
+        scale = np.abs(model(np.linspace(0, 360, 4097))).max()
+        for spec in (RomSpec(16), RomSpec(23, address_bits=13), RomSpec(20, sample="start")):
+            first, step = spec.grid_deg()
+            at = model.on_grid(first, step)
+            for start, stop in ((0, 5000), (spec.entries - 4096, spec.entries), (777, 778)):
+                want = model(spec.angles_deg(start, stop))
+                assert np.abs(at(start, stop) - want).max() <= 1e-12 * scale
+
+
+def test_grid_and_plain_evaluation_build_the_same_table(model_file):
+    """build_rom through on_grid and through plain calls at every address: equal tables."""
+    header, table = streams.read_table(str(model_file), "model")
+    model = from_stream(header, table)
+    for spec in (RomSpec(22, width=16), RomSpec(23, address_bits=18, lsb=0.25)):
+        fast = build_rom(model, spec)
+        plain = build_rom(lambda deg: model(deg), spec)
+        assert np.array_equal(fast.values, plain.values)
+        assert fast.crc32 == plain.crc32 and fast.min_value == plain.min_value
+        assert fast.max_quantisation_lsb == pytest.approx(plain.max_quantisation_lsb, abs=1e-9)
+
+
+def test_nan_model_refused_from_any_chunk():
+    nan_late = FourierModel(np.array([0]), np.array([np.nan]), np.array([0.0]))
+    with pytest.raises(DataError, match="NaN or infinite"):
+        build_rom(nan_late, RomSpec(22))
+    with pytest.raises(DataError, match="NaN or infinite"):
+        build_rom(lambda deg: np.where(deg > 300, np.inf, 0.0), RomSpec(22))
+
+
+def test_text_readers_take_lines_by_columns_and_refuse_bad_digits(tmp_path):
+    """The column readers of MIF/COE/mem: any width, odd digit counts, bad digits refused."""
+    values = np.array([-5, 0, 7, -2048, 2047, 1], dtype=np.int16)
+    for fmt in ("mif", "coe", "mem"):
+        for width in (3, 8, 12, 16, 32):
+            v = np.clip(values, -(1 << (width - 1)), (1 << (width - 1)) - 1)
+            target = rf.Target(fmt, width)
+            path = tmp_path / f"x{width}.{fmt}"
+            rf.write_table(str(path), v, target, True, ["c"])
+            assert np.array_equal(rf.read_table(str(path), target), v), (fmt, width)
+        data = path.read_bytes()
+        k = data.rindex(b"0000000") + 3  # a digit inside a value (32-bit words)
+        path.write_bytes(data[:k] + b"G" + data[k + 1:])
+        with pytest.raises(DataError, match=str(path)):
+            rf.read_table(str(path), rf.Target(fmt, 32))
