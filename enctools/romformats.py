@@ -464,7 +464,60 @@ def _read_bin(data: bytes, t: Target, src: str) -> np.ndarray:
     return np.frombuffer(data, dtype=dt).astype(np.int64)
 
 
+def _read_ihex_fast(data: bytes, t: Target, src: str) -> np.ndarray | None:
+    """Intel HEX decoded whole: every record at once, the image from its data records in order.
+
+    None when anything is unusual (blanks, unknown or misplaced records, gaps, records
+    out of order): the record-by-record reader then reads it or names the line at fault.
+    """
+    if b" " in data or b"\t" in data:
+        return None
+    buf = np.frombuffer(data, dtype=np.uint8)
+    ends = np.flatnonzero(buf == 10)
+    if not data.endswith(b"\n"):
+        ends = np.r_[ends, len(data)]
+    starts = np.r_[0, ends[:-1] + 1]
+    chars = ends - starts
+    cr = ends > starts
+    cr[cr] = buf[ends[cr] - 1] == 13
+    chars -= cr
+    if chars.size == 0 or chars.min() < 11 or (chars % 2 == 0).any() or (buf[starts] != 58).any():
+        return None
+    try:
+        rec = np.frombuffer(bytes.fromhex(data.translate(None, b":\r\n").decode("ascii")), np.uint8)
+    except ValueError:
+        return None
+    size = (chars - 1) // 2  # bytes a record
+    off = np.r_[0, np.cumsum(size)[:-1]]
+    length, rtype = rec[off].astype(np.int64), rec[off + 3]
+    if (length + 5 != size).any() or (np.add.reduceat(rec, off, dtype=np.uint64) & 255).any():
+        return None
+    eof = np.flatnonzero(rtype == 1)
+    if eof.size != 1 or eof[0] != rtype.size - 1 or not np.isin(rtype, (0, 1, 4)).all():
+        return None
+    ext = np.flatnonzero(rtype == 4)
+    if (length[ext] != 2).any():
+        return None
+    upper = np.zeros(rtype.size, dtype=np.int64)
+    upper[ext] = ((rec[off[ext] + 4].astype(np.int64) << 8) | rec[off[ext] + 5]) << 16
+    last = np.where(rtype == 4, np.arange(rtype.size), 0)
+    upper = upper[np.maximum.accumulate(last)]
+    data_rec = np.flatnonzero(rtype == 0)
+    addr = upper[data_rec] + ((rec[off[data_rec] + 1].astype(np.int64) << 8) | rec[off[data_rec] + 2])
+    n = length[data_rec]
+    if data_rec.size and (addr[0] != 0 or (addr[1:] != addr[:-1] + n[:-1]).any()):
+        return None
+    keep = np.zeros(rec.size + 1, dtype=np.int8)  # +1 at each payload's start, -1 after its end
+    keep[off[data_rec] + 4] = 1  # distinct places: a payload ends on its own checksum byte
+    keep[off[data_rec] + 4 + n] = -1
+    image = rec[np.cumsum(keep[:-1], dtype=np.int8).astype(bool)]
+    return _read_bin(image.tobytes(), t, src)
+
+
 def _read_ihex(data: bytes, t: Target, src: str) -> np.ndarray:
+    fast = _read_ihex_fast(data, t, src)
+    if fast is not None:
+        return fast
     chunks: dict[int, bytes] = {}
     upper = 0
     eof = False
