@@ -16,7 +16,6 @@ noise seed, so every run of a rig sees the same scale, spindle and heads.
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize
 
 from ..rig import Encoder, Rig
 from ..truth import Motion, Series, SignalFaults, Truth
@@ -37,6 +36,20 @@ def _pp(series_c: np.ndarray, n: np.ndarray) -> float:
 def average_transfer(alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
     """A(n) = mean_k exp(i n alpha_k) of heads at ``alphas`` [rad] (seed 000 eq. 5)."""
     return np.exp(1j * np.outer(n, alphas)).mean(axis=1)
+
+
+def _root(f, lo: float, hi: float, xtol: float = 2e-12) -> float:
+    """A root of f in [lo, hi] (f(lo) < 0 <= f(hi)) by bisection, to scipy brentq's default
+    tolerance. Not brentq itself: importing scipy.optimize costs every `enc acquire` 0.3 s."""
+    if f(hi) < 0:
+        raise ValueError("f(lo) and f(hi) must have different signs")
+    while hi - lo > xtol + 4 * np.finfo(float).eps * abs(hi):
+        mid = 0.5 * (lo + hi)
+        if f(mid) < 0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
 
 
 def graduation_truth(enc: Encoder) -> Series:
@@ -60,7 +73,7 @@ def graduation_truth(enc: Encoder) -> Series:
             return _pp(cc, n) - target
 
         if excess(0.0) < 0:
-            scale = optimize.brentq(excess, 0.0, 1e3 / max(np.abs(c).max(), 1e-12))
+            scale = _root(excess, 0.0, 1e3 / max(np.abs(c).max(), 1e-12))
         else:
             scale = 0.0
         c[~keep] *= scale
