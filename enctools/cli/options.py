@@ -6,6 +6,7 @@ stacks the decorators it needs.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -25,10 +26,14 @@ def _float_list(ctx: click.Context, param: click.Parameter, value: str | None) -
     if value is None:
         return None
     try:
-        return [float(v) for v in value.split(",") if v.strip()]
+        numbers = [float(v) for v in value.split(",") if v.strip()]
     except ValueError:
         msg = f"expected numbers separated by commas, not {value!r}"
         raise click.BadParameter(msg) from None
+    if not all(math.isfinite(v) for v in numbers):
+        msg = f"expected finite numbers, not {value!r}"
+        raise click.BadParameter(msg)
+    return numbers
 
 
 def _name_list(ctx: click.Context, param: click.Parameter, value: str | None) -> list[str] | None:
@@ -78,6 +83,14 @@ def non_negative(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
     """Callback: a threshold or a count that may be 0 but not negative (nor NaN)."""
     if value is not None and not value >= 0:
         msg = f"must be >= 0, not {value}"
+        raise click.BadParameter(msg)
+    return value
+
+
+def finite(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+    """Callback: any finite number (an angle, an offset), not NaN nor infinity."""
+    if value is not None and not math.isfinite(value):
+        msg = f"must be a finite number, not {value}"
         raise click.BadParameter(msg)
     return value
 
