@@ -68,3 +68,21 @@ def test_latency_bad_usage(ciomp_steps):
     assert r.returncode == 2 and b"continuous run" in r.stderr
     r = run("enc latency --bits 23 --delay -1")
     assert r.returncode == 2
+
+
+def test_latency_bad_data(slow_rig, tmp_path):
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(slow_rig / "fwd.parquet")
+    t = table.column("t").to_numpy().copy()
+    t[10] = np.nan
+    bad = tmp_path / "nan-t.parquet"
+    pq.write_table(table.set_column(table.column_names.index("t"), "t", pa.array(t)), bad)
+    r = run(f"enc latency {bad}")
+    assert r.returncode == 2
+    lines = r.stderr.decode().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("enc latency: error:") and "'t'" in lines[0]
+    r = run("enc latency --bits 23 --delay 1e-5 --speed 1,nan")
+    assert r.returncode == 2 and b"finite" in r.stderr and r.stdout == b""

@@ -86,6 +86,8 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
 
 
 def _measure(inputs, heads, reference):
+    import numpy as np
+
     from .. import latency as lat
     from ..errors import DataError
     from ..readings import head_info, measuring_heads
@@ -100,7 +102,9 @@ def _measure(inputs, heads, reference):
             raise DataError(f"{src.source}: a steps run; the lag needs a continuous run")
         schema, meta = src.header.schema, src.header.meta
         dev_heads = heads or measuring_heads(schema, meta, src.source)
-        t = table.column("t").to_numpy()
+        t = table.column("t").to_numpy(zero_copy_only=False).astype(np.float64)
+        if not np.all(np.isfinite(t)):
+            raise DataError(f"{src.source}: column 't' has NaN or infinite values")
         device = _mean_angle(table, schema, dev_heads, src.source)
         info = head_info(schema, dev_heads[0], src.source)
         cpr = info.counts_per_rev
