@@ -135,8 +135,14 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
 
     Parameters
     ----------
-    deviation : model, angles [deg] -> deviation [arcsec] (indicated - true).
+    deviation : model, angles [deg] -> deviation [arcsec] (indicated - true). A model
+        with ``on_grid(first_deg, step_deg)`` (returning ``values(start, stop)`` at
+        ``first_deg + k * step_deg``) is evaluated through it: the addresses are a
+        uniform grid, which RBF and Fourier models evaluate far faster than any angles.
     spec : the table to build.
+    progress : called with (entries done, entries) after each chunk of CHUNK entries.
+
+    Chunks are evaluated and quantised on THREADS threads (numpy releases the GIL).
 
     Returns
     -------
