@@ -212,6 +212,10 @@ def test_seed_changes_noise_not_truth(tmp_path):
     ("--rig sjtu-dual --interval -1", "--interval"),
     ("--rig sjtu-dual --format hdf5", "cannot be written to a pipe"),
     ("", "give --rig"),
+    ("--rig sjtu-dual --seed -5", "--seed"),
+    ("--rig ciomp-23bit --mode steps --overshoot -1", "--overshoot"),
+    ("--rig sjtu-dual --mode sweep --start nan", "--start"),
+    ("--rig ciomp-23bit --mode steps --positions 0,nan", "finite"),
 ])
 def test_bad_usage(tmp_path, args, words):
     out = tmp_path / "out.parquet"

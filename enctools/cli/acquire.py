@@ -33,16 +33,16 @@ from . import options, runner
               help="steps/sweep: number of runs.")
 @click.option("--bidirectional/--unidirectional", default=None,
               help="steps: also approach every position from above.")
-@click.option("--overshoot", "overshoot_deg", type=float, default=None,
+@click.option("--overshoot", "overshoot_deg", type=float, default=None, callback=options.non_negative,
               help="steps: approach each position from this far [deg].")
-@click.option("--start", "start_deg", type=float, default=None,
+@click.option("--start", "start_deg", type=float, default=None, callback=options.finite,
               help="sweep (and steps with --count): first position [deg].")
 @click.option("--range", "range_arcsec", type=float, default=None, help="sweep: range [arcsec].")
 @click.option("--step", "step_arcsec", type=float, default=None, help="sweep: step [arcsec].")
 @options.heads("Record only these heads (default: all).")
 @click.option("--signals/--no-signals", default=None,
               help="Also record each head's raw sin/cos signals [V] (simulator).")
-@click.option("--seed", type=int, default=None, help="Simulator noise seed (default: the rig's).")
+@click.option("--seed", type=click.IntRange(min=0), default=None, help="Simulator noise seed (default: the rig's).")
 @click.option("--replay", "replay_path", default=None, type=click.Path(dir_okay=False, allow_dash=True),
               help="Re-stream a recorded readings file instead of acquiring.")
 @click.option("--pace", is_flag=True, default=False,
