@@ -134,6 +134,13 @@ def test_fit_rbf_bad_input(tmp_path, ciomp_steps):
     r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --goal -1 -o {out}")
     assert r.returncode == 2
     assert not out.exists()
+    for opts, words in (("--goal nan", "--goal"), ("--band 5", "--band applies"),
+                        ("--kernel fourier --spread 10", "--spread applies")):
+        r = run(f"enc fit-rbf {DATA}/seed001_table1.csv {opts} -o {out}")
+        err = r.stderr.decode()
+        assert r.returncode == 2 and err.startswith("enc fit-rbf: error:"), err
+        assert err.count("\n") == 1 and words in err, err
+        assert not out.exists()
 
 
 def test_check_threshold_exit_1(tmp_path):

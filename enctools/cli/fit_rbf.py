@@ -40,8 +40,12 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     from ..points import distinct, read_points
     from ..streams import with_history
 
-    if goal < 0:
+    if not goal >= 0:
         raise UsageError(f"--goal must be >= 0 arcsec, not {goal}")
+    if kernel == "rbf" and harmonics is not None:
+        raise UsageError("--band applies to --kernel fourier (the rbf kernel: --spread, --goal)")
+    if kernel == "fourier" and spread_deg is not None:
+        raise UsageError("--spread applies to --kernel rbf (the fourier kernel: --band)")
     streams.check_output(output, force, fmt)
     header, pts = read_points(input)
     x, y, closure = distinct(pts, source=header.meta.get("source", "input"))
