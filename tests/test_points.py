@@ -84,6 +84,16 @@ def test_bad_csv_is_refused(tmp_path, content, what):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("opts", ["--faces 3", "--heads F1", "--autocollimator AC"])
+def test_steps_run_options_on_a_csv_table_are_refused(tmp_path, opts):
+    out = tmp_path / "p.parquet"
+    r = run(f"enc points {DATA}/seed001_table1.csv {opts} -o {out}")
+    err = r.stderr.decode()
+    assert r.returncode == 2 and err.startswith("enc points: error:") and err.count("\n") == 1
+    assert opts.split()[0] in err and "CSV" in err
+    assert not out.exists()
+
+
 def test_continuous_run_is_not_a_polygon_run(tmp_path):
     out = tmp_path / "p.parquet"
     r = run(f"enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 | enc points -o {out}")

@@ -29,11 +29,16 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     runner.setup_logging(verbose, quiet)
     from .. import points as pts
     from .. import streams
+    from ..errors import UsageError
     from ..streams import Header, with_history
 
     streams.check_output(output, force, fmt)
     settings = {"heads": heads, "autocollimator": autocollimator, "faces": faces}
     if pts.is_csv_file(input):
+        given = [o for o, v in (("--heads", heads), ("--autocollimator", autocollimator),
+                                ("--faces", faces)) if v is not None]
+        if given:
+            raise UsageError(f"{', '.join(given)}: for a steps run; {input} is a CSV table")
         p = pts.points_from_csv(input)
         header = Header("points", pts.points_schema(),
                         {"source": f"CSV {input}", "history": []})
