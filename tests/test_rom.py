@@ -148,6 +148,7 @@ def test_rom_stream_output(model_file):
     ("--bits 32", "2^32 = 4294967296 entries"),   # 2^32 entries
     ("--bits 23 --target siemens", "exceed the 5000"),
     ("--bits 23 --address-bits 24", "--address-bits"),
+    ("--bits 23 --address-bits 10 --target acs --zone -3", "--zone"),
 ])
 def test_make_rom_refuses(model_file, tmp_path, args, what):
     out = tmp_path / "t.bin"

@@ -30,7 +30,7 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
               help="A deviations stream as the model: the curve to use.")
 @click.option("--axis", default=None, metavar="NAME",
               help="acs: axis number (default 0); siemens: machine axis (default AX1).")
-@click.option("--zone", type=int, default=0, show_default=True,
+@click.option("--zone", type=int, default=0, show_default=True, callback=options.non_negative,
               help="acs: error-map zone; siemens: measuring system index.")
 @click.option("--array", "array_name", default="ENC_COMP", show_default=True,
               help="acs: name of the REAL array holding the map.")
