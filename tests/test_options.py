@@ -1,0 +1,52 @@
+"""Every command spells the same idea the same way (STYLE.md): one flag, one metavar."""
+
+from __future__ import annotations
+
+import click
+import pytest
+
+from enctools.cli.main import _available, cli
+
+
+def _params(name: str) -> list[click.Option]:
+    cmd = cli.get_command(click.Context(cli), name)
+    assert cmd is not None
+    return [p for p in cmd.params if isinstance(p, click.Option)]
+
+
+ALL = [(name, p) for name in _available() for p in _params(name)]
+
+#: flags that once meant the same idea as another flag, or two ideas at once
+RETIRED = {"--nmax": "--band", "--harmonics": "--band or --top", "--check": "--max-<figure>",
+           "--reference-harmonics": "--ref-band"}
+
+
+@pytest.mark.parametrize("flag, metavar", [("--band", "K"), ("--heads", "H1,H2,..."),
+                                           ("--spectrum", "FILE"), ("--top", "N")])
+def test_shared_option_has_one_metavar(flag, metavar):
+    users = [(name, p) for name, p in ALL if flag in p.opts]
+    assert users, flag
+    for name, p in users:
+        assert p.metavar == metavar, f"enc {name} {flag} shows {p.metavar}, not {metavar}"
+
+
+def test_references_are_ref_first():
+    for name, p in ALL:
+        if "--reference" in p.opts:
+            assert p.opts[0] == "--ref", f"enc {name}: {p.opts}"
+
+
+def test_retired_spellings_are_gone():
+    for name, p in ALL:
+        for flag, now in RETIRED.items():
+            assert flag not in p.opts, f"enc {name} {flag}: use {now}"
+
+
+def test_thresholds_are_max_figure_numbers():
+    for name, p in ALL:
+        flag = p.opts[0]
+        if flag.startswith("--max-") and not p.multiple and flag != "--max-entries":
+            assert isinstance(p.type, click.types.FloatParamType), f"enc {name} {flag}"
+            assert p.metavar in ("ARCSEC", "NM"), f"enc {name} {flag}: {p.metavar}"
+            with pytest.raises(click.BadParameter):
+                p.process_value(click.Context(cli), -1.0)
