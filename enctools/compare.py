@@ -161,7 +161,7 @@ def run(source: "InputStream", device: list[str], ref: list[str], band: int, poi
         kmax = band if band > 0 else (points - 1) // 2
         correction = reference_error(ref_curve[0], ref_curve[1], ref_column,
                                      [source.schema.field(h) for h in ref], kmax, ref_curve[2])
-    spec = ChannelSpec(tuple(dev), tuple(refs))
+    spec = ChannelSpec(tuple(dev), tuple(refs), mean=True)  # the device is their mean
     revs = revolution_spectra(source.batches(), spec, max(band, 0), source.source, progress,
                               grid_points=0 if band > 0 else points)
     res = compare(revs, band, points, correction)
