@@ -45,7 +45,7 @@ class Analysis:
 
     @property
     def worst(self) -> tuple[float, int]:
-        """(min |W(n)|, n) over first..K, blind harmonics excluded."""
+        """(min |W(n)| [dimensionless], its order n) over first..K, blind harmonics excluded."""
         n = np.arange(self.first, self.band + 1)
         w = self.transfer[n]
         ok = self.normalised[n] > _BLIND
@@ -56,7 +56,7 @@ class Analysis:
 
     @property
     def max_gain(self) -> tuple[float, int]:
-        """(largest finite noise gain, n) over first..K."""
+        """(largest finite noise gain [dimensionless], its order n) over first..K."""
         n = np.arange(self.first, self.band + 1)
         g = np.where(np.isfinite(self.gain[n]), self.gain[n], -np.inf)
         i = int(np.argmax(g))
@@ -255,7 +255,8 @@ def _feasible(rows: np.ndarray, gap: float) -> np.ndarray:
 
 
 def report(a: Analysis, mounting_error_deg: float) -> str:
-    """A short text report of an analysis."""
+    """A short text report of an analysis; ``mounting_error_deg`` is the RMS error [deg]
+    of each head's mounting angle, scaled by the sensitivity [1/rad] to an error of F(n)."""
     from .heads import format_orders
 
     w, nw = a.worst

@@ -64,6 +64,8 @@ class EllipseFit:
 
     @property
     def params(self) -> np.ndarray:
+        """The five parameters in :data:`PARAMS` order: offsets and amplitude [V], ratio [1],
+        phase [rad]."""
         return np.array([self.offset_cos, self.offset_sin, self.amplitude, self.ratio,
                          self.phase])
 

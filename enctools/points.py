@@ -53,7 +53,7 @@ class Points:
         return int(self.position_deg.size)
 
     def table(self) -> pa.Table:
-        """The rows of a ``points`` stream."""
+        """The rows of a ``points`` stream: position [deg], deviation [arcsec], direction, run."""
         schema = points_schema()
         return pa.table([pa.array(self.position_deg, pa.float64()),
                          pa.array(self.deviation, pa.float64()),
@@ -277,7 +277,7 @@ def points_from_csv(path: str | Path) -> Points:
 
 
 def from_table(table: pa.Table, source: str = "input") -> Points:
-    """Points from the rows of a ``points`` stream."""
+    """Points from the rows of a ``points`` stream (position [deg], deviation [arcsec])."""
     n = table.num_rows
     if n == 0:
         msg = f"{source}: the points stream has no rows"

@@ -64,7 +64,8 @@ class Series:
     def harmonics(self, n_max: int) -> np.ndarray:
         """Complex coefficients c_n = a_n - i b_n for n = 0..n_max of the integer part.
 
-        With this convention ``a cos(n x) + b sin(n x) = Re(c_n exp(i n x))``.
+        With this convention ``a cos(n x) + b sin(n x) = Re(c_n exp(i n x))``, x [rad];
+        c_n is in the unit of ``a``/``b`` (arcsec for graduation, nm for radial motion).
         """
         c = np.zeros(n_max + 1, dtype=np.complex128)
         for f, a, b in zip(self.freq, self.a, self.b):

@@ -33,9 +33,11 @@ class Clock:
     """Wall-clock time (s) and sleeping; the simulator substitutes virtual time."""
 
     def now(self) -> float:
+        """The time [s] (monotonic; only differences mean anything)."""
         return time.monotonic()
 
     def sleep(self, seconds: float) -> None:
+        """Wait ``seconds`` [s] (nothing for 0 or less)."""
         if seconds > 0:
             time.sleep(seconds)
 
@@ -52,7 +54,8 @@ class Counter(ABC):
 
     @abstractmethod
     def read_block(self, max_samples: int) -> dict[str, np.ndarray]:
-        """The next samples since the last call: ``t`` [s] and one raw array per head."""
+        """The next samples since the last call (at most ``max_samples``): ``t`` [s] and
+        one raw counter array [count] per head."""
 
     @abstractmethod
     def stop(self) -> None:
@@ -60,7 +63,7 @@ class Counter(ABC):
 
     @abstractmethod
     def read_now(self) -> dict[str, np.ndarray]:
-        """One software-timed sample of every head (arrays of length 1, with ``t``)."""
+        """One software-timed sample of every head [count] (arrays of length 1, with ``t`` [s])."""
 
 
 class Sensor(ABC):

@@ -88,7 +88,7 @@ class Harmonics:
         return Harmonics(self.n[order], self.amplitude[order], self.phase[order])
 
     def amplitude_of(self, n: int) -> float:
-        """Amplitude of harmonic n (0 when it is not in the set)."""
+        """Amplitude of harmonic n in the curve's unit (0 when it is not in the set)."""
         hit = np.flatnonzero(self.n == n)
         return float(self.amplitude[hit[0]]) if hit.size else 0.0
 
@@ -155,7 +155,8 @@ def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
 
 
 def expanded_uncertainty(u: np.ndarray | float, k: float = K_COVERAGE) -> np.ndarray | float:
-    """Expanded uncertainty U = k u (k = 2 by default, GUM) of standard uncertainties u."""
+    """Expanded uncertainty U = k u (k = 2 by default, GUM) of standard uncertainties u,
+    in the unit of u (arcsec, nm); k is dimensionless."""
     u_arr = np.asarray(u, dtype=np.float64)
     if np.any(u_arr < 0):
         msg = "a standard uncertainty is negative"

@@ -68,7 +68,7 @@ class Iso230:
         return self.up is not None and self.down is not None
 
     def axis(self) -> dict[str, float]:
-        """The axis figures: R_up, E_up, A_up, R_down, ..., B, B_mean, R, E, M, A."""
+        """The axis figures [arcsec]: R_up, E_up, A_up, R_down, ..., B, B_mean, R, E, M, A."""
         out: dict[str, float] = {}
         for name, d in (("up", self.up), ("down", self.down)):
             if d is not None:
@@ -79,7 +79,8 @@ class Iso230:
         return out
 
     def table(self) -> list[dict[str, float]]:
-        """One row per target position with the per-position figures."""
+        """One row per target position [deg] with the per-position figures [arcsec]
+        (mean, s, R, B) and the number of runs."""
         rows = []
         for i, p in enumerate(self.positions):
             row: dict[str, float] = {"position_deg": float(p)}

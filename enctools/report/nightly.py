@@ -45,10 +45,12 @@ class Drift:
 
     @property
     def max_abs(self) -> float:
+        """Largest |drift| [arcsec]."""
         return float(np.max(np.abs(self.drift)))
 
     @property
     def pp(self) -> float:
+        """Peak-to-peak of the drift [arcsec]."""
         return float(np.ptp(self.drift))
 
 
@@ -64,7 +66,8 @@ def main_curve(section: Any) -> Any:
 
 
 def drift(current: Any, stored: Any) -> Drift:
-    """Drift of a curve against the stored one (both :class:`~.sections.Curve`)."""
+    """Drift [arcsec] of a curve against the stored one (both :class:`~.sections.Curve`,
+    angles [rad]), on the current curve's angles [deg], the mean offset removed."""
     x = np.mod(np.degrees(current.angle), 360.0)
     xs = np.mod(np.degrees(stored.angle), 360.0)
     order = np.argsort(xs)
@@ -190,7 +193,8 @@ def _info(msg: str) -> None:
 @click.option("--campaign", envvar="ENC_NIGHTLY_CAMPAIGN", default=DEFAULT_CAMPAIGN,
               show_default=True, metavar="CMD",
               help="Shell command writing $OUT/result.parquet.")
-@click.option("--max-drift", "--tolerance", "tolerance", type=float, default=0.5, show_default=True, metavar="ARCSEC",
+@click.option("--max-drift", "--tolerance", "tolerance", type=float, default=0.5, show_default=True,
+              metavar="ARCSEC",
               help="Largest allowed |drift| against the calibration.")
 @click.option("--keep", default=None, metavar="DIR", type=click.Path(file_okay=False),
               help="Keep the campaign's outputs in DIR (default: a removed temporary folder).")

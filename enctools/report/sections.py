@@ -56,7 +56,7 @@ class Curve:
 
     @property
     def U_max(self) -> float | None:
-        """Largest expanded uncertainty U (k = 2) along the curve."""
+        """Largest expanded uncertainty U (k = 2) along the curve, in its unit (arcsec, nm)."""
         return None if self.u is None else float(np.max(expanded_uncertainty(self.u)))
 
 
