@@ -82,14 +82,15 @@ def gnu_time() -> str:
 
 
 def startup(repeat: int) -> dict[str, float]:
+    """``enc --help`` against bare Python and ``import click`` (wall seconds; the ratio of CPU
+    seconds, timed in turn: see :func:`interleaved`)."""
     py = sys.executable
-    base = timed(f"{py} -c pass", repeat)["seconds"]
-    click_ = timed(f"{py} -c 'import click'", repeat)["seconds"]
-    np_pa = timed(f"{py} -c 'import numpy, pyarrow'", repeat)["seconds"]
-    help_ = timed(f"{ENC} --help > /dev/null", repeat)["seconds"]
-    out = {"python -c pass": base, "python -c 'import click'": click_,
-           "python -c 'import numpy, pyarrow'": np_pa, "enc --help": help_,
-           "enc --help / import click": help_ / click_}
+    t = interleaved({"python -c pass": f"{py} -c pass",
+                     "python -c 'import click'": f"{py} -c 'import click'",
+                     "python -c 'import numpy, pyarrow'": f"{py} -c 'import numpy, pyarrow'",
+                     "enc --help": f"{ENC} --help > /dev/null"}, repeat)
+    out = {k: v[0] for k, v in t.items()}
+    out["enc --help / import click"] = t["enc --help"][1] / t["python -c 'import click'"][1]
     return out
 
 
