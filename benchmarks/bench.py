@@ -328,10 +328,10 @@ def _startup_table(res: dict) -> list[str]:
     cmds = res.get("commands") or {}
     if not cmds:
         return []
-    lines = ["", "Start-up of every command; ratios of CPU seconds to references timed in turn "
-             "with it.", "",
-             "| command | `--help` [s] | vs `python -c pass` | vs `import click` "
-             "| tiny run [s] | vs `import numpy, pyarrow` | peak memory | tiny run |",
+    lines = ["", ("Start-up of every command; ratios of CPU seconds to references timed in turn "
+                  "with it."), "",
+             ("| command | `--help` [s] | vs `python -c pass` | vs `import click` "
+              "| tiny run [s] | vs `import numpy, pyarrow` | peak memory | tiny run |"),
              "|---|---:|---:|---:|---:|---:|---:|---|"]
     for name, r in cmds.items():
         tiny = (f"{r['tiny_seconds']:.3f} | {r['tiny_vs_numpy_pyarrow']:.2f} | "
@@ -346,8 +346,8 @@ def _make_rom_table(res: dict) -> list[str]:
     rows = res.get("make_rom") or []
     if not rows:
         return []
-    lines = ["", "| make-rom (RBF model, seed 001 table 1) | format | seconds | entries/s "
-             "| file | peak memory |", "|---|---|---:|---:|---:|---:|"]
+    lines = ["", ("| make-rom (RBF model, seed 001 table 1) | format | seconds | entries/s "
+                  "| file | peak memory |"), "|---|---|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| 2^{r['bits']} entries | {r['format']} | {r['seconds']:.2f} | "
                      f"{r['entries_per_s']:.3g} | {r['bytes'] / 1e6:.0f} MB | {r['peak_mb']:.0f} MB |")

@@ -405,8 +405,6 @@ def _write_assignments(f: IO[bytes], values: np.ndarray, before: str, between: s
 
 
 def _write_acs(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
-    import pyarrow as pa
-    import pyarrow.compute as pc
     v = _closed(values)
     step = 360.0 / values.size
     head = "".join(f"! {c}\n" for c in comment)
@@ -421,8 +419,6 @@ def _write_acs(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) 
 
 
 def _write_siemens(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
-    import pyarrow as pa
-    import pyarrow.compute as pc
     v = _closed(values)
     step = 360.0 / values.size
     e, ax = t.zone, t.axis
@@ -799,9 +795,9 @@ def _hex_column_lines(data: bytes, start: int, stop: int, tail: bytes, width: in
 
 def _read_coe_fixed(data: bytes, t: Target) -> np.ndarray | None:
     """A hex COE file as written here: one ``value,`` a line, the last ``value;``."""
-    m = re.search(rb"memory_initialization_vector\s*=[ \t]*\r?\n", data, re.I)
+    m = re.search(rb"memory_initialization_vector\s*=[ \t]*\r?\n", data, re.IGNORECASE)
     if m is None or not re.search(rb"memory_initialization_radix\s*=\s*16\s*;", data[:m.start()],
-                                  re.I):
+                                  re.IGNORECASE):
         return None
     end = data.rstrip().rfind(b"\n") + 1
     last = re.fullmatch(rb"\s*([0-9A-Fa-f]+)\s*;\s*", data[end:])
@@ -831,8 +827,8 @@ def _read_coe(data: bytes, t: Target, src: str) -> np.ndarray:
     fixed = _read_coe_fixed(data, t)
     if fixed is not None:
         return fixed
-    m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", data, re.I)
-    v = re.search(rb"memory_initialization_vector\s*=([^;]*);", data, re.I)
+    m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", data, re.IGNORECASE)
+    v = re.search(rb"memory_initialization_vector\s*=([^;]*);", data, re.IGNORECASE)
     if not (m and v):
         raise DataError(f"{src}: no memory_initialization_radix/vector (not a COE file)")
     if int(m.group(1)) == 16:
@@ -859,7 +855,7 @@ def _read_mem(data: bytes, t: Target, src: str) -> np.ndarray:
         if not pc.any(pc.match_substring_regex(lines, r"[@\s/]")).as_py():
             return _hex_array(lines, t.width, src)
     text = re.sub(rb"//[^\n]*", b"", data)
-    text = re.sub(rb"/\*.*?\*/", b"", text, flags=re.S)
+    text = re.sub(rb"/\*.*?\*/", b"", text, flags=re.DOTALL)
     tokens = text.split()
     if not any(tok.startswith(b"@") for tok in tokens[1:]):
         if tokens and tokens[0].startswith(b"@"):
