@@ -182,11 +182,14 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     parts = []
     if len(starts) > 1 and THREADS > 1:  # numpy releases the GIL: overlap the chunks
         from concurrent.futures import ThreadPoolExecutor
-        with ThreadPoolExecutor(THREADS) as pool:
+        pool = ThreadPoolExecutor(THREADS)
+        try:
             for start, part in zip(starts, pool.map(chunk, starts)):
                 parts.append(part)
                 if progress:
                     progress(min(n, start + CHUNK), n)
+        finally:  # on an error or a signal, drop the chunks not yet started
+            pool.shutdown(wait=True, cancel_futures=True)
     else:
         for start in starts:
             parts.append(chunk(start))
