@@ -22,7 +22,8 @@ RETIRED = {"--nmax": "--band", "--harmonics": "--band or --top", "--check": "--m
 
 
 @pytest.mark.parametrize("flag, metavar", [("--band", "K"), ("--heads", "H1,H2,..."),
-                                           ("--spectrum", "FILE"), ("--top", "N")])
+                                           ("--spectrum", "FILE"), ("--top", "N"),
+                                           ("--points", "M")])
 def test_shared_option_has_one_metavar(flag, metavar):
     users = [(name, p) for name, p in ALL if flag in p.opts]
     assert users, flag

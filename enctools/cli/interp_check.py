@@ -55,6 +55,7 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @click.option("--trend", "trend_degree", type=click.IntRange(0, 5), default=1, show_default=True,
               help="Degree of the polynomial in angle removed per run.")
 @click.option("--points", type=click.IntRange(8, 1 << 20), default=256, show_default=True,
+              metavar="M",
               help="Points of the output curve per signal period.")
 @click.option("--signals", "signals_mode", is_flag=True, default=False,
               help="Raw-signal mode: Heydemann ellipse fit of each head's sin/cos signals.")

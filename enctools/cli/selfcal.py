@@ -18,6 +18,7 @@ from . import options, runner
                "heads, else the reference).", flag="--angle-from", dest="angle_from")
 @options.band("Highest harmonic K solved for.")
 @click.option("--points", type=int, default=1024, show_default=True, callback=options.positive,
+              metavar="M",
               help="Points of the output angle grid.")
 @options.min_transfer("Harmonics whose normalised |W(n)| is below this are ill-conditioned.")
 @options.strict
