@@ -9,9 +9,9 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import run
-from enctools.harmonics import _direct_sums, _block_sums, revolution_coefficients, trapezoid_weights
+
+from enctools.harmonics import _block_sums, _direct_sums, revolution_coefficients, trapezoid_weights
 
 TWO_PI = 2 * np.pi
 
