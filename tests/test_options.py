@@ -51,3 +51,20 @@ def test_thresholds_are_max_figure_numbers():
             assert p.metavar in ("ARCSEC", "NM"), f"enc {name} {flag}: {p.metavar}"
             with pytest.raises(click.BadParameter):
                 p.process_value(click.Context(cli), -1.0)
+
+
+@pytest.mark.parametrize("cmd", ["selfcal --band 2000000", "selfcal --points 1000000000",
+                                 "compare --device H1 --ref H2 --points 1000000000",
+                                 "design --angles 0,60,135,228 --band 1000000000",
+                                 "average-heads --band 1000000000", "report --band 2000000"])
+def test_absurd_orders_and_grids_are_usage_errors(cmd, tmp_path):
+    """Not a MemoryError after reading the input: refused while parsing the options."""
+    from conftest import run
+
+    out = tmp_path / "o.parquet"
+    r = run(f"enc {cmd} -o {out} < /dev/null" if "design" not in cmd and "report" not in cmd
+            else f"enc {cmd} < /dev/null")
+    err = r.stderr.decode()
+    assert r.returncode == 2 and err.startswith(f"enc {cmd.split()[0]}: error:"), err
+    assert err.count("\n") == 1 and "1048576" in err, err
+    assert not out.exists()

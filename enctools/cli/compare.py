@@ -15,9 +15,7 @@ from . import options, runner
              metavar="HEAD[,HEAD...]", required=True, callback=options.name_list)
 @options.band("Keep harmonics 1..K (0: no band limit, angle bins instead).",
               callback=options.non_negative)
-@click.option("--points", type=int, default=1024, show_default=True, callback=options.positive,
-              metavar="M",
-              help="Points of the output angle grid.")
+@options.points("Points of the output angle grid.", 1024)
 @click.option("--name", default=None, help="Name of the deviation column (default DEVICE-REF).")
 @click.option("--ref-curve", "ref_curve", default=None, metavar="FILE",
               type=click.Path(dir_okay=False, allow_dash=False),

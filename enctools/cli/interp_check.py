@@ -54,9 +54,7 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
                    "(0: the seed's plain filter).")
 @click.option("--trend", "trend_degree", type=click.IntRange(0, 5), default=1, show_default=True,
               help="Degree of the polynomial in angle removed per run.")
-@click.option("--points", type=click.IntRange(8, 1 << 20), default=256, show_default=True,
-              metavar="M",
-              help="Points of the output curve per signal period.")
+@options.points("Points of the output curve per signal period.", 256, minimum=8)
 @click.option("--signals", "signals_mode", is_flag=True, default=False,
               help="Raw-signal mode: Heydemann ellipse fit of each head's sin/cos signals.")
 @click.option("--min-arc", "min_arc_deg", type=click.FloatRange(10, 360), default=90.0,

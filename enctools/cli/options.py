@@ -108,11 +108,30 @@ def ref(help: str, dest: str = "ref", metavar: str = "HEAD", **kw: Any) -> Calla
     return click.option("--ref", "--reference", dest, metavar=metavar, help=help, **kw)
 
 
+#: the highest harmonic order, and the most grid points, a command accepts: beyond, its
+#: arrays outgrow a workstation's memory (MemoryError) and no rig resolves them anyway
+MAX_ORDER = 1 << 20
+
+
 def band(help: str, default: int | None = 100, dest: str = "band",
          callback: Callable[..., Any] | None = positive) -> Callable[..., Any]:
     """--band K: the highest harmonic order n = 1..K a command fits, keeps or considers."""
+    def check(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+        if callback is not None:
+            value = callback(ctx, param, value)
+        if value is not None and value > MAX_ORDER:
+            msg = f"must be <= {MAX_ORDER}, not {value}"
+            raise click.BadParameter(msg)
+        return value
+
     return click.option("--band", dest, type=int, default=default, metavar="K",
-                        show_default=default is not None, callback=callback, help=help)
+                        show_default=default is not None, callback=check, help=help)
+
+
+def points(help: str, default: int, minimum: int = 1) -> Callable[..., Any]:
+    """--points M: the points of an output curve's uniform grid."""
+    return click.option("--points", type=click.IntRange(minimum, MAX_ORDER), default=default,
+                        show_default=True, metavar="M", help=help)
 
 
 def spectrum(help: str) -> Callable[..., Any]:

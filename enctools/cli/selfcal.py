@@ -17,9 +17,7 @@ from . import options, runner
 @options.heads("Heads whose mean is the angle coordinate (default: the encoder's measuring "
                "heads, else the reference).", flag="--angle-from", dest="angle_from")
 @options.band("Highest harmonic K solved for.")
-@click.option("--points", type=int, default=1024, show_default=True, callback=options.positive,
-              metavar="M",
-              help="Points of the output angle grid.")
+@options.points("Points of the output angle grid.", 1024)
 @options.min_transfer("Harmonics whose normalised |W(n)| is below this are ill-conditioned.")
 @options.strict
 @options.spectrum("Also write the spectrum (|W(n)|, u per harmonic) to FILE.")
