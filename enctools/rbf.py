@@ -133,10 +133,13 @@ class RBFModel:
         return lambda start, stop: self(first_deg + np.arange(start, stop) * step_deg)
 
 
-def _solve(x_rad: np.ndarray, y: np.ndarray, idx: list[int], spread_deg: float
-           ) -> tuple[np.ndarray, float, np.ndarray]:
-    """Least-squares output weights and bias for units at training points ``idx``."""
-    a = design_matrix(x_rad, x_rad[idx], spread_deg)
+def _solve(full: np.ndarray, y: np.ndarray, idx: list[int]) -> tuple[np.ndarray, float, np.ndarray]:
+    """Least-squares output weights and bias for units at training points ``idx``.
+
+    ``full`` is the design matrix with a unit at every training point (seed 001 eq. 6):
+    the units' columns are taken from it, not recomputed at each step.
+    """
+    a = full[:, idx]
     sol, *_ = np.linalg.lstsq(a, y, rcond=None)
     return sol, 0.0, y - a @ sol
 
@@ -165,11 +168,12 @@ def fit_rbf(angle_deg: np.ndarray, error_arcsec: np.ndarray, spread_deg: float,
     resid = y.copy()
     weights, bias = np.zeros(0), 0.0
     history: list[float] = []
+    full = design_matrix(x, x, spread_deg)
     while len(idx) < limit and (n == 0 or float(np.max(np.abs(resid))) > goal):
         free = [i for i in range(n) if i not in idx]
         nxt = max(free, key=lambda i: abs(resid[i]))
         idx.append(nxt)
-        weights, bias, resid = _solve(x, y, idx, spread_deg)
+        weights, bias, resid = _solve(full, y, idx)
         history.append(float(resid @ resid))
     return RBFModel(np.mod(x[idx] / DEG, 360.0), weights, bias, spread_deg,
                     float(resid @ resid), history)
