@@ -31,6 +31,7 @@ from __future__ import annotations
 import os
 import re
 import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -593,12 +594,37 @@ class _Rows:
             a += size
         return True
 
+    def chunks(self, rows: int = 1 << 20) -> Iterator[tuple[int, _Rows]]:
+        """(first line, lines) in blocks of ``rows`` lines: work arrays stay small."""
+        for k in range(0, self.n, rows):
+            yield k, _Rows(self.data, self.start + k * self.width, min(rows, self.n - k), self.width)
+
     def hex(self, a: int, b: int, width: int) -> np.ndarray | None:
         """Signed values (two's complement in ``width`` bits) of the hex digits in columns a..b-1.
 
         Two digits a table look-up on unaligned uint16 words read straight from the
-        lines; None if a digit is not hex or there are more than 16.
+        lines, a block of lines at a time; None if a digit is not hex or there are
+        more than 16.
         """
+        out = np.empty(self.n, dtype=np.int64)
+        for k, block in self.chunks():
+            v = block._hex(a, b, width)
+            if v is None:
+                return None
+            out[k:k + block.n] = v
+        return out
+
+    def counts(self, a: int, b: int) -> bool | None:
+        """Whether the hex numbers in columns a..b-1 are 0, 1, 2, ... (None: not all hex)."""
+        for k, block in self.chunks():
+            v = block._hex(a, b, 64)
+            if v is None:
+                return None
+            if not np.array_equal(v, np.arange(k, k + block.n)):
+                return False
+        return True
+
+    def _hex(self, a: int, b: int, width: int) -> np.ndarray | None:
         digits = b - a
         if not 0 < digits <= 16:
             return None
@@ -662,12 +688,15 @@ def _read_mif_fixed(data: bytes, src: str) -> np.ndarray | None:
     m = re.fullmatch(rb"(\s*)([0-9A-Fa-f]+)(\s*:\s*)([0-9A-Fa-f]+)(\s*;\s*)", rows.line(0))
     if m is None or not all(rows.same(*m.span(g)) for g in (1, 3, 5)):
         return None
-    addr = rows.hex(*m.span(2), 64)
+    counting = rows.counts(*m.span(2))
     values = rows.hex(*m.span(4), width)
-    if addr is None or values is None:
+    if counting is None or values is None:
         return None
-    if np.array_equal(addr, np.arange(depth)):
+    if counting:
         return values
+    addr = rows.hex(*m.span(2), 64)
+    if addr is None:
+        return None
     if not np.array_equal(np.sort(addr), np.arange(depth)):
         raise DataError(f"{src}: addresses do not cover 0..DEPTH-1={depth - 1} once each")
     out = np.empty(depth, dtype=np.int64)
