@@ -42,6 +42,9 @@ def command(input: str | None, groups: list[tuple[str | None, list[str]]], band:
     transfer function A(n) of each average is logged and kept in the field metadata.
     """
     runner.setup_logging(verbose, quiet)
+    from ..pipeline_tuning import tune_for_streaming
+
+    tune_for_streaming()  # malloc keeps its memory between batches
     runner.install_sigterm()
     from .. import streams
     from ..heads import run

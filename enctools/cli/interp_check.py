@@ -82,11 +82,9 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     (p-p, +/-) and harmonics go to stderr and into the output's metadata.
     """
     runner.setup_logging(verbose, quiet)
-    import os
+    from ..pipeline_tuning import tune_for_streaming
 
-    # one BLAS thread (unless the user says otherwise): a filter shares the CPUs with
-    # the rest of its pipeline, and idle OpenBLAS threads slow small products severalfold
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
     from .. import interp, streams
     from ..errors import CheckFailed, UsageError
 

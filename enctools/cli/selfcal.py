@@ -34,11 +34,9 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
     standard uncertainty, and with esa the spindle's radial error motion x, y [nm].
     """
     runner.setup_logging(verbose, quiet)
-    import os
+    from ..pipeline_tuning import tune_for_streaming
 
-    # one BLAS thread (unless the user says otherwise): a filter shares the CPUs with
-    # the rest of its pipeline, and idle OpenBLAS threads slow small products severalfold
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
     runner.install_sigterm()
     from .. import streams
     from ..errors import UsageError
