@@ -132,10 +132,13 @@ def _block_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     if nb < 4:
         return None
     pad = nb * block - s1
+    c = v.shape[0]
+    # the weighted values w_j v_cj, padded with zeros to whole blocks
+    g = np.empty((c, nb * block))
+    np.multiply(v, w, out=g[:, :s1])
+    g[:, s1:] = 0.0
     if pad:
         x = np.concatenate([x, np.full(pad, x[-1])])
-        w = np.concatenate([w, np.zeros(pad)])
-        v = np.concatenate([v, np.zeros((v.shape[0], pad))], axis=1)
     xb = x.reshape(nb, block)
     lo = xb.min(axis=1)
     hi = xb.max(axis=1)
@@ -160,25 +163,26 @@ def _block_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     for k in range(1, ne):
         np.multiply(spow[k - 1], s2, out=spow[k])
     np.multiply(spow[: terms - ne], s, out=spow[ne:])
-    c = v.shape[0]
-    g = (v.reshape(c, nb, block) * w.reshape(nb, block)).transpose(1, 0, 2)  # (B, C, L)
-    moments = np.matmul(g, spow.transpose(1, 2, 0)).reshape(nb * c, terms)  # (B*C, P)
+    gb = g.reshape(c, nb, block).transpose(1, 0, 2)  # (B, C, L)
+    moments = np.matmul(gb, spow.transpose(1, 2, 0))  # (B, C, P)
     n = np.arange(band + 1, dtype=np.float64)
     fact = np.array([math.factorial(k) for k in order], dtype=np.float64)
     # (-i n h)^p / p!: real for even p (sign (-1)^(p/2)), imaginary for odd p
     sign = np.array([1.0, -1.0, -1.0, 1.0])[order % 4]
-    t = (n[:, None] * h) ** order * (sign / fact)  # (K+1, P)
-    q_re = (moments[:, :ne] @ t[:, :ne].T).reshape(nb, c, band + 1)
-    q_im = (moments[:, ne:] @ t[:, ne:].T).reshape(nb, c, band + 1)
+    t = ((n[:, None] * h) ** order * (sign / fact)).T  # (P, K+1)
     # phases exp(-i n x_b) as exp(-i 10 m x_b) exp(-i r x_b), n = 10 m + r: rounding only
     tens = np.exp(-1j * np.outer(centre, np.arange(0, band + 1, 10)))
     ones = np.exp(-1j * np.outer(centre, np.arange(10)))
     e = (tens[:, :, None] * ones[:, None, :]).reshape(nb, -1)[:, : band + 1]  # (B, K+1)
-    er = np.ascontiguousarray(e.real)
-    ei = np.ascontiguousarray(e.imag)
+    # r[c, p, n] = sum_b moments[b, c, p] exp(-i n x_b): two real products over the blocks
+    mt = np.ascontiguousarray(moments.transpose(1, 2, 0)).reshape(c * terms, nb)
+    r_re = (mt @ np.ascontiguousarray(e.real)).reshape(c, terms, band + 1)
+    r_im = (mt @ np.ascontiguousarray(e.imag)).reshape(c, terms, band + 1)
+    # out[c, n] = sum_p t[p, n] r[c, p, n], t real (even p) or imaginary (odd p)
+    te, to = t[:ne], t[ne:]
     out = np.empty((c, band + 1), dtype=np.complex128)
-    out.real = np.einsum("bn,bcn->cn", er, q_re) - np.einsum("bn,bcn->cn", ei, q_im)
-    out.imag = np.einsum("bn,bcn->cn", er, q_im) + np.einsum("bn,bcn->cn", ei, q_re)
+    out.real = (r_re[:, :ne] * te).sum(axis=1) - (r_im[:, ne:] * to).sum(axis=1)
+    out.imag = (r_im[:, :ne] * te).sum(axis=1) + (r_re[:, ne:] * to).sum(axis=1)
     return out
 
 
