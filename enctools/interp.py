@@ -137,15 +137,16 @@ class InterpResult:
     warnings: list[str] = field(default_factory=list)
 
     def figures(self, points: int = 3600) -> dict[str, float]:
-        """Figures of the error curve [arcsec]: p-p, +/- (max |e|), rms, max, min."""
+        """Figures of the error curve [arcsec]: p-p, +/- (half the p-p), rms, max, min."""
         return figures(self.error(np.linspace(0.0, TWO_PI, points, endpoint=False)))
 
 
 def figures(curve: np.ndarray) -> dict[str, float]:
-    """p-p, +/- (largest |value| about the mean), mean, rms, max, min of a curve [arcsec]."""
+    """p-p, +/- (half the p-p, as enc report), mean, rms, max, min of a curve [arcsec]."""
     c = np.asarray(curve, dtype=np.float64)
     m = float(c.mean())
-    return {"pp": float(c.max() - c.min()), "plus_minus": float(np.abs(c - m).max()),
+    pp = float(c.max() - c.min())
+    return {"pp": pp, "plus_minus": pp / 2,
             "mean": m, "rms": float(np.sqrt(np.mean((c - m) ** 2))),
             "max": float(c.max()), "min": float(c.min())}
 

@@ -63,7 +63,7 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
               help="--signals: also write the readings with each head's counts "
                    "re-interpolated from the corrected phase.")
 @options.spectrum("Also write the harmonics (per signal period) as a spectrum stream.")
-@options.threshold("--max-pm", "Exit 1 when any curve's +/- (largest |error - mean|) "
+@options.threshold("--max-pm", "Exit 1 when any curve's +/- (half its peak-to-peak) "
                    "exceeds this [arcsec].", dest="tolerance")
 @options.outputs
 @options.verbosity
