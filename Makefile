@@ -32,7 +32,7 @@ demo: $(VENV)/.installed  ## run both papers' campaigns on the simulated rigs in
 	@echo "demo: results in $(OUT)/"
 
 screenshot: demo chromium  ## picture of the demo's HTML report for the README
-	bin/enc-report-screenshot $(OUT)/sjtu-dual/report.html docs/report.png 1000 1400
+	bin/enc-report-screenshot $(OUT)/sjtu-dual/report.html docs/report.png 1000 2400
 
 nightly: $(VENV)/.installed  ## one nightly recheck of ciomp-23bit into nightly/ (exit 1 on drift)
 	PATH=$(abspath $(BIN)):$$PATH bin/enc-nightly --rig ciomp-23bit --history nightly/history \

@@ -185,7 +185,11 @@ def _section_html(s: Section, top: int) -> str:
 
 
 def _compare_html(report: Report) -> str:
-    """Inputs of one kind with deviation curves over a turn, on one plot (before/after)."""
+    """Inputs of one kind carrying the same curve over a turn, on one plot (before/after).
+
+    Only curves of one name are compared (two polygon runs, two self-calibrations):
+    a graduation error and an H - P difference are different measurands.
+    """
     groups: dict[str, list[tuple[str, Curve]]] = {}
     for s, c in report.curves("arcsec"):
         if c.domain == "revolution" and c.role in ("deviation", "points", "positioning"):
@@ -196,6 +200,8 @@ def _compare_html(report: Report) -> str:
     out = []
     for kind, pairs in groups.items():
         if len({label.split(":")[0] for label, _ in pairs}) < 2:
+            continue
+        if len({c.name for _, c in pairs}) > 1:  # different measurands: not before/after
             continue
         rows = [[label, _f(c.figures.pp), _f(c.figures.std)] for label, c in pairs]
         first = pairs[0][1].figures.std
