@@ -424,21 +424,10 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
             msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
             raise UsageError(msg)
         return
-    p = Path(path)
-    if p.is_dir():
-        msg = f"output {path}: is a directory; give a file name"
-        raise UsageError(msg)
+    from .files import check_new_file
+
+    check_new_file(path, force)
     format_for_path(path, fmt)
-    if p.exists() and not force:
-        msg = f"output {path} exists; use --force to replace it"
-        raise UsageError(msg)
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        msg = f"output {path}: folder {parent} does not exist"
-        raise UsageError(msg)
-    if not os.access(parent, os.W_OK):
-        msg = f"output {path}: folder {parent} is not writable"
-        raise UsageError(msg)
 
 
 class OutputStream:
