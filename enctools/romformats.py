@@ -28,9 +28,7 @@ Hex words are two's complement in ``width`` bits, ``ceil(width / 4)`` digits.
 
 from __future__ import annotations
 
-import os
 import re
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -281,29 +279,11 @@ def write_table(path: str, values: np.ndarray, target: Target, force: bool = Fal
                 comment: list[str] | None = None) -> int:
     """Write ``values`` to ``path`` atomically (temporary file, then rename); return its size."""
     check_capacity(target, values.size)
-    p = Path(path)
-    if p.is_dir():
-        raise UsageError(f"output {path}: is a directory; give a file name")
-    if p.exists() and not force:
-        raise UsageError(f"output {path} exists; use --force to replace it")
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"output {path}: folder {parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=str(parent))
-    try:
-        with os.fdopen(fd, "wb") as f:
-            WRITERS[target.fmt](f, values, target, comment or [])
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return p.stat().st_size
+    from .files import check_new_file, write_atomic
+
+    check_new_file(path, force)
+    write_atomic(path, lambda f: WRITERS[target.fmt](f, values, target, comment or []))
+    return Path(path).stat().st_size
 
 
 def _write_bin(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
