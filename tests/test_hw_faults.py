@@ -69,6 +69,9 @@ def test_sigint_to_file_output_leaves_a_valid_file(tmp_path: Path) -> None:
     out = tmp_path / "run.parquet"
     proc = subprocess.Popen([enc_exe(), "acquire", "--rig", "ciomp-23bit", "--realtime",
                              "--mode", "continuous", "-o", str(out)], stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60  # a loaded machine may take seconds to start it
+    while time.monotonic() < deadline and not list(tmp_path.glob(".run.parquet.*")):
+        time.sleep(0.05)
     time.sleep(1.5)
     proc.send_signal(signal.SIGINT)
     assert proc.wait(timeout=30) == 130
