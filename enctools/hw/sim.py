@@ -71,32 +71,49 @@ class RealtimeClock(VirtualClock):
 
 
 class _Tabulated:
-    """A periodic Series tabulated on a fine grid, evaluated by linear interpolation."""
+    """A periodic Series tabulated on a fine grid, evaluated by linear interpolation.
+
+    The table (an inverse FFT of 2^18 points) is built at the first call large enough
+    to pay for it; smaller calls (a few readings of a steps run, a tiny run) evaluate
+    the series exactly, so a session opens without building it.
+    """
+
+    _DIRECT_TERMS = 200_000  # samples x terms below which the series is summed directly
 
     def __init__(self, series: Series) -> None:
-        sync = series.band(synchronous=True)
+        self.sync = series.band(synchronous=True)
         self.rest = series.band(synchronous=False)
+        self.table: np.ndarray | None = None
+        self.slope: np.ndarray | None = None
+        # the rest as amplitude * cos(f x - phase): one cosine per component
+        self._amp = np.hypot(self.rest.a, self.rest.b)
+        self._phase = np.arctan2(self.rest.b, self.rest.a)
+
+    def _build(self) -> None:
+        sync = self.sync
         spec = np.zeros(_GRID // 2 + 1, dtype=np.complex128)
         c = sync.harmonics(int(sync.freq.max()) if sync.freq.size else 0)
         spec[: c.size] = c
         spec[0] = c[0] * 2 if c.size else 0
         table = np.fft.irfft(spec, _GRID) * _GRID / 2
         self.table = np.append(table, table[0])
-
         self.slope = np.diff(self.table)
-        # the rest as amplitude * cos(f x - phase): one cosine per component
-        self._amp = np.hypot(self.rest.a, self.rest.b)
-        self._phase = np.arctan2(self.rest.b, self.rest.a)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        u = np.mod(x, TWO_PI)
-        u *= _GRID / TWO_PI
-        i = u.astype(np.int64)
-        np.minimum(i, _GRID - 1, out=i)
-        u -= i
-        out = self.slope[i]
-        out *= u
-        out += self.table[i]
+        if self.table is None and x.size * self.sync.freq.size < self._DIRECT_TERMS:
+            out = self.sync(x)
+        else:
+            if self.table is None:
+                self._build()
+            assert self.table is not None and self.slope is not None
+            u = np.mod(x, TWO_PI)
+            u *= _GRID / TWO_PI
+            i = u.astype(np.int64)
+            np.minimum(i, _GRID - 1, out=i)
+            u -= i
+            out = self.slope[i]
+            out *= u
+            out += self.table[i]
         for f, a, p in zip(self.rest.freq, self._amp, self._phase):
             arg = f * x
             arg -= p
