@@ -23,7 +23,7 @@ import pyarrow as pa
 from .errors import DataError
 from .fourier_fit import FourierModel
 from .rbf import SPREAD_FACTOR, RBFModel
-from .schemas import columns_with_role, make_field
+from .schemas import column_with_role, make_field
 from .units import DEG, TWO_PI
 
 KERNELS = ("rbf", "fourier")
@@ -109,16 +109,7 @@ def from_stream(header: Any, table: pa.Table, source: str = "input",
 
 def curve_model(header: Any, table: pa.Table, source: str, curve: str | None) -> CurveModel:
     """A deviations curve as a model: periodic linear interpolation on its grid."""
-    curves = columns_with_role(header.schema, "deviation")
-    if curve is None:
-        if len(curves) != 1:
-            msg = (f"{source}: {len(curves)} deviation curves ({', '.join(curves) or 'none'}); "
-                   "choose one with --curve")
-            raise DataError(msg)
-        curve = curves[0]
-    elif curve not in curves:
-        msg = f"{source}: no deviation curve {curve!r} (curves: {', '.join(curves) or 'none'})"
-        raise DataError(msg)
+    curve = column_with_role(header.schema, "deviation", curve, source, "--curve")
     theta = table.column("theta").to_numpy().astype(np.float64)
     values = table.column(curve).to_numpy().astype(np.float64)
     ok = np.isfinite(theta) & np.isfinite(values)

@@ -31,7 +31,7 @@ import pyarrow as pa
 from .errors import DataError
 from .readings import head_angle, head_info, measuring_heads
 from .report.figures import curve_figures
-from .schemas import columns_with_role, make_field
+from .schemas import column_with_role, make_field
 from .units import ARCSEC, DEG, TWO_PI
 
 if TYPE_CHECKING:
@@ -132,16 +132,8 @@ def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
     if heads is None:
         heads = measuring_heads(header.schema, header.meta, source)
     infos = [head_info(header.schema, h, source) for h in heads]
-    acs = columns_with_role(header.schema, "autocollimator")
-    if autocollimator is None:
-        if len(acs) != 1:
-            msg = (f"{source}: {len(acs)} autocollimator columns ({', '.join(acs) or 'none'}); "
-                   "name one with --autocollimator")
-            raise DataError(msg)
-        autocollimator = acs[0]
-    elif autocollimator not in table.column_names:
-        msg = f"{source}: no autocollimator column {autocollimator!r} (have: {', '.join(acs) or 'none'})"
-        raise DataError(msg)
+    autocollimator = column_with_role(header.schema, "autocollimator", autocollimator, source,
+                                      "--autocollimator")
     if faces is None:
         faces = int((rig.get("polygon") or {}).get("faces", 0)) or None
         if faces is None:

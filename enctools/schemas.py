@@ -171,3 +171,23 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
 def columns_with_role(schema: pa.Schema, role: str) -> list[str]:
     """Names of the columns whose field metadata has this role, in schema order."""
     return [f.name for f in schema if field_meta(f).get("role") == role]
+
+
+def column_with_role(schema: pa.Schema, role: str, name: str | None, source: str,
+                     option: str) -> str:
+    """The column of ``role`` to use: ``name`` if given, else the only one.
+
+    DataError with one line naming the choices when there is none, several and no
+    ``name``, or ``name`` is not a column of that role (``option`` chooses one).
+    """
+    names = columns_with_role(schema, role)
+    have = ", ".join(names) or "none"
+    if name is None:
+        if len(names) != 1:
+            msg = f"{source}: {len(names)} {role} columns ({have}); choose one with {option}"
+            raise DataError(msg)
+        return names[0]
+    if name not in names:
+        msg = f"{source}: no {role} column {name!r} (have: {have})"
+        raise DataError(msg)
+    return name

@@ -40,6 +40,16 @@ def run(cmd: str | list[str], cwd: Path | None = None, input: bytes | None = Non
                           timeout=timeout, executable="/bin/bash" if shell else None)
 
 
+def one_error_line(r: subprocess.CompletedProcess, code: int, cmd: str = "enc acquire") -> str:
+    """The one error line of a failed command (warnings, e.g. logged retries, may precede it)."""
+    err = r.stderr.decode()
+    assert r.returncode == code, err
+    lines = [ln for ln in err.splitlines() if "error:" in ln]
+    assert len(lines) == 1 and lines[0].startswith(f"{cmd}: error: "), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
 @pytest.fixture(scope="session")
 def sjtu_raw(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The default sjtu-dual run (20 revolutions, 9 heads) as Parquet."""

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import run
+from conftest import one_error_line, run
 
 pytest.importorskip("serial")
 
@@ -252,15 +252,6 @@ def write_rig(tmp_path: Path, text: str) -> Path:
     p = tmp_path / "serial-polygon.toml"
     p.write_text(text)
     return p
-
-
-def one_error_line(r, code: int) -> str:
-    err = r.stderr.decode()
-    assert r.returncode == code, err
-    lines = [ln for ln in err.splitlines() if "error:" in ln]
-    assert len(lines) == 1 and lines[0].startswith("enc acquire: error: "), err
-    assert "Traceback" not in err
-    return lines[0]
 
 
 def test_polygon_run_gives_points_of_the_graduation_error(tmp_path: Path) -> None:

@@ -15,7 +15,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from conftest import ROOT, run
+from conftest import ROOT, one_error_line, run
 
 pytest.importorskip("pyvisa_sim")
 
@@ -33,15 +33,6 @@ def rig_variant(tmp_path: Path, **subs: str) -> Path:
     p = tmp_path / "rig.toml"
     p.write_text(text)
     return p
-
-
-def one_error_line(r, code: int) -> str:
-    err = r.stderr.decode()
-    assert r.returncode == code, err
-    lines = [ln for ln in err.splitlines() if "error:" in ln]
-    assert len(lines) == 1 and lines[0].startswith("enc acquire: error: "), err
-    assert "Traceback" not in err
-    return lines[0]
 
 
 @pytest.fixture(scope="module")
