@@ -74,14 +74,14 @@ def revolution_coefficients(u: np.ndarray, values: np.ndarray, start: float,
     -------
     (C, K + 1) complex coefficients with ``f(u) = Re(sum c_n exp(i n u))``.
 
-    The trapezoid sum ``sum_j w_j f(u_j) exp(-i n x_j)`` is evaluated block by block
-    (:func:`_block_sums`): exact to rounding, about ten times fewer operations than
-    the (K + 1) x S matrix of the direct sum, and in cache.
+    The trapezoid sum ``sum_j w_j f(u_j) exp(-i n x_j)`` is evaluated bin by bin of
+    angle (:func:`_binned_sums`): exact to rounding, a few passes over the samples
+    and FFTs instead of the (K + 1) x S exponentials of the direct sum.
     """
     x = np.asarray(u, dtype=np.float64) - start
     v = np.atleast_2d(np.asarray(values, dtype=np.float64))
     w = trapezoid_weights(x)
-    c = _block_sums(x, v, w, band)
+    c = _binned_sums(x, v, w, band)
     if c is None:
         c = _direct_sums(x, v, w, band)
     c /= np.pi
@@ -101,88 +101,89 @@ def _direct_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray, band: int) -> np.n
     return (e @ v.T).T
 
 
-#: truncation of the block expansion: the first neglected term is below this (relative)
+#: truncation of the local expansion: the first neglected term is below this (relative)
 _TAYLOR_EPS = 2.0 ** -56
+#: angle bins per harmonic kept (bin half-width h = pi / B: K h <= pi / 16) ...
+BINS_PER_HARMONIC = 16
+#: ... and at most about this many samples per bin (finer sampling: more, narrower bins)
+SAMPLES_PER_BIN = 16
 
 
-def _block_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
-                band: int) -> np.ndarray | None:
-    """``sum_j w_j v_cj exp(-i n x_j)``, n = 0..K, by local expansion in blocks of samples.
+def _taylor_terms(z: float) -> int:
+    """Terms P of the series of exp(-i z s), |s| <= 1, whose first neglected one is < 2^-56."""
+    terms, last = 1, 1.0
+    while last > _TAYLOR_EPS or terms <= z:
+        last *= z / terms
+        terms += 1
+    return terms
 
-    In a block of L consecutive samples around its centre x_b (half-width h),
+
+def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
+                 band: int) -> np.ndarray | None:
+    """``sum_j w_j v_cj exp(-i n x_j)``, n = 0..K, by local expansion in bins of angle.
+
+    ``x`` [rad] runs over one revolution, [0, 2 pi] or [-2 pi, 0], monotonic. The
+    revolution is cut into B equal bins (half-width h = pi / B, centres
+    x_b = (2 b + 1) h); in bin b
     ``exp(-i n x_j) = exp(-i n x_b) sum_p (-i n h)^p / p! s_j^p`` with
-    ``s_j = (x_j - x_b) / h`` in [-1, 1]. Summing the series to P terms, where the
-    first neglected one ``(K h)^P / P!`` is below 2^-56, leaves only rounding: the
-    moments ``sum_j w_j v_cj s_j^p`` (C x B x P), a small matrix product with
-    ``(-i n h)^p / p!`` and one phase per block. Returns None where this would not pay
-    (few samples, or spacing so uneven that many terms are needed).
+    ``s_j = (x_j - x_b) / h`` in [-1, 1], summed to P terms so that the first
+    neglected one, ``(K h)^P / P!``, is below 2^-56: only rounding is left. What the
+    samples contribute are the moments ``M_pcb = sum_(j in b) w_j v_cj s_j^p``;
+    ``sum_b M_pcb exp(-i n x_b)`` is then a real FFT of length B, the centres being
+    equally spaced. Per revolution: P passes over the samples and P FFTs, against
+    (K + 1) complex exponentials per sample for the direct sum. Returns None where
+    this does not pay (few samples) or the sampling is too uneven for the padded
+    bin layout (a long stop).
     """
     import math
 
     s1 = x.size
     if band == 0:
         return (v @ w)[:, None].astype(np.complex128)
-    span = abs(float(x[-1] - x[0]))
-    if s1 < 512 or span == 0.0:
+    nb = 1 << max(3, math.ceil(math.log2(band * BINS_PER_HARMONIC)),
+                  math.ceil(math.log2(s1 / SAMPLES_PER_BIN)))
+    if s1 < 256 or nb > 16 * s1:
         return None
-    # blocks with K h about 1: ~19 terms
-    step = span / (s1 - 1)
-    block = int(2 ** np.clip(np.floor(np.log2(2.0 / (band * step))), 3, 8))
-    nb = -(-s1 // block)
-    if nb < 4:
+    if x[-1] < x[0]:  # turning backwards: the same sums over x + 2 pi, increasing
+        x, v, w = x[::-1] + TWO_PI, v[:, ::-1], w[::-1]
+    h = math.pi / nb
+    terms = _taylor_terms(band * h)
+    # the bin of every sample, and s = (x - x_b) / h
+    bf = np.floor(x * (0.5 / h))
+    np.clip(bf, 0, nb - 1, out=bf)
+    s = bf * (-2.0 * h)
+    s += x - h
+    s *= 1.0 / h
+    b = bf.astype(np.intp)
+    counts = np.bincount(b, minlength=nb)
+    width = int(counts.max())
+    if nb * width > 4 * s1 + 4096:
         return None
-    pad = nb * block - s1
+    # padded layout (L, B): sample j of bin b goes to row j - first(b)
+    first = np.cumsum(counts)
+    first -= counts
+    slot = np.arange(s1)
+    slot -= first[b]
+    slot *= nb
+    slot += b
+    size = width * nb
     c = v.shape[0]
-    # the weighted values w_j v_cj, padded with zeros to whole blocks
-    g = np.empty((c, nb * block))
-    np.multiply(v, w, out=g[:, :s1])
-    g[:, s1:] = 0.0
-    if pad:
-        x = np.concatenate([x, np.full(pad, x[-1])])
-    xb = x.reshape(nb, block)
-    lo = xb.min(axis=1)
-    hi = xb.max(axis=1)
-    centre = (lo + hi) * 0.5
-    h = float(np.max(hi - lo)) * 0.5
-    if h == 0.0:
-        return None
-    z = band * h
-    terms, last = 1, 1.0
-    while last > _TAYLOR_EPS or terms <= z:
-        last *= z / terms
-        terms += 1
-        if terms > 40:
-            return None
-    s = (xb - centre[:, None]) * (1.0 / h)
-    # powers s^p, the even ones first: p = 0, 2, 4, ..., 1, 3, 5, ...
-    order = np.concatenate([np.arange(0, terms, 2), np.arange(1, terms, 2)])
-    ne = (terms + 1) // 2
-    s2 = s * s
-    spow = np.empty((terms, nb, block))
+    g = np.zeros((c, size))
+    g[:, slot] = v * w
+    spow = np.empty((terms, size))
     spow[0] = 1.0
-    for k in range(1, ne):
-        np.multiply(spow[k - 1], s2, out=spow[k])
-    np.multiply(spow[: terms - ne], s, out=spow[ne:])
-    gb = g.reshape(c, nb, block).transpose(1, 0, 2)  # (B, C, L)
-    moments = np.matmul(gb, spow.transpose(1, 2, 0))  # (B, C, P)
+    spow[1] = 0.0
+    spow[1, slot] = s
+    for k in range(2, terms):
+        np.multiply(spow[k - 1], spow[1], out=spow[k])
+    moments = np.einsum("clb,plb->pcb", g.reshape(c, width, nb),
+                        spow.reshape(terms, width, nb))  # (P, C, B)
+    f = np.fft.rfft(moments, axis=-1)[..., : band + 1]  # sum_b M exp(-2 pi i n b / B)
     n = np.arange(band + 1, dtype=np.float64)
-    fact = np.array([math.factorial(k) for k in order], dtype=np.float64)
-    # (-i n h)^p / p!: real for even p (sign (-1)^(p/2)), imaginary for odd p
-    sign = np.array([1.0, -1.0, -1.0, 1.0])[order % 4]
-    t = ((n[:, None] * h) ** order * (sign / fact)).T  # (P, K+1)
-    # phases exp(-i n x_b) as exp(-i 10 m x_b) exp(-i r x_b), n = 10 m + r: rounding only
-    tens = np.exp(-1j * np.outer(centre, np.arange(0, band + 1, 10)))
-    ones = np.exp(-1j * np.outer(centre, np.arange(10)))
-    e = (tens[:, :, None] * ones[:, None, :]).reshape(nb, -1)[:, : band + 1]  # (B, K+1)
-    # r[c, p, n] = sum_b moments[b, c, p] exp(-i n x_b): two real products over the blocks
-    mt = np.ascontiguousarray(moments.transpose(1, 2, 0)).reshape(c * terms, nb)
-    r_re = (mt @ np.ascontiguousarray(e.real)).reshape(c, terms, band + 1)
-    r_im = (mt @ np.ascontiguousarray(e.imag)).reshape(c, terms, band + 1)
-    # out[c, n] = sum_p t[p, n] r[c, p, n], t real (even p) or imaginary (odd p)
-    te, to = t[:ne], t[ne:]
-    out = np.empty((c, band + 1), dtype=np.complex128)
-    out.real = (r_re[:, :ne] * te).sum(axis=1) - (r_im[:, ne:] * to).sum(axis=1)
-    out.imag = (r_im[:, :ne] * te).sum(axis=1) + (r_re[:, ne:] * to).sum(axis=1)
+    fact = np.array([math.factorial(k) for k in range(terms)], dtype=np.float64)
+    t = (-1j * h * n) ** np.arange(terms)[:, None] / fact[:, None]  # (P, K+1)
+    out = np.einsum("pcn,pn->cn", f, t)
+    out *= np.exp(-1j * h * n)  # exp(-i n x_b) = exp(-2 pi i n b / B) exp(-i n h)
     return out
 
 
@@ -207,59 +208,62 @@ class RevolutionSplitter:
     complete revolution is yielded with its end interpolated linearly onto the
     boundary, which also starts the next one. The first revolution starts at the
     first sample. What is left at the end (less than a revolution) is not yielded;
-    ``pending`` says how much of a revolution it was.
+    ``pending`` says how much of a revolution it was. Blocks are held as views and
+    copied once, into the revolution they complete.
     """
 
     def __init__(self) -> None:
         self.start: float | None = None
         self.direction = 0.0
         self.index = 0
-        self._u = np.zeros(0)
-        self._v: np.ndarray | None = None
+        self._u: list[np.ndarray] = []
+        self._v: list[np.ndarray] = []
 
     @property
     def pending(self) -> float:
         """Fraction of a revolution buffered but not complete."""
-        if self._u.size == 0 or self.start is None:
+        if not self._u or self.start is None:
             return 0.0
-        return float(abs(self._u[-1] - self.start) / TWO_PI)
+        return float(abs(self._u[-1][-1] - self.start) / TWO_PI)
 
     def feed(self, u: np.ndarray, values: np.ndarray) -> Iterator[Revolution]:
         """Add a block (u: (S,) [rad]; values: (C, S)); yield the revolutions it completes."""
         if u.size == 0:
             return
-        if self._v is None:
-            self._u, self._v = u, values
+        if self.start is None:
             self.start = float(u[0])
-        else:
-            self._u = np.concatenate([self._u, u])
-            self._v = np.concatenate([self._v, values], axis=1)
         if self.direction == 0.0:
-            if self._u.size < 2:
+            if u[-1] == self.start:
+                self._u.append(u)
+                self._v.append(values)
                 return
-            self.direction = 1.0 if self._u[-1] > self._u[0] else -1.0
+            self.direction = 1.0 if u[-1] > self.start else -1.0
         d = self.direction
-        assert self.start is not None
+        key = u if d > 0 else -u  # ascending, for searchsorted
+        lo = 0
         while True:
             end = self.start + d * TWO_PI
-            k = int(np.searchsorted(d * self._u, d * end, side="left"))
-            if k >= self._u.size:
+            k = lo + int(np.searchsorted(key[lo:], d * end, side="left"))
+            if k >= u.size:
+                self._u.append(u[lo:])
+                self._v.append(values[:, lo:])
                 return
-            uu, vv = self._u, self._v
-            if uu[k] == end:
-                eu, ev = uu[k], vv[:, k]
-                rest_u, rest_v = uu[k:], vv[:, k:]
+            if u[k] == end:
+                eu, ev = u[k: k + 1], values[:, k: k + 1]
+                nxt_u, nxt_v, nlo = [], [], k
             else:
-                f = (end - uu[k - 1]) / (uu[k] - uu[k - 1])
-                eu, ev = end, vv[:, k - 1] * (1.0 - f) + vv[:, k] * f
-                rest_u = np.concatenate([[eu], uu[k:]])
-                rest_v = np.concatenate([ev[:, None], vv[:, k:]], axis=1)
-            ru = np.append(uu[:k], eu)
-            rv = np.concatenate([vv[:, :k], ev[:, None]], axis=1)
+                pu, pv = ((u[k - 1], values[:, k - 1]) if k > lo
+                          else (self._u[-1][-1], self._v[-1][:, -1]))
+                f = (end - pu) / (u[k] - pu)
+                eu = np.array([end])
+                ev = (pv * (1.0 - f) + values[:, k] * f)[:, None]
+                nxt_u, nxt_v, nlo = [eu], [ev], k
+            ru = np.concatenate(self._u + [u[lo:k], eu])
+            rv = np.concatenate(self._v + [values[:, lo:k], ev], axis=1)
             yield Revolution(self.index, self.start, ru, rv)
             self.index += 1
             self.start = end
-            self._u, self._v = rest_u, rest_v
+            self._u, self._v, lo = nxt_u, nxt_v, nlo
 
     def close(self, max_gap: float) -> Revolution | None:
         """The last revolution if it lacks at most ``max_gap`` [rad] at its end.
@@ -268,16 +272,16 @@ class RevolutionSplitter:
         turn; the gap is closed with the revolution's first sample (the channels are
         periodic). Returns None when more is missing.
         """
-        if self._v is None or self.start is None or self._u.size < 3:
+        if self.start is None or sum(p.size for p in self._u) < 3:
             return None
         end = self.start + self.direction * TWO_PI
-        if abs(end - self._u[-1]) > max_gap:
+        if abs(end - self._u[-1][-1]) > max_gap:
             return None
-        ru = np.append(self._u, end)
-        rv = np.concatenate([self._v, self._v[:, :1]], axis=1)
+        ru = np.concatenate(self._u + [np.array([end])])
+        rv = np.concatenate(self._v + [self._v[0][:, :1]], axis=1)
         rev = Revolution(self.index, self.start, ru, rv)
         self.index += 1
-        self._u, self._v = np.zeros(0), None
+        self._u, self._v = [], []
         return rev
 
 
@@ -420,6 +424,35 @@ class ChannelSpec:
     mean: bool = False
 
 
+def mean_reading(batch: object, heads: tuple[HeadInfo, ...], source: str = "input",
+                 minus: np.ndarray | None = None) -> np.ndarray:
+    """The mean of the heads' readings [rad] (:func:`head_reading`) over a batch.
+
+    Counts are summed into one float64 array (exact below 2^53 counts) and scaled
+    once per counts-per-revolution; ``minus`` [rad] is subtracted in place. A few
+    passes over the batch, however many heads.
+    """
+    out: np.ndarray | None = None
+    m = len(heads)
+    offset = 0.0
+    for cpr in dict.fromkeys(h.counts_per_rev for h in heads):
+        group = [h for h in heads if h.counts_per_rev == cpr]
+        acc = _column(batch, group[0].name, source).astype(np.float64)
+        for h in group[1:]:
+            acc += _column(batch, h.name, source)
+        acc *= TWO_PI / (cpr * m)
+        offset += sum(h.zero_count * (TWO_PI / cpr) - h.alpha for h in group) / m
+        if out is None:
+            out = acc
+        else:
+            out += acc
+    assert out is not None
+    out += offset
+    if minus is not None:
+        out -= minus
+    return out
+
+
 def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
                        source: str = "input", progress: object = None,
                        grid_points: int = 0) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
@@ -436,39 +469,43 @@ def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
     splitter = RevolutionSplitter()
     last_t = -np.inf
     last_u: float | None = None
+    direction = 0.0
     spacing = np.inf
     for batch in batches:
-        if batch.num_rows == 0:  # type: ignore[attr-defined]
+        n = batch.num_rows  # type: ignore[attr-defined]
+        if n == 0:
             continue
-        t = _column(batch, "t", source).astype(np.float64)
-        if not (t[0] > last_t and np.all(np.diff(t) > 0)):
+        t = _column(batch, "t", source)
+        if not (t[0] > last_t and bool(np.all(t[1:] > t[:-1]))):
             where = int(np.argmax(np.diff(np.concatenate([[last_t], t])) <= 0))
             msg = (f"{source}: time t does not increase at sample {where} of a batch; "
                    "is this a continuous run, sorted by time?")
             raise DataError(msg)
         last_t = float(t[-1])
-        u = np.mean([head_reading(_column(batch, h.name, source), h.counts_per_rev,
-                                  h.zero_count, h.alpha) for h in spec.coordinate], axis=0)
-        du = np.diff(u if last_u is None else np.concatenate([[last_u], u]))
-        if splitter.direction == 0.0 and du.size:
-            nonzero = du[du != 0]
-            direction = np.sign(nonzero[0]) if nonzero.size else 0.0
-        else:
-            direction = splitter.direction
-        if du.size and direction != 0 and not np.all(du * direction > 0):
+        u = mean_reading(batch, spec.coordinate, source)
+        first = u[0] if last_u is None else last_u
+        if direction == 0.0 and u[-1] != first:
+            direction = 1.0 if u[-1] > first else -1.0
+        steady = (u[0] > first if direction > 0 else u[0] < first) or last_u is None
+        if direction != 0.0:
+            steady = steady and bool(np.all(u[1:] > u[:-1]) if direction > 0
+                                     else np.all(u[1:] < u[:-1]))
+        if not steady or (direction == 0.0 and n > 1):
             names = ", ".join(h.name for h in spec.coordinate)
             msg = (f"{source}: the angle coordinate (mean of {names}) stands still or turns "
                    "back; self-calibration and comparison need a continuous run in one direction")
             raise DataError(msg)
+        if n > 1 and not np.isfinite(spacing):
+            _check_stroboscopic(float(np.median(np.abs(np.diff(u[:4097])))), spec)
+        if n > 1:  # the mean step over the batch
+            spacing = abs(float(u[-1] - u[0])) / (n - 1)
         last_u = float(u[-1])
-        values = np.stack([head_reading(_column(batch, h.name, source), h.counts_per_rev,
-                                        h.zero_count, h.alpha) - u for h in spec.channels])
         if spec.mean:
-            values = values.mean(axis=0, keepdims=True)
-        if du.size and not np.isfinite(spacing):
-            _check_stroboscopic(float(np.median(np.abs(du[:4096]))), spec)
-        # the typical step at the end of the batch (a median of its last samples)
-        spacing = float(np.median(np.abs(du[-4096:]))) if du.size else spacing
+            values = mean_reading(batch, spec.channels, source, minus=u)[None, :]
+        else:
+            values = np.empty((len(spec.channels), n))
+            for i, h in enumerate(spec.channels):
+                values[i] = mean_reading(batch, (h,), source, minus=u)
         for rev in splitter.feed(u, values):
             yield _analyse(rev, band, grid_points)
             if progress is not None:

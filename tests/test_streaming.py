@@ -1,4 +1,4 @@
-"""Streaming filters at speed without losing accuracy: the block-expanded per-revolution
+"""Streaming filters at speed without losing accuracy: the bin-expanded per-revolution
 sums against the exact direct sum, pipe buffers, and interp-check refusing a long run.
 Tolerances in the tests; no wall-clock assertions."""
 
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import run
 
-from enctools.harmonics import _block_sums, _direct_sums, revolution_coefficients, trapezoid_weights
+from enctools.harmonics import _binned_sums, _direct_sums, revolution_coefficients, trapezoid_weights
 
 TWO_PI = 2 * np.pi
 
@@ -28,12 +28,14 @@ def exact_sums(x: np.ndarray, v: np.ndarray, band: int) -> np.ndarray:
     (20000, 100, -1, 1e-4),    # turning backwards
     (3001, 20, 1, 0.0),        # uniform
     (200000, 100, 1, 1e-3),    # fine sampling, large speed variation
-    (1000, 150, 1, 2e-3),      # coarse: small blocks
+    (1000, 150, 1, 2e-3),      # coarse: more bins than samples
     (20000, 3, 1, 0.05),       # very uneven speed
+    (20000, 1, 1, 1e-4),       # one harmonic: few wide bins
+    (20000, 300, -1, 1e-4),    # many harmonics, backwards
 ])
-def test_block_sums_equal_the_exact_sum(samples: int, band: int, direction: int,
+def test_binned_sums_equal_the_exact_sum(samples: int, band: int, direction: int,
                                         wobble: float) -> None:
-    """The block expansion agrees with the exact sum to 1e-13 of the largest coefficient
+    """The bin expansion agrees with the exact sum to 1e-13 of the largest coefficient
     (rounding only: its truncation is below 2^-56)."""
     rng = np.random.default_rng(samples + band)
     k = np.arange(samples + 1)
@@ -42,17 +44,27 @@ def test_block_sums_equal_the_exact_sum(samples: int, band: int, direction: int,
     x[0], x[-1] = 0.0, direction * TWO_PI
     v = rng.standard_normal((3, samples + 1)) + np.cos(7 * x)
     want = exact_sums(x, v, band)
-    got = _block_sums(x, v, trapezoid_weights(x), band)
+    got = _binned_sums(x, v, trapezoid_weights(x), band)
     assert got is not None
     assert np.max(np.abs(got - want)) < 1e-13 * np.max(np.abs(want))
     direct = _direct_sums(x, v, trapezoid_weights(x), band)
     assert np.max(np.abs(direct - want)) < 1e-12 * np.max(np.abs(want))
 
 
+def test_a_long_stop_falls_back_to_the_direct_sum() -> None:
+    """Half the samples within one bin (a stop): no padded layout, the direct sum."""
+    x = np.concatenate([np.linspace(0, 3.0, 5000), np.linspace(3.0, 3.0005, 5000)[1:],
+                        np.linspace(3.0005, TWO_PI, 5000)[1:]])
+    v = np.cos(5 * x)[None, :]
+    assert _binned_sums(x, v, trapezoid_weights(x), 20) is None
+    c = revolution_coefficients(x, v, 0.0, 20)[0]
+    assert abs(c[5] - 1) < 1e-4 and np.max(np.abs(np.delete(c, 5))) < 1e-4
+
+
 def test_few_samples_fall_back_to_the_direct_sum() -> None:
     x = np.linspace(0, TWO_PI, 101)
     v = np.sin(2 * x)[None, :]
-    assert _block_sums(x, v, trapezoid_weights(x), 10) is None
+    assert _binned_sums(x, v, trapezoid_weights(x), 10) is None
     c = revolution_coefficients(x, v, 0.0, 10)[0]
     assert abs(c[2] - (-1j)) < 1e-3  # sin 2u = Re(-i exp(2iu)), trapezoid on 100 steps
 
