@@ -165,6 +165,80 @@ def detect_format(prefix: bytes) -> str | None:
     return None
 
 
+#: batches read ahead of the caller on a reader thread (InputStream.batches)
+READ_AHEAD = 2
+
+
+class _Failed:
+    """An exception raised on the reader thread, to be raised again in the caller's."""
+
+    def __init__(self, exc: BaseException) -> None:
+        self.exc = exc
+
+
+class _ReadAhead:
+    """Iterate ``items`` on a daemon thread, at most ``depth`` items ahead of the caller.
+
+    Exceptions of the reader are raised in the caller's thread at the point they
+    occurred; when the caller stops early the thread stops at its next item.
+    """
+
+    _END = object()
+
+    def __init__(self, items: Iterator[Any], depth: int) -> None:
+        import queue
+        import threading
+
+        self._queue: queue.Queue[Any] = queue.Queue(maxsize=depth)
+        self._stop = threading.Event()
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._work, args=(items,), daemon=True,
+                                        name="enc-read-ahead")
+        self._thread.start()
+
+    def _put(self, item: Any) -> bool:
+        import queue
+
+        while not self._stop.is_set():
+            try:
+                self._queue.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _work(self, items: Iterator[Any]) -> None:
+        try:
+            for item in items:
+                if not self._put(item):
+                    return
+            self._put(self._END)
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+            self._put(_Failed(exc))
+        finally:
+            self._done.set()
+
+    def finished(self) -> bool:
+        """True once the reader thread has stopped reading."""
+        return self._done.is_set()
+
+    def __iter__(self) -> "_ReadAhead":
+        return self
+
+    def __next__(self) -> Any:
+        item = self._queue.get()
+        if item is self._END:
+            self._queue.put(self._END)  # stay exhausted
+            raise StopIteration
+        if isinstance(item, _Failed):
+            self._stop.set()
+            raise item.exc
+        return item
+
+    def close(self) -> None:
+        self._stop.set()
+
+
 class InputStream:
     """An open input stream: ``header`` now, ``batches()`` once, or ``read_all()``."""
 
@@ -188,10 +262,17 @@ class InputStream:
     def meta(self) -> dict[str, Any]:
         return self.header.meta
 
-    def batches(self) -> Iterator[pa.RecordBatch]:
-        """The record batches, in order (a truncated stream raises DataError)."""
+    def batches(self, read_ahead: int = READ_AHEAD) -> Iterator[pa.RecordBatch]:
+        """The record batches, in order (a truncated stream raises DataError).
+
+        ``read_ahead`` batches are read on a thread while the caller works on the
+        current one (reading a pipe or decoding releases the GIL): a filter then
+        costs about the larger of its reading and its computing, not their sum.
+        0 reads in the caller's thread.
+        """
+        source = _ReadAhead(self._batches, read_ahead) if read_ahead > 0 else self._batches
         try:
-            for b in self._batches:
+            for b in source:
                 yield b.replace_schema_metadata(None) if b.schema.metadata else b
         except _DECODE_ERRORS as exc:
             if isinstance(exc, BrokenPipeError):
@@ -199,6 +280,10 @@ class InputStream:
             msg = f"{self.source}: truncated or corrupt {self.format} data ({_short(exc)})"
             raise DataError(msg) from None
         finally:
+            if isinstance(source, _ReadAhead):
+                source.close()
+                if not source.finished():
+                    self._closer = None  # the reader may still be in a read: leave the file
             self.close()
 
     def read_all(self) -> pa.Table:
