@@ -122,12 +122,29 @@ def _header_from_arrow(schema: pa.Schema, source: str) -> Header:
 # --------------------------------------------------------------------------- input
 
 
-class _Prefixed(io.RawIOBase):
-    """A read-only file: some bytes already read, then the rest of another file."""
+class Cancelled(Exception):
+    """A read given up because the reader of the stream was told to stop."""
 
-    def __init__(self, prefix: bytes, rest: IO[bytes]) -> None:
+
+class _Prefixed(io.RawIOBase):
+    """A read-only file: some bytes already read, then the rest of another file.
+
+    With ``cancel`` and a pipe under ``rest``, every read first waits (in 50 ms
+    polls) for the pipe to be readable and raises :class:`Cancelled` once ``cancel``
+    is set: a read-ahead thread is never stuck in a read of a pipe whose writer went
+    quiet.
+    """
+
+    def __init__(self, prefix: bytes, rest: IO[bytes], cancel: Any = None) -> None:
         self._prefix = prefix
         self._rest = rest
+        self._cancel = cancel
+        self._poll: Any = None
+        if cancel is not None:
+            import select
+
+            self._poll = select.poll()
+            self._poll.register(rest.fileno(), select.POLLIN | select.POLLPRI)
 
     def readable(self) -> bool:
         return True
@@ -138,6 +155,10 @@ class _Prefixed(io.RawIOBase):
             b[:n] = self._prefix[:n]
             self._prefix = self._prefix[n:]
             return n
+        if self._poll is not None:
+            while not self._poll.poll(50):
+                if self._cancel.is_set():
+                    raise Cancelled("read-ahead stopped")
         try:
             return self._rest.readinto(b)  # straight into Arrow's buffer: no extra copy
         except AttributeError:  # a file object without readinto
@@ -180,18 +201,20 @@ class _ReadAhead:
     """Iterate ``items`` on a daemon thread, at most ``depth`` items ahead of the caller.
 
     Exceptions of the reader are raised in the caller's thread at the point they
-    occurred; when the caller stops early the thread stops at its next item.
+    occurred. :meth:`stop` ends the thread after its current item: the thread must
+    not outlive the caller into interpreter shutdown, where a daemon thread inside
+    Arrow's C++ aborts the process. ``event`` (set by :meth:`stop`) also interrupts
+    a wait on a pipe (:class:`_Prefixed`).
     """
 
     _END = object()
 
-    def __init__(self, items: Iterator[Any], depth: int) -> None:
+    def __init__(self, items: Iterator[Any], depth: int, event: Any = None) -> None:
         import queue
         import threading
 
         self._queue: queue.Queue[Any] = queue.Queue(maxsize=depth)
-        self._stop = threading.Event()
-        self._done = threading.Event()
+        self._stop = event if event is not None else threading.Event()
         self._thread = threading.Thread(target=self._work, args=(items,), daemon=True,
                                         name="enc-read-ahead")
         self._thread.start()
@@ -215,12 +238,6 @@ class _ReadAhead:
             self._put(self._END)
         except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
             self._put(_Failed(exc))
-        finally:
-            self._done.set()
-
-    def finished(self) -> bool:
-        """True once the reader thread has stopped reading."""
-        return self._done.is_set()
 
     def __iter__(self) -> "_ReadAhead":
         return self
@@ -231,12 +248,14 @@ class _ReadAhead:
             self._queue.put(self._END)  # stay exhausted
             raise StopIteration
         if isinstance(item, _Failed):
-            self._stop.set()
             raise item.exc
         return item
 
-    def close(self) -> None:
+    def stop(self, timeout: float = 10.0) -> bool:
+        """Stop the reader; True once it has ended (within ``timeout`` [s])."""
         self._stop.set()
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
 
 
 class InputStream:
@@ -249,6 +268,8 @@ class InputStream:
         self.source = source
         self.format = fmt
         self._closer = closer
+        #: set to stop a read-ahead thread waiting on a pipe (see _Prefixed)
+        self.cancel: Any = None
 
     @property
     def kind(self) -> str:
@@ -270,7 +291,8 @@ class InputStream:
         costs about the larger of its reading and its computing, not their sum.
         0 reads in the caller's thread.
         """
-        source = _ReadAhead(self._batches, read_ahead) if read_ahead > 0 else self._batches
+        source = (_ReadAhead(self._batches, read_ahead, self.cancel) if read_ahead > 0
+                  else self._batches)
         try:
             for b in source:
                 yield b.replace_schema_metadata(None) if b.schema.metadata else b
@@ -280,10 +302,8 @@ class InputStream:
             msg = f"{self.source}: truncated or corrupt {self.format} data ({_short(exc)})"
             raise DataError(msg) from None
         finally:
-            if isinstance(source, _ReadAhead):
-                source.close()
-                if not source.finished():
-                    self._closer = None  # the reader may still be in a read: leave the file
+            if isinstance(source, _ReadAhead) and not source.stop():
+                self._closer = None  # the reader is still in a read: leave the file to it
             self.close()
 
     def read_all(self) -> pa.Table:
@@ -386,8 +406,18 @@ def enlarge_pipe(f: Any, size: int = PIPE_BUFFER) -> int | None:
 
 
 def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
-    """A stream from a pipe: Arrow IPC streams as they come, other formats buffered."""
+    """A stream from a pipe: Arrow IPC streams as they come, other formats buffered.
+
+    A pipe behind a fresh buffered reader (stdin, a FIFO just opened) is read through
+    its unbuffered file, so that the read-ahead thread can wait on it and be stopped.
+    """
+    import threading
+
     enlarge_pipe(raw)
+    under = getattr(raw, "raw", None)
+    cancel = None
+    if isinstance(under, io.FileIO) and _is_fifo(under):
+        raw, cancel = under, threading.Event()
     prefix = _read_fully(raw, 8)
     if not prefix:
         msg = f"{source}: no input (empty stream); was the command before it in the pipe ok?"
@@ -396,10 +426,21 @@ def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
     if fmt is None:
         raise DataError(_unknown_bytes(source, prefix))
     if fmt == "arrows":
-        return _open_arrows(io.BufferedReader(_Prefixed(prefix, raw), buffer_size=1 << 20),
-                            source)
+        stream = _open_arrows(io.BufferedReader(_Prefixed(prefix, raw, cancel),
+                                                buffer_size=1 << 20), source)
+        stream.cancel = cancel
+        return stream
     data = prefix + raw.read()  # needs seeking: buffer in memory
     return _open_seekable(io.BytesIO(data), fmt, source)
+
+
+def _is_fifo(f: IO[bytes]) -> bool:
+    import stat
+
+    try:
+        return stat.S_ISFIFO(os.fstat(f.fileno()).st_mode)
+    except (OSError, ValueError, io.UnsupportedOperation):
+        return False
 
 
 def _validated(stream: InputStream, expect: str | tuple[str, ...] | None) -> InputStream:

@@ -94,3 +94,48 @@ def test_interp_check_refuses_a_long_run(tmp_path) -> None:
     assert len(err) == 1 and err[0].startswith("enc interp-check: error:")
     assert "sweep" in err[0] and "1,000,000" in err[0]
     assert not out.exists()
+
+
+WRITE_THEN_STALL = """
+import sys, time
+import pyarrow as pa, pyarrow.parquet as pq
+t = pq.read_table(sys.argv[1])
+bad = t.slice(0, 30000)
+tcol = bad.column("t").to_numpy().copy()
+tcol[20000] = float("nan")
+bad = bad.set_column(bad.schema.get_field_index("t"), bad.schema.field("t"), pa.array(tcol))
+with pa.ipc.new_stream(sys.stdout.buffer, t.schema) as w:
+    w.write_table(t.slice(0, 20000))
+    w.write_table(bad)
+    sys.stdout.buffer.flush()
+    time.sleep(60)  # the writer goes quiet, the pipe stays open
+"""
+
+
+@pytest.mark.parametrize("command", ["compare --device H1 --ref P1", "selfcal"])
+def test_an_error_mid_stream_ends_at_once_while_the_writer_is_quiet(
+        tmp_path, sjtu_raw, command: str) -> None:
+    """Bad data after the first batch, then a writer that neither writes nor closes: the
+    filter reports it (one line, exit 2) within seconds, its read-ahead thread stopped
+    (no abort at exit, no wait for the writer)."""
+    import subprocess
+    import time
+
+    from conftest import enc_exe
+
+    writer = tmp_path / "writer.py"
+    writer.write_text(WRITE_THEN_STALL)
+    w = subprocess.Popen([sys.executable, str(writer), str(sjtu_raw)], stdout=subprocess.PIPE)
+    try:
+        t0 = time.monotonic()
+        r = subprocess.run([enc_exe(), *command.split(), "-o", str(tmp_path / "out.parquet")],
+                           stdin=w.stdout, capture_output=True, timeout=50)
+        took = time.monotonic() - t0
+    finally:
+        w.kill()
+        w.wait()
+    err = r.stderr.decode()
+    assert r.returncode == 2, err
+    assert "NaN" in err and "Traceback" not in err and "terminate" not in err, err
+    assert not (tmp_path / "out.parquet").exists()
+    assert took < 30  # not waiting for the writer's 60 s
