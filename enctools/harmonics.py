@@ -24,6 +24,8 @@ Units: angles in rad; a channel's coefficients carry the channel's unit.
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -49,12 +51,13 @@ def head_reading(counts: np.ndarray, counts_per_rev: int, zero_count: int,
 
 def trapezoid_weights(x: np.ndarray) -> np.ndarray:
     """Trapezoid-rule weights [rad] of samples at ``x`` [rad] (monotonic either way)."""
-    dx = np.abs(np.diff(x))
-    w = np.empty_like(x)
-    w[0] = dx[0] / 2
-    w[-1] = dx[-1] / 2
-    np.add(dx[:-1], dx[1:], out=w[1:-1])
+    w = np.empty_like(x, dtype=np.float64)
+    np.subtract(x[2:], x[:-2], out=w[1:-1])
     w[1:-1] *= 0.5
+    w[0] = (x[1] - x[0]) * 0.5
+    w[-1] = (x[-1] - x[-2]) * 0.5
+    if x[-1] < x[0]:
+        np.negative(w, out=w)
     return w
 
 
@@ -101,8 +104,8 @@ def _direct_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray, band: int) -> np.n
     return (e @ v.T).T
 
 
-#: truncation of the local expansion: the first neglected term is below this (relative)
-_TAYLOR_EPS = 2.0 ** -56
+#: truncation of the local expansion: its first neglected term is below the unit roundoff
+_TAYLOR_EPS = 2.0 ** -53
 #: angle bins per harmonic kept (bin half-width h = pi / B: K h <= pi / 16) ...
 BINS_PER_HARMONIC = 16
 #: ... and at most about this many samples per bin (finer sampling: more, narrower bins)
@@ -110,12 +113,23 @@ SAMPLES_PER_BIN = 16
 
 
 def _taylor_terms(z: float) -> int:
-    """Terms P of the series of exp(-i z s), |s| <= 1, whose first neglected one is < 2^-56."""
+    """Terms P of the series of exp(-i z s), |s| <= 1, whose first neglected one is < 2^-53."""
     terms, last = 1, 1.0
     while last > _TAYLOR_EPS or terms <= z:
         last *= z / terms
         terms += 1
     return terms
+
+
+@functools.lru_cache(maxsize=8)
+def _expansion(band: int, h: float, terms: int) -> np.ndarray:
+    """``(-i n h)^p / p!`` for p < P (rows) and n = 0..K (columns), times exp(-i n h)."""
+    n = np.arange(band + 1, dtype=np.float64)
+    fact = np.array([math.factorial(k) for k in range(terms)], dtype=np.float64)
+    t = (-1j * h * n) ** np.arange(terms)[:, None] / fact[:, None]
+    t *= np.exp(-1j * h * n)  # exp(-i n x_b) = exp(-2 pi i n b / B) exp(-i n h)
+    t.flags.writeable = False
+    return t
 
 
 def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
@@ -127,16 +141,14 @@ def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     x_b = (2 b + 1) h); in bin b
     ``exp(-i n x_j) = exp(-i n x_b) sum_p (-i n h)^p / p! s_j^p`` with
     ``s_j = (x_j - x_b) / h`` in [-1, 1], summed to P terms so that the first
-    neglected one, ``(K h)^P / P!``, is below 2^-56: only rounding is left. What the
-    samples contribute are the moments ``M_pcb = sum_(j in b) w_j v_cj s_j^p``;
-    ``sum_b M_pcb exp(-i n x_b)`` is then a real FFT of length B, the centres being
-    equally spaced. Per revolution: P passes over the samples and P FFTs, against
-    (K + 1) complex exponentials per sample for the direct sum. Returns None where
-    this does not pay (few samples) or the sampling is too uneven for the padded
-    bin layout (a long stop).
+    neglected one, ``(K h)^P / P!``, is below the unit roundoff: only rounding is
+    left. What the samples contribute are the moments
+    ``M_pcb = sum_(j in b) w_j v_cj s_j^p``; ``sum_b M_pcb exp(-i n x_b)`` is then a
+    real FFT of length B, the centres being equally spaced. Per revolution: P passes
+    over the samples and P FFTs, against (K + 1) complex exponentials per sample for
+    the direct sum. Returns None where this does not pay (few samples) or the
+    sampling is too uneven for the padded bin layout (a long stop).
     """
-    import math
-
     s1 = x.size
     if band == 0:
         return (v @ w)[:, None].astype(np.complex128)
@@ -148,13 +160,16 @@ def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
         x, v, w = x[::-1] + TWO_PI, v[:, ::-1], w[::-1]
     h = math.pi / nb
     terms = _taylor_terms(band * h)
-    # the bin of every sample, and s = (x - x_b) / h
-    bf = np.floor(x * (0.5 / h))
-    np.clip(bf, 0, nb - 1, out=bf)
-    s = bf * (-2.0 * h)
-    s += x - h
-    s *= 1.0 / h
-    b = bf.astype(np.intp)
+    # the bin of every sample (x >= 0 up to rounding: truncation is the floor) ...
+    pos = x * (0.5 / h)
+    b = pos.astype(np.intp)
+    if b[0] < 0 or b[-1] >= nb:  # the ends, on 0 and 2 pi, rounded outside
+        np.clip(b, 0, nb - 1, out=b)
+    # ... and s = (x - x_b) / h = 2 (pos - b) - 1
+    s = pos
+    s -= b
+    s *= 2.0
+    s -= 1.0
     counts = np.bincount(b, minlength=nb)
     width = int(counts.max())
     if nb * width > 4 * s1 + 4096:
@@ -179,12 +194,7 @@ def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     moments = np.einsum("clb,plb->pcb", g.reshape(c, width, nb),
                         spow.reshape(terms, width, nb))  # (P, C, B)
     f = np.fft.rfft(moments, axis=-1)[..., : band + 1]  # sum_b M exp(-2 pi i n b / B)
-    n = np.arange(band + 1, dtype=np.float64)
-    fact = np.array([math.factorial(k) for k in range(terms)], dtype=np.float64)
-    t = (-1j * h * n) ** np.arange(terms)[:, None] / fact[:, None]  # (P, K+1)
-    out = np.einsum("pcn,pn->cn", f, t)
-    out *= np.exp(-1j * h * n)  # exp(-i n x_b) = exp(-2 pi i n b / B) exp(-i n h)
-    return out
+    return np.einsum("pcn,pn->cn", f, _expansion(band, h, terms))
 
 
 @dataclass
