@@ -98,6 +98,9 @@ def main(argv: list[str] | None = None) -> None:
     if "_ENC_COMPLETE" in os.environ:  # shell completion: click's own entry point
         cli.main(args=args, prog_name="enc", complete_var="_ENC_COMPLETE")
     debug = "--debug" in args or os.environ.get("ENC_DEBUG", "") not in ("", "0")
+    from ..pipeline_tuning import one_blas_thread
+
+    one_blas_thread()  # before any command imports numpy
 
     def invoke() -> Any:
         # make_context + invoke rather than cli.main: click's own handling of a closed
