@@ -463,15 +463,53 @@ def mean_reading(batch: object, heads: tuple[HeadInfo, ...], source: str = "inpu
     return out
 
 
+@dataclass
+class BatchChannels:
+    """One readings batch as :func:`revolution_spectra` reads it (see :func:`batch_channels`).
+
+    ``t`` [s]; ``u``: the angle coordinate [rad]; ``values``: (C, S) channels minus u
+    [rad]; ``t_rising``: t increases strictly within the batch; ``u_sense``: +1 or -1
+    when u rises or falls strictly within the batch, else 0.
+    """
+
+    t: np.ndarray
+    u: np.ndarray
+    values: np.ndarray
+    t_rising: bool
+    u_sense: int
+
+
+def batch_channels(batch: object, spec: ChannelSpec, source: str = "input") -> BatchChannels | None:
+    """The per-batch half of :func:`revolution_spectra` (None for an empty batch).
+
+    It needs nothing of the batches before it, so a reader thread can run it
+    (``InputStream.batches(prepare=...)``) while the revolutions are analysed.
+    """
+    n = batch.num_rows  # type: ignore[attr-defined]
+    if n == 0:
+        return None
+    t = _column(batch, "t", source)
+    u = mean_reading(batch, spec.coordinate, source)
+    if spec.mean:
+        values = mean_reading(batch, spec.channels, source, minus=u)[None, :]
+    else:
+        values = np.empty((len(spec.channels), n))
+        for i, h in enumerate(spec.channels):
+            values[i] = mean_reading(batch, (h,), source, minus=u)
+    sense = 1 if bool(np.all(u[1:] > u[:-1])) else -1 if bool(np.all(u[1:] < u[:-1])) else 0
+    return BatchChannels(t, u, values, bool(np.all(t[1:] > t[:-1])), sense if n > 1 else 0)
+
+
 def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
                        source: str = "input", progress: object = None,
                        grid_points: int = 0) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
     """Per revolution of the coordinate, the spectra of each channel's error [rad].
 
-    Reads readings batches (Arrow) one at a time; for each channel k yields the
-    coefficients c_0..c_band of ``h_k(u) - u``, u the mean reading of the coordinate
-    heads (:func:`head_reading`). Checks that ``t`` increases strictly and that the
-    coordinate moves one way; nulls and NaN are errors. Memory holds one revolution.
+    Reads readings batches (Arrow, or :class:`BatchChannels` made from them ahead of
+    time) one at a time; for each channel k yields the coefficients c_0..c_band of
+    ``h_k(u) - u``, u the mean reading of the coordinate heads (:func:`head_reading`).
+    Checks that ``t`` increases strictly and that the coordinate moves one way; nulls
+    and NaN are errors. Memory holds one revolution.
 
     Yields ``(index, coefficients (C, band + 1), binned)``; ``binned`` is the
     (C, grid_points) bin average of the revolution when ``grid_points`` > 0.
@@ -479,28 +517,24 @@ def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
     splitter = RevolutionSplitter()
     last_t = -np.inf
     last_u: float | None = None
-    direction = 0.0
+    direction = 0
     spacing = np.inf
-    for batch in batches:
-        n = batch.num_rows  # type: ignore[attr-defined]
-        if n == 0:
+    for item in batches:
+        b = item if isinstance(item, BatchChannels) else batch_channels(item, spec, source)
+        if b is None:
             continue
-        t = _column(batch, "t", source)
-        if not (t[0] > last_t and bool(np.all(t[1:] > t[:-1]))):
+        t, u, n = b.t, b.u, b.u.size
+        if not (t[0] > last_t and b.t_rising):
             where = int(np.argmax(np.diff(np.concatenate([[last_t], t])) <= 0))
             msg = (f"{source}: time t does not increase at sample {where} of a batch; "
                    "is this a continuous run, sorted by time?")
             raise DataError(msg)
         last_t = float(t[-1])
-        u = mean_reading(batch, spec.coordinate, source)
         first = u[0] if last_u is None else last_u
-        if direction == 0.0 and u[-1] != first:
-            direction = 1.0 if u[-1] > first else -1.0
-        steady = (u[0] > first if direction > 0 else u[0] < first) or last_u is None
-        if direction != 0.0:
-            steady = steady and bool(np.all(u[1:] > u[:-1]) if direction > 0
-                                     else np.all(u[1:] < u[:-1]))
-        if not steady or (direction == 0.0 and n > 1):
+        if direction == 0 and u[-1] != first:
+            direction = 1 if u[-1] > first else -1
+        steady = last_u is None or (u[0] > first if direction > 0 else u[0] < first)
+        if not steady or (n > 1 and (direction == 0 or b.u_sense != direction)):
             names = ", ".join(h.name for h in spec.coordinate)
             msg = (f"{source}: the angle coordinate (mean of {names}) stands still or turns "
                    "back; self-calibration and comparison need a continuous run in one direction")
@@ -510,13 +544,7 @@ def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
         if n > 1:  # the mean step over the batch
             spacing = abs(float(u[-1] - u[0])) / (n - 1)
         last_u = float(u[-1])
-        if spec.mean:
-            values = mean_reading(batch, spec.channels, source, minus=u)[None, :]
-        else:
-            values = np.empty((len(spec.channels), n))
-            for i, h in enumerate(spec.channels):
-                values[i] = mean_reading(batch, (h,), source, minus=u)
-        for rev in splitter.feed(u, values):
+        for rev in splitter.feed(u, b.values):
             yield _analyse(rev, band, grid_points)
             if progress is not None:
                 progress(rev.index + 1)  # type: ignore[operator]

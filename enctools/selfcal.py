@@ -442,7 +442,9 @@ def run(source: "InputStream", settings: dict, progress: object = None
 
     from .curves import Column, deviations_table, spectrum_table
     from .errors import DataError
-    from .harmonics import ChannelSpec, grid, revolution_spectra
+    from functools import partial
+
+    from .harmonics import ChannelSpec, batch_channels, grid, revolution_spectra
 
     log = logging.getLogger("enctools")
     if source.meta.get("mode") not in (None, "continuous"):
@@ -467,7 +469,9 @@ def run(source: "InputStream", settings: dict, progress: object = None
         if progress is not None:
             progress(done, max(total, done))  # type: ignore[operator]
 
-    revs = revolution_spectra(source.batches(), spec, p.method.band, source.source, tick)
+    # the per-batch half runs on the reader thread, the revolutions here
+    batches = source.batches(prepare=partial(batch_channels, spec=spec, source=source.source))
+    revs = revolution_spectra(batches, spec, p.method.band, source.source, tick)
     res = calibrate(revs, p.method, np.array([h.alpha for h in p.coordinate]), points,
                     [h.name for h in p.coordinate])
     log.info("%s: %d revolutions of %s, harmonics 1..%d", p.method.name, res.revolutions,

@@ -22,7 +22,7 @@ import re
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -139,6 +139,7 @@ class _Prefixed(io.RawIOBase):
         self._prefix = prefix
         self._rest = rest
         self._cancel = cancel
+        self.owner: Any = None  # an object to keep alive as long as this file
         self._poll: Any = None
         if cancel is not None:
             import select
@@ -258,6 +259,11 @@ class _ReadAhead:
         return not self._thread.is_alive()
 
 
+def _clean(b: pa.RecordBatch) -> pa.RecordBatch:
+    """A batch without schema metadata (the header carries it)."""
+    return b.replace_schema_metadata(None) if b.schema.metadata else b
+
+
 class InputStream:
     """An open input stream: ``header`` now, ``batches()`` once, or ``read_all()``."""
 
@@ -283,19 +289,23 @@ class InputStream:
     def meta(self) -> dict[str, Any]:
         return self.header.meta
 
-    def batches(self, read_ahead: int = READ_AHEAD) -> Iterator[pa.RecordBatch]:
+    def batches(self, read_ahead: int = READ_AHEAD,
+                prepare: Callable[[pa.RecordBatch], Any] | None = None) -> Iterator[Any]:
         """The record batches, in order (a truncated stream raises DataError).
 
         ``read_ahead`` batches are read on a thread while the caller works on the
         current one (reading a pipe or decoding releases the GIL): a filter then
         costs about the larger of its reading and its computing, not their sum.
-        0 reads in the caller's thread.
+        0 reads in the caller's thread. ``prepare``: a function of a batch run on
+        that thread too (per-batch numpy work, which also releases the GIL); its
+        results are yielded instead of the batches, its exceptions raised here.
         """
-        source = (_ReadAhead(self._batches, read_ahead, self.cancel) if read_ahead > 0
-                  else self._batches)
+        items: Iterator[Any] = (_clean(b) for b in self._batches)
+        if prepare is not None:
+            items = map(prepare, items)
+        source = _ReadAhead(items, read_ahead, self.cancel) if read_ahead > 0 else items
         try:
-            for b in source:
-                yield b.replace_schema_metadata(None) if b.schema.metadata else b
+            yield from source
         except _DECODE_ERRORS as exc:
             if isinstance(exc, BrokenPipeError):
                 raise
@@ -415,9 +425,10 @@ def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
 
     enlarge_pipe(raw)
     under = getattr(raw, "raw", None)
-    cancel = None
+    cancel, owner = None, None
     if isinstance(under, io.FileIO) and _is_fifo(under):
-        raw, cancel = under, threading.Event()
+        # the buffered reader is kept alive with the stream: collected, it closes its file
+        owner, raw, cancel = raw, under, threading.Event()
     prefix = _read_fully(raw, 8)
     if not prefix:
         msg = f"{source}: no input (empty stream); was the command before it in the pipe ok?"
@@ -426,8 +437,9 @@ def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
     if fmt is None:
         raise DataError(_unknown_bytes(source, prefix))
     if fmt == "arrows":
-        stream = _open_arrows(io.BufferedReader(_Prefixed(prefix, raw, cancel),
-                                                buffer_size=1 << 20), source)
+        wrapped = _Prefixed(prefix, raw, cancel)
+        wrapped.owner = owner
+        stream = _open_arrows(io.BufferedReader(wrapped, buffer_size=1 << 20), source)
         stream.cancel = cancel
         return stream
     data = prefix + raw.read()  # needs seeking: buffer in memory
