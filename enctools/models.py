@@ -116,6 +116,12 @@ def curve_model(header: Any, table: pa.Table, source: str, curve: str | None) ->
     if ok.sum() < 2:
         msg = f"{source}: curve {curve!r} has fewer than 2 finite points"
         raise DataError(msg)
+    if not ok.all():
+        import logging
+
+        logging.getLogger("enctools").warning(
+            "%s: curve %r has %d of %d points NaN (e.g. empty angle bins); the table "
+            "interpolates across them", source, curve, int((~ok).sum()), ok.size)
     th = np.mod(theta[ok], TWO_PI) / DEG
     order = np.argsort(th)
     return CurveModel(th[order], values[ok][order], curve)

@@ -137,6 +137,26 @@ def test_deviations_curve_as_model(tmp_path):
     assert np.abs(v - (-3.0 * np.sin(2 * x) / lsb)).max() < 0.5 + 1e-3  # + linear interpolation
 
 
+def test_a_curve_with_empty_bins_is_interpolated_with_a_warning(tmp_path):
+    """NaN points of a curve (empty angle bins of compare --band 0) are bridged, and said so."""
+    theta = np.arange(360) * 2 * np.pi / 360
+    y = 3.0 * np.sin(theta)
+    y[[10, 11, 200]] = np.nan
+    schema = pa.schema([make_field("theta", pa.float64(), "rad"),
+                        make_field("A", pa.float64(), "arcsec", "deviation")])
+    streams.write_table(str(tmp_path / "d.parquet"), streams.Header("deviations", schema, {}),
+                        pa.table([theta, y], schema=schema))
+    r = run(f"enc make-rom {tmp_path}/d.parquet --bits 16 --width 16 --lsb 0.001 "
+            f"-o {tmp_path}/d.bin")
+    assert r.returncode == 0, r.stderr.decode()
+    assert "3 of 360 points NaN" in r.stderr.decode()
+    lsb = 0.001 * 1_296_000 / 2 ** 16  # arcsec
+    v = np.fromfile(tmp_path / "d.bin", dtype="<i2") * lsb
+    x = np.arange(v.size) * 2 * np.pi / v.size
+    # half an LSB + linear interpolation across a 3 deg gap of a 3" sine (< 0.002")
+    assert np.abs(v - (-3.0 * np.sin(x))).max() < lsb / 2 + 0.002
+
+
 def test_rom_stream_output(model_file):
     r = run(f"enc make-rom {model_file} --bits 23 --address-bits 10 -q | enc info")
     assert r.returncode == 0, r.stderr.decode()
