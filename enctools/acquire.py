@@ -125,7 +125,7 @@ def check(s: Settings) -> None:
 
 
 def samples_total(s: Settings) -> int:
-    """Samples of a continuous run: revolutions x (60 / speed) / interval."""
+    """Samples (count) of a continuous run: revolutions x (60 / speed [r/min]) / interval [s]."""
     return int(round(s.revolutions * 60.0 / abs(s.speed_rpm) / s.interval_s))
 
 

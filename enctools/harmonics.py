@@ -343,16 +343,17 @@ class RunningMean:
 
 
 def band_limit(coefficients: np.ndarray, band: int) -> np.ndarray:
-    """Coefficients with the harmonics above ``band`` set to zero (last axis = n)."""
+    """Coefficients (any unit) with the harmonics above ``band`` set to zero (last axis = n)."""
     c = np.array(coefficients, dtype=np.complex128, copy=True)
     c[..., band + 1:] = 0
     return c
 
 
 def synthesize(coefficients: np.ndarray, points: int) -> np.ndarray:
-    """Curves ``Re(sum_n c_n exp(i n theta))`` on the grid theta_j = 2 pi j / points.
+    """Curves ``Re(sum_n c_n exp(i n theta))`` on the grid theta_j = 2 pi j / points [rad].
 
-    ``coefficients``: (..., K + 1); returns (..., points). Needs points > 2 K.
+    ``coefficients``: (..., K + 1) in the curve's unit (arcsec, rad, nm); returns
+    (..., points) in that unit. Needs points > 2 K.
     """
     c = np.asarray(coefficients, dtype=np.complex128)
     k = c.shape[-1] - 1
@@ -366,7 +367,7 @@ def synthesize(coefficients: np.ndarray, points: int) -> np.ndarray:
 
 
 def analyse(curve: np.ndarray, band: int) -> np.ndarray:
-    """Coefficients c_0..c_band of a curve sampled on a uniform grid over 2 pi."""
+    """Coefficients c_0..c_band (the curve's unit) of a curve on a uniform grid over 2 pi [rad]."""
     y = np.asarray(curve, dtype=np.float64)
     m = y.shape[-1]
     if band >= m / 2:

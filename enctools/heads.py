@@ -39,14 +39,16 @@ def average_transfer(alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
 def radial_gain(alphas: np.ndarray) -> float:
     """How much of the radial motion an average keeps: |mean_k exp(i alpha_k)|.
 
-    The average's reading moves by ``[x <sin alpha> - y <cos alpha>] / R``; 0 means
-    radial motion cancels (equal spacing, N >= 2), 1 a single head.
+    ``alphas``: the heads' nominal angles [rad]. The average's reading moves by
+    ``[x <sin alpha> - y <cos alpha>] / R`` [rad] for radial motion x, y [m] at radius
+    R [m]; the gain (dimensionless) is 0 where radial motion cancels (equal spacing,
+    N >= 2), 1 for a single head.
     """
     return float(abs(np.exp(1j * np.asarray(alphas, dtype=np.float64)).mean()))
 
 
 def difference_transfer(alpha_k: float, alpha_j: float, n: np.ndarray) -> np.ndarray:
-    """W_kj(n) = exp(i n alpha_k) - exp(i n alpha_j) of the difference H_k - H_j."""
+    """W_kj(n) = exp(i n alpha_k) - exp(i n alpha_j) (dimensionless) of H_k - H_j; alphas [rad]."""
     n = np.asarray(n, dtype=np.float64)
     return np.exp(1j * n * alpha_k) - np.exp(1j * n * alpha_j)
 

@@ -108,7 +108,8 @@ def from_stream(header: Any, table: pa.Table, source: str = "input",
 
 
 def curve_model(header: Any, table: pa.Table, source: str, curve: str | None) -> CurveModel:
-    """A deviations curve as a model: periodic linear interpolation on its grid."""
+    """A deviations curve as a model: periodic linear interpolation of its values [arcsec]
+    on its grid (theta [rad], kept in deg); NaN points are bridged with a warning."""
     curve = column_with_role(header.schema, "deviation", curve, source, "--curve")
     theta = table.column("theta").to_numpy().astype(np.float64)
     values = table.column(curve).to_numpy().astype(np.float64)

@@ -64,6 +64,7 @@ class RomSpec:
 
     @property
     def lsb_arcsec(self) -> float:
+        """One step of a table entry [arcsec]: ``lsb`` encoder counts of count_arcsec."""
         return self.count_arcsec * self.lsb
 
     @property

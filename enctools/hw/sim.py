@@ -205,7 +205,8 @@ class VirtualRig(Session):
         return reading, phase
 
     def counts(self, enc: Encoder, head_index: int, reading: np.ndarray) -> np.ndarray:
-        """Raw counter values: quantised, zeroed near the head, wrapped to counter_bits."""
+        """Raw counter values [count] of a reading [rad]: quantised, zeroed near the head, wrapped
+        to counter_bits."""
         h = enc.heads[head_index]
         c = np.rint((reading + h.angle) * (enc.counts_per_rev / TWO_PI)).astype(np.int64)
         c -= zero_count(enc, h.angle)
