@@ -84,8 +84,8 @@ def compare(revolutions: Any, band: int, points: int,
     return Comparison(None, None, y, curve.sem(), curve.count)
 
 
-def reference_error(curve_header: "Header", curve_table: "pa.Table", column: str | None,
-                    ref_fields: list["pa.Field"], band: int, source: str) -> np.ndarray:
+def reference_error(curve_header: Header, curve_table: pa.Table, column: str | None,
+                    ref_fields: list[pa.Field], band: int, source: str) -> np.ndarray:
     """Coefficients c_0..c_K [arcsec] of the reference channel's error from a calibrated curve.
 
     A curve of a scale (field metadata ``argument = scale angle``, as enc selfcal
@@ -136,14 +136,14 @@ def reference_error(curve_header: "Header", curve_table: "pa.Table", column: str
     return total
 
 
-def run(source: "InputStream", device: list[str], ref: list[str], band: int, points: int,
-        name: str | None, ref_curve: tuple["Header", "pa.Table", str] | None,
+def run(source: InputStream, device: list[str], ref: list[str], band: int, points: int,
+        name: str | None, ref_curve: tuple[Header, pa.Table, str] | None,
         ref_column: str | None, progress: Any = None
-        ) -> tuple[tuple["Header", "pa.Table"], tuple["Header", "pa.Table"] | None]:
+        ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
     """A readings stream in; the deviations (and, band-limited, spectrum) of device - reference."""
-    from .curves import Column, deviations_table, spectrum_table
     from functools import partial
 
+    from .curves import Column, deviations_table, spectrum_table
     from .harmonics import ChannelSpec, batch_channels, grid, revolution_spectra
     from .readings import head_info
 

@@ -150,8 +150,8 @@ def default_name(heads: list[str] | tuple[str, ...], taken: set[str]) -> str:
     return name
 
 
-def average_field(schema: "pa.Schema", group: AverageGroup, band: int = 100,
-                  source: str = "input") -> "pa.Field":
+def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
+                  source: str = "input") -> pa.Field:
     """The head field of an average of heads: exact integer sum of their counts.
 
     The new column holds ``sum_k (counts_k)`` with ``counts_per_rev = N * cpr``,
@@ -196,7 +196,7 @@ def average_field(schema: "pa.Schema", group: AverageGroup, band: int = 100,
                       radial_gain=f"{s.radial_gain:.3g}" if s.radial_gain > 1e-12 else "0")
 
 
-def average_column(batch: "pa.RecordBatch", group: AverageGroup) -> "pa.Array":
+def average_column(batch: pa.RecordBatch, group: AverageGroup) -> pa.Array:
     """The summed counts of the group's heads in one batch (int64, exact)."""
     import pyarrow as pa
     import pyarrow.compute as pc
@@ -207,7 +207,7 @@ def average_column(batch: "pa.RecordBatch", group: AverageGroup) -> "pa.Array":
     return total if total.type == pa.int64() else total.cast(pa.int64())
 
 
-def head_alphas(field: "pa.Field") -> np.ndarray:
+def head_alphas(field: pa.Field) -> np.ndarray:
     """The angles [rad] of the heads behind a head column: one, or those it averages."""
     from .schemas import field_meta
 
@@ -217,8 +217,8 @@ def head_alphas(field: "pa.Field") -> np.ndarray:
     return np.radians([float(fm["alpha_deg"])])
 
 
-def run(source: "InputStream", groups: list[tuple[str | None, list[str]]], band: int,
-        drop: bool = False) -> tuple["Header", "Iterator[pa.RecordBatch]"]:
+def run(source: InputStream, groups: list[tuple[str | None, list[str]]], band: int,
+        drop: bool = False) -> tuple[Header, Iterator[pa.RecordBatch]]:
     """A readings stream in; the same stream with the averaged channels added, batch by batch.
 
     ``groups``: (name or None, heads). Empty: each encoder's measuring heads
@@ -266,7 +266,7 @@ def run(source: "InputStream", groups: list[tuple[str | None, list[str]]], band:
                                      if k in ("settings", "mode")})
     header.meta["averages"] = {g.name: list(g.heads) for g in resolved}
 
-    def batches() -> "Iterator[pa.RecordBatch]":
+    def batches() -> Iterator[pa.RecordBatch]:
         for b in source.batches():
             cols = [b.column(f.name) for f in keep] + [average_column(b, g) for g in resolved]
             yield pa.RecordBatch.from_arrays(cols, schema=out_schema)

@@ -27,7 +27,7 @@ def describe(stream: InputStream) -> str:
         unit = fm.pop("unit", "")
         role = fm.pop("role", "")
         extra = ", ".join(f"{k}={v}" for k, v in fm.items())
-        desc = f"    {f.name:<12} {str(f.type):<8} [{unit}]"
+        desc = f"    {f.name:<12} {f.type!s:<8} [{unit}]"
         if role:
             desc += f" {role}"
         if extra:

@@ -350,12 +350,12 @@ class Plan:
     """Which heads a self-calibration reads, and how: resolved from a readings header."""
 
     method: Method
-    heads: list["HeadInfo"]          # reference first
-    coordinate: list["HeadInfo"]
+    heads: list[HeadInfo]          # reference first
+    coordinate: list[HeadInfo]
     encoder: str
 
 
-def plan(schema: "pa.Schema", meta: dict, method: str | None, ref: str | None,
+def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
          heads: list[str] | None, angle_from: list[str] | None, band: int,
          min_transfer: float = MIN_TRANSFER, source: str = "input") -> Plan:
     """Resolve the method, reference head, other heads and angle coordinate.
@@ -430,8 +430,8 @@ def plan(schema: "pa.Schema", meta: dict, method: str | None, ref: str | None,
     return Plan(m, chosen, coordinate, encoder)
 
 
-def run(source: "InputStream", settings: dict, progress: object = None
-        ) -> tuple[tuple["Header", "pa.Table"], tuple["Header", "pa.Table"]]:
+def run(source: InputStream, settings: dict, progress: object = None
+        ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table]]:
     """A readings stream in, (deviations, spectrum) headers and tables out.
 
     ``settings``: method, ref, heads, angle_from, band, points, min_transfer, strict
@@ -439,11 +439,10 @@ def run(source: "InputStream", settings: dict, progress: object = None
     ill-conditioned harmonics before reading any data.
     """
     import logging
+    from functools import partial
 
     from .curves import Column, deviations_table, spectrum_table
     from .errors import DataError
-    from functools import partial
-
     from .harmonics import ChannelSpec, batch_channels, grid, revolution_spectra
 
     log = logging.getLogger("enctools")

@@ -74,7 +74,7 @@ class Header:
         return self.schema.with_metadata({KIND_KEY: self.kind.encode(),
                                           META_KEY: json.dumps(meta).encode()})
 
-    def derive(self, kind: str, schema: pa.Schema, **meta: Any) -> "Header":
+    def derive(self, kind: str, schema: pa.Schema, **meta: Any) -> Header:
         """A header for a command's output: keeps rig, truth and history, sets the rest."""
         keep = {k: v for k, v in self.meta.items() if k in ("rig", "truth", "history")}
         keep.update(meta)
@@ -240,7 +240,7 @@ class _ReadAhead:
         except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
             self._put(_Failed(exc))
 
-    def __iter__(self) -> "_ReadAhead":
+    def __iter__(self) -> _ReadAhead:
         return self
 
     def __next__(self) -> Any:
@@ -328,7 +328,7 @@ class InputStream:
                 pass
             self._closer = None
 
-    def __enter__(self) -> "InputStream":
+    def __enter__(self) -> InputStream:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -696,7 +696,7 @@ class OutputStream:
                 pass
         self._discard()
 
-    def __enter__(self) -> "OutputStream":
+    def __enter__(self) -> OutputStream:
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:

@@ -73,8 +73,8 @@ class Series:
                 c[int(f)] += a - 1j * b
         return c
 
-    def band(self, keep: "np.ndarray | list[int] | None" = None, n_max: int | None = None,
-             multiple_of: int | None = None, synchronous: bool | None = None) -> "Series":
+    def band(self, keep: np.ndarray | list[int] | None = None, n_max: int | None = None,
+             multiple_of: int | None = None, synchronous: bool | None = None) -> Series:
         """A new series with only the selected terms.
 
         ``keep``: explicit integer frequencies; ``n_max``: frequencies up to n_max;
@@ -93,7 +93,7 @@ class Series:
             mask &= integer if synchronous else ~integer
         return Series(self.freq[mask], self.a[mask], self.b[mask])
 
-    def shifted(self, alpha: float) -> "Series":
+    def shifted(self, alpha: float) -> Series:
         """The series of ``x -> self(x + alpha)`` (alpha in rad)."""
         c = (self.a - 1j * self.b) * np.exp(1j * self.freq * alpha)
         return Series(self.freq, c.real, -c.imag)
@@ -102,11 +102,11 @@ class Series:
         return {"freq": self.freq.tolist(), "a": self.a.tolist(), "b": self.b.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Series":
+    def from_dict(cls, d: dict[str, Any]) -> Series:
         return cls(np.asarray(d["freq"]), np.asarray(d["a"]), np.asarray(d["b"]))
 
     @classmethod
-    def empty(cls) -> "Series":
+    def empty(cls) -> Series:
         return cls(np.zeros(0), np.zeros(0), np.zeros(0))
 
 
@@ -128,7 +128,7 @@ class SignalFaults:
                 "ratio": self.ratio, "phase": self.phase}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "SignalFaults":
+    def from_dict(cls, d: dict[str, Any]) -> SignalFaults:
         return cls(float(d["offset_cos"]), float(d["offset_sin"]), float(d["ratio"]),
                    float(d["phase"]))
 
@@ -180,7 +180,7 @@ class Motion:
                 "jitter_phase": list(map(float, self.jitter_phase)), "t0": self.t0}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Motion":
+    def from_dict(cls, d: dict[str, Any]) -> Motion:
         return cls(float(d["theta0"]), float(d["omega"]), np.asarray(d["jitter_amp"]),
                    np.asarray(d["jitter_freq"]), np.asarray(d["jitter_phase"]),
                    float(d.get("t0", 0.0)))
@@ -212,7 +212,7 @@ class Truth:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Truth":
+    def from_dict(cls, d: dict[str, Any]) -> Truth:
         known = {"graduation", "radial", "signals", "polygon", "motion"}
         return cls(
             graduation={k: Series.from_dict(s) for k, s in d.get("graduation", {}).items()},

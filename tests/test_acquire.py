@@ -5,13 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pyarrow as pa
 import pytest
+from conftest import run
 
 from enctools import streams
 from enctools.readings import head_info
 from enctools.truth import Truth, signal_phase_error
 from enctools.units import ARCSEC, TWO_PI
-
-from conftest import run
 
 HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]
 

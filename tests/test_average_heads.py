@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import run
+
 from enctools.harmonics import RunningMean, head_reading, revolution_coefficients, synthesize
 from enctools.heads import average_transfer, summarize_average
 from enctools.readings import head_info

@@ -88,6 +88,7 @@ def test_sigterm_mid_run_keeps_a_valid_stream(tmp_path):
     import time
 
     from conftest import enc_exe
+
     from enctools import streams
 
     out = tmp_path / "x.arrows"

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import run
+
 from enctools.harmonics import synthesize
 from enctools.heads import average_transfer
 from enctools.streams import read_table

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import run
+
 from enctools import design
 from enctools.selfcal import esa_transfer, esa_weights
 

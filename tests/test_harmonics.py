@@ -5,8 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from enctools.harmonics import (RevolutionSplitter, analyse, bin_average, head_reading,
-                                revolution_coefficients, stroboscopic_heads, synthesize)
+from enctools.harmonics import (
+    RevolutionSplitter,
+    analyse,
+    bin_average,
+    head_reading,
+    revolution_coefficients,
+    stroboscopic_heads,
+    synthesize,
+)
 from enctools.readings import HeadInfo
 
 TWO_PI = 2 * np.pi

@@ -20,7 +20,6 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import ROOT, enc_exe, run
 
 VISA_RIG = ROOT / "tests" / "rigs" / "visa-sim.toml"

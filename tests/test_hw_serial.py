@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import one_error_line, run
 
 pytest.importorskip("serial")
@@ -77,7 +76,7 @@ class Emulator:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, daemon=True)
 
-    def __enter__(self) -> "Emulator":
+    def __enter__(self) -> Emulator:
         self._thread.start()
         return self
 

@@ -14,7 +14,6 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import ROOT, one_error_line, run
 
 pytest.importorskip("pyvisa_sim")

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import DATA, ROOT, run
+
 from enctools.report.history import SCHEMA, append_run, read_history
 
 NIGHTLY = str(ROOT / "bin" / "enc-nightly")
@@ -157,7 +157,7 @@ def test_run_killed_mid_write_leaves_history_readable(tmp_path):
     assert h.runs == 1 and h.column("rig").tolist() == ["before"] and not h.skipped
     append_run(hist, {"rig": "after", "status": "ok"})
     assert read_history(hist).runs == 2
-    import pyarrow.dataset as ds                                   # any Parquet reader
+    import pyarrow.dataset as ds  # any Parquet reader
     assert ds.dataset(str(hist), format="parquet").to_table().num_rows == 2
     r = run(["enc", "report", "--history", str(hist)])
     assert r.returncode == 0 and "2 run(s)" in r.stdout.decode()

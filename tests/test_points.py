@@ -9,8 +9,8 @@ import pytest
 from conftest import DATA, run
 
 from enctools import streams
-from enctools.streams import read_table
 from enctools.points import distinct, figures, from_table
+from enctools.streams import read_table
 from enctools.truth import Truth, interpolation_error
 from enctools.units import DEG
 

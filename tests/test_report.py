@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pytest
-
 from conftest import DATA, ROOT, run
+
 from enctools.hw.sim_truth import make_truth
 from enctools.rig import load_rig
 from enctools.schemas import make_field

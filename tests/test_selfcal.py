@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import run
+
 from enctools.harmonics import RunningMean, revolution_coefficients
 from enctools.selfcal import Method, esa_transfer, esa_weights, fourier_solve
 from enctools.streams import read_table

@@ -8,12 +8,11 @@ import json
 import numpy as np
 import pyarrow as pa
 import pytest
+from conftest import run
 
 from enctools import streams
 from enctools.errors import DataError, UsageError
 from enctools.schemas import make_field
-
-from conftest import run
 
 
 def _deviations(n: int = 1000) -> tuple[streams.Header, pa.Table]:
@@ -111,10 +110,9 @@ def test_output_rules(tmp_path):
 def test_failure_inside_a_write_leaves_no_file(tmp_path):
     header, table = _deviations()
     p = tmp_path / "out.h5"
-    with pytest.raises(RuntimeError):
-        with streams.OutputStream(str(p), header) as out:
-            out.write(table)
-            raise RuntimeError("boom")
+    with pytest.raises(RuntimeError), streams.OutputStream(str(p), header) as out:
+        out.write(table)
+        raise RuntimeError("boom")
     assert list(tmp_path.iterdir()) == []
 
 

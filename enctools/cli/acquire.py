@@ -139,7 +139,7 @@ class _SignalGuard:
         self._pending: int | None = None
         self._old: dict[int, Any] = {}
 
-    def __enter__(self) -> "_SignalGuard":
+    def __enter__(self) -> _SignalGuard:
         for sig in (signal.SIGINT, signal.SIGTERM):
             self._old[sig] = signal.signal(sig, self._handle)
         return self

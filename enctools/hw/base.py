@@ -115,7 +115,7 @@ class Session(ABC):
     def close(self) -> None:
         """Release the devices."""
 
-    def __enter__(self) -> "Session":
+    def __enter__(self) -> Session:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -58,8 +58,8 @@ def import_nidaqmx() -> Any:
     """The nidaqmx package, or a one-line UsageError (exit 2) naming what to install."""
     try:
         import nidaqmx
-        import nidaqmx.constants  # noqa: F401
-        import nidaqmx.errors  # noqa: F401
+        import nidaqmx.constants
+        import nidaqmx.errors
     except ImportError:
         msg = ("the nidaq backend needs the Python package nidaqmx: "
                "pip install 'enctools[nidaq]' (and the NI-DAQmx driver from ni.com)")

@@ -408,4 +408,4 @@ class SimAutocollimator(Sensor):
         return dev + face + noise
 
 
-__all__ = ["VirtualRig", "zero_count", "interpolation_error"]
+__all__ = ["VirtualRig", "interpolation_error", "zero_count"]

@@ -78,7 +78,7 @@ class Harmonics:
     amplitude: np.ndarray
     phase: np.ndarray
 
-    def largest(self, count: int, skip_zero: bool = True) -> "Harmonics":
+    def largest(self, count: int, skip_zero: bool = True) -> Harmonics:
         """The ``count`` harmonics of largest amplitude, largest first."""
         keep = self.n != 0 if skip_zero else np.ones(self.n.shape, bool)
         if self.amplitude.size:  # rounding residue (1e-17") is not a harmonic

@@ -57,7 +57,7 @@ FIGURE_COLUMNS = ("pp", "std", "mean", "max_abs", "drift_pp", "drift_max")
 
 def new_run_id(now: _dt.datetime | None = None) -> str:
     """A run id unique across hosts and processes: UTC time, host, pid, random."""
-    now = now or _dt.datetime.now(_dt.timezone.utc)
+    now = now or _dt.datetime.now(_dt.UTC)
     host = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in socket.gethostname())
     return f"{now:%Y%m%dT%H%M%S}.{now.microsecond:06d}Z-{host}-{os.getpid()}-{secrets.token_hex(3)}"
 
@@ -74,7 +74,7 @@ def append_run(folder: str | os.PathLike[str], record: dict[str, Any]) -> Path:
     d = Path(folder)
     d.mkdir(parents=True, exist_ok=True)
     rec = dict(record)
-    rec.setdefault("time", _dt.datetime.now(_dt.timezone.utc))
+    rec.setdefault("time", _dt.datetime.now(_dt.UTC))
     rec.setdefault("run_id", new_run_id(rec["time"]))
     rec.setdefault("host", socket.gethostname())
     unknown = set(rec) - set(SCHEMA.names)

@@ -242,7 +242,7 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
     top = int(report.settings.get("top_harmonics", 5))
     rigs = {s.rig_name: s.meta["rig"] for s in report.sections if s.rig_name}
     title = title or ("Calibration report" + (f" — {', '.join(rigs)}" if rigs else ""))
-    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
              f"<title>{_e(title)}</title><style>{CSS}</style></head><body>",
              f"<h1>{_e(title)}</h1><p class='note'>Made {now} by enctools {__version__} "

@@ -18,7 +18,7 @@ class Report:
     history: Any = None                 # history.History or None
     settings: dict[str, Any] = field(default_factory=dict)
 
-    def curves(self, unit: str | None = None):  # noqa: ANN201 - iterator of (section, curve)
+    def curves(self, unit: str | None = None):
         """Every (section, curve) pair, optionally of one unit."""
         for s in self.sections:
             for c in s.curves:

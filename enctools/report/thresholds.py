@@ -64,7 +64,7 @@ def parse_pairs(values: tuple[str, ...], option: str, key_type: type) -> dict:
     return out
 
 
-def _arcsec_curves(report: Report):  # noqa: ANN202
+def _arcsec_curves(report: Report):
     for s, c in report.curves("arcsec"):
         if c.role != "model":
             yield s, c
