@@ -122,7 +122,9 @@ class InterpResult:
     every device harmonic fitted; ``reference``: the reference's own harmonics (in
     its period) when they were fitted; ``period`` [rad] the device's signal period;
     ``ratio`` device period / reference period (None for probes); ``residual_rms``
-    [arcsec]; ``periods`` swept; ``landing`` (j, j * ratio, kept order) triples.
+    [arcsec]; ``periods`` swept (the shortest run, or the whole continuous run);
+    ``landing`` (j, j * ratio, kept order) triples; ``windows`` the number of trend
+    windows of a continuous run (None: one trend per run).
     """
 
     error: PeriodHarmonics
@@ -135,6 +137,7 @@ class InterpResult:
     ratio: float | None = None
     landing: list[tuple[int, float, int]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    windows: int | None = None
 
     def figures(self, points: int = 3600) -> dict[str, float]:
         """Figures of the error curve [arcsec]: p-p, +/- (half the p-p), rms, max, min."""
@@ -213,31 +216,414 @@ def resolvable_harmonics(phase: np.ndarray, positions: np.ndarray | None = None)
     With ``positions``, the readings at one position are averaged (circular mean)
     first, so their noise does not pose as finer sampling.
     """
-    phase = np.asarray(phase, dtype=np.float64)
-    if positions is not None:
-        _, inv = np.unique(np.asarray(positions), return_inverse=True)
-        z = np.bincount(inv, np.cos(phase)) + 1j * np.bincount(inv, np.sin(phase))
-        phase = np.angle(z)
-    p = np.sort(np.mod(phase, TWO_PI))
-    if p.size < 2:
-        return 0
-    gap = float(np.max(np.diff(np.append(p, p[0] + TWO_PI))))
-    return int(np.floor(np.pi / gap - 1e-9)) if gap > 0 else p.size
+    cover = PhaseCoverage()
+    cover.add(np.asarray(phase, dtype=np.float64), positions)
+    return cover.resolvable()
 
 
-def _trend_columns(x: np.ndarray, groups: np.ndarray, degree: int) -> np.ndarray:
-    cols = []
-    for g in np.unique(groups):
-        m = groups == g
-        xs = x[m]
-        lo, hi = xs.min(), xs.max()
-        z = np.zeros_like(x)
-        z[m] = (xs - (lo + hi) / 2) / ((hi - lo) / 2 if hi > lo else 1.0)
-        for d in range(degree + 1):
-            col = np.zeros_like(x)
-            col[m] = z[m] ** d
-            cols.append(col)
-    return np.column_stack(cols)
+def _largest_gap(p: np.ndarray) -> float:
+    p = np.sort(np.mod(p, TWO_PI))
+    return float(np.max(np.diff(np.append(p, p[0] + TWO_PI)))) if p.size else TWO_PI
+
+
+class PhaseCoverage:
+    """How finely samples cover the signal period, gathered batch by batch.
+
+    Without positions the phases [rad] are marked in :data:`BINS` bins of the
+    period (a bitmap of constant size); phases from counts are multiples of
+    2 pi / interpolation (4096), so with 16 bins per count step the largest gap is
+    exact. With positions (a sweep's target column) the readings at one position
+    are averaged first (circular mean of their phases), as their noise must not
+    pose as finer sampling: the sums are kept per position, bounded by the number
+    of positions.
+    """
+
+    #: bins of the bitmap per signal period
+    BINS = 1 << 16
+
+    def __init__(self) -> None:
+        self._mask = np.zeros(self.BINS, dtype=bool)
+        self._pos: dict[float, complex] = {}
+        self.samples = 0
+
+    def add(self, phase: np.ndarray, positions: np.ndarray | None = None) -> None:
+        phase = np.asarray(phase, dtype=np.float64)
+        self.samples += phase.size
+        if positions is None:
+            k = np.rint(np.mod(phase, TWO_PI) * (self.BINS / TWO_PI)).astype(np.int64)
+            self._mask[np.mod(k, self.BINS)] = True
+            return
+        keys, inv = np.unique(np.asarray(positions), return_inverse=True)
+        z = np.bincount(inv, np.cos(phase), keys.size) + 1j * np.bincount(inv, np.sin(phase), keys.size)
+        for key, v in zip(keys.tolist(), z.tolist()):
+            self._pos[key] = self._pos.get(key, 0j) + v
+
+    def gap(self) -> float:
+        """Largest gap [rad] between the sampled phases (2 pi when fewer than 2)."""
+        if self._pos:
+            if len(self._pos) < 2:
+                return TWO_PI
+            return _largest_gap(np.angle(np.array(list(self._pos.values()))))
+        k = np.flatnonzero(self._mask)
+        if k.size < 2:
+            return TWO_PI
+        return _largest_gap(k * (TWO_PI / self.BINS))
+
+    def resolvable(self) -> int:
+        """Highest harmonic of the period resolvable: floor(pi / largest gap)."""
+        n = len(self._pos) if self._pos else int(self._mask.sum())
+        if n < 2:
+            return 0
+        gap = self.gap()
+        return int(np.floor(np.pi / gap - 1e-9)) if gap > 0 else n
+
+
+class TrendProjectedLSQ:
+    """Least squares y = T_g beta_g + X c with a polynomial trend per group, in constant memory.
+
+    Each group g (a run of a sweep, a window of a continuous run) has its own trend
+    T_g: Legendre polynomials 0..degree of a coordinate z (the angle scaled to
+    about [-1, 1]). The shared columns X (the harmonics) are fitted jointly with
+    every trend by projecting the trends out (Frisch-Waugh): with Q_g an orthonormal
+    basis of T_g, the normal equations of c are
+
+        sum_g [(I - Q Q^T) X]^T [(I - Q Q^T) X] c = sum_g [(I - Q Q^T) X]^T y,
+
+    and ``(I - QQ^T)`` applied to a group is X^T X - (T^T X)^T (T^T T)^+ (T^T X):
+    only the moments T^T T, T^T X, T^T y of a group are kept until it closes,
+    then folded into X^T X, X^T y, y^T y of the harmonic columns alone. The result
+    is the joint least-squares fit with per-group trends, to rounding.
+
+    ``consecutive``: groups are windows met in order; a group closes as soon as a
+    batch ends past it (memory does not grow with the length of the input).
+    Otherwise (a sweep's runs, few) every group stays open until :meth:`close_all`.
+    ``on_close(extra, lo, hi)`` receives, for the groups that close, the sums of the
+    ``extra`` columns given to :meth:`add` and the least/greatest ``x``.
+    """
+
+    def __init__(self, n_cols: int, degree: int, consecutive: bool,
+                 on_close=None, n_extra: int = 0) -> None:
+        self.p = n_cols
+        self.d1 = degree + 1
+        self.consecutive = consecutive
+        self.on_close = on_close
+        self.n_extra = n_extra
+        self.xtx = np.zeros((n_cols, n_cols))
+        self.xty = np.zeros(n_cols)
+        self.yty = 0.0
+        self.raw_ss = np.zeros(n_cols)    # sums of squares of the columns before projection
+        self.n = 0
+        self.n_trend = 0
+        self.groups = 0
+        d1 = self.d1
+        self._width = d1 * d1 + d1 * n_cols + d1 + n_extra
+        self._keys = np.zeros(0, dtype=np.int64)
+        self._mom = np.zeros((0, self._width))
+        self._y0 = np.zeros(0)
+        self._x0 = np.zeros(0)
+        self._lo = np.zeros(0)
+        self._hi = np.zeros(0)
+
+    def add(self, x_cols: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray,
+            scale: float, centre: np.ndarray | None = None,
+            extra: np.ndarray | None = None) -> None:
+        """Add rows: columns ``x_cols`` (m, p), data ``y`` (m), trend abscissa ``x`` (m).
+
+        The trend coordinate is z = (x - centre) / scale, ``centre`` per row, or (None)
+        the first x of the row's group.
+        """
+        m = y.size
+        if m == 0:
+            return
+        uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        y0, x0 = y[first].astype(np.float64), x[first].astype(np.float64)
+        lo = np.full(uk.size, np.inf)
+        hi = np.full(uk.size, -np.inf)
+        np.minimum.at(lo, inv, x)
+        np.maximum.at(hi, inv, x)
+        mom = np.zeros((uk.size, self._width))
+        # groups still open from earlier batches keep their anchors and moments
+        old = np.flatnonzero(np.isin(self._keys, uk))
+        where = np.searchsorted(uk, self._keys[old])
+        y0[where], x0[where] = self._y0[old], self._x0[old]
+        lo[where] = np.minimum(lo[where], self._lo[old])
+        hi[where] = np.maximum(hi[where], self._hi[old])
+        mom[where] = self._mom[old]
+        # y less its group's first value: a constant of the trend, kept out of the
+        # sums of squares so that they do not cancel
+        yc = y - y0[inv]
+        z = (x - (x0[inv] if centre is None else centre)) / scale
+        t = np.polynomial.legendre.legvander(z, self.d1 - 1)
+        rows = np.concatenate([
+            (t[:, :, None] * t[:, None, :]).reshape(m, -1),
+            (t[:, :, None] * x_cols[:, None, :]).reshape(m, -1),
+            t * yc[:, None]] + ([extra] if extra is not None else []), axis=1)
+        order = np.argsort(inv, kind="stable")
+        starts = np.searchsorted(inv[order], np.arange(uk.size))
+        mom += np.add.reduceat(rows[order], starts, axis=0)
+        self.xtx += x_cols.T @ x_cols
+        self.xty += x_cols.T @ yc
+        self.yty += float(yc @ yc)
+        self.raw_ss += np.einsum("ij,ij->j", x_cols, x_cols)
+        self.n += m
+
+        keep_old = np.setdiff1d(np.arange(self._keys.size), old)
+        keys_all = np.concatenate([self._keys[keep_old], uk])
+        parts = [(self._mom[keep_old], mom), (self._y0[keep_old], y0), (self._x0[keep_old], x0),
+                 (self._lo[keep_old], lo), (self._hi[keep_old], hi)]
+        mom_all, y0_all, x0_all, lo_all, hi_all = (np.concatenate(p) for p in parts)
+        if self.consecutive:
+            last = keys_all == keys[-1]
+            self._close(mom_all[~last], lo_all[~last], hi_all[~last])
+            keys_all, mom_all, y0_all, x0_all, lo_all, hi_all = (
+                a[last] for a in (keys_all, mom_all, y0_all, x0_all, lo_all, hi_all))
+        self._keys, self._mom, self._y0, self._x0 = keys_all, mom_all, y0_all, x0_all
+        self._lo, self._hi = lo_all, hi_all
+
+    def close_all(self) -> None:
+        """Close every open group (at the end of the input)."""
+        self._close(self._mom, self._lo, self._hi)
+        self._keys = np.zeros(0, dtype=np.int64)
+        self._mom = np.zeros((0, self._width))
+        self._y0 = self._x0 = self._lo = self._hi = np.zeros(0)
+
+    def _close(self, mom: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        k = mom.shape[0]
+        if k == 0:
+            return
+        d1, p = self.d1, self.p
+        gram = mom[:, :d1 * d1].reshape(k, d1, d1)
+        tx = mom[:, d1 * d1:d1 * d1 + d1 * p].reshape(k, d1, p)
+        ty = mom[:, d1 * d1 + d1 * p:d1 * d1 + d1 * p + d1]
+        w, v = np.linalg.eigh(gram)
+        # the rank of each trend: a group with fewer distinct abscissae than the
+        # degree + 1 is fitted exactly by its trend and adds nothing
+        ok = w > np.maximum(w[:, -1:], 0.0) * 1e-10
+        s = np.where(ok, 1.0 / np.sqrt(np.where(ok, w, 1.0)), 0.0)
+        basis = v * s[:, None, :]                          # (T^T T)^+ = basis basis^T
+        a = np.einsum("kij,kip->kjp", basis, tx)
+        b = np.einsum("kij,ki->kj", basis, ty)
+        self.xtx -= np.einsum("kjp,kjq->pq", a, a)
+        self.xty -= np.einsum("kjp,kj->p", a, b)
+        self.yty -= float(np.sum(b * b))
+        self.n_trend += int(ok.sum())
+        self.groups += k
+        if self.on_close is not None:
+            self.on_close(mom[:, self._width - self.n_extra:], lo, hi)
+
+
+#: default window of a continuous run [arcsec]: a line per 0.5 deg leaves of the
+#: graduation error of sjtu-dual (harmonics up to 180 per turn) 0.004" rms
+DEFAULT_WINDOW_ARCSEC = 1800.0
+#: sectors of the signal period a window's phases must all visit to count as covering it
+SECTORS = 8
+
+
+class InterpolationFit:
+    """The fit of :func:`fit_interpolation_error`, fed batch by batch (seed 000 eqs. (19), (20)).
+
+    zeta = (device - reference) [arcsec] is modelled as a trend per group (a run of
+    a sweep, or with ``window`` [rad] a window of that span of the reference angle)
+    plus the device harmonics of its signal phase and optionally the reference's
+    own. Memory does not grow with the number of samples: the trends are projected
+    out per group (:class:`TrendProjectedLSQ`), the phase coverage is a bitmap
+    (:class:`PhaseCoverage`). See :func:`fit_interpolation_error` for the
+    parameters; :meth:`add` takes the same arrays by batch, :meth:`result` fits.
+    """
+
+    def __init__(self, periods_per_rev: int, harmonics: int = 4,
+                 keep: Sequence[int] | None = None, trend_degree: int = 1,
+                 reference_orders: Sequence[int] = (),
+                 reference_periods_per_rev: int | None = None,
+                 window: float | None = None) -> None:
+        if harmonics < 1:
+            msg = f"harmonics must be >= 1, not {harmonics}"
+            raise DataError(msg)
+        self.period = TWO_PI / periods_per_rev
+        self.periods_per_rev = periods_per_rev
+        self.orders = np.arange(1, harmonics + 1)
+        self.keep = list(self.orders) if keep is None else [int(k) for k in keep]
+        bad = [k for k in self.keep if k not in set(self.orders.tolist())]
+        if bad:
+            msg = f"kept harmonic {bad[0]} is not fitted (harmonics 1..{harmonics})"
+            raise DataError(msg)
+        if window is not None and not window >= self.period:
+            msg = (f"--window {window / ARCSEC:.4g}\" is shorter than the signal period "
+                   f"{self.period / ARCSEC:.4g}\": a window must span at least one period")
+            raise DataError(msg)
+        self.ref_orders = np.asarray(list(reference_orders), dtype=int)
+        self.reference_periods_per_rev = reference_periods_per_rev
+        self.window = window
+        self.cover = PhaseCoverage()
+        n_cols = 2 * self.orders.size + 2 * self.ref_orders.size
+        self.lsq = TrendProjectedLSQ(n_cols, trend_degree, consecutive=window is not None,
+                                     on_close=self._closed, n_extra=1 + SECTORS)
+        self._origin: float | None = None
+        self._lo, self._hi = np.inf, -np.inf
+        # per closed group: the worst coverage (runs) or phase coverage (windows)
+        self._short: tuple[float, float] | None = None   # (span + step, span) of the worst run
+        self._min_span = np.inf
+        self._covering = [0, 0]     # windows, samples that carry the phase through a period
+        self._samples_closed = 0
+
+    def _closed(self, extra: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        count = extra[:, 0]
+        span = hi - lo
+        self._samples_closed += int(count.sum())
+        if self.window is None:
+            step = np.where(count > 1, span / np.maximum(count - 1, 1), 0.0)
+            worst = int(np.argmin(span + step))
+            if self._short is None or span[worst] + step[worst] < self._short[0]:
+                self._short = (float(span[worst] + step[worst]), float(span[worst]))
+            self._min_span = min(self._min_span, float(span.min()))
+        else:
+            full = np.all(extra[:, 1:] > 0, axis=1)
+            self._covering[0] += int(full.sum())
+            self._covering[1] += int(count[full].sum())
+
+    def add(self, device_rad: np.ndarray, device_phase: np.ndarray, reference_rad: np.ndarray,
+            groups: np.ndarray | None = None, reference_phase: np.ndarray | None = None,
+            positions: np.ndarray | None = None) -> None:
+        """Add samples (arrays as in :func:`fit_interpolation_error`); non-finite rows are skipped."""
+        dev = np.asarray(device_rad, dtype=np.float64)
+        ref = np.asarray(reference_rad, dtype=np.float64)
+        phase = np.asarray(device_phase, dtype=np.float64)
+        n = dev.size
+        if not (ref.size == n and phase.size == n):
+            msg = "device, phase and reference differ in length"
+            raise DataError(msg)
+        good = np.isfinite(dev) & np.isfinite(ref) & np.isfinite(phase)
+        if self.ref_orders.size:
+            if reference_phase is None:
+                msg = "the reference's harmonics are fitted: give its signal phase"
+                raise DataError(msg)
+            reference_phase = np.asarray(reference_phase, dtype=np.float64)
+            good &= np.isfinite(reference_phase)
+        if not good.all():
+            dev, ref, phase = dev[good], ref[good], phase[good]
+            groups = None if groups is None else np.asarray(groups)[good]
+            positions = None if positions is None else np.asarray(positions)[good]
+            reference_phase = None if reference_phase is None else reference_phase[good]
+        if dev.size == 0:
+            return
+        self.cover.add(phase, positions)
+        self._lo, self._hi = min(self._lo, float(ref.min())), max(self._hi, float(ref.max()))
+        cols = [f(k * phase) for k in self.orders for f in (np.cos, np.sin)]
+        cols += [f(j * reference_phase) for j in self.ref_orders for f in (np.cos, np.sin)]
+        x_cols = np.column_stack(cols)
+        zeta = (dev - ref) / ARCSEC
+        keys = np.zeros(dev.size, np.int64) if groups is None else np.asarray(groups).astype(np.int64)
+        sector = np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
+                            SECTORS - 1)
+        extra = np.zeros((dev.size, 1 + SECTORS))
+        extra[:, 0] = 1.0
+        extra[np.arange(dev.size), 1 + sector] = 1.0
+        if self.window is None:
+            self.lsq.add(x_cols, zeta, ref, keys, self.period, extra=extra)
+            return
+        if self._origin is None:
+            self._origin = float(ref[0])
+        w = np.floor((ref - self._origin) / self.window)
+        centre = self._origin + (w + 0.5) * self.window
+        keys = (keys << 40) + w.astype(np.int64)
+        self.lsq.add(x_cols, zeta, ref, keys, self.window / 2, centre=centre, extra=extra)
+
+    def result(self) -> InterpResult:
+        """The fit of every sample added. DataError as :func:`fit_interpolation_error` says."""
+        lsq = self.lsq
+        lsq.close_all()
+        period = self.period
+        if lsq.n == 0:
+            msg = "no sample with finite device and reference readings"
+            raise DataError(msg)
+        if self.window is None:
+            # coverage: every run must sweep one signal period (to within a step)
+            if self._short is not None and self._short[0] < period * 0.999:
+                msg = (f"the sweep covers {self._short[1] / ARCSEC:.3g}\" but the signal period is "
+                       f"{period / ARCSEC:.4g}\": sweep at least one period (--range)")
+                raise DataError(msg)
+            periods = self._min_span / period
+        else:
+            periods = (self._hi - self._lo) / period
+            if self._covering[0] == 0:
+                msg = (f"no window of {self.window / ARCSEC:.4g}\" carries the device's phase "
+                       f"through a whole signal period ({lsq.groups} windows): widen --window "
+                       f"or sample at another interval")
+                raise DataError(msg)
+        # Nyquist within the period: harmonics must be finer than the largest phase gap
+        k_max = self.cover.resolvable()
+        harmonics = int(self.orders[-1])
+        if harmonics > k_max:
+            msg = (f"{harmonics} harmonics asked but the sweep samples the signal period "
+                   f"only finely enough for {k_max}: fit fewer (--band) or step finer")
+            raise DataError(msg)
+        p = lsq.p
+        n_par = lsq.n_trend + p
+        if lsq.n <= n_par:
+            msg = (f"{lsq.n} samples for {n_par} parameters: record more points "
+                   f"or fit fewer harmonics")
+            raise DataError(msg)
+        # columns scaled by their norms before the trends were projected out, so that
+        # a harmonic the trends absorb shows as a small eigenvalue
+        norms = np.sqrt(lsq.raw_ss)
+        norms[norms == 0] = 1.0
+        a = lsq.xtx / np.outer(norms, norms)
+        a = (a + a.T) / 2
+        w = np.linalg.eigvalsh(a)
+        cond = float(np.sqrt(w[-1] / w[0])) if w[0] > 0 else np.inf
+        if cond > 1e6:
+            what = ("the reference's harmonics cannot be told from the device's over this sweep"
+                    if self.ref_orders.size else "the sweep does not determine every harmonic")
+            msg = f"{what} (condition number {cond:.3g}); sweep longer or fit fewer harmonics"
+            raise DataError(msg)
+        a_inv = np.linalg.inv(a)
+        coef = (a_inv @ (lsq.xty / norms)) / norms
+        rss = max(lsq.yty - float(coef @ lsq.xty), 0.0)
+        dof = lsq.n - n_par
+        s2 = rss / dof
+        cov = a_inv * s2 / np.outer(norms, norms)
+        n_dev = 2 * self.orders.size
+        ab = coef[:n_dev]
+        fitted = PeriodHarmonics(self.orders, ab[0::2] - 1j * ab[1::2], cov[:n_dev, :n_dev])
+        gain = fitted.amplitude_u / max(np.sqrt(s2), 1e-300)
+        if np.any(gain > 1.0):
+            n_bad = int(self.orders[np.argmax(gain)])
+            msg = (f"harmonic {n_bad} is undetermined by this sweep (its uncertainty exceeds "
+                   f"the scatter of one reading): fit fewer harmonics or sweep longer")
+            raise DataError(msg)
+        reference = None
+        if self.ref_orders.size:
+            cd = coef[n_dev:]
+            # zeta holds minus the reference's error
+            reference = PeriodHarmonics(self.ref_orders, -(cd[0::2] - 1j * cd[1::2]),
+                                        cov[n_dev:, n_dev:])
+        result = InterpResult(error=fitted.select(self.keep), fitted=fitted, period=period,
+                              samples=int(lsq.n), periods=float(periods),
+                              residual_rms=float(np.sqrt(s2)), reference=reference)
+        if self.window is not None:
+            result.windows = lsq.groups
+            partial = lsq.n - self._covering[1]
+            if partial > lsq.n / 2:
+                result.warnings.append(
+                    f"{partial / lsq.n:.0%} of the samples lie in windows whose phases do not "
+                    f"go through a whole signal period; they add little: widen --window")
+        ratio_of = self.reference_periods_per_rev
+        if ratio_of is not None:
+            result.ratio = period_ratio(self.periods_per_rev, ratio_of)
+            if ratio_of != self.periods_per_rev:
+                if self.ref_orders.size:
+                    # fitted alongside: separable when they differ by a cycle over the sweep
+                    result.landing = landing_harmonics(result.ratio, self.keep,
+                                                       self.ref_orders.tolist(),
+                                                       tolerance=1.0 / result.periods)
+                else:
+                    result.landing = landing_harmonics(result.ratio, self.keep)
+                for j, at, k in result.landing:
+                    result.warnings.append(
+                        f"the reference's harmonic {j} lands at {at:.3g} harmonics of the device "
+                        f"period, on kept harmonic {k}: the filter cannot remove it "
+                        f"over {result.periods:.3g} periods swept")
+        return result
 
 
 def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
@@ -247,7 +633,8 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
                             reference_phase: np.ndarray | None = None,
                             reference_orders: Sequence[int] = (),
                             reference_periods_per_rev: int | None = None,
-                            positions: np.ndarray | None = None) -> InterpResult:
+                            positions: np.ndarray | None = None,
+                            window: float | None = None) -> InterpResult:
     """Fit the device's interpolation error against a reference (seed 000 eqs. (19), (20)).
 
     Parameters
@@ -264,7 +651,7 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
         Orders that make the reported error (default all fitted); with a reference
         encoder of another signal period the seed keeps 1 and 2.
     trend_degree : int
-        Degree of the polynomial in the swept angle removed per group (run).
+        Degree of the polynomial in the reference angle removed per group.
     groups : int array or None
         Group (run) of each sample; each has its own trend.
     reference_phase, reference_orders, reference_periods_per_rev :
@@ -274,130 +661,23 @@ def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
         Commanded position of each sample (e.g. the sweep's target), so that
         repeated readings at one position count once when judging how finely the
         sweep samples the period (default: every sample is a position).
+    window : float or None
+        A continuous run [rad]: each window of this span of the reference angle
+        (within each group) has its own trend, so that the trend need only follow
+        the graduation error over the window; None: one trend per group.
 
     Returns
     -------
     InterpResult. Raises DataError when the sweep is shorter than one signal period,
     has too few samples for the model, or the model cannot tell the device's
-    harmonics from the reference's (near-collinear columns).
+    harmonics from the reference's (near-collinear columns). The same fit by batch:
+    :class:`InterpolationFit`.
     """
-    dev = np.asarray(device_rad, dtype=np.float64)
-    ref = np.asarray(reference_rad, dtype=np.float64)
-    phase0 = np.asarray(device_phase, dtype=np.float64)
-    n = dev.size
-    if not (ref.size == n and phase0.size == n):
-        msg = "device, phase and reference differ in length"
-        raise DataError(msg)
-    groups = np.zeros(n, dtype=np.int64) if groups is None else np.asarray(groups)
-    good = np.isfinite(dev) & np.isfinite(ref) & np.isfinite(phase0)
-    if reference_phase is not None:
-        reference_phase = np.asarray(reference_phase, dtype=np.float64)
-        good &= np.isfinite(reference_phase)
-    if not good.any():
-        msg = "no sample with finite device and reference readings"
-        raise DataError(msg)
-    dev, ref, phase0, groups = dev[good], ref[good], phase0[good], groups[good]
-    if reference_phase is not None:
-        reference_phase = reference_phase[good]
-    if positions is not None:
-        positions = np.asarray(positions)[good]
-    if harmonics < 1:
-        msg = f"harmonics must be >= 1, not {harmonics}"
-        raise DataError(msg)
-    period = TWO_PI / periods_per_rev
-
-    # Coverage: every group must sweep one signal period (to within a step).
-    spans = []
-    for g in np.unique(groups):
-        x = np.sort(ref[groups == g])
-        step = float(np.median(np.diff(np.unique(x)))) if np.unique(x).size > 1 else 0.0
-        span = float(x[-1] - x[0])
-        spans.append(span)
-        if span + step < period * 0.999:
-            msg = (f"the sweep covers {span / ARCSEC:.3g}\" but the signal period is "
-                   f"{period / ARCSEC:.4g}\": sweep at least one period (--range)")
-            raise DataError(msg)
-
-    # Nyquist within the period: harmonics must be finer than the largest phase gap.
-    k_max = resolvable_harmonics(phase0, positions)
-    if harmonics > k_max:
-        msg = (f"{harmonics} harmonics asked but the sweep samples the signal period "
-               f"only finely enough for {k_max}: fit fewer (--band) or step finer")
-        raise DataError(msg)
-    orders = np.arange(1, harmonics + 1)
-    keep = list(orders) if keep is None else [int(k) for k in keep]
-    bad = [k for k in keep if k not in set(orders.tolist())]
-    if bad:
-        msg = f"kept harmonic {bad[0]} is not fitted (harmonics 1..{harmonics})"
-        raise DataError(msg)
-    ref_orders = np.asarray(list(reference_orders) if reference_phase is not None else [],
-                            dtype=int)
-    zeta = (dev - ref) / ARCSEC
-    trend = _trend_columns(ref, groups, trend_degree)
-    if ref_orders.size:
-        ref_cols = PeriodHarmonics(ref_orders, np.zeros(ref_orders.size, complex),
-                                   np.zeros((0, 0))).basis(reference_phase)
-    else:
-        ref_cols = np.zeros((dev.size, 0))
-    n_dev = 2 * orders.size
-    n_par = trend.shape[1] + n_dev + ref_cols.shape[1]
-    if dev.size <= n_par:
-        msg = (f"{dev.size} samples for {n_par} parameters: record more points "
-               f"or fit fewer harmonics")
-        raise DataError(msg)
-
-    proto = PeriodHarmonics(orders, np.zeros(orders.size, complex), np.zeros((0, 0)))
-    design = np.column_stack([trend, proto.basis(phase0), ref_cols])
-    norms = np.linalg.norm(design, axis=0)
-    norms[norms == 0] = 1.0
-    a = design / norms
-    sol, _, rank, sv = np.linalg.lstsq(a, zeta, rcond=None)
-    cond = sv[0] / sv[-1] if sv[-1] > 0 else np.inf
-    if rank < a.shape[1] or cond > 1e6:
-        what = ("the reference's harmonics cannot be told from the device's over this sweep"
-                if ref_cols.shape[1] else "the sweep does not determine every harmonic")
-        msg = f"{what} (condition number {cond:.3g}); sweep longer or fit fewer harmonics"
-        raise DataError(msg)
-    coef = sol / norms
-    resid = zeta - design @ coef
-    dof = dev.size - n_par
-    s2 = float(resid @ resid) / dof
-    cov = np.linalg.inv(a.T @ a) * s2 / np.outer(norms, norms)
-    nt = trend.shape[1]
-    ab = coef[nt:nt + n_dev]
-    fitted = PeriodHarmonics(orders, ab[0::2] - 1j * ab[1::2],
-                             cov[nt:nt + n_dev, nt:nt + n_dev])
-    gain = fitted.amplitude_u / max(np.sqrt(s2), 1e-300)
-    if np.any(gain > 1.0):
-        n_bad = int(orders[np.argmax(gain)])
-        msg = (f"harmonic {n_bad} is undetermined by this sweep (its uncertainty exceeds "
-               f"the scatter of one reading): fit fewer harmonics or sweep longer")
-        raise DataError(msg)
-
-    reference = None
-    if ref_orders.size:
-        cd = coef[nt + n_dev:]
-        # zeta holds minus the reference's error
-        reference = PeriodHarmonics(ref_orders, -(cd[0::2] - 1j * cd[1::2]),
-                                    cov[nt + n_dev:, nt + n_dev:])
-    result = InterpResult(error=fitted.select(keep), fitted=fitted, period=period,
-                          samples=int(dev.size), periods=float(min(spans) / period),
-                          residual_rms=float(np.sqrt(s2)), reference=reference)
-    if reference_periods_per_rev is not None:
-        result.ratio = period_ratio(periods_per_rev, reference_periods_per_rev)
-        if reference_periods_per_rev != periods_per_rev:
-            if ref_orders.size:
-                # fitted alongside: separable when they differ by a cycle over the sweep
-                result.landing = landing_harmonics(result.ratio, keep, ref_orders.tolist(),
-                                                   tolerance=1.0 / result.periods)
-            else:
-                result.landing = landing_harmonics(result.ratio, keep)
-            for j, at, k in result.landing:
-                result.warnings.append(
-                    f"the reference's harmonic {j} lands at {at:.3g} harmonics of the device "
-                    f"period, on kept harmonic {k}: the filter cannot remove it "
-                    f"over {result.periods:.3g} periods swept")
-    return result
+    fit = InterpolationFit(periods_per_rev, harmonics, keep, trend_degree,
+                           reference_orders if reference_phase is not None else (),
+                           reference_periods_per_rev, window)
+    fit.add(device_rad, device_phase, reference_rad, groups, reference_phase, positions)
+    return fit.result()
 
 
 # ------------------------------------------------------------- readings-level checks
@@ -422,20 +702,19 @@ class Curve:
     warnings: list[str] = field(default_factory=list)
 
 
-#: interp-check fits a sweep whole; a longer input (a continuous run) is refused
+#: --signals, --corrected and --ref-file read their input whole; longer inputs are refused
 MAX_SWEEP_SAMPLES = 1_000_000
 
 
-def read_sweep(source, max_samples: int = MAX_SWEEP_SAMPLES):
-    """All of a sweep's readings as one Arrow table, refusing more than ``max_samples`` rows.
+def read_sweep(source, max_samples: int = MAX_SWEEP_SAMPLES, why: str = "--signals"):
+    """All of a stream's readings as one Arrow table, refusing more than ``max_samples`` rows.
 
-    A small-angle sweep has hundreds to thousands of samples and is fitted whole;
-    the limit keeps a long continuous run piped in by mistake from filling the
-    memory (reading stops at the first batch past it).
+    The modes that need the whole table (``why``: the Heydemann fit of --signals,
+    a reference file matched by time) read at most this many rows; a longer input
+    is refused at the first batch past it, before it fills the memory. The
+    reference mode proper streams (:func:`check_readings`).
     """
     import pyarrow as pa
-
-    from .errors import DataError
 
     batches = []
     rows = 0
@@ -443,9 +722,9 @@ def read_sweep(source, max_samples: int = MAX_SWEEP_SAMPLES):
         rows += b.num_rows
         if rows > max_samples:
             source.close()
-            msg = (f"{source.source}: more than {max_samples:,} samples; interp-check fits a "
-                   "small-angle sweep whole (enc acquire --mode sweep), not a long run: "
-                   "record a sweep, or cut the run to fewer revolutions")
+            msg = (f"{source.source}: more than {max_samples:,} samples; {why} reads its input "
+                   "whole: record fewer revolutions or a sweep (enc acquire --mode sweep), "
+                   "or check against a reference in the same stream (--ref HEAD or probes)")
             raise DataError(msg)
         batches.append(b)
     return pa.Table.from_batches(batches, schema=source.schema)
@@ -492,85 +771,111 @@ def probe_reference(table, probes: Sequence[str] | None, arm_m: float | None,
                                                  "arm_m": arms, "sides": sides}
 
 
-def align_in_time(t: np.ndarray, t_ref: np.ndarray, values: Sequence[np.ndarray],
-                  source: str) -> tuple[np.ndarray, list[np.ndarray]]:
-    """Reference values interpolated to times ``t`` [s]; a mask of the rows covered.
-
-    DataError when the two records do not overlap in time.
-    """
-    order = np.argsort(t_ref, kind="stable")
-    tr = np.asarray(t_ref, float)[order]
-    inside = (t >= tr[0]) & (t <= tr[-1])
-    if not inside.any():
-        msg = (f"{source}: covers t = {tr[0]:.6g}..{tr[-1]:.6g} s, the input "
-               f"{np.min(t):.6g}..{np.max(t):.6g} s: no overlap in time")
-        raise DataError(msg)
-    return inside, [np.interp(t, tr, np.asarray(v, float)[order]) for v in values]
+#: rows handed to the fit at once (bounds the temporaries of a large batch)
+CHUNK_ROWS = 1 << 16
 
 
-def check_readings(table, heads: Sequence[str] | None = None, average: bool = False,
+def _chunks(source):
+    """Record batches of ``source`` (a Table or a stream with .batches()), cut to CHUNK_ROWS."""
+    batches = source.to_batches() if hasattr(source, "to_batches") else source.batches()
+    for b in batches:
+        for start in range(0, b.num_rows, CHUNK_ROWS):
+            yield b.slice(start, CHUNK_ROWS)
+
+
+class _TimeMatched:
+    """A reference recorded apart, interpolated to the input's times t [s] batch by batch."""
+
+    def __init__(self, t_ref: np.ndarray, values: Sequence[np.ndarray], source: str) -> None:
+        order = np.argsort(t_ref, kind="stable")
+        self.t = np.asarray(t_ref, float)[order]
+        self.values = [np.asarray(v, float)[order] for v in values]
+        self.source = source
+        self.rows = 0
+        self.t_lo, self.t_hi = np.inf, -np.inf
+
+    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        if t.size:
+            self.t_lo, self.t_hi = min(self.t_lo, float(np.min(t))), max(self.t_hi, float(np.max(t)))
+        inside = (t >= self.t[0]) & (t <= self.t[-1])
+        self.rows += int(inside.sum())
+        return inside, [np.interp(t, self.t, v) for v in self.values]
+
+    def check(self) -> None:
+        if self.rows == 0:
+            msg = (f"{self.source}: covers t = {self.t[0]:.6g}..{self.t[-1]:.6g} s, the input "
+                   f"{self.t_lo:.6g}..{self.t_hi:.6g} s: no overlap in time")
+            raise DataError(msg)
+
+
+def check_readings(source, heads: Sequence[str] | None = None, average: bool = False,
                    reference: str = "probes", reference_table=None,
                    probes: Sequence[str] | None = None, arm_m: float | None = None,
                    harmonics: int | None = None, keep: Sequence[int] | None = None,
                    reference_harmonics: int = 2, trend_degree: int = 1,
-                   points: int = 256, reference_source: str = "reference") -> list[Curve]:
-    """Interpolation error of heads of a readings table against a reference.
+                   points: int = 256, reference_source: str = "reference",
+                   continuous: bool = False, window_arcsec: float | None = None) -> list[Curve]:
+    """Interpolation error of heads of a readings stream against a reference.
 
-    ``heads`` (default every head but the reference) are checked one by one, or
-    averaged into one device with ``average``. ``reference``: "probes" or a head
-    name, taken from ``reference_table`` (matched by time t) when given, else from
-    ``table``. ``harmonics`` defaults to 4, or against an encoder of another signal
-    period to the highest kept order (the device's higher harmonics are small and
-    would share the sweep's few cycles with the reference's own error). See
-    :func:`fit_interpolation_error` for the rest.
+    ``source``: a readings table, or a stream (``.schema``, ``.batches()``) read batch
+    by batch in constant memory. ``heads`` (default every head but the reference)
+    are checked one by one, or averaged into one device with ``average``.
+    ``reference``: "probes" or a head name, taken from ``reference_table`` (whole,
+    matched by time t) when given, else from the input. ``harmonics`` defaults to 4,
+    or against an encoder of another signal period to the highest kept order (the
+    device's higher harmonics are small and would share the sweep's few cycles with
+    the reference's own error). A ``continuous`` run (or any input with
+    ``window_arcsec``) has a trend per window of ``window_arcsec`` [arcsec] (default
+    :data:`DEFAULT_WINDOW_ARCSEC`) of the reference angle; a sweep one per run.
+    See :class:`InterpolationFit` for the rest.
     """
     from .readings import head_info
     from .schemas import columns_with_role
 
-    all_heads = columns_with_role(table.schema, "head")
-    rtab = reference_table if reference_table is not None else table
-    rsrc = reference_source if reference_table is not None else "input"
-    t = _column(table, "t") if "t" in table.schema.names else None
-    rows = np.ones(table.num_rows, dtype=bool)
-    ref_phase = None
+    schema = source.schema
+    all_heads = columns_with_role(schema, "head")
+    rtab = reference_table
+    rsrc = reference_source if rtab is not None else "input"
     ref_info = None
     if reference == "probes":
-        ref_rad, ref_meta = probe_reference(rtab, probes, arm_m)
+        _, ref_meta = probe_reference(rtab if rtab is not None else schema.empty_table(),
+                                      probes, arm_m)
     else:
-        ref_info = head_info(rtab.schema, reference, rsrc)
-        rc = _column(rtab, reference)
-        ref_rad = head_angle(rc, ref_info)
-        ref_phase = signal_phase(rc, ref_info)
+        ref_info = head_info((rtab if rtab is not None else source).schema, reference, rsrc)
         ref_meta = {"reference": reference, "encoder": ref_info.encoder,
                     "periods_per_rev": ref_info.periods_per_rev}
-    if reference_table is not None:
-        if t is None or "t" not in rtab.schema.names:
+    matched = None
+    if rtab is not None:
+        if "t" not in schema.names or "t" not in rtab.schema.names:
             msg = f"{rsrc}: both streams need a time column t to be matched"
             raise DataError(msg)
-        vals = [ref_rad] + ([np.unwrap(ref_phase)] if ref_phase is not None else [])
-        rows, vals = align_in_time(t, _column(rtab, "t"), vals, rsrc)
-        ref_rad = vals[0]
-        if ref_phase is not None:
-            ref_phase = np.mod(vals[1], TWO_PI)
+        if ref_info is None:
+            vals = [probe_reference(rtab, probes, arm_m)[0]]
+        else:
+            rc = _column(rtab, reference)
+            vals = [head_angle(rc, ref_info), np.unwrap(signal_phase(rc, ref_info))]
+        matched = _TimeMatched(_column(rtab, "t"), vals, rsrc)
         ref_meta["file"] = reference_source
 
     names = list(heads) if heads else [h for h in all_heads
-                                       if not (reference_table is None and h == reference)]
+                                       if not (rtab is None and h == reference)]
     if not names:
         msg = "input: no head to check"
         raise DataError(msg)
-    groups = _column(table, "run") if "run" in table.schema.names else None
-    targets = _column(table, "target") if "target" in table.schema.names else None
+    windowed = continuous or window_arcsec is not None
+    window_arcsec = (window_arcsec if window_arcsec is not None else DEFAULT_WINDOW_ARCSEC) \
+        if windowed else None
     devices = [names] if average else [[n] for n in names]
-    curves = []
-    grid = np.linspace(0.0, TWO_PI, points, endpoint=False)
+    plans = []
     for dev_names in devices:
-        infos = [head_info(table.schema, n) for n in dev_names]
-        dev_rad, dev_phase = device_reading([_column(table, n) for n in dev_names], infos)
+        infos = [head_info(schema, n) for n in dev_names]
         info = infos[0]
         name = dev_names[0] if len(dev_names) == 1 else "mean(" + ",".join(dev_names) + ")"
-        if ref_info is not None and ref_info.name == info.name and reference_table is None:
+        if ref_info is not None and ref_info.name == info.name and rtab is None:
             msg = f"--ref {reference} is the device itself; choose another head or probes"
+            raise DataError(msg)
+        if len({i.periods_per_rev for i in infos}) > 1:
+            msg = f"heads {', '.join(dev_names)} have different signal periods: average heads of one encoder"
             raise DataError(msg)
         other_period = ref_info is not None and ref_info.periods_per_rev != info.periods_per_rev
         k_keep = list(keep) if keep is not None else ([1, 2] if other_period else None)
@@ -579,14 +884,70 @@ def check_readings(table, heads: Sequence[str] | None = None, average: bool = Fa
         if ref_info is not None and not other_period:
             warnings.append(f"{name}: the reference {ref_info.name} has the same signal period; "
                             f"the result is the difference of both heads' interpolation errors")
-        r = fit_interpolation_error(
-            dev_rad[rows], dev_phase[rows], ref_rad[rows], info.periods_per_rev,
-            harmonics=n_fit, keep=k_keep, trend_degree=trend_degree,
-            groups=None if groups is None else groups[rows],
-            reference_phase=ref_phase[rows] if other_period else None,
-            reference_orders=range(1, reference_harmonics + 1) if other_period else (),
-            reference_periods_per_rev=ref_info.periods_per_rev if ref_info else None,
-            positions=None if targets is None else targets[rows])
+        fit = InterpolationFit(
+            info.periods_per_rev, n_fit, k_keep, trend_degree,
+            range(1, reference_harmonics + 1) if other_period else (),
+            ref_info.periods_per_rev if ref_info else None,
+            window_arcsec * ARCSEC if windowed else None)
+        plans.append((dev_names, infos, name, other_period, warnings, fit))
+
+    has_run = "run" in schema.names
+    has_target = "target" in schema.names
+    step = None
+    for batch in _chunks(source):
+        if batch.num_rows == 0:
+            continue
+        rows = None
+        ref_phase = None
+        if matched is not None:
+            rows, vals = matched(_column(batch, "t"))
+            ref_rad = vals[0]
+            if ref_info is not None:
+                ref_phase = np.mod(vals[1], TWO_PI)
+        elif ref_info is None:
+            ref_rad = probe_reference(batch, probes, arm_m)[0]
+        else:
+            rc = _column(batch, reference)
+            ref_rad, ref_phase = head_angle(rc, ref_info), signal_phase(rc, ref_info)
+        if step is None and windowed and batch.num_rows > 2:
+            d = np.abs(np.diff(ref_rad))
+            step = float(np.median(d[np.isfinite(d)])) if np.isfinite(d).any() else None
+        groups = _column(batch, "run") if has_run else None
+        targets = _column(batch, "target") if has_target else None
+        for dev_names, infos, _, other_period, _, fit in plans:
+            dev_rad, dev_phase = device_reading([_column(batch, n) for n in dev_names], infos)
+            if rows is not None:
+                sel = np.flatnonzero(rows)
+                dev_rad, dev_phase = dev_rad[sel], dev_phase[sel]
+                r_rad = ref_rad[sel]
+                r_phase = ref_phase[sel] if ref_phase is not None else None
+                g = groups[sel] if groups is not None else None
+                pos = targets[sel] if targets is not None else None
+            else:
+                r_rad, r_phase, g, pos = ref_rad, ref_phase, groups, targets
+            fit.add(dev_rad, dev_phase, r_rad, g, r_phase if other_period else None, pos)
+    if matched is not None:
+        matched.check()
+
+    strobe = {}
+    if windowed and step:
+        from .harmonics import stroboscopic_heads
+
+        seen = {i.name: i for plan in plans for i in plan[1]}
+        if ref_info is not None:
+            seen[ref_info.name] = ref_info
+        strobe = dict(stroboscopic_heads(step, tuple(seen.values())))
+    curves = []
+    grid = np.linspace(0.0, TWO_PI, points, endpoint=False)
+    for dev_names, infos, name, _, warnings, fit in plans:
+        info = infos[0]
+        r = fit.result()
+        for h in [*dev_names, *([ref_info.name] if ref_info is not None else [])]:
+            if h in strobe:
+                warnings.append(
+                    f"{name}: sampling is nearly synchronous with the signal period of {h} "
+                    f"({strobe[h]:.3f} periods per sample): its interpolation error aliases "
+                    f"into the trend; record with another sample interval (enc acquire --interval)")
         warnings += [f"{name}: {w}" for w in r.warnings]
         fig = r.figures()
         meta = {"encoder": info.encoder, "heads": dev_names,
@@ -595,6 +956,8 @@ def check_readings(table, heads: Sequence[str] | None = None, average: bool = Fa
                 "samples": r.samples, "residual_rms_arcsec": r.residual_rms,
                 "kept": [int(n) for n in r.error.orders],
                 "harmonics": _harmonics_meta(r.fitted), "figures": fig} | ref_meta
+        if r.windows is not None:
+            meta |= {"windows": r.windows, "window_arcsec": window_arcsec}
         if r.ratio is not None:
             meta["period_ratio"] = r.ratio
         if r.reference is not None:

@@ -53,7 +53,11 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
               help="Harmonics 1..J of the reference encoder's own period fitted alongside "
                    "(0: the seed's plain filter).")
 @click.option("--trend", "trend_degree", type=click.IntRange(0, 5), default=1, show_default=True,
-              help="Degree of the polynomial in angle removed per run.")
+              help="Degree of the polynomial in angle removed per run (per window).")
+@click.option("--window", "window_arcsec", type=float, default=None, metavar="ARCSEC",
+              callback=options.positive,
+              help="Span of angle with its own trend [arcsec] (default for a continuous "
+                   "run: 1800, 0.5 deg; a sweep: one trend per run).")
 @options.points("Points of the output curve per signal period.", 256, minimum=8)
 @click.option("--signals", "signals_mode", is_flag=True, default=False,
               help="Raw-signal mode: Heydemann ellipse fit of each head's sin/cos signals.")
@@ -70,16 +74,18 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 def command(input: str | None, heads: list[str] | None, average: bool, reference: str,
             reference_file: str | None, probes: list[str] | None, arm_m: float | None,
             harmonics: int | None, keep: list[int] | None, reference_harmonics: int,
-            trend_degree: int, points: int, signals_mode: bool, min_arc_deg: float,
+            trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool, min_arc_deg: float,
             corrected: str | None, spectrum_path: str | None, tolerance: float | None,
             output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
             debug: bool) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
 
-    Reads a readings stream of a small-angle sweep (enc acquire --mode sweep) and
-    writes a deviations stream: for each head, its error [arcsec] against the
-    phase within its signal period [rad], with its standard uncertainty. Figures
-    (p-p, +/-) and harmonics go to stderr and into the output's metadata.
+    Reads a readings stream of a small-angle sweep (enc acquire --mode sweep) or a
+    continuous run (a trend per --window of angle; read batch by batch, in
+    constant memory) and writes a deviations stream: for each head, its error
+    [arcsec] against the phase within its signal period [rad], with its standard
+    uncertainty. Figures (p-p, +/-) and harmonics go to stderr and into the
+    output's metadata.
     """
     runner.setup_logging(verbose, quiet)
     from ..pipeline_tuning import tune_for_streaming
@@ -96,25 +102,33 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     for extra in (spectrum_path, corrected):
         if extra:
             streams.check_output(extra, force, None)
+    if signals_mode and average:
+        raise UsageError("--average does not apply to --signals (each head has its signals)")
+    if signals_mode and window_arcsec is not None:
+        raise UsageError("--window applies to the reference mode, not --signals")
     source = streams.open_input(input, "readings")
-    table = interp.read_sweep(source)
+    continuous = source.meta.get("mode") == "continuous"
     settings: dict[str, Any] = {
         "heads": heads, "average": average, "harmonics": harmonics, "points": points,
         "trend": trend_degree}
     fits = None
+    table = None
     if signals_mode:
-        if average:
-            raise UsageError("--average does not apply to --signals (each head has its signals)")
+        table = interp.read_sweep(source, why="--signals")
         curves, fits = interp.check_signals(table, heads, min_arc_deg, points)
         settings |= {"mode": "signals", "min_arc_deg": min_arc_deg}
     else:
         ref_table = None
         if reference_file is not None:
-            ref_table = interp.read_sweep(streams.open_input(reference_file, "readings"))
+            ref_table = interp.read_sweep(streams.open_input(reference_file, "readings"),
+                                          why="--ref-file")
         curves = interp.check_readings(
-            table, heads, average, reference, ref_table, probes, arm_m, harmonics, keep,
-            reference_harmonics, trend_degree, points, reference_file or "reference")
-        settings |= {"mode": "reference", "reference": reference,
+            source, heads, average, reference, ref_table, probes, arm_m, harmonics, keep,
+            reference_harmonics, trend_degree, points, reference_file or "reference",
+            continuous, window_arcsec)
+        window = (window_arcsec or interp.DEFAULT_WINDOW_ARCSEC) \
+            if (continuous or window_arcsec) else None
+        settings |= {"mode": "reference", "window_arcsec": window, "reference": reference,
                      "reference_file": reference_file, "probes": probes, "arm_m": arm_m,
                      "keep": keep, "reference_harmonics": reference_harmonics}
     if not curves:
