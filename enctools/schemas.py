@@ -27,7 +27,7 @@ class ColumnSpec:
     """One column (by name) or a family of columns (by role) of a kind."""
 
     type: str
-    unit: str
+    unit: str | tuple[str, ...]  # several: any of them (an uncertainty has its curve's unit)
     name: str | None = None
     role: str | None = None
     required: bool = False
@@ -69,13 +69,17 @@ def kind_spec(kind: str) -> KindSpec:
     files = sorted(_schema_dir().glob(f"{kind}.v*.json"),
                    key=lambda p: int(p.name.split(".v")[1].split(".")[0]))
     raw: dict[str, Any] = json.loads(files[-1].read_text())
-    cols = tuple(ColumnSpec(type=c["type"], unit=c.get("unit", ""), name=c.get("name"),
+    cols = tuple(ColumnSpec(type=c["type"], unit=_units(c.get("unit", "")), name=c.get("name"),
                             role=c.get("role"), required=c.get("required", False),
                             min=c.get("min", 0), field_metadata=tuple(c.get("field_metadata", ())),
                             description=c.get("description", ""))
                  for c in raw["columns"])
     return KindSpec(raw["kind"], int(raw["version"]), raw["description"], cols,
                     tuple(raw["metadata"]["required"]))
+
+
+def _units(unit: str | list[str]) -> str | tuple[str, ...]:
+    return unit if isinstance(unit, str) else tuple(unit)
 
 
 def field_meta(field: pa.Field) -> dict[str, str]:
@@ -150,9 +154,18 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
             msg = f"{source}: column {f.name!r} must be {col.type}, not {f.type}"
             raise DataError(msg)
         unit = fm.get("unit")
-        if unit is not None and unit != col.unit:
-            msg = f"{source}: column {f.name!r} is in {unit!r}; a {kind} stream wants {col.unit!r}"
+        units = (col.unit,) if isinstance(col.unit, str) else col.unit
+        if unit is not None and unit not in units:
+            want = " or ".join(repr(u) for u in units)
+            msg = f"{source}: column {f.name!r} is in {unit!r}; a {kind} stream wants {want}"
             raise DataError(msg)
+        of = fm.get("of")
+        if role == "uncertainty" and of in schema.names and unit is not None:
+            of_unit = field_meta(schema.field(of)).get("unit")
+            if of_unit is not None and of_unit != unit:
+                msg = (f"{source}: column {f.name!r} is in {unit!r} but the curve it is the "
+                       f"uncertainty of, {of!r}, is in {of_unit!r}")
+                raise DataError(msg)
         missing = [k for k in col.field_metadata if k not in fm]
         if missing:
             msg = f"{source}: column {f.name!r} lacks field metadata {', '.join(missing)}"

@@ -490,6 +490,8 @@ def run(source: InputStream, settings: dict, progress: object = None
             cols.append(Column(ax, res.curves[ax], "radial", "nm",
                                {"encoder": p.encoder, "argument": "spindle angle",
                                 "u_rms_nm": f"{u_rms:.4g}"}))
+            cols.append(Column(f"u_{ax}", res.curve_uncertainty[ax], "uncertainty", "nm",
+                               {"of": ax}))
     table = deviations_table(grid(points), cols)
     meta = {"settings": eff, "blind": cond.blind, "ill_conditioned": cond.ill,
             "domain": "revolution"}

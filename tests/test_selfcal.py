@@ -93,6 +93,12 @@ def test_esa_default_run_against_truth(esa_default: dict) -> None:
         sync = truth.radial["II"][ax].band(synchronous=True, n_max=K)
         got = t.column(ax).to_numpy()
         assert np.sqrt(np.mean((got - sync(theta)) ** 2)) <= 2.0, ax
+        # its standard uncertainty per angle [nm]: the error is within 4 u nearly everywhere
+        field = t.schema.field(f"u_{ax}")
+        assert field.metadata[b"unit"] == b"nm" and field.metadata[b"of"] == ax.encode()
+        u_ax = t.column(f"u_{ax}").to_numpy()
+        assert np.all(u_ax > 0)
+        assert np.mean(np.abs(got - sync(theta)) < 4 * u_ax) > 0.95, ax
     # the curve is the synthesis of the spectrum
     grad = t.column("graduation").to_numpy()
     assert np.sqrt(np.mean((grad - truth.graduation["II"].band(n_max=K)(theta)) ** 2)) <= 0.01

@@ -210,3 +210,23 @@ def test_named_pipe_input(small_raw):
     assert b"/dev/fd/" in r.stdout and b"readings stream" in r.stdout
     r = run("enc info <(printf hello)")
     assert r.returncode == 2 and b"not an Arrow, Parquet or HDF5 stream" in r.stderr
+
+
+def test_an_uncertainty_is_in_the_unit_of_its_curve():
+    """An uncertainty column may be in arcsec or nm, but only in its own curve's unit."""
+    from enctools.errors import DataError
+    from enctools.schemas import make_field, validate
+
+    def schema(unit: str) -> pa.Schema:
+        return pa.schema([make_field("theta", pa.float64(), "rad"),
+                          make_field("g", pa.float64(), "arcsec", "deviation"),
+                          make_field("x", pa.float64(), "nm", "radial"),
+                          make_field("u_x", pa.float64(), unit, "uncertainty", of="x")])
+
+    meta = {"kind": "deviations", "schema_version": 1}
+    assert validate(schema("nm"), meta, "deviations", "f") == "deviations"
+    with pytest.raises(DataError, match="'u_x' is in 'arcsec' but the curve it is the "
+                                        "uncertainty of, 'x', is in 'nm'"):
+        validate(schema("arcsec"), meta, "deviations", "f")
+    with pytest.raises(DataError, match="wants 'arcsec' or 'nm'"):
+        validate(schema("mm"), meta, "deviations", "f")
