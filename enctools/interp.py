@@ -36,6 +36,7 @@ with the reference's zero) and is removed.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -415,8 +416,8 @@ class TrendProjectedLSQ:
 #: default window of a continuous run [arcsec]: a line per 0.5 deg leaves of the
 #: graduation error of sjtu-dual (harmonics up to 180 per turn) 0.004" rms
 DEFAULT_WINDOW_ARCSEC = 1800.0
-#: sectors of the signal period a window's phases must all visit to count as covering it
-SECTORS = 8
+#: quarters of the signal period a window's phases must all visit to count as covering it
+SECTORS = 4
 
 
 class InterpolationFit:
@@ -842,8 +843,8 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
                                       probes, arm_m)
     else:
         ref_info = head_info((rtab if rtab is not None else source).schema, reference, rsrc)
-        ref_meta = {"reference": reference, "encoder": ref_info.encoder,
-                    "periods_per_rev": ref_info.periods_per_rev}
+        ref_meta = {"reference": reference, "reference_encoder": ref_info.encoder,
+                    "reference_periods_per_rev": ref_info.periods_per_rev}
     matched = None
     if rtab is not None:
         if "t" not in schema.names or "t" not in rtab.schema.names:
@@ -865,8 +866,13 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
     windowed = continuous or window_arcsec is not None
     window_arcsec = (window_arcsec if window_arcsec is not None else DEFAULT_WINDOW_ARCSEC) \
         if windowed else None
+    chunks = _chunks(source)
+    first = next(chunks, None)
+    strobe = _stroboscopic(first, schema, names, reference, ref_info, probes, arm_m) \
+        if windowed and first is not None and rtab is None else {}
     devices = [names] if average else [[n] for n in names]
     plans = []
+    skipped = []
     for dev_names in devices:
         infos = [head_info(schema, n) for n in dev_names]
         info = infos[0]
@@ -874,6 +880,17 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
         if ref_info is not None and ref_info.name == info.name and rtab is None:
             msg = f"--ref {reference} is the device itself; choose another head or probes"
             raise DataError(msg)
+        synchronous = [n for n in dev_names if n in strobe]
+        if synchronous:
+            h = synchronous[0]
+            what = (f"{h}: sampling is nearly synchronous with its signal period "
+                    f"({strobe[h]:.3f} periods per sample): its phase barely moves within a "
+                    f"window, so its interpolation error goes into the trend")
+            if heads:
+                msg = f"{what}; record with another sample interval (enc acquire --interval)"
+                raise DataError(msg)
+            skipped.append(f"{what}: not checked (record with another --interval)")
+            continue
         if len({i.periods_per_rev for i in infos}) > 1:
             msg = f"heads {', '.join(dev_names)} have different signal periods: average heads of one encoder"
             raise DataError(msg)
@@ -881,20 +898,28 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
         k_keep = list(keep) if keep is not None else ([1, 2] if other_period else None)
         n_fit = harmonics if harmonics is not None else (max(k_keep) if other_period else 4)
         warnings = []
+        ref_fitted = other_period and reference not in strobe
+        if other_period and not ref_fitted:
+            warnings.append(f"{name}: sampling is nearly synchronous with the signal period of "
+                            f"the reference {reference} ({strobe[reference]:.3f} periods per "
+                            f"sample): its interpolation error goes into the trend and its "
+                            f"harmonics are not fitted")
         if ref_info is not None and not other_period:
             warnings.append(f"{name}: the reference {ref_info.name} has the same signal period; "
                             f"the result is the difference of both heads' interpolation errors")
         fit = InterpolationFit(
             info.periods_per_rev, n_fit, k_keep, trend_degree,
-            range(1, reference_harmonics + 1) if other_period else (),
+            range(1, reference_harmonics + 1) if ref_fitted else (),
             ref_info.periods_per_rev if ref_info else None,
             window_arcsec * ARCSEC if windowed else None)
-        plans.append((dev_names, infos, name, other_period, warnings, fit))
+        plans.append((dev_names, infos, name, ref_fitted, warnings, fit))
+    if not plans:
+        msg = skipped[0].replace(": not checked", "") if skipped else "input: no head to check"
+        raise DataError(msg)
 
     has_run = "run" in schema.names
     has_target = "target" in schema.names
-    step = None
-    for batch in _chunks(source):
+    for batch in itertools.chain([first] if first is not None else [], chunks):
         if batch.num_rows == 0:
             continue
         rows = None
@@ -909,12 +934,9 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
         else:
             rc = _column(batch, reference)
             ref_rad, ref_phase = head_angle(rc, ref_info), signal_phase(rc, ref_info)
-        if step is None and windowed and batch.num_rows > 2:
-            d = np.abs(np.diff(ref_rad))
-            step = float(np.median(d[np.isfinite(d)])) if np.isfinite(d).any() else None
         groups = _column(batch, "run") if has_run else None
         targets = _column(batch, "target") if has_target else None
-        for dev_names, infos, _, other_period, _, fit in plans:
+        for dev_names, infos, _, ref_fitted, _, fit in plans:
             dev_rad, dev_phase = device_reading([_column(batch, n) for n in dev_names], infos)
             if rows is not None:
                 sel = np.flatnonzero(rows)
@@ -925,29 +947,18 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
                 pos = targets[sel] if targets is not None else None
             else:
                 r_rad, r_phase, g, pos = ref_rad, ref_phase, groups, targets
-            fit.add(dev_rad, dev_phase, r_rad, g, r_phase if other_period else None, pos)
+            fit.add(dev_rad, dev_phase, r_rad, g, r_phase if ref_fitted else None, pos)
     if matched is not None:
         matched.check()
 
-    strobe = {}
-    if windowed and step:
-        from .harmonics import stroboscopic_heads
-
-        seen = {i.name: i for plan in plans for i in plan[1]}
-        if ref_info is not None:
-            seen[ref_info.name] = ref_info
-        strobe = dict(stroboscopic_heads(step, tuple(seen.values())))
     curves = []
     grid = np.linspace(0.0, TWO_PI, points, endpoint=False)
     for dev_names, infos, name, _, warnings, fit in plans:
         info = infos[0]
-        r = fit.result()
-        for h in [*dev_names, *([ref_info.name] if ref_info is not None else [])]:
-            if h in strobe:
-                warnings.append(
-                    f"{name}: sampling is nearly synchronous with the signal period of {h} "
-                    f"({strobe[h]:.3f} periods per sample): its interpolation error aliases "
-                    f"into the trend; record with another sample interval (enc acquire --interval)")
+        try:
+            r = fit.result()
+        except DataError as exc:
+            raise DataError(f"{name}: {exc}") from None
         warnings += [f"{name}: {w}" for w in r.warnings]
         fig = r.figures()
         meta = {"encoder": info.encoder, "heads": dev_names,
@@ -964,7 +975,35 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
             meta["reference_harmonics"] = _harmonics_meta(r.reference)
         curves.append(Curve(name, info.encoder, info.periods_per_rev, grid, r.error(grid),
                             r.error.uncertainty(grid), r.fitted, meta, warnings))
+    if curves:
+        curves[0].warnings[:0] = skipped
     return curves
+
+
+def _stroboscopic(batch, schema, names, reference, ref_info, probes, arm_m) -> dict[str, float]:
+    """Heads (devices and reference) sampled nearly synchronously with their signal period.
+
+    The angle between samples is the median step of the reference over the first
+    batch; :func:`enctools.harmonics.stroboscopic_heads` judges. Returns
+    {head: signal periods per sample}.
+    """
+    from .harmonics import stroboscopic_heads
+    from .readings import head_info
+
+    if batch.num_rows < 3:
+        return {}
+    if ref_info is None:
+        ref_rad = probe_reference(batch, probes, arm_m)[0]
+    else:
+        ref_rad = head_angle(_column(batch, reference), ref_info)
+    d = np.abs(np.diff(ref_rad))
+    d = d[np.isfinite(d)]
+    if not d.size:
+        return {}
+    seen = [head_info(schema, n) for n in names if n in schema.names]
+    if ref_info is not None:
+        seen.append(ref_info)
+    return dict(stroboscopic_heads(float(np.median(d)), tuple(seen)))
 
 
 def check_signals(table, heads: Sequence[str] | None = None, min_arc_deg: float = 90.0,
