@@ -132,6 +132,18 @@ def _expansion(band: int, h: float, terms: int) -> np.ndarray:
     return t
 
 
+def _indices(n: int) -> np.ndarray:
+    """0, 1, ..., n - 1 (read-only; one array kept for the longest n asked)."""
+    global _INDICES
+    if _INDICES.size < n:
+        _INDICES = np.arange(max(n, 2 * _INDICES.size))
+        _INDICES.flags.writeable = False
+    return _INDICES[:n]
+
+
+_INDICES = np.arange(0)
+
+
 def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
                  band: int) -> np.ndarray | None:
     """``sum_j w_j v_cj exp(-i n x_j)``, n = 0..K, by local expansion in bins of angle.
@@ -162,9 +174,9 @@ def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     terms = _taylor_terms(band * h)
     # the bin of every sample (x >= 0 up to rounding: truncation is the floor) ...
     pos = x * (0.5 / h)
-    b = pos.astype(np.intp)
-    if b[0] < 0 or b[-1] >= nb:  # the ends, on 0 and 2 pi, rounded outside
-        np.clip(b, 0, nb - 1, out=b)
+    b = pos.astype(np.intp)  # a first sample rounded below 0 truncates to bin 0
+    if b[-1] >= nb:  # the last sample on 2 pi (or rounded past it) is in the last bin
+        b[int(np.searchsorted(b, nb)):] = nb - 1
     # ... and s = (x - x_b) / h = 2 (pos - b) - 1
     s = pos
     s -= b
@@ -177,8 +189,8 @@ def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     # padded layout (L, B): sample j of bin b goes to row j - first(b)
     first = np.cumsum(counts)
     first -= counts
-    slot = np.arange(s1)
-    slot -= first[b]
+    slot = first[b]
+    np.subtract(_indices(s1), slot, out=slot)
     slot *= nb
     slot += b
     size = width * nb
