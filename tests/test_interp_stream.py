@@ -1,0 +1,161 @@
+"""enc interp-check on continuous runs, streamed (seed 000 sec. 4, eqs. 19-20).
+
+A continuous run has a trend per window of the reference angle (default 1800",
+0.5 deg): a line per window leaves 0.004" rms of the sjtu-dual graduation errors
+(harmonics up to 180 per turn), below the heads' noise (0.02" for H, 0.01" for P).
+The runs here are sampled every 5.05 ms at 1 r/min (109" per sample: 4.36 H periods,
+15.15 P periods), so that the aliased phase steps of H1's 1st/2nd and P1's 1st/2nd
+harmonics (0.377, 0.247, 0.15, 0.30 cycles per sample) are apart and away from 0
+and 0.5: every harmonic goes through several cycles within a window. At 3 ms
+(the rig's default) encoder I is sampled at 9.0 periods per sample (stroboscopic).
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+
+import numpy as np
+import pytest
+from conftest import run
+from test_interp import one_line_error, read_phase_truth
+
+from enctools import interp
+from enctools.streams import read_table
+from enctools.truth import Truth
+from enctools.units import TWO_PI
+
+ACQUIRE = "enc acquire --rig sjtu-dual --interval 0.00505 --heads H1,P1"
+
+
+@pytest.fixture(scope="module")
+def run20(tmp_path_factory: pytest.TempPathFactory):
+    out = tmp_path_factory.mktemp("interp_stream") / "c20.arrows"
+    r = run(f"{ACQUIRE} --revolutions 20 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    return out
+
+
+def kept_truth(truth: Truth, head: str, theta: np.ndarray, ppr: int, keep) -> np.ndarray:
+    """The truth at the read phase restricted to the kept harmonics [arcsec]."""
+    want = read_phase_truth(truth.signals[head], theta, ppr)
+    c = np.fft.rfft(want) / theta.size * 2
+    return sum((c[n] * np.exp(1j * n * theta)).real for n in keep)
+
+
+def test_continuous_h1_by_p1_matches_truth(run20, tmp_path):
+    """20 revolutions (238 000 samples): H1's 1st and 2nd harmonics within 0.001" of the
+    truth at every phase (0.8 % of its 0.12" 1st harmonic; the statistical u is 1e-4",
+    the rest is what a line per window leaves of the graduation error, 0.004" rms,
+    whose projection on the phase columns averages over 14 400 windows), and within
+    5 u + 0.0005"; P1's own 1st harmonic, fitted alongside, within 0.001"."""
+    out = tmp_path / "c.parquet"
+    r = run(f"enc interp-check {run20} --ref P1 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    assert "WARNING" not in r.stderr.decode()
+    header, table = read_table(out, "deviations")
+    truth = Truth.from_dict(header.meta["truth"])
+    meta = header.meta["curves"]["H1"]
+    assert meta["kept"] == [1, 2] and meta["periods_per_rev"] == 52000
+    assert meta["window_arcsec"] == interp.DEFAULT_WINDOW_ARCSEC == 1800
+    assert meta["windows"] == pytest.approx(20 * 720, rel=0.002)  # speed 1000 ppm off
+    assert meta["samples"] > 230_000
+    # the residual is the heads' noise (0.02" and 0.01"): the trends follow the graduation
+    assert meta["residual_rms_arcsec"] == pytest.approx(np.hypot(0.02, 0.01), rel=0.1)
+    theta = table["theta"].to_numpy()
+    want = kept_truth(truth, "H1", theta, 52000, [1, 2])
+    got = table["H1"].to_numpy()
+    u = table["u(H1)"].to_numpy()
+    assert np.abs(got - want).max() < 0.001
+    assert np.all(np.abs(got - want) < 5 * u + 0.0005)
+    p1 = header.meta["curves"]["H1"]["reference_harmonics"][0]
+    c1 = np.fft.rfft(read_phase_truth(truth.signals["P1"], theta, 180000))[1] / theta.size * 2
+    assert p1["amplitude"] == pytest.approx(abs(c1), abs=0.001)
+
+
+def test_window_choice_and_bad_windows(run20, tmp_path):
+    """A wider window (2 deg) leaves more graduation error: a larger residual and u, the
+    same curve within 0.002"; a window shorter than the signal period is refused."""
+    out = tmp_path / "w.parquet"
+    assert run(f"enc interp-check {run20} --ref P1 -q -o {out}").returncode == 0
+    _, base = read_table(out)
+    r = run(f"enc interp-check {run20} --ref P1 --window 7200 -q -o {out} --force")
+    assert r.returncode == 0, r.stderr.decode()
+    header, wide = read_table(out)
+    assert header.meta["curves"]["H1"]["residual_rms_arcsec"] > 0.04
+    assert np.abs(wide["H1"].to_numpy() - base["H1"].to_numpy()).max() < 0.002
+    assert header.meta["settings"]["window_arcsec"] == 7200
+    bad = tmp_path / "b.parquet"
+    assert "shorter than the signal period" in one_line_error(
+        run(f"enc interp-check {run20} --ref P1 --window 20 -o {bad}"), bad)
+    assert "--window" in one_line_error(
+        run(f"enc interp-check {run20} --window -5 -o {bad}"), bad)
+    assert "--signals" in one_line_error(
+        run(f"enc interp-check {run20} --signals --window 900 -o {bad}"), bad)
+
+
+def test_stroboscopic_heads_are_named(tmp_path):
+    """At 3 ms encoder I is sampled at 9.0 periods per sample: P2 asked for is refused in
+    one line naming it; by default it is skipped with a warning, and P1 as the reference
+    is not fitted (its error goes into the trends)."""
+    raw = tmp_path / "r.arrows"
+    assert run(f"enc acquire --rig sjtu-dual --revolutions 2 --heads P1,P2,H1 -o {raw}").returncode == 0
+    out = tmp_path / "o.parquet"
+    err = one_line_error(run(f"enc interp-check {raw} --heads P2 --ref P1 -o {out}"), out)
+    assert "P2" in err and "synchronous" in err and "--interval" in err
+    r = run(f"enc interp-check {raw} --ref P1 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    text = r.stderr.decode()
+    assert "P2: sampling is nearly synchronous" in text and "not checked" in text
+    header, table = read_table(out)
+    assert "P2" not in table.column_names and "reference_harmonics" not in header.meta["curves"]["H1"]
+
+
+def test_trend_projection_is_the_joint_fit():
+    """TrendProjectedLSQ fed in uneven batches = one lstsq with a trend per window."""
+    rng = np.random.default_rng(5)
+    n, width = 5000, 0.37
+    x = np.cumsum(rng.uniform(0.0, 0.01, n))
+    keys = np.floor(x / width).astype(np.int64)
+    cols = np.column_stack([np.cos(7.3 * x * 40), np.sin(7.3 * x * 40), np.cos(3.1 * x * 40)])
+    y = cols @ [0.3, -0.2, 0.05] + np.sin(x) * 3 + x ** 2 + rng.normal(0, 0.01, n) + 100.0
+    lsq = interp.TrendProjectedLSQ(3, 2, consecutive=True)
+    centre = (keys + 0.5) * width
+    for a, b in [(0, 1), (1, 700), (700, 701), (701, 3333), (3333, n)]:
+        lsq.add(cols[a:b], y[a:b], x[a:b], keys[a:b], width / 2, centre=centre[a:b])
+    lsq.close_all()
+    coef = np.linalg.solve(lsq.xtx, lsq.xty)
+    trend = np.column_stack([np.where(keys == k, x ** d, 0.0)
+                             for k in np.unique(keys) for d in range(3)])
+    full, *_ = np.linalg.lstsq(np.column_stack([cols, trend]), y, rcond=None)
+    assert np.allclose(coef, full[:3], atol=1e-9)
+    resid = y - np.column_stack([cols, trend]) @ full
+    assert lsq.yty - coef @ lsq.xty == pytest.approx(resid @ resid, rel=1e-6)
+    assert lsq.n_trend == 3 * np.unique(keys).size and lsq.n == n
+
+
+def test_phase_coverage_bitmap_matches_sorted_gaps():
+    rng = np.random.default_rng(2)
+    phase = np.floor(rng.uniform(0, 4096, 300)) * (TWO_PI / 4096)
+    cover = interp.PhaseCoverage()
+    for part in np.array_split(phase, 7):
+        cover.add(part)
+    p = np.sort(phase)
+    gap = np.max(np.diff(np.append(p, p[0] + TWO_PI)))
+    assert cover.gap() == pytest.approx(gap, abs=1e-12)
+    assert cover.resolvable() == int(np.floor(np.pi / gap - 1e-9))
+
+
+@pytest.mark.skipif(not shutil.which("/usr/bin/time") or sys.platform != "linux",
+                    reason="needs GNU time for the peak memory")
+def test_peak_memory_does_not_grow_with_revolutions(run20, tmp_path):
+    """Peak memory (max RSS) of interp-check at 200 revolutions (2.4 M samples) within
+    1.2x of 20 (the fit keeps sums, not samples)."""
+    long = tmp_path / "c200.arrows"
+    assert run(f"{ACQUIRE} --revolutions 200 -o {long}").returncode == 0
+    peaks = []
+    for f in (run20, long):
+        r = run(f"cat {f} | /usr/bin/time -f %M enc interp-check -q --ref P1 > /dev/null")
+        assert r.returncode == 0, r.stderr.decode()
+        peaks.append(int(r.stderr.decode().split()[-1]))
+    assert peaks[1] < 1.2 * peaks[0], peaks
