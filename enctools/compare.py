@@ -141,10 +141,8 @@ def run(source: InputStream, device: list[str], ref: list[str], band: int, point
         ref_column: str | None, progress: Any = None
         ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
     """A readings stream in; the deviations (and, band-limited, spectrum) of device - reference."""
-    from functools import partial
-
     from .curves import Column, deviations_table, spectrum_table
-    from .harmonics import ChannelSpec, batch_channels, grid, revolution_spectra
+    from .harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
     from .readings import head_info
 
     if source.meta.get("mode") not in (None, "continuous"):
@@ -164,10 +162,10 @@ def run(source: InputStream, device: list[str], ref: list[str], band: int, point
         correction = reference_error(ref_curve[0], ref_curve[1], ref_column,
                                      [source.schema.field(h) for h in ref], kmax, ref_curve[2])
     spec = ChannelSpec(tuple(dev), tuple(refs), mean=True)  # the device is their mean
-    # the per-batch half runs on the reader thread, the revolutions here
-    batches = source.batches(prepare=partial(batch_channels, spec=spec, source=source.source))
-    revs = revolution_spectra(batches, spec, max(band, 0), source.source, progress,
-                              grid_points=0 if band > 0 else points)
+    # revolutions are cut on the reader thread and analysed here
+    cutter = RevolutionCutter(spec, source.source)
+    revs = revolution_spectra(source.batches(prepare=cutter), spec, max(band, 0), source.source,
+                              progress, grid_points=0 if band > 0 else points, cutter=cutter)
     res = compare(revs, band, points, correction)
     label = name or f"{'+'.join(device)}-{'+'.join(ref)}"
     cols = [Column(label, res.curve, "deviation", "arcsec",

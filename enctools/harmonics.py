@@ -513,57 +513,86 @@ def batch_channels(batch: object, spec: ChannelSpec, source: str = "input") -> B
     return BatchChannels(t, u, values, bool(np.all(t[1:] > t[:-1])), sense if n > 1 else 0)
 
 
+class RevolutionCutter:
+    """The sequential half of :func:`revolution_spectra`: checks across batches, and
+    the cut into whole revolutions of the coordinate.
+
+    Call it on each readings batch in order, on any one thread (e.g. a reader
+    thread: ``InputStream.batches(prepare=cutter)``); it returns the revolutions the
+    batch completes. :meth:`finish` after the last batch gives the last revolution
+    if only a sample's gap is missing.
+    """
+
+    def __init__(self, spec: ChannelSpec, source: str = "input") -> None:
+        self.spec = spec
+        self.source = source
+        self._splitter = RevolutionSplitter()
+        self._last_t = -np.inf
+        self._last_u: float | None = None
+        self._direction = 0
+        self._spacing = np.inf
+
+    def __call__(self, batch: object) -> list[Revolution]:
+        b = batch_channels(batch, self.spec, self.source)
+        if b is None:
+            return []
+        t, u, n = b.t, b.u, b.u.size
+        if not (t[0] > self._last_t and b.t_rising):
+            where = int(np.argmax(np.diff(np.concatenate([[self._last_t], t])) <= 0))
+            msg = (f"{self.source}: time t does not increase at sample {where} of a batch; "
+                   "is this a continuous run, sorted by time?")
+            raise DataError(msg)
+        self._last_t = float(t[-1])
+        last_u = self._last_u
+        first = u[0] if last_u is None else last_u
+        if self._direction == 0 and u[-1] != first:
+            self._direction = 1 if u[-1] > first else -1
+        d = self._direction
+        steady = last_u is None or (u[0] > first if d > 0 else u[0] < first)
+        if not steady or (n > 1 and (d == 0 or b.u_sense != d)):
+            names = ", ".join(h.name for h in self.spec.coordinate)
+            msg = (f"{self.source}: the angle coordinate (mean of {names}) stands still or "
+                   "turns back; self-calibration and comparison need a continuous run in "
+                   "one direction")
+            raise DataError(msg)
+        if n > 1 and not np.isfinite(self._spacing):
+            _check_stroboscopic(float(np.median(np.abs(np.diff(u[:4097])))), self.spec)
+        if n > 1:  # the mean step over the batch
+            self._spacing = abs(float(u[-1] - u[0])) / (n - 1)
+        self._last_u = float(u[-1])
+        return list(self._splitter.feed(u, b.values))
+
+    def finish(self) -> list[Revolution]:
+        """The last revolution, if it lacks at most 2.5 sample steps (see close())."""
+        if not np.isfinite(self._spacing):
+            return []
+        last = self._splitter.close(2.5 * self._spacing)
+        return [last] if last is not None else []
+
+
 def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
                        source: str = "input", progress: object = None,
-                       grid_points: int = 0) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
+                       grid_points: int = 0, cutter: RevolutionCutter | None = None
+                       ) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
     """Per revolution of the coordinate, the spectra of each channel's error [rad].
 
-    Reads readings batches (Arrow, or :class:`BatchChannels` made from them ahead of
-    time) one at a time; for each channel k yields the coefficients c_0..c_band of
-    ``h_k(u) - u``, u the mean reading of the coordinate heads (:func:`head_reading`).
-    Checks that ``t`` increases strictly and that the coordinate moves one way; nulls
-    and NaN are errors. Memory holds one revolution.
+    Reads readings batches (Arrow) one at a time, or the lists of revolutions that
+    ``cutter`` made of them ahead (on a reader thread); for each channel k yields the
+    coefficients c_0..c_band of ``h_k(u) - u``, u the mean reading of the coordinate
+    heads (:func:`head_reading`). Checks that ``t`` increases strictly and that the
+    coordinate moves one way; nulls and NaN are errors. Memory holds one revolution.
 
     Yields ``(index, coefficients (C, band + 1), binned)``; ``binned`` is the
     (C, grid_points) bin average of the revolution when ``grid_points`` > 0.
     """
-    splitter = RevolutionSplitter()
-    last_t = -np.inf
-    last_u: float | None = None
-    direction = 0
-    spacing = np.inf
+    cut = cutter if cutter is not None else RevolutionCutter(spec, source)
     for item in batches:
-        b = item if isinstance(item, BatchChannels) else batch_channels(item, spec, source)
-        if b is None:
-            continue
-        t, u, n = b.t, b.u, b.u.size
-        if not (t[0] > last_t and b.t_rising):
-            where = int(np.argmax(np.diff(np.concatenate([[last_t], t])) <= 0))
-            msg = (f"{source}: time t does not increase at sample {where} of a batch; "
-                   "is this a continuous run, sorted by time?")
-            raise DataError(msg)
-        last_t = float(t[-1])
-        first = u[0] if last_u is None else last_u
-        if direction == 0 and u[-1] != first:
-            direction = 1 if u[-1] > first else -1
-        steady = last_u is None or (u[0] > first if direction > 0 else u[0] < first)
-        if not steady or (n > 1 and (direction == 0 or b.u_sense != direction)):
-            names = ", ".join(h.name for h in spec.coordinate)
-            msg = (f"{source}: the angle coordinate (mean of {names}) stands still or turns "
-                   "back; self-calibration and comparison need a continuous run in one direction")
-            raise DataError(msg)
-        if n > 1 and not np.isfinite(spacing):
-            _check_stroboscopic(float(np.median(np.abs(np.diff(u[:4097])))), spec)
-        if n > 1:  # the mean step over the batch
-            spacing = abs(float(u[-1] - u[0])) / (n - 1)
-        last_u = float(u[-1])
-        for rev in splitter.feed(u, b.values):
+        for rev in item if isinstance(item, list) else cut(item):
             yield _analyse(rev, band, grid_points)
             if progress is not None:
                 progress(rev.index + 1)  # type: ignore[operator]
-    last = splitter.close(2.5 * spacing) if np.isfinite(spacing) else None
-    if last is not None:
-        yield _analyse(last, band, grid_points)
+    for rev in cut.finish():
+        yield _analyse(rev, band, grid_points)
 
 
 #: a sample step within this many signal periods of a whole number is "stroboscopic"

@@ -439,11 +439,10 @@ def run(source: InputStream, settings: dict, progress: object = None
     ill-conditioned harmonics before reading any data.
     """
     import logging
-    from functools import partial
 
     from .curves import Column, deviations_table, spectrum_table
     from .errors import DataError
-    from .harmonics import ChannelSpec, batch_channels, grid, revolution_spectra
+    from .harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
 
     log = logging.getLogger("enctools")
     if source.meta.get("mode") not in (None, "continuous"):
@@ -468,9 +467,10 @@ def run(source: InputStream, settings: dict, progress: object = None
         if progress is not None:
             progress(done, max(total, done))  # type: ignore[operator]
 
-    # the per-batch half runs on the reader thread, the revolutions here
-    batches = source.batches(prepare=partial(batch_channels, spec=spec, source=source.source))
-    revs = revolution_spectra(batches, spec, p.method.band, source.source, tick)
+    # revolutions are cut on the reader thread and analysed here
+    cutter = RevolutionCutter(spec, source.source)
+    revs = revolution_spectra(source.batches(prepare=cutter), spec, p.method.band, source.source,
+                              tick, cutter=cutter)
     res = calibrate(revs, p.method, np.array([h.alpha for h in p.coordinate]), points,
                     [h.name for h in p.coordinate])
     log.info("%s: %d revolutions of %s, harmonics 1..%d", p.method.name, res.revolutions,
