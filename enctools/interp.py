@@ -325,13 +325,14 @@ class TrendProjectedLSQ:
         self._lo = np.zeros(0)
         self._hi = np.zeros(0)
 
-    def add(self, x_cols: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray,
+    def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray,
             scale: float, centre: np.ndarray | None = None,
             extra: np.ndarray | None = None) -> None:
-        """Add rows: columns ``x_cols`` (m, p), data ``y`` (m), trend abscissa ``x`` (m).
+        """Add m samples: the columns X transposed, ``x_rows`` (p, m); data ``y`` (m);
+        trend abscissa ``x`` (m); group ``keys`` (m); ``extra`` (n_extra, m) or None.
 
-        The trend coordinate is z = (x - centre) / scale, ``centre`` per row, or (None)
-        the first x of the row's group.
+        The trend coordinate is z = (x - centre) / scale, ``centre`` per sample, or
+        (None) the first x of the sample's group.
         """
         m = y.size
         if m == 0:
@@ -354,18 +355,27 @@ class TrendProjectedLSQ:
         # sums of squares so that they do not cancel
         yc = y - y0[inv]
         z = (x - (x0[inv] if centre is None else centre)) / scale
-        t = np.polynomial.legendre.legvander(z, self.d1 - 1)
-        rows = np.concatenate([
-            (t[:, :, None] * t[:, None, :]).reshape(m, -1),
-            (t[:, :, None] * x_cols[:, None, :]).reshape(m, -1),
-            t * yc[:, None]] + ([extra] if extra is not None else []), axis=1)
-        order = np.argsort(inv, kind="stable")
-        starts = np.searchsorted(inv[order], np.arange(uk.size))
-        mom += np.add.reduceat(rows[order], starts, axis=0)
-        self.xtx += x_cols.T @ x_cols
-        self.xty += x_cols.T @ yc
+        # one row per moment, one column per sample: reduceat along contiguous rows
+        t = np.polynomial.legendre.legvander(z, self.d1 - 1).T.copy()     # (d1, m)
+        xt = np.ascontiguousarray(x_rows)                                  # (p, m)
+        d1, p = self.d1, self.p
+        rows = np.empty((self._width, m))
+        np.multiply(t[:, None, :], t[None, :, :], out=rows[:d1 * d1].reshape(d1, d1, m))
+        np.multiply(t[:, None, :], xt[None, :, :], out=rows[d1 * d1:d1 * (d1 + p)].reshape(d1, p, m))
+        np.multiply(t, yc, out=rows[d1 * (d1 + p):d1 * (d1 + p + 1)])
+        if extra is not None:
+            rows[d1 * (d1 + p + 1):] = extra
+        if np.all(inv[1:] >= inv[:-1]):    # groups met in order (windows): no sort
+            starts = np.searchsorted(inv, np.arange(uk.size))
+        else:
+            order = np.argsort(inv, kind="stable")
+            starts = np.searchsorted(inv[order], np.arange(uk.size))
+            rows = rows[:, order]
+        mom += np.add.reduceat(rows, starts, axis=1).T
+        self.xtx += xt @ xt.T
+        self.xty += xt @ yc
         self.yty += float(yc @ yc)
-        self.raw_ss += np.einsum("ij,ij->j", x_cols, x_cols)
+        self.raw_ss += np.einsum("ij,ij->i", xt, xt)
         self.n += m
 
         keep_old = np.setdiff1d(np.arange(self._keys.size), old)
@@ -418,6 +428,20 @@ class TrendProjectedLSQ:
 DEFAULT_WINDOW_ARCSEC = 1800.0
 #: quarters of the signal period a window's phases must all visit to count as covering it
 SECTORS = 4
+
+
+def _harmonic_rows(phase: np.ndarray, orders: np.ndarray, out: np.ndarray) -> None:
+    """cos(n phase), sin(n phase) for each order n into rows 2k, 2k + 1 of ``out``.
+
+    Consecutive orders by complex products from exp(i phase) (one cos/sin pair).
+    """
+    e1 = np.exp(1j * phase)
+    e = np.ones_like(e1)
+    n = 0
+    for k, order in enumerate(orders):
+        e = e * (e1 if order == n + 1 else np.exp(1j * (order - n) * phase))
+        n = int(order)
+        out[2 * k], out[2 * k + 1] = e.real, e.imag
 
 
 class InterpolationFit:
@@ -509,25 +533,28 @@ class InterpolationFit:
             return
         self.cover.add(phase, positions)
         self._lo, self._hi = min(self._lo, float(ref.min())), max(self._hi, float(ref.max()))
-        cols = [f(k * phase) for k in self.orders for f in (np.cos, np.sin)]
-        cols += [f(j * reference_phase) for j in self.ref_orders for f in (np.cos, np.sin)]
-        x_cols = np.column_stack(cols)
+        m = dev.size
+        x_rows = np.empty((self.lsq.p, m))
+        _harmonic_rows(phase, self.orders, x_rows[:2 * self.orders.size])
+        if self.ref_orders.size:
+            _harmonic_rows(reference_phase, self.ref_orders, x_rows[2 * self.orders.size:])
         zeta = (dev - ref) / ARCSEC
-        keys = np.zeros(dev.size, np.int64) if groups is None else np.asarray(groups).astype(np.int64)
+        keys = np.zeros(m, np.int64) if groups is None else np.asarray(groups).astype(np.int64)
         sector = np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
                             SECTORS - 1)
-        extra = np.zeros((dev.size, 1 + SECTORS))
-        extra[:, 0] = 1.0
-        extra[np.arange(dev.size), 1 + sector] = 1.0
+        extra = np.empty((1 + SECTORS, m))
+        extra[0] = 1.0
+        for k in range(SECTORS):
+            np.equal(sector, k, out=extra[1 + k], casting="unsafe")
         if self.window is None:
-            self.lsq.add(x_cols, zeta, ref, keys, self.period, extra=extra)
+            self.lsq.add(x_rows, zeta, ref, keys, self.period, extra=extra)
             return
         if self._origin is None:
             self._origin = float(ref[0])
         w = np.floor((ref - self._origin) / self.window)
         centre = self._origin + (w + 0.5) * self.window
         keys = (keys << 40) + w.astype(np.int64)
-        self.lsq.add(x_cols, zeta, ref, keys, self.window / 2, centre=centre, extra=extra)
+        self.lsq.add(x_rows, zeta, ref, keys, self.window / 2, centre=centre, extra=extra)
 
     def result(self) -> InterpResult:
         """The fit of every sample added. DataError as :func:`fit_interpolation_error` says."""

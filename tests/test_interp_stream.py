@@ -122,7 +122,7 @@ def test_trend_projection_is_the_joint_fit():
     lsq = interp.TrendProjectedLSQ(3, 2, consecutive=True)
     centre = (keys + 0.5) * width
     for a, b in [(0, 1), (1, 700), (700, 701), (701, 3333), (3333, n)]:
-        lsq.add(cols[a:b], y[a:b], x[a:b], keys[a:b], width / 2, centre=centre[a:b])
+        lsq.add(cols[a:b].T, y[a:b], x[a:b], keys[a:b], width / 2, centre=centre[a:b])
     lsq.close_all()
     coef = np.linalg.solve(lsq.xtx, lsq.xty)
     trend = np.column_stack([np.where(keys == k, x ** d, 0.0)
