@@ -22,6 +22,7 @@ from test_interp import one_line_error, read_phase_truth
 
 from enctools import interp
 from enctools.streams import read_table
+from enctools.trend_lsq import TrendProjectedLSQ
 from enctools.truth import Truth
 from enctools.units import TWO_PI
 
@@ -119,7 +120,7 @@ def test_trend_projection_is_the_joint_fit():
     keys = np.floor(x / width).astype(np.int64)
     cols = np.column_stack([np.cos(7.3 * x * 40), np.sin(7.3 * x * 40), np.cos(3.1 * x * 40)])
     y = cols @ [0.3, -0.2, 0.05] + np.sin(x) * 3 + x ** 2 + rng.normal(0, 0.01, n) + 100.0
-    lsq = interp.TrendProjectedLSQ(3, 2, consecutive=True)
+    lsq = TrendProjectedLSQ(3, 2, consecutive=True)
     centre = (keys + 0.5) * width
     for a, b in [(0, 1), (1, 700), (700, 701), (701, 3333), (3333, n)]:
         lsq.add(cols[a:b].T, y[a:b], x[a:b], keys[a:b], width / 2, centre=centre[a:b])
