@@ -342,6 +342,7 @@ class InterpolationFit:
                                      on_close=self._closed, n_extra=1 + SECTORS)
         self._origin: float | None = None
         self._lo, self._hi = np.inf, -np.inf
+        self.skipped = 0  # samples with a NaN or infinite reading, probe or phase
         # per closed group: the worst coverage (runs) or phase coverage (windows)
         self._short: tuple[float, float] | None = None   # (span + step, span) of the worst run
         self._min_span = np.inf
@@ -382,6 +383,7 @@ class InterpolationFit:
             reference_phase = np.asarray(reference_phase, dtype=np.float64)
             good &= np.isfinite(reference_phase)
         if not good.all():
+            self.skipped += int(n - np.count_nonzero(good))
             dev, ref, phase = dev[good], ref[good], phase[good]
             groups = None if groups is None else np.asarray(groups)[good]
             positions = None if positions is None else np.asarray(positions)[good]
@@ -485,6 +487,10 @@ class InterpolationFit:
         result = InterpResult(error=fitted.select(self.keep), fitted=fitted, period=period,
                               samples=int(lsq.n), periods=float(periods),
                               residual_rms=float(np.sqrt(s2)), reference=reference)
+        if self.skipped:
+            result.warnings.append(
+                f"{self.skipped} of {self.skipped + lsq.n} samples skipped: a NaN or infinite "
+                "reading, probe value or phase")
         if self.window is not None:
             result.windows = lsq.groups
             partial = lsq.n - self._covering[1]

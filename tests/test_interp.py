@@ -330,3 +330,21 @@ def test_missing_probe_readings_are_skipped(sweep, tmp_path):
     _, t, _ = check(f"{src} --heads H1", tmp_path / "h.parquet")
     _, ref, _ = check(f"{sweep} --heads H1", tmp_path / "r.parquet")
     assert np.abs(t["H1"].to_numpy() - ref["H1"].to_numpy()).max() < 0.005
+
+
+def test_nan_probe_samples_are_skipped_and_said(sweep, tmp_path):
+    """A probe that dropped out on a few samples (NaN): those samples are left out of
+    the fit, the command says how many, and the result still matches the clean sweep."""
+    header, table = read_table(sweep, "readings")
+    s1 = table.column("S1").to_numpy().copy()
+    bad = np.arange(5, s1.size, 97)[:12]
+    s1[bad] = np.nan
+    i = table.schema.get_field_index("S1")
+    holed = table.set_column(i, table.schema.field(i), pa.array(s1))
+    write_table(str(tmp_path / "holed.parquet"), header, holed)
+    _, clean, _ = check(f"{sweep} --heads H1", tmp_path / "clean.parquet")
+    _, got, r = check(f"{tmp_path}/holed.parquet --heads H1", tmp_path / "got.parquet")
+    err = r.stderr.decode()
+    assert f"{bad.size} of {s1.size} samples skipped" in err, err
+    diff = got["H1"].to_numpy() - clean["H1"].to_numpy()
+    assert np.max(np.abs(diff)) < 0.005  # arcsec: 12 of ~5000 samples fewer
