@@ -74,12 +74,20 @@ class TrendProjectedLSQ:
         m = y.size
         if m == 0:
             return
-        uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        if bool(np.all(keys[1:] >= keys[:-1])):  # groups met in order (windows): no sort
+            first = np.flatnonzero(keys[1:] != keys[:-1]) + 1
+            first = np.concatenate([[0], first])
+            uk = keys[first]
+            inv = np.repeat(np.arange(uk.size), np.diff(np.append(first, m)))
+            lo = np.minimum.reduceat(x, first).astype(np.float64)
+            hi = np.maximum.reduceat(x, first).astype(np.float64)
+        else:
+            uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+            lo = np.full(uk.size, np.inf)
+            hi = np.full(uk.size, -np.inf)
+            np.minimum.at(lo, inv, x)
+            np.maximum.at(hi, inv, x)
         y0, x0 = y[first].astype(np.float64), x[first].astype(np.float64)
-        lo = np.full(uk.size, np.inf)
-        hi = np.full(uk.size, -np.inf)
-        np.minimum.at(lo, inv, x)
-        np.maximum.at(hi, inv, x)
         mom = np.zeros((uk.size, self._width))
         # groups still open from earlier batches keep their anchors and moments
         old = np.flatnonzero(np.isin(self._keys, uk))
