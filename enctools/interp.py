@@ -36,6 +36,7 @@ with the reference's zero) and is removed.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -43,7 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import DataError
-from .readings import HeadInfo, head_angle, signal_phase
+from .readings import HeadInfo, head_angle, signal_phase, signal_step
 from .trend_lsq import TrendProjectedLSQ
 from .units import ARCSEC, TWO_PI
 
@@ -287,11 +288,20 @@ DEFAULT_WINDOW_ARCSEC = 1800.0
 SECTORS = 4
 
 
-def _harmonic_rows(phase: np.ndarray, orders: np.ndarray, out: np.ndarray) -> None:
+def _harmonic_rows(phase: np.ndarray, orders: np.ndarray, out: np.ndarray,
+                   step: np.ndarray | None = None, steps: int = 0) -> None:
     """cos(n phase), sin(n phase) for each order n into rows 2k, 2k + 1 of ``out``.
 
-    Consecutive orders by complex products from exp(i phase) (one cos/sin pair).
+    With ``step`` (phase = 2 pi step / steps, from the counts) they are looked up in a
+    table of the ``steps`` phases; otherwise consecutive orders by complex products
+    from exp(i phase) (one cos/sin pair).
     """
+    if step is not None:
+        table = _phase_table(steps, tuple(int(n) for n in orders))
+        for k in range(len(orders)):
+            np.take(table[2 * k], step, out=out[2 * k])
+            np.take(table[2 * k + 1], step, out=out[2 * k + 1])
+        return
     e1 = np.exp(1j * phase)
     e = np.ones_like(e1)
     n = 0
@@ -299,6 +309,17 @@ def _harmonic_rows(phase: np.ndarray, orders: np.ndarray, out: np.ndarray) -> No
         e = e * (e1 if order == n + 1 else np.exp(1j * (order - n) * phase))
         n = int(order)
         out[2 * k], out[2 * k + 1] = e.real, e.imag
+
+
+@functools.lru_cache(maxsize=8)
+def _phase_table(steps: int, orders: tuple[int, ...]) -> np.ndarray:
+    """Rows cos(n phi), sin(n phi) for each order n at phi = 2 pi j / steps, j < steps."""
+    phi = np.arange(steps) * (TWO_PI / steps)
+    out = np.empty((2 * len(orders), steps))
+    for k, n in enumerate(orders):
+        out[2 * k], out[2 * k + 1] = np.cos(n * phi), np.sin(n * phi)
+    out.flags.writeable = False
+    return out
 
 
 class InterpolationFit:
@@ -366,8 +387,14 @@ class InterpolationFit:
 
     def add(self, device_rad: np.ndarray, device_phase: np.ndarray, reference_rad: np.ndarray,
             groups: np.ndarray | None = None, reference_phase: np.ndarray | None = None,
-            positions: np.ndarray | None = None) -> None:
-        """Add samples (arrays as in :func:`fit_interpolation_error`); non-finite rows are skipped."""
+            positions: np.ndarray | None = None,
+            steps: tuple[np.ndarray, int, np.ndarray | None, int] | None = None) -> None:
+        """Add samples (arrays as in :func:`fit_interpolation_error`); non-finite rows are skipped.
+
+        ``steps``: (device step, its steps per period, reference step or None, its steps)
+        when the phases come from counts (:func:`enctools.readings.signal_step`): the
+        harmonic columns are then looked up rather than computed.
+        """
         dev = np.asarray(device_rad, dtype=np.float64)
         ref = np.asarray(reference_rad, dtype=np.float64)
         phase = np.asarray(device_phase, dtype=np.float64)
@@ -384,6 +411,8 @@ class InterpolationFit:
             good &= np.isfinite(reference_phase)
         if not good.all():
             self.skipped += int(n - np.count_nonzero(good))
+            steps = None if steps is None else (
+                steps[0][good], steps[1], None if steps[2] is None else steps[2][good], steps[3])
             dev, ref, phase = dev[good], ref[good], phase[good]
             groups = None if groups is None else np.asarray(groups)[good]
             positions = None if positions is None else np.asarray(positions)[good]
@@ -394,13 +423,18 @@ class InterpolationFit:
         self._lo, self._hi = min(self._lo, float(ref.min())), max(self._hi, float(ref.max()))
         m = dev.size
         x_rows = np.empty((self.lsq.p, m))
-        _harmonic_rows(phase, self.orders, x_rows[:2 * self.orders.size])
+        dev_step, dev_steps, ref_step, ref_steps = steps if steps is not None else (None, 0, None, 0)
+        _harmonic_rows(phase, self.orders, x_rows[:2 * self.orders.size], dev_step, dev_steps)
         if self.ref_orders.size:
-            _harmonic_rows(reference_phase, self.ref_orders, x_rows[2 * self.orders.size:])
+            _harmonic_rows(reference_phase, self.ref_orders, x_rows[2 * self.orders.size:],
+                           ref_step, ref_steps)
         zeta = (dev - ref) / ARCSEC
         keys = np.zeros(m, np.int64) if groups is None else np.asarray(groups).astype(np.int64)
-        sector = np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
-                            SECTORS - 1)
+        if dev_step is not None:
+            sector = dev_step * SECTORS // dev_steps
+        else:
+            sector = np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
+                                SECTORS - 1)
         extra = np.empty((1 + SECTORS, m))
         extra[0] = 1.0
         for k in range(SECTORS):
@@ -813,7 +847,7 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
         if batch.num_rows == 0:
             continue
         rows = None
-        ref_phase = None
+        ref_phase = ref_step = None
         if matched is not None:
             rows, vals = matched(_column(batch, "t"))
             ref_rad = vals[0]
@@ -823,21 +857,28 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
             ref_rad = probe_reference(batch, probes, arm_m)[0]
         else:
             rc = _column(batch, reference)
-            ref_rad, ref_phase = head_angle(rc, ref_info), signal_phase(rc, ref_info)
+            ref_step = signal_step(rc, ref_info)
+            ref_rad, ref_phase = head_angle(rc, ref_info), ref_step * (TWO_PI / ref_info.interpolation)
         groups = _column(batch, "run") if has_run else None
         targets = _column(batch, "target") if has_target else None
         for dev_names, infos, _, ref_fitted, _, fit in plans:
-            dev_rad, dev_phase = device_reading([_column(batch, n) for n in dev_names], infos)
+            counts = [_column(batch, n) for n in dev_names]
+            dev_rad, dev_phase = device_reading(counts, infos)
+            dev_step = signal_step(counts[0], infos[0])
+            r_step = ref_step
             if rows is not None:
                 sel = np.flatnonzero(rows)
-                dev_rad, dev_phase = dev_rad[sel], dev_phase[sel]
+                dev_rad, dev_phase, dev_step = dev_rad[sel], dev_phase[sel], dev_step[sel]
                 r_rad = ref_rad[sel]
                 r_phase = ref_phase[sel] if ref_phase is not None else None
+                r_step = ref_step[sel] if ref_step is not None else None
                 g = groups[sel] if groups is not None else None
                 pos = targets[sel] if targets is not None else None
             else:
                 r_rad, r_phase, g, pos = ref_rad, ref_phase, groups, targets
-            fit.add(dev_rad, dev_phase, r_rad, g, r_phase if ref_fitted else None, pos)
+            steps = (dev_step, infos[0].interpolation, r_step,
+                     ref_info.interpolation if r_step is not None else 0)
+            fit.add(dev_rad, dev_phase, r_rad, g, r_phase if ref_fitted else None, pos, steps)
     if matched is not None:
         matched.check()
 

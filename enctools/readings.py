@@ -84,7 +84,12 @@ def head_angle(counts: np.ndarray | pa.Array, info: HeadInfo) -> np.ndarray:
     return c.astype(np.float64) * (TWO_PI / info.counts_per_rev)
 
 
+def signal_step(counts: np.ndarray, info: HeadInfo) -> np.ndarray:
+    """Interpolation step within the signal period [count], 0..interpolation - 1."""
+    c = np.asarray(counts, dtype=np.int64) + info.zero_count
+    return np.mod(c, info.interpolation)
+
+
 def signal_phase(counts: np.ndarray, info: HeadInfo) -> np.ndarray:
     """Phase within the signal period [rad], 0..2 pi, from a head's counts."""
-    c = np.asarray(counts, dtype=np.int64) + info.zero_count
-    return np.mod(c, info.interpolation) * (TWO_PI / info.interpolation)
+    return signal_step(counts, info) * (TWO_PI / info.interpolation)
