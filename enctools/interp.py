@@ -249,10 +249,15 @@ class PhaseCoverage:
         self._pos: dict[float, complex] = {}
         self.samples = 0
 
-    def add(self, phase: np.ndarray, positions: np.ndarray | None = None) -> None:
+    def add(self, phase: np.ndarray, positions: np.ndarray | None = None,
+            step: np.ndarray | None = None, steps: int = 0) -> None:
+        """Add phases [rad] (with ``step``: phase = 2 pi step / steps, from counts)."""
         phase = np.asarray(phase, dtype=np.float64)
         self.samples += phase.size
         if positions is None:
+            if step is not None and self.BINS % steps == 0:
+                self._mask[step * (self.BINS // steps)] = True
+                return
             k = np.rint(np.mod(phase, TWO_PI) * (self.BINS / TWO_PI)).astype(np.int64)
             self._mask[np.mod(k, self.BINS)] = True
             return
@@ -419,11 +424,11 @@ class InterpolationFit:
             reference_phase = None if reference_phase is None else reference_phase[good]
         if dev.size == 0:
             return
-        self.cover.add(phase, positions)
+        dev_step, dev_steps, ref_step, ref_steps = steps if steps is not None else (None, 0, None, 0)
+        self.cover.add(phase, positions, dev_step, dev_steps)
         self._lo, self._hi = min(self._lo, float(ref.min())), max(self._hi, float(ref.max()))
         m = dev.size
         x_rows = np.empty((self.lsq.p, m))
-        dev_step, dev_steps, ref_step, ref_steps = steps if steps is not None else (None, 0, None, 0)
         _harmonic_rows(phase, self.orders, x_rows[:2 * self.orders.size], dev_step, dev_steps)
         if self.ref_orders.size:
             _harmonic_rows(reference_phase, self.ref_orders, x_rows[2 * self.orders.size:],
