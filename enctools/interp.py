@@ -178,17 +178,18 @@ def probe_rotation(values: Sequence[np.ndarray], arms_m: Sequence[float],
 
 def device_reading(counts: Sequence[np.ndarray], infos: Sequence[HeadInfo]
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(angle [rad], signal phase [rad]) of a head or a head average.
+    """(angle [rad], interpolation step [count]) of a head or a head average.
 
     The average of heads of one encoder is periodic in that encoder's signal period
-    as a function of the first head's phase (the heads sit at fixed phase offsets).
+    as a function of the first head's phase (the heads sit at fixed phase offsets);
+    the step is that phase in counts (:func:`enctools.readings.signal_step`).
     """
     if len({i.periods_per_rev for i in infos}) > 1:
         names = ", ".join(i.name for i in infos)
         msg = f"heads {names} have different signal periods: average heads of one encoder"
         raise DataError(msg)
     angle = np.mean([head_angle(c, i) for c, i in zip(counts, infos)], axis=0)
-    return angle, signal_phase(np.asarray(counts[0]), infos[0])
+    return angle, signal_step(np.asarray(counts[0]), infos[0])
 
 
 def period_ratio(device_periods_per_rev: int, reference_periods_per_rev: int) -> float:
@@ -868,8 +869,8 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
         targets = _column(batch, "target") if has_target else None
         for dev_names, infos, _, ref_fitted, _, fit in plans:
             counts = [_column(batch, n) for n in dev_names]
-            dev_rad, dev_phase = device_reading(counts, infos)
-            dev_step = signal_step(counts[0], infos[0])
+            dev_rad, dev_step = device_reading(counts, infos)
+            dev_phase = dev_step * (TWO_PI / infos[0].interpolation)
             r_step = ref_step
             if rows is not None:
                 sel = np.flatnonzero(rows)
