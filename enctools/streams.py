@@ -380,9 +380,7 @@ def _open_file(fh: IO[bytes], source: str) -> InputStream:
     if not prefix:
         msg = f"{source}: empty file"
         raise DataError(msg)
-    fmt = detect_format(prefix)
-    if fmt is None:
-        raise DataError(_unknown_bytes(source, prefix))
+    fmt = _known_format(prefix, source)
     return _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
 
 
@@ -433,9 +431,7 @@ def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
     if not prefix:
         msg = f"{source}: no input (empty stream); was the command before it in the pipe ok?"
         raise DataError(msg)
-    fmt = detect_format(prefix)
-    if fmt is None:
-        raise DataError(_unknown_bytes(source, prefix))
+    fmt = _known_format(prefix, source)
     if fmt == "arrows":
         wrapped = _Prefixed(prefix, raw, cancel)
         wrapped.owner = owner
@@ -470,9 +466,14 @@ def _validated(stream: InputStream, expect: str | tuple[str, ...] | None) -> Inp
     return stream
 
 
-def _unknown_bytes(source: str, prefix: bytes) -> str:
-    return (f"{source}: not an Arrow, Parquet or HDF5 stream "
-            f"(starts with bytes {prefix[:8].hex(' ')})")
+def _known_format(prefix: bytes, source: str) -> str:
+    """The format named by a stream's first bytes; a one-line DataError for any other."""
+    fmt = detect_format(prefix)
+    if fmt is None:
+        msg = (f"{source}: not an Arrow, Parquet or HDF5 stream "
+               f"(starts with bytes {prefix[:8].hex(' ')})")
+        raise DataError(msg)
+    return fmt
 
 
 def _open_arrows(f: IO[bytes], source: str) -> InputStream:
