@@ -16,7 +16,7 @@ from pathlib import Path
 import atheris
 
 with atheris.instrument_imports():
-    from enctools import streams
+    from enctools.data import streams
     from enctools.errors import DataError
 
 
@@ -35,7 +35,7 @@ def seeds(folder: Path) -> None:
     import numpy as np
     import pyarrow as pa
 
-    from enctools.schemas import make_field
+    from enctools.data.schemas import make_field
 
     folder.mkdir(parents=True, exist_ok=True)
     schema = pa.schema([make_field("theta", pa.float64(), "rad"),

@@ -7,9 +7,9 @@ import pyarrow as pa
 import pytest
 from conftest import run
 
-from enctools import streams
-from enctools.readings import head_info
-from enctools.truth import Truth, signal_phase_error
+from enctools.data import streams
+from enctools.data.readings import head_info
+from enctools.hw.truth import Truth, signal_phase_error
 from enctools.units import ARCSEC, TWO_PI
 
 HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]
@@ -130,7 +130,7 @@ def test_four_equally_spaced_heads_keep_multiples_of_four(sjtu):
 
 
 def test_interpolation_error_truth_is_heydemann():
-    from enctools.truth import SignalFaults, interpolation_error
+    from enctools.hw.truth import SignalFaults, interpolation_error
 
     f = SignalFaults(0.05, 0.0, 1.0, 0.0)
     x = np.linspace(0, 2 * np.pi / 52000, 2001)
@@ -169,7 +169,7 @@ def test_sweep_probes_follow_the_rotation(tmp_path):
 
 
 def test_counter_wrap_is_unwrapped():
-    from enctools.acquire import Unwrapper
+    from enctools.hw.acquire import Unwrapper
 
     u = Unwrapper(8)
     raw = np.arange(0, 1000, 7) % 256

@@ -18,11 +18,16 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import run
 
-from enctools.harmonics import RunningMean, head_reading, revolution_coefficients, synthesize
-from enctools.heads import average_transfer, summarize_average
-from enctools.readings import head_info
-from enctools.streams import read_table
-from enctools.truth import Truth
+from enctools.data.readings import head_info
+from enctools.data.streams import read_table
+from enctools.hw.truth import Truth
+from enctools.methods.harmonics import (
+    RunningMean,
+    head_reading,
+    revolution_coefficients,
+    synthesize,
+)
+from enctools.methods.heads import average_transfer, summarize_average
 from enctools.units import ARCSEC
 
 K = 100

@@ -89,7 +89,7 @@ def test_sigterm_mid_run_keeps_a_valid_stream(tmp_path):
 
     from conftest import enc_exe
 
-    from enctools import streams
+    from enctools.data import streams
 
     out = tmp_path / "x.arrows"
     p = subprocess.Popen([enc_exe(), "acquire", "--rig", "sjtu-dual", "--revolutions", "2000",

@@ -20,10 +20,10 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import run
 
-from enctools.harmonics import synthesize
-from enctools.heads import average_transfer
-from enctools.streams import read_table
-from enctools.truth import Truth
+from enctools.data.streams import read_table
+from enctools.hw.truth import Truth
+from enctools.methods.harmonics import synthesize
+from enctools.methods.heads import average_transfer
 
 K = 100
 

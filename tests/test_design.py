@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from conftest import run
 
-from enctools import design
-from enctools.selfcal import esa_transfer, esa_weights
+from enctools.methods import design
+from enctools.methods.selfcal import esa_transfer, esa_weights
 
 
 def test_paper_arrangement() -> None:

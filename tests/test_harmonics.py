@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from enctools.harmonics import (
+from enctools.data.readings import HeadInfo
+from enctools.methods.harmonics import (
     RevolutionSplitter,
     analyse,
     bin_average,
@@ -14,7 +15,6 @@ from enctools.harmonics import (
     stroboscopic_heads,
     synthesize,
 )
-from enctools.readings import HeadInfo
 
 TWO_PI = 2 * np.pi
 

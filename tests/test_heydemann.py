@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from enctools import heydemann as hd
 from enctools.errors import DataError
-from enctools.truth import SignalFaults, interpolation_error, signal_phase_error
+from enctools.hw.truth import SignalFaults, interpolation_error, signal_phase_error
+from enctools.methods import heydemann as hd
 from enctools.units import DEG, TWO_PI
 
 TRUE = np.array([0.1, -0.05, 1.0, 0.9, 0.1])  # offset_cos, offset_sin, amplitude, ratio, phase

@@ -16,10 +16,10 @@ import pyarrow as pa
 import pytest
 from conftest import run
 
-from enctools import interp
-from enctools.readings import head_info, signal_phase
-from enctools.streams import Header, read_table, write_table
-from enctools.truth import SignalFaults, Truth, signal_phase_error
+from enctools.data.readings import head_info, signal_phase
+from enctools.data.streams import Header, read_table, write_table
+from enctools.hw.truth import SignalFaults, Truth, signal_phase_error
+from enctools.methods import interp
 from enctools.units import ARCSEC, TWO_PI
 
 HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]

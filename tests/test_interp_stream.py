@@ -20,10 +20,10 @@ import pytest
 from conftest import run
 from test_interp import one_line_error, read_phase_truth
 
-from enctools import interp
-from enctools.streams import read_table
-from enctools.trend_lsq import TrendProjectedLSQ
-from enctools.truth import Truth
+from enctools.data.streams import read_table
+from enctools.hw.truth import Truth
+from enctools.methods import interp
+from enctools.methods.trend_lsq import TrendProjectedLSQ
 from enctools.units import TWO_PI
 
 ACQUIRE = "enc acquire --rig sjtu-dual --interval 0.00505 --heads H1,P1"

@@ -7,7 +7,7 @@ import json
 import pytest
 from conftest import ROOT, run
 
-from enctools import latency as lat
+from enctools.methods import latency as lat
 
 
 def test_code_skip_speed_is_eq4_exactly():

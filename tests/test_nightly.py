@@ -205,7 +205,7 @@ def test_history_errors(tmp_path):
 
 
 def test_nightly_man_page_lists_every_option():
-    from enctools.report.nightly import command
+    from enctools.cli.nightly import command
     page = (ROOT / "man" / "enc-nightly.1").read_text()
     for p in command.params:
         for opt in p.opts:

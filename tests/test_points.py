@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from conftest import DATA, run
 
-from enctools import streams
-from enctools.points import distinct, figures, from_table
-from enctools.streams import read_table
-from enctools.truth import Truth, interpolation_error
+from enctools.data import streams
+from enctools.data.streams import read_table
+from enctools.hw.truth import Truth, interpolation_error
+from enctools.methods.points import distinct, figures, from_table
 from enctools.units import DEG
 
 

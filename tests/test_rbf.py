@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 from conftest import DATA, ROOT, run
 
-from enctools import streams
-from enctools.fourier_fit import fit_fourier
-from enctools.models import from_stream
-from enctools.points import distinct, points_from_csv
-from enctools.rbf import design_matrix, fit_rbf
-from enctools.readings import head_angle, head_info
-from enctools.truth import Motion
+from enctools.data import streams
+from enctools.data.readings import head_angle, head_info
+from enctools.hw.truth import Motion
+from enctools.methods.points import distinct, points_from_csv
+from enctools.models.curve_model import from_stream
+from enctools.models.fourier import fit_fourier
+from enctools.models.rbf import design_matrix, fit_rbf
 from enctools.units import ARCSEC, DEG
 
 

@@ -17,11 +17,11 @@ import pyarrow as pa
 import pytest
 from conftest import DATA, ROOT, run
 
+from enctools.data.rig import load_rig
+from enctools.data.schemas import make_field
+from enctools.data.streams import Header, write_table
 from enctools.hw.sim_truth import make_truth
-from enctools.rig import load_rig
-from enctools.schemas import make_field
-from enctools.streams import Header, write_table
-from enctools.truth import interpolation_error
+from enctools.hw.truth import interpolation_error
 from enctools.units import ARCSEC, TWO_PI
 
 U_STD = 0.02          # standard uncertainty given to the synthetic deviations [arcsec]
@@ -101,7 +101,7 @@ def make_spectrum(path: Path, nmax: int = 60) -> Path:
 
 
 def make_points(path: Path, table_no: int) -> Path:
-    """Seed 001 table N as a points stream, through enctools.streams (no enc points)."""
+    """Seed 001 table N as a points stream, through enctools.data.streams (no enc points)."""
     rows = [line.split(",") for line in (DATA / f"seed001_table{table_no}.csv").read_text()
             .splitlines() if line and not line.startswith("#") and line[0].isdigit()]
     pos, dev = np.array(rows, dtype=float).T
@@ -264,8 +264,8 @@ def test_iso230_from_a_polygon_run_against_truth(iso_run):
 
 
 def _truth_of(path: Path):
-    from enctools.streams import open_input
-    from enctools.truth import Truth
+    from enctools.data.streams import open_input
+    from enctools.hw.truth import Truth
     with open_input(str(path)) as s:
         return Truth.from_dict(s.meta["truth"])
 

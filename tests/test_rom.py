@@ -9,13 +9,13 @@ import pyarrow as pa
 import pytest
 from conftest import DATA, run
 
-from enctools import romformats as rf
-from enctools import streams
+from enctools.data import streams
+from enctools.data.schemas import make_field
 from enctools.errors import DataError
-from enctools.fourier_fit import FourierModel
-from enctools.models import from_stream
-from enctools.rom import RomSpec, build_rom
-from enctools.schemas import make_field
+from enctools.models import romformats as rf
+from enctools.models.curve_model import from_stream
+from enctools.models.fourier import FourierModel
+from enctools.models.rom import RomSpec, build_rom
 
 MEMORY = ("bin", "ihex", "mif", "coe", "mem", "csv")
 
@@ -202,7 +202,7 @@ def test_fourier_model_table_exact():
 
 def test_grid_evaluation_equals_the_model_everywhere(model_file):
     """The fast uniform-grid path (Fourier series by BLAS) gives the model's own values."""
-    from enctools.rbf import RBFModel
+    from enctools.models.rbf import RBFModel
 
     header, table = streams.read_table(str(model_file), "model")
     rbf = from_stream(header, table)

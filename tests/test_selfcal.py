@@ -27,10 +27,10 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import run
 
-from enctools.harmonics import RunningMean, revolution_coefficients
-from enctools.selfcal import Method, esa_transfer, esa_weights, fourier_solve
-from enctools.streams import read_table
-from enctools.truth import Truth
+from enctools.data.streams import read_table
+from enctools.hw.truth import Truth
+from enctools.methods.harmonics import RunningMean, revolution_coefficients
+from enctools.methods.selfcal import Method, esa_transfer, esa_weights, fourier_solve
 
 K = 100
 RIGS = Path(__file__).resolve().parent.parent / "enctools" / "rigs"
@@ -229,11 +229,11 @@ def test_blind_harmonic_named_and_strict(sjtu_raw: Path, tmp_path: Path) -> None
 
 def test_uncertainties_are_honest() -> None:
     """Over 20 noise seeds the error of each harmonic's re and im lies inside 2u ~95 %."""
-    from enctools import acquire as acq
+    from enctools.data.rig import load_rig
+    from enctools.data.streams import InputStream
+    from enctools.hw import acquire as acq
     from enctools.hw import open_session
-    from enctools.rig import load_rig
-    from enctools.selfcal import run as selfcal_run
-    from enctools.streams import InputStream
+    from enctools.methods.selfcal import run as selfcal_run
 
     rig = load_rig("sjtu-dual")
     inside = []

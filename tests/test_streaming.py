@@ -11,7 +11,12 @@ import numpy as np
 import pytest
 from conftest import run
 
-from enctools.harmonics import _binned_sums, _direct_sums, revolution_coefficients, trapezoid_weights
+from enctools.methods.harmonics import (
+    _binned_sums,
+    _direct_sums,
+    revolution_coefficients,
+    trapezoid_weights,
+)
 
 TWO_PI = 2 * np.pi
 
@@ -71,7 +76,7 @@ def test_few_samples_fall_back_to_the_direct_sum() -> None:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="F_SETPIPE_SZ is Linux")
 def test_enlarge_pipe() -> None:
-    from enctools.streams import PIPE_BUFFER, enlarge_pipe
+    from enctools.data.streams import PIPE_BUFFER, enlarge_pipe
 
     r, w = os.pipe()
     try:
@@ -88,7 +93,7 @@ def test_interp_check_streams_a_long_run(tmp_path) -> None:
     """A continuous run of 100 revolutions (1.19 M samples, past the old 1 000 000 limit)
     piped in is fitted, not refused, and gives H1's harmonics of 20 revolutions (the same
     seed) within 4 combined standard uncertainties."""
-    from enctools.streams import read_table
+    from enctools.data.streams import read_table
 
     acquire = "enc acquire --rig sjtu-dual --interval 0.00505 --heads H1,P1"
     res = {}

@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import io
 import json
+import re
 
 import numpy as np
 import pyarrow as pa
 import pytest
 from conftest import run
 
-from enctools import streams
+from enctools.data import streams
+from enctools.data.header import history_line
+from enctools.data.schemas import make_field
 from enctools.errors import DataError, UsageError
-from enctools.schemas import make_field
 
 
 def _deviations(n: int = 1000) -> tuple[streams.Header, pa.Table]:
@@ -117,9 +119,11 @@ def test_failure_inside_a_write_leaves_no_file(tmp_path):
 
 
 def test_history_line_names_the_command():
-    line = streams.history_line(["/usr/bin/enc", "selfcal", "--method", "esa", "a b.parquet"])
+    line = history_line(["/usr/bin/enc", "selfcal", "--method", "esa", "a b.parquet"])
     assert line.endswith("enc selfcal --method esa 'a b.parquet'")
     assert "enctools" in line
+    for lib in ("numpy", "scipy", "pyarrow"):  # the versions the numbers depend on
+        assert re.search(rf"\b{lib} \d+\.\d+", line), line
 
 
 # ------------------------------------------------------------------ as a user, through a shell
@@ -214,8 +218,8 @@ def test_named_pipe_input(small_raw):
 
 def test_an_uncertainty_is_in_the_unit_of_its_curve():
     """An uncertainty column may be in arcsec or nm, but only in its own curve's unit."""
+    from enctools.data.schemas import make_field, validate
     from enctools.errors import DataError
-    from enctools.schemas import make_field, validate
 
     def schema(unit: str) -> pa.Schema:
         return pa.schema([make_field("theta", pa.float64(), "rad"),

@@ -12,9 +12,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from enctools import streams
+from enctools.data import streams
+from enctools.data.schemas import make_field
 from enctools.errors import DataError
-from enctools.schemas import make_field
 
 FORMATS = [".parquet", ".h5", ".arrow", ".arrows"]
 

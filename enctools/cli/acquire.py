@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("acquire")
@@ -70,7 +70,7 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     """
     runner.setup_logging(verbose, quiet)
     runner.install_sigterm()
-    from .. import streams
+    from enctools.data import streams
 
     if tee_path is not None:
         from pathlib import Path
@@ -78,7 +78,7 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
             raise click.UsageError("--tee FILE must differ from -o PATH")
         streams.check_output(tee_path, force)
     if replay_path is not None:
-        from ..hw.replay import replay
+        from enctools.hw.replay import replay
 
         streams.check_output(output, force, fmt)
         source = streams.open_input(replay_path, "readings")
@@ -90,9 +90,9 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
 
     if rig is None:
         raise click.UsageError("give --rig NAME|PATH (or ENC_RIG), or --replay FILE")
-    from .. import acquire as acq
-    from ..hw import open_session
-    from ..rig import load_rig
+    from enctools.data.rig import load_rig
+    from enctools.hw import acquire as acq
+    from enctools.hw import open_session
 
     rig_ = load_rig(rig)
     settings = acq.resolve(rig_, given)
@@ -114,7 +114,7 @@ def _write(header: Any, batches: Iterator[Any], output: str | None, force: bool,
     SIGINT and SIGTERM are held while a batch is being written, so the files hold
     whole batches; they stop the run between batches (or inside a device wait).
     """
-    from .. import streams
+    from enctools.data import streams
 
     with contextlib.ExitStack() as stack:
         out = stack.enter_context(streams.OutputStream(output, header, force, fmt,
@@ -149,7 +149,7 @@ class _SignalGuard:
             signal.signal(sig, old)
 
     def _raise(self, signum: int) -> None:
-        from ..errors import Interrupted
+        from enctools.errors import Interrupted
 
         if signum == signal.SIGTERM:
             raise Interrupted("terminated", exit_code=143)

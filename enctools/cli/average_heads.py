@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 def _groups(ctx: click.Context, param: click.Parameter,
@@ -42,12 +42,12 @@ def command(input: str | None, groups: list[tuple[str | None, list[str]]], band:
     transfer function A(n) of each average is logged and kept in the field metadata.
     """
     runner.setup_logging(verbose, quiet)
-    from ..pipeline_tuning import tune_for_streaming
+    from enctools.cli.tuning import tune_for_streaming
 
     tune_for_streaming()  # malloc keeps its memory between batches
     runner.install_sigterm()
-    from .. import streams
-    from ..heads import run
+    from enctools.data import streams
+    from enctools.methods.heads import run
 
     streams.check_output(output, force, fmt)
     source = streams.open_input(input, "readings")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("compare")
@@ -35,13 +35,13 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
     `enc compare --device H --ref P` after `enc average-heads` is eq. (10).
     """
     runner.setup_logging(verbose, quiet)
-    from ..pipeline_tuning import tune_for_streaming
+    from enctools.cli.tuning import tune_for_streaming
 
     tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
     runner.install_sigterm()
-    from .. import streams
-    from ..compare import run
-    from ..errors import UsageError
+    from enctools.data import streams
+    from enctools.errors import UsageError
+    from enctools.methods.compare import run
 
     if band < 0:
         raise UsageError(f"--band must be >= 0, not {band}")

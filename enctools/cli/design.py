@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("design")
@@ -35,9 +35,9 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
     """Transfer function |W(n)|, blind harmonics, noise gain and mounting sensitivity
     of a head arrangement; with --search, the arrangement that maximises min |W(n)|."""
     runner.setup_logging(verbose, quiet)
-    from .. import design
-    from ..errors import UsageError
-    from ..heads import format_orders
+    from enctools.errors import UsageError
+    from enctools.methods import design
+    from enctools.methods.heads import format_orders
 
     if angles is None and search_heads is None:
         raise UsageError("give --angles DEG,... to analyse, or --search M to search")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("fit-rbf")
@@ -35,10 +35,11 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     training, leave-one-out and hold-out residuals.
     """
     runner.setup_logging(verbose, quiet)
-    from .. import models, streams
-    from ..errors import CheckFailed, UsageError
-    from ..points import distinct, read_points
-    from ..streams import with_history
+    from enctools.data import streams
+    from enctools.data.streams import with_history
+    from enctools.errors import CheckFailed, UsageError
+    from enctools.methods.points import distinct, read_points
+    from enctools.models import curve_model as models
 
     if not goal >= 0:
         raise UsageError(f"--goal must be >= 0 arcsec, not {goal}")
@@ -72,7 +73,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
 
 
 def _summary(fit, meta) -> None:
-    from .runner import _state
+    from enctools.cli.runner import _state
     if _state.get("quiet"):
         return
     import sys

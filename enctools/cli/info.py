@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("info")
@@ -13,7 +13,7 @@ from . import options, runner
 def command(input: str | None, verbose: int, quiet: int, debug: bool) -> None:
     """Describe a stream: its kind, columns with units and roles, rows and history."""
     runner.setup_logging(verbose, quiet)
-    from ..info import describe
-    from ..streams import open_input
+    from enctools.data.info import describe
+    from enctools.data.streams import open_input
 
     click.echo(describe(open_input(input)))

@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> list[int] | None:
@@ -88,11 +88,12 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     output's metadata.
     """
     runner.setup_logging(verbose, quiet)
-    from ..pipeline_tuning import tune_for_streaming
+    from enctools.cli.tuning import tune_for_streaming
 
     tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
-    from .. import interp, streams
-    from ..errors import CheckFailed, UsageError
+    from enctools.data import streams
+    from enctools.errors import CheckFailed, UsageError
+    from enctools.methods import interp
 
     if arm_m is not None and not arm_m > 0:
         raise UsageError(f"--arm must be > 0 m (psi = h / L), not {arm_m!r}")
@@ -171,7 +172,7 @@ def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) ->
     import numpy as np
     import pyarrow as pa
 
-    from ..schemas import make_field
+    from enctools.data.schemas import make_field
 
     fields = [make_field("theta", pa.float64(), "rad")]
     arrays = [pa.array(curves[0].phase)]
@@ -200,7 +201,7 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
     import numpy as np
     import pyarrow as pa
 
-    from ..schemas import make_field
+    from enctools.data.schemas import make_field
 
     rows: dict[str, list] = {k: [] for k in ("n", "amplitude", "phase", "re", "im", "u", "curve")}
     for c in curves:
@@ -227,7 +228,8 @@ def _write_corrected(header: Any, table: Any, fits: dict, names: list[str], path
                      force: bool) -> None:
     import pyarrow as pa
 
-    from .. import interp, streams
+    from enctools.data import streams
+    from enctools.methods import interp
 
     new = interp.corrected_counts(table, fits, names)
     for name, counts in new.items():

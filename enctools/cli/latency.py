@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("latency")
@@ -36,8 +36,8 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
     runner.setup_logging(verbose, quiet)
     import json
 
-    from .. import latency as lat
-    from ..errors import UsageError
+    from enctools.errors import UsageError
+    from enctools.methods import latency as lat
 
     out: dict = {}
     if inputs:
@@ -88,11 +88,11 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
 def _measure(inputs, heads, reference):
     import numpy as np
 
-    from .. import latency as lat
-    from ..errors import DataError
-    from ..readings import head_info, measuring_heads
-    from ..streams import open_input
-    from ..truth import Motion
+    from enctools.data.readings import head_info, measuring_heads
+    from enctools.data.streams import open_input
+    from enctools.errors import DataError
+    from enctools.hw.truth import Motion
+    from enctools.methods import latency as lat
 
     runs, bits = [], None
     for path in inputs:
@@ -125,8 +125,8 @@ def _mean_angle(table, schema, names, source):
     """Mean reading [rad] of heads, each with its zero offset (alpha - zero count) removed."""
     import numpy as np
 
-    from ..readings import head_angle, head_info
-    from ..units import TWO_PI
+    from enctools.data.readings import head_angle, head_info
+    from enctools.units import TWO_PI
     out = []
     for h in names:
         info = head_info(schema, h, source)

@@ -14,8 +14,8 @@ from typing import Any
 
 import click
 
-from .. import __version__
-from . import runner
+from enctools import __version__
+from enctools.cli import runner
 
 #: name -> (module under enctools.cli, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> None:
     if "_ENC_COMPLETE" in os.environ:  # shell completion: click's own entry point
         cli.main(args=args, prog_name="enc", complete_var="_ENC_COMPLETE")
     debug = "--debug" in args or os.environ.get("ENC_DEBUG", "") not in ("", "0")
-    from ..pipeline_tuning import one_blas_thread
+    from enctools.cli.tuning import one_blas_thread
 
     one_blas_thread()  # before any command imports numpy
 

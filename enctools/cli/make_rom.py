@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream")
 
@@ -62,8 +62,11 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
 
     import numpy as np
 
-    from .. import models, rom, romformats, streams
-    from ..errors import CheckFailed, UsageError
+    from enctools.data import streams
+    from enctools.data.header import history_line
+    from enctools.errors import CheckFailed, UsageError
+    from enctools.models import curve_model as models
+    from enctools.models import rom, romformats
 
     if target is None:
         target = "stream" if output in (None, "-") or _is_stream_path(output) \
@@ -102,7 +105,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     if tgt is None:
         import pyarrow as pa
 
-        from ..schemas import make_field
+        from enctools.data.schemas import make_field
         schema = pa.schema([make_field("address", pa.int64(), ""),
                             make_field("correction", pa.int64(), "count")])
         header = src.header.derive("rom", schema, rom=summary, settings=settings)
@@ -116,7 +119,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         comment = [f"enctools make-rom: {spec.entries} entries, {width}-bit signed corrections "
                    f"to add to a {code_bits}-bit code, LSB {spec.lsb_arcsec!r} arcsec",
                    f"CRC-32 {summary['crc32']} ({summary['crc32_of']}); "
-                   + (streams.history_line())]
+                   + history_line()]
         size = romformats.write_table(output, table_.values, tgt, force, comment)
         if verify:
             back = romformats.read_table(output, tgt)
@@ -128,12 +131,12 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
 def _is_stream_path(path: str) -> bool:
     from pathlib import Path
 
-    from ..streams import EXTENSIONS
+    from enctools.data.streams import EXTENSIONS
     return Path(path).suffix.lower() in EXTENSIONS
 
 
 def _bits_from_rig(meta: dict) -> int:
-    from ..errors import UsageError
+    from enctools.errors import UsageError
     for e in (meta.get("rig") or {}).get("encoders", []):
         cpr = int(e.get("periods_per_rev", 0)) * int(e.get("interpolation", 0))
         if cpr > 0 and cpr & (cpr - 1) == 0:
@@ -142,7 +145,7 @@ def _bits_from_rig(meta: dict) -> int:
 
 
 def _report(s: dict, size: int | None, output: str | None, seconds: float, verified: bool) -> None:
-    from .runner import _state
+    from enctools.cli.runner import _state
     if _state.get("quiet"):
         return
     import sys

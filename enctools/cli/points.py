@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("points")
@@ -27,10 +27,10 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     position_deg,deviation_arcsec[,direction,run] with # comment lines.
     """
     runner.setup_logging(verbose, quiet)
-    from .. import points as pts
-    from .. import streams
-    from ..errors import UsageError
-    from ..streams import Header, with_history
+    from enctools.data import streams
+    from enctools.data.streams import Header, with_history
+    from enctools.errors import UsageError
+    from enctools.methods import points as pts
 
     streams.check_output(output, force, fmt)
     settings = {"heads": heads, "autocollimator": autocollimator, "faces": faces}

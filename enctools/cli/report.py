@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("report")
@@ -47,9 +47,9 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     exceeding any exits 1 and names it on stderr; the summary is still printed.
     """
     runner.setup_logging(verbose, quiet)
-    from ..report.output import check_paths, run_report
-    from ..report.sections import Options
-    from ..report.thresholds import Thresholds, parse_pairs
+    from enctools.report.output import check_paths, run_report
+    from enctools.report.sections import Options
+    from enctools.report.thresholds import Thresholds, parse_pairs
 
     limits = Thresholds(max_pp=max_pp, max_std=max_std, max_abs=max_abs, max_u=max_u,
                         max_radial_pp=max_radial_pp,
@@ -58,4 +58,5 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     check_paths([html_path, pdf_path], force)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
     run_report(sources, Options(top_harmonics, nmax), limits, as_json=as_json,
-               html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir)
+               html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
+               prog=runner.command_name())

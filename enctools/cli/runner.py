@@ -19,7 +19,7 @@ from typing import Any, NoReturn
 
 import click
 
-from ..errors import EncError, Interrupted
+from enctools.errors import EncError, Interrupted
 
 
 def __getattr__(name: str) -> Any:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from . import options, runner
+from enctools.cli import options, runner
 
 
 @click.command("selfcal")
@@ -34,13 +34,13 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
     standard uncertainty, and with esa the spindle's radial error motion x, y [nm].
     """
     runner.setup_logging(verbose, quiet)
-    from ..pipeline_tuning import tune_for_streaming
+    from enctools.cli.tuning import tune_for_streaming
 
     tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
     runner.install_sigterm()
-    from .. import streams
-    from ..errors import UsageError
-    from ..selfcal import run
+    from enctools.data import streams
+    from enctools.errors import UsageError
+    from enctools.methods.selfcal import run
 
     if points <= 2 * band:
         raise UsageError(f"--points {points} cannot carry --band {band}: give more than {2 * band}")

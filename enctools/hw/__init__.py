@@ -15,9 +15,9 @@ the rig (``[backend] kind``).
 
 from __future__ import annotations
 
-from ..errors import UsageError
-from ..rig import Rig
-from .base import Session
+from enctools.data.rig import Rig
+from enctools.errors import UsageError
+from enctools.hw.base import Session
 
 BACKENDS = ("sim", "visa", "serial", "nidaq")
 
@@ -32,7 +32,7 @@ def open_session(rig: Rig, seed: int | None = None, signals: bool = False,
     """
     kind = rig.backend.get("kind", "sim")
     if kind == "sim":
-        from .sim import VirtualRig
+        from enctools.hw.sim import VirtualRig
 
         return VirtualRig(rig, seed=seed, signals=signals,
                           realtime=realtime or bool(rig.backend.get("realtime", False)))
@@ -40,7 +40,7 @@ def open_session(rig: Rig, seed: int | None = None, signals: bool = False,
         if signals:
             msg = f"--signals: the {kind} backend records counter values only, not raw signals"
             raise UsageError(msg)
-        from .dialogue import InstrumentSession
+        from enctools.hw.dialogue import InstrumentSession
 
         return InstrumentSession(rig, timeout_s=timeout_s, retries=retries)
     msg = (f"rig {rig.name}: backend {kind!r} is not available in this enctools "

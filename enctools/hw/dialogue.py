@@ -27,20 +27,19 @@ Counter values are raw (they wrap at the encoder's ``counter_bits``);
 
 from __future__ import annotations
 
-import difflib
 import logging
 import math
 import sys
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import DataError, DeviceError, UsageError
-from ..rig import Rig
-from ..units import ARCSEC, DEG, TWO_PI
-from . import retry
-from .base import Axis, Channel, Clock, Counter, Sensor, Session
+from enctools.data.rig import Rig
+from enctools.errors import DataError, DeviceError, UsageError
+from enctools.hw import retry
+from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session
+from enctools.hw.config import check_keys, need
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 log = logging.getLogger("enctools.hw")
 
@@ -55,43 +54,6 @@ MOTION_KEYS = {"instrument", "move", "in_position", "in_position_reply", "poll_s
                "move_timeout_s", "rotate", "stop"}
 INSTRUMENT_KINDS = ("visa", "serial")
 _BLOCK_S = 0.25  # continuous mode: a block at least every this many seconds
-
-
-def check_keys(table: dict[str, Any], allowed: set[str], rig: Rig, where: str) -> None:
-    """Reject unknown keys of a backend table, naming it and the closest known key."""
-    for key in table:
-        if key not in allowed:
-            hint = difflib.get_close_matches(key, allowed, n=1)
-            did = f"; did you mean {hint[0]!r}?" if hint else ""
-            msg = f"rig file {rig.source}: unknown key {key!r} in [{where}]{did}"
-            raise DataError(msg)
-
-
-def need(table: dict[str, Any], key: str, types: type | tuple[type, ...], rig: Rig,
-         where: str, default: Any = None) -> Any:
-    """``table[key]`` checked against ``types``; ``default`` when absent (None: required)."""
-    if key not in table:
-        if default is None:
-            msg = f"rig file {rig.source}: [{where}] needs the key {key!r}"
-            raise DataError(msg)
-        return default
-    value = table[key]
-    if isinstance(value, bool) and bool not in (types if isinstance(types, tuple) else (types,)):
-        ok = False
-    else:
-        ok = isinstance(value, types)
-    if not ok:
-        msg = f"rig file {rig.source}: {where}.{key} has the wrong type: {value!r}"
-        raise DataError(msg)
-    return value
-
-
-def rig_dir(rig: Rig) -> Path:
-    """The folder of the rig file (relative paths in it are relative to it)."""
-    src = rig.source
-    if src.endswith("(bundled)"):
-        return Path.cwd()
-    return Path(src).resolve().parent
 
 
 class Link:
@@ -176,10 +138,10 @@ def open_link(name: str, cfg: dict[str, Any], rig: Rig, default_kind: str,
     pol = retry.Policy(float(need(cfg, "timeout_s", (int, float), rig, where, policy.timeout_s)),
                        int(need(cfg, "retries", int, rig, where, policy.retries)))
     if kind == "visa":
-        from .visa import open_port
+        from enctools.hw.visa import open_port
         port: retry.Port = open_port(name, cfg, rig, pol)
     elif kind == "serial":
-        from .serialline import open_port as open_serial
+        from enctools.hw.serialline import open_port as open_serial
         port = open_serial(name, cfg, rig, pol)
     else:
         msg = (f"rig file {rig.source}: {where}.kind must be one of "
@@ -421,7 +383,7 @@ class InstrumentSession(Session):
         self.t0 = self.clock.now()
         cfg = need(rig.backend, "counter", dict, rig, "backend", {})
         if cfg.get("kind", self.kind) == "nidaq":
-            from .nidaq import NidaqCounter
+            from enctools.hw.nidaq import NidaqCounter
             self.counter: Counter = NidaqCounter(rig, cfg, self.clock, self.t0)
         else:
             self.counter = self._polled_counter(cfg)

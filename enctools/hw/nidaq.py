@@ -42,9 +42,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DataError, DeviceError, UsageError
-from ..rig import Rig
-from .base import Clock, Counter
+from enctools.data.rig import Rig
+from enctools.errors import DataError, DeviceError, UsageError
+from enctools.hw.base import Clock, Counter
 
 log = logging.getLogger("enctools.hw")
 
@@ -85,7 +85,7 @@ class NidaqCounter(Counter):
     """One DAQmx counter-input task per head, sharing a sample clock when running."""
 
     def __init__(self, rig: Rig, cfg: dict[str, Any], clock: Clock, t0: float) -> None:
-        from .dialogue import check_keys
+        from enctools.hw.config import check_keys
 
         self.nidaqmx = import_nidaqmx()
         check_keys(cfg, COUNTER_KEYS, rig, "backend.counter")

@@ -11,8 +11,8 @@ from collections.abc import Iterator
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from ..streams import InputStream
-from .base import Clock
+from enctools.data.streams import InputStream
+from enctools.hw.base import Clock
 
 
 def replay(stream: InputStream, pace: bool = False,

@@ -23,7 +23,7 @@ import re
 from dataclasses import dataclass
 from typing import Protocol
 
-from ..errors import DeviceError
+from enctools.errors import DeviceError
 
 log = logging.getLogger("enctools.hw")
 

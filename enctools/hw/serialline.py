@@ -35,9 +35,9 @@ import logging
 import os
 from typing import Any
 
-from ..errors import DataError, DeviceError, UsageError
-from ..rig import Rig
-from . import retry
+from enctools.data.rig import Rig
+from enctools.errors import DataError, DeviceError, UsageError
+from enctools.hw import retry
 
 log = logging.getLogger("enctools.hw")
 

@@ -28,11 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from ..rig import Encoder, Rig
-from ..truth import Motion, Series, interpolation_error
-from ..units import ARCSEC, DEG, TWO_PI
-from .base import Axis, Channel, Clock, Counter, Sensor, Session
-from .sim_truth import jitter_motion, make_truth
+from enctools.data.rig import Encoder, Rig
+from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session
+from enctools.hw.sim_truth import jitter_motion, make_truth
+from enctools.hw.truth import Motion, Series, interpolation_error
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 _GRID = 1 << 18  # points per turn of the tabulated periodic errors
 _READ_TIME = 0.001  # s taken by one software-timed reading

@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rig import Encoder, Rig
-from ..truth import Motion, Series, SignalFaults, Truth
-from ..units import ARCSEC, DEG, TWO_PI
+from enctools.data.rig import Encoder, Rig
+from enctools.hw.truth import Motion, Series, SignalFaults, Truth
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 _GRID = 4096
 
@@ -141,7 +141,7 @@ def jitter_motion(rig: Rig, theta0: float, omega: float) -> Motion:
     amp = np.asarray(m.get("jitter_arcsec", []), dtype=float) * ARCSEC
     hz = np.asarray(m.get("jitter_hz", []), dtype=float)
     if amp.size != hz.size:
-        from ..errors import DataError
+        from enctools.errors import DataError
         msg = f"rig {rig.name}: motion.jitter_arcsec and motion.jitter_hz differ in length"
         raise DataError(msg)
     phase = np.linspace(0.3, 2.1, amp.size) if amp.size else np.zeros(0)

@@ -49,9 +49,9 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from ..errors import DataError, DeviceError, UsageError
-from ..rig import Rig
-from . import retry
+from enctools.data.rig import Rig
+from enctools.errors import DataError, DeviceError, UsageError
+from enctools.hw import retry
 
 log = logging.getLogger("enctools.hw")
 
@@ -74,7 +74,7 @@ def library_spec(rig: Rig) -> str:
     if spec.endswith("@sim") and len(spec) > 4:
         path = Path(spec[:-4])
         if not path.is_absolute():
-            from .dialogue import rig_dir
+            from enctools.hw.config import rig_dir
             path = rig_dir(rig) / path
         if not path.is_file():
             msg = f"rig file {rig.source}: backend.visa_library: no such file {path}"

@@ -1,10 +1,10 @@
-"""Summary figures of an error curve or a set of calibration points.
+"""Harmonic figures of an error curve and the expanded uncertainty.
+
+(Peak-to-peak, +/-, mean, s and RMS are in :mod:`enctools.data.statistics`.)
 
 All deviations are in arcsec (radial motion in nm: the functions are unit-blind and
 return the unit they are given). Angles are in rad.
 
-- :func:`curve_figures`: peak-to-peak, +/- (half the p-p), mean, Bessel standard
-  deviation ``s = sqrt(sum (x_i - mean)^2 / (n - 1))`` (seed 001 eq. (8)) and RMS.
 - :func:`harmonics`: amplitude and phase of the harmonics of a curve, by FFT on a
   uniform full-period grid, by least squares on anything else.
 - :func:`expanded_uncertainty`: U = k u with k = 2 (GUM, about 95 % coverage).
@@ -12,58 +12,16 @@ return the unit they are given). Angles are in rad.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DataError
-from ..harmonics import analyse
-from ..units import TWO_PI
+from enctools.errors import DataError
+from enctools.methods.harmonics import analyse
+from enctools.units import TWO_PI
 
 #: coverage factor of the expanded uncertainty
 K_COVERAGE = 2.0
-
-
-@dataclass(frozen=True)
-class Figures:
-    """Figures of n values (unit of the input).
-
-    ``std`` is the Bessel (n - 1) standard deviation of seed 001 eq. (8), over the
-    values exactly as given (a closing 360 deg row that repeats 0 deg counts).
-    """
-
-    n: int
-    mean: float
-    minimum: float
-    maximum: float
-    pp: float
-    plus_minus: float
-    std: float
-    rms: float
-
-    def to_dict(self) -> dict[str, float | int]:
-        return asdict(self)
-
-
-def curve_figures(values: np.ndarray) -> Figures:
-    """Figures of a curve or point set (seed 001 sec. 5.3: p-p and eq. (8)).
-
-    Parameters
-    ----------
-    values : deviations [arcsec] (or nm); NaN values are an error, not skipped.
-    """
-    x = np.asarray(values, dtype=np.float64).ravel()
-    if x.size == 0:
-        msg = "no values to summarise"
-        raise DataError(msg)
-    if not np.all(np.isfinite(x)):
-        bad = int(np.count_nonzero(~np.isfinite(x)))
-        msg = f"{bad} of {x.size} values are NaN or infinite"
-        raise DataError(msg)
-    lo, hi = float(x.min()), float(x.max())
-    std = float(np.std(x, ddof=1)) if x.size > 1 else float("nan")
-    return Figures(n=int(x.size), mean=float(x.mean()), minimum=lo, maximum=hi, pp=hi - lo,
-                   plus_minus=(hi - lo) / 2.0, std=std, rms=float(np.sqrt(np.mean(x * x))))
 
 
 @dataclass(frozen=True)

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from ..errors import DataError
-from ..files import write_atomic
+from enctools.data.files import write_atomic
+from enctools.errors import DataError
 
 log = logging.getLogger("enctools")
 

@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
-from . import plots
-from .sections import Curve, Section
-from .summary import Report
+from enctools import __version__
+from enctools.report import plots
+from enctools.report.sections import Curve, Section
+from enctools.report.summary import Report
 
 CSS = """
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;max-width:1000px;

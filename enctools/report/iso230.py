@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DataError
+from enctools.errors import DataError
 
 UP, DOWN = 1, -1
 

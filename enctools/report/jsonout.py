@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from .sections import Curve, Section, SpectrumRows
-from .summary import Report
+from enctools.report.sections import Curve, Section, SpectrumRows
+from enctools.report.summary import Report
 
 
 def _clean(x: Any) -> Any:

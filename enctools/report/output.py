@@ -5,11 +5,11 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from ..errors import CheckFailed
-from ..files import check_new_file, write_atomic
-from .sections import Options
-from .summary import build_report
-from .thresholds import Thresholds, check
+from enctools.data.files import check_new_file, write_atomic
+from enctools.errors import CheckFailed
+from enctools.report.sections import Options
+from enctools.report.summary import build_report
+from enctools.report.thresholds import Thresholds, check
 
 
 def check_paths(paths: Sequence[str | None], force: bool) -> None:
@@ -21,31 +21,33 @@ def check_paths(paths: Sequence[str | None], force: bool) -> None:
 
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
-               title: str | None = None, history_dir: str | None = None) -> None:
-    """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds."""
-    from ..cli.runner import command_name
+               title: str | None = None, history_dir: str | None = None,
+               prog: str = "enc report") -> None:
+    """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
+    A threshold exceeded is one line on stderr each, headed by ``prog``.
+    """
     report = build_report(sources, opts)
     if history_dir is not None:
-        from .history import read_history
+        from enctools.report.history import read_history
         report.history = read_history(history_dir)
     report.settings["thresholds"] = limits.to_dict()
     failures = check(report, limits)
     if as_json:
-        from .jsonout import to_json
+        from enctools.report.jsonout import to_json
         sys.stdout.write(to_json(report, failures if limits.any else None) + "\n")
     else:
-        from .text import to_text
+        from enctools.report.text import to_text
         sys.stdout.write(to_text(report) + "\n")
     sys.stdout.flush()
     if html_path is not None:
-        from .html import to_html
+        from enctools.report.html import to_html
         write_atomic(html_path, to_html(report, failures, title).encode())
     if pdf_path is not None:
-        from .pdf import to_pdf
+        from enctools.report.pdf import to_pdf
         write_atomic(pdf_path, to_pdf(report, failures, title))
     if failures:
         for line in failures:
-            sys.stderr.write(f"{command_name()}: threshold exceeded: {line}\n")
+            sys.stderr.write(f"{prog}: threshold exceeded: {line}\n")
         msg = f"{len(failures)} threshold(s) exceeded"
         raise CheckFailed(msg)

@@ -9,9 +9,9 @@ import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
-from . import plots
-from .summary import Report
-from .text import to_text
+from enctools.report import plots
+from enctools.report.summary import Report
+from enctools.report.text import to_text
 
 
 def _text_pages(text: str, title: str, lines_per_page: int = 70) -> list[Figure]:

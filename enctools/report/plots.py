@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from .sections import Curve, Section, SpectrumRows
+from enctools.report.sections import Curve, Section, SpectrumRows
 
 SIZE = (7.2, 3.4)
 COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf",

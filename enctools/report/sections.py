@@ -26,12 +26,13 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from ..errors import DataError
-from ..schemas import columns_with_role, field_meta
-from ..streams import InputStream
-from ..units import ARCSEC, DEG, TWO_PI
-from .figures import Figures, Harmonics, curve_figures, expanded_uncertainty, harmonics
-from .iso230 import Iso230, iso230_2, target_positions
+from enctools.data.schemas import columns_with_role, field_meta
+from enctools.data.statistics import Figures, curve_figures
+from enctools.data.streams import InputStream
+from enctools.errors import DataError
+from enctools.report.figures import Harmonics, expanded_uncertainty, harmonics
+from enctools.report.iso230 import Iso230, iso230_2, target_positions
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 #: Lissajous plots keep at most this many samples per head
 LISSAJOUS_POINTS = 4000
@@ -288,7 +289,9 @@ def _model(stream: InputStream, s: Section, opts: Options) -> None:
         for k, v in residuals.items():
             if isinstance(v, (int, float)):
                 s.info[f"residual {k}"] = v
-    from ..models import from_stream  # the model's own evaluator (rbf or fourier)
+    from enctools.models.curve_model import (
+        from_stream,  # the model's own evaluator (rbf or fourier)
+    )
 
     evaluate = from_stream(stream.header, table, s.source)
     grid = np.arange(720) * 0.5

@@ -6,8 +6,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..streams import open_input
-from .sections import Options, Section, build_section
+from enctools.data.streams import open_input
+from enctools.report.sections import Options, Section, build_section
 
 
 @dataclass

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from .sections import Curve, Section
-from .summary import Report
+from enctools.report.sections import Curve, Section
+from enctools.report.summary import Report
 
 
 def _g(x: float | None, digits: int = 3) -> str:

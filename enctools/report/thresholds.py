@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import UsageError
-from .summary import Report
+from enctools.errors import UsageError
+from enctools.report.summary import Report
 
 ISO_FIGURES = ("A", "R", "E", "B", "M", "A_up", "A_down", "R_up", "R_down", "E_up", "E_down")
 

@@ -36,7 +36,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from .errors import DataError, UsageError
+from enctools.errors import DataError, UsageError
 
 FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens")
 EXTENSIONS = {".bin": "bin", ".rom": "bin", ".hex": "ihex", ".ihex": "ihex", ".mif": "mif",
@@ -279,7 +279,7 @@ def write_table(path: str, values: np.ndarray, target: Target, force: bool = Fal
                 comment: list[str] | None = None) -> int:
     """Write ``values`` to ``path`` atomically (temporary file, then rename); return its size."""
     check_capacity(target, values.size)
-    from .files import check_new_file, write_atomic
+    from enctools.data.files import check_new_file, write_atomic
 
     check_new_file(path, force)
     write_atomic(path, lambda f: WRITERS[target.fmt](f, values, target, comment or []))

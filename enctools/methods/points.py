@@ -28,14 +28,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pyarrow as pa
 
-from .errors import DataError
-from .readings import head_angle, head_info, measuring_heads
-from .report.figures import curve_figures
-from .schemas import column_with_role, make_field
-from .units import ARCSEC, DEG, TWO_PI
+from enctools.data.readings import head_angle, head_info, measuring_heads
+from enctools.data.schemas import column_with_role, make_field
+from enctools.data.statistics import curve_figures
+from enctools.errors import DataError
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 if TYPE_CHECKING:
-    from .streams import Header
+    from enctools.data.streams import Header
 
 log = logging.getLogger("enctools")
 
@@ -296,7 +296,7 @@ def is_csv_file(path: str | None) -> bool:
     import os
     import stat
 
-    from .streams import detect_format
+    from enctools.data.streams import detect_format
 
     if path in (None, "-"):
         return False
@@ -312,7 +312,7 @@ def is_csv_file(path: str | None) -> bool:
 
 def read_points(path: str | None) -> tuple[Header, Points]:
     """Points from a CSV file (:func:`points_from_csv`) or a points stream (stdin: None)."""
-    from . import streams
+    from enctools.data import streams
 
     if is_csv_file(path):
         header = streams.Header("points", points_schema(), {"source": f"CSV {path}"})

@@ -29,10 +29,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .units import DEG
+from enctools.units import DEG
 
 if TYPE_CHECKING:
-    from .fourier_fit import FourierModel
+    from enctools.models.fourier import FourierModel
 
 #: the factor of seed 001 eq. (6): exp(-0.8326**2) = 0.5
 SPREAD_FACTOR = 0.8326
@@ -102,7 +102,7 @@ class RBFModel:
         ``max_harmonics`` (default 32 per unit: where evaluating the series stops
         paying) would be needed.
         """
-        from .fourier_fit import FourierModel
+        from enctools.models.fourier import FourierModel
 
         limit = 32 * max(1, self.centres_deg.size) if max_harmonics is None else max_harmonics
         m = 64

@@ -18,7 +18,7 @@ from typing import IO, Any
 import numpy as np
 import pyarrow as pa
 
-from .errors import DataError
+from enctools.errors import DataError
 
 _CHUNK = 65536  # rows per batch read
 _CHUNK_ROWS = 8192  # rows per HDF5 chunk: 64 KiB per float64 column
@@ -129,7 +129,7 @@ def open_table(f: IO[bytes], source: str,
     """Open the table in an HDF5 file object: (Header, batch iterator, closer)."""
     import h5py
 
-    from .streams import Header
+    from enctools.data.header import Header
 
     h5 = h5py.File(f, "r")
     groups = [k for k, v in h5.items() if isinstance(v, h5py.Group) and "kind" in v.attrs.keys()]

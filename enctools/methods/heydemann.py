@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from .errors import DataError
-from .units import ARCSEC, DEG, TWO_PI
+from enctools.errors import DataError
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 #: names of the five parameters, in the order of :attr:`EllipseFit.params`
 PARAMS = ("offset_cos", "offset_sin", "amplitude", "ratio", "phase")

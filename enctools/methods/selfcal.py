@@ -31,14 +31,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import UsageError
-from .heads import format_orders
+from enctools.errors import UsageError
+from enctools.methods.heads import format_orders
 
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from .readings import HeadInfo
-    from .streams import Header, InputStream
+    from enctools.data.readings import HeadInfo
+    from enctools.data.streams import Header, InputStream
 
 METHODS = ("fourier", "eda", "esa")
 #: default: a harmonic whose normalised transfer |W(n)| / |a| is below this is ill-conditioned
@@ -261,7 +261,7 @@ def coordinate_correction(spectra: np.ndarray, coordinate_error: np.ndarray) -> 
     ``coordinate_error`` (K+1,) in rad). Products are formed on a grid fine enough
     that the band 0..K is free of aliasing.
     """
-    from .harmonics import analyse, synthesize
+    from enctools.methods.harmonics import analyse, synthesize
 
     k = spectra.shape[1] - 1
     points = 1 << max(6, int(np.ceil(np.log2(3 * k + 2))))
@@ -305,8 +305,8 @@ def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Met
     standard deviations of the per-revolution solutions over sqrt(revolutions).
     Memory does not grow with the number of revolutions.
     """
-    from .harmonics import RunningMean, synthesize
-    from .units import ARCSEC
+    from enctools.methods.harmonics import RunningMean, synthesize
+    from enctools.units import ARCSEC
 
     spectra = RunningMean()
     coef = {"graduation": RunningMean(), "x": RunningMean(), "y": RunningMean()}
@@ -320,7 +320,7 @@ def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Met
                 coef[name].add(c * scale[name])
                 curves[name].add(synthesize(c * scale[name], points))
     if spectra.count < 2:
-        from .errors import DataError
+        from enctools.errors import DataError
         msg = (f"input: {spectra.count} complete revolution(s) of the angle coordinate; "
                "self-calibration needs at least 2 (record more: enc acquire --revolutions N)")
         raise DataError(msg)
@@ -367,8 +367,8 @@ def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
     heads when all are recorded (their average cancels radial motion), else the
     reference head.
     """
-    from .readings import head_info
-    from .readings import heads as all_heads
+    from enctools.data.readings import head_info
+    from enctools.data.readings import heads as all_heads
 
     infos = all_heads(schema)
     if not infos:
@@ -440,9 +440,9 @@ def run(source: InputStream, settings: dict, progress: object = None
     """
     import logging
 
-    from .curves import Column, deviations_table, spectrum_table
-    from .errors import DataError
-    from .harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
+    from enctools.data.curves import Column, deviations_table, spectrum_table
+    from enctools.errors import DataError
+    from enctools.methods.harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
 
     log = logging.getLogger("enctools")
     if source.meta.get("mode") not in (None, "continuous"):

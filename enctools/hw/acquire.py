@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from .errors import DeviceError, UsageError
-from .hw.base import Session
-from .rig import Rig
-from .schemas import make_field
-from .streams import BATCH_ROWS, Header
-from .units import ARCSEC, DEG, TWO_PI
+from enctools.data.rig import Rig
+from enctools.data.schemas import make_field
+from enctools.data.streams import BATCH_ROWS, Header
+from enctools.errors import DeviceError, UsageError
+from enctools.hw.base import Session
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 MODES = ("continuous", "steps", "sweep")
 
@@ -177,7 +177,7 @@ class Unwrapper:
 
 def readings_schema(rig: Rig, session: Session, s: Settings) -> pa.Schema:
     """The columns of the readings stream this acquisition writes."""
-    from .hw.sim import zero_count
+    from enctools.hw.sim import zero_count
 
     fields = [make_field("t", pa.float64(), "s")]
     for enc, h in rig.heads:

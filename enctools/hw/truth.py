@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .units import ARCSEC, TWO_PI
+from enctools.units import ARCSEC, TWO_PI
 
 
 @dataclass(frozen=True)

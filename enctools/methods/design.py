@@ -20,9 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import UsageError
-from .heads import average_transfer
-from .selfcal import MIN_TRANSFER, esa_noise_norm, esa_transfer, esa_weights, fourier_transfer
+from enctools.errors import UsageError
+from enctools.methods.heads import average_transfer
+from enctools.methods.selfcal import (
+    MIN_TRANSFER,
+    esa_noise_norm,
+    esa_transfer,
+    esa_weights,
+    fourier_transfer,
+)
 
 _BLIND = 1e-9
 
@@ -257,7 +263,7 @@ def _feasible(rows: np.ndarray, gap: float) -> np.ndarray:
 def report(a: Analysis, mounting_error_deg: float) -> str:
     """A short text report of an analysis; ``mounting_error_deg`` is the RMS error [deg]
     of each head's mounting angle, scaled by the sensitivity [1/rad] to an error of F(n)."""
-    from .heads import format_orders
+    from enctools.methods.heads import format_orders
 
     w, nw = a.worst
     g, ng = a.max_gain

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .units import DEG, TWO_PI
+from enctools.units import DEG, TWO_PI
 
 #: points in a row of :meth:`FourierModel.on_grid` (one BLAS product a chunk of rows)
 GRID_ROW = 4096

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import DataError
-from .readings import HeadInfo
-from .units import TWO_PI
+from enctools.data.readings import HeadInfo
+from enctools.errors import DataError
+from enctools.units import TWO_PI
 
 
 def head_reading(counts: np.ndarray, counts_per_rev: int, zero_count: int,

@@ -11,9 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 import pyarrow as pa
 
-from .errors import DataError
-from .schemas import columns_with_role, field_meta
-from .units import DEG, TWO_PI
+from enctools.data.schemas import columns_with_role, field_meta
+from enctools.errors import DataError
+from enctools.units import DEG, TWO_PI
 
 
 @dataclass(frozen=True)

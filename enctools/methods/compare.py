@@ -22,14 +22,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .errors import DataError, UsageError
-from .units import ARCSEC
+from enctools.errors import DataError, UsageError
+from enctools.units import ARCSEC
 
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from .readings import HeadInfo
-    from .streams import Header, InputStream
+    from enctools.data.readings import HeadInfo
+    from enctools.data.streams import Header, InputStream
 
 
 @dataclass
@@ -53,7 +53,7 @@ def compare(revolutions: Any, band: int, points: int,
     band limit (binned curves are averaged); ``reference_error``: coefficients
     c_0..c_K [arcsec] of the reference's own error, added to the result.
     """
-    from .harmonics import RunningMean, synthesize
+    from enctools.methods.harmonics import RunningMean, synthesize
 
     coef = RunningMean()
     curve = RunningMean()
@@ -93,9 +93,9 @@ def reference_error(curve_header: Header, curve_table: pa.Table, column: str | N
     behind it, plus their radial motion if the curve has x, y [nm]. Any other curve is
     taken as the reference channel's error as it stands.
     """
-    from .harmonics import analyse
-    from .heads import head_alphas
-    from .schemas import columns_with_role, field_meta
+    from enctools.data.schemas import columns_with_role, field_meta
+    from enctools.methods.harmonics import analyse
+    from enctools.methods.heads import head_alphas
 
     names = columns_with_role(curve_table.schema, "deviation")
     if column is None:
@@ -141,9 +141,9 @@ def run(source: InputStream, device: list[str], ref: list[str], band: int, point
         ref_column: str | None, progress: Any = None
         ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
     """A readings stream in; the deviations (and, band-limited, spectrum) of device - reference."""
-    from .curves import Column, deviations_table, spectrum_table
-    from .harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
-    from .readings import head_info
+    from enctools.data.curves import Column, deviations_table, spectrum_table
+    from enctools.data.readings import head_info
+    from enctools.methods.harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
 
     if source.meta.get("mode") not in (None, "continuous"):
         msg = (f"{source.source}: a {source.meta.get('mode')} run; enc compare needs a "

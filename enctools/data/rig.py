@@ -18,8 +18,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from .errors import DataError
-from .units import DEG
+from enctools.errors import DataError
+from enctools.units import DEG
 
 FORMAT_VERSION = 1
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import pyarrow as pa
 
-from .errors import DataError
+from enctools.errors import DataError
 
 KINDS = ("readings", "deviations", "spectrum", "points", "model", "rom")
 
@@ -55,9 +55,9 @@ class KindSpec:
 
 def _schema_dir() -> Path:
     """Where the schema files are: inside the wheel, else the source tree's schemas/."""
-    here = Path(__file__).resolve().parent
-    packaged = here / "schemas"  # as importlib.resources would find it, without its import cost
-    return packaged if packaged.is_dir() else here.parent / "schemas"
+    package = Path(__file__).resolve().parent.parent  # enctools/
+    packaged = package / "schemas"  # as importlib.resources would find it, without its import cost
+    return packaged if packaged.is_dir() else package.parent / "schemas"
 
 
 @functools.cache

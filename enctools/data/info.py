@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from .schemas import field_meta
-from .streams import InputStream
+from enctools.data.schemas import field_meta
+from enctools.data.streams import InputStream
 
 
 def describe(stream: InputStream) -> str:

@@ -43,10 +43,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import DataError
-from .readings import HeadInfo, head_angle, signal_phase, signal_step
-from .trend_lsq import TrendProjectedLSQ
-from .units import ARCSEC, TWO_PI
+from enctools.data.readings import HeadInfo, head_angle, signal_phase, signal_step
+from enctools.errors import DataError
+from enctools.methods.trend_lsq import TrendProjectedLSQ
+from enctools.units import ARCSEC, TWO_PI
 
 
 @dataclass(frozen=True)
@@ -679,7 +679,7 @@ def _harmonics_meta(h: PeriodHarmonics) -> list[dict[str, float]]:
 def probe_reference(table, probes: Sequence[str] | None, arm_m: float | None,
                     ) -> tuple[np.ndarray, dict]:
     """The probes' rotation [rad] (seed 000 eq. (20)) and a description of it."""
-    from .schemas import columns_with_role, field_meta
+    from enctools.data.schemas import columns_with_role, field_meta
 
     names = list(probes) if probes else columns_with_role(table.schema, "probe")
     if not names:
@@ -760,8 +760,8 @@ def check_readings(source, heads: Sequence[str] | None = None, average: bool = F
     :data:`DEFAULT_WINDOW_ARCSEC`) of the reference angle; a sweep one per run.
     See :class:`InterpolationFit` for the rest.
     """
-    from .readings import head_info
-    from .schemas import columns_with_role
+    from enctools.data.readings import head_info
+    from enctools.data.schemas import columns_with_role
 
     schema = source.schema
     all_heads = columns_with_role(schema, "head")
@@ -924,8 +924,8 @@ def _stroboscopic(batch, schema, names, reference, ref_info, probes, arm_m) -> d
     batch; :func:`enctools.harmonics.stroboscopic_heads` judges. Returns
     {head: signal periods per sample}.
     """
-    from .harmonics import stroboscopic_heads
-    from .readings import head_info
+    from enctools.data.readings import head_info
+    from enctools.methods.harmonics import stroboscopic_heads
 
     if batch.num_rows < 3:
         return {}
@@ -952,10 +952,10 @@ def check_signals(table, heads: Sequence[str] | None = None, min_arc_deg: float 
     removed) and, per head, the fit (:meth:`EllipseFit.to_dict`) and the Lissajous
     radius variation.
     """
-    from . import heydemann as hd
-    from .readings import head_info
-    from .schemas import columns_with_role, field_meta
-    from .units import DEG
+    from enctools.data.readings import head_info
+    from enctools.data.schemas import columns_with_role, field_meta
+    from enctools.methods import heydemann as hd
+    from enctools.units import DEG
 
     by_head: dict[str, dict[str, str]] = {}
     for c in columns_with_role(table.schema, "signal"):
@@ -1015,9 +1015,9 @@ def corrected_counts(table, fits: dict[str, dict], names: Sequence[str]) -> dict
     Heydemann-corrected phase (the sample's phase nearest the counted one is
     taken, so a correction across a period boundary moves to the next period).
     """
-    from . import heydemann as hd
-    from .readings import head_info
-    from .schemas import columns_with_role, field_meta
+    from enctools.data.readings import head_info
+    from enctools.data.schemas import columns_with_role, field_meta
+    from enctools.methods import heydemann as hd
 
     comps: dict[str, dict[str, str]] = {}
     for c in columns_with_role(table.schema, "signal"):

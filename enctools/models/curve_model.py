@@ -20,11 +20,11 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from .errors import DataError
-from .fourier_fit import FourierModel
-from .rbf import SPREAD_FACTOR, RBFModel
-from .schemas import column_with_role, make_field
-from .units import DEG, TWO_PI
+from enctools.data.schemas import column_with_role, make_field
+from enctools.errors import DataError
+from enctools.models.fourier import FourierModel
+from enctools.models.rbf import SPREAD_FACTOR, RBFModel
+from enctools.units import DEG, TWO_PI
 
 KERNELS = ("rbf", "fourier")
 
@@ -172,9 +172,9 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, kernel: str = "r
     predicted by the model fitted without it) and hold-out residuals, each with
     the Bessel standard deviation of seed 001 eq. (8).
     """
-    from .fourier_fit import fit_fourier
-    from .points import figures
-    from .rbf import choose_spread, fit_rbf, loo_residuals
+    from enctools.methods.points import figures
+    from enctools.models.fourier import fit_fourier
+    from enctools.models.rbf import choose_spread, fit_rbf, loo_residuals
 
     x = np.asarray(angle_deg, dtype=np.float64)
     y = np.asarray(error_arcsec, dtype=np.float64)

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 
     import pyarrow as pa
 
-    from .streams import Header, InputStream
+    from enctools.data.streams import Header, InputStream
 
 #: |A(n)| below this counts as cancelled, above 1 - this as passed
 TOLERANCE = 1e-9
@@ -162,9 +162,9 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
     """
     import pyarrow as pa
 
-    from .errors import DataError, UsageError
-    from .readings import head_info
-    from .schemas import make_field
+    from enctools.data.readings import head_info
+    from enctools.data.schemas import make_field
+    from enctools.errors import DataError, UsageError
 
     infos = [head_info(schema, h, source) for h in group.heads]
     if len(infos) < 1:
@@ -209,7 +209,7 @@ def average_column(batch: pa.RecordBatch, group: AverageGroup) -> pa.Array:
 
 def head_alphas(field: pa.Field) -> np.ndarray:
     """The angles [rad] of the heads behind a head column: one, or those it averages."""
-    from .schemas import field_meta
+    from enctools.data.schemas import field_meta
 
     fm = field_meta(field)
     if "average_alphas_deg" in fm:
@@ -228,9 +228,9 @@ def run(source: InputStream, groups: list[tuple[str | None, list[str]]], band: i
 
     import pyarrow as pa
 
-    from .errors import UsageError
-    from .readings import head_info
-    from .schemas import columns_with_role
+    from enctools.data.readings import head_info
+    from enctools.data.schemas import columns_with_role
+    from enctools.errors import UsageError
 
     log = logging.getLogger("enctools")
     schema = source.schema

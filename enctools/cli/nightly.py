@@ -60,7 +60,7 @@ def main_curve(section: Any) -> Any:
         if c.unit == "arcsec" and c.role in ("deviation", "points", "positioning") \
                 and c.domain == "revolution":
             return c
-    from ..errors import DataError
+    from enctools.errors import DataError
     msg = f"{section.source}: no deviation curve [arcsec] to compare ({section.kind} stream)"
     raise DataError(msg)
 
@@ -78,8 +78,8 @@ def drift(current: Any, stored: Any) -> Drift:
 
 
 def _section(path: str) -> Any:
-    from ..streams import open_input
-    from .sections import build_section
+    from enctools.data.streams import open_input
+    from enctools.report.sections import build_section
     with open_input(path) as s:
         return build_section(s)
 
@@ -87,8 +87,8 @@ def _section(path: str) -> Any:
 def run_nightly(rig: str, history_dir: str, calibration: str, campaign: str, tolerance: float,
                 init: bool = False, keep: str | None = None, html: str | None = None) -> int:
     """One nightly run; returns the exit status (and always appends to the history)."""
-    from ..errors import EncError
-    from .history import append_run, new_run_id
+    from enctools.errors import EncError
+    from enctools.report.history import append_run, new_run_id
 
     run_id = new_run_id()
     record: dict[str, Any] = {"run_id": run_id, "rig": rig, "tolerance": tolerance,
@@ -129,8 +129,8 @@ def run_nightly(rig: str, history_dir: str, calibration: str, campaign: str, tol
         record |= {"drift_max": d.max_abs, "drift_pp": d.pp}
         status = "ok" if d.max_abs <= tolerance else "drift"
         code = 0 if status == "ok" else 1
-        from .jsonout import report_dict
-        from .summary import Report
+        from enctools.report.jsonout import report_dict
+        from enctools.report.summary import Report
         rep = Report(sections=[section], settings={"top_harmonics": 5})
         summary = report_dict(rep)
         summary["drift"] = {"max_abs": d.max_abs, "pp": d.pp, "offset": d.offset,
@@ -145,9 +145,9 @@ def run_nightly(rig: str, history_dir: str, calibration: str, campaign: str, tol
         append_run(history_dir, record)
         record = {}                      # landed: nothing left for the finally clause
         if html:
-            from ..files import write_atomic
-            from .history import read_history
-            from .html import to_html
+            from enctools.data.files import write_atomic
+            from enctools.report.history import read_history
+            from enctools.report.html import to_html
             rep.history = read_history(history_dir)
             rep.settings["thresholds"] = {"drift tolerance": tolerance}
             fails = [] if status == "ok" else [f"drift {d.max_abs:.3f} arcsec > {tolerance:g}"]

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import DataError, UsageError
+from enctools.errors import DataError, UsageError
 
 #: the largest table this module builds (2**28 entries, 512 MiB of int16)
 MAX_ADDRESS_BITS = 28

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import DataError
-from .units import ARCSEC, DEG, TWO_PI
+from enctools.errors import DataError
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 
 def readout_delay(t_ad_s: float, t_m_s: float) -> float:

@@ -16,25 +16,23 @@ plus Arrow record batches.
 from __future__ import annotations
 
 import io
-import json
 import os
 import re
 import sys
 import tempfile
-import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
 import pyarrow as pa
 
-from . import __version__
-from .errors import DataError, UsageError
-from .schemas import validate
+from enctools.data.header import Header, header_from_arrow, with_history
+from enctools.data.schemas import validate
+from enctools.errors import DataError, UsageError
 
-META_KEY = b"enctools"
-KIND_KEY = b"kind"
+__all__ = ["Header", "with_history", "InputStream", "OutputStream", "open_input", "read_table",
+           "write_table", "check_output", "detect_format", "format_for_path"]
+
 BATCH_ROWS = 65536
 
 MAGIC = {
@@ -52,71 +50,6 @@ FORMATS = ("arrows", "parquet", "arrow", "hdf5")
 # implemented" for a damaged type is an ArrowException).
 _DECODE_ERRORS = (pa.ArrowException, OSError, EOFError, ValueError, KeyError, TypeError,
                   RuntimeError, IndexError, ArithmeticError, MemoryError)
-
-
-@dataclass
-class Header:
-    """What a stream says of itself: kind, column schema, metadata (JSON-able dict)."""
-
-    kind: str
-    schema: pa.Schema
-    meta: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def history(self) -> list[str]:
-        return list(self.meta.get("history", []))
-
-    def arrow_schema(self) -> pa.Schema:
-        """The Arrow schema with the kind and the metadata in its schema metadata."""
-        meta = dict(self.meta)
-        meta["kind"] = self.kind
-        meta.setdefault("schema_version", _spec_version(self.kind))
-        return self.schema.with_metadata({KIND_KEY: self.kind.encode(),
-                                          META_KEY: json.dumps(meta).encode()})
-
-    def derive(self, kind: str, schema: pa.Schema, **meta: Any) -> Header:
-        """A header for a command's output: keeps rig, truth and history, sets the rest."""
-        keep = {k: v for k, v in self.meta.items() if k in ("rig", "truth", "history")}
-        keep.update(meta)
-        keep["schema_version"] = _spec_version(kind)
-        return Header(kind, schema, keep)
-
-
-def _spec_version(kind: str) -> int:
-    from .schemas import kind_spec
-    return kind_spec(kind).version
-
-
-def history_line(argv: list[str] | None = None) -> str:
-    """One NCO-style history line: UTC time, enctools version, full command line."""
-    import shlex
-    argv = sys.argv if argv is None else argv
-    cmd = "enc " + shlex.join(argv[1:]) if argv else "enc"
-    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-    return f"{stamp} enctools {__version__}: {cmd}"
-
-
-def with_history(header: Header, line: str | None = None) -> Header:
-    """The header with one more history line (this command's)."""
-    meta = dict(header.meta)
-    meta["history"] = header.history + [line or history_line()]
-    return Header(header.kind, header.schema, meta)
-
-
-def _header_from_arrow(schema: pa.Schema, source: str) -> Header:
-    md = schema.metadata or {}
-    if META_KEY not in md:
-        msg = f"{source}: not an enctools stream (its schema carries no enctools metadata)"
-        raise DataError(msg)
-    try:
-        meta = json.loads(md[META_KEY])
-    except ValueError:
-        msg = f"{source}: enctools metadata is not valid JSON"
-        raise DataError(msg) from None
-    if not isinstance(meta, dict):
-        msg = f"{source}: enctools metadata is not a JSON object"
-        raise DataError(msg)
-    return Header(str(meta.get("kind")), schema.remove_metadata(), meta)
 
 
 # --------------------------------------------------------------------------- input
@@ -482,7 +415,7 @@ def _open_arrows(f: IO[bytes], source: str) -> InputStream:
     except _DECODE_ERRORS as exc:
         msg = f"{source}: truncated or corrupt Arrow stream ({_short(exc)})"
         raise DataError(msg) from None
-    header = _header_from_arrow(reader.schema, source)
+    header = header_from_arrow(reader.schema, source)
     return InputStream(header, iter(reader), source, "Arrow IPC stream", f.close)
 
 
@@ -506,20 +439,20 @@ def _open_parquet(f: IO[bytes], source: str) -> InputStream:
     import pyarrow.parquet as pq
 
     pf = pq.ParquetFile(f, pre_buffer=False)  # pre-buffering holds the whole file
-    header = _header_from_arrow(pf.schema_arrow, source)
+    header = header_from_arrow(pf.schema_arrow, source)
     return InputStream(header, pf.iter_batches(batch_size=BATCH_ROWS), source, "Parquet",
                        f.close)
 
 
 def _open_arrow_file(f: IO[bytes], source: str) -> InputStream:
     reader = pa.ipc.open_file(f)
-    header = _header_from_arrow(reader.schema, source)
+    header = header_from_arrow(reader.schema, source)
     batches = (reader.get_batch(i) for i in range(reader.num_record_batches))
     return InputStream(header, batches, source, "Arrow file", f.close)
 
 
 def _open_hdf5(f: IO[bytes], source: str) -> InputStream:
-    from . import h5io
+    from enctools.data import h5io
 
     header, batches, closer = h5io.open_table(f, source)
     return InputStream(header, batches, source, "HDF5", lambda: (closer(), f.close()))
@@ -563,7 +496,7 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
             msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
             raise UsageError(msg)
         return
-    from .files import check_new_file
+    from enctools.data.files import check_new_file
 
     check_new_file(path, force)
     format_for_path(path, fmt)
@@ -617,7 +550,7 @@ class OutputStream:
             if self.format == "parquet":
                 import pyarrow.parquet as pq
                 return pq.ParquetWriter(target, self._schema)
-            from . import h5io
+            from enctools.data import h5io
             return h5io.TableWriter(target, self._schema)
         except OSError as exc:
             self._discard()
@@ -704,7 +637,7 @@ class OutputStream:
         if exc_type is None:
             self.close()
         else:
-            from .errors import DeviceError, Interrupted
+            from enctools.errors import DeviceError, Interrupted
             keep = self.keep_partial and issubclass(exc_type, (DeviceError, Interrupted,
                                                                KeyboardInterrupt))
             self.abort(keep)

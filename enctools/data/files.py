@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
-from .errors import UsageError
+from enctools.errors import UsageError
 
 
 def check_new_file(path: str, force: bool) -> None:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from .schemas import make_field
+from enctools.data.schemas import make_field
 
 
 @dataclass

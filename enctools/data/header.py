@@ -1,0 +1,103 @@
+"""The header of a stream: its kind, column schema and metadata, and its history lines.
+
+A :class:`Header` travels in the Arrow schema's metadata (key ``enctools``, JSON), in
+Parquet's footer and in HDF5 attributes alike; :mod:`enctools.data.streams` and
+:mod:`enctools.data.h5io` both build on it.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import pyarrow as pa
+
+from enctools import __version__
+from enctools.errors import DataError
+
+META_KEY = b"enctools"
+KIND_KEY = b"kind"
+
+
+@dataclass
+class Header:
+    """What a stream says of itself: kind, column schema, metadata (JSON-able dict)."""
+
+    kind: str
+    schema: pa.Schema
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def history(self) -> list[str]:
+        return list(self.meta.get("history", []))
+
+    def arrow_schema(self) -> pa.Schema:
+        """The Arrow schema with the kind and the metadata in its schema metadata."""
+        meta = dict(self.meta)
+        meta["kind"] = self.kind
+        meta.setdefault("schema_version", _spec_version(self.kind))
+        return self.schema.with_metadata({KIND_KEY: self.kind.encode(),
+                                          META_KEY: json.dumps(meta).encode()})
+
+    def derive(self, kind: str, schema: pa.Schema, **meta: Any) -> Header:
+        """A header for a command's output: keeps rig, truth and history, sets the rest."""
+        keep = {k: v for k, v in self.meta.items() if k in ("rig", "truth", "history")}
+        keep.update(meta)
+        keep["schema_version"] = _spec_version(kind)
+        return Header(kind, schema, keep)
+
+
+def _spec_version(kind: str) -> int:
+    from enctools.data.schemas import kind_spec
+    return kind_spec(kind).version
+
+
+def library_versions() -> str:
+    """The versions of the libraries the numbers depend on: "numpy 2.4.0, pyarrow 26.0.0, ..."."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = []
+    for name in _NUMERIC_LIBRARIES:
+        try:
+            out.append(f"{name} {version(name)}")
+        except PackageNotFoundError:
+            continue
+    return ", ".join(out)
+
+
+_NUMERIC_LIBRARIES = ("numpy", "scipy", "pyarrow")
+
+
+def history_line(argv: list[str] | None = None) -> str:
+    """One NCO-style history line: UTC time, enctools and library versions, command line."""
+    import shlex
+    argv = sys.argv if argv is None else argv
+    cmd = "enc " + shlex.join(argv[1:]) if argv else "enc"
+    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    return f"{stamp} enctools {__version__} ({library_versions()}): {cmd}"
+
+
+def with_history(header: Header, line: str | None = None) -> Header:
+    """The header with one more history line (this command's)."""
+    meta = dict(header.meta)
+    meta["history"] = header.history + [line or history_line()]
+    return Header(header.kind, header.schema, meta)
+
+
+def header_from_arrow(schema: pa.Schema, source: str) -> Header:
+    md = schema.metadata or {}
+    if META_KEY not in md:
+        msg = f"{source}: not an enctools stream (its schema carries no enctools metadata)"
+        raise DataError(msg)
+    try:
+        meta = json.loads(md[META_KEY])
+    except ValueError:
+        msg = f"{source}: enctools metadata is not valid JSON"
+        raise DataError(msg) from None
+    if not isinstance(meta, dict):
+        msg = f"{source}: enctools metadata is not a JSON object"
+        raise DataError(msg)
+    return Header(str(meta.get("kind")), schema.remove_metadata(), meta)
