@@ -59,8 +59,7 @@ from enctools.cli import options, runner
 @options.verbosity
 def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool,
             timeout_s: float | None, retries: int | None, tee_path: str | None,
-            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
-            debug: bool, **given: Any) -> None:
+            output: str | None, force: bool, fmt: str | None, **given: Any) -> None:
     """Acquire readings from a rig and write them as a readings stream.
 
     Defaults come from the rig file's [acquire] tables: `enc acquire --rig sjtu-dual`
@@ -68,8 +67,6 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     --mode steps` the 24 polygon positions. Options > ENC_ACQUIRE_* environment >
     rig file > built-in defaults.
     """
-    runner.setup_logging(verbose, quiet)
-    runner.install_sigterm()
     from enctools.data import streams
 
     if tee_path is not None:

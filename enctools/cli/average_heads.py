@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options
 
 
 def _groups(ctx: click.Context, param: click.Parameter,
@@ -33,19 +33,13 @@ def _groups(ctx: click.Context, param: click.Parameter,
 @options.outputs
 @options.verbosity
 def command(input: str | None, groups: list[tuple[str | None, list[str]]], band: int, drop: bool,
-            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
-            debug: bool) -> None:
+            output: str | None, force: bool, fmt: str | None) -> None:
     """Add the mean of selected heads as a new head channel to a readings stream.
 
     H = mean(H1..H4) of four equally spaced heads keeps only the multiples of 4 of
     the graduation error and cancels radial motion (seed 000 eqs. (3)-(6)); the
     transfer function A(n) of each average is logged and kept in the field metadata.
     """
-    runner.setup_logging(verbose, quiet)
-    from enctools.cli.tuning import tune_for_streaming
-
-    tune_for_streaming()  # malloc keeps its memory between batches
-    runner.install_sigterm()
     from enctools.data import streams
     from enctools.methods.heads import run
 

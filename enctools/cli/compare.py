@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options
 
 
 @click.command("compare")
@@ -27,18 +27,12 @@ from enctools.cli import options, runner
 @options.verbosity
 def command(input: str | None, device: list[str], ref: list[str], band: int, points: int,
             name: str | None, ref_curve: str | None, ref_column: str | None,
-            spectrum_path: str | None, output: str | None, force: bool, fmt: str | None,
-            verbose: int, quiet: int, debug: bool) -> None:
+            spectrum_path: str | None, output: str | None, force: bool, fmt: str | None) -> None:
     """Deviation of a device against a reference over a continuous run (seed 000 eqs. 7, 8, 10).
 
     Averages the revolutions of the reference and keeps the first --band harmonics.
     `enc compare --device H --ref P` after `enc average-heads` is eq. (10).
     """
-    runner.setup_logging(verbose, quiet)
-    from enctools.cli.tuning import tune_for_streaming
-
-    tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
-    runner.install_sigterm()
     from enctools.data import streams
     from enctools.errors import UsageError
     from enctools.methods.compare import run

@@ -30,11 +30,9 @@ from enctools.cli import options, runner
 @options.verbosity
 def command(angles: list[float] | None, method: str | None, band: int, min_transfer: float,
             mounting_error: float, search_heads: int | None, step_deg: float, min_gap: float,
-            criterion: str, table: bool, strict: bool, verbose: int, quiet: int,
-            debug: bool) -> None:
+            criterion: str, table: bool, strict: bool) -> None:
     """Transfer function |W(n)|, blind harmonics, noise gain and mounting sensitivity
     of a head arrangement; with --search, the arrangement that maximises min |W(n)|."""
-    runner.setup_logging(verbose, quiet)
     from enctools.errors import UsageError
     from enctools.methods import design
     from enctools.methods.heads import format_orders

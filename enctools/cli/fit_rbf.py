@@ -25,8 +25,7 @@ from enctools.cli import options, runner
 @options.verbosity
 def command(input: str | None, kernel: str, spread_deg: float | None, goal: float,
             harmonics: int | None, holdout_path: str | None, check_arcsec: float | None,
-            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
-            debug: bool) -> None:
+            output: str | None, force: bool, fmt: str | None) -> None:
     """Fit an error model to sparse calibration points and write it as a model stream.
 
     INPUT is a points stream (`enc points`) or a CSV file position_deg,deviation_arcsec.
@@ -34,7 +33,6 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     on stderr gives the Bessel s and p-p of the points (seed 001 eq. 8) and the
     training, leave-one-out and hold-out residuals.
     """
-    runner.setup_logging(verbose, quiet)
     from enctools.data import streams
     from enctools.data.streams import with_history
     from enctools.errors import CheckFailed, UsageError
@@ -73,8 +71,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
 
 
 def _summary(fit, meta) -> None:
-    from enctools.cli.runner import _state
-    if _state.get("quiet"):
+    if runner.is_quiet():
         return
     import sys
     p, t, lo = fit.points, fit.training, fit.loo

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options
 
 
 @click.command("info")
 @options.input_arg
 @options.verbosity
-def command(input: str | None, verbose: int, quiet: int, debug: bool) -> None:
+def command(input: str | None) -> None:
     """Describe a stream: its kind, columns with units and roles, rows and history."""
-    runner.setup_logging(verbose, quiet)
     from enctools.data.info import describe
     from enctools.data.streams import open_input
 

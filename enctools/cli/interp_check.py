@@ -76,8 +76,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
             harmonics: int | None, keep: list[int] | None, reference_harmonics: int,
             trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool, min_arc_deg: float,
             corrected: str | None, spectrum_path: str | None, tolerance: float | None,
-            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
-            debug: bool) -> None:
+            output: str | None, force: bool, fmt: str | None) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
 
     Reads a readings stream of a small-angle sweep (enc acquire --mode sweep) or a
@@ -87,10 +86,6 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     uncertainty. Figures (p-p, +/-) and harmonics go to stderr and into the
     output's metadata.
     """
-    runner.setup_logging(verbose, quiet)
-    from enctools.cli.tuning import tune_for_streaming
-
-    tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
     from enctools.data import streams
     from enctools.errors import CheckFailed, UsageError
     from enctools.methods import interp
@@ -145,7 +140,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         streams.write_table(spectrum_path, streams.with_history(sh), st, force, None)
     if corrected:
         _write_corrected(source.header, table, fits, [c.name for c in curves], corrected, force)
-    if not quiet:
+    if not runner.is_quiet():
         for c in curves:
             click.echo(_summary(c), err=True)
     if tolerance is not None:

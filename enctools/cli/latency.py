@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options
 
 
 @click.command("latency")
@@ -25,7 +25,7 @@ from enctools.cli import options, runner
 @options.verbosity
 def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
             speeds: list[float] | None, heads: list[str] | None, reference: list[str] | None,
-            fit_offset: bool, as_json: bool, verbose: int, quiet: int, debug: bool) -> None:
+            fit_offset: bool, as_json: bool) -> None:
     """Dynamic error t_d*v and the code-skip speed 360/(2^n t_d) of an encoder.
 
     Without RUN: from --bits and --delay. With continuous runs (enc acquire
@@ -33,7 +33,6 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
     heads against a reference (the simulator's truth or another encoder's heads),
     then the same figures from it.
     """
-    runner.setup_logging(verbose, quiet)
     import json
 
     from enctools.errors import UsageError

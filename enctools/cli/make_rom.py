@@ -46,8 +46,7 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
             axis: str | None, zone: int, array_name: str, max_entries: int | None, verify: bool,
-            output: str | None, force: bool, fmt: str | None, verbose: int, quiet: int,
-            debug: bool) -> None:
+            output: str | None, force: bool, fmt: str | None) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -57,7 +56,6 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     SINUMERIK $AA_ENC_COMP table. A summary (entries, range, largest quantisation
     error, CRC-32, size) goes to stderr. What a target cannot hold is refused.
     """
-    runner.setup_logging(verbose, quiet)
     import time
 
     import numpy as np
@@ -145,8 +143,7 @@ def _bits_from_rig(meta: dict) -> int:
 
 
 def _report(s: dict, size: int | None, output: str | None, seconds: float, verified: bool) -> None:
-    from enctools.cli.runner import _state
-    if _state.get("quiet"):
+    if runner.is_quiet():
         return
     import sys
     lines = [f"{s['entries']} entries (top {s['address_bits']} of {s['code_bits']} bits), "

@@ -6,11 +6,14 @@ stacks the decorators it needs.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any
 
 import click
+
+from enctools.cli import runner
 
 FORMATS = ("arrows", "parquet", "arrow", "hdf5")
 
@@ -64,12 +67,24 @@ rig = click.option("--rig", default=None, metavar="NAME|PATH", envvar="ENC_RIG",
 
 
 def verbosity(f: Callable[..., Any]) -> Callable[..., Any]:
-    """-v/-q (counted) and --debug, consumed by the command runner."""
-    f = click.option("-v", "--verbose", count=True, help="More messages on stderr (-vv: more).")(f)
-    f = click.option("-q", "--quiet", count=True, help="Fewer messages: errors only.")(f)
-    f = click.option("--debug", is_flag=True, default=False, envvar="ENC_DEBUG",
-                     help="Show a traceback on errors.")(f)
-    return f
+    """-v/-q (counted) and --debug, then the prologue every command shares.
+
+    The command function receives none of the three: :func:`runner.prologue` sets the
+    logging from -v/-q, tunes the process for streaming and turns SIGTERM into a clean
+    stop before the command's body runs; --debug is read by the driver (``enc --debug``
+    or ``ENC_DEBUG``) before any command starts.
+    """
+    @functools.wraps(f)
+    def with_prologue(*args: Any, verbose: int, quiet: int, debug: bool, **kwargs: Any) -> Any:
+        runner.prologue(verbose, quiet)
+        return f(*args, **kwargs)
+
+    g: Callable[..., Any] = with_prologue
+    g = click.option("-v", "--verbose", count=True, help="More messages on stderr (-vv: more).")(g)
+    g = click.option("-q", "--quiet", count=True, help="Fewer messages: errors only.")(g)
+    g = click.option("--debug", is_flag=True, default=False, envvar="ENC_DEBUG",
+                     help="Show a traceback on errors.")(g)
+    return g
 
 
 def outputs(f: Callable[..., Any]) -> Callable[..., Any]:

@@ -17,8 +17,7 @@ from enctools.cli import options, runner
 @options.outputs
 @options.verbosity
 def command(input: str | None, heads: list[str] | None, autocollimator: str | None,
-            faces: int | None, output: str | None, force: bool, fmt: str | None,
-            verbose: int, quiet: int, debug: bool) -> None:
+            faces: int | None, output: str | None, force: bool, fmt: str | None) -> None:
     """Turn a polygon step run, or a CSV table, into a points stream.
 
     INPUT is a readings stream from `enc acquire --mode steps` on a rig with a
@@ -26,7 +25,6 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     heads relative to the first position, against the polygon angle), or a CSV file
     position_deg,deviation_arcsec[,direction,run] with # comment lines.
     """
-    runner.setup_logging(verbose, quiet)
     from enctools.data import streams
     from enctools.data.streams import Header, with_history
     from enctools.errors import UsageError

@@ -38,15 +38,13 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
             pdf_path: str | None, title: str | None, top_harmonics: int, nmax: int,
             max_pp: float | None, max_std: float | None, max_abs: float | None,
             max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
-            max_iso: tuple[str, ...], history_dir: str | None, force: bool,
-            verbose: int, quiet: int, debug: bool) -> None:
+            max_iso: tuple[str, ...], history_dir: str | None, force: bool) -> None:
     """Summarise enctools streams: figures, harmonics, U (k=2), ISO 230-2.
 
     Reads every INPUT (any kind; stdin when none is given and no --history) and
     prints a summary per input on stdout. Thresholds turn it into a check for cron:
     exceeding any exits 1 and names it on stderr; the summary is still printed.
     """
-    runner.setup_logging(verbose, quiet)
     from enctools.report.output import check_paths, run_report
     from enctools.report.sections import Options
     from enctools.report.thresholds import Thresholds, parse_pairs

@@ -86,6 +86,20 @@ def _terminate(signum: int, frame: Any) -> NoReturn:
     raise Interrupted("terminated", exit_code=143)
 
 
+def is_quiet() -> bool:
+    """True when the command was given -q (summaries on stderr are left out)."""
+    return bool(_state["quiet"])
+
+
+def prologue(verbose: int = 0, quiet: int = 0) -> None:
+    """What every command does first: logging (-v/-q), streaming tuning, SIGTERM -> 143."""
+    from enctools.cli.tuning import tune_for_streaming
+
+    setup_logging(verbose, quiet)
+    tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
+    install_sigterm()
+
+
 def install_sigterm() -> None:
     """Turn SIGTERM into an Interrupted exception so outputs close cleanly (exit 143)."""
     import signal

@@ -26,18 +26,13 @@ from enctools.cli import options, runner
 def command(input: str | None, method: str | None, ref: str | None, heads: list[str] | None,
             angle_from: list[str] | None, band: int, points: int, min_transfer: float,
             strict: bool, spectrum_path: str | None, output: str | None, force: bool,
-            fmt: str | None, verbose: int, quiet: int, debug: bool) -> None:
+            fmt: str | None) -> None:
     """Self-calibrate a scale's graduation error from a continuous run of its heads.
 
     Reads a readings stream, averages the revolutions and writes a deviations
     stream: the graduation error [arcsec] on a uniform grid of the scale angle, its
     standard uncertainty, and with esa the spindle's radial error motion x, y [nm].
     """
-    runner.setup_logging(verbose, quiet)
-    from enctools.cli.tuning import tune_for_streaming
-
-    tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
-    runner.install_sigterm()
     from enctools.data import streams
     from enctools.errors import UsageError
     from enctools.methods.selfcal import run
