@@ -29,7 +29,8 @@ from conftest import run
 
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth
-from enctools.methods.harmonics import RunningMean, revolution_coefficients
+from enctools.methods.harmonics import revolution_coefficients
+from enctools.methods.revolutions import RunningMean
 from enctools.methods.selfcal import Method, esa_transfer, esa_weights, fourier_solve
 
 K = 100

@@ -53,7 +53,8 @@ def compare(revolutions: Any, band: int, points: int,
     band limit (binned curves are averaged); ``reference_error``: coefficients
     c_0..c_K [arcsec] of the reference's own error, added to the result.
     """
-    from enctools.methods.harmonics import RunningMean, synthesize
+    from enctools.methods.harmonics import synthesize
+    from enctools.methods.revolutions import RunningMean
 
     coef = RunningMean()
     curve = RunningMean()
@@ -143,7 +144,8 @@ def run(source: InputStream, device: list[str], ref: list[str], band: int, point
     """A readings stream in; the deviations (and, band-limited, spectrum) of device - reference."""
     from enctools.data.curves import Column, deviations_table, spectrum_table
     from enctools.data.readings import head_info
-    from enctools.methods.harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
+    from enctools.methods.harmonics import grid
+    from enctools.methods.revolutions import ChannelSpec, revolution_spectra
 
     if source.meta.get("mode") not in (None, "continuous"):
         msg = (f"{source.source}: a {source.meta.get('mode')} run; enc compare needs a "
@@ -162,10 +164,8 @@ def run(source: InputStream, device: list[str], ref: list[str], band: int, point
         correction = reference_error(ref_curve[0], ref_curve[1], ref_column,
                                      [source.schema.field(h) for h in ref], kmax, ref_curve[2])
     spec = ChannelSpec(tuple(dev), tuple(refs), mean=True)  # the device is their mean
-    # revolutions are cut on the reader thread and analysed here
-    cutter = RevolutionCutter(spec, source.source)
-    revs = revolution_spectra(source.batches(prepare=cutter), spec, max(band, 0), source.source,
-                              progress, grid_points=0 if band > 0 else points, cutter=cutter)
+    revs = revolution_spectra(source, spec, max(band, 0), progress,
+                              grid_points=0 if band > 0 else points)
     res = compare(revs, band, points, correction)
     label = name or f"{'+'.join(device)}-{'+'.join(ref)}"
     cols = [Column(label, res.curve, "deviation", "arcsec",

@@ -156,7 +156,7 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
 
     The new column holds ``sum_k (counts_k)`` with ``counts_per_rev = N * cpr``,
     ``interpolation = N * interpolation`` and ``zero_count = sum_k zero_count_k`` and
-    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.harmonics.head_reading`)
+    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.methods.harmonics.head_reading`)
     is exactly the mean of the heads' readings (seed 000 eqs. (3), (6)); no rounding.
     Field metadata ``average_of`` names the heads; ``passes`` lists what A(n) keeps.
     """

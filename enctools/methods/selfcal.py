@@ -1,8 +1,8 @@
 """Self-calibration of a scale's graduation error from several heads of one encoder.
 
 Every method works harmonic by harmonic on the per-revolution spectra G_k(n) of
-the head errors relative to the angle coordinate (:mod:`enctools.harmonics`), all
-in rad. The head model is seed 000 eq. (1): ``G_k(n) = exp(i n alpha_k) F(n) + C(n)
+the head errors relative to the angle coordinate (:mod:`enctools.methods.revolutions`),
+all in rad. The head model is seed 000 eq. (1): ``G_k(n) = exp(i n alpha_k) F(n) + C(n)
 + [X(n) sin alpha_k - Y(n) cos alpha_k] / R`` with F the graduation error, C what
 all heads share (the coordinate's own error) and X, Y the spindle's radial error
 motion.
@@ -305,7 +305,8 @@ def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Met
     standard deviations of the per-revolution solutions over sqrt(revolutions).
     Memory does not grow with the number of revolutions.
     """
-    from enctools.methods.harmonics import RunningMean, synthesize
+    from enctools.methods.harmonics import synthesize
+    from enctools.methods.revolutions import RunningMean
     from enctools.units import ARCSEC
 
     spectra = RunningMean()
@@ -442,7 +443,8 @@ def run(source: InputStream, settings: dict, progress: object = None
 
     from enctools.data.curves import Column, deviations_table, spectrum_table
     from enctools.errors import DataError
-    from enctools.methods.harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
+    from enctools.methods.harmonics import grid
+    from enctools.methods.revolutions import ChannelSpec, revolution_spectra
 
     log = logging.getLogger("enctools")
     if source.meta.get("mode") not in (None, "continuous"):
@@ -467,10 +469,7 @@ def run(source: InputStream, settings: dict, progress: object = None
         if progress is not None:
             progress(done, max(total, done))  # type: ignore[operator]
 
-    # revolutions are cut on the reader thread and analysed here
-    cutter = RevolutionCutter(spec, source.source)
-    revs = revolution_spectra(source.batches(prepare=cutter), spec, p.method.band, source.source,
-                              tick, cutter=cutter)
+    revs = revolution_spectra(source, spec, p.method.band, tick)
     res = calibrate(revs, p.method, np.array([h.alpha for h in p.coordinate]), points,
                     [h.name for h in p.coordinate])
     log.info("%s: %d revolutions of %s, harmonics 1..%d", p.method.name, res.revolutions,
