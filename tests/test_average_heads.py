@@ -11,6 +11,8 @@ stroboscopically and aliases into low harmonics (see test_compare.py).
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -21,13 +23,9 @@ from conftest import run
 from enctools.data.readings import head_info
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth
-from enctools.methods.harmonics import (
-    RunningMean,
-    head_reading,
-    revolution_coefficients,
-    synthesize,
-)
+from enctools.methods.harmonics import head_reading, revolution_coefficients, synthesize
 from enctools.methods.heads import average_transfer, summarize_average
+from enctools.methods.revolutions import RunningMean
 from enctools.units import ARCSEC
 
 K = 100
@@ -117,3 +115,62 @@ def test_bad_groups(tmp_path: Path, opt: str, expect: str) -> None:
     assert len(lines) == 1 and lines[0].startswith("enc average-heads: error:")
     assert expect in lines[0]
     assert not out.exists()
+
+
+# In-process: the settings object and the metadata it writes, no subprocess.
+
+@pytest.fixture(scope="module")
+def short_run() -> tuple:
+    """0.05 revolutions of sjtu-dual, simulated in-process."""
+    from enctools.data.rig import load_rig
+    from enctools.hw import acquire as acq
+    from enctools.hw import open_session
+
+    rig = load_rig("sjtu-dual")
+    s = acq.resolve(rig, {"revolutions": 0.05, "seed": 3})
+    with open_session(rig, seed=3) as session:
+        header, batches = acq.acquire(rig, session, s)
+        return header, list(batches)
+
+
+def test_settings_refuse_bad_band() -> None:
+    from enctools.errors import UsageError
+    from enctools.methods.heads import Settings
+
+    with pytest.raises(UsageError, match="--band must be > 0, not 0"):
+        Settings(band=0)
+
+
+@pytest.mark.parametrize("groups,expect", [
+    ((("Z", ("H1", "P1")),), "--average Z: heads H1, P1 are of different encoders"),
+    (((None, ("H1", "H1")),), "--average H: a head is named twice"),
+    ((("H1", ("H2", "H3")),), "--average H1: the input already has a column 'H1'"),
+])
+def test_groups_that_do_not_fit_the_heads(short_run: tuple, groups: tuple, expect: str) -> None:
+    from enctools.data.streams import InputStream
+    from enctools.errors import UsageError
+    from enctools.methods import heads
+
+    header, batches = short_run
+    with pytest.raises(UsageError, match=re.escape(expect)):
+        heads.run(InputStream(header, iter(batches), "sim", "sim"), heads.Settings(groups))
+
+
+def test_metadata_as_before(short_run: tuple) -> None:
+    """The output keeps the input's settings and mode and records the averages."""
+    from enctools.data.streams import InputStream
+    from enctools.methods import heads
+
+    header, batches = short_run
+    out, got = heads.run(InputStream(header, iter(batches), "sim", "sim"), heads.Settings())
+    assert out.meta["settings"] == header.meta["settings"] and out.meta["mode"] == "continuous"
+    assert json.dumps(out.meta["averages"]) == json.dumps({"P": ["P1", "P2"],
+                                                           "H": ["H1", "H2", "H3", "H4"]})
+    settings = heads.Settings(((None, ("H1", "H3")), ("X", ("H2", "H4"))), band=20, drop=True)
+    out, got = heads.run(InputStream(header, iter(batches), "sim", "sim"), settings)
+    assert json.dumps(out.meta["averages"]) == json.dumps({"H": ["H1", "H3"], "X": ["H2", "H4"]})
+    assert out.schema.names == ["t", "P1", "P2", "H5", "H6", "H7", "H", "X"]
+    b = next(got)
+    np.testing.assert_array_equal(b.column("X").to_numpy(),
+                                  batches[0].column("H2").to_numpy()
+                                  + batches[0].column("H4").to_numpy())

@@ -13,6 +13,8 @@
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -125,3 +127,71 @@ def test_bad_usage(raw31: Path, tmp_path: Path, opts: str, expect: str) -> None:
     lines = r.stderr.decode().strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("enc compare: error:") and expect in lines[0]
     assert not out.exists()
+
+
+# In-process: the settings object and the metadata it writes, no subprocess.
+
+@pytest.fixture(scope="module")
+def short_run() -> tuple:
+    """2.2 revolutions of sjtu-dual at a 12.3 ms sample interval, simulated in-process."""
+    from enctools.data.rig import load_rig
+    from enctools.hw import acquire as acq
+    from enctools.hw import open_session
+
+    rig = load_rig("sjtu-dual")
+    s = acq.resolve(rig, {"revolutions": 2.2, "interval_s": 0.0123, "seed": 2})
+    with open_session(rig, seed=2) as session:
+        header, batches = acq.acquire(rig, session, s)
+        return header, list(batches)
+
+
+@pytest.mark.parametrize("given,expect", [
+    ({"device": ("H1",), "ref": ("H1", "P1")}, "--device and --ref share H1"),
+    ({"device": ("H1", "P2"), "ref": ("P2", "P1")}, "--device and --ref share P2"),
+    ({"band": 0, "spectrum": True}, "--spectrum needs a band limit (--band K > 0)"),
+    ({"points": 50}, "--points 50 cannot carry --band 100: give more than 200"),
+    ({"band": -1}, "--band must be >= 0, not -1"),
+])
+def test_settings_refuse_bad_combinations(given: dict, expect: str) -> None:
+    from enctools.errors import UsageError
+    from enctools.methods.compare import Settings
+
+    given = {"device": ("H1",), "ref": ("P1",)} | given
+    with pytest.raises(UsageError, match=re.escape(expect)):
+        Settings(**given)
+
+
+def test_settings_name_and_unfiltered_grid() -> None:
+    from enctools.methods.compare import Settings
+
+    s = Settings(("H1", "H2"), ("P1",), band=0, points=3)  # no band limit: any grid
+    assert s.label == "H1+H2-P1" and s.to_dict()["name"] == "H1+H2-P1"
+    assert Settings(("H1",), ("P1",), name="d").label == "d"
+
+
+def test_settings_recorded_as_before(short_run: tuple, tmp_path: Path) -> None:
+    """The outputs' settings: the options, the column's name filled in, then revolutions."""
+    from enctools.data.streams import InputStream, write_table
+    from enctools.methods import compare, selfcal
+
+    header, batches = short_run
+    (dh, _), spectrum = compare.run(InputStream(header, iter(batches), "sim", "sim"),
+                                    compare.Settings(("H1", "H2"), ("P1", "P2"), band=20,
+                                                     points=64, spectrum=True))
+    want = {"device": ["H1", "H2"], "ref": ["P1", "P2"], "band": 20, "points": 64,
+            "name": "H1+H2-P1+P2", "ref_curve": None, "ref_column": None, "revolutions": 2}
+    assert spectrum is not None
+    for h in (dh, spectrum[0]):
+        assert json.dumps(h.meta["settings"]) == json.dumps(want)  # keys in this order
+    (ch, ct), _ = selfcal.run(InputStream(header, iter(batches), "sim", "sim"),
+                              selfcal.Settings(band=20, points=64))
+    curve = str(tmp_path / "h.parquet")
+    write_table(curve, ch, ct, False)
+    (dh, _), spectrum = compare.run(InputStream(header, iter(batches), "sim", "sim"),
+                                    compare.Settings(("H1",), ("H2", "H3"), band=0, points=60,
+                                                     name="d", ref_curve=curve,
+                                                     ref_column="graduation"))
+    assert spectrum is None
+    assert json.dumps(dh.meta["settings"]) == json.dumps(
+        {"device": ["H1"], "ref": ["H2", "H3"], "band": 0, "points": 60, "name": "d",
+         "ref_curve": curve, "ref_column": "graduation", "revolutions": 2})

@@ -6,6 +6,8 @@ Figures from ../shared/DESIGN.md and seed 000: for 0/60/135/228 deg, min |W| ove
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from conftest import run
@@ -52,7 +54,7 @@ def test_search_beats_or_matches_the_paper() -> None:
     a = design.analyse(list(res.angles_deg), 100)
     assert a.worst[0] >= 1.176 - 1e-3
     assert not a.blind
-    gaps = np.diff(list(res.angles_deg) + [360.0])
+    gaps = np.diff([*res.angles_deg, 360.0])
     assert np.all(gaps >= 10 - 1e-9)
 
 
@@ -88,3 +90,36 @@ def test_bad_usage(opts: str, expect: str) -> None:
     assert r.returncode == 2
     lines = r.stderr.decode().strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("enc design: error:") and expect in lines[0]
+
+
+# In-process: the settings object, no subprocess.
+
+@pytest.mark.parametrize("given,expect", [
+    ({}, "give --angles DEG,... to analyse, or --search M to search"),
+    ({"angles_deg": (0.0,)}, "give at least 2 head angles"),
+    ({"angles_deg": (0.0, 60.0, 60.0, 228.0)}, "--angles: two heads at the same angle"),
+    ({"angles_deg": (0.0, 90.0, 180.0), "method": "esa"}, "esa needs 4 head angles, not 3"),
+    ({"angles_deg": (0.0, 90.0), "method": "lsq"}, "--method must be esa, fourier or average"),
+    ({"search_heads": 3, "method": "esa"}, "esa arrangements have 4 heads, not 3"),
+    ({"search_heads": 9}, "--search: 2 to 8 heads, not 9"),
+    ({"search_heads": 4, "min_gap_deg": 100.0}, "--min-gap 100.0 deg leaves no room for 4"),
+    ({"search_heads": 4, "criterion": "max"}, "--criterion must be w or gain, not 'max'"),
+])
+def test_settings_refuse_bad_combinations(given: dict, expect: str) -> None:
+    from enctools.errors import UsageError
+
+    with pytest.raises(UsageError, match=re.escape(expect)):
+        design.Settings(**given)
+
+
+def test_run_searches_then_analyses() -> None:
+    from enctools.errors import UsageError
+
+    settings = design.Settings(search_heads=3, band=20, method="fourier", step_deg=3.0)
+    assert settings.search_method == "fourier"
+    res = design.run(settings)
+    assert res.search is not None and res.analysis.angles_deg == res.search.angles_deg
+    res = design.run(design.Settings(angles_deg=(0, 60, 135, 228), band=130, strict=True))
+    assert res.search is None and res.analysis.blind == [119, 120, 121]
+    with pytest.raises(UsageError, match=r"blind harmonics 119, 120, 121 \(--strict\)"):
+        design.refuse_or_warn(res.analysis, strict=True)

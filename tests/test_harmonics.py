@@ -7,14 +7,13 @@ import numpy as np
 
 from enctools.data.readings import HeadInfo
 from enctools.methods.harmonics import (
-    RevolutionSplitter,
     analyse,
     bin_average,
     head_reading,
     revolution_coefficients,
-    stroboscopic_heads,
     synthesize,
 )
+from enctools.methods.revolutions import RevolutionSplitter, stroboscopic_heads
 
 TWO_PI = 2 * np.pi
 
@@ -62,7 +61,7 @@ def test_splitter_blocks_do_not_matter() -> None:
     for i in range(0, u.size, 777):
         parts += list(split.feed(u[i:i + 777], v[:, i:i + 777]))
     assert len(whole) == len(parts) == int((u[-1] - u[0]) // TWO_PI)
-    for a, b in zip(whole, parts):
+    for a, b in zip(whole, parts, strict=True):
         np.testing.assert_allclose(a.u, b.u)
         np.testing.assert_allclose(a.values, b.values)
         assert a.u[-1] - a.u[0] == TWO_PI or abs(a.u[-1] - a.u[0] - TWO_PI) < 1e-12
@@ -104,7 +103,7 @@ def test_bin_average() -> None:
 def test_head_reading_removes_zeroing() -> None:
     cpr = 52000 * 4096
     alpha = np.radians(60.0)
-    zero = int(round(alpha * 52000 / TWO_PI)) * 4096
+    zero = round(float(alpha * 52000 / TWO_PI)) * 4096
     theta = 0.25
     counts = np.rint((theta + alpha) * cpr / TWO_PI) - zero
     assert abs(head_reading(np.array([counts]), cpr, zero, alpha)[0] - theta) < TWO_PI / cpr

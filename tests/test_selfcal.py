@@ -29,7 +29,8 @@ from conftest import run
 
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth
-from enctools.methods.harmonics import RunningMean, revolution_coefficients
+from enctools.methods.harmonics import revolution_coefficients
+from enctools.methods.revolutions import RunningMean
 from enctools.methods.selfcal import Method, esa_transfer, esa_weights, fourier_solve
 
 K = 100
@@ -170,7 +171,8 @@ def test_fourier_three_heads_pipeline(tmp_path: Path) -> None:
     """0/38/67 deg heads, no radial motion, no noise: the basic method recovers the truth."""
     rig = quiet_rig(tmp_path, {"H5": 38.0, "H6": 67.0}, radial=False, max_harmonic=K)
     r = run(f"enc acquire --rig {rig} --revolutions 3 --heads H1,H5,H6 | "
-            f"enc selfcal --method fourier --ref H1 --heads H5,H6 --spectrum {tmp_path}/s.parquet -o {tmp_path}/g.parquet")
+            f"enc selfcal --method fourier --ref H1 --heads H5,H6 --spectrum {tmp_path}/s.parquet "
+            f"-o {tmp_path}/g.parquet")
     assert r.returncode == 0, r.stderr.decode()
     c, _ = spectrum(tmp_path / "s.parquet")
     truth = truth_of(tmp_path / "g.parquet")
@@ -233,6 +235,7 @@ def test_uncertainties_are_honest() -> None:
     from enctools.data.streams import InputStream
     from enctools.hw import acquire as acq
     from enctools.hw import open_session
+    from enctools.methods.selfcal import Settings
     from enctools.methods.selfcal import run as selfcal_run
 
     rig = load_rig("sjtu-dual")
@@ -244,7 +247,7 @@ def test_uncertainties_are_honest() -> None:
         with open_session(rig, seed=seed) as session:
             header, batches = acq.acquire(rig, session, s)
             source = InputStream(header, batches, "sim", "sim")
-            _, (sh, st) = selfcal_run(source, {"method": "esa", "band": K, "points": 1024})
+            _, (_, st) = selfcal_run(source, Settings(method="esa", band=K, points=1024))
         if want is None:
             want = Truth.from_dict(header.meta["truth"]).graduation["II"].harmonics(K)[1:]
         c = st.column("re").to_numpy() + 1j * st.column("im").to_numpy()
@@ -323,3 +326,74 @@ def test_settings_and_metadata(esa_default: dict) -> None:
     t = pq.read_table(esa_default["spec"])
     transfer = t.column("transfer").to_numpy()
     assert abs(transfer[41] - 1.176) < 0.01  # n = 42
+
+
+# In-process: the settings object and the metadata it writes, no subprocess.
+
+@pytest.fixture(scope="module")
+def short_run() -> tuple:
+    """2.2 revolutions of sjtu-dual at a 12 ms sample interval, simulated in-process."""
+    from enctools.data.rig import load_rig
+    from enctools.hw import acquire as acq
+    from enctools.hw import open_session
+
+    rig = load_rig("sjtu-dual")
+    s = acq.resolve(rig, {"revolutions": 2.2, "interval_s": 0.012, "seed": 1})
+    with open_session(rig, seed=1) as session:
+        header, batches = acq.acquire(rig, session, s)
+        return header, list(batches)
+
+
+@pytest.mark.parametrize("given,expect", [
+    ({"points": 100}, "--points 100 cannot carry --band 100: give more than 200"),
+    ({"band": 60, "points": 120}, "--points 120 cannot carry --band 60: give more than 120"),
+    ({"method": "lsq"}, "--method must be one of fourier, eda, esa, not 'lsq'"),
+    ({"band": 0}, "--band must be > 0, not 0"),
+    ({"min_transfer": 0.0}, "--min-transfer must be > 0, not 0.0"),
+])
+def test_settings_refuse_bad_combinations(given: dict, expect: str) -> None:
+    from enctools.errors import UsageError
+    from enctools.methods.selfcal import Settings
+
+    with pytest.raises(UsageError, match=re.escape(expect)):
+        Settings(**given)
+
+
+def test_settings_recorded_as_before(short_run: tuple) -> None:
+    """The outputs' settings: the resolved heads and method, then encoder and revolutions."""
+    from enctools.data.streams import InputStream
+    from enctools.methods.selfcal import Settings
+    from enctools.methods.selfcal import run as selfcal_run
+
+    header, batches = short_run
+    (dh, _), (sh, _) = selfcal_run(InputStream(header, iter(batches), "sim", "sim"),
+                                   Settings(band=20, points=64))
+    want = {"method": "esa", "ref": "H1", "heads": ["H5", "H6", "H7"],
+            "angle_from": ["H1", "H2", "H3", "H4"], "band": 20, "points": 64,
+            "min_transfer": 0.1, "strict": False, "encoder": "II", "revolutions": 2}
+    for h in (dh, sh):
+        assert json.dumps(h.meta["settings"]) == json.dumps(want)  # keys in this order
+    (dh, _), _ = selfcal_run(InputStream(header, iter(batches), "sim", "sim"),
+                             Settings(method="fourier", ref="H5", heads=("H1", "H6"),
+                                      angle_from=("H5",), band=10, points=32,
+                                      min_transfer=0.2, strict=True))
+    assert json.dumps(dh.meta["settings"]) == json.dumps(
+        {"method": "fourier", "ref": "H5", "heads": ["H1", "H6"], "angle_from": ["H5"],
+         "band": 10, "points": 32, "min_transfer": 0.2, "strict": True, "encoder": "II",
+         "revolutions": 2})
+
+
+def test_plan_refuses_heads_that_do_not_fit(short_run: tuple) -> None:
+    """Option combinations that depend on the recorded heads, named in the message."""
+    from enctools.errors import UsageError
+    from enctools.methods.selfcal import Settings, plan
+
+    header, _ = short_run
+    for settings, expect in (
+            (Settings(method="esa", heads=("H2", "H3")), "esa needs the reference and exactly 3"),
+            (Settings(heads=("H1", "P1")), "--heads: P1 belong to another encoder"),
+            (Settings(angle_from=("P1",)), "--angle-from: P1 belong to another encoder"),
+            (Settings(method="eda", ref="H1", heads=("H5", "H6", "H7")),
+             "eda needs equally spaced heads")):
+        with pytest.raises(UsageError, match=re.escape(expect)):
+            plan(header.schema, header.meta, settings)

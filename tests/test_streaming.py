@@ -103,7 +103,7 @@ def test_interp_check_streams_a_long_run(tmp_path) -> None:
         assert r.returncode == 0, r.stderr.decode()
         res[revs] = read_table(out)[0].meta["curves"]["H1"]
     assert res[100]["samples"] > 1_000_000
-    for short, long in zip(res[20]["harmonics"], res[100]["harmonics"]):
+    for short, long in zip(res[20]["harmonics"], res[100]["harmonics"], strict=False):
         c = [h["amplitude"] * np.exp(1j * h["phase"]) for h in (short, long)]
         assert abs(c[0] - c[1]) < 4 * np.hypot(short["u"], long["u"]), (short, long)
 

@@ -41,11 +41,13 @@ def command(input: str | None, groups: list[tuple[str | None, list[str]]], band:
     transfer function A(n) of each average is logged and kept in the field metadata.
     """
     from enctools.data import streams
-    from enctools.methods.heads import run
+    from enctools.methods import heads
 
+    settings = heads.Settings(groups=tuple((name, tuple(hs)) for name, hs in groups),
+                              band=band, drop=drop)
     streams.check_output(output, force, fmt)
     source = streams.open_input(input, "readings")
-    header, batches = run(source, groups, band, drop)
+    header, batches = heads.run(source, settings)
     with streams.OutputStream(output, streams.with_history(header), force, fmt) as out:
         for b in batches:
             out.write(b)

@@ -34,22 +34,16 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
     `enc compare --device H --ref P` after `enc average-heads` is eq. (10).
     """
     from enctools.data import streams
-    from enctools.errors import UsageError
-    from enctools.methods.compare import run
+    from enctools.methods import compare
 
-    if band < 0:
-        raise UsageError(f"--band must be >= 0, not {band}")
-    if spectrum_path is not None and band == 0:
-        raise UsageError("--spectrum needs a band limit (--band K > 0)")
+    settings = compare.Settings(device=tuple(device), ref=tuple(ref), band=band, points=points,
+                                name=name, ref_curve=ref_curve, ref_column=ref_column,
+                                spectrum=spectrum_path is not None)
     streams.check_output(output, force, fmt)
     if spectrum_path is not None:
         streams.check_output(spectrum_path, force)
-    curve = None
-    if ref_curve is not None:
-        h, t = streams.read_table(ref_curve, "deviations")
-        curve = (h, t, ref_curve)
     source = streams.open_input(input, "readings")
-    (dh, dt), spec = run(source, device, ref, band, points, name, curve, ref_column)
+    (dh, dt), spec = compare.run(source, settings)
     streams.write_table(output, streams.with_history(dh), dt, force, fmt)
     if spectrum_path is not None and spec is not None:
         streams.write_table(spectrum_path, streams.with_history(spec[0]), spec[1], force)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options
 
 
 @click.command("design")
@@ -15,13 +15,15 @@ from enctools.cli import options, runner
 @options.band("Highest harmonic K analysed.")
 @options.min_transfer()
 @click.option("--mounting-error", "mounting_error", type=float, default=0.01, show_default=True,
-              callback=options.non_negative, help="RMS error of each head's mounting angle [deg] for the sensitivity.")
+              callback=options.non_negative,
+              help="RMS error of each head's mounting angle [deg] for the sensitivity.")
 @click.option("--search", "search_heads", type=int, default=None, metavar="M",
               help="Search the arrangement of M heads maximising min |W(n)|.")
 @click.option("--step", "step_deg", type=float, default=1.0, show_default=True,
               callback=options.positive, help="search: grid step [deg] before refinement.")
 @click.option("--min-gap", "min_gap", type=float, default=10.0, show_default=True,
-              callback=options.non_negative, help="search: least angle between neighbouring heads [deg].")
+              callback=options.non_negative,
+              help="search: least angle between neighbouring heads [deg].")
 @click.option("--criterion", type=click.Choice(["w", "gain"]), default="w", show_default=True,
               help="search (esa): maximise min |W(n)| (w, as Jiao 2017) or min |W|/noise norm.")
 @click.option("--table", is_flag=True, default=False,
@@ -33,20 +35,19 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
             criterion: str, table: bool, strict: bool) -> None:
     """Transfer function |W(n)|, blind harmonics, noise gain and mounting sensitivity
     of a head arrangement; with --search, the arrangement that maximises min |W(n)|."""
-    from enctools.errors import UsageError
     from enctools.methods import design
-    from enctools.methods.heads import format_orders
 
-    if angles is None and search_heads is None:
-        raise UsageError("give --angles DEG,... to analyse, or --search M to search")
-    if search_heads is not None:
-        how = method or ("esa" if search_heads == 4 else "fourier")
-        res = design.search(search_heads, band, how, step_deg, min_gap, criterion)
+    settings = design.Settings(angles_deg=None if angles is None else tuple(angles),
+                               method=method, band=band, min_transfer=min_transfer,
+                               mounting_error_deg=mounting_error, search_heads=search_heads,
+                               step_deg=step_deg, min_gap_deg=min_gap, criterion=criterion,
+                               strict=strict)
+    res = design.run(settings)
+    if res.search is not None:
         click.echo(f"best {search_heads}-head arrangement for n <= {band}: "
-                   f"{'/'.join(f'{a:g}' for a in res.angles_deg)} deg "
-                   f"({res.evaluated} arrangements scored, criterion {criterion})")
-        angles = list(res.angles_deg)
-    a = design.analyse(angles, band, method, min_transfer)
+                   f"{'/'.join(f'{a:g}' for a in res.search.angles_deg)} deg "
+                   f"({res.search.evaluated} arrangements scored, criterion {criterion})")
+    a = res.analysis
     if table:
         click.echo("n\ttransfer\tnormalised\tgain\tsensitivity_per_deg")
         import numpy as np
@@ -55,14 +56,4 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
                        f"{a.sensitivity[k] * np.radians(1.0):.6g}")
     else:
         click.echo(design.report(a, mounting_error))
-    problems = []
-    if a.blind:
-        problems.append(f"blind harmonics {format_orders(a.blind)}")
-    if a.ill:
-        problems.append(f"ill-conditioned harmonics {format_orders(a.ill)}")
-    if problems:
-        where = "/".join(f"{x:g}" for x in a.angles_deg)
-        msg = f"{where} deg up to n = {band}: {'; '.join(problems)}"
-        if strict:
-            raise UsageError(msg + " (--strict)")
-        runner.log.warning("%s", msg)
+    design.refuse_or_warn(a, strict)

@@ -34,18 +34,18 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
     standard uncertainty, and with esa the spindle's radial error motion x, y [nm].
     """
     from enctools.data import streams
-    from enctools.errors import UsageError
-    from enctools.methods.selfcal import run
+    from enctools.methods import selfcal
 
-    if points <= 2 * band:
-        raise UsageError(f"--points {points} cannot carry --band {band}: give more than {2 * band}")
+    settings = selfcal.Settings(method=method, ref=ref,
+                                heads=None if heads is None else tuple(heads),
+                                angle_from=None if angle_from is None else tuple(angle_from),
+                                band=band, points=points, min_transfer=min_transfer,
+                                strict=strict)
     streams.check_output(output, force, fmt)
     if spectrum_path is not None:
         streams.check_output(spectrum_path, force)
     source = streams.open_input(input, "readings")
-    settings = {"method": method, "ref": ref, "heads": heads, "angle_from": angle_from,
-                "band": band, "points": points, "min_transfer": min_transfer, "strict": strict}
-    deviations, spectrum = run(source, settings, runner.Progress("revolutions", "rev"))
+    deviations, spectrum = selfcal.run(source, settings, runner.Progress("revolutions", "rev"))
     streams.write_table(output, streams.with_history(deviations[0]), deviations[1], force, fmt)
     if spectrum_path is not None:
         streams.write_table(spectrum_path, streams.with_history(spectrum[0]), spectrum[1], force)

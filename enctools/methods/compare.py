@@ -17,19 +17,77 @@ of the reference channel by the transfer function A(n) of the reference's heads
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from enctools.errors import DataError, UsageError
+from enctools.methods.harmonics import analyse, check_grid, grid, synthesize
+from enctools.methods.revolutions import (
+    ChannelSpec,
+    RunningMean,
+    Spectra,
+    require_continuous,
+    revolution_spectra,
+)
 from enctools.units import ARCSEC
 
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from enctools.data.readings import HeadInfo
     from enctools.data.streams import Header, InputStream
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What a comparison does: the options of enc compare, checked together.
+
+    ``device``: the device channel (a head, an average made by enc average-heads, or
+    several heads, whose mean is the device); ``ref``: the reference channel, likewise,
+    whose reading is the angle; ``band``: keep harmonics 1..K (0: no band limit, the
+    samples averaged in angle bins instead); ``points``: points of the output grid
+    over one revolution (more than 2 K); ``name``: the deviation column (default
+    DEVICE-REF, see :attr:`label`); ``ref_curve``: path of a deviations stream holding
+    the reference's calibrated error, ``ref_column`` its column (default the first);
+    ``spectrum``: a spectrum output is asked for (needs a band limit; not recorded in
+    the outputs). UsageError naming the option when they do not go together.
+    """
+
+    device: tuple[str, ...]
+    ref: tuple[str, ...]
+    band: int = 100
+    points: int = 1024
+    name: str | None = None
+    ref_curve: str | None = None
+    ref_column: str | None = None
+    spectrum: bool = False
+
+    def __post_init__(self) -> None:
+        if self.band < 0:
+            msg = f"--band must be >= 0, not {self.band}"
+            raise UsageError(msg)
+        if self.spectrum and self.band == 0:
+            msg = "--spectrum needs a band limit (--band K > 0)"
+            raise UsageError(msg)
+        both = set(self.device) & set(self.ref)
+        if both:
+            msg = f"--device and --ref share {', '.join(sorted(both))}"
+            raise UsageError(msg)
+        if self.band > 0:
+            check_grid(self.points, self.band)
+
+    @property
+    def label(self) -> str:
+        """The deviation column's name: ``name``, else DEVICE-REF (heads joined by +)."""
+        return self.name or f"{'+'.join(self.device)}-{'+'.join(self.ref)}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the outputs' metadata records them (lists, the label as name)."""
+        return {"device": list(self.device), "ref": list(self.ref), "band": self.band,
+                "points": self.points, "name": self.label, "ref_curve": self.ref_curve,
+                "ref_column": self.ref_column}
 
 
 @dataclass
@@ -44,7 +102,7 @@ class Comparison:
     revolutions: int
 
 
-def compare(revolutions: Any, band: int, points: int,
+def compare(revolutions: Iterator[Spectra], band: int, points: int,
             reference_error: np.ndarray | None = None) -> Comparison:
     """Average per-revolution deviations (device channels minus the reference coordinate).
 
@@ -53,8 +111,6 @@ def compare(revolutions: Any, band: int, points: int,
     band limit (binned curves are averaged); ``reference_error``: coefficients
     c_0..c_K [arcsec] of the reference's own error, added to the result.
     """
-    from enctools.methods.harmonics import RunningMean, synthesize
-
     coef = RunningMean()
     curve = RunningMean()
     for _, g, binned in revolutions:
@@ -84,7 +140,7 @@ def compare(revolutions: Any, band: int, points: int,
     return Comparison(None, None, y, curve.sem(), curve.count)
 
 
-def reference_error(curve_header: Header, curve_table: pa.Table, column: str | None,
+def reference_error(curve_table: pa.Table, column: str | None,
                     ref_fields: list[pa.Field], band: int, source: str) -> np.ndarray:
     """Coefficients c_0..c_K [arcsec] of the reference channel's error from a calibrated curve.
 
@@ -94,7 +150,6 @@ def reference_error(curve_header: Header, curve_table: pa.Table, column: str | N
     taken as the reference channel's error as it stands.
     """
     from enctools.data.schemas import columns_with_role, field_meta
-    from enctools.methods.harmonics import analyse
     from enctools.methods.heads import head_alphas
 
     names = columns_with_role(curve_table.schema, "deviation")
@@ -136,50 +191,46 @@ def reference_error(curve_header: Header, curve_table: pa.Table, column: str | N
     return total
 
 
-def run(source: InputStream, device: list[str], ref: list[str], band: int, points: int,
-        name: str | None, ref_curve: tuple[Header, pa.Table, str] | None,
-        ref_column: str | None, progress: Any = None
+def run(source: InputStream, settings: Settings, progress: Callable[[int], Any] | None = None
         ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
-    """A readings stream in; the deviations (and, band-limited, spectrum) of device - reference."""
-    from enctools.data.curves import Column, deviations_table, spectrum_table
-    from enctools.data.readings import head_info
-    from enctools.methods.harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
+    """A readings stream in; the deviations (and, band-limited, spectrum) of device - reference.
 
-    if source.meta.get("mode") not in (None, "continuous"):
-        msg = (f"{source.source}: a {source.meta.get('mode')} run; enc compare needs a "
-               "continuous run")
-        raise DataError(msg)
-    dev: list[HeadInfo] = [head_info(source.schema, h, source.source) for h in device]
-    refs: list[HeadInfo] = [head_info(source.schema, h, source.source) for h in ref]
-    both = set(device) & set(ref)
-    if both:
-        raise UsageError(f"--device and --ref share {', '.join(sorted(both))}")
-    if band > 0 and points <= 2 * band:
-        raise UsageError(f"--points {points} cannot carry --band {band}: give more than {2 * band}")
+    ``progress`` is called with the number of revolutions analysed.
+    """
+    from enctools.data.readings import head_info
+    from enctools.data.streams import read_table
+
+    curve = None if settings.ref_curve is None else read_table(settings.ref_curve, "deviations")[1]
+    require_continuous(source, "enc compare needs a continuous run")
+    dev = tuple(head_info(source.schema, h, source.source) for h in settings.device)
+    refs = tuple(head_info(source.schema, h, source.source) for h in settings.ref)
+    band, points = settings.band, settings.points
     correction = None
-    if ref_curve is not None:
-        kmax = band if band > 0 else (points - 1) // 2
-        correction = reference_error(ref_curve[0], ref_curve[1], ref_column,
-                                     [source.schema.field(h) for h in ref], kmax, ref_curve[2])
-    spec = ChannelSpec(tuple(dev), tuple(refs), mean=True)  # the device is their mean
-    # revolutions are cut on the reader thread and analysed here
-    cutter = RevolutionCutter(spec, source.source)
-    revs = revolution_spectra(source.batches(prepare=cutter), spec, max(band, 0), source.source,
-                              progress, grid_points=0 if band > 0 else points, cutter=cutter)
-    res = compare(revs, band, points, correction)
-    label = name or f"{'+'.join(device)}-{'+'.join(ref)}"
+    if curve is not None and settings.ref_curve is not None:
+        correction = reference_error(curve, settings.ref_column,
+                                     [source.schema.field(h) for h in settings.ref],
+                                     band if band > 0 else (points - 1) // 2, settings.ref_curve)
+    spec = ChannelSpec(dev, refs, mean=True)  # the device is their mean
+    revs = revolution_spectra(source, spec, band, progress,
+                              grid_points=0 if band > 0 else points)
+    return _outputs(source.header, settings, compare(revs, band, points, correction))
+
+
+def _outputs(header: Header, settings: Settings, res: Comparison
+             ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
+    """The deviations (curve on the grid) and, band-limited, spectrum of a comparison."""
+    from enctools.data.curves import Column, deviations_table, spectrum_table
+
+    label = settings.label
     cols = [Column(label, res.curve, "deviation", "arcsec",
-                   {"device": ",".join(device), "reference": ",".join(ref),
-                    "argument": "reference angle", "band": band}),
+                   {"device": ",".join(settings.device), "reference": ",".join(settings.ref),
+                    "argument": "reference angle", "band": settings.band}),
             Column(f"u_{label}", res.curve_uncertainty, "uncertainty", "arcsec", {"of": label})]
-    table = deviations_table(grid(points), cols)
-    settings = {"device": device, "ref": ref, "band": band, "points": points, "name": label,
-                "ref_curve": ref_curve[2] if ref_curve else None, "ref_column": ref_column,
-                "revolutions": res.revolutions}
-    header = source.header.derive("deviations", table.schema, settings=settings,
-                                  domain="revolution")
-    spectrum = None
-    if res.coefficients is not None:
-        st = spectrum_table([(label, res.coefficients, None, res.uncertainty)])
-        spectrum = (source.header.derive("spectrum", st.schema, settings=settings), st)
-    return (header, table), spectrum
+    table = deviations_table(grid(settings.points), cols)
+    recorded = settings.to_dict() | {"revolutions": res.revolutions}
+    deviations = header.derive("deviations", table.schema, settings=recorded,
+                               domain="revolution")
+    if res.coefficients is None:
+        return (deviations, table), None
+    st = spectrum_table([(label, res.coefficients, None, res.uncertainty)])
+    return (deviations, table), (header.derive("spectrum", st.schema, settings=recorded), st)

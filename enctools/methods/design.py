@@ -16,12 +16,13 @@ n = 1 where W is always 0).
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 
 from enctools.errors import UsageError
-from enctools.methods.heads import average_transfer
+from enctools.methods.heads import average_transfer, format_orders
 from enctools.methods.selfcal import (
     MIN_TRANSFER,
     esa_noise_norm,
@@ -31,6 +32,54 @@ from enctools.methods.selfcal import (
 )
 
 _BLIND = 1e-9
+#: the arrangements --method analyses, and those --criterion scores a search by
+METHODS = ("esa", "fourier", "average")
+CRITERIA = ("w", "gain")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What enc design does: its options, checked together (angles in deg).
+
+    ``angles_deg``: the head angles to analyse, the reference first; ``search_heads``:
+    search the best arrangement of this many heads instead (its result is analysed);
+    ``method``: esa, fourier or average (default esa for 4 heads, else fourier);
+    ``band``: the highest harmonic K; ``min_transfer``: the normalised |W(n)|
+    (dimensionless) below which a harmonic is ill-conditioned; ``mounting_error_deg``:
+    the RMS error of each head's mounting angle for the sensitivity; ``step_deg``,
+    ``min_gap_deg``, ``criterion``: the search's grid step, least angle between
+    neighbouring heads and score (see :func:`search`); ``strict``: refuse blind and
+    ill-conditioned harmonics instead of warning. UsageError naming the option when
+    they do not go together.
+    """
+
+    angles_deg: tuple[float, ...] | None = None
+    method: str | None = None
+    band: int = 100
+    min_transfer: float = MIN_TRANSFER
+    mounting_error_deg: float = 0.01
+    search_heads: int | None = None
+    step_deg: float = 1.0
+    min_gap_deg: float = 10.0
+    criterion: str = "w"
+    strict: bool = False
+
+    def __post_init__(self) -> None:
+        if self.angles_deg is None and self.search_heads is None:
+            msg = "give --angles DEG,... to analyse, or --search M to search"
+            raise UsageError(msg)
+        if self.criterion not in CRITERIA:
+            msg = f"--criterion must be {' or '.join(CRITERIA)}, not {self.criterion!r}"
+            raise UsageError(msg)
+        if self.search_heads is not None:
+            check_search(self.search_heads, self.search_method, self.min_gap_deg)
+        elif self.angles_deg is not None:
+            arrangement_method(list(self.angles_deg), self.method)
+
+    @property
+    def search_method(self) -> str:
+        """The method a search scores: --method, else esa for 4 heads, else fourier."""
+        return self.method or ("esa" if self.search_heads == 4 else "fourier")
 
 
 @dataclass
@@ -69,29 +118,41 @@ class Analysis:
         return float(g[i]), int(n[i])
 
 
-def analyse(angles_deg: list[float], band: int, method: str | None = None,
-            min_transfer: float = MIN_TRANSFER) -> Analysis:
-    """|W(n)|, blind/ill harmonics, noise gain and mounting sensitivity of an arrangement.
-
-    ``angles_deg``: head angles [deg], the reference first. ``method``: esa (4 heads),
-    fourier (any >= 2) or average (the mean of the heads: |A(n)|); default esa for 4
-    heads, else fourier. Sensitivity: first-order RMS relative error of F(n) when each
-    non-reference head is off its nominal angle by 1 rad (iid): ``n sqrt(sum a_j^2) /
-    |W(n)|`` for esa, ``n / |W(n)|`` scaled likewise for fourier.
-    """
+def arrangement_method(angles_deg: list[float], method: str | None) -> str:
+    """The method analysing heads at ``angles_deg`` [deg]: ``method``, else esa for 4
+    heads, else fourier; UsageError naming the option when the heads do not fit it."""
     al = np.radians(np.asarray(angles_deg, dtype=np.float64))
     if al.size < 2 and method != "average":
         raise UsageError("give at least 2 head angles (--angles 0,60,135,228)")
     if len(set(np.round(np.mod(angles_deg, 360.0), 9))) != al.size:
         raise UsageError(f"--angles: two heads at the same angle ({angles_deg})")
     method = method or ("esa" if al.size == 4 else "fourier")
-    n = np.arange(band + 1)
     if method == "esa":
         if al.size != 4:
             raise UsageError(f"esa needs 4 head angles, not {al.size}")
-        a = esa_weights(al[0], al[1:])
-        if np.max(np.abs(a)) < 1e-12:
+        if np.max(np.abs(esa_weights(al[0], al[1:]))) < 1e-12:
             raise UsageError(f"esa: heads at {angles_deg} cannot separate radial motion")
+    elif method not in METHODS:
+        raise UsageError(f"--method must be esa, fourier or average, not {method!r}")
+    return method
+
+
+def analyse(angles_deg: list[float], band: int, method: str | None = None,
+            min_transfer: float = MIN_TRANSFER) -> Analysis:
+    """|W(n)|, blind/ill harmonics, noise gain and mounting sensitivity of an arrangement.
+
+    ``angles_deg``: head angles [deg], the reference first. ``method``: esa (4 heads),
+    fourier (any >= 2) or average (the mean of the heads: |A(n)|); default esa for 4
+    heads, else fourier (:func:`arrangement_method`). Sensitivity: first-order RMS
+    relative error of F(n) when each non-reference head is off its nominal angle by
+    1 rad (iid): ``n sqrt(sum a_j^2) / |W(n)|`` for esa, ``n / |W(n)|`` scaled likewise
+    for fourier.
+    """
+    method = arrangement_method(angles_deg, method)
+    al = np.radians(np.asarray(angles_deg, dtype=np.float64))
+    n = np.arange(band + 1)
+    if method == "esa":
+        a = esa_weights(al[0], al[1:])
         transfer = np.abs(esa_transfer(al[0], al[1:], n))
         norm = esa_noise_norm(al[0], al[1:])
         normalised = transfer / norm
@@ -105,21 +166,18 @@ def analyse(angles_deg: list[float], band: int, method: str | None = None,
         normalised = transfer
         sens = n * np.sqrt(al.size - 1) / np.maximum(transfer, 1e-300) / np.sqrt(al.size)
         first = 1
-    elif method == "average":
+    else:  # average
         transfer = np.abs(average_transfer(al, n))
         normalised = transfer
         sens = np.zeros(n.size)
         first = 1
-    else:
-        raise UsageError(f"--method must be esa, fourier or average, not {method!r}")
     transfer[0] = normalised[0] = 0.0
     with np.errstate(divide="ignore"):
         gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
     sens = np.where(normalised > _BLIND, sens, np.inf)
     blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
-    ill = [int(k) for k in n[1:] if _BLIND < normalised[k] < min_transfer]
-    if method == "average":
-        ill = []
+    ill = [] if method == "average" else \
+        [int(k) for k in n[1:] if _BLIND < normalised[k] < min_transfer]
     return Analysis(method, tuple(float(x) for x in angles_deg), band, transfer, normalised,
                     gain, sens, first, blind, ill, min_transfer)
 
@@ -154,7 +212,7 @@ def _esa_scores(angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray
 
 def _esa_grid_scores(idx: np.ndarray, step: float, n: np.ndarray, criterion: str) -> np.ndarray:
     """As :func:`_esa_scores` for angles on a grid (indices into k * step deg): a table lookup."""
-    slots = np.arange(int(round(360.0 / step))) * np.radians(step)
+    slots = np.arange(round(360.0 / step)) * np.radians(step)
     table = np.exp(1j * np.outer(slots, n)) - 1.0  # (slots, K)
     sn, cs = np.sin(slots), np.cos(slots) - 1.0
     out = np.empty(idx.shape[0])
@@ -191,12 +249,7 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
     (head bodies need room) is scored (a coarser grid first when that is too many),
     then the ``keep`` best are refined locally down to 0.01 deg.
     """
-    if method == "esa" and heads != 4:
-        raise UsageError(f"esa arrangements have 4 heads, not {heads} (use --method fourier)")
-    if heads < 2 or heads > 8:
-        raise UsageError(f"--search: 2 to 8 heads, not {heads}")
-    if min_gap_deg * heads >= 360:
-        raise UsageError(f"--min-gap {min_gap_deg} deg leaves no room for {heads} heads")
+    check_search(heads, method, min_gap_deg)
     first = 2 if method == "esa" else 1
     n = np.arange(first, band + 1, dtype=np.float64)
     score = _esa_scores if method == "esa" else _fourier_scores
@@ -233,8 +286,19 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
             refined.append((s0, a0))
         best = sorted(refined, key=lambda p: -p[0])[: max(4, keep // 4)]
     s0, a0 = best[0]
-    angles = (0.0,) + tuple(float(np.round(x, 2)) for x in a0)
+    angles = (0.0, *(float(np.round(x, 2)) for x in a0))
     return SearchResult(angles, s0, criterion, evaluated)
+
+
+def check_search(heads: int, method: str, min_gap_deg: float) -> None:
+    """UsageError naming the option unless ``heads`` heads at least ``min_gap_deg`` [deg]
+    apart can be searched for ``method``."""
+    if method == "esa" and heads != 4:
+        raise UsageError(f"esa arrangements have 4 heads, not {heads} (use --method fourier)")
+    if heads < 2 or heads > 8:
+        raise UsageError(f"--search: 2 to 8 heads, not {heads}")
+    if min_gap_deg * heads >= 360:
+        raise UsageError(f"--min-gap {min_gap_deg} deg leaves no room for {heads} heads")
 
 
 def _count(m: int, step: float, gap: float) -> int:
@@ -248,7 +312,7 @@ def _grid(m: int, step: float, gap: float) -> np.ndarray:
     """All increasing m-tuples of angles on the step grid in (0, 360) at least ``gap`` apart."""
     from itertools import combinations
 
-    vals = np.arange(1, int(round(360.0 / step))) * step
+    vals = np.arange(1, round(360.0 / step)) * step
     rows = np.array(list(combinations(vals, m)), dtype=np.float64) if m > 0 else np.zeros((1, 0))
     return rows[_feasible(rows, gap)]
 
@@ -263,8 +327,6 @@ def _feasible(rows: np.ndarray, gap: float) -> np.ndarray:
 def report(a: Analysis, mounting_error_deg: float) -> str:
     """A short text report of an analysis; ``mounting_error_deg`` is the RMS error [deg]
     of each head's mounting angle, scaled by the sensitivity [1/rad] to an error of F(n)."""
-    from enctools.methods.heads import format_orders
-
     w, nw = a.worst
     g, ng = a.max_gain
     lines = [f"arrangement: {'/'.join(f'{x:g}' for x in a.angles_deg)} deg, method {a.method}, "
@@ -287,3 +349,38 @@ def report(a: Analysis, mounting_error_deg: float) -> str:
                      f"of F(n) up to {np.nanmax(np.where(fin, sens, np.nan)):.3g} (n = {k}), "
                      f"{sens[fin].mean():.3g} on average")
     return "\n".join(lines)
+
+
+@dataclass
+class Design:
+    """What enc design found: the search's best arrangement (if searched) and its analysis."""
+
+    search: SearchResult | None
+    analysis: Analysis
+
+
+def run(settings: Settings) -> Design:
+    """Search (with ``settings.search_heads``) and analyse an arrangement of heads."""
+    found = None
+    angles = list(settings.angles_deg or ())
+    if settings.search_heads is not None:
+        found = search(settings.search_heads, settings.band, settings.search_method,
+                       settings.step_deg, settings.min_gap_deg, settings.criterion)
+        angles = list(found.angles_deg)
+    return Design(found, analyse(angles, settings.band, settings.method, settings.min_transfer))
+
+
+def refuse_or_warn(a: Analysis, strict: bool) -> None:
+    """Name the blind and ill-conditioned harmonics: UsageError when ``strict``, else a warning."""
+    problems = []
+    if a.blind:
+        problems.append(f"blind harmonics {format_orders(a.blind)}")
+    if a.ill:
+        problems.append(f"ill-conditioned harmonics {format_orders(a.ill)}")
+    if not problems:
+        return
+    where = "/".join(f"{x:g}" for x in a.angles_deg)
+    msg = f"{where} deg up to n = {a.band}: {'; '.join(problems)}"
+    if strict:
+        raise UsageError(msg + " (--strict)")
+    logging.getLogger("enctools").warning("%s", msg)

@@ -10,14 +10,19 @@ eps(theta + alpha_k) and the spindle's radial error motion through
   cancels whenever ``sum_k exp(i alpha_k) = 0``.
 - The difference of head k and head j has ``W_kj(n) = exp(i n alpha_k) - exp(i n alpha_j)``
   (seed 000 eq. (11)); the basic Fourier self-calibration divides by it.
+
+:func:`run` adds averages of heads to a readings stream (enc average-heads).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from enctools.errors import UsageError
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -26,8 +31,7 @@ if TYPE_CHECKING:
 
     from enctools.data.streams import Header, InputStream
 
-#: |A(n)| below this counts as cancelled, above 1 - this as passed
-TOLERANCE = 1e-9
+log = logging.getLogger("enctools")
 
 
 def average_transfer(alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -45,12 +49,6 @@ def radial_gain(alphas: np.ndarray) -> float:
     N >= 2), 1 for a single head.
     """
     return float(abs(np.exp(1j * np.asarray(alphas, dtype=np.float64)).mean()))
-
-
-def difference_transfer(alpha_k: float, alpha_j: float, n: np.ndarray) -> np.ndarray:
-    """W_kj(n) = exp(i n alpha_k) - exp(i n alpha_j) (dimensionless) of H_k - H_j; alphas [rad]."""
-    n = np.asarray(n, dtype=np.float64)
-    return np.exp(1j * n * alpha_k) - np.exp(1j * n * alpha_j)
 
 
 @dataclass(frozen=True)
@@ -109,7 +107,7 @@ def _ranges(ns: tuple[int, ...] | list[int], limit: int = 12) -> str:
             return f"{ns[0]}, {ns[1]}, ..., {ns[-1]}"
     runs: list[str] = []
     start = prev = ns[0]
-    for k in ns[1:] + [None]:  # type: ignore[list-item]
+    for k in [*ns[1:], None]:
         if k is not None and k == prev + 1:
             prev = k
             continue
@@ -156,7 +154,7 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
 
     The new column holds ``sum_k (counts_k)`` with ``counts_per_rev = N * cpr``,
     ``interpolation = N * interpolation`` and ``zero_count = sum_k zero_count_k`` and
-    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.harmonics.head_reading`)
+    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.methods.harmonics.head_reading`)
     is exactly the mean of the heads' readings (seed 000 eqs. (3), (6)); no rounding.
     Field metadata ``average_of`` names the heads; ``passes`` lists what A(n) keeps.
     """
@@ -164,7 +162,7 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
 
     from enctools.data.readings import head_info
     from enctools.data.schemas import make_field
-    from enctools.errors import DataError, UsageError
+    from enctools.errors import DataError
 
     infos = [head_info(schema, h, source) for h in group.heads]
     if len(infos) < 1:
@@ -217,48 +215,35 @@ def head_alphas(field: pa.Field) -> np.ndarray:
     return np.radians([float(fm["alpha_deg"])])
 
 
-def run(source: InputStream, groups: list[tuple[str | None, list[str]]], band: int,
-        drop: bool = False) -> tuple[Header, Iterator[pa.RecordBatch]]:
-    """A readings stream in; the same stream with the averaged channels added, batch by batch.
+@dataclass(frozen=True)
+class Settings:
+    """What enc average-heads does: its options, checked together.
 
-    ``groups``: (name or None, heads). Empty: each encoder's measuring heads
-    (rig metadata ``measure_heads``) that are recorded, when there are two or more.
+    ``groups``: (name or None, heads) of each new channel, the name defaulting to the
+    heads' common prefix (:func:`default_name`); empty: each encoder's measuring heads
+    (rig metadata ``measure_heads``) when two or more are recorded. ``band``: the
+    harmonics 1..K over which each average's A(n) is summarised; ``drop``: leave the
+    averaged heads out of the output.
     """
-    import logging
 
+    groups: tuple[tuple[str | None, tuple[str, ...]], ...] = ()
+    band: int = 100
+    drop: bool = False
+
+    def __post_init__(self) -> None:
+        if self.band < 1:
+            msg = f"--band must be > 0, not {self.band}"
+            raise UsageError(msg)
+
+
+def run(source: InputStream, settings: Settings) -> tuple[Header, Iterator[pa.RecordBatch]]:
+    """A readings stream in; the same stream with the averaged channels added, batch by batch."""
     import pyarrow as pa
 
-    from enctools.data.readings import head_info
-    from enctools.data.schemas import columns_with_role
-    from enctools.errors import UsageError
-
-    log = logging.getLogger("enctools")
     schema = source.schema
-    if not groups:
-        present = set(columns_with_role(schema, "head"))
-        for enc in (source.meta.get("rig") or {}).get("encoders", []):
-            hs = [h for h in enc.get("measure_heads", []) if h in present]
-            if len(hs) >= 2:
-                groups.append((None, hs))
-        if not groups:
-            msg = "no --average given and the rig names no measuring heads to average"
-            raise UsageError(msg)
-    taken = set(schema.names)
-    resolved: list[AverageGroup] = []
-    fields = []
-    for name, hs in groups:
-        g = AverageGroup(name or default_name(hs, taken), tuple(hs))
-        f = average_field(schema, g, band, source.source)
-        taken.add(g.name)
-        resolved.append(g)
-        fields.append(f)
-        alphas = np.array([head_info(schema, h).alpha for h in hs])
-        s = summarize_average(alphas, band)
-        log.info("%s", s.describe(g.name, list(hs)))
-        if s.radial_gain > 1e-9 and len(hs) > 1:
-            log.warning("%s: heads %s are not equally spaced: radial motion does not cancel "
-                        "(%.3g of it remains)", g.name, ",".join(hs), s.radial_gain)
-    dropped = {h for g in resolved for h in g.heads} if drop else set()
+    groups = settings.groups or _measuring_groups(source)
+    resolved, fields = _averages(schema, groups, settings.band, source.source)
+    dropped = {h for g in resolved for h in g.heads} if settings.drop else set()
     keep = [f for f in schema if f.name not in dropped]
     out_schema = pa.schema(keep + fields)
     header = source.header.derive("readings", out_schema,
@@ -272,3 +257,41 @@ def run(source: InputStream, groups: list[tuple[str | None, list[str]]], band: i
             yield pa.RecordBatch.from_arrays(cols, schema=out_schema)
 
     return header, batches()
+
+
+def _measuring_groups(source: InputStream) -> tuple[tuple[str | None, tuple[str, ...]], ...]:
+    """Each encoder's recorded measuring heads, as unnamed groups, where there are two or more."""
+    from enctools.data.schemas import columns_with_role
+
+    present = set(columns_with_role(source.schema, "head"))
+    groups: list[tuple[str | None, tuple[str, ...]]] = []
+    for enc in (source.meta.get("rig") or {}).get("encoders", []):
+        hs = tuple(h for h in enc.get("measure_heads", []) if h in present)
+        if len(hs) >= 2:
+            groups.append((None, hs))
+    if not groups:
+        msg = "no --average given and the rig names no measuring heads to average"
+        raise UsageError(msg)
+    return tuple(groups)
+
+
+def _averages(schema: pa.Schema, groups: tuple[tuple[str | None, tuple[str, ...]], ...],
+              band: int, source: str) -> tuple[list[AverageGroup], list[pa.Field]]:
+    """The named groups and their fields; logs what each average keeps of the harmonics."""
+    from enctools.data.readings import head_info
+
+    taken = set(schema.names)
+    resolved: list[AverageGroup] = []
+    fields = []
+    for name, hs in groups:
+        g = AverageGroup(name or default_name(hs, taken), tuple(hs))
+        fields.append(average_field(schema, g, band, source))
+        taken.add(g.name)
+        resolved.append(g)
+        alphas = np.array([head_info(schema, h).alpha for h in hs])
+        s = summarize_average(alphas, band)
+        log.info("%s", s.describe(g.name, list(hs)))
+        if s.radial_gain > 1e-9 and len(hs) > 1:
+            log.warning("%s: heads %s are not equally spaced: radial motion does not cancel "
+                        "(%.3g of it remains)", g.name, ",".join(hs), s.radial_gain)
+    return resolved, fields

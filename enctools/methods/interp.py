@@ -925,7 +925,7 @@ def _stroboscopic(batch, schema, names, reference, ref_info, probes, arm_m) -> d
     {head: signal periods per sample}.
     """
     from enctools.data.readings import head_info
-    from enctools.methods.harmonics import stroboscopic_heads
+    from enctools.methods.revolutions import stroboscopic_heads
 
     if batch.num_rows < 3:
         return {}

@@ -1,8 +1,8 @@
 """Self-calibration of a scale's graduation error from several heads of one encoder.
 
 Every method works harmonic by harmonic on the per-revolution spectra G_k(n) of
-the head errors relative to the angle coordinate (:mod:`enctools.harmonics`), all
-in rad. The head model is seed 000 eq. (1): ``G_k(n) = exp(i n alpha_k) F(n) + C(n)
+the head errors relative to the angle coordinate (:mod:`enctools.methods.revolutions`),
+all in rad. The head model is seed 000 eq. (1): ``G_k(n) = exp(i n alpha_k) F(n) + C(n)
 + [X(n) sin alpha_k - Y(n) cos alpha_k] / R`` with F the graduation error, C what
 all heads share (the coordinate's own error) and X, Y the spindle's radial error
 motion.
@@ -25,14 +25,24 @@ it is reported as part of the graduation error (the simulator's truth does the s
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+import logging
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from enctools.errors import UsageError
+from enctools.errors import DataError, UsageError
+from enctools.methods.harmonics import analyse, check_grid, grid, synthesize
 from enctools.methods.heads import format_orders
+from enctools.methods.revolutions import (
+    ChannelSpec,
+    RunningMean,
+    Spectra,
+    require_continuous,
+    revolution_spectra,
+)
+from enctools.units import ARCSEC
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -44,6 +54,60 @@ METHODS = ("fourier", "eda", "esa")
 #: default: a harmonic whose normalised transfer |W(n)| / |a| is below this is ill-conditioned
 MIN_TRANSFER = 0.1
 _BLIND = 1e-9
+
+log = logging.getLogger("enctools")
+
+
+def check_method(name: str) -> None:
+    """UsageError unless ``name`` is one of :data:`METHODS`."""
+    if name not in METHODS:
+        msg = f"--method must be one of {', '.join(METHODS)}, not {name!r}"
+        raise UsageError(msg)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What a self-calibration does: the options of enc selfcal, checked together.
+
+    ``method``: fourier, eda or esa; ``ref``: the reference head; ``heads``: the other
+    heads; ``angle_from``: the heads whose mean is the angle coordinate (None: chosen
+    from the readings, see :func:`plan`); ``band``: the highest harmonic K solved for;
+    ``points``: points of the output grid over one revolution (more than 2 K);
+    ``min_transfer``: the normalised |W(n)| (dimensionless) below which a harmonic is
+    ill-conditioned; ``strict``: refuse blind and ill-conditioned harmonics instead of
+    warning. UsageError naming the option when they do not go together.
+    """
+
+    method: str | None = None
+    ref: str | None = None
+    heads: tuple[str, ...] | None = None
+    angle_from: tuple[str, ...] | None = None
+    band: int = 100
+    points: int = 1024
+    min_transfer: float = MIN_TRANSFER
+    strict: bool = False
+
+    def __post_init__(self) -> None:
+        if self.method is not None:
+            check_method(self.method)
+        if self.band < 1:
+            msg = f"--band must be > 0, not {self.band}"
+            raise UsageError(msg)
+        check_grid(self.points, self.band)
+        if not self.min_transfer > 0:
+            msg = f"--min-transfer must be > 0, not {self.min_transfer}"
+            raise UsageError(msg)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the outputs' metadata records them (lists, not tuples)."""
+        return {"method": self.method, "ref": self.ref, "heads": _listed(self.heads),
+                "angle_from": _listed(self.angle_from), "band": self.band,
+                "points": self.points, "min_transfer": self.min_transfer,
+                "strict": self.strict}
+
+
+def _listed(names: tuple[str, ...] | None) -> list[str] | None:
+    return None if names is None else list(names)
 
 
 @dataclass
@@ -165,9 +229,7 @@ class Method:
     def __init__(self, name: str, alpha_ref: float, alphas: np.ndarray, band: int,
                  radius_m: float, names: list[str] | None = None,
                  min_transfer: float = MIN_TRANSFER) -> None:
-        if name not in METHODS:
-            msg = f"--method must be one of {', '.join(METHODS)}, not {name!r}"
-            raise UsageError(msg)
+        check_method(name)
         self.name = name
         self.alpha_ref = float(alpha_ref)
         self.alphas = np.asarray(alphas, dtype=np.float64)
@@ -186,10 +248,6 @@ class Method:
                 raise UsageError(msg)
             self.weights = a
         self.conditioning = self._conditioning()
-
-    @property
-    def separates_radial(self) -> bool:
-        return self.name == "esa"
 
     def _conditioning(self) -> Conditioning:
         n = np.arange(self.band + 1)
@@ -261,8 +319,6 @@ def coordinate_correction(spectra: np.ndarray, coordinate_error: np.ndarray) -> 
     ``coordinate_error`` (K+1,) in rad). Products are formed on a grid fine enough
     that the band 0..K is free of aliasing.
     """
-    from enctools.methods.harmonics import analyse, synthesize
-
     k = spectra.shape[1] - 1
     points = 1 << max(6, int(np.ceil(np.log2(3 * k + 2))))
     n = np.arange(k + 1)
@@ -293,7 +349,7 @@ class Result:
     curve_uncertainty: dict[str, np.ndarray]
 
 
-def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Method,
+def calibrate(revolutions: Iterator[Spectra], method: Method,
               coordinate_alphas: np.ndarray, points: int, coordinate: list[str],
               iterations: int = 2) -> Result:
     """Average per-revolution head spectra and solve them with ``method``.
@@ -305,9 +361,6 @@ def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Met
     standard deviations of the per-revolution solutions over sqrt(revolutions).
     Memory does not grow with the number of revolutions.
     """
-    from enctools.methods.harmonics import RunningMean, synthesize
-    from enctools.units import ARCSEC
-
     spectra = RunningMean()
     coef = {"graduation": RunningMean(), "x": RunningMean(), "y": RunningMean()}
     curves = {"graduation": RunningMean(), "x": RunningMean(), "y": RunningMean()}
@@ -320,7 +373,6 @@ def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Met
                 coef[name].add(c * scale[name])
                 curves[name].add(synthesize(c * scale[name], points))
     if spectra.count < 2:
-        from enctools.errors import DataError
         msg = (f"input: {spectra.count} complete revolution(s) of the angle coordinate; "
                "self-calibration needs at least 2 (record more: enc acquire --revolutions N)")
         raise DataError(msg)
@@ -347,17 +399,19 @@ def calibrate(revolutions: Iterator[tuple[int, np.ndarray, object]], method: Met
 
 @dataclass
 class Plan:
-    """Which heads a self-calibration reads, and how: resolved from a readings header."""
+    """Which heads a self-calibration reads, and how: resolved from a readings header.
+
+    ``settings``: the settings with method, ref, heads and angle_from filled in.
+    """
 
     method: Method
     heads: list[HeadInfo]          # reference first
     coordinate: list[HeadInfo]
     encoder: str
+    settings: Settings
 
 
-def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
-         heads: list[str] | None, angle_from: list[str] | None, band: int,
-         min_transfer: float = MIN_TRANSFER, source: str = "input") -> Plan:
+def plan(schema: pa.Schema, meta: dict, settings: Settings, source: str = "input") -> Plan:
     """Resolve the method, reference head, other heads and angle coordinate.
 
     Defaults: the encoder with the most heads; the reference is its head nearest
@@ -375,33 +429,73 @@ def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
         msg = f"{source}: readings stream has no head column"
         raise UsageError(msg)
     by_name = {h.name: h for h in infos}
-    for name in ([ref] if ref else []) + (heads or []) + (angle_from or []):
+    given = (settings.ref,) if settings.ref is not None else ()
+    for name in given + (settings.heads or ()) + (settings.angle_from or ()):
         head_info(schema, name, source)  # DataError naming the heads present
-    if ref:
-        encoder = by_name[ref].encoder
-    elif heads:
-        encoder = by_name[heads[0]].encoder
-    else:
-        counts: dict[str, int] = {}
-        for h in infos:
-            counts[h.encoder] = counts.get(h.encoder, 0) + 1
-        encoder = max(counts, key=lambda e: counts[e])
+    encoder = _encoder(infos, by_name, settings)
     enc_heads = [h for h in infos if h.encoder == encoder]
-    rig_enc = next((e for e in (meta.get("rig") or {}).get("encoders", [])
-                    if e.get("name") == encoder), {})
+    rig_enc: dict[str, Any] = next((e for e in (meta.get("rig") or {}).get("encoders", [])
+                                    if e.get("name") == encoder), {})
+    listed = rig_enc.get("measure_heads", [None])
     measure = [n for n in rig_enc.get("measure_heads", []) if n in by_name]
-    if ref is None:
-        ref = min(enc_heads, key=lambda h: min(h.alpha % (2 * np.pi),
-                                               2 * np.pi - h.alpha % (2 * np.pi))).name
-    if heads is None:
-        others = [h.name for h in enc_heads if h.name != ref and h.name not in measure]
-        if method == "eda" or not others:
-            others = [n for n in measure if n != ref] if method == "eda" and measure else \
-                [h.name for h in enc_heads if h.name != ref]
-        heads = others
-    if ref in heads:
-        heads = [h for h in heads if h != ref]
+    ref = settings.ref if settings.ref is not None else _nearest_zero(enc_heads).name
+    heads = [h for h in _other_heads(settings, enc_heads, ref, measure) if h != ref]
     chosen = [by_name[ref]] + [by_name[h] for h in heads]
+    method = _method_for(settings.method, chosen, encoder, ref)
+    if settings.angle_from is not None:
+        angle_from = list(settings.angle_from)
+    else:  # the mean of all measuring heads, when they are all recorded
+        angle_from = measure if len(measure) == len(listed) and len(measure) > 1 else [ref]
+    coordinate = [by_name[n] for n in angle_from]
+    foreign = [h.name for h in coordinate if h.encoder != encoder]
+    if foreign:
+        msg = (f"--angle-from: {', '.join(foreign)} belong to another encoder than {encoder}; "
+               "the angle coordinate must come from the calibrated scale's heads")
+        raise UsageError(msg)
+    m = Method(method, chosen[0].alpha, np.array([h.alpha for h in chosen[1:]]),
+               settings.band, chosen[0].radius_m, [h.name for h in chosen],
+               settings.min_transfer)
+    resolved = replace(settings, method=method, ref=ref, heads=tuple(heads),
+                       angle_from=tuple(angle_from))
+    return Plan(m, chosen, coordinate, encoder, resolved)
+
+
+def _encoder(infos: list[HeadInfo], by_name: dict[str, HeadInfo], settings: Settings) -> str:
+    """The calibrated encoder: the reference's, the first head's, else the one with most heads."""
+    if settings.ref is not None:
+        return by_name[settings.ref].encoder
+    if settings.heads:
+        return by_name[settings.heads[0]].encoder
+    counts: dict[str, int] = {}
+    for h in infos:
+        counts[h.encoder] = counts.get(h.encoder, 0) + 1
+    return max(counts, key=lambda e: counts[e])
+
+
+def _nearest_zero(heads: list[HeadInfo]) -> HeadInfo:
+    """The head whose nominal angle is nearest 0 deg (the first of equals)."""
+    return min(heads, key=lambda h: min(h.alpha % (2 * np.pi), 2 * np.pi - h.alpha % (2 * np.pi)))
+
+
+def _other_heads(settings: Settings, enc_heads: list[HeadInfo], ref: str,
+                 measure: list[str]) -> list[str]:
+    """The heads besides the reference: as given, else the encoder's non-measuring heads.
+
+    eda takes the measuring heads (equally spaced) when the rig names them; without
+    non-measuring heads, all the encoder's heads but the reference.
+    """
+    if settings.heads is not None:
+        return list(settings.heads)
+    others = [h.name for h in enc_heads if h.name != ref and h.name not in measure]
+    if settings.method == "eda" and measure:
+        return [n for n in measure if n != ref]
+    if settings.method == "eda" or not others:
+        return [h.name for h in enc_heads if h.name != ref]
+    return others
+
+
+def _method_for(method: str | None, chosen: list[HeadInfo], encoder: str, ref: str) -> str:
+    """The method for the chosen heads (default esa with 4, else fourier), checked against them."""
     mixed = [h.name for h in chosen if h.encoder != encoder]
     if mixed:
         msg = (f"--heads: {', '.join(mixed)} belong to another encoder than {ref} ({encoder}); "
@@ -416,69 +510,54 @@ def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
         msg = (f"esa needs the reference and exactly 3 more heads, not {len(chosen)} heads "
                f"({', '.join(h.name for h in chosen)}); use --method fourier")
         raise UsageError(msg)
-    if angle_from is None:
-        full = len(measure) == len(rig_enc.get("measure_heads", [None])) and len(measure) > 1
-        angle_from = measure if full else [ref]
-    coordinate = [by_name[n] for n in angle_from]
-    foreign = [h.name for h in coordinate if h.encoder != encoder]
-    if foreign:
-        msg = (f"--angle-from: {', '.join(foreign)} belong to another encoder than {encoder}; "
-               "the angle coordinate must come from the calibrated scale's heads")
-        raise UsageError(msg)
-    m = Method(method, chosen[0].alpha, np.array([h.alpha for h in chosen[1:]]), band,
-               chosen[0].radius_m, [h.name for h in chosen], min_transfer)
-    return Plan(m, chosen, coordinate, encoder)
+    return method
 
 
-def run(source: InputStream, settings: dict, progress: object = None
+def run(source: InputStream, settings: Settings,
+        progress: Callable[[int, int], Any] | None = None
         ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table]]:
     """A readings stream in, (deviations, spectrum) headers and tables out.
 
-    ``settings``: method, ref, heads, angle_from, band, points, min_transfer, strict
-    (the options of enc selfcal). Warns about (or, strict, refuses) blind and
-    ill-conditioned harmonics before reading any data.
+    Warns about (or, ``settings.strict``, refuses) blind and ill-conditioned
+    harmonics before reading any data. ``progress(done, total)`` is called with the
+    revolutions analysed and expected.
     """
-    import logging
-
-    from enctools.data.curves import Column, deviations_table, spectrum_table
-    from enctools.errors import DataError
-    from enctools.methods.harmonics import ChannelSpec, RevolutionCutter, grid, revolution_spectra
-
-    log = logging.getLogger("enctools")
-    if source.meta.get("mode") not in (None, "continuous"):
-        msg = (f"{source.source}: a {source.meta.get('mode')} run; self-calibration needs a "
-               "continuous run (enc acquire --mode continuous)")
-        raise DataError(msg)
-    p = plan(source.schema, source.meta, settings.get("method"), settings.get("ref"),
-             settings.get("heads"), settings.get("angle_from"), int(settings["band"]),
-             float(settings.get("min_transfer", MIN_TRANSFER)), source.source)
-    cond = p.method.conditioning
-    problem = cond.message()
-    if problem:
-        where = f"{p.method.name} with {'/'.join(p.method.names)} up to n = {p.method.band}"
-        if settings.get("strict"):
-            raise UsageError(f"{where}: {problem} (--strict; narrow --band or move heads)")
-        log.warning("%s: %s; these harmonics are set to 0, not divided through", where, problem)
-    points = int(settings["points"])
-    spec = ChannelSpec(tuple(p.heads), tuple(p.coordinate))
+    require_continuous(source, "self-calibration needs a continuous run "
+                               "(enc acquire --mode continuous)")
+    p = plan(source.schema, source.meta, settings, source.source)
+    _refuse_or_warn(p.method, settings.strict)
     total = int(float((source.meta.get("settings") or {}).get("revolutions") or 0))
 
     def tick(done: int) -> None:
         if progress is not None:
-            progress(done, max(total, done))  # type: ignore[operator]
+            progress(done, max(total, done))
 
-    # revolutions are cut on the reader thread and analysed here
-    cutter = RevolutionCutter(spec, source.source)
-    revs = revolution_spectra(source.batches(prepare=cutter), spec, p.method.band, source.source,
-                              tick, cutter=cutter)
-    res = calibrate(revs, p.method, np.array([h.alpha for h in p.coordinate]), points,
-                    [h.name for h in p.coordinate])
+    spec = ChannelSpec(tuple(p.heads), tuple(p.coordinate))
+    revs = revolution_spectra(source, spec, p.method.band, tick)
+    res = calibrate(revs, p.method, np.array([h.alpha for h in p.coordinate]),
+                    p.settings.points, [h.name for h in p.coordinate])
     log.info("%s: %d revolutions of %s, harmonics 1..%d", p.method.name, res.revolutions,
              "/".join(res.heads), res.band)
-    eff = {"method": p.method.name, "ref": p.heads[0].name, "heads": [h.name for h in p.heads[1:]],
-           "angle_from": res.coordinate, "band": p.method.band, "points": points,
-           "min_transfer": p.method.min_transfer, "strict": bool(settings.get("strict")),
-           "encoder": p.encoder, "revolutions": res.revolutions}
+    return _outputs(source.header, p, res)
+
+
+def _refuse_or_warn(method: Method, strict: bool) -> None:
+    """Name the blind and ill-conditioned harmonics: UsageError when ``strict``, else a warning."""
+    problem = method.conditioning.message()
+    if not problem:
+        return
+    where = f"{method.name} with {'/'.join(method.names)} up to n = {method.band}"
+    if strict:
+        msg = f"{where}: {problem} (--strict; narrow --band or move heads)"
+        raise UsageError(msg)
+    log.warning("%s: %s; these harmonics are set to 0, not divided through", where, problem)
+
+
+def _outputs(header: Header, p: Plan, res: Result
+             ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table]]:
+    """The deviations (curves on the grid) and spectrum (coefficients) of a result."""
+    from enctools.data.curves import Column, deviations_table, spectrum_table
+
     cols = [Column("graduation", res.curves["graduation"], "deviation", "arcsec",
                    {"encoder": p.encoder, "argument": "scale angle",
                     "method": p.method.name}),
@@ -492,11 +571,13 @@ def run(source: InputStream, settings: dict, progress: object = None
                                 "u_rms_nm": f"{u_rms:.4g}"}))
             cols.append(Column(f"u_{ax}", res.curve_uncertainty[ax], "uncertainty", "nm",
                                {"of": ax}))
-    table = deviations_table(grid(points), cols)
-    meta = {"settings": eff, "blind": cond.blind, "ill_conditioned": cond.ill,
-            "domain": "revolution"}
-    dev_header = source.header.derive("deviations", table.schema, **meta)
+    table = deviations_table(grid(p.settings.points), cols)
+    cond = p.method.conditioning
+    meta = {"settings": p.settings.to_dict() | {"encoder": p.encoder,
+                                                "revolutions": res.revolutions},
+            "blind": cond.blind, "ill_conditioned": cond.ill, "domain": "revolution"}
+    dev_header = header.derive("deviations", table.schema, **meta)
     st = spectrum_table([("graduation", res.coefficients["graduation"], cond.transfer,
                           res.uncertainty["graduation"])])
-    spec_header = source.header.derive("spectrum", st.schema, **meta)
+    spec_header = header.derive("spectrum", st.schema, **meta)
     return (dev_header, table), (spec_header, st)
