@@ -19,7 +19,10 @@ from conftest import run
 from enctools.data.readings import head_info, signal_phase
 from enctools.data.streams import Header, read_table, write_table
 from enctools.hw.truth import SignalFaults, Truth, signal_phase_error
-from enctools.methods import interp
+from enctools.methods.interp.curve import error_figures
+from enctools.methods.interp.fit import fit_interpolation_error
+from enctools.methods.interp.model import landing_harmonics
+from enctools.methods.interp.reference import probe_rotation
 from enctools.units import ARCSEC, TWO_PI
 
 HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]
@@ -133,7 +136,7 @@ def test_head_average_matches_mean_of_truths(sweep, tmp_path):
     infos = [head_info(raw.schema, h) for h in ("H1", "H2", "H3", "H4")]
     phases = [signal_phase(raw[i.name].to_numpy(), i) for i in infos]
     want = np.mean([read_phase_truth(truth.signals[i.name], p, i.periods_per_rev)
-                    for i, p in zip(infos, phases)], axis=0)
+                    for i, p in zip(infos, phases, strict=True)], axis=0)
     theta = table["theta"].to_numpy()
     got = np.interp(phases[0], theta, table[name].to_numpy(), period=TWO_PI)
     diff = zero_mean(got) - zero_mean(want)
@@ -259,9 +262,9 @@ def test_wrong_kind_and_short_arc(sweep, tmp_path):
 
 
 def test_landing_harmonics():
-    assert interp.landing_harmonics(180000 / 52000, [1, 2]) == []
-    assert interp.landing_harmonics(52000 / 180000, [1, 2]) == [(2, pytest.approx(0.5778, abs=1e-3), 1)]
-    assert interp.landing_harmonics(1.0, [1, 2]) == [(1, 1.0, 1), (2, 2.0, 2)]
+    assert landing_harmonics(180000 / 52000, [1, 2]) == []
+    assert landing_harmonics(52000 / 180000, [1, 2]) == [(2, pytest.approx(0.5778, abs=1e-3), 1)]
+    assert landing_harmonics(1.0, [1, 2]) == [(1, 1.0, 1), (2, 2.0, 2)]
 
 
 def test_fit_recovers_synthetic_error_with_trend():
@@ -271,22 +274,22 @@ def test_fit_recovers_synthetic_error_with_trend():
     phase = np.mod(theta * ppr + 0.3, TWO_PI)
     err = 0.1 * np.cos(phase + 0.2) + 0.05 * np.sin(2 * phase)
     dev = theta + (err + 0.02 + 3e-3 * theta / ARCSEC) * ARCSEC + rng.normal(0, 1e-3, 400) * ARCSEC
-    r = interp.fit_interpolation_error(dev, phase, theta, ppr, harmonics=3)
+    r = fit_interpolation_error(dev, phase, theta, ppr, harmonics=3)
     g = np.linspace(0, TWO_PI, 100)
     want = 0.1 * np.cos(g + 0.2) + 0.05 * np.sin(2 * g)
     assert np.abs(r.error(g) - want).max() < 6 * r.error.uncertainty(g).max()
     assert r.error.amplitude[0] == pytest.approx(0.1, abs=5e-4)
     assert r.residual_rms == pytest.approx(1e-3, rel=0.2)
-    assert interp.figures(want)["pp"] == pytest.approx(r.figures()["pp"], abs=2e-3)
+    assert error_figures(want)["pp"] == pytest.approx(r.figures()["pp"], abs=2e-3)
 
 
 def test_probe_rotation_cancels_translation():
     rot = np.linspace(0, 1e-4, 11)
     y = 50e-9 * np.sin(np.arange(11))
     s1, s2 = 0.2 * rot + y, -0.2 * rot + y
-    assert np.allclose(interp.probe_rotation([s1, s2], [0.2, 0.2], [1, -1]), rot, atol=1e-15)
+    assert np.allclose(probe_rotation([s1, s2], [0.2, 0.2], [1, -1]), rot, atol=1e-15)
     with pytest.raises(Exception, match="L = 0"):
-        interp.probe_rotation([s1], [0.0], [1])
+        probe_rotation([s1], [0.0], [1])
 
 
 def test_summary_meta_is_json(sweep, tmp_path):

@@ -294,8 +294,9 @@ def interpolation_error_u(fit: EllipseFit, phi: np.ndarray, periods_per_rev: int
 
 
 def _with(fit: EllipseFit, p: np.ndarray) -> EllipseFit:
-    return EllipseFit(*map(float, p), u=fit.u, cov=fit.cov, noise=fit.noise, arc=fit.arc,
-                      samples=fit.samples)
+    oc, os_, amplitude, ratio, phase = (float(x) for x in p)
+    return EllipseFit(oc, os_, amplitude, ratio, phase, u=fit.u, cov=fit.cov, noise=fit.noise,
+                      arc=fit.arc, samples=fit.samples)
 
 
 def radius_variation(i: np.ndarray, q: np.ndarray) -> dict[str, float]:

@@ -5,7 +5,7 @@ harmonics of an interpolation error), and per group g (a run of a sweep, a windo
 a continuous run) a nuisance trend T_g, Legendre polynomials of a coordinate. The
 trends are projected out group by group (Frisch-Waugh), so only the moments of the
 open groups and the normal equations of X are held, whatever the input's length.
-Used by :mod:`enctools.interp` (seed 000 eqs. (19), (20)).
+Used by :mod:`enctools.methods.interp.fit` (seed 000 eqs. (19), (20)).
 """
 
 from __future__ import annotations
