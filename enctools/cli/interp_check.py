@@ -95,7 +95,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         probes=probes, arm_m=arm_m, harmonics=harmonics, keep=keep,
         reference_harmonics=reference_harmonics, trend_degree=trend_degree,
         window_arcsec=window_arcsec, points=points, signals=signals_mode,
-        min_arc_deg=min_arc_deg, corrected=corrected is not None)
+        min_arc_deg=min_arc_deg, corrected=bool(corrected))
     streams.check_output(output, force, fmt)
     for extra in (spectrum_path, corrected):
         if extra:
@@ -114,7 +114,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     if spectrum_path:
         sh, st = _spectrum(source.header, curves, checked.settings)
         streams.write_table(spectrum_path, streams.with_history(sh), st, force, None)
-    if corrected and checked.corrected is not None:
+    if checked.corrected is not None and corrected:
         _write_corrected(source.header, checked.corrected, [c.name for c in curves], corrected,
                          force)
     if not runner.is_quiet():
