@@ -104,7 +104,8 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     checked = check.run(source, settings)
     curves = checked.curves
     if not curves:
-        raise UsageError("no curve: the heads with signals carry no encoder geometry")
+        msg = "no curve: the heads with signals carry no encoder geometry"
+        raise UsageError(msg)
 
     header, out_table = _deviations(source.header, curves, checked.settings, checked.signals)
     for c in curves:
@@ -131,8 +132,8 @@ def _check_tolerance(curves: list[Any], tolerance: float) -> None:
     worst = max(curves, key=lambda c: c.meta["figures"]["plus_minus"])
     pm = worst.meta["figures"]["plus_minus"]
     if pm > tolerance:
-        raise CheckFailed(f"{worst.name}: interpolation error +/-{pm:.4f}\" exceeds "
-                          f"--max-pm {tolerance:g}\"")
+        msg = f"{worst.name}: interpolation error +/-{pm:.4f}\" exceeds --max-pm {tolerance:g}\""
+        raise CheckFailed(msg)
 
 
 def _summary(c: Any) -> str:
