@@ -17,10 +17,18 @@ import pytest
 from conftest import run
 
 from enctools.data.readings import head_info, signal_phase
+from enctools.data.schemas import make_field
 from enctools.data.streams import Header, read_table, write_table
+from enctools.errors import UsageError
 from enctools.hw.truth import SignalFaults, Truth, signal_phase_error
-from enctools.methods import interp
-from enctools.units import ARCSEC, TWO_PI
+from enctools.methods.interp import Settings
+from enctools.methods.interp.curve import error_figures
+from enctools.methods.interp.fit import fit_interpolation_error
+from enctools.methods.interp.model import landing_harmonics
+from enctools.methods.interp.readings import check_readings
+from enctools.methods.interp.reference import probe_rotation
+from enctools.methods.interp.settings import DEFAULT_WINDOW_ARCSEC
+from enctools.units import ARCSEC, DEG, TWO_PI
 
 HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]
 
@@ -133,7 +141,7 @@ def test_head_average_matches_mean_of_truths(sweep, tmp_path):
     infos = [head_info(raw.schema, h) for h in ("H1", "H2", "H3", "H4")]
     phases = [signal_phase(raw[i.name].to_numpy(), i) for i in infos]
     want = np.mean([read_phase_truth(truth.signals[i.name], p, i.periods_per_rev)
-                    for i, p in zip(infos, phases)], axis=0)
+                    for i, p in zip(infos, phases, strict=True)], axis=0)
     theta = table["theta"].to_numpy()
     got = np.interp(phases[0], theta, table[name].to_numpy(), period=TWO_PI)
     diff = zero_mean(got) - zero_mean(want)
@@ -259,9 +267,9 @@ def test_wrong_kind_and_short_arc(sweep, tmp_path):
 
 
 def test_landing_harmonics():
-    assert interp.landing_harmonics(180000 / 52000, [1, 2]) == []
-    assert interp.landing_harmonics(52000 / 180000, [1, 2]) == [(2, pytest.approx(0.5778, abs=1e-3), 1)]
-    assert interp.landing_harmonics(1.0, [1, 2]) == [(1, 1.0, 1), (2, 2.0, 2)]
+    assert landing_harmonics(180000 / 52000, [1, 2]) == []
+    assert landing_harmonics(52000 / 180000, [1, 2]) == [(2, pytest.approx(0.5778, abs=1e-3), 1)]
+    assert landing_harmonics(1.0, [1, 2]) == [(1, 1.0, 1), (2, 2.0, 2)]
 
 
 def test_fit_recovers_synthetic_error_with_trend():
@@ -271,22 +279,22 @@ def test_fit_recovers_synthetic_error_with_trend():
     phase = np.mod(theta * ppr + 0.3, TWO_PI)
     err = 0.1 * np.cos(phase + 0.2) + 0.05 * np.sin(2 * phase)
     dev = theta + (err + 0.02 + 3e-3 * theta / ARCSEC) * ARCSEC + rng.normal(0, 1e-3, 400) * ARCSEC
-    r = interp.fit_interpolation_error(dev, phase, theta, ppr, harmonics=3)
+    r = fit_interpolation_error(dev, phase, theta, ppr, harmonics=3)
     g = np.linspace(0, TWO_PI, 100)
     want = 0.1 * np.cos(g + 0.2) + 0.05 * np.sin(2 * g)
     assert np.abs(r.error(g) - want).max() < 6 * r.error.uncertainty(g).max()
     assert r.error.amplitude[0] == pytest.approx(0.1, abs=5e-4)
     assert r.residual_rms == pytest.approx(1e-3, rel=0.2)
-    assert interp.figures(want)["pp"] == pytest.approx(r.figures()["pp"], abs=2e-3)
+    assert error_figures(want)["pp"] == pytest.approx(r.figures()["pp"], abs=2e-3)
 
 
 def test_probe_rotation_cancels_translation():
     rot = np.linspace(0, 1e-4, 11)
     y = 50e-9 * np.sin(np.arange(11))
     s1, s2 = 0.2 * rot + y, -0.2 * rot + y
-    assert np.allclose(interp.probe_rotation([s1, s2], [0.2, 0.2], [1, -1]), rot, atol=1e-15)
+    assert np.allclose(probe_rotation([s1, s2], [0.2, 0.2], [1, -1]), rot, atol=1e-15)
     with pytest.raises(Exception, match="L = 0"):
-        interp.probe_rotation([s1], [0.0], [1])
+        probe_rotation([s1], [0.0], [1])
 
 
 def test_summary_meta_is_json(sweep, tmp_path):
@@ -348,3 +356,99 @@ def test_nan_probe_samples_are_skipped_and_said(sweep, tmp_path):
     assert f"{bad.size} of {s1.size} samples skipped" in err, err
     diff = got["H1"].to_numpy() - clean["H1"].to_numpy()
     assert np.max(np.abs(diff)) < 0.005  # arcsec: 12 of ~5000 samples fewer
+
+
+# ------------------------------------------------------- settings and numerics in-process
+
+
+@pytest.mark.parametrize("options, words", [
+    ({"arm_m": 0.0}, "--arm must be > 0 m"),
+    ({"arm_m": float("nan")}, "--arm must be > 0 m"),
+    ({"corrected": True}, "--corrected needs --signals"),
+    ({"signals": True, "average": True}, "--average does not apply to --signals"),
+    ({"signals": True, "window_arcsec": 900.0}, "--window applies to the reference mode"),
+])
+def test_settings_refuse_bad_combinations(options, words):
+    with pytest.raises(UsageError, match=words):
+        Settings(**options)
+
+
+def test_settings_resolve_the_window_and_record_the_options():
+    s = Settings(heads=["H1", "H2"], reference="P1", keep=[1, 2])
+    assert s.heads == ("H1", "H2") and s.keep == (1, 2)
+    assert s.trend_window_arcsec(continuous=False) is None
+    assert s.trend_window_arcsec(continuous=True) == DEFAULT_WINDOW_ARCSEC
+    assert Settings(window_arcsec=7200.0).trend_window_arcsec(continuous=False) == 7200.0
+    assert s.to_meta(continuous=True) == {
+        "heads": ["H1", "H2"], "average": False, "harmonics": None, "points": 256, "trend": 1,
+        "mode": "reference", "window_arcsec": 1800.0, "reference": "P1",
+        "reference_file": None, "probes": None, "arm_m": None, "keep": [1, 2],
+        "reference_harmonics": 2}
+    assert Settings(signals=True, corrected=True, min_arc_deg=45.0).to_meta(False) == {
+        "heads": None, "average": False, "harmonics": None, "points": 256, "trend": 1,
+        "mode": "signals", "min_arc_deg": 45.0}
+
+
+def small_sweep(runs: int = 2, readings: int = 3) -> pa.Table:
+    """A readings table of two runs over 26" at 0.5" (P1, H1, probes S1/S2), built in-process."""
+    rng = np.random.default_rng(12)
+    steps = np.arange(0.0, 26.5, 0.5) * ARCSEC
+    target = np.tile(np.repeat(60 * DEG + steps, readings), runs)
+    run_no = np.repeat(np.arange(runs, dtype=np.int32), steps.size * readings)
+    theta = target + rng.normal(0, 0.005, target.size) * ARCSEC
+    fields = [make_field("t", pa.float64(), "s")]
+    arrays = [pa.array(np.arange(theta.size) * 0.1)]
+    for name, ppr, a1, a2 in (("P1", 180000, 0.3, 0.05), ("H1", 52000, 0.12, 0.06)):
+        cpr = ppr * 4096
+        phase = np.mod(theta * ppr, TWO_PI)
+        err = a1 * np.cos(phase + 0.4) + a2 * np.sin(2 * phase) + rng.normal(0, 0.01, theta.size)
+        counts = np.rint((theta + err * ARCSEC) * (cpr / TWO_PI)).astype(np.int64)
+        fields.append(make_field(name, pa.int64(), "count", "head", encoder=name[0],
+                                 alpha_deg=0.0, counts_per_rev=cpr, periods_per_rev=ppr,
+                                 interpolation=4096, radius_m=0.1, zero_count=0))
+        arrays.append(pa.array(counts))
+    for name, side in (("S1", 1), ("S2", -1)):
+        rotation = theta - 60 * DEG
+        h = side * 0.2 * rotation + 0.003 * rotation + rng.normal(0, 1e-9, theta.size)
+        fields.append(make_field(name, pa.float64(), "m", "probe", arm_m=0.2, side=side))
+        arrays.append(pa.array(h))
+    fields += [make_field("target", pa.float64(), "rad"), make_field("run", pa.int32(), "")]
+    arrays += [pa.array(target), pa.array(run_no)]
+    return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
+
+
+#: the error curves [arcsec] at 8 phases and the residual rms [arcsec] that check_readings
+#: gave on small_sweep() before interp.py became a package (the refactoring kept them)
+RECORDED = {
+    ("probes", "P1"): ([0.27020119968864276, 0.20751201948859999, -0.16493150204576815,
+                        -0.34748903446869445, -0.2283233822352525, -0.0477134037821797,
+                        0.09832670285683169, 0.21241740049782032], 0.010814666657157012),
+    ("probes", "H1"): ([0.10795079145878446, 0.10952358510234785, -0.04678644987995346,
+                        -0.17425185902570614, -0.10226034199408437, 0.01331240561970819,
+                        0.04690240812150762, 0.04560946059739581], 0.01001407102780895),
+    ("p1_by_h1", "P1"): ([0.2984819132166921, 0.18546751444930332, -0.14543708228052937,
+                          -0.35115581923228845, -0.24192639640633792, -0.03097056111171545,
+                          0.0888815654701752, 0.19665886589470058], 0.023743970672893227),
+    ("h1_by_p1_file", "H1"): ([0.10892143652201546, 0.10651319575215171, -0.04663166941633392,
+                               -0.17017338767992363, -0.10568720449687688, 0.018422162314235394,
+                               0.043397437391195344, 0.04523802961353651], 0.023739559042603057),
+    ("windows", "H1"): ([0.10907026374953387, 0.1075191602637766, -0.046572548988113846,
+                         -0.17079840967191934, -0.10541553850309125, 0.019134044430851233,
+                         0.04291782374167123, 0.04414520497729145], 0.010338231240784312),
+}
+
+
+@pytest.mark.parametrize("case, options, by_file", [
+    ("probes", {}, False),
+    ("p1_by_h1", {"heads": ["P1"], "reference": "H1"}, False),
+    ("h1_by_p1_file", {"heads": ["H1"], "reference": "P1"}, True),
+    ("windows", {"heads": ["H1"], "window_arcsec": 100.0, "harmonics": 2}, False),
+])
+def test_check_readings_gives_the_recorded_curves(case, options, by_file):
+    table = small_sweep()
+    curves = check_readings(table, Settings(points=8, **options), table if by_file else None)
+    assert [c.name for c in curves] == [name for (k, name) in RECORDED if k == case]
+    for c in curves:
+        error, rms = RECORDED[case, c.name]
+        assert c.error.tolist() == pytest.approx(error, rel=1e-12, abs=1e-12)
+        assert c.meta["residual_rms_arcsec"] == pytest.approx(rms, rel=1e-12)

@@ -74,9 +74,9 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 def command(input: str | None, heads: list[str] | None, average: bool, reference: str,
             reference_file: str | None, probes: list[str] | None, arm_m: float | None,
             harmonics: int | None, keep: list[int] | None, reference_harmonics: int,
-            trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool, min_arc_deg: float,
-            corrected: str | None, spectrum_path: str | None, tolerance: float | None,
-            output: str | None, force: bool, fmt: str | None) -> None:
+            trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool,
+            min_arc_deg: float, corrected: str | None, spectrum_path: str | None,
+            tolerance: float | None, output: str | None, force: bool, fmt: str | None) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
 
     Reads a readings stream of a small-angle sweep (enc acquire --mode sweep) or a
@@ -87,68 +87,53 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     output's metadata.
     """
     from enctools.data import streams
-    from enctools.errors import CheckFailed, UsageError
-    from enctools.methods import interp
+    from enctools.errors import UsageError
+    from enctools.methods.interp import Settings, check
 
-    if arm_m is not None and not arm_m > 0:
-        raise UsageError(f"--arm must be > 0 m (psi = h / L), not {arm_m!r}")
-    if corrected and not signals_mode:
-        raise UsageError("--corrected needs --signals")
+    settings = Settings(
+        heads=heads, average=average, reference=reference, reference_file=reference_file,
+        probes=probes, arm_m=arm_m, harmonics=harmonics, keep=keep,
+        reference_harmonics=reference_harmonics, trend_degree=trend_degree,
+        window_arcsec=window_arcsec, points=points, signals=signals_mode,
+        min_arc_deg=min_arc_deg, corrected=bool(corrected))
     streams.check_output(output, force, fmt)
     for extra in (spectrum_path, corrected):
         if extra:
             streams.check_output(extra, force, None)
-    if signals_mode and average:
-        raise UsageError("--average does not apply to --signals (each head has its signals)")
-    if signals_mode and window_arcsec is not None:
-        raise UsageError("--window applies to the reference mode, not --signals")
     source = streams.open_input(input, "readings")
-    continuous = source.meta.get("mode") == "continuous"
-    settings: dict[str, Any] = {
-        "heads": heads, "average": average, "harmonics": harmonics, "points": points,
-        "trend": trend_degree}
-    fits = None
-    table = None
-    if signals_mode:
-        table = interp.read_sweep(source, why="--signals")
-        curves, fits = interp.check_signals(table, heads, min_arc_deg, points)
-        settings |= {"mode": "signals", "min_arc_deg": min_arc_deg}
-    else:
-        ref_table = None
-        if reference_file is not None:
-            ref_table = interp.read_sweep(streams.open_input(reference_file, "readings"),
-                                          why="--ref-file")
-        curves = interp.check_readings(
-            source, heads, average, reference, ref_table, probes, arm_m, harmonics, keep,
-            reference_harmonics, trend_degree, points, reference_file or "reference",
-            continuous, window_arcsec)
-        window = (window_arcsec or interp.DEFAULT_WINDOW_ARCSEC) \
-            if (continuous or window_arcsec) else None
-        settings |= {"mode": "reference", "window_arcsec": window, "reference": reference,
-                     "reference_file": reference_file, "probes": probes, "arm_m": arm_m,
-                     "keep": keep, "reference_harmonics": reference_harmonics}
+    checked = check.run(source, settings)
+    curves = checked.curves
     if not curves:
-        raise UsageError("no curve: the heads with signals carry no encoder geometry")
+        msg = "no curve: the heads with signals carry no encoder geometry"
+        raise UsageError(msg)
 
-    header, out_table = _deviations(source.header, curves, settings, fits)
+    header, out_table = _deviations(source.header, curves, checked.settings, checked.signals)
     for c in curves:
         for w in c.warnings:
             runner.log.warning("%s", w)
     streams.write_table(output, streams.with_history(header), out_table, force, fmt)
     if spectrum_path:
-        sh, st = _spectrum(source.header, curves, settings)
+        sh, st = _spectrum(source.header, curves, checked.settings)
         streams.write_table(spectrum_path, streams.with_history(sh), st, force, None)
-    if corrected:
-        _write_corrected(source.header, table, fits, [c.name for c in curves], corrected, force)
+    if checked.corrected is not None and corrected:
+        _write_corrected(source.header, checked.corrected, [c.name for c in curves], corrected,
+                         force)
     if not runner.is_quiet():
         for c in curves:
             click.echo(_summary(c), err=True)
     if tolerance is not None:
-        worst = max(curves, key=lambda c: c.meta["figures"]["plus_minus"])
-        pm = worst.meta["figures"]["plus_minus"]
-        if pm > tolerance:
-            raise CheckFailed(f"{worst.name}: interpolation error +/-{pm:.4f}\" exceeds "
-                              f"--max-pm {tolerance:g}\"")
+        _check_tolerance(curves, tolerance)
+
+
+def _check_tolerance(curves: list[Any], tolerance: float) -> None:
+    """CheckFailed when the worst curve's +/- exceeds ``tolerance`` [arcsec] (--max-pm)."""
+    from enctools.errors import CheckFailed
+
+    worst = max(curves, key=lambda c: c.meta["figures"]["plus_minus"])
+    pm = worst.meta["figures"]["plus_minus"]
+    if pm > tolerance:
+        msg = f"{worst.name}: interpolation error +/-{pm:.4f}\" exceeds --max-pm {tolerance:g}\""
+        raise CheckFailed(msg)
 
 
 def _summary(c: Any) -> str:
@@ -202,7 +187,7 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
     for c in curves:
         h = c.harmonics
         u = h.amplitude_u if h.cov.size and np.any(h.cov) else np.full(h.orders.size, np.nan)
-        for n, coef, uu in zip(h.orders, h.coef, u):
+        for n, coef, uu in zip(h.orders, h.coef, u, strict=True):
             rows["n"].append(int(n))
             rows["amplitude"].append(float(abs(coef)))
             rows["phase"].append(float(np.angle(coef)))
@@ -210,26 +195,21 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
             rows["im"].append(float(coef.imag))
             rows["u"].append(float(uu))
             rows["curve"].append(c.name)
-    schema = pa.schema([make_field("n", pa.int64(), ""), make_field("amplitude", pa.float64(), "arcsec"),
-                        make_field("phase", pa.float64(), "rad"), make_field("re", pa.float64(), "arcsec"),
-                        make_field("im", pa.float64(), "arcsec"), make_field("u", pa.float64(), "arcsec"),
+    schema = pa.schema([make_field("n", pa.int64(), ""),
+                        make_field("amplitude", pa.float64(), "arcsec"),
+                        make_field("phase", pa.float64(), "rad"),
+                        make_field("re", pa.float64(), "arcsec"),
+                        make_field("im", pa.float64(), "arcsec"),
+                        make_field("u", pa.float64(), "arcsec"),
                         make_field("curve", pa.string(), "")])
     table = pa.Table.from_pydict(rows, schema=schema)
     return header.derive("spectrum", schema, settings=settings,
                          domain="harmonics per signal period"), table
 
 
-def _write_corrected(header: Any, table: Any, fits: dict, names: list[str], path: str,
-                     force: bool) -> None:
-    import pyarrow as pa
-
+def _write_corrected(header: Any, table: Any, names: list[str], path: str, force: bool) -> None:
     from enctools.data import streams
-    from enctools.methods import interp
 
-    new = interp.corrected_counts(table, fits, names)
-    for name, counts in new.items():
-        idx = table.schema.get_field_index(name)
-        table = table.set_column(idx, table.schema.field(name), pa.array(counts, pa.int64()))
     meta = dict(header.meta)
     meta["settings"] = dict(meta.get("settings", {}), heydemann_corrected=names)
     h = streams.Header("readings", table.schema, meta)

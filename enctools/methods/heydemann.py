@@ -206,42 +206,9 @@ def fit_ellipse(i: np.ndarray, q: np.ndarray, min_arc: float = 90 * DEG,
     the Sampson distances, scaled by the residual rms), the residual noise [V] and
     the arc covered [rad]; ``warnings`` name a partial arc.
     """
-    i = np.asarray(i, dtype=np.float64).ravel()
-    q = np.asarray(q, dtype=np.float64).ravel()
-    if i.shape != q.shape:
-        msg = f"I and Q differ in length ({i.size} and {q.size} samples)"
-        raise DataError(msg)
-    good = np.isfinite(i) & np.isfinite(q)
-    i, q = i[good], q[good]
-    if i.size < 8:
-        msg = f"{i.size} finite signal samples: the ellipse fit needs at least 8"
-        raise DataError(msg)
-    # The arc seen from the centre of a circle through the points does not depend on
-    # the ellipse fit, which a short noisy arc can send far off.
-    arc = arc_covered(np.arctan2(q - (yc := _circle_centre(i, q))[1], i - yc[0]))
-    if arc >= min_arc:
-        p0 = _from_conic(_conic(i, q))
-        arc = min(arc, arc_covered(corrected_phase(i, q, *p0)))
-    if arc < min_arc:
-        msg = (f"the signals cover {arc / DEG:.0f} deg of the Lissajous ellipse (< "
-               f"{min_arc / DEG:.0f} deg): offsets and ratio are undetermined; "
-               f"record over at least a quarter of a signal period, better one or more")
-        raise DataError(msg)
-    scale = max(abs(p0[2]), 1e-300)
-    x_scale = np.array([scale, scale, scale, 1.0, 1.0])
-    res = least_squares(_sampson, p0, args=(i, q), method="lm", x_scale=x_scale,
-                        xtol=1e-15, ftol=1e-15, gtol=1e-15)
-    p = res.x if res.success and np.all(np.isfinite(res.x)) else p0
-    if p[2] < 0:  # (A, phi) and (-A, phi + pi) are the same ellipse
-        p[2] = -p[2]
-    r = _sampson(p, i, q)
-    dof = max(i.size - 5, 1)
-    noise = float(np.sqrt(np.sum(r * r) / dof))
-    jac = res.jac
-    try:
-        cov = np.linalg.pinv(jac.T @ jac) * noise**2
-    except np.linalg.LinAlgError:
-        cov = np.full((5, 5), np.inf)
+    i, q = _finite_signals(i, q)
+    p0, arc = _first_guess(i, q, min_arc)
+    p, cov, noise = _refine(p0, i, q)
     u = {name: float(np.sqrt(max(cov[k, k], 0.0))) for k, name in enumerate(PARAMS)}
     if not (0.5 < p[3] < 2.0 and abs(p[4]) < 45 * DEG):
         msg = (f"ellipse fit implausible for a head (ratio {p[3]:.3g}, phase error "
@@ -258,6 +225,63 @@ def fit_ellipse(i: np.ndarray, q: np.ndarray, min_arc: float = 90 * DEG,
                         f"Lissajous ellipse; uncertainties are larger than over a full period")
     return EllipseFit(float(p[0]), float(p[1]), float(p[2]), float(p[3]), float(p[4]),
                       u, cov, noise, arc, int(i.size), warnings)
+
+
+def _finite_signals(i: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples [V] where both I and Q are finite; DataError for fewer than 8."""
+    i = np.asarray(i, dtype=np.float64).ravel()
+    q = np.asarray(q, dtype=np.float64).ravel()
+    if i.shape != q.shape:
+        msg = f"I and Q differ in length ({i.size} and {q.size} samples)"
+        raise DataError(msg)
+    good = np.isfinite(i) & np.isfinite(q)
+    i, q = i[good], q[good]
+    if i.size < 8:
+        msg = f"{i.size} finite signal samples: the ellipse fit needs at least 8"
+        raise DataError(msg)
+    return i, q
+
+
+def _first_guess(i: np.ndarray, q: np.ndarray, min_arc: float) -> tuple[np.ndarray, float]:
+    """The conic fit's parameters and the arc [rad] the samples cover; DataError under ``min_arc``.
+
+    The arc seen from the centre of a circle through the points does not depend on
+    the ellipse fit, which a short noisy arc can send far off.
+    """
+    arc = arc_covered(np.arctan2(q - (yc := _circle_centre(i, q))[1], i - yc[0]))
+    if arc >= min_arc:
+        p0 = _from_conic(_conic(i, q))
+        arc = min(arc, arc_covered(corrected_phase(i, q, *p0)))
+    if arc < min_arc:
+        msg = (f"the signals cover {arc / DEG:.0f} deg of the Lissajous ellipse (< "
+               f"{min_arc / DEG:.0f} deg): offsets and ratio are undetermined; "
+               f"record over at least a quarter of a signal period, better one or more")
+        raise DataError(msg)
+    return p0, arc
+
+
+def _refine(p0: np.ndarray, i: np.ndarray, q: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Geometric fit on the Sampson distance from ``p0``: parameters, covariance, noise [V].
+
+    The covariance is that of the Jacobian scaled by the residual rms (the noise).
+    """
+    scale = max(abs(p0[2]), 1e-300)
+    x_scale = np.array([scale, scale, scale, 1.0, 1.0])
+    res = least_squares(_sampson, p0, args=(i, q), method="lm", x_scale=x_scale,
+                        xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    p = res.x if res.success and np.all(np.isfinite(res.x)) else p0
+    if p[2] < 0:  # (A, phi) and (-A, phi + pi) are the same ellipse
+        p[2] = -p[2]
+    r = _sampson(p, i, q)
+    dof = max(i.size - 5, 1)
+    noise = float(np.sqrt(np.sum(r * r) / dof))
+    jac = res.jac
+    try:
+        cov = np.linalg.pinv(jac.T @ jac) * noise**2
+    except np.linalg.LinAlgError:
+        cov = np.full((5, 5), np.inf)
+    return p, cov, noise
 
 
 def phase_error(fit: EllipseFit, phi: np.ndarray) -> np.ndarray:
@@ -294,8 +318,9 @@ def interpolation_error_u(fit: EllipseFit, phi: np.ndarray, periods_per_rev: int
 
 
 def _with(fit: EllipseFit, p: np.ndarray) -> EllipseFit:
-    return EllipseFit(*map(float, p), u=fit.u, cov=fit.cov, noise=fit.noise, arc=fit.arc,
-                      samples=fit.samples)
+    oc, os_, amplitude, ratio, phase = (float(x) for x in p)
+    return EllipseFit(oc, os_, amplitude, ratio, phase, u=fit.u, cov=fit.cov, noise=fit.noise,
+                      arc=fit.arc, samples=fit.samples)
 
 
 def radius_variation(i: np.ndarray, q: np.ndarray) -> dict[str, float]:

@@ -5,7 +5,7 @@ harmonics of an interpolation error), and per group g (a run of a sweep, a windo
 a continuous run) a nuisance trend T_g, Legendre polynomials of a coordinate. The
 trends are projected out group by group (Frisch-Waugh), so only the moments of the
 open groups and the normal equations of X are held, whatever the input's length.
-Used by :mod:`enctools.interp` (seed 000 eqs. (19), (20)).
+Used by :mod:`enctools.methods.interp.fit` (seed 000 eqs. (19), (20)).
 """
 
 from __future__ import annotations
@@ -74,19 +74,7 @@ class TrendProjectedLSQ:
         m = y.size
         if m == 0:
             return
-        if bool(np.all(keys[1:] >= keys[:-1])):  # groups met in order (windows): no sort
-            first = np.flatnonzero(keys[1:] != keys[:-1]) + 1
-            first = np.concatenate([[0], first])
-            uk = keys[first]
-            inv = np.repeat(np.arange(uk.size), np.diff(np.append(first, m)))
-            lo = np.minimum.reduceat(x, first).astype(np.float64)
-            hi = np.maximum.reduceat(x, first).astype(np.float64)
-        else:
-            uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
-            lo = np.full(uk.size, np.inf)
-            hi = np.full(uk.size, -np.inf)
-            np.minimum.at(lo, inv, x)
-            np.maximum.at(hi, inv, x)
+        uk, first, inv, lo, hi = _groups(keys, x)
         y0, x0 = y[first].astype(np.float64), x[first].astype(np.float64)
         mom = np.zeros((uk.size, self._width))
         # groups still open from earlier batches keep their anchors and moments
@@ -100,36 +88,43 @@ class TrendProjectedLSQ:
         # sums of squares so that they do not cancel
         yc = y - y0[inv]
         z = (x - (x0[inv] if centre is None else centre)) / scale
-        # one row per moment, one column per sample: reduceat along contiguous rows
-        t = np.polynomial.legendre.legvander(z, self.d1 - 1).T.copy()     # (d1, m)
         xt = np.ascontiguousarray(x_rows)                                  # (p, m)
-        d1, p = self.d1, self.p
-        rows = np.empty((self._width, m))
-        np.multiply(t[:, None, :], t[None, :, :], out=rows[:d1 * d1].reshape(d1, d1, m))
-        np.multiply(t[:, None, :], xt[None, :, :], out=rows[d1 * d1:d1 * (d1 + p)].reshape(d1, p, m))
-        np.multiply(t, yc, out=rows[d1 * (d1 + p):d1 * (d1 + p + 1)])
-        if extra is not None:
-            rows[d1 * (d1 + p + 1):] = extra
-        if np.all(inv[1:] >= inv[:-1]):    # groups met in order (windows): no sort
-            starts = np.searchsorted(inv, np.arange(uk.size))
-        else:
-            order = np.argsort(inv, kind="stable")
-            starts = np.searchsorted(inv[order], np.arange(uk.size))
-            rows = rows[:, order]
-        mom += np.add.reduceat(rows, starts, axis=1).T
+        mom += _group_sums(self._moment_rows(z, xt, yc, extra), inv, uk.size)
         self.xtx += xt @ xt.T
         self.xty += xt @ yc
         self.yty += float(yc @ yc)
         self.raw_ss += np.einsum("ij,ij->i", xt, xt)
         self.n += m
+        self._hold(old, uk, mom, y0, x0, lo, hi, keys[-1])
 
+    def _moment_rows(self, z: np.ndarray, xt: np.ndarray, yc: np.ndarray,
+                     extra: np.ndarray | None) -> np.ndarray:
+        """Per sample (columns) the products T T, T X, T y and the extra rows: (width, m)."""
+        # one row per moment, one column per sample: reduceat along contiguous rows
+        t = np.polynomial.legendre.legvander(z, self.d1 - 1).T.copy()     # (d1, m)
+        d1, p, m = self.d1, self.p, z.size
+        rows = np.empty((self._width, m))
+        np.multiply(t[:, None, :], t[None, :, :], out=rows[:d1 * d1].reshape(d1, d1, m))
+        np.multiply(t[:, None, :], xt[None, :, :],
+                    out=rows[d1 * d1:d1 * (d1 + p)].reshape(d1, p, m))
+        np.multiply(t, yc, out=rows[d1 * (d1 + p):d1 * (d1 + p + 1)])
+        if extra is not None:
+            rows[d1 * (d1 + p + 1):] = extra
+        return rows
+
+    def _hold(self, old: np.ndarray, uk: np.ndarray, mom: np.ndarray, y0: np.ndarray,
+              x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, last_key: np.integer) -> None:
+        """Keep the batch's groups open with those not met (``old``: open groups met again).
+
+        ``consecutive``: every group but the one of ``last_key`` closes now.
+        """
         keep_old = np.setdiff1d(np.arange(self._keys.size), old)
         keys_all = np.concatenate([self._keys[keep_old], uk])
         parts = [(self._mom[keep_old], mom), (self._y0[keep_old], y0), (self._x0[keep_old], x0),
                  (self._lo[keep_old], lo), (self._hi[keep_old], hi)]
         mom_all, y0_all, x0_all, lo_all, hi_all = (np.concatenate(p) for p in parts)
         if self.consecutive:
-            last = keys_all == keys[-1]
+            last = keys_all == last_key
             self._close(mom_all[~last], lo_all[~last], hi_all[~last])
             keys_all, mom_all, y0_all, x0_all, lo_all, hi_all = (
                 a[last] for a in (keys_all, mom_all, y0_all, x0_all, lo_all, hi_all))
@@ -166,3 +161,33 @@ class TrendProjectedLSQ:
         self.groups += k
         if self.on_close is not None:
             self.on_close(mom[:, self._width - self.n_extra:], lo, hi)
+
+
+def _groups(keys: np.ndarray, x: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The groups of a batch: keys, first sample, group of each sample, least and greatest x."""
+    if bool(np.all(keys[1:] >= keys[:-1])):  # groups met in order (windows): no sort
+        first = np.flatnonzero(keys[1:] != keys[:-1]) + 1
+        first = np.concatenate([[0], first])
+        uk = keys[first]
+        inv = np.repeat(np.arange(uk.size), np.diff(np.append(first, keys.size)))
+        lo = np.minimum.reduceat(x, first).astype(np.float64)
+        hi = np.maximum.reduceat(x, first).astype(np.float64)
+    else:
+        uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        lo = np.full(uk.size, np.inf)
+        hi = np.full(uk.size, -np.inf)
+        np.minimum.at(lo, inv, x)
+        np.maximum.at(hi, inv, x)
+    return uk, first, inv, lo, hi
+
+
+def _group_sums(rows: np.ndarray, inv: np.ndarray, n_groups: int) -> np.ndarray:
+    """Sums of ``rows`` (width, m) over the samples of each group ``inv``: (n_groups, width)."""
+    if np.all(inv[1:] >= inv[:-1]):    # groups met in order (windows): no sort
+        starts = np.searchsorted(inv, np.arange(n_groups))
+    else:
+        order = np.argsort(inv, kind="stable")
+        starts = np.searchsorted(inv[order], np.arange(n_groups))
+        rows = rows[:, order]
+    return np.add.reduceat(rows, starts, axis=1).T

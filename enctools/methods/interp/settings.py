@@ -1,0 +1,102 @@
+"""What an interpolation check does (enc interp-check), resolved and checked in one place."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from enctools.errors import UsageError
+
+#: default window of a continuous run [arcsec]: a line per 0.5 deg leaves of the
+#: graduation error of sjtu-dual (harmonics up to 180 per turn) 0.004" rms
+DEFAULT_WINDOW_ARCSEC = 1800.0
+
+
+def _names(value: Sequence[Any] | None) -> tuple[Any, ...] | None:
+    return None if value is None else tuple(value)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The options of an interpolation check (units in the names).
+
+    Reference mode (seed 000 sec. 4): ``heads`` checked (None: every head but the
+    reference), one by one or with ``average`` as one device; ``reference``
+    "probes" (``probes``, default every probe, on arms ``arm_m`` [m], default each
+    probe's) or a head, from ``reference_file`` matched by time when given;
+    ``harmonics`` 1..K of the device's period fitted (None: 4, or against an encoder
+    of another period the highest kept), ``keep`` those reported (None: all, or 1
+    and 2 against another period), ``reference_harmonics`` 1..J of the reference
+    encoder's own period fitted alongside; a polynomial of ``trend_degree`` per run,
+    or per ``window_arcsec`` [arcsec] of angle (default for a continuous run:
+    :data:`DEFAULT_WINDOW_ARCSEC`). Signals mode (``signals``): the Heydemann fit of
+    each head's raw signals over at least ``min_arc_deg`` [deg], with ``corrected``
+    the readings re-interpolated from the corrected phase. ``points``: the output
+    curve's points per signal period.
+
+    Raises UsageError, naming the option, for a combination no check can carry out.
+    """
+
+    heads: Sequence[str] | None = None
+    average: bool = False
+    reference: str = "probes"
+    reference_file: str | None = None
+    probes: Sequence[str] | None = None
+    arm_m: float | None = None
+    harmonics: int | None = None
+    keep: Sequence[int] | None = None
+    reference_harmonics: int = 2
+    trend_degree: int = 1
+    window_arcsec: float | None = None
+    points: int = 256
+    signals: bool = False
+    min_arc_deg: float = 90.0
+    corrected: bool = False
+
+    def __post_init__(self) -> None:
+        # the lists a command line gives, as tuples: the settings do not change
+        for name in ("heads", "probes", "keep"):
+            object.__setattr__(self, name, _names(getattr(self, name)))
+        self.check()
+
+    def check(self) -> None:
+        """UsageError naming the option when the settings cannot go together."""
+        if self.arm_m is not None and not self.arm_m > 0:
+            msg = f"--arm must be > 0 m (psi = h / L), not {self.arm_m!r}"
+            raise UsageError(msg)
+        if self.corrected and not self.signals:
+            msg = "--corrected needs --signals"
+            raise UsageError(msg)
+        if self.signals and self.average:
+            msg = "--average does not apply to --signals (each head has its signals)"
+            raise UsageError(msg)
+        if self.signals and self.window_arcsec is not None:
+            msg = "--window applies to the reference mode, not --signals"
+            raise UsageError(msg)
+
+    def trend_window_arcsec(self, continuous: bool) -> float | None:
+        """The span of angle [arcsec] with its own trend; None: one trend per run.
+
+        ``continuous``: the input is a continuous run (its header's mode), which has
+        windows of :data:`DEFAULT_WINDOW_ARCSEC` unless ``window_arcsec`` says.
+        """
+        if self.window_arcsec is not None:
+            return self.window_arcsec
+        return DEFAULT_WINDOW_ARCSEC if continuous else None
+
+    def to_meta(self, continuous: bool) -> dict[str, Any]:
+        """The effective settings as the output's metadata records them."""
+        out: dict[str, Any] = {
+            "heads": _list(self.heads), "average": self.average, "harmonics": self.harmonics,
+            "points": self.points, "trend": self.trend_degree}
+        if self.signals:
+            return out | {"mode": "signals", "min_arc_deg": self.min_arc_deg}
+        return out | {"mode": "reference", "window_arcsec": self.trend_window_arcsec(continuous),
+                      "reference": self.reference, "reference_file": self.reference_file,
+                      "probes": _list(self.probes), "arm_m": self.arm_m, "keep": _list(self.keep),
+                      "reference_harmonics": self.reference_harmonics}
+
+
+def _list(value: Sequence[Any] | None) -> list[Any] | None:
+    return None if value is None else list(value)

@@ -1,0 +1,148 @@
+"""The interpolation error from the heads' raw signals by the Heydemann fit (--signals).
+
+Signals are the role=signal columns of a head: components cos/sin, or the four
+phases 0/90/180/270 (reduced to cos/sin by :func:`~enctools.methods.heydemann.from_four_phase`).
+The ellipse fit (:mod:`enctools.methods.heydemann`) gives the faults, the error
+they cause at the phase the head reads, and the counts re-interpolated from the
+corrected phase.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from enctools.data.readings import HeadInfo, head_info
+from enctools.data.schemas import columns_with_role, field_meta
+from enctools.errors import DataError
+from enctools.methods import heydemann as hd
+from enctools.methods.interp.curve import Curve, error_figures
+from enctools.methods.interp.model import PeriodHarmonics
+from enctools.methods.interp.settings import Settings
+from enctools.methods.interp.tables import column
+from enctools.units import ARCSEC, DEG, TWO_PI
+
+#: harmonics of the error (per signal period) given with a curve
+HARMONICS = 8
+
+
+def signal_columns(schema: pa.Schema) -> dict[str, dict[str, str]]:
+    """{head: {component: column}} of the role=signal columns."""
+    by_head: dict[str, dict[str, str]] = {}
+    for c in columns_with_role(schema, "signal"):
+        fm = field_meta(schema.field(c))
+        by_head.setdefault(fm.get("head", ""), {})[fm.get("component", "")] = c
+    return by_head
+
+
+def quadrature(table: pa.Table, name: str,
+               components: dict[str, str]) -> tuple[np.ndarray, np.ndarray]:
+    """(I, Q) [V] of head ``name`` from its signal ``components``; DataError without a pair."""
+    if {"cos", "sin"} <= components.keys():
+        return column(table, components["cos"]), column(table, components["sin"])
+    if {"0", "90", "180", "270"} <= components.keys():
+        return hd.from_four_phase(*(column(table, components[k])
+                                    for k in ("0", "90", "180", "270")))
+    msg = (f"input: head {name} has signal components {', '.join(sorted(components))}; "
+           f"need cos and sin, or 0, 90, 180 and 270")
+    raise DataError(msg)
+
+
+def check_signals(table: pa.Table, settings: Settings
+                  ) -> tuple[list[Curve], dict[str, dict[str, Any]]]:
+    """Heydemann fit of every head's raw signals; the interpolation error they predict.
+
+    ``settings``: the heads (default every head with signals), the shortest arc
+    (``min_arc_deg``) and the curve's points. Returns the curves (error [arcsec]
+    at the read phase, mean removed) of the heads with an encoder geometry and, per
+    head, the fit (:meth:`~enctools.methods.heydemann.EllipseFit.to_dict`) and the
+    Lissajous radius variation.
+    """
+    by_head = signal_columns(table.schema)
+    if not by_head:
+        msg = "input: no raw signal columns (role=signal); record them with enc acquire --signals"
+        raise DataError(msg)
+    names = list(settings.heads) if settings.heads else list(by_head)
+    curves, fits = [], {}
+    grid = np.linspace(0.0, TWO_PI, settings.points, endpoint=False)
+    for name in names:
+        comp = by_head.get(name)
+        if comp is None:
+            msg = f"input: no signals of head {name!r} (signals of: {', '.join(by_head)})"
+            raise DataError(msg)
+        i, q = quadrature(table, name, comp)
+        try:
+            fit = hd.fit_ellipse(i, q, min_arc=settings.min_arc_deg * DEG)
+        except DataError as exc:
+            raise DataError(f"head {name}: {exc}") from None
+        meta = {"signals": fit.to_dict(), "lissajous": hd.radius_variation(i, q),
+                "reference": "signals"}
+        fits[name] = meta
+        info = head_info(table.schema, name) if name in table.schema.names else None
+        if info is not None and info.periods_per_rev:
+            curves.append(_signal_curve(name, info, fit, grid, meta))
+    return curves, fits
+
+
+def _signal_curve(name: str, info: HeadInfo, fit: hd.EllipseFit, grid: np.ndarray,
+                  meta: dict[str, Any]) -> Curve:
+    """The error [arcsec] the fitted faults cause on the read-phase ``grid`` [rad], mean removed.
+
+    ``meta`` (the head's fit) gains the period, the mean removed, the figures and
+    the first :data:`HARMONICS` harmonics.
+    """
+    ppr = info.periods_per_rev
+    unit_err = hd.read_phase_error(fit, grid) * (1.0 / ppr / ARCSEC)
+    mean = float(unit_err.mean())
+    err = unit_err - mean
+    u = hd.interpolation_error_u(fit, grid, ppr)
+    meta |= {"encoder": info.encoder, "periods_per_rev": ppr,
+             "period_arcsec": TWO_PI / ppr / ARCSEC, "mean_arcsec": mean,
+             "figures": error_figures(err)}
+    c = np.fft.rfft(err)[1:HARMONICS + 1] * 2 / grid.size
+    meta["harmonics"] = [{"n": k + 1, "amplitude": float(abs(v)),
+                          "phase": float(np.angle(v))} for k, v in enumerate(c)]
+    return Curve(name, info.encoder, ppr, grid, err, u,
+                 PeriodHarmonics(np.arange(1, HARMONICS + 1), c,
+                                 np.zeros((2 * HARMONICS, 2 * HARMONICS))),
+                 meta, [f"{name}: {w}" for w in fit.warnings])
+
+
+def corrected_counts(table: pa.Table, fits: dict[str, dict[str, Any]],
+                     names: Sequence[str]) -> dict[str, np.ndarray]:
+    """Counts [count] of each head with the interpolation redone from the corrected phase.
+
+    The period index comes from the head's counts; the fraction from the
+    Heydemann-corrected phase (the sample's phase nearest the counted one is
+    taken, so a correction across a period boundary moves to the next period).
+    """
+    comps = signal_columns(table.schema)
+    out = {}
+    for name in names:
+        info = head_info(table.schema, name)
+        f = fits[name]["signals"]
+        i, q = quadrature(table, name, comps[name])
+        phi = hd.corrected_phase(i, q, f["offset_cos_v"], f["offset_sin_v"], f["amplitude_v"],
+                                 f["ratio"], f["phase_rad"])
+        counts = column(table, name).astype(np.int64)
+        n = info.interpolation
+        absolute = counts + info.zero_count
+        frac = np.mod(phi, TWO_PI) * (n / TWO_PI)
+        base = np.floor_divide(absolute, n) * n
+        new = base + np.rint(frac).astype(np.int64)
+        # choose the period so the corrected count is nearest the counted one
+        new += n * np.rint((absolute - new) / n).astype(np.int64)
+        out[name] = new - info.zero_count
+    return out
+
+
+def corrected_readings(table: pa.Table, fits: dict[str, dict[str, Any]],
+                       names: Sequence[str]) -> pa.Table:
+    """The readings ``table`` with the counts of heads ``names`` from :func:`corrected_counts`."""
+    for name, counts in corrected_counts(table, fits, names).items():
+        idx = table.schema.get_field_index(name)
+        table = table.set_column(idx, table.schema.field(name), pa.array(counts, pa.int64()))
+    return table
