@@ -11,7 +11,8 @@ from conftest import DATA, run
 from enctools.data import streams
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth, interpolation_error
-from enctools.methods.points import distinct, figures, from_table
+from enctools.data.statistics import curve_figures
+from enctools.methods.points import distinct, from_table
 from enctools.units import DEG
 
 
@@ -24,10 +25,10 @@ def test_seed001_table1_as_points(tmp_path):
     pts = from_table(table)
     x, y, closure = distinct(pts)
     assert x.size == 24 and closure == 0.0
-    fig = figures(y)
-    assert fig.peak_to_peak == pytest.approx(5.46, abs=1e-9)  # seed 001: 5.46"
+    fig = curve_figures(y)
+    assert fig.pp == pytest.approx(5.46, abs=1e-9)  # seed 001: 5.46"
     # Bessel s (seed 001 eq. 8) of the 24 distinct positions; the paper prints 1.30"
-    assert fig.bessel_std == pytest.approx(1.2674, abs=1e-4)
+    assert fig.std == pytest.approx(1.2674, abs=1e-4)
     assert header.meta["figures"]["peak_to_peak_arcsec"] == pytest.approx(5.46)
     assert "enc points" in header.history[-1]
 
