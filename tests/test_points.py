@@ -9,9 +9,10 @@ import pytest
 from conftest import DATA, run
 
 from enctools.data import streams
+from enctools.data.statistics import curve_figures
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth, interpolation_error
-from enctools.methods.points import distinct, figures, from_table
+from enctools.methods.points import distinct, from_table
 from enctools.units import DEG
 
 
@@ -24,10 +25,10 @@ def test_seed001_table1_as_points(tmp_path):
     pts = from_table(table)
     x, y, closure = distinct(pts)
     assert x.size == 24 and closure == 0.0
-    fig = figures(y)
-    assert fig.peak_to_peak == pytest.approx(5.46, abs=1e-9)  # seed 001: 5.46"
+    fig = curve_figures(y)
+    assert fig.pp == pytest.approx(5.46, abs=1e-9)  # seed 001: 5.46"
     # Bessel s (seed 001 eq. 8) of the 24 distinct positions; the paper prints 1.30"
-    assert fig.bessel_std == pytest.approx(1.2674, abs=1e-4)
+    assert fig.std == pytest.approx(1.2674, abs=1e-4)
     assert header.meta["figures"]["peak_to_peak_arcsec"] == pytest.approx(5.46)
     assert "enc points" in header.history[-1]
 
@@ -96,7 +97,8 @@ def test_steps_run_options_on_a_csv_table_are_refused(tmp_path, opts):
 
 def test_continuous_run_is_not_a_polygon_run(tmp_path):
     out = tmp_path / "p.parquet"
-    r = run(f"enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 | enc points -o {out}")
+    r = run("enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 "
+            f"| enc points -o {out}")
     assert r.returncode == 2
     assert b"steps" in r.stderr and r.stderr.count(b"\n") == 1
     assert not out.exists()
@@ -125,7 +127,7 @@ def test_real_comparator_table_magalpha(tmp_path, name):
     _, table = read_table(str(out), "points")
     pos = table.column("position").to_numpy()
     dev = table.column("deviation").to_numpy()
-    assert table.num_rows == 200 and np.all((0 <= pos) & (pos < 360))
+    assert table.num_rows == 200 and np.all((pos >= 0) & (pos < 360))
     assert abs(dev.mean()) < 1.0 and np.ptp(dev) < 20 * 3600  # offset removed, no wraps
     # harmonics by least squares on the (non-uniform) reference angles
     x = np.radians(pos)
@@ -133,3 +135,38 @@ def test_real_comparator_table_magalpha(tmp_path, name):
     coef, *_ = np.linalg.lstsq(np.column_stack(cols), dev, rcond=None)
     amp = np.hypot(coef[1::2], coef[2::2])
     assert set(np.argsort(-amp)[:4] + 1) == {1, 2, 3, 4}
+
+
+def test_points_settings_refuse_in_process(tmp_path):
+    from enctools.errors import UsageError
+    from enctools.methods.points import Settings, make_points
+
+    with pytest.raises(UsageError, match=r"^--faces must be > 0, not 0$"):
+        Settings(faces=0)
+    given = Settings(heads=("F1",), faces=3)
+    with pytest.raises(UsageError, match=r"^--heads, --faces: for a steps run; t.csv is a CSV"):
+        given.check_table("t.csv")
+    Settings().check_table("t.csv")
+    with pytest.raises(UsageError, match="--autocollimator: for a steps run"):
+        make_points(str(DATA / "seed001_table1.csv"), Settings(autocollimator="AC"))
+    assert given.to_meta() == {"heads": ["F1"], "autocollimator": None, "faces": 3}
+
+
+def test_make_points_header_carries_settings_and_figures():
+    from enctools.methods.points import Settings, make_points
+
+    header, pts = make_points(str(DATA / "seed001_table1.csv"), Settings())
+    assert len(pts) == 25 and header.meta["settings"] == Settings().to_meta()
+    fig = header.meta["figures"]
+    assert fig["n"] == 24 and fig["peak_to_peak_arcsec"] == pytest.approx(5.46, abs=1e-9)
+    assert fig["max_abs_arcsec"] == pytest.approx(max(abs(pts.deviation)))
+
+
+def test_figures_or_nan_and_max_abs():
+    from enctools.data.statistics import curve_figures, figures_or_nan
+
+    f = curve_figures(np.array([-3.0, 1.0, 2.0]))
+    assert f.max_abs == 3.0 and figures_or_nan(np.array([-3.0, 1.0, 2.0])) == f
+    for values in (np.array([]), np.array([1.0, np.nan])):
+        g = figures_or_nan(values)
+        assert g.n == values.size and np.isnan([g.mean, g.std, g.pp, g.rms, g.max_abs]).all()

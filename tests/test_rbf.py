@@ -78,7 +78,8 @@ def polygon_fit(ciomp_steps, tmp_path_factory):
     r = run(f"enc acquire --rig {d}/shifted.toml --mode steps --start 5 --seed 7 "
             f"| enc points -o {d}/holdout.parquet")
     assert r.returncode == 0, r.stderr.decode()
-    r = run(f"enc points {ciomp_steps} | enc fit-rbf --holdout {d}/holdout.parquet -o {d}/m.parquet")
+    r = run(f"enc points {ciomp_steps} "
+            f"| enc fit-rbf --holdout {d}/holdout.parquet -o {d}/m.parquet")
     assert r.returncode == 0, r.stderr.decode()
     return d
 
@@ -94,7 +95,8 @@ def test_holdout_residuals_like_table3(polygon_fit):
 
 def test_correction_of_a_dense_run_against_truth(polygon_fit):
     d = polygon_fit
-    r = run(f"enc acquire --rig ciomp-23bit --mode continuous --revolutions 1 --speed 1 --interval 0.002 -o {d}/dense.parquet")
+    r = run("enc acquire --rig ciomp-23bit --mode continuous --revolutions 1 --speed 1 "
+            f"--interval 0.002 -o {d}/dense.parquet")
     assert r.returncode == 0, r.stderr.decode()
     header, table = streams.read_table(str(d / "dense.parquet"), "readings")
     mh, mt = streams.read_table(str(d / "m.parquet"), "model")
@@ -146,3 +148,39 @@ def test_fit_rbf_bad_input(tmp_path, ciomp_steps):
 def test_check_threshold_exit_1(tmp_path):
     r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --max-std 0.01 -q -o {tmp_path}/m.parquet")
     assert r.returncode == 1 and b"leave_one_out" in r.stderr
+
+
+@pytest.mark.parametrize("kw, what", [
+    ({"goal_arcsec": -1.0}, "--goal must be >= 0 arcsec, not -1.0"),
+    ({"goal_arcsec": float("nan")}, "--goal must be >= 0 arcsec, not nan"),
+    ({"harmonics": 3}, "--band applies to --kernel fourier (the rbf kernel: --spread, --goal)"),
+    ({"kernel": "fourier", "spread_deg": 3.0},
+     "--spread applies to --kernel rbf (the fourier kernel: --band)"),
+    ({"kernel": "spline"}, "--kernel must be one of rbf, fourier, not 'spline'"),
+])
+def test_fit_settings_refuse(kw, what):
+    from enctools.errors import UsageError
+    from enctools.models.fitting import Settings
+
+    with pytest.raises(UsageError) as err:
+        Settings(**kw)
+    assert str(err.value) == what
+
+
+def test_fit_points_in_process_matches_the_command(table1, tmp_path):
+    """fitting.fit_points with its Settings gives the model and residuals enc fit-rbf stores."""
+    from enctools.models.fitting import Settings, fit_points
+
+    x, y = table1
+    settings = Settings("fourier", harmonics=12)
+    assert settings.to_meta() == {"kernel": "fourier", "spread_deg": None, "goal_arcsec": 1e-4,
+                                  "harmonics": 12, "holdout": None}
+    fit = fit_points(x, y, settings)
+    out = tmp_path / "f.parquet"
+    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --kernel fourier --band 12 -q -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    header, _ = streams.read_table(str(out), "model")
+    assert header.meta["residuals"] == fit.residuals()
+    assert header.meta["settings"] == settings.to_meta()
+    few = fit_points(x[:2], y[:2], Settings())  # two points: no leave-one-out figures
+    assert np.isnan(few.loo["rms_arcsec"]) and few.points["n"] == 2

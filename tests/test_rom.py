@@ -86,7 +86,7 @@ def test_mif_reader_takes_ranges_and_decimal(tmp_path):
 
 def test_make_rom_command_every_format(model_file, tmp_path):
     crcs = set()
-    for fmt, ext in (("bin", "bin"), ("ihex", "hex"), ("mif", "mif"), ("coe", "coe"),
+    for _fmt, ext in (("bin", "bin"), ("ihex", "hex"), ("mif", "mif"), ("coe", "coe"),
                      ("mem", "mem"), ("csv", "csv"), ("acs", "prg"), ("siemens", "spf")):
         out = tmp_path / f"t.{ext}"
         r = run(f"enc make-rom {model_file} --bits 23 --address-bits 12 --verify -o {out}")
@@ -107,7 +107,8 @@ def test_siemens_rotary_rules(model_file, tmp_path):
     lines = out.read_text().splitlines()
     comp = [ln for ln in lines if ln.startswith("$AA_ENC_COMP[")]
     assert len(comp) == 257  # 0 deg .. 360 deg, no gaps
-    assert comp[0].startswith("$AA_ENC_COMP[0,0,C1]=") and comp[-1].startswith("$AA_ENC_COMP[0,256,C1]=")
+    assert comp[0].startswith("$AA_ENC_COMP[0,0,C1]=")
+    assert comp[-1].startswith("$AA_ENC_COMP[0,256,C1]=")
     assert comp[0].split("=")[1] == comp[-1].split("=")[1]  # 0 and 360 deg agree
     assert "$AA_ENC_COMP_STEP[0,C1]=1.40625" in lines and "$AA_ENC_COMP_MAX[0,C1]=360.0" in lines
     assert "$AA_ENC_COMP_IS_MODULO[0,C1]=1" in lines
@@ -128,7 +129,8 @@ def test_deviations_curve_as_model(tmp_path):
     schema = pa.schema([make_field("theta", pa.float64(), "rad"),
                         make_field("A", pa.float64(), "arcsec", "deviation")])
     table = pa.table([theta, 3.0 * np.sin(2 * theta)], schema=schema)
-    streams.write_table(str(tmp_path / "d.parquet"), streams.Header("deviations", schema, {}), table)
+    streams.write_table(str(tmp_path / "d.parquet"), streams.Header("deviations", schema, {}),
+                        table)
     r = run(f"enc make-rom {tmp_path}/d.parquet --bits 16 --width 8 --lsb 4 -o {tmp_path}/d.bin")
     assert r.returncode == 0, r.stderr.decode()
     v = np.fromfile(tmp_path / "d.bin", dtype=np.int8)
@@ -256,3 +258,160 @@ def test_text_readers_take_lines_by_columns_and_refuse_bad_digits(tmp_path):
         path.write_bytes(data[:k] + b"G" + data[k + 1:])
         with pytest.raises(DataError, match=str(path)):
             rf.read_table(str(path), rf.Target(fmt, 32))
+
+
+# --------------------------------------------------------------------- settings
+
+
+@pytest.mark.parametrize("kw, what", [
+    ({"code_bits": 41}, "--bits must be 1..40, not 41"),
+    ({"code_bits": 23, "address_bits": 24}, "--address-bits must be 1..23 (--bits), not 24"),
+    ({"code_bits": 32}, "2^32 = 4294967296 entries requested"),
+    ({"code_bits": 23, "width": 33}, "--width must be 2..32 bits, not 33"),
+    ({"code_bits": 23, "width": 1}, "--width must be 2..32 bits, not 1"),
+    ({"code_bits": 23, "lsb": 0.0}, "--lsb must be a positive number of counts, not 0.0"),
+    ({"code_bits": 23, "lsb": float("nan")}, "--lsb must be a positive number"),
+    ({"code_bits": 23, "sample": "middle"}, "--sample must be centre or start, not 'middle'"),
+    ({"code_bits": 23, "target": "siemens"}, "siemens: 8388609 table points exceed the 5000"),
+    ({"code_bits": 23, "address_bits": 14, "target": "acs", "max_entries": 10000},
+     "acs: 16385 table points exceed the 10000"),
+    ({"code_bits": 10, "target": "bin", "endian": "middle"}, "--endian must be little or big"),
+    ({"code_bits": 10, "target": "xyz"}, "--target must be one of bin, ihex"),
+])
+def test_make_rom_settings_refuse(kw, what):
+    from enctools.errors import UsageError
+    from enctools.models.rom import Settings
+
+    with pytest.raises(UsageError) as err:
+        Settings(**kw)
+    assert str(err.value).startswith(what) and "\n" not in str(err.value)
+
+
+def test_make_rom_settings_resolve_the_defaults():
+    from enctools.models.rom import Settings
+
+    acs = Settings(23, address_bits=8, target="acs")
+    assert acs.spec.sample == "start" and acs.table.axis == "0" and acs.table.fmt == "acs"
+    assert acs.table.count_deg == acs.spec.lsb_arcsec / 3600.0
+    assert Settings(23, address_bits=8, target="siemens").table.axis == "AX1"
+    mif = Settings(23, address_bits=12, width=12, target="mif")
+    assert mif.spec.sample == "centre" and mif.table.width == 12
+    stream = Settings(23, address_bits=10)
+    assert stream.to_meta() == {"code_bits": 23, "address_bits": 10, "width": 16, "lsb": 1.0,
+                                "sample": "centre", "target": "stream", "endian": "little"}
+    assert Settings(16).to_meta()["address_bits"] == 16  # all n bits when not given
+    with pytest.raises(ValueError, match="not a table file"):
+        _ = stream.table
+
+
+# --------------------------------------------------------------------- general readers
+
+VALUES = np.array([-5, 0, 7, -2048, 2047, 1, 3, -3], dtype=np.int16)
+
+
+@pytest.mark.parametrize("fmt", rf.FORMATS)
+def test_general_reader_reads_our_files_too(tmp_path, fmt):
+    """Each format's general reader gives what its fast reader gives on a file written here."""
+    target = rf.Target(fmt, 12, count_deg=0.25)
+    path = tmp_path / f"x.{fmt}"
+    rf.write_table(str(path), VALUES, target, comment=["a comment; with a semicolon"])
+    fast, general = rf.READERS[fmt]
+    data = path.read_bytes()
+    if fast is not None:
+        assert np.array_equal(fast(data, target, str(path)), VALUES)
+    assert np.array_equal(general(data, target, str(path)), VALUES)
+
+
+def _foreign(tmp_path, fmt: str, text: str | bytes, target: rf.Target) -> np.ndarray:
+    """Read a file written by hand: its fast reader declines it, read_table reads it."""
+    path = tmp_path / f"foreign.{fmt}"
+    data = text.encode() if isinstance(text, str) else text
+    path.write_bytes(data)
+    fast, _ = rf.READERS[fmt]
+    assert fast is None or fast(data, target, str(path)) is None
+    return rf.read_table(str(path), target)
+
+
+def _ihex_line(rtype: int, addr: int, payload: bytes) -> str:
+    body = bytes([len(payload), (addr >> 8) & 255, addr & 255, rtype]) + payload
+    return ":" + (body + bytes([-sum(body) & 255])).hex() + "\r\n"
+
+
+def test_ihex_with_other_records_is_read(tmp_path):
+    """32-byte records out of order, each after an 02 segment record, lower case, CRLF,
+    blank lines: an image past 64 KiB."""
+    values = np.random.default_rng(1).integers(-30000, 30000, 40_000).astype(np.int16)
+    image = values.astype("<i2").tobytes()
+    chunks = [(a, image[a:a + 32]) for a in range(0, len(image), 32)]
+    order = np.random.default_rng(2).permutation(len(chunks))
+    lines = [_ihex_line(2, 0, (chunks[k][0] >> 4).to_bytes(2, "big"))
+             + _ihex_line(0, 0, chunks[k][1]) + "\r\n" for k in order]
+    text = "".join(lines) + ":00000001FF\r\n"
+    assert np.array_equal(_foreign(tmp_path, "ihex", text, rf.Target("ihex", 16)), values)
+
+
+def test_mif_with_comments_radices_runs_and_ranges_is_read(tmp_path):
+    text = ("% written by hand %\nWIDTH = 12 ;\nDEPTH = 10;\nADDRESS_RADIX = DEC;\n"
+            "DATA_RADIX = HEX;\nCONTENT\nBEGIN\n    0  :   FFF;   -- minus one\n"
+            "    [1..3] : 001 002;\n4 : 7FF 800 000;\n9 : 123;\n7 : 5;\n8 : a;\nEND;\n")
+    got = _foreign(tmp_path, "mif", text, rf.Target("mif", 12))
+    assert got.tolist() == [-1, 1, 2, 1, 2047, -2048, 0, 5, 10, 291]
+    binary = ("WIDTH=4;\nDEPTH=3;\nADDRESS_RADIX=OCT;\nDATA_RADIX=BIN;\nCONTENT BEGIN\n"
+              "0 : 1111 0111;\n2 : 1000;\nEND;\n")
+    assert _foreign(tmp_path, "mif", binary, rf.Target("mif", 4)).tolist() == [-1, 7, -8]
+
+
+@pytest.mark.parametrize("body, what", [
+    ("0 : 1;\n1 : 2;\n", "1 of 3 addresses have no value"),
+    ("0 : 1 2 3 4;\n", "an address is outside DEPTH=3"),
+    ("0 : 1 2;\n2 ;\n", "cannot read the content statement"),
+])
+def test_mif_general_reader_names_the_fault(tmp_path, body, what):
+    path = tmp_path / "bad.mif"
+    path.write_text(f"WIDTH=8;\nDEPTH=3;\nCONTENT BEGIN\n{body}END;\n")
+    with pytest.raises(DataError, match=what):
+        rf.read_table(str(path), rf.Target("mif", 8))
+
+
+def test_coe_with_line_breaks_and_other_radices_is_read(tmp_path):
+    want = [-5, 0, 7, -2048, 2047, 1]
+    hex_rows = ("; by hand\nmemory_initialization_radix=16;\nmemory_initialization_vector=\n"
+                "FFB, 000, 007,\n800,7FF,\n001;\n")
+    assert _foreign(tmp_path, "coe", hex_rows, rf.Target("coe", 12)).tolist() == want
+    decimal = ("memory_initialization_radix = 10;\nmemory_initialization_vector =\n"
+               "-5, 0, 7,\n-2048 2047\n1;\n")
+    assert _foreign(tmp_path, "coe", decimal, rf.Target("coe", 12)).tolist() == want
+    binary = "memory_initialization_radix=2;\nmemory_initialization_vector=1011 0111 1000;"
+    assert _foreign(tmp_path, "coe", binary, rf.Target("coe", 4)).tolist() == [-5, 7, -8]
+
+
+def test_mem_with_block_comments_and_jumps_is_read(tmp_path):
+    text = ("/* a header\n   over lines */\n@0 FFFB 0000 // two words\n0007 F800\n@4\n07FF\n"
+            "0001\n")
+    got = _foreign(tmp_path, "mem", text, rf.Target("mem", 16))
+    assert got.tolist() == [-5, 0, 7, -2048, 2047, 1]
+    jumps = "@3 F800\n@0 FFFB 0000 0007\n"
+    assert _foreign(tmp_path, "mem", jumps, rf.Target("mem", 16)).tolist() == [-5, 0, 7, -2048]
+    gap = tmp_path / "gap.mem"
+    gap.write_text("@0 0001\n@2 0002\n")
+    with pytest.raises(DataError, match="gaps"):
+        rf.read_table(str(gap), rf.Target("mem", 16))
+
+
+def test_csv_without_comments_and_with_crlf_is_read(tmp_path):
+    text = "address,correction\r\n0,-5\r\n1,0\r\n2,7\r\n"
+    assert _foreign(tmp_path, "csv", text, rf.Target("csv", 16)).tolist() == [-5, 0, 7]
+
+
+def test_controller_tables_in_any_order_are_read(tmp_path):
+    """Entries in any order, blanks around = and inside brackets (lsb 0.25 deg)."""
+    acs = ("GLOBAL REAL MAP(5)\nMAP(3) = 0.5\n  MAP(0)=-0.25\nMAP(4)= -0.25\nMAP(2) =0.25\n"
+           "MAP(1)=5e-1\nERRORMAP1D 2, 0, 0, 90.0, MAP\nERRORMAPON 2, 0\n")
+    target = rf.Target("acs", count_deg=0.25, name="MAP")
+    assert _foreign(tmp_path, "acs", acs, target).tolist() == [-1, 2, 1, 2]
+    siemens = ("$AA_ENC_COMP_IS_MODULO[0,C1]=1\n$AA_ENC_COMP_MAX[0,C1]=360.0\n"
+               "$AA_ENC_COMP[ 0 , 2 , C1 ] = 0.25\n$AA_ENC_COMP[0,0,C1]=-0.25\n"
+               "$AA_ENC_COMP[0,4,C1]=-0.25\n$AA_ENC_COMP[0,1,C1]=0.5\n$AA_ENC_COMP[0,3,C1]=0.5\n"
+               "$AA_ENC_COMP_STEP[0,C1]=90\n$AA_ENC_COMP_MIN[0,C1]=0\nM17\n")
+    target = rf.Target("siemens", count_deg=0.25, axis="C1")
+    assert _foreign(tmp_path, "siemens", siemens, target).tolist() == [-1, 2, 1, 2]

@@ -10,9 +10,11 @@ from enctools.cli import options, runner
 @click.command("fit-rbf")
 @options.input_arg
 @click.option("--kernel", type=click.Choice(["rbf", "fourier"]), default="rbf", show_default=True,
-              help="rbf: Gaussian RBF network on the circle; fourier: trigonometric least squares.")
+              help="rbf: Gaussian RBF network on the circle; fourier: trigonometric least "
+                   "squares.")
 @click.option("--spread", "spread_deg", type=float, default=None, callback=options.positive,
-              help="rbf: arc [deg] at which a unit's output falls to 1/2 (default: by leave-one-out).")
+              help="rbf: arc [deg] at which a unit's output falls to 1/2 (default: by "
+                   "leave-one-out).")
 @click.option("--goal", type=float, default=1e-4, show_default=True,
               help="rbf: training goal, largest |residual| [arcsec].")
 @options.band("fourier: highest harmonic order K (default: half the distinct positions).",
@@ -35,16 +37,12 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     """
     from enctools.data import streams
     from enctools.data.streams import with_history
-    from enctools.errors import CheckFailed, UsageError
+    from enctools.errors import CheckFailed
     from enctools.methods.points import distinct, read_points
-    from enctools.models import curve_model as models
+    from enctools.models import fitting
+    from enctools.models.curve_model import model_table
 
-    if not goal >= 0:
-        raise UsageError(f"--goal must be >= 0 arcsec, not {goal}")
-    if kernel == "rbf" and harmonics is not None:
-        raise UsageError("--band applies to --kernel fourier (the rbf kernel: --spread, --goal)")
-    if kernel == "fourier" and spread_deg is not None:
-        raise UsageError("--spread applies to --kernel rbf (the fourier kernel: --band)")
+    settings = fitting.Settings(kernel, spread_deg, goal, harmonics, holdout_path)
     streams.check_output(output, force, fmt)
     header, pts = read_points(input)
     x, y, closure = distinct(pts, source=header.meta.get("source", "input"))
@@ -55,19 +53,18 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     if holdout_path is not None:
         _, hp = read_points(holdout_path)
         hold = distinct(hp, source=holdout_path)[:2]
-    fit = models.fit_points(x, y, kernel, spread_deg, goal, harmonics, hold)
-    table, meta = models.model_table(fit.model)
-    settings = {"kernel": kernel, "spread_deg": spread_deg, "goal_arcsec": goal,
-                "harmonics": harmonics, "holdout": holdout_path}
+    fit = fitting.fit_points(x, y, settings, hold)
+    table, meta = model_table(fit.model)
     out = header.derive("model", table.schema, model=meta, residuals=fit.residuals(),
-                        settings=settings)
+                        settings=settings.to_meta())
     streams.write_table(output, with_history(out), table, force, fmt)
     _summary(fit, meta)
     if check_arcsec is not None:
         which = "holdout" if fit.holdout else "leave_one_out"
         s = fit.residuals()[which]["bessel_std_arcsec"]
         if s > check_arcsec:
-            raise CheckFailed(f"{which} Bessel s {s:.4f} arcsec exceeds --max-std {check_arcsec}")
+            msg = f"{which} Bessel s {s:.4f} arcsec exceeds --max-std {check_arcsec}"
+            raise CheckFailed(msg)
 
 
 def _summary(fit, meta) -> None:
@@ -81,11 +78,13 @@ def _summary(fit, meta) -> None:
              f"points: {p['n']} positions, Bessel s {p['bessel_std_arcsec']:.4f} arcsec, "
              f"p-p {p['peak_to_peak_arcsec']:.4f} arcsec",
              f"training: max |residual| {t['max_abs_arcsec']:.3g} arcsec",
-             f"leave-one-out: rms {lo['rms_arcsec']:.4f} arcsec, max {lo['max_abs_arcsec']:.4f} arcsec"]
+             f"leave-one-out: rms {lo['rms_arcsec']:.4f} arcsec, "
+             f"max {lo['max_abs_arcsec']:.4f} arcsec"]
     if fit.holdout:
         h = fit.holdout
         lines.append(f"hold-out: {h['n']} positions, Bessel s {h['before_bessel_std_arcsec']:.4f}"
-                     f" -> {h['bessel_std_arcsec']:.4f} arcsec, p-p {h['peak_to_peak_arcsec']:.4f} arcsec")
+                     f" -> {h['bessel_std_arcsec']:.4f} arcsec, "
+                     f"p-p {h['peak_to_peak_arcsec']:.4f} arcsec")
     if meta.get("undetermined"):
         lines.append("undetermined by the points (set to 0): " + ", ".join(meta["undetermined"]))
     for ln in lines:

@@ -35,7 +35,8 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
 @click.option("--array", "array_name", default="ENC_COMP", show_default=True,
               help="acs: name of the REAL array holding the map.")
 @click.option("--max-entries", type=int, default=None, callback=options.positive,
-              help="acs/siemens: table points the control is configured for (defaults 100000/5000).")
+              help="acs/siemens: table points the control is configured for "
+                   "(defaults 100000/5000).")
 @click.option("--verify", is_flag=True, default=False,
               help="Read the written table back and check it equals the table built.")
 @options.output
@@ -57,73 +58,60 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     error, CRC-32, size) goes to stderr. What a target cannot hold is refused.
     """
     import time
-
-    import numpy as np
+    from pathlib import Path
 
     from enctools.data import streams
-    from enctools.data.header import history_line
-    from enctools.errors import CheckFailed, UsageError
-    from enctools.models import curve_model as models
+    from enctools.errors import UsageError
     from enctools.models import rom, romformats
+    from enctools.models.curve_model import from_stream
+
+    target, path = _target(target, output, force, fmt)
+    src = streams.open_input(input, ("model", "deviations"))
+    evaluate = from_stream(src.header, src.read_all(), src.source, curve)
+    settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
+                            address_bits, width, lsb, sample, target, endian, axis, zone,
+                            array_name, max_entries)
+    if path is not None and not force and Path(path).exists():
+        msg = f"output {path} exists; use --force to replace it"
+        raise UsageError(msg)
+    t0 = time.monotonic()
+    table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
+    summary = table.summary()
+    summary["model"] = src.header.meta.get("model", {"kind": "deviations", "curve": curve})
+    size = None
+    if path is None:
+        header = src.header.derive("rom", rom.stream_schema(), rom=summary,
+                                   settings=settings.to_meta())
+        rom.write_stream(output, streams.with_history(header), table.values, force, fmt)
+    else:
+        size = romformats.write_table(path, table.values, settings.table, force,
+                                      table.file_comment())
+        if verify:
+            romformats.verify_table(path, table.values, settings.table)
+    _report(summary, size, output, time.monotonic() - t0, verify and size is not None)
+
+
+def _target(target: str | None, output: str | None, force: bool, fmt: str | None
+            ) -> tuple[str, str | None]:
+    """The table format (from --target or -o's extension) or ``stream``, and the table
+    file's path (None for a stream), with -o and --format checked."""
+    from enctools.data import streams
+    from enctools.errors import UsageError
+    from enctools.models import romformats
 
     if target is None:
-        target = "stream" if output in (None, "-") or _is_stream_path(output) \
+        target = "stream" if output is None or output == "-" or _is_stream_path(output) \
             else romformats.format_for(output, None)
     if target == "stream":
         streams.check_output(output, force, fmt)
-    elif output in (None, "-"):
-        raise UsageError(f"--target {target}: give the table file with -o PATH")
-    elif fmt is not None:
-        raise UsageError("--format applies to --target stream only")
-    src = streams.open_input(input, ("model", "deviations"))
-    table = src.read_all()
-    evaluate = models.from_stream(src.header, table, src.source, curve)
-    if code_bits is None:
-        code_bits = _bits_from_rig(src.header.meta)
-    controller = target in romformats.CONTROLLER
-    spec = rom.RomSpec(code_bits, address_bits, width, lsb,
-                       sample or ("start" if controller else "centre"))
-    spec.check()
-    tgt = None
-    if target != "stream":
-        tgt = romformats.Target(target, width, endian, count_deg=spec.lsb_arcsec / 3600.0,
-                                axis=axis or ("0" if target == "acs" else "AX1"), zone=zone,
-                                name=array_name, max_entries=max_entries)
-        romformats.check_capacity(tgt, spec.entries)
-        if output is not None and not force:
-            from pathlib import Path
-            if Path(output).exists():
-                raise UsageError(f"output {output} exists; use --force to replace it")
-    t0 = time.monotonic()
-    table_ = rom.build_rom(evaluate, spec, runner.Progress("evaluating", "entries"))
-    summary = table_.summary()
-    summary["model"] = src.header.meta.get("model", {"kind": "deviations", "curve": curve})
-    settings = {"code_bits": code_bits, "address_bits": spec.m, "width": width, "lsb": lsb,
-                "sample": spec.sample, "target": target, "endian": endian}
-    if tgt is None:
-        import pyarrow as pa
-
-        from enctools.data.schemas import make_field
-        schema = pa.schema([make_field("address", pa.int64(), ""),
-                            make_field("correction", pa.int64(), "count")])
-        header = src.header.derive("rom", schema, rom=summary, settings=settings)
-        with streams.OutputStream(output, streams.with_history(header), force, fmt) as out:
-            for start in range(0, spec.entries, streams.BATCH_ROWS * 16):
-                v = table_.values[start:start + streams.BATCH_ROWS * 16]
-                out.write(pa.record_batch([pa.array(np.arange(start, start + v.size)),
-                                           pa.array(v.astype(np.int64))], schema=schema))
-        size = None
-    else:
-        comment = [f"enctools make-rom: {spec.entries} entries, {width}-bit signed corrections "
-                   f"to add to a {code_bits}-bit code, LSB {spec.lsb_arcsec!r} arcsec",
-                   f"CRC-32 {summary['crc32']} ({summary['crc32_of']}); "
-                   + history_line()]
-        size = romformats.write_table(output, table_.values, tgt, force, comment)
-        if verify:
-            back = romformats.read_table(output, tgt)
-            if not np.array_equal(back, table_.values):
-                raise CheckFailed(f"{output}: the table read back differs from the table built")
-    _report(summary, size, output, time.monotonic() - t0, verify and tgt is not None)
+        return target, None
+    if output is None or output == "-":
+        msg = f"--target {target}: give the table file with -o PATH"
+        raise UsageError(msg)
+    if fmt is not None:
+        msg = "--format applies to --target stream only"
+        raise UsageError(msg)
+    return target, output
 
 
 def _is_stream_path(path: str) -> bool:
@@ -139,7 +127,8 @@ def _bits_from_rig(meta: dict) -> int:
         cpr = int(e.get("periods_per_rev", 0)) * int(e.get("interpolation", 0))
         if cpr > 0 and cpr & (cpr - 1) == 0:
             return cpr.bit_length() - 1
-    raise UsageError("the model names no rig with a 2^n-count encoder; give --bits")
+    msg = "the model names no rig with a 2^n-count encoder; give --bits"
+    raise UsageError(msg)
 
 
 def _report(s: dict, size: int | None, output: str | None, seconds: float, verified: bool) -> None:
@@ -149,7 +138,8 @@ def _report(s: dict, size: int | None, output: str | None, seconds: float, verif
     lines = [f"{s['entries']} entries (top {s['address_bits']} of {s['code_bits']} bits), "
              f"{s['width_bits']}-bit signed, LSB {s['lsb_arcsec']:.6g} arcsec",
              f"corrections {s['min_lsb']}..{s['max_lsb']} LSB; largest quantisation error "
-             f"{s['max_quantisation_error_lsb']:.4f} LSB = {s['max_quantisation_error_arcsec']:.4g} arcsec",
+             f"{s['max_quantisation_error_lsb']:.4f} LSB = "
+             f"{s['max_quantisation_error_arcsec']:.4g} arcsec",
              f"CRC-32 {s['crc32']} of the {s['crc32_of']} ({s['image_bytes']} bytes)"]
     if size is not None:
         lines.append(f"wrote {output}: {size} bytes in {seconds:.2f} s"

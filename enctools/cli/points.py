@@ -26,29 +26,13 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     position_deg,deviation_arcsec[,direction,run] with # comment lines.
     """
     from enctools.data import streams
-    from enctools.data.streams import Header, with_history
-    from enctools.errors import UsageError
-    from enctools.methods import points as pts
+    from enctools.data.streams import with_history
+    from enctools.methods import points
 
     streams.check_output(output, force, fmt)
-    settings = {"heads": heads, "autocollimator": autocollimator, "faces": faces}
-    if pts.is_csv_file(input):
-        given = [o for o, v in (("--heads", heads), ("--autocollimator", autocollimator),
-                                ("--faces", faces)) if v is not None]
-        if given:
-            raise UsageError(f"{', '.join(given)}: for a steps run; {input} is a CSV table")
-        p = pts.points_from_csv(input)
-        header = Header("points", pts.points_schema(),
-                        {"source": f"CSV {input}", "history": []})
-    else:
-        src = streams.open_input(input, "readings")
-        table = src.read_all()
-        p = pts.points_from_steps(src.header, table, heads, autocollimator, faces, src.source)
-        header = src.header.derive("points", pts.points_schema(),
-                                   source=f"steps run {src.source}")
-    header.meta["settings"] = settings
-    fig = pts.figures(pts.distinct(p)[1])
-    header.meta["figures"] = fig.to_dict()
+    settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces)
+    header, found = points.make_points(input, settings)
+    fig = header.meta["figures"]
     runner.log.info("%d points; at %d distinct positions: Bessel s %.3f arcsec, p-p %.3f arcsec",
-                    len(p), fig.n, fig.bessel_std, fig.peak_to_peak)
-    streams.write_table(output, with_history(header), p.table(), force, fmt)
+                    len(found), fig["n"], fig["bessel_std_arcsec"], fig["peak_to_peak_arcsec"])
+    streams.write_table(output, with_history(header), found.table(), force, fmt)

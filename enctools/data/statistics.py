@@ -35,6 +35,11 @@ class Figures:
     def to_dict(self) -> dict[str, float | int]:
         return asdict(self)
 
+    @property
+    def max_abs(self) -> float:
+        """The largest magnitude, max(|minimum|, |maximum|)."""
+        return max(abs(self.minimum), abs(self.maximum))
+
 
 def curve_figures(values: np.ndarray) -> Figures:
     """Figures of a curve or point set (seed 001 sec. 5.3: p-p and eq. (8)).
@@ -55,3 +60,18 @@ def curve_figures(values: np.ndarray) -> Figures:
     std = float(np.std(x, ddof=1)) if x.size > 1 else float("nan")
     return Figures(n=int(x.size), mean=float(x.mean()), minimum=lo, maximum=hi, pp=hi - lo,
                    plus_minus=(hi - lo) / 2.0, std=std, rms=float(np.sqrt(np.mean(x * x))))
+
+
+def figures_or_nan(values: np.ndarray) -> Figures:
+    """:func:`curve_figures`, or NaN figures (n = the values given) when there is no value
+    or a NaN among them: the residuals of a fit the points do not determine.
+
+    Parameters
+    ----------
+    values : deviations or residuals [arcsec] (or nm).
+    """
+    x = np.asarray(values, dtype=np.float64).ravel()
+    if x.size == 0 or not np.all(np.isfinite(x)):
+        nan = float("nan")
+        return Figures(int(x.size), nan, nan, nan, nan, nan, nan, nan)
+    return curve_figures(x)

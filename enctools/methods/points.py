@@ -12,32 +12,32 @@ Two sources:
 - a CSV file ``position_deg,deviation_arcsec[,direction,run]`` with ``#`` comments
   (seed 001 table 1 is such a file).
 
-Also the figures of a set of points: Bessel standard deviation (seed 001 eq. 8)
-and peak-to-peak.
+The figures of a set of points (Bessel standard deviation, seed 001 eq. 8, and
+peak-to-peak) are those of :mod:`enctools.data.statistics`, named here for the
+metadata of points and models.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import logging
+import itertools
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyarrow as pa
 
 from enctools.data.readings import head_angle, head_info, measuring_heads
 from enctools.data.schemas import column_with_role, make_field
-from enctools.data.statistics import curve_figures
-from enctools.errors import DataError
+from enctools.data.statistics import Figures, figures_or_nan
+from enctools.errors import DataError, UsageError
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 if TYPE_CHECKING:
+    from enctools.data.readings import HeadInfo
     from enctools.data.streams import Header
-
-log = logging.getLogger("enctools")
 
 
 @dataclass
@@ -69,40 +69,51 @@ def points_schema() -> pa.Schema:
 
 
 @dataclass(frozen=True)
-class Figures:
-    """Figures of a set of errors [arcsec]."""
+class Settings:
+    """How enc points turns a polygon step run into points; None: from the stream.
 
-    n: int
-    mean: float
-    bessel_std: float  # seed 001 eq. (8)
-    peak_to_peak: float
-    max_abs: float
-
-    def to_dict(self) -> dict[str, float]:
-        return {"n": self.n, "mean_arcsec": self.mean, "bessel_std_arcsec": self.bessel_std,
-                "peak_to_peak_arcsec": self.peak_to_peak, "max_abs_arcsec": self.max_abs}
-
-
-def figures(errors: np.ndarray) -> Figures:
-    """n, mean, Bessel standard deviation (seed 001 eq. 8), p-p and max |e| [arcsec].
-
-    The figures of :func:`enctools.report.figures.curve_figures`, named for points;
-    no value, or a NaN among them (residuals of an undetermined fit), gives NaN figures
-    instead of an error.
+    heads : heads averaged into the encoder reading (None: the rig's ``measure_heads``
+        of the first head's encoder, else every head of it).
+    autocollimator : the autocollimator column (None: the only one).
+    faces : faces of the polygon (None: the rig's ``polygon.faces``).
     """
-    e = np.asarray(errors, dtype=np.float64).ravel()
-    if e.size == 0 or not np.all(np.isfinite(e)):
-        nan = float("nan")
-        return Figures(int(e.size), nan, nan, nan, nan)
-    f = curve_figures(e)
-    return Figures(f.n, f.mean, f.std, f.pp, max(abs(f.minimum), abs(f.maximum)))
+
+    heads: tuple[str, ...] | None = None
+    autocollimator: str | None = None
+    faces: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.faces is not None and self.faces < 1:
+            msg = f"--faces must be > 0, not {self.faces}"
+            raise UsageError(msg)
+
+    def given(self) -> list[str]:
+        """The options given, by name."""
+        return [o for o, v in (("--heads", self.heads), ("--autocollimator", self.autocollimator),
+                               ("--faces", self.faces)) if v is not None]
+
+    def check_table(self, path: str) -> None:
+        """Refuse (UsageError) the step run's options for a CSV table."""
+        if self.given():
+            msg = f"{', '.join(self.given())}: for a steps run; {path} is a CSV table"
+            raise UsageError(msg)
+
+    def to_meta(self) -> dict[str, Any]:
+        """The ``settings`` metadata of the points stream (the options as given)."""
+        return {"heads": None if self.heads is None else list(self.heads),
+                "autocollimator": self.autocollimator, "faces": self.faces}
+
+
+def figures_meta(f: Figures) -> dict[str, float]:
+    """The figures of points [arcsec] as the metadata of points and models name them."""
+    return {"n": f.n, "mean_arcsec": f.mean, "bessel_std_arcsec": f.std,
+            "peak_to_peak_arcsec": f.pp, "max_abs_arcsec": f.max_abs}
 
 
 # ------------------------------------------------------------------ from a steps run
 
 
-def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
-                      autocollimator: str | None = None, faces: int | None = None,
+def points_from_steps(header: Header, table: pa.Table, settings: Settings,
                       source: str = "input") -> Points:
     """Calibration points from a steps-mode readings stream with an autocollimator.
 
@@ -110,10 +121,8 @@ def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
     ----------
     header, table : the readings stream (columns ``step``, ``run``, ``direction``,
         head columns [count], an autocollimator column [arcsec]).
-    heads : heads averaged into the encoder reading (default: the rig's
-        ``measure_heads`` of the first head's encoder, else every head of it).
-    autocollimator : the autocollimator column (default: the only one).
-    faces : faces of the polygon (default: the rig's ``polygon.faces``).
+    settings : the heads, autocollimator column and polygon faces (None: from the
+        stream's rig and columns).
 
     Returns
     -------
@@ -123,34 +132,53 @@ def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
     """
     for col in ("step", "run", "direction"):
         if col not in table.column_names:
-            msg = f"{source}: no {col!r} column: is this a steps-mode run (enc acquire --mode steps)?"
+            msg = (f"{source}: no {col!r} column: is this a steps-mode run "
+                   "(enc acquire --mode steps)?")
             raise DataError(msg)
     if table.num_rows == 0:
         msg = f"{source}: the readings stream has no rows"
         raise DataError(msg)
-    rig = header.meta.get("rig") or {}
-    if heads is None:
-        heads = measuring_heads(header.schema, header.meta, source)
+    infos, autocollimator, faces = _steps_inputs(header, settings, source)
+    angle = np.mean([head_angle(table.column(i.name), i) for i in infos], axis=0)  # rad
+    ac = table.column(autocollimator).to_numpy(zero_copy_only=False).astype(np.float64)
+    run, direction, step = (table.column(c).to_numpy(zero_copy_only=False)
+                            for c in ("run", "direction", "step"))
+    va, vac, vr, vd = _visits(angle, ac, run, direction, step, source)
+    dev = _polygon_deviation(va, vac, vr, faces, source)
+    return Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+
+
+def _steps_inputs(header: Header, settings: Settings, source: str
+                  ) -> tuple[list[HeadInfo], str, int]:
+    """The heads, the autocollimator column and the polygon's faces of a step run:
+    as given in ``settings``, else from the stream's rig and columns."""
+    heads = (measuring_heads(header.schema, header.meta, source) if settings.heads is None
+             else settings.heads)
     infos = [head_info(header.schema, h, source) for h in heads]
-    autocollimator = column_with_role(header.schema, "autocollimator", autocollimator, source,
-                                      "--autocollimator")
+    autocollimator = column_with_role(header.schema, "autocollimator", settings.autocollimator,
+                                      source, "--autocollimator")
+    faces = settings.faces
     if faces is None:
+        rig = header.meta.get("rig") or {}
         faces = int((rig.get("polygon") or {}).get("faces", 0)) or None
         if faces is None:
             msg = f"{source}: the rig names no polygon; give --faces"
             raise DataError(msg)
+    return infos, autocollimator, faces
 
-    angle = np.mean([head_angle(table.column(i.name), i) for i in infos], axis=0)  # rad
-    ac = table.column(autocollimator).to_numpy(zero_copy_only=False).astype(np.float64)
-    step = table.column("step").to_numpy(zero_copy_only=False)
-    run = table.column("run").to_numpy(zero_copy_only=False)
-    direction = table.column("direction").to_numpy(zero_copy_only=False)
-    # One point per visit: consecutive rows with the same (run, direction, step).
+
+def _visits(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, direction: np.ndarray,
+            step: np.ndarray, source: str) -> tuple[np.ndarray, ...]:
+    """One row per visit of a position: consecutive rows of one (run, direction, step).
+
+    Returns the mean encoder angle [rad] and autocollimator reading [arcsec] of each
+    visit (rows without an autocollimator reading left out), its run and direction.
+    """
     key = np.stack([run, direction, step]).T
     starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
     bounds = np.r_[starts, key.shape[0]]
-    vis_angle, vis_ac, vis_run, vis_dir = [], [], [], []
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    vis_angle, vis_ac = [], []
+    for a, b in itertools.pairwise(bounds):
         ok = np.isfinite(ac[a:b])
         if not ok.any():
             msg = (f"{source}: no autocollimator reading at step {int(step[a])} of run "
@@ -158,25 +186,32 @@ def points_from_steps(header, table: pa.Table, heads: list[str] | None = None,
             raise DataError(msg)
         vis_angle.append(np.mean(angle[a:b][ok]))
         vis_ac.append(np.mean(ac[a:b][ok]))
-        vis_run.append(int(run[a]))
-        vis_dir.append(int(direction[a]))
-    va, vac = np.array(vis_angle), np.array(vis_ac)
-    vr, vd = np.array(vis_run, dtype=np.int32), np.array(vis_dir, dtype=np.int8)
+    return (np.array(vis_angle), np.array(vis_ac), run[starts].astype(np.int32),
+            direction[starts].astype(np.int8))
+
+
+def _polygon_deviation(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, faces: int,
+                       source: str) -> np.ndarray:
+    """Indicated - true angle [arcsec] of each visit, relative to its run's first one.
+
+    The true angle is ``j * 360/faces`` (j the nearest face) plus the autocollimator's
+    reading [arcsec] relative to the run's first position.
+    """
     pitch = TWO_PI / faces
-    dev = np.empty(va.size)
-    for r in np.unique(vr):
-        sel = np.flatnonzero(vr == r)
+    dev = np.empty(angle.size)
+    for r in np.unique(run):
+        sel = np.flatnonzero(run == r)
         first = sel[0]
-        rel = va[sel] - va[first]
+        rel = angle[sel] - angle[first]
         j = np.round(rel / pitch)
-        true_rel = j * pitch + (vac[sel] - vac[first]) * ARCSEC
+        true_rel = j * pitch + (ac[sel] - ac[first]) * ARCSEC
         dev[sel] = (rel - true_rel) / ARCSEC
         off = np.abs(rel - j * pitch) / ARCSEC
         if off.max() > 1000.0:
             msg = (f"{source}: run {int(r)}: a position is {off.max():.0f} arcsec off the "
                    f"nearest of {faces} polygon faces; wrong --faces?")
             raise DataError(msg)
-    return Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+    return dev
 
 
 # --------------------------------------------------------------------- from CSV
@@ -263,7 +298,7 @@ def points_from_csv(path: str | Path) -> Points:
             msg = f"{path}: data line {k + 1} holds NaN or infinity"
             raise DataError(msg)
         vals[k, :2] = nums[:2]
-        for name, v in zip(extra, nums[2:]):
+        for name, v in zip(extra, nums[2:], strict=True):
             vals[k, 2 if name == "direction" else 3] = v
     return Points(vals[:, 0], vals[:, 1], vals[:, 2].astype(np.int8), vals[:, 3].astype(np.int32))
 
@@ -279,10 +314,10 @@ def from_table(table: pa.Table, source: str = "input") -> Points:
     if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(dev))):
         msg = f"{source}: position or deviation holds NaN or infinite values"
         raise DataError(msg)
-    d = (table.column("direction").to_numpy(zero_copy_only=False) if "direction" in table.column_names
-         else np.ones(n))
-    r = (table.column("run").to_numpy(zero_copy_only=False) if "run" in table.column_names
-         else np.zeros(n))
+    names = table.column_names
+    d = table.column("direction").to_numpy(zero_copy_only=False) if "direction" in names \
+        else np.ones(n)
+    r = table.column("run").to_numpy(zero_copy_only=False) if "run" in names else np.zeros(n)
     return Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32))
 
 
@@ -298,7 +333,7 @@ def is_csv_file(path: str | None) -> bool:
 
     from enctools.data.streams import detect_format
 
-    if path in (None, "-"):
+    if path is None or path == "-":
         return False
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):
@@ -314,11 +349,33 @@ def read_points(path: str | None) -> tuple[Header, Points]:
     """Points from a CSV file (:func:`points_from_csv`) or a points stream (stdin: None)."""
     from enctools.data import streams
 
-    if is_csv_file(path):
+    if path is not None and is_csv_file(path):
         header = streams.Header("points", points_schema(), {"source": f"CSV {path}"})
         return header, points_from_csv(path)
     src = streams.open_input(path, "points")
     return src.header, from_table(src.read_all(), src.source)
+
+
+def make_points(path: str | None, settings: Settings) -> tuple[Header, Points]:
+    """The points of enc points and the header of their stream.
+
+    From a CSV file (:func:`points_from_csv`; the step run's settings are refused) or a
+    steps-mode readings stream (:func:`points_from_steps`; stdin: None). The header
+    carries the settings and the figures of the distinct positions [arcsec].
+    """
+    from enctools.data import streams
+
+    if path is not None and is_csv_file(path):
+        settings.check_table(path)
+        points = points_from_csv(path)
+        header = streams.Header("points", points_schema(), {"source": f"CSV {path}", "history": []})
+    else:
+        src = streams.open_input(path, "readings")
+        points = points_from_steps(src.header, src.read_all(), settings, src.source)
+        header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")
+    header.meta["settings"] = settings.to_meta()
+    header.meta["figures"] = figures_meta(figures_or_nan(distinct(points)[1]))
+    return header, points
 
 
 def distinct(points: Points, tol_deg: float = 1e-6, source: str = "input"

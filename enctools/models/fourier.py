@@ -48,7 +48,6 @@ class FourierModel:
             out[start:start + chunk] = acc.real
         return out.reshape(x.shape)
 
-
     def on_grid(self, first_deg: float, step_deg: float) -> Callable[[int, int], np.ndarray]:
         """The model [arcsec] at the uniform grid ``first_deg + k * step_deg``, k = start..stop-1.
 
@@ -69,7 +68,8 @@ class FourierModel:
 
         def values(start: int, stop: int) -> np.ndarray:
             rows = -(-(stop - start) // GRID_ROW)
-            x0 = (first_deg + (start + GRID_ROW * np.arange(rows, dtype=np.float64)) * step_deg) / 360.0
+            k = start + GRID_ROW * np.arange(rows, dtype=np.float64)
+            x0 = (first_deg + k * step_deg) / 360.0
             phase = np.mod(np.multiply.outer(x0, n), 1.0) * TWO_PI  # (rows, K+1) [rad]
             out = np.hstack([np.cos(phase), np.sin(phase)]) @ turn
             return out.reshape(-1)[:stop - start]

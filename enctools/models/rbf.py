@@ -81,7 +81,7 @@ class RBFModel:
             cx, sx = np.cos(xs), np.sin(xs)
             acc = np.full(xs.shape, self.bias)
             tmp = np.empty_like(xs)
-            for ci, si, wi in zip(cc, sc, self.weights):
+            for ci, si, wi in zip(cc, sc, self.weights, strict=True):
                 np.multiply(cx, 2 * k * ci, out=tmp)
                 tmp += sx * (2 * k * si) - 2 * k
                 np.exp(tmp, out=tmp)
@@ -122,7 +122,8 @@ class RBFModel:
         return None
 
     def on_grid(self, first_deg: float, step_deg: float) -> Callable[[int, int], np.ndarray]:
-        """The model [arcsec] at ``first_deg + k * step_deg``, k = start..stop-1: ``values(start, stop)``.
+        """The model [arcsec] at ``first_deg + k * step_deg``, k = start..stop-1: ``values(start,
+        stop)``.
 
         By its Fourier series (:meth:`as_fourier`, :meth:`FourierModel.on_grid`) when
         that is short, else unit by unit.

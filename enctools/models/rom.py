@@ -19,11 +19,18 @@ from __future__ import annotations
 import os
 import zlib
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
 
 import numpy as np
+import pyarrow as pa
 
+from enctools.data import streams
+from enctools.data.header import Header, history_line
+from enctools.data.schemas import make_field
 from enctools.errors import DataError, UsageError
+from enctools.models import romformats
 
 #: the largest table this module builds (2**28 entries, 512 MiB of int16)
 MAX_ADDRESS_BITS = 28
@@ -72,22 +79,33 @@ class RomSpec:
         """Bytes per word in binary images: 1, 2 or 4."""
         return 1 if self.width <= 8 else 2 if self.width <= 16 else 4
 
+    @property
+    def word_range(self) -> tuple[int, int]:
+        """Smallest and largest signed value [LSB] of a ``width``-bit word."""
+        return -(1 << (self.width - 1)), (1 << (self.width - 1)) - 1
+
     def check(self) -> None:
         """Refuse, with one line naming the option, what cannot be built."""
         if not 1 <= self.code_bits <= 40:
-            raise UsageError(f"--bits must be 1..40, not {self.code_bits}")
+            msg = f"--bits must be 1..40, not {self.code_bits}"
+            raise UsageError(msg)
         if not 1 <= self.m <= self.code_bits:
-            raise UsageError(f"--address-bits must be 1..{self.code_bits} (--bits), not {self.m}")
+            msg = f"--address-bits must be 1..{self.code_bits} (--bits), not {self.m}"
+            raise UsageError(msg)
         if self.m > MAX_ADDRESS_BITS:
-            raise UsageError(
-                f"2^{self.m} = {self.entries} entries requested: more than the 2^{MAX_ADDRESS_BITS} "
-                f"a table may have; use --address-bits {MAX_ADDRESS_BITS} or fewer (the code's top bits)")
+            msg = (f"2^{self.m} = {self.entries} entries requested: more than the "
+                   f"2^{MAX_ADDRESS_BITS} a table may have; use --address-bits "
+                   f"{MAX_ADDRESS_BITS} or fewer (the code's top bits)")
+            raise UsageError(msg)
         if not 2 <= self.width <= 32:
-            raise UsageError(f"--width must be 2..32 bits, not {self.width}")
+            msg = f"--width must be 2..32 bits, not {self.width}"
+            raise UsageError(msg)
         if not (self.lsb > 0 and np.isfinite(self.lsb)):
-            raise UsageError(f"--lsb must be a positive number of counts, not {self.lsb}")
+            msg = f"--lsb must be a positive number of counts, not {self.lsb}"
+            raise UsageError(msg)
         if self.sample not in ("centre", "start"):
-            raise UsageError(f"--sample must be centre or start, not {self.sample!r}")
+            msg = f"--sample must be centre or start, not {self.sample!r}"
+            raise UsageError(msg)
 
     def grid_deg(self) -> tuple[float, float]:
         """First angle and step [deg] of the addresses: address k is at first + k * step."""
@@ -102,6 +120,69 @@ class RomSpec:
         return first + np.arange(start, stop, dtype=np.float64) * step
 
 
+@dataclass(frozen=True)
+class Settings:
+    """What enc make-rom builds and where it goes, checked when made.
+
+    code_bits, address_bits, width, lsb : the table (:class:`RomSpec`).
+    sample : ``centre`` or ``start``; None: start for a controller's table (acs,
+        siemens), centre for a memory's.
+    target : a format of :mod:`enctools.models.romformats`, or ``stream``.
+    endian : bin and ihex: byte order of the words.
+    axis : acs: axis number (None: 0); siemens: machine axis (None: AX1).
+    zone : acs error-map zone, siemens measuring system index.
+    array_name : acs: the REAL array holding the map.
+    max_entries : acs, siemens: table points the control holds (None: the format's default).
+    """
+
+    code_bits: int
+    address_bits: int | None = None
+    width: int = 16
+    lsb: float = 1.0
+    sample: str | None = None
+    target: str = "stream"
+    endian: str = "little"
+    axis: str | None = None
+    zone: int = 0
+    array_name: str = "ENC_COMP"
+    max_entries: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.target != "stream" and self.target not in romformats.FORMATS:
+            msg = (f"--target must be one of {', '.join(romformats.FORMATS)} or stream, "
+                   f"not {self.target!r}")
+            raise UsageError(msg)
+        self.spec.check()
+        if self.target != "stream":
+            romformats.check_capacity(self.table, self.spec.entries)
+
+    @property
+    def spec(self) -> RomSpec:
+        """The table to build."""
+        controller = self.target in romformats.CONTROLLER
+        return RomSpec(self.code_bits, self.address_bits, self.width, self.lsb,
+                       self.sample or ("start" if controller else "centre"))
+
+    @property
+    def table(self) -> romformats.Target:
+        """How the table file is written (a table format, not ``stream``)."""
+        if self.target == "stream":
+            msg = "a rom stream is not a table file"
+            raise ValueError(msg)
+        return romformats.Target(self.target, self.width, self.endian,
+                                 count_deg=self.spec.lsb_arcsec / 3600.0,
+                                 axis=self.axis or ("0" if self.target == "acs" else "AX1"),
+                                 zone=self.zone, name=self.array_name,
+                                 max_entries=self.max_entries)
+
+    def to_meta(self) -> dict[str, Any]:
+        """The ``settings`` metadata of the output."""
+        spec = self.spec
+        return {"code_bits": self.code_bits, "address_bits": spec.m, "width": self.width,
+                "lsb": self.lsb, "sample": spec.sample, "target": self.target,
+                "endian": self.endian}
+
+
 @dataclass
 class Rom:
     """A built table and its summary."""
@@ -112,22 +193,33 @@ class Rom:
     min_value: int
     max_value: int
     crc32: int = 0
-    extra: dict = field(default_factory=dict)
 
     @property
     def max_quantisation_arcsec(self) -> float:
+        """The largest quantisation error [arcsec]."""
         return self.max_quantisation_lsb * self.spec.lsb_arcsec
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
+        """The ``rom`` metadata of the table: its layout, value range [LSB], largest
+        quantisation error [LSB, arcsec] and CRC-32."""
         s = self.spec
         return {"entries": s.entries, "code_bits": s.code_bits, "address_bits": s.m,
                 "width_bits": s.width, "lsb_counts": s.lsb, "lsb_arcsec": s.lsb_arcsec,
                 "sample": s.sample, "min_lsb": self.min_value, "max_lsb": self.max_value,
                 "max_quantisation_error_lsb": self.max_quantisation_lsb,
                 "max_quantisation_error_arcsec": self.max_quantisation_arcsec,
-                "crc32": f"{self.crc32:08x}", "crc32_of": f"little-endian int{8 * s.storage_bytes} image",
+                "crc32": f"{self.crc32:08x}",
+                "crc32_of": f"little-endian int{8 * s.storage_bytes} image",
                 "image_bytes": s.entries * s.storage_bytes,
                 "sign": "value = correction to add to the code = -deviation"}
+
+    def file_comment(self) -> list[str]:
+        """The comment lines heading a table file: layout, LSB [arcsec], CRC-32, history."""
+        s = self.spec
+        return [f"enctools make-rom: {s.entries} entries, {s.width}-bit signed corrections "
+                f"to add to a {s.code_bits}-bit code, LSB {s.lsb_arcsec!r} arcsec",
+                f"CRC-32 {self.crc32:08x} (little-endian int{8 * s.storage_bytes} image); "
+                + history_line()]
 
 
 def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
@@ -152,40 +244,70 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     Raises DataError when a value does not fit the word width or is not finite.
     """
     spec.check()
-    n = spec.entries
     dtype = {1: np.int8, 2: np.int16, 4: np.int32}[spec.storage_bytes]
-    lo, hi = -(1 << (spec.width - 1)), (1 << (spec.width - 1)) - 1
-    values = np.empty(n, dtype=dtype)
-    scale = -1.0 / spec.lsb_arcsec
+    values = np.empty(spec.entries, dtype=dtype)
+    quantise = partial(_quantise, _on_grid(deviation, spec), values, spec)
+    parts = _each_chunk(quantise, spec.entries, progress)
+    vmin = min(p[0] for p in parts)
+    vmax = max(p[1] for p in parts)
+    worst = max(p[2] for p in parts)
+    lo, hi = spec.word_range
+    if vmin < lo or vmax > hi:
+        msg = (f"corrections reach {vmin:.0f}..{vmax:.0f} LSB, beyond the {spec.width}-bit "
+               f"range {lo}..{hi}; use --width {_bits_needed(vmin, vmax)} or more, or a "
+               f"coarser --lsb")
+        raise DataError(msg)
+    le = values.astype(values.dtype.newbyteorder("<"), copy=False)
+    crc = zlib.crc32(le.data if le.flags.c_contiguous else le.tobytes())
+    return Rom(spec, values, worst, int(vmin), int(vmax), crc)
+
+
+def _on_grid(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec
+             ) -> Callable[[int, int], np.ndarray]:
+    """The model [arcsec] at addresses start..stop-1: ``values(start, stop)``."""
     on_grid = getattr(deviation, "on_grid", None)
     if on_grid is not None:  # a model that evaluates a uniform grid faster than any angles
-        at = on_grid(*spec.grid_deg())
-    else:
-        def at(start: int, stop: int) -> np.ndarray:
-            return np.asarray(deviation(spec.angles_deg(start, stop)), dtype=np.float64)
+        return on_grid(*spec.grid_deg())
 
-    def chunk(start: int) -> tuple[float, float, float]:
-        """Quantise addresses start..start+CHUNK-1; (min, max, largest |error|) [LSB]."""
-        stop = min(n, start + CHUNK)
-        corr = np.multiply(at(start, stop), scale, dtype=np.float64)
-        q = np.rint(corr)
-        qmin, qmax = float(q.min()), float(q.max())  # NaN or inf if any value is
-        if not (np.isfinite(qmin) and np.isfinite(qmax)):
-            raise DataError("the model gives NaN or infinite values; check the model stream")
-        if qmin < lo or qmax > hi:
-            return qmin, qmax, 0.0  # go on for the whole range, to name the width needed
-        corr -= q
-        err = max(-float(corr.min()), float(corr.max()))
-        values[start:stop] = q
-        return qmin, qmax, err
+    def at(start: int, stop: int) -> np.ndarray:
+        return np.asarray(deviation(spec.angles_deg(start, stop)), dtype=np.float64)
 
+    return at
+
+
+def _quantise(at: Callable[[int, int], np.ndarray], values: np.ndarray, spec: RomSpec,
+              start: int) -> tuple[float, float, float]:
+    """Quantise addresses start..start+CHUNK-1 into ``values``.
+
+    Returns (min, max, largest |quantisation error|) [LSB]. A chunk beyond the word
+    width is not stored, but its range is returned, to name the width needed.
+    """
+    stop = min(spec.entries, start + CHUNK)
+    corr = np.multiply(at(start, stop), -1.0 / spec.lsb_arcsec, dtype=np.float64)
+    q = np.rint(corr)
+    qmin, qmax = float(q.min()), float(q.max())  # NaN or inf if any value is
+    if not (np.isfinite(qmin) and np.isfinite(qmax)):
+        msg = "the model gives NaN or infinite values; check the model stream"
+        raise DataError(msg)
+    lo, hi = spec.word_range
+    if qmin < lo or qmax > hi:
+        return qmin, qmax, 0.0
+    corr -= q
+    err = max(-float(corr.min()), float(corr.max()))
+    values[start:stop] = q
+    return qmin, qmax, err
+
+
+def _each_chunk(quantise: Callable[[int], tuple[float, float, float]], n: int,
+                progress: Callable[[int, int], None] | None) -> list[tuple[float, float, float]]:
+    """``quantise(start)`` of every chunk of n entries, in order, on THREADS threads."""
     starts = range(0, n, CHUNK)
     parts = []
     if len(starts) > 1 and THREADS > 1:  # numpy releases the GIL: overlap the chunks
         from concurrent.futures import ThreadPoolExecutor
         pool = ThreadPoolExecutor(THREADS)
         try:
-            for start, part in zip(starts, pool.map(chunk, starts)):
+            for start, part in zip(starts, pool.map(quantise, starts), strict=True):
                 parts.append(part)
                 if progress:
                     progress(min(n, start + CHUNK), n)
@@ -193,21 +315,10 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
             pool.shutdown(wait=True, cancel_futures=True)
     else:
         for start in starts:
-            parts.append(chunk(start))
+            parts.append(quantise(start))
             if progress:
                 progress(min(n, start + CHUNK), n)
-    vmin = min(p[0] for p in parts)
-    vmax = max(p[1] for p in parts)
-    worst = max(p[2] for p in parts)
-    overflow = vmin < lo or vmax > hi
-    if overflow:
-        need = _bits_needed(vmin, vmax)
-        raise DataError(
-            f"corrections reach {vmin:.0f}..{vmax:.0f} LSB, beyond the {spec.width}-bit "
-            f"range {lo}..{hi}; use --width {need} or more, or a coarser --lsb")
-    le = values.astype(values.dtype.newbyteorder("<"), copy=False)
-    crc = zlib.crc32(le.tobytes() if not le.flags.c_contiguous else memoryview(le).cast("B"))
-    return Rom(spec, values, worst, int(vmin), int(vmax), crc)
+    return parts
 
 
 def _bits_needed(lo: float, hi: float) -> int:
@@ -216,3 +327,21 @@ def _bits_needed(lo: float, hi: float) -> int:
     while -(1 << (w - 1)) > lo or (1 << (w - 1)) - 1 < hi:
         w += 1
     return w
+
+
+def stream_schema() -> pa.Schema:
+    """The columns of a ``rom`` stream: address, correction [count]."""
+    return pa.schema([make_field("address", pa.int64(), ""),
+                      make_field("correction", pa.int64(), "count")])
+
+
+def write_stream(output: str | None, header: Header, values: np.ndarray, force: bool,
+                 fmt: str | None) -> None:
+    """Write a table [LSB] as a ``rom`` stream (address, correction), in batches."""
+    schema = stream_schema()
+    rows = streams.BATCH_ROWS * 16
+    with streams.OutputStream(output, header, force, fmt) as out:
+        for start in range(0, values.size, rows):
+            v = values[start:start + rows]
+            out.write(pa.record_batch([pa.array(np.arange(start, start + v.size)),
+                                       pa.array(v.astype(np.int64))], schema=schema))

@@ -1,0 +1,132 @@
+"""Fitting an error model to calibration points (enc fit-rbf): the RBF network of
+seed 001 (eqs. 5-7) or a Fourier series, with its training, leave-one-out and
+hold-out residuals [arcsec].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from enctools.data.statistics import figures_or_nan
+from enctools.errors import UsageError
+from enctools.methods.points import figures_meta
+from enctools.models.fourier import FourierModel, fit_fourier
+from enctools.models.rbf import RBFModel, choose_spread, fit_rbf, loo_residuals
+
+KERNELS = ("rbf", "fourier")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How enc fit-rbf fits a model, checked when made.
+
+    kernel : ``rbf`` (seed 001 eqs. 5-7) or ``fourier``.
+    spread_deg : rbf: spread [deg]; None chooses it by leave-one-out.
+    goal_arcsec : rbf: training goal, largest |residual| [arcsec].
+    harmonics : fourier: order K (None: N // 2 for N points, interpolating).
+    holdout : the file of the points never used in the fit (None: none).
+    """
+
+    kernel: str = "rbf"
+    spread_deg: float | None = None
+    goal_arcsec: float = 1e-4
+    harmonics: int | None = None
+    holdout: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.kernel not in KERNELS:
+            msg = f"--kernel must be one of {', '.join(KERNELS)}, not {self.kernel!r}"
+            raise UsageError(msg)
+        if not self.goal_arcsec >= 0:
+            msg = f"--goal must be >= 0 arcsec, not {self.goal_arcsec}"
+            raise UsageError(msg)
+        if self.kernel == "rbf" and self.harmonics is not None:
+            msg = "--band applies to --kernel fourier (the rbf kernel: --spread, --goal)"
+            raise UsageError(msg)
+        if self.kernel == "fourier" and self.spread_deg is not None:
+            msg = "--spread applies to --kernel rbf (the fourier kernel: --band)"
+            raise UsageError(msg)
+
+    def to_meta(self) -> dict[str, Any]:
+        """The ``settings`` metadata of the model stream."""
+        return {"kernel": self.kernel, "spread_deg": self.spread_deg,
+                "goal_arcsec": self.goal_arcsec, "harmonics": self.harmonics,
+                "holdout": self.holdout}
+
+
+@dataclass
+class Fit:
+    """A model fitted to points, with its residuals (all in arcsec)."""
+
+    model: RBFModel | FourierModel
+    points: dict[str, Any]
+    training: dict[str, Any]
+    loo: dict[str, Any]
+    holdout: dict[str, Any] | None = None
+
+    def residuals(self) -> dict[str, Any]:
+        """The ``residuals`` metadata of the model stream."""
+        out = {"points": self.points, "training": self.training, "leave_one_out": self.loo}
+        if self.holdout is not None:
+            out["holdout"] = self.holdout
+        return out
+
+
+def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settings,
+               holdout: tuple[np.ndarray, np.ndarray] | None = None) -> Fit:
+    """Fit an RBF network or a Fourier series to distinct points; report its residuals.
+
+    Parameters
+    ----------
+    angle_deg, error_arcsec : distinct positions [deg] and deviations [arcsec].
+    settings : the kernel and its parameters.
+    holdout : other points (positions [deg], deviations [arcsec]) never used in the
+        fit (seed 001 table 3). Their deviations may carry any constant offset (a
+        run is referenced to its own first position): the residuals are reported
+        about their mean.
+
+    Returns
+    -------
+    Fit: training residuals (max |r|), leave-one-out residuals (each point
+    predicted by the model fitted without it) and hold-out residuals, each with
+    the Bessel standard deviation of seed 001 eq. (8).
+    """
+    x = np.asarray(angle_deg, dtype=np.float64)
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    model, loo = _model_and_loo(x, y, settings)
+    train, left_out = figures_or_nan(y - model(x)), figures_or_nan(loo)
+    fit = Fit(model, figures_meta(figures_or_nan(y)),
+              {"max_abs_arcsec": train.max_abs, "rms_arcsec": train.rms},
+              {"max_abs_arcsec": left_out.max_abs, "rms_arcsec": left_out.rms,
+               "bessel_std_arcsec": left_out.std})
+    if holdout is not None:
+        hx, hy = (np.asarray(v, dtype=np.float64) for v in holdout)
+        r = hy - model(hx)
+        before, after = figures_or_nan(hy), figures_or_nan(r - r.mean())
+        fit.holdout = {"n": after.n, "before_bessel_std_arcsec": before.std,
+                       "before_peak_to_peak_arcsec": before.pp,
+                       "bessel_std_arcsec": after.std, "peak_to_peak_arcsec": after.pp,
+                       "max_abs_arcsec": after.max_abs}
+    return fit
+
+
+def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings
+                   ) -> tuple[RBFModel | FourierModel, np.ndarray]:
+    """The model fitted to points [deg, arcsec] and its leave-one-out residuals [arcsec]
+    (NaN for fewer than 3 points)."""
+    n = x.size
+    model: RBFModel | FourierModel
+    if settings.kernel == "rbf":
+        goal = settings.goal_arcsec
+        spread = choose_spread(x, y, goal) if settings.spread_deg is None else settings.spread_deg
+        model = fit_rbf(x, y, float(spread), goal)
+        loo = loo_residuals(x, y, float(spread), goal) if n > 2 else np.full(n, np.nan)
+        return model, loo
+    k = n // 2 if settings.harmonics is None else int(settings.harmonics)
+    model = fit_fourier(x, y, k)
+    loo = np.array([y[i] - fit_fourier(np.delete(x, i), np.delete(y, i), k)(x[i:i + 1])[0]
+                    for i in range(n)]) if n > 2 else np.full(n, np.nan)
+    return model, loo

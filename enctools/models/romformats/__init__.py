@@ -1,0 +1,144 @@
+"""Correction tables for FPGAs and motion controllers: which formats, and one call to
+write a table, read it back or verify it.
+
+Every writer (:mod:`.writers`) takes the signed table values (one per address) and
+writes one file; every reader (:mod:`.readers`) gives the values back, so an export
+can be checked.
+
+========  ==================================================================
+bin       raw two's-complement words, little or big endian, 1/2/4 bytes each
+ihex      Intel HEX: the raw image, 16 data bytes a record, type 04 extended
+          linear address records (32-bit byte addresses: at most 4 GiB)
+mif       Altera/Intel Memory Initialization File (WIDTH, DEPTH, HEX radix)
+coe       Xilinx coefficient file (memory_initialization_radix=16;
+          memory_initialization_vector=...;)
+mem       Verilog ``$readmemh`` text: one hex word a line, // comments
+csv       ``address,correction`` in decimal
+acs       ACS SPiiPlus ACSPL+ program: a REAL array filled element by
+          element, then ``ERRORMAP1D axis, zone, base, step, array`` and
+          ``ERRORMAPON``; values in degrees
+siemens   SINUMERIK interpolatory compensation (``$AA_ENC_COMP``) for a
+          rotary axis with modulo: points 0..k, 0 deg and 360 deg both present
+          with the same value, no gaps, ``$AA_ENC_COMP_STEP/MIN/MAX/IS_MODULO``;
+          values in degrees
+========  ==================================================================
+
+Hex words are two's complement in ``width`` bits, ``ceil(width / 4)`` digits.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+from enctools.errors import CheckFailed, DataError, UsageError
+from enctools.models.romformats import readers, writers
+from enctools.models.romformats.words import Target
+
+FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens")
+EXTENSIONS = {".bin": "bin", ".rom": "bin", ".hex": "ihex", ".ihex": "ihex", ".mif": "mif",
+              ".coe": "coe", ".mem": "mem", ".csv": "csv", ".prg": "acs", ".acs": "acs",
+              ".spf": "siemens", ".mpf": "siemens", ".ini": "siemens"}
+#: formats whose table is a controller's interpolation-point table (0 and 360 deg)
+CONTROLLER = ("acs", "siemens")
+#: entries a target accepts at most (None: only the 2^28 of enctools.models.rom).
+#: Intel HEX: 32-bit byte addresses. The controllers' tables are sized by the
+#: control's configuration (SINUMERIK MD38000 MM_ENC_COMP_MAX_POINTS, the ACS
+#: controller's user memory): conservative defaults, raised with --max-entries.
+MAX_ENTRIES: dict[str, int | None] = {"bin": None, "ihex": None, "mif": None, "coe": None,
+                                      "mem": None, "csv": None, "acs": 100_000, "siemens": 5_000}
+IHEX_MAX_BYTES = 1 << 32
+
+Writer = Callable[[IO[bytes], np.ndarray, Target, list[str]], None]
+#: a reader: (file's bytes, target, file's name) -> values; a fast one may give None
+Reader = Callable[[bytes, Target, str], np.ndarray]
+FastReader = Callable[[bytes, Target, str], np.ndarray | None]
+
+WRITERS: dict[str, Writer] = {
+    "bin": writers.write_bin, "ihex": writers.write_ihex, "mif": writers.write_mif,
+    "coe": writers.write_coe, "mem": writers.write_mem, "csv": writers.write_csv,
+    "acs": writers.write_acs, "siemens": writers.write_siemens}
+#: format -> (fast reader of the files written here or None, general reader)
+READERS: dict[str, tuple[FastReader | None, Reader]] = {
+    "bin": (None, readers.read_bin), "ihex": (readers.fast_ihex, readers.read_ihex),
+    "mif": (readers.fast_mif, readers.read_mif), "coe": (readers.fast_coe, readers.read_coe),
+    "mem": (readers.fast_mem, readers.read_mem), "csv": (None, readers.read_csv),
+    "acs": (None, readers.read_acs), "siemens": (None, readers.read_siemens)}
+
+
+def format_for(path: str, fmt: str | None) -> str:
+    """The table format: ``fmt`` if given, else from the file's extension."""
+    if fmt:
+        if fmt not in FORMATS:
+            msg = f"unknown table format {fmt!r} (formats: {', '.join(FORMATS)})"
+            raise UsageError(msg)
+        return fmt
+    ext = Path(path).suffix.lower()
+    if ext not in EXTENSIONS:
+        msg = (f"cannot tell the table format of {path!r} from its extension; "
+               f"use --target ({', '.join(FORMATS)})")
+        raise UsageError(msg)
+    return EXTENSIONS[ext]
+
+
+def check_capacity(target: Target, entries: int) -> None:
+    """Refuse (UsageError, one line) a table the target cannot hold."""
+    rows = entries + 1 if target.fmt in CONTROLLER else entries
+    limit = target.max_entries if target.max_entries is not None else MAX_ENTRIES[target.fmt]
+    if limit is not None and rows > limit:
+        msg = (f"{target.fmt}: {rows} table points exceed the {limit} this target holds; use "
+               f"fewer --address-bits, or --max-entries if your control is configured for more")
+        raise UsageError(msg)
+    if target.fmt == "ihex" and entries * target.storage_bytes > IHEX_MAX_BYTES:
+        msg = (f"ihex: {entries * target.storage_bytes} bytes exceed the 4 GiB of "
+               "32-bit Intel HEX addresses")
+        raise UsageError(msg)
+    if target.fmt == "bin" and target.endian not in ("little", "big"):
+        msg = f"--endian must be little or big, not {target.endian!r}"
+        raise UsageError(msg)
+
+
+def write_table(path: str, values: np.ndarray, target: Target, force: bool = False,
+                comment: list[str] | None = None) -> int:
+    """Write ``values`` [LSB] to ``path`` atomically (temporary file, then rename).
+
+    Returns the file's size [byte].
+    """
+    check_capacity(target, values.size)
+    from enctools.data.files import check_new_file, write_atomic
+
+    check_new_file(path, force)
+    write_atomic(path, lambda f: WRITERS[target.fmt](f, values, target, comment or []))
+    return Path(path).stat().st_size
+
+
+def read_table(path: str, target: Target) -> np.ndarray:
+    """The signed values [LSB] of a table file (DataError, one line, when it is malformed).
+
+    The format's fast reader is tried first; what it does not take, the general reader
+    reads or refuses.
+    """
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        msg = f"{path}: no such file"
+        raise DataError(msg) from None
+    fast, general = READERS[target.fmt]
+    try:
+        values = fast(data, target, str(path)) if fast is not None else None
+        return general(data, target, str(path)) if values is None else values
+    except (ValueError, OverflowError, IndexError, KeyError) as exc:
+        # a malformed word the general readers meet one at a time
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        msg = f"{path}: not a readable {target.fmt} table ({why})"
+        raise DataError(msg) from None
+
+
+def verify_table(path: str, values: np.ndarray, target: Target) -> None:
+    """Read a written table back: CheckFailed unless it equals ``values`` [LSB]."""
+    if not np.array_equal(read_table(path, target), values):
+        msg = f"{path}: the table read back differs from the table built"
+        raise CheckFailed(msg)

@@ -1,0 +1,74 @@
+"""The words of a correction table: how they are written (:class:`Target`) and their
+two's complement both ways.
+
+A table value is a signed integer [LSB]; a file stores it as a word of ``width``
+bits in two's complement (``ceil(width / 4)`` hex digits in text formats), or as
+1, 2 or 4 bytes of a binary image in the target's byte order.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from enctools.errors import DataError
+
+
+@dataclass(frozen=True)
+class Target:
+    """How to write a table: format and its options."""
+
+    fmt: str
+    width: int = 16
+    endian: str = "little"
+    count_deg: float = 360.0 / 2 ** 23  # one LSB of the stored value [deg] (controllers)
+    axis: str = "AX1"  # siemens axis name, or ACS axis number
+    zone: int = 0  # ACS zone / SINUMERIK measuring system index
+    name: str = "ENC_COMP"  # ACS array name
+    max_entries: int | None = None
+
+    @property
+    def storage_bytes(self) -> int:
+        """Bytes a word of a binary image: 1, 2 or 4."""
+        return 1 if self.width <= 8 else 2 if self.width <= 16 else 4
+
+    @property
+    def hex_digits(self) -> int:
+        """Hex digits a word of a text format."""
+        return (self.width + 3) // 4
+
+    @property
+    def image_dtype(self) -> np.dtype:
+        """The signed word of a binary image, in the target's byte order."""
+        return np.dtype(f"{'<' if self.endian == 'little' else '>'}i{self.storage_bytes}")
+
+
+def twos(values: np.ndarray, width: int) -> np.ndarray:
+    """Two's complement of signed values in ``width`` bits, as non-negative int64."""
+    return values.astype(np.int64) & ((1 << width) - 1)
+
+
+def signed(u: np.ndarray, width: int) -> np.ndarray:
+    """Signed int64 from two's complement in ``width`` bits (u: uint64)."""
+    s = u.astype(np.int64)
+    if width >= 63:
+        return s
+    s &= (1 << width) - 1
+    s -= (s >> (width - 1)) << width
+    return s
+
+
+def image_values(image: bytes, t: Target, src: str) -> np.ndarray:
+    """The signed values of a binary image of words (DataError if not whole words)."""
+    if len(image) % t.storage_bytes:
+        msg = f"{src}: {len(image)} bytes is not a whole number of {t.storage_bytes}-byte words"
+        raise DataError(msg)
+    return np.frombuffer(image, dtype=t.image_dtype).astype(np.int64)
+
+
+#: the value of each byte as a hex digit (0..15), 255 where the byte is not one
+HEX_DIGIT = np.full(256, 255, dtype=np.uint8)
+HEX_DIGIT[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
+HEX_DIGIT[np.frombuffer(b"ABCDEF", np.uint8)] = np.arange(10, 16)
+HEX_DIGIT[np.frombuffer(b"abcdef", np.uint8)] = np.arange(10, 16)
