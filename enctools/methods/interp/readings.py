@@ -108,10 +108,10 @@ def _stroboscopic(batch: pa.RecordBatch, schema: pa.Schema, names: Sequence[str]
     """Heads (devices and reference) sampled nearly synchronously with their signal period.
 
     The angle between samples is the median step of the reference over the first
-    batch; :func:`enctools.methods.harmonics.stroboscopic_heads` judges. Returns
+    batch; :func:`enctools.methods.revolutions.stroboscopic_heads` judges. Returns
     {head: signal periods per sample}.
     """
-    from enctools.methods.harmonics import stroboscopic_heads
+    from enctools.methods.revolutions import stroboscopic_heads
 
     if batch.num_rows < 3:
         return {}
