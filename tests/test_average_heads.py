@@ -18,12 +18,11 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import run
 
-from enctools.data.readings import head_info
+from enctools.data.readings import head_info, head_reading
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth
 from enctools.methods.harmonics import (
     RunningMean,
-    head_reading,
     revolution_coefficients,
     synthesize,
 )

@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from enctools.data.readings import HeadInfo
+from enctools.data.readings import HeadInfo, head_reading
 from enctools.methods.harmonics import (
     RevolutionSplitter,
     analyse,
     bin_average,
-    head_reading,
     revolution_coefficients,
     stroboscopic_heads,
     synthesize,

@@ -104,7 +104,7 @@ def _measure(inputs, heads, reference):
         t = table.column("t").to_numpy(zero_copy_only=False).astype(np.float64)
         if not np.all(np.isfinite(t)):
             raise DataError(f"{src.source}: column 't' has NaN or infinite values")
-        device = _mean_angle(table, schema, dev_heads, src.source)
+        device = _mean_reading(table, schema, dev_heads, src.source)
         info = head_info(schema, dev_heads[0], src.source)
         cpr = info.counts_per_rev
         if cpr & (cpr - 1) == 0:
@@ -115,20 +115,13 @@ def _measure(inputs, heads, reference):
                 raise DataError(f"{src.source}: no true motion in the stream; give --ref HEADS")
             ref = Motion.from_dict(motion)(t)
         else:
-            ref = _mean_angle(table, schema, reference, src.source)
+            ref = _mean_reading(table, schema, reference, src.source)
         runs.append(lat.run_difference(t, device, ref))
     return runs, bits
 
 
-def _mean_angle(table, schema, names, source):
-    """Mean reading [rad] of heads, each with its zero offset (alpha - zero count) removed."""
-    import numpy as np
-
-    from enctools.data.readings import head_angle, head_info
-    from enctools.units import TWO_PI
-    out = []
-    for h in names:
-        info = head_info(schema, h, source)
-        offset = info.alpha - info.zero_count * TWO_PI / info.counts_per_rev
-        out.append(head_angle(table.column(h), info) - offset)
-    return np.mean(out, axis=0)
+def _mean_reading(table, schema, names, source):
+    """Mean spindle reading [rad] of heads (each head's alpha and zero count removed)."""
+    from enctools.data.readings import head_info, mean_head_reading
+    infos = [head_info(schema, h, source) for h in names]
+    return mean_head_reading([table.column(i.name) for i in infos], infos)

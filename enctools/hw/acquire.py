@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.readings import head_field
 from enctools.data.rig import Rig
 from enctools.data.schemas import make_field
 from enctools.data.streams import BATCH_ROWS, Header
@@ -183,11 +184,9 @@ def readings_schema(rig: Rig, session: Session, s: Settings) -> pa.Schema:
     for enc, h in rig.heads:
         if s.heads and h.name not in s.heads:
             continue
-        fields.append(make_field(
-            h.name, pa.int64(), "count", "head", encoder=enc.name,
-            alpha_deg=repr(round(h.angle / DEG, 12)), counts_per_rev=enc.counts_per_rev,
-            periods_per_rev=enc.periods_per_rev, interpolation=enc.interpolation,
-            radius_m=repr(enc.radius_m), zero_count=zero_count(enc, h.angle)))
+        fields.append(head_field(h.name, enc.name, round(h.angle / DEG, 12), enc.counts_per_rev,
+                                 enc.periods_per_rev, enc.interpolation, enc.radius_m,
+                                 zero_count(enc, h.angle)))
     for ch in session.channels():
         if s.heads and ch.meta and ch.meta.get("head") not in s.heads:
             continue

@@ -36,19 +36,6 @@ from enctools.errors import DataError
 from enctools.units import TWO_PI
 
 
-def head_reading(counts: np.ndarray, counts_per_rev: int, zero_count: int,
-                 alpha: float) -> np.ndarray:
-    """A head's reading of the spindle angle theta [rad]: theta + its errors.
-
-    The counter of a head at nominal angle ``alpha`` [rad] is zeroed at the grating
-    line ``zero_count`` [count]; ``(counts + zero_count) * 2 pi / counts_per_rev`` is
-    then the scale angle under the head, and subtracting ``alpha`` leaves the spindle
-    angle plus the head's error (seed 000 eq. (1)).
-    """
-    c = np.asarray(counts, dtype=np.int64) + np.int64(zero_count)
-    return c.astype(np.float64) * (TWO_PI / counts_per_rev) - alpha
-
-
 def trapezoid_weights(x: np.ndarray) -> np.ndarray:
     """Trapezoid-rule weights [rad] of samples at ``x`` [rad] (monotonic either way)."""
     w = np.empty_like(x, dtype=np.float64)
@@ -449,7 +436,7 @@ class ChannelSpec:
 
 def mean_reading(batch: object, heads: tuple[HeadInfo, ...], source: str = "input",
                  minus: np.ndarray | None = None) -> np.ndarray:
-    """The mean of the heads' readings [rad] (:func:`head_reading`) over a batch.
+    """The mean of the heads' readings [rad] (``readings.head_reading``) over a batch.
 
     Counts are summed into one float64 array (exact below 2^53 counts) and scaled
     once per counts-per-revolution; ``minus`` [rad] is subtracted in place. A few
@@ -595,7 +582,7 @@ def revolution_spectra(batches: Iterator[object], spec: ChannelSpec, band: int,
     Reads readings batches (Arrow) one at a time, or the lists of revolutions that
     ``cutter`` made of them ahead (on a reader thread); for each channel k yields the
     coefficients c_0..c_band of ``h_k(u) - u``, u the mean reading of the coordinate
-    heads (:func:`head_reading`). Checks that ``t`` increases strictly and that the
+    heads (``readings.head_reading``). Checks that ``t`` increases strictly and that the
     coordinate moves one way; nulls and NaN are errors. Memory holds one revolution.
 
     Yields ``(index, coefficients (C, band + 1), binned)``; ``binned`` is the

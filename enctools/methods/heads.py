@@ -156,7 +156,7 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
 
     The new column holds ``sum_k (counts_k)`` with ``counts_per_rev = N * cpr``,
     ``interpolation = N * interpolation`` and ``zero_count = sum_k zero_count_k`` and
-    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.harmonics.head_reading`)
+    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.data.readings.head_reading`)
     is exactly the mean of the heads' readings (seed 000 eqs. (3), (6)); no rounding.
     Field metadata ``average_of`` names the heads; ``passes`` lists what A(n) keeps.
     """
@@ -228,7 +228,7 @@ def run(source: InputStream, groups: list[tuple[str | None, list[str]]], band: i
 
     import pyarrow as pa
 
-    from enctools.data.readings import head_info
+    from enctools.data.readings import head_info, rig_encoders
     from enctools.data.schemas import columns_with_role
     from enctools.errors import UsageError
 
@@ -236,8 +236,8 @@ def run(source: InputStream, groups: list[tuple[str | None, list[str]]], band: i
     schema = source.schema
     if not groups:
         present = set(columns_with_role(schema, "head"))
-        for enc in (source.meta.get("rig") or {}).get("encoders", []):
-            hs = [h for h in enc.get("measure_heads", []) if h in present]
+        for enc in rig_encoders(source.meta):
+            hs = [h for h in enc.measure_heads if h in present]
             if len(hs) >= 2:
                 groups.append((None, hs))
         if not groups:

@@ -367,7 +367,7 @@ def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
     heads when all are recorded (their average cancels radial motion), else the
     reference head.
     """
-    from enctools.data.readings import head_info
+    from enctools.data.readings import head_info, rig_measure_heads
     from enctools.data.readings import heads as all_heads
 
     infos = all_heads(schema)
@@ -387,9 +387,8 @@ def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
             counts[h.encoder] = counts.get(h.encoder, 0) + 1
         encoder = max(counts, key=lambda e: counts[e])
     enc_heads = [h for h in infos if h.encoder == encoder]
-    rig_enc = next((e for e in (meta.get("rig") or {}).get("encoders", [])
-                    if e.get("name") == encoder), {})
-    measure = [n for n in rig_enc.get("measure_heads", []) if n in by_name]
+    rig_measure = rig_measure_heads(meta, encoder)
+    measure = [n for n in rig_measure if n in by_name]
     if ref is None:
         ref = min(enc_heads, key=lambda h: min(h.alpha % (2 * np.pi),
                                                2 * np.pi - h.alpha % (2 * np.pi))).name
@@ -417,7 +416,7 @@ def plan(schema: pa.Schema, meta: dict, method: str | None, ref: str | None,
                f"({', '.join(h.name for h in chosen)}); use --method fourier")
         raise UsageError(msg)
     if angle_from is None:
-        full = len(measure) == len(rig_enc.get("measure_heads", [None])) and len(measure) > 1
+        full = len(measure) == len(rig_measure) and len(measure) > 1
         angle_from = measure if full else [ref]
     coordinate = [by_name[n] for n in angle_from]
     foreign = [h.name for h in coordinate if h.encoder != encoder]

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from enctools import __version__
+from enctools.data.readings import rig_encoders
 from enctools.report import plots
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -70,18 +71,19 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
     return f"<table><tr>{th}</tr>{body}</table>"
 
 
-def _rig_html(rigs: dict[str, dict[str, Any]]) -> str:
-    if not rigs:
+def _rig_html(metas: dict[str, dict[str, Any]]) -> str:
+    """The rigs (name -> the metadata of an input recorded on it) as headings and tables."""
+    if not metas:
         return "<p>The inputs do not describe their rig.</p>"
     out = []
-    for name, rig in rigs.items():
+    for name, meta in metas.items():
+        rig = meta["rig"]
         out.append(f"<h3>{_e(name)}</h3><p>{_e(rig.get('description', ''))}</p>")
         rows = []
-        for enc in rig.get("encoders", []):
-            heads = ", ".join(f"{h.get('name')} {math.degrees(float(h.get('angle', 0))):g}°"
-                              for h in enc.get("heads", []))
-            rows.append([enc.get("name"), enc.get("model", ""), enc.get("periods_per_rev"),
-                         enc.get("interpolation"), enc.get("diameter_mm"), heads])
+        for enc in rig_encoders(meta):
+            heads = ", ".join(f"{h.name} {math.degrees(h.angle):g}°" for h in enc.heads)
+            rows.append([enc.name, enc.model, enc.periods_per_rev, enc.interpolation,
+                         enc.diameter_mm, heads])
         if rows:
             out.append(_table(["encoder", "model", "periods/rev", "interpolation",
                                "diameter [mm]", "heads (nominal angle)"], rows, left=2,
@@ -240,7 +242,7 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
             title: str | None = None) -> str:
     """The whole report as one HTML document (str)."""
     top = int(report.settings.get("top_harmonics", 5))
-    rigs = {s.rig_name: s.meta["rig"] for s in report.sections if s.rig_name}
+    rigs = {s.rig_name: s.meta for s in report.sections if s.rig_name}
     title = title or ("Calibration report" + (f" — {', '.join(rigs)}" if rigs else ""))
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
