@@ -84,7 +84,7 @@ def test_means_of_heads():
     c1 = np.array([0, 1000, cpr // 4])
     c2 = np.array([5, 995, cpr // 4 - 3])
     want = [float(sum((exact_spindle_reading(int(x), h.zero_count, cpr, h.alpha)
-                       for x, h in ((x1, a), (x2, b)))) / 2) for x1, x2 in zip(c1, c2)]
+                       for x, h in ((x1, a), (x2, b)))) / 2) for x1, x2 in zip(c1, c2, strict=True)]
     assert np.allclose(mean_head_reading([c1, c2], [a, b]), want, rtol=0, atol=1e-15)
     angle = mean_head_angle([pa.array(c1), pa.array(c2)], [a, b])
     assert np.allclose(angle, (c1 + c2) * TWO_PI / cpr / 2, rtol=0, atol=1e-15)
@@ -103,7 +103,7 @@ def test_head_field_round_trips_through_head_info():
     md = {k.decode(): v.decode() for k, v in f.metadata.items()}
     assert md["unit"] == "count" and md["role"] == "head" and md["average_of"] == "H1,H2"
     assert readings.heads(schema) == [info]
-    with pytest.raises(DataError, match="no head 'H1'.*heads: H7"):
+    with pytest.raises(DataError, match=r"no head 'H1'.*heads: H7"):
         head_info(schema, "H1", "run.parquet")
     with pytest.raises(DataError, match="column 't' is not a head"):
         head_info(schema, "t")
