@@ -135,14 +135,6 @@ class Rig:
         """All heads of all encoders, in rig order."""
         return [(e, h) for e in self.encoders for h in e.heads]
 
-    def encoder_of(self, head: str) -> Encoder:
-        """The encoder a head belongs to."""
-        for e, h in self.heads:
-            if h.name == head:
-                return e
-        msg = f"rig {self.name!r} has no head {head!r} (heads: {', '.join(self.head_names)})"
-        raise DataError(msg)
-
     @property
     def head_names(self) -> list[str]:
         return [h.name for _, h in self.heads]

@@ -261,15 +261,6 @@ class VirtualRig(Session):
     def truth(self) -> dict[str, Any]:
         d = self._truth.to_dict()
         d["motion"] = self.motion.to_dict()
-        d["conventions"] = {
-            "graduation": "arcsec; argument: scale angle under the head theta + alpha [rad]",
-            "radial": "nm; argument: unwrapped spindle angle theta [rad]",
-            "signals": "Heydemann faults; interpolation error = truth.interpolation_error("
-                       "faults, head reading + alpha, periods_per_rev) [arcsec]",
-            "motion": "theta(t) [rad] of the stream's t [s] (continuous mode)",
-            "polygon": "face angle errors [arcsec]; autocollimator = (theta - theta0 - "
-                       "j * 2pi/faces) [arcsec] + face error + noise",
-        }
         return d
 
     def describe(self) -> dict[str, Any]:
