@@ -74,14 +74,17 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
         click.echo(f"run: {r['speed_deg_s'] / 6:.6g} r/min over {r['turns']:.3g} turns, "
                    f"device - reference {r['mean_difference_arcsec']:.6g} arcsec")
     if "measured_lag_s" in out:
-        click.echo(f"measured lag: {out['measured_lag_s']:.6g} s (offset {out['offset_arcsec']:.4g} arcsec"
+        click.echo(f"measured lag: {out['measured_lag_s']:.6g} s "
+                   f"(offset {out['offset_arcsec']:.4g} arcsec"
                    f"{', fitted' if fit_offset else ', assumed'})")
     click.echo(f"resolution: {out['resolution_arcsec']:.6g} arcsec ({bits} bits, seed 001 eq. 3)")
     click.echo(f"code-skip speed: {skip:.9g} deg/s = {skip / 360:.6g} r/s = {skip / 6:.6g} r/min "
                f"(t_d {delay_s:.6g} s, seed 001 eq. 4)")
     for r in rows:
-        click.echo(f"at {r['speed_rpm']:g} r/min: dynamic error {r['dynamic_error_arcsec']:.6g} arcsec "
-                   f"= {r['dynamic_error_codes']:.4g} codes{' (codes skipped)' if r['skips_codes'] else ''}")
+        skipped = " (codes skipped)" if r["skips_codes"] else ""
+        click.echo(f"at {r['speed_rpm']:g} r/min: dynamic error "
+                   f"{r['dynamic_error_arcsec']:.6g} arcsec "
+                   f"= {r['dynamic_error_codes']:.4g} codes{skipped}")
 
 
 def _measure(inputs, heads, reference):

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 import pyarrow as pa
@@ -36,7 +36,8 @@ from enctools.data.schemas import columns_with_role, field_meta, make_field
 from enctools.errors import DataError
 from enctools.units import DEG, TWO_PI
 
-Counts = np.ndarray | pa.Array | pa.ChunkedArray
+#: head counts [count] as numpy or Arrow
+Counts: TypeAlias = np.ndarray | pa.Array | pa.ChunkedArray
 
 
 # ------------------------------------------------------------ encode and decode

@@ -90,7 +90,8 @@ def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
     if s.heads:
         unknown = [h for h in s.heads if h not in rig.head_names]
         if unknown:
-            msg = f"--heads: rig {rig.name} has no head {unknown[0]!r} (heads: {', '.join(rig.head_names)})"
+            msg = (f"--heads: rig {rig.name} has no head {unknown[0]!r} "
+                   f"(heads: {', '.join(rig.head_names)})")
             raise UsageError(msg)
     return s
 
@@ -127,13 +128,13 @@ def check(s: Settings) -> None:
 
 def samples_total(s: Settings) -> int:
     """Samples (count) of a continuous run: revolutions x (60 / speed [r/min]) / interval [s]."""
-    return int(round(s.revolutions * 60.0 / abs(s.speed_rpm) / s.interval_s))
+    return round(s.revolutions * 60.0 / abs(s.speed_rpm) / s.interval_s)
 
 
 def targets(s: Settings) -> list[tuple[int, int, int, float]]:
     """(step, run, direction, target [rad]) in the order a steps or sweep run visits them."""
     if s.mode == "sweep":
-        n = int(math.floor(s.range_arcsec / s.step_arcsec + 1e-9)) + 1
+        n = math.floor(s.range_arcsec / s.step_arcsec + 1e-9) + 1
         pos = [s.start_deg * DEG + k * s.step_arcsec * ARCSEC for k in range(n)]
     elif s.positions_deg is not None:
         pos = [p * DEG for p in s.positions_deg]
@@ -161,7 +162,8 @@ class Unwrapper:
         if raw.size == 0:
             return raw
         if expected is not None:
-            first = raw[0] + np.int64(round((expected - raw[0]) / float(self.modulus))) * self.modulus
+            turns = round((expected - raw[0]) / float(self.modulus))
+            first = raw[0] + np.int64(turns) * self.modulus
         elif self.last is None:
             first = raw[0] - self.modulus if raw[0] >= self.half else raw[0]
         else:

@@ -59,7 +59,7 @@ class Series:
         out = np.zeros_like(x)
         integer = self.freq == np.round(self.freq)
         xr = np.mod(x, TWO_PI) if np.any(integer) else x
-        for f, a, b, is_int in zip(self.freq, self.a, self.b, integer):
+        for f, a, b, is_int in zip(self.freq, self.a, self.b, integer, strict=True):
             arg = f * (xr if is_int else x)
             out += a * np.cos(arg) + b * np.sin(arg)
         return out
@@ -71,7 +71,7 @@ class Series:
         c_n is in the unit of ``a``/``b`` (arcsec for graduation, nm for radial motion).
         """
         c = np.zeros(n_max + 1, dtype=np.complex128)
-        for f, a, b in zip(self.freq, self.a, self.b):
+        for f, a, b in zip(self.freq, self.a, self.b, strict=True):
             if f == round(f) and 0 <= f <= n_max:
                 c[int(f)] += a - 1j * b
         return c
@@ -172,7 +172,8 @@ class Motion:
     def __call__(self, t: np.ndarray) -> np.ndarray:
         t = np.asarray(t, dtype=np.float64) - self.t0
         out = self.theta0 + self.omega * t
-        for a, f, p in zip(self.jitter_amp, self.jitter_freq, self.jitter_phase):
+        for a, f, p in zip(self.jitter_amp, self.jitter_freq, self.jitter_phase,
+                           strict=True):
             out = out + a * np.sin(TWO_PI * f * t + p)
         return out
 

@@ -6,6 +6,9 @@ comparison when several inputs carry deviation curves, the nightly history, and 
 conventions used (Bessel s, U with k = 2, ISO 230-2 definitions).
 """
 
+# The page's typography is meant: en dashes for missing values, minus signs and x.
+# ruff: noqa: RUF001
+
 from __future__ import annotations
 
 import base64
@@ -124,7 +127,7 @@ def _harmonics_table(curves: Sequence[Curve], top: int) -> str:
             continue
         h = c.harmonics.largest(top)
         cells = [f"n={int(n)}: {float(a):.3f} @ {math.degrees(float(p)):.0f}°"
-                 for n, a, p in zip(h.n, h.amplitude, h.phase)]
+                 for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         rows.append([c.name, c.unit] + cells + [""] * (top - len(cells)))
     if not rows:
         return ""
@@ -152,7 +155,7 @@ def _iso_html(s: Section) -> str:
         cols += ["x̄", "B_i", "R_i"]
     rows = []
     for r in iso.table():
-        row = [f"{r['position_deg']:.3f}"]
+        row: list[Any] = [f"{r['position_deg']:.3f}"]
         if iso.up is not None:
             row += [_f(r["mean_up"]), _f(r["s_up"]), _f(r["R_up"]), r["n_up"]]
         if iso.down is not None:

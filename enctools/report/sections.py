@@ -113,7 +113,11 @@ class Options:
     nmax: int = 100
 
 
-def build_section(stream: InputStream, opts: Options = Options()) -> Section:
+#: the report's default settings
+DEFAULT_OPTIONS = Options()
+
+
+def build_section(stream: InputStream, opts: Options = DEFAULT_OPTIONS) -> Section:
     """The section of one input stream (dispatch on its kind)."""
     build = {"deviations": _deviations, "spectrum": _spectrum, "points": _points,
              "model": _model, "rom": _rom, "readings": _readings}[stream.kind]
@@ -354,18 +358,18 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
     s.info["rows"] = scan.rows
     s.info["heads"] = ", ".join(f"{i.name} ({i.encoder} at {math.degrees(i.alpha):g} deg)"
                                 for i in infos)
-    if scan.rows:
-        s.info["duration"] = f"{scan.t_last - scan.t_first:.4g} s"  # type: ignore[operator]
+    if scan.t_first is not None and scan.t_last is not None:
+        s.info["duration"] = f"{scan.t_last - scan.t_first:.4g} s"
     if scan.rows and infos and not stepped:
         h = infos[0]
         turns = (scan.last[h.name] - scan.first[h.name]) / float(h.counts_per_rev)
         s.info["turns"] = f"{turns:.4g} (head {h.name})"
-    for h in signal_cols:
-        if h + ".cos" in scan.signals:
-            c = np.concatenate(scan.signals[h + ".cos"])
-            sn = np.concatenate(scan.signals[h + ".sin"])
+    for head in signal_cols:
+        if head + ".cos" in scan.signals:
+            c = np.concatenate(scan.signals[head + ".cos"])
+            sn = np.concatenate(scan.signals[head + ".sin"])
             step = max(1, c.size // LISSAJOUS_POINTS)
-            s.signals[h] = (c[::step], sn[::step])
+            s.signals[head] = (c[::step], sn[::step])
     if stepped and infos and scan.rows:
         _positioning(s, scan, encoder, opts)
 
