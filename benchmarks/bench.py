@@ -41,7 +41,7 @@ FILTERS: dict[str, list[str]] = {
 }
 #: exit statuses that count as a measured run (besides 0)
 ACCEPT: dict[str, tuple[int, ...]] = {}
-#: the pipe buffer the filters ask for (enctools.data.streams.PIPE_BUFFER) and the default
+#: the pipe buffer the filters ask for (enctools.data.pipes.PIPE_BUFFER) and the default
 PIPE_BUFFERS = {"1 MiB": 1 << 20, "64 KiB": 0}
 SAMPLES_PER_REV = 20_000  # sjtu-dual default sampling
 

@@ -20,10 +20,10 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import run
 
-from enctools.data.readings import head_info
+from enctools.data.readings import head_info, head_reading
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth
-from enctools.methods.harmonics import head_reading, revolution_coefficients, synthesize
+from enctools.methods.harmonics import revolution_coefficients, synthesize
 from enctools.methods.heads import average_transfer, summarize_average
 from enctools.methods.revolutions import RunningMean
 from enctools.units import ARCSEC

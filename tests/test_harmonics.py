@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from enctools.data.readings import HeadInfo
+from enctools.data.readings import HeadInfo, head_reading
 from enctools.methods.harmonics import (
     analyse,
     bin_average,
-    head_reading,
     revolution_coefficients,
     synthesize,
 )

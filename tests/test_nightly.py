@@ -227,3 +227,50 @@ def test_unwritable_calibration_is_one_line(tmp_path):
     err = r.stderr.decode()
     assert r.returncode == 2 and err.startswith("enc-nightly: error: ") and "Traceback" not in err
     assert read_history(tmp_path / "h").runs == 1  # the failed night is recorded
+
+
+def test_help_names_the_command():
+    r = run([NIGHTLY, "--help"])
+    assert r.returncode == 0 and r.stdout.decode().startswith("Usage: enc-nightly [OPTIONS]")
+
+
+def test_terminated_night_is_recorded(tmp_path, enc):
+    """SIGTERM (the shared prologue): the campaign is stopped, the row lands, exit 143."""
+    hist, cal, work = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "work"
+    env = dict(os.environ, PATH=f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}")
+    p = subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
+                          "--calibration", str(cal), "--keep", str(work),
+                          "--campaign", 'touch "$OUT/started" && sleep 30'], env=env,
+                         stderr=subprocess.PIPE)
+    import time
+    deadline = time.monotonic() + 60
+    while not (work / "started").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    p.terminate()
+    _, err = p.communicate(timeout=30)
+    assert p.returncode == 143, err
+    assert err.decode().strip().splitlines()[-1] == "enc-nightly: error: terminated"
+    h = read_history(hist)
+    assert h.runs == 1 and h.column("status")[0] == "error" and h.column("exit_code")[0] == 143
+
+
+def test_settings_and_drift_in_process():
+    import numpy as np
+
+    from enctools.data.statistics import curve_figures
+    from enctools.errors import UsageError
+    from enctools.report.nightly import Settings, drift
+    from enctools.report.sections import Curve
+
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(UsageError, match="--max-drift must be >= 0"):
+            Settings("r", "h", "c", tolerance=bad)
+    angle = np.radians(np.arange(0.0, 360.0, 15.0))
+    stored = 2.0 * np.sin(angle)
+    current = stored + 0.3 * np.cos(2 * angle) + 5.0       # a new zero and a drift
+    curves = [Curve("c", "arcsec", "points", angle, v, curve_figures(v))
+              for v in (current, stored)]
+    d = drift(curves[0], curves[1])
+    assert d.offset == pytest.approx(5.0)
+    assert np.allclose(d.drift, 0.3 * np.cos(2 * angle))
+    assert d.max_abs == pytest.approx(0.3) and d.pp == pytest.approx(0.6)

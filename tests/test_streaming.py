@@ -76,7 +76,7 @@ def test_few_samples_fall_back_to_the_direct_sum() -> None:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="F_SETPIPE_SZ is Linux")
 def test_enlarge_pipe() -> None:
-    from enctools.data.streams import PIPE_BUFFER, enlarge_pipe
+    from enctools.data.pipes import PIPE_BUFFER, enlarge_pipe
 
     r, w = os.pipe()
     try:

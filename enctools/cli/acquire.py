@@ -26,14 +26,16 @@ from enctools.cli import options, runner
               metavar="DEG,DEG,...", help="steps: target positions [deg].")
 @click.option("--count", type=int, default=None, callback=options.positive,
               help="steps: N positions equally spaced over a turn (when --positions is absent).")
-@click.option("--settle", "settle_s", type=float, default=None, help="steps/sweep: settling time [s].")
+@click.option("--settle", "settle_s", type=float, default=None,
+              help="steps/sweep: settling time [s].")
 @click.option("--readings", type=int, default=None, callback=options.positive,
               help="steps/sweep: readings per position.")
 @click.option("--runs", type=int, default=None, callback=options.positive,
               help="steps/sweep: number of runs.")
 @click.option("--bidirectional/--unidirectional", default=None,
               help="steps: also approach every position from above.")
-@click.option("--overshoot", "overshoot_deg", type=float, default=None, callback=options.non_negative,
+@click.option("--overshoot", "overshoot_deg", type=float, default=None,
+              callback=options.non_negative,
               help="steps: approach each position from this far [deg].")
 @click.option("--start", "start_deg", type=float, default=None, callback=options.finite,
               help="sweep (and steps with --count): first position [deg].")
@@ -42,8 +44,10 @@ from enctools.cli import options, runner
 @options.heads("Record only these heads (default: all).")
 @click.option("--signals/--no-signals", default=None,
               help="Also record each head's raw sin/cos signals [V] (simulator).")
-@click.option("--seed", type=click.IntRange(min=0), default=None, help="Simulator noise seed (default: the rig's).")
-@click.option("--replay", "replay_path", default=None, type=click.Path(dir_okay=False, allow_dash=True),
+@click.option("--seed", type=click.IntRange(min=0), default=None,
+              help="Simulator noise seed (default: the rig's).")
+@click.option("--replay", "replay_path", default=None,
+              type=click.Path(dir_okay=False, allow_dash=True),
               help="Re-stream a recorded readings file instead of acquiring.")
 @click.option("--pace", is_flag=True, default=False,
               help="replay: at the recorded pace (default: as fast as possible).")
@@ -71,7 +75,8 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
 
     if tee_path is not None:
         from pathlib import Path
-        if output not in (None, "-") and Path(tee_path).resolve() == Path(output).resolve():
+        if output is not None and output != "-" \
+                and Path(tee_path).resolve() == Path(output).resolve():
             raise click.UsageError("--tee FILE must differ from -o PATH")
         streams.check_output(tee_path, force)
     if replay_path is not None:

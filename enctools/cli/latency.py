@@ -2,9 +2,17 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import click
 
 from enctools.cli import options
+
+if TYPE_CHECKING:
+    import numpy as np
+    import pyarrow as pa
+
+    from enctools.methods.latency import RunLag
 
 
 @click.command("latency")
@@ -69,22 +77,35 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
     out["speeds"] = rows
     if as_json:
         click.echo(json.dumps(out, indent=2))
-        return
+    else:
+        _echo_text(out, fit_offset)
+
+
+def _echo_text(out: dict, fit_offset: bool) -> None:
+    """The figures of ``out`` (as --json prints them) as lines of text."""
     for r in out.get("runs", []):
         click.echo(f"run: {r['speed_deg_s'] / 6:.6g} r/min over {r['turns']:.3g} turns, "
                    f"device - reference {r['mean_difference_arcsec']:.6g} arcsec")
     if "measured_lag_s" in out:
-        click.echo(f"measured lag: {out['measured_lag_s']:.6g} s (offset {out['offset_arcsec']:.4g} arcsec"
+        click.echo(f"measured lag: {out['measured_lag_s']:.6g} s "
+                   f"(offset {out['offset_arcsec']:.4g} arcsec"
                    f"{', fitted' if fit_offset else ', assumed'})")
-    click.echo(f"resolution: {out['resolution_arcsec']:.6g} arcsec ({bits} bits, seed 001 eq. 3)")
+    skip, delay_s = out["code_skip_speed_deg_s"], out["delay_s"]
+    click.echo(f"resolution: {out['resolution_arcsec']:.6g} arcsec ({out['bits']} bits, "
+               "seed 001 eq. 3)")
     click.echo(f"code-skip speed: {skip:.9g} deg/s = {skip / 360:.6g} r/s = {skip / 6:.6g} r/min "
                f"(t_d {delay_s:.6g} s, seed 001 eq. 4)")
-    for r in rows:
-        click.echo(f"at {r['speed_rpm']:g} r/min: dynamic error {r['dynamic_error_arcsec']:.6g} arcsec "
-                   f"= {r['dynamic_error_codes']:.4g} codes{' (codes skipped)' if r['skips_codes'] else ''}")
+    for r in out["speeds"]:
+        skipped = " (codes skipped)" if r["skips_codes"] else ""
+        click.echo(f"at {r['speed_rpm']:g} r/min: dynamic error "
+                   f"{r['dynamic_error_arcsec']:.6g} arcsec "
+                   f"= {r['dynamic_error_codes']:.4g} codes{skipped}")
 
 
-def _measure(inputs, heads, reference):
+def _measure(inputs: tuple[str, ...], heads: list[str] | None,
+             reference: list[str] | None) -> tuple[list[RunLag], int | None]:
+    """The device-minus-reference difference of each run, and the bits of a 2^n-count
+    device (None otherwise)."""
     import numpy as np
 
     from enctools.data.readings import head_info, measuring_heads
@@ -93,7 +114,8 @@ def _measure(inputs, heads, reference):
     from enctools.hw.truth import Motion
     from enctools.methods import latency as lat
 
-    runs, bits = [], None
+    runs: list[RunLag] = []
+    bits: int | None = None
     for path in inputs:
         src = open_input(path, "readings")
         table = src.read_all()
@@ -104,31 +126,25 @@ def _measure(inputs, heads, reference):
         t = table.column("t").to_numpy(zero_copy_only=False).astype(np.float64)
         if not np.all(np.isfinite(t)):
             raise DataError(f"{src.source}: column 't' has NaN or infinite values")
-        device = _mean_angle(table, schema, dev_heads, src.source)
+        device = _mean_reading(table, schema, dev_heads, src.source)
         info = head_info(schema, dev_heads[0], src.source)
         cpr = info.counts_per_rev
         if cpr & (cpr - 1) == 0:
             bits = bits or cpr.bit_length() - 1
-        if reference in (None, ["truth"]):
+        if reference is None or reference == ["truth"]:
             motion = (meta.get("truth") or {}).get("motion")
             if motion is None:
                 raise DataError(f"{src.source}: no true motion in the stream; give --ref HEADS")
             ref = Motion.from_dict(motion)(t)
         else:
-            ref = _mean_angle(table, schema, reference, src.source)
+            ref = _mean_reading(table, schema, reference, src.source)
         runs.append(lat.run_difference(t, device, ref))
     return runs, bits
 
 
-def _mean_angle(table, schema, names, source):
-    """Mean reading [rad] of heads, each with its zero offset (alpha - zero count) removed."""
-    import numpy as np
-
-    from enctools.data.readings import head_angle, head_info
-    from enctools.units import TWO_PI
-    out = []
-    for h in names:
-        info = head_info(schema, h, source)
-        offset = info.alpha - info.zero_count * TWO_PI / info.counts_per_rev
-        out.append(head_angle(table.column(h), info) - offset)
-    return np.mean(out, axis=0)
+def _mean_reading(table: pa.Table, schema: pa.Schema, names: list[str],
+                  source: str) -> np.ndarray:
+    """Mean spindle reading [rad] of heads (each head's alpha and zero count removed)."""
+    from enctools.data.readings import head_info, mean_head_reading
+    infos = [head_info(schema, h, source) for h in names]
+    return mean_head_reading([table.column(i.name) for i in infos], infos)

@@ -122,9 +122,10 @@ def _is_stream_path(path: str) -> bool:
 
 
 def _bits_from_rig(meta: dict) -> int:
+    from enctools.data.readings import rig_encoders
     from enctools.errors import UsageError
-    for e in (meta.get("rig") or {}).get("encoders", []):
-        cpr = int(e.get("periods_per_rev", 0)) * int(e.get("interpolation", 0))
+    for e in rig_encoders(meta):
+        cpr = e.counts_per_rev
         if cpr > 0 and cpr & (cpr - 1) == 0:
             return cpr.bit_length() - 1
     msg = "the model names no rig with a 2^n-count encoder; give --bits"

@@ -52,6 +52,11 @@ def set_command(name: str) -> None:
     _state["command"] = f"enc {name}"
 
 
+def set_program(name: str) -> None:
+    """Name a command that is its own executable (``enc-nightly``) in its messages."""
+    _state["command"] = name
+
+
 def command_name() -> str:
     return str(_state["command"])
 

@@ -8,6 +8,7 @@ does. An interrupted or failed write leaves the old file (or none) in place.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 from collections.abc import Callable
@@ -63,10 +64,8 @@ def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
         os.chmod(tmp, mode)
         os.replace(tmp, p)
     except BaseException:
-        try:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
-        except OSError:
-            pass
         raise
     if durable:
         try:  # make the rename itself durable

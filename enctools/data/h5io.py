@@ -88,7 +88,7 @@ class TableWriter:
     def write_batch(self, batch: pa.RecordBatch) -> None:
         _ensure_space(self._path, int(batch.nbytes * 1.1))
         n = batch.num_rows
-        for name, col in zip(self._names, batch.columns):
+        for name, col in zip(self._names, batch.columns, strict=True):
             if col.null_count:
                 msg = f"HDF5 output cannot hold missing values (column {name!r})"
                 raise DataError(msg)
@@ -111,7 +111,7 @@ def _text_attrs(obj: Any) -> dict[str, str]:
     damaged attribute can crash libhdf5 when read, never when inspected.
     """
     out: dict[str, str] = {}
-    for name in obj.attrs.keys():
+    for name in obj.attrs:
         aid = obj.attrs.get_id(name)
         if aid.shape not in ((), (1,)) or aid.dtype.kind not in "OSUifb":
             msg = f"attribute {name!r} is not a scalar"
@@ -132,20 +132,37 @@ def open_table(f: IO[bytes], source: str,
     from enctools.data.header import Header
 
     h5 = h5py.File(f, "r")
-    groups = [k for k, v in h5.items() if isinstance(v, h5py.Group) and "kind" in v.attrs.keys()]
-    if not groups:
+    try:
+        name = _table_name(h5, source, kind)
+        g = h5[name]
+        meta, schema, total = _read_layout(g, source, name)
+    except DataError:
         h5.close()
+        raise
+    header = Header(str(meta["kind"]), schema, meta)
+    return header, _batches(g, schema, total), h5.close
+
+
+def _table_name(h5: Any, source: str, kind: str | None) -> str:
+    """The group holding the table: ``kind`` if present, else the only one."""
+    import h5py
+
+    groups = [k for k, v in h5.items() if isinstance(v, h5py.Group) and "kind" in v.attrs]
+    if not groups:
         msg = f"{source}: HDF5 file holds no enctools table (no group with a 'kind' attribute)"
         raise DataError(msg)
-    if kind in groups:
-        name = kind
-    elif len(groups) == 1:
-        name = groups[0]
-    else:
-        h5.close()
-        msg = f"{source}: HDF5 file holds several tables ({', '.join(groups)}); which one?"
-        raise DataError(msg)
-    g = h5[name]
+    if kind is not None and kind in groups:
+        return kind
+    if len(groups) == 1:
+        return str(groups[0])
+    msg = f"{source}: HDF5 file holds several tables ({', '.join(groups)}); which one?"
+    raise DataError(msg)
+
+
+def _read_layout(g: Any, source: str, name: str) -> tuple[dict[str, Any], pa.Schema, int]:
+    """A table group's stream metadata, Arrow schema and row count (checked, not read)."""
+    import h5py
+
     try:
         gattrs = _text_attrs(g)
         meta = json.loads(gattrs.get("enctools", "{}"))
@@ -164,27 +181,23 @@ def open_table(f: IO[bytes], source: str,
             fields.append(pa.field(n, _arrow_type(arrow_type), metadata=attrs or None))
         nrows = {g[n].shape[0] for n in names}
     except (KeyError, ValueError, TypeError) as exc:
-        h5.close()
         msg = f"{source}: HDF5 table {name!r} is not an enctools table ({exc})"
         raise DataError(msg) from None
     if len(nrows) > 1:
-        h5.close()
         msg = f"{source}: HDF5 table {name!r} has columns of different lengths"
         raise DataError(msg)
-    schema = pa.schema(fields)
     meta.setdefault("kind", gattrs["kind"])
-    header = Header(str(meta["kind"]), schema, meta)
-    total = nrows.pop() if nrows else 0
+    return meta, pa.schema(fields), nrows.pop() if nrows else 0
 
-    def batches() -> Iterator[pa.RecordBatch]:
-        for start in range(0, total, _CHUNK):
-            stop = min(start + _CHUNK, total)
-            arrays = []
-            for fld in schema:
-                data = g[fld.name][start:stop]
-                if pa.types.is_string(fld.type):
-                    data = [x.decode() if isinstance(x, bytes) else x for x in data]
-                arrays.append(pa.array(data, type=fld.type))
-            yield pa.RecordBatch.from_arrays(arrays, schema=schema)
 
-    return header, batches(), h5.close
+def _batches(g: Any, schema: pa.Schema, total: int) -> Iterator[pa.RecordBatch]:
+    """The table's rows in batches of at most :data:`_CHUNK` rows."""
+    for start in range(0, total, _CHUNK):
+        stop = min(start + _CHUNK, total)
+        arrays = []
+        for fld in schema:
+            data = g[fld.name][start:stop]
+            if pa.types.is_string(fld.type):
+                data = [x.decode() if isinstance(x, bytes) else x for x in data]
+            arrays.append(pa.array(data, type=fld.type))
+        yield pa.RecordBatch.from_arrays(arrays, schema=schema)

@@ -83,7 +83,7 @@ def history_line(argv: list[str] | None = None) -> str:
 def with_history(header: Header, line: str | None = None) -> Header:
     """The header with one more history line (this command's)."""
     meta = dict(header.meta)
-    meta["history"] = header.history + [line or history_line()]
+    meta["history"] = [*header.history, line or history_line()]
     return Header(header.kind, header.schema, meta)
 
 

@@ -135,14 +135,6 @@ class Rig:
         """All heads of all encoders, in rig order."""
         return [(e, h) for e in self.encoders for h in e.heads]
 
-    def encoder_of(self, head: str) -> Encoder:
-        """The encoder a head belongs to."""
-        for e, h in self.heads:
-            if h.name == head:
-                return e
-        msg = f"rig {self.name!r} has no head {head!r} (heads: {', '.join(self.head_names)})"
-        raise DataError(msg)
-
     @property
     def head_names(self) -> list[str]:
         return [h.name for _, h in self.heads]
@@ -202,11 +194,8 @@ def _check(table: dict[str, Any], path: str, source: str, where: str) -> None:
             msg = f"rig file {source}: unknown key {key!r} in {loc}{did}"
             raise DataError(msg)
         types = spec[key]
-        if isinstance(value, bool) and bool not in types:
-            ok = False
-        else:
-            ok = isinstance(value, types)
-        if not ok:
+        # a TOML boolean is an int to Python: it fits only where a boolean is allowed
+        if not isinstance(value, types) or (isinstance(value, bool) and bool not in types):
             want = " or ".join(t.__name__.replace("dict", "table").replace("list", "array")
                                .replace("str", "string").replace("int", "integer")
                                for t in types)
@@ -242,44 +231,58 @@ def parse_rig(raw: dict[str, Any], source: str = "<rig>") -> Rig:
                f"({FORMAT_VERSION}); upgrade enctools")
         raise DataError(msg)
     name = _require(raw, "name", source, "top level")
-    encoders = []
     seen: set[str] = set()
-    for i, e in enumerate(_require(raw, "encoder", source, "top level")):
-        where = f"encoder[{i}]"
-        heads = []
-        for j, h in enumerate(_require(e, "head", source, where)):
-            hname = _require(h, "name", source, f"{where}.head[{j}]")
-            if hname in seen:
-                msg = f"rig file {source}: head name {hname!r} is used twice"
-                raise DataError(msg)
-            seen.add(hname)
-            signal = dict(h.get("signal", {}))
-            if "phase_deg" in signal:
-                signal["phase"] = signal.pop("phase_deg") * DEG
-            heads.append(Head(hname, float(_require(h, "angle_deg", source, f"{where}.head[{j}]"))
-                              * DEG, float(h.get("noise_arcsec", 0.0)), signal,
-                              dict(h.get("backend", {}))))
-        for key in ("periods_per_rev", "interpolation"):
-            if _require(e, key, source, where) <= 0:
-                msg = f"rig file {source}: {where}.{key} must be positive"
-                raise DataError(msg)
-        bits = int(e.get("counter_bits", 32))
-        if not 8 <= bits <= 62:
-            msg = f"rig file {source}: {where}.counter_bits must be 8..62, not {bits}"
+    encoders = tuple(_parse_encoder(e, f"encoder[{i}]", source, seen)
+                     for i, e in enumerate(_require(raw, "encoder", source, "top level")))
+    backend = dict(raw.get("backend", {"kind": "sim"}))
+    backend.setdefault("kind", "sim")
+    return Rig(name=name, encoders=encoders, description=raw.get("description", ""),
+               probes=_parse_probes(raw, source), polygon=dict(raw.get("polygon", {})),
+               autocollimator=dict(raw.get("autocollimator", {})),
+               motion=dict(raw.get("motion", {})), acquire=dict(raw.get("acquire", {})),
+               backend=backend, source=source)
+
+
+def _parse_encoder(e: dict[str, Any], where: str, source: str, seen: set[str]) -> Encoder:
+    """One ``[[encoder]]`` table; ``seen``: the head names so far (each must be new)."""
+    heads = []
+    for j, h in enumerate(_require(e, "head", source, where)):
+        hname = _require(h, "name", source, f"{where}.head[{j}]")
+        if hname in seen:
+            msg = f"rig file {source}: head name {hname!r} is used twice"
             raise DataError(msg)
-        measure = tuple(e.get("measure_heads", [h.name for h in heads]))
-        unknown = [m for m in measure if m not in {h.name for h in heads}]
-        if unknown:
-            msg = f"rig file {source}: {where}.measure_heads names unknown head {unknown[0]!r}"
+        seen.add(hname)
+        signal = dict(h.get("signal", {}))
+        if "phase_deg" in signal:
+            signal["phase"] = signal.pop("phase_deg") * DEG
+        heads.append(Head(hname, float(_require(h, "angle_deg", source, f"{where}.head[{j}]"))
+                          * DEG, float(h.get("noise_arcsec", 0.0)), signal,
+                          dict(h.get("backend", {}))))
+    for key in ("periods_per_rev", "interpolation"):
+        if _require(e, key, source, where) <= 0:
+            msg = f"rig file {source}: {where}.{key} must be positive"
             raise DataError(msg)
-        encoders.append(Encoder(
-            name=_require(e, "name", source, where),
-            periods_per_rev=int(e["periods_per_rev"]), interpolation=int(e["interpolation"]),
-            diameter_mm=float(_require(e, "diameter_mm", source, where)), heads=tuple(heads),
-            model=e.get("model", ""), counter_bits=bits,
-            latency_s=float(e.get("latency_s", 0.0)), plane_mm=float(e.get("plane_mm", 0.0)),
-            measure_heads=measure, graduation=dict(e.get("graduation", {})),
-            radial=dict(e.get("radial", {}))))
+    bits = int(e.get("counter_bits", 32))
+    if not 8 <= bits <= 62:
+        msg = f"rig file {source}: {where}.counter_bits must be 8..62, not {bits}"
+        raise DataError(msg)
+    measure = tuple(e.get("measure_heads", [h.name for h in heads]))
+    unknown = [m for m in measure if m not in {h.name for h in heads}]
+    if unknown:
+        msg = f"rig file {source}: {where}.measure_heads names unknown head {unknown[0]!r}"
+        raise DataError(msg)
+    return Encoder(
+        name=_require(e, "name", source, where),
+        periods_per_rev=int(e["periods_per_rev"]), interpolation=int(e["interpolation"]),
+        diameter_mm=float(_require(e, "diameter_mm", source, where)), heads=tuple(heads),
+        model=e.get("model", ""), counter_bits=bits,
+        latency_s=float(e.get("latency_s", 0.0)), plane_mm=float(e.get("plane_mm", 0.0)),
+        measure_heads=measure, graduation=dict(e.get("graduation", {})),
+        radial=dict(e.get("radial", {})))
+
+
+def _parse_probes(raw: dict[str, Any], source: str) -> tuple[Probe, ...]:
+    """The ``[[probe]]`` tables (arms must be positive)."""
     probes = tuple(Probe(_require(p, "name", source, f"probe[{i}]"),
                          float(_require(p, "arm_mm", source, f"probe[{i}]")),
                          int(p.get("side", 1)), float(p.get("noise_nm", 0.0)),
@@ -289,10 +292,4 @@ def parse_rig(raw: dict[str, Any], source: str = "<rig>") -> Rig:
         if not p.arm_mm > 0 or not math.isfinite(p.arm_mm):
             msg = f"rig file {source}: probe {p.name!r}: arm_mm must be > 0, not {p.arm_mm}"
             raise DataError(msg)
-    backend = dict(raw.get("backend", {"kind": "sim"}))
-    backend.setdefault("kind", "sim")
-    return Rig(name=name, encoders=tuple(encoders), description=raw.get("description", ""),
-               probes=probes, polygon=dict(raw.get("polygon", {})),
-               autocollimator=dict(raw.get("autocollimator", {})),
-               motion=dict(raw.get("motion", {})), acquire=dict(raw.get("acquire", {})),
-               backend=backend, source=source)
+    return probes

@@ -114,6 +114,34 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
     ``expect``: the kind(s) the caller accepts (None accepts any). ``source`` names
     the input in messages.
     """
+    spec = _header_kind(meta, expect, source)
+    kind = spec.kind
+    names = set(schema.names)
+    for col in spec.columns:
+        if col.required and col.name not in names:
+            msg = f"{source}: {kind} stream lacks the required column {col.name!r}"
+            raise DataError(msg)
+    role_counts: dict[str, int] = {}
+    for f in schema:
+        role = field_meta(f).get("role")
+        if spec.column(f.name) is None and role is not None:
+            role_counts[role] = role_counts.get(role, 0) + 1
+        _check_column(f, schema, spec, source)
+    for col in spec.columns:
+        if col.role and role_counts.get(col.role, 0) < col.min:
+            msg = f"{source}: {kind} stream has no {col.role} column"
+            raise DataError(msg)
+    for key in spec.required_meta:
+        if key not in meta:
+            msg = f"{source}: {kind} stream lacks the metadata key {key!r}"
+            raise DataError(msg)
+    return kind
+
+
+def _header_kind(meta: dict[str, Any], expect: str | tuple[str, ...] | None,
+                 source: str) -> KindSpec:
+    """The spec of the kind a header names, once it is one the caller reads and not newer
+    than this enctools reads."""
     kind = meta.get("kind")
     if kind is None:
         msg = f"{source}: not an enctools stream (no 'kind' in its metadata)"
@@ -129,56 +157,45 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
         msg = (f"{source}: {kind} schema version {version} is newer than this enctools "
                f"reads ({spec.version}); upgrade enctools")
         raise DataError(msg)
-    names = set(schema.names)
-    for col in spec.columns:
-        if col.required and col.name not in names:
-            msg = f"{source}: {kind} stream lacks the required column {col.name!r}"
-            raise DataError(msg)
-    role_counts: dict[str, int] = {}
-    for f in schema:
-        fm = field_meta(f)
-        col = spec.column(f.name)
-        role = fm.get("role")
-        if col is None and role is not None:
-            col = spec.role(role)
-            if col is None:
-                msg = f"{source}: column {f.name!r} has role {role!r}, unknown to kind {kind}"
-                raise DataError(msg)
-            role_counts[role] = role_counts.get(role, 0) + 1
+    return spec
+
+
+def _check_column(f: pa.Field, schema: pa.Schema, spec: KindSpec, source: str) -> None:
+    """One column against its kind: known (by name or role), type, unit, field metadata."""
+    kind = spec.kind
+    fm = field_meta(f)
+    role = fm.get("role")
+    col = spec.column(f.name)
+    if col is None and role is not None:
+        col = spec.role(role)
         if col is None:
-            known = [c.name for c in spec.columns if c.name]
-            msg = (f"{source}: column {f.name!r} is not part of a {kind} stream "
-                   f"(columns: {', '.join(known)}; others need a 'role')")
+            msg = f"{source}: column {f.name!r} has role {role!r}, unknown to kind {kind}"
             raise DataError(msg)
-        if not _type_ok(col.type, f.type):
-            msg = f"{source}: column {f.name!r} must be {col.type}, not {f.type}"
+    if col is None:
+        known = [c.name for c in spec.columns if c.name]
+        msg = (f"{source}: column {f.name!r} is not part of a {kind} stream "
+               f"(columns: {', '.join(known)}; others need a 'role')")
+        raise DataError(msg)
+    if not _type_ok(col.type, f.type):
+        msg = f"{source}: column {f.name!r} must be {col.type}, not {f.type}"
+        raise DataError(msg)
+    unit = fm.get("unit")
+    units = (col.unit,) if isinstance(col.unit, str) else col.unit
+    if unit is not None and unit not in units:
+        want = " or ".join(repr(u) for u in units)
+        msg = f"{source}: column {f.name!r} is in {unit!r}; a {kind} stream wants {want}"
+        raise DataError(msg)
+    of = fm.get("of")
+    if role == "uncertainty" and of in schema.names and unit is not None:
+        of_unit = field_meta(schema.field(of)).get("unit")
+        if of_unit is not None and of_unit != unit:
+            msg = (f"{source}: column {f.name!r} is in {unit!r} but the curve it is the "
+                   f"uncertainty of, {of!r}, is in {of_unit!r}")
             raise DataError(msg)
-        unit = fm.get("unit")
-        units = (col.unit,) if isinstance(col.unit, str) else col.unit
-        if unit is not None and unit not in units:
-            want = " or ".join(repr(u) for u in units)
-            msg = f"{source}: column {f.name!r} is in {unit!r}; a {kind} stream wants {want}"
-            raise DataError(msg)
-        of = fm.get("of")
-        if role == "uncertainty" and of in schema.names and unit is not None:
-            of_unit = field_meta(schema.field(of)).get("unit")
-            if of_unit is not None and of_unit != unit:
-                msg = (f"{source}: column {f.name!r} is in {unit!r} but the curve it is the "
-                       f"uncertainty of, {of!r}, is in {of_unit!r}")
-                raise DataError(msg)
-        missing = [k for k in col.field_metadata if k not in fm]
-        if missing:
-            msg = f"{source}: column {f.name!r} lacks field metadata {', '.join(missing)}"
-            raise DataError(msg)
-    for col in spec.columns:
-        if col.role and role_counts.get(col.role, 0) < col.min:
-            msg = f"{source}: {kind} stream has no {col.role} column"
-            raise DataError(msg)
-    for key in spec.required_meta:
-        if key not in meta:
-            msg = f"{source}: {kind} stream lacks the metadata key {key!r}"
-            raise DataError(msg)
-    return kind
+    missing = [k for k in col.field_metadata if k not in fm]
+    if missing:
+        msg = f"{source}: column {f.name!r} lacks field metadata {', '.join(missing)}"
+        raise DataError(msg)
 
 
 def columns_with_role(schema: pa.Schema, role: str) -> list[str]:

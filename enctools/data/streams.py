@@ -11,10 +11,14 @@ plus Arrow record batches.
 - Output: a path, whose extension chooses the format, or stdout (Arrow IPC stream,
   or Parquet with ``fmt="parquet"``). Named outputs are written to a temporary file
   in the same folder and renamed only on success; binary data never goes to a terminal.
+
+Reading a pipe that can be stopped, reading ahead on a thread and the pipe buffer
+size are :mod:`enctools.data.pipes`' job.
 """
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import re
@@ -26,12 +30,23 @@ from typing import IO, Any
 
 import pyarrow as pa
 
+from enctools.data import pipes
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
 from enctools.errors import DataError, UsageError
 
-__all__ = ["Header", "with_history", "InputStream", "OutputStream", "open_input", "read_table",
-           "write_table", "check_output", "detect_format", "format_for_path"]
+__all__ = [
+    "Header",
+    "InputStream",
+    "OutputStream",
+    "check_output",
+    "detect_format",
+    "format_for_path",
+    "open_input",
+    "read_table",
+    "with_history",
+    "write_table",
+]
 
 BATCH_ROWS = 65536
 
@@ -55,63 +70,6 @@ _DECODE_ERRORS = (pa.ArrowException, OSError, EOFError, ValueError, KeyError, Ty
 # --------------------------------------------------------------------------- input
 
 
-class Cancelled(Exception):
-    """A read given up because the reader of the stream was told to stop."""
-
-
-class _Prefixed(io.RawIOBase):
-    """A read-only file: some bytes already read, then the rest of another file.
-
-    With ``cancel`` and a pipe under ``rest``, every read first waits (in 50 ms
-    polls) for the pipe to be readable and raises :class:`Cancelled` once ``cancel``
-    is set: a read-ahead thread is never stuck in a read of a pipe whose writer went
-    quiet.
-    """
-
-    def __init__(self, prefix: bytes, rest: IO[bytes], cancel: Any = None) -> None:
-        self._prefix = prefix
-        self._rest = rest
-        self._cancel = cancel
-        self.owner: Any = None  # an object to keep alive as long as this file
-        self._poll: Any = None
-        if cancel is not None:
-            import select
-
-            self._poll = select.poll()
-            self._poll.register(rest.fileno(), select.POLLIN | select.POLLPRI)
-
-    def readable(self) -> bool:
-        return True
-
-    def readinto(self, b: Any) -> int:
-        if self._prefix:
-            n = min(len(b), len(self._prefix))
-            b[:n] = self._prefix[:n]
-            self._prefix = self._prefix[n:]
-            return n
-        if self._poll is not None:
-            while not self._poll.poll(50):
-                if self._cancel.is_set():
-                    raise Cancelled("read-ahead stopped")
-        try:
-            return self._rest.readinto(b)  # straight into Arrow's buffer: no extra copy
-        except AttributeError:  # a file object without readinto
-            data = self._rest.read(len(b))
-            n = len(data)
-            b[:n] = data
-            return n
-
-
-def _read_fully(f: IO[bytes], n: int) -> bytes:
-    out = b""
-    while len(out) < n:
-        chunk = f.read(n - len(out))
-        if not chunk:
-            break
-        out += chunk
-    return out
-
-
 def detect_format(prefix: bytes) -> str | None:
     """The format named by a file's first bytes, or None."""
     for magic, fmt in MAGIC.items():
@@ -122,74 +80,6 @@ def detect_format(prefix: bytes) -> str | None:
 
 #: batches read ahead of the caller on a reader thread (InputStream.batches)
 READ_AHEAD = 2
-
-
-class _Failed:
-    """An exception raised on the reader thread, to be raised again in the caller's."""
-
-    def __init__(self, exc: BaseException) -> None:
-        self.exc = exc
-
-
-class _ReadAhead:
-    """Iterate ``items`` on a daemon thread, at most ``depth`` items ahead of the caller.
-
-    Exceptions of the reader are raised in the caller's thread at the point they
-    occurred. :meth:`stop` ends the thread after its current item: the thread must
-    not outlive the caller into interpreter shutdown, where a daemon thread inside
-    Arrow's C++ aborts the process. ``event`` (set by :meth:`stop`) also interrupts
-    a wait on a pipe (:class:`_Prefixed`).
-    """
-
-    _END = object()
-
-    def __init__(self, items: Iterator[Any], depth: int, event: Any = None) -> None:
-        import queue
-        import threading
-
-        self._queue: queue.Queue[Any] = queue.Queue(maxsize=depth)
-        self._stop = event if event is not None else threading.Event()
-        self._thread = threading.Thread(target=self._work, args=(items,), daemon=True,
-                                        name="enc-read-ahead")
-        self._thread.start()
-
-    def _put(self, item: Any) -> bool:
-        import queue
-
-        while not self._stop.is_set():
-            try:
-                self._queue.put(item, timeout=0.05)
-                return True
-            except queue.Full:
-                continue
-        return False
-
-    def _work(self, items: Iterator[Any]) -> None:
-        try:
-            for item in items:
-                if not self._put(item):
-                    return
-            self._put(self._END)
-        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
-            self._put(_Failed(exc))
-
-    def __iter__(self) -> _ReadAhead:
-        return self
-
-    def __next__(self) -> Any:
-        item = self._queue.get()
-        if item is self._END:
-            self._queue.put(self._END)  # stay exhausted
-            raise StopIteration
-        if isinstance(item, _Failed):
-            raise item.exc
-        return item
-
-    def stop(self, timeout: float = 10.0) -> bool:
-        """Stop the reader; True once it has ended (within ``timeout`` [s])."""
-        self._stop.set()
-        self._thread.join(timeout)
-        return not self._thread.is_alive()
 
 
 def _clean(b: pa.RecordBatch) -> pa.RecordBatch:
@@ -207,7 +97,7 @@ class InputStream:
         self.source = source
         self.format = fmt
         self._closer = closer
-        #: set to stop a read-ahead thread waiting on a pipe (see _Prefixed)
+        #: set to stop a read-ahead thread waiting on a pipe (see pipes.Prefixed)
         self.cancel: Any = None
 
     @property
@@ -236,7 +126,7 @@ class InputStream:
         items: Iterator[Any] = (_clean(b) for b in self._batches)
         if prepare is not None:
             items = map(prepare, items)
-        source = _ReadAhead(items, read_ahead, self.cancel) if read_ahead > 0 else items
+        source = pipes.ReadAhead(items, read_ahead, self.cancel) if read_ahead > 0 else items
         try:
             yield from source
         except _DECODE_ERRORS as exc:
@@ -245,7 +135,7 @@ class InputStream:
             msg = f"{self.source}: truncated or corrupt {self.format} data ({_short(exc)})"
             raise DataError(msg) from None
         finally:
-            if isinstance(source, _ReadAhead) and not source.stop():
+            if isinstance(source, pipes.ReadAhead) and not source.stop():
                 self._closer = None  # the reader is still in a read: leave the file to it
             self.close()
 
@@ -255,10 +145,8 @@ class InputStream:
 
     def close(self) -> None:
         if self._closer is not None:
-            try:
+            with contextlib.suppress(Exception):
                 self._closer()
-            except Exception:
-                pass
             self._closer = None
 
     def __enter__(self) -> InputStream:
@@ -317,35 +205,6 @@ def _open_file(fh: IO[bytes], source: str) -> InputStream:
     return _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
 
 
-#: pipe buffer asked for on the pipes a command reads and writes (Linux F_SETPIPE_SZ)
-PIPE_BUFFER = 1 << 20
-
-
-def enlarge_pipe(f: Any, size: int = PIPE_BUFFER) -> int | None:
-    """Ask for a ``size``-byte kernel buffer on the pipe behind ``f``; its size, or None.
-
-    The default 64 KiB makes a reader of a fast producer wake up for every 64 KiB
-    and roughly halves the throughput of a pipeline; anything that is not a pipe,
-    a system without F_SETPIPE_SZ, or a size above the user's limit
-    (/proc/sys/fs/pipe-max-size) leaves things as they are.
-    """
-    import stat
-
-    try:
-        fd = f if isinstance(f, int) else f.fileno()
-        if not stat.S_ISFIFO(os.fstat(fd).st_mode):
-            return None
-        import fcntl
-
-        setsz = getattr(fcntl, "F_SETPIPE_SZ", 1031)
-        getsz = getattr(fcntl, "F_GETPIPE_SZ", 1032)
-        if fcntl.fcntl(fd, getsz) >= size:
-            return fcntl.fcntl(fd, getsz)
-        return fcntl.fcntl(fd, setsz, size)
-    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
-        return None
-
-
 def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
     """A stream from a pipe: Arrow IPC streams as they come, other formats buffered.
 
@@ -354,34 +213,25 @@ def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
     """
     import threading
 
-    enlarge_pipe(raw)
+    pipes.enlarge_pipe(raw)
     under = getattr(raw, "raw", None)
     cancel, owner = None, None
-    if isinstance(under, io.FileIO) and _is_fifo(under):
+    if isinstance(under, io.FileIO) and pipes.is_fifo(under):
         # the buffered reader is kept alive with the stream: collected, it closes its file
         owner, raw, cancel = raw, under, threading.Event()
-    prefix = _read_fully(raw, 8)
+    prefix = pipes.read_fully(raw, 8)
     if not prefix:
         msg = f"{source}: no input (empty stream); was the command before it in the pipe ok?"
         raise DataError(msg)
     fmt = _known_format(prefix, source)
     if fmt == "arrows":
-        wrapped = _Prefixed(prefix, raw, cancel)
+        wrapped = pipes.Prefixed(prefix, raw, cancel)
         wrapped.owner = owner
         stream = _open_arrows(io.BufferedReader(wrapped, buffer_size=1 << 20), source)
         stream.cancel = cancel
         return stream
     data = prefix + raw.read()  # needs seeking: buffer in memory
     return _open_seekable(io.BytesIO(data), fmt, source)
-
-
-def _is_fifo(f: IO[bytes]) -> bool:
-    import stat
-
-    try:
-        return stat.S_ISFIFO(os.fstat(f.fileno()).st_mode)
-    except (OSError, ValueError, io.UnsupportedOperation):
-        return False
 
 
 def _validated(stream: InputStream, expect: str | tuple[str, ...] | None) -> InputStream:
@@ -524,7 +374,7 @@ class OutputStream:
         if self.path is None:
             self.format = fmt or "arrows"
             self._sink: Any = stdout if stdout is not None else sys.stdout.buffer
-            enlarge_pipe(self._sink)
+            pipes.enlarge_pipe(self._sink)
             self._tmp = None
         else:
             self.format = format_for_path(self.path, fmt)
@@ -593,6 +443,7 @@ class OutputStream:
             self._discard()
             raise self._write_error(exc) from None
         if self._tmp is not None:
+            assert self.path is not None  # a temporary file is made for a named output only
             if Path(self.path).exists() and not self.force:  # appeared meanwhile
                 os.unlink(self._tmp)
                 msg = f"output {self.path} exists; use --force to replace it"
@@ -601,17 +452,13 @@ class OutputStream:
             os.replace(self._tmp, self.path)
             self._tmp = None
         else:
-            try:
+            with contextlib.suppress(AttributeError):
                 self._sink.flush()
-            except AttributeError:
-                pass
 
     def _discard(self) -> None:
         if self._tmp is not None:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(self._tmp)
-            except OSError:
-                pass
             self._tmp = None
 
     def abort(self, keep: bool | None = None) -> None:
@@ -624,10 +471,8 @@ class OutputStream:
                 pass
         writer, self._writer = self._writer, None
         if writer is not None:
-            try:
+            with contextlib.suppress(Exception):
                 writer.close()
-            except Exception:
-                pass
         self._discard()
 
     def __enter__(self) -> OutputStream:

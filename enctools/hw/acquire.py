@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.readings import head_field
 from enctools.data.rig import Rig
 from enctools.data.schemas import make_field
 from enctools.data.streams import BATCH_ROWS, Header
@@ -89,7 +90,8 @@ def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
     if s.heads:
         unknown = [h for h in s.heads if h not in rig.head_names]
         if unknown:
-            msg = f"--heads: rig {rig.name} has no head {unknown[0]!r} (heads: {', '.join(rig.head_names)})"
+            msg = (f"--heads: rig {rig.name} has no head {unknown[0]!r} "
+                   f"(heads: {', '.join(rig.head_names)})")
             raise UsageError(msg)
     return s
 
@@ -126,13 +128,13 @@ def check(s: Settings) -> None:
 
 def samples_total(s: Settings) -> int:
     """Samples (count) of a continuous run: revolutions x (60 / speed [r/min]) / interval [s]."""
-    return int(round(s.revolutions * 60.0 / abs(s.speed_rpm) / s.interval_s))
+    return round(s.revolutions * 60.0 / abs(s.speed_rpm) / s.interval_s)
 
 
 def targets(s: Settings) -> list[tuple[int, int, int, float]]:
     """(step, run, direction, target [rad]) in the order a steps or sweep run visits them."""
     if s.mode == "sweep":
-        n = int(math.floor(s.range_arcsec / s.step_arcsec + 1e-9)) + 1
+        n = math.floor(s.range_arcsec / s.step_arcsec + 1e-9) + 1
         pos = [s.start_deg * DEG + k * s.step_arcsec * ARCSEC for k in range(n)]
     elif s.positions_deg is not None:
         pos = [p * DEG for p in s.positions_deg]
@@ -160,7 +162,8 @@ class Unwrapper:
         if raw.size == 0:
             return raw
         if expected is not None:
-            first = raw[0] + np.int64(round((expected - raw[0]) / float(self.modulus))) * self.modulus
+            turns = round((expected - raw[0]) / float(self.modulus))
+            first = raw[0] + np.int64(turns) * self.modulus
         elif self.last is None:
             first = raw[0] - self.modulus if raw[0] >= self.half else raw[0]
         else:
@@ -183,11 +186,9 @@ def readings_schema(rig: Rig, session: Session, s: Settings) -> pa.Schema:
     for enc, h in rig.heads:
         if s.heads and h.name not in s.heads:
             continue
-        fields.append(make_field(
-            h.name, pa.int64(), "count", "head", encoder=enc.name,
-            alpha_deg=repr(round(h.angle / DEG, 12)), counts_per_rev=enc.counts_per_rev,
-            periods_per_rev=enc.periods_per_rev, interpolation=enc.interpolation,
-            radius_m=repr(enc.radius_m), zero_count=zero_count(enc, h.angle)))
+        fields.append(head_field(h.name, enc.name, round(h.angle / DEG, 12), enc.counts_per_rev,
+                                 enc.periods_per_rev, enc.interpolation, enc.radius_m,
+                                 zero_count(enc, h.angle)))
     for ch in session.channels():
         if s.heads and ch.meta and ch.meta.get("head") not in s.heads:
             continue

@@ -188,7 +188,7 @@ class PolledCounter(Counter):
     def read_now(self) -> dict[str, np.ndarray]:
         t, values = self._sample()
         out = {"t": np.array([t])}
-        for name, v in zip(self.order, values):
+        for name, v in zip(self.order, values, strict=True):
             out[name] = np.array([v], dtype=np.int64)
         return out
 
@@ -305,7 +305,7 @@ class LineAxis(Axis):
     def move_to(self, angle: float) -> None:
         text = self._need("move", self.move_tpl).format(
             deg=angle / DEG, rad=angle, arcsec=angle / ARCSEC,
-            counts=int(round(angle * self.cpr / TWO_PI)))
+            counts=round(angle * self.cpr / TWO_PI))
         self.link.command(text)
         self.link.check_errors(text)
         if not self.inpos:
@@ -411,7 +411,8 @@ class InstrumentSession(Session):
         missing = [h for h in rig.head_names if h not in order]
         unknown = [h for h in order if h not in rig.head_names]
         if missing or unknown:
-            what = (f"lacks head {missing[0]!r}" if missing else f"names unknown head {unknown[0]!r}")
+            what = (f"lacks head {missing[0]!r}" if missing
+                    else f"names unknown head {unknown[0]!r}")
             msg = (f"rig file {rig.source}: backend.counter.heads {what} "
                    f"(the rig's heads: {', '.join(rig.head_names)})")
             raise DataError(msg)
@@ -448,11 +449,11 @@ class InstrumentSession(Session):
         if counter is not None and hasattr(counter, "close"):
             try:
                 counter.close()
-            except Exception as exc:  # noqa: BLE001 - closing must not hide the first error
+            except Exception as exc:  # closing must not hide the first error
                 log.debug("closing the counter: %s", exc)
         links, self.links = self.links, {}
         for link in links.values():
             try:
                 link.close()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 log.debug("closing %s: %s", link.name, exc)

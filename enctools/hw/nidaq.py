@@ -94,7 +94,8 @@ class NidaqCounter(Counter):
         self.t0 = t0
         dec = str(cfg.get("decoding", "X4")).upper()
         if dec not in DECODING:
-            msg = f"rig file {rig.source}: backend.counter.decoding must be X1, X2 or X4, not {dec!r}"
+            msg = (f"rig file {rig.source}: backend.counter.decoding must be X1, X2 or X4, "
+                   f"not {dec!r}")
             raise DataError(msg)
         self.decoding = dec
         self.sample_clock = str(cfg.get("sample_clock", ""))
@@ -159,7 +160,7 @@ class NidaqCounter(Counter):
         except (UsageError, DataError):
             self._close_tasks()
             raise
-        except Exception as exc:  # noqa: BLE001 - every DAQmx failure becomes one line
+        except Exception as exc:  # every DAQmx failure becomes one line
             self._close_tasks()
             raise daq_error(nx, exc, doing) from None
 
@@ -169,7 +170,7 @@ class NidaqCounter(Counter):
         for t in tasks:
             try:
                 t.close()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 log.debug("closing a DAQmx task: %s", exc)
 
     def read_now(self) -> dict[str, np.ndarray]:
@@ -178,8 +179,8 @@ class NidaqCounter(Counter):
         out: dict[str, np.ndarray] = {"t": np.array([self.clock.now() - self.t0])}
         try:
             for name, task in self.tasks.items():
-                out[name] = np.array([int(round(float(task.read())))], dtype=np.int64)
-        except Exception as exc:  # noqa: BLE001
+                out[name] = np.array([round(float(task.read()))], dtype=np.int64)
+        except Exception as exc:
             raise daq_error(self.nidaqmx, exc, "reading the counters") from None
         return out
 
@@ -197,7 +198,7 @@ class NidaqCounter(Counter):
                                                        timeout=self.timeout_s),
                                              dtype=np.float64)).astype(np.int64)
                     for name, task in self.tasks.items()}
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             if getattr(exc, "error_code", None) == TIMEOUT_CODE:
                 msg = (f"NI-DAQmx: no samples within {self.timeout_s:g} s: is the sample clock "
                        f"{self.sample_clock or self.clock_counter} running?")

@@ -114,7 +114,7 @@ class _Tabulated:
             out = self.slope[i]
             out *= u
             out += self.table[i]
-        for f, a, p in zip(self.rest.freq, self._amp, self._phase):
+        for f, a, p in zip(self.rest.freq, self._amp, self._phase, strict=True):
             arg = f * x
             arg -= p
             np.cos(arg, out=arg)
@@ -142,6 +142,9 @@ def _phase_error(faults: Any, phi: np.ndarray) -> np.ndarray:
 
 class VirtualRig(Session):
     """A simulated rig: counter, probes, autocollimator, axis, all on one virtual clock."""
+
+    clock: VirtualClock
+    axis: SimAxis
 
     def __init__(self, rig: Rig, seed: int | None = None, signals: bool = False,
                  realtime: bool = False) -> None:
@@ -217,10 +220,7 @@ class VirtualRig(Session):
         """Raw counter values of every head (and signals) at times ``t``."""
         out: dict[str, np.ndarray] = {"t": t}
         for enc in self.rig.encoders:
-            if held:
-                theta = np.full(t.shape, self._held)
-            else:
-                theta = self.angle(t - enc.latency_s)
+            theta = np.full(t.shape, self._held) if held else self.angle(t - enc.latency_s)
             xy = self.radial_motion(enc, theta)
             for k, h in enumerate(enc.heads):
                 reading, phase = self.head_reading(enc, k, theta, xy=xy)
@@ -261,15 +261,6 @@ class VirtualRig(Session):
     def truth(self) -> dict[str, Any]:
         d = self._truth.to_dict()
         d["motion"] = self.motion.to_dict()
-        d["conventions"] = {
-            "graduation": "arcsec; argument: scale angle under the head theta + alpha [rad]",
-            "radial": "nm; argument: unwrapped spindle angle theta [rad]",
-            "signals": "Heydemann faults; interpolation error = truth.interpolation_error("
-                       "faults, head reading + alpha, periods_per_rev) [arcsec]",
-            "motion": "theta(t) [rad] of the stream's t [s] (continuous mode)",
-            "polygon": "face angle errors [arcsec]; autocollimator = (theta - theta0 - "
-                       "j * 2pi/faces) [arcsec] + face error + noise",
-        }
         return d
 
     def describe(self) -> dict[str, Any]:
@@ -281,7 +272,7 @@ class VirtualRig(Session):
 
 def zero_count(enc: Encoder, alpha: float) -> int:
     """The count a head's counter is zeroed at: the grating line nearest ``alpha`` [rad]."""
-    return int(round(alpha * enc.periods_per_rev / TWO_PI)) * enc.interpolation
+    return round(alpha * enc.periods_per_rev / TWO_PI) * enc.interpolation
 
 
 class SimCounter(Counter):

@@ -58,7 +58,8 @@ def graduation_truth(enc: Encoder) -> Series:
     rng = np.random.default_rng(g.get("seed", 0))
     nmax = int(g.get("max_harmonic", 120))
     n = np.arange(2, nmax + 1)
-    amp = n ** -float(g.get("slope", 1.0)) * np.abs(rng.normal(size=n.size) + 1j * rng.normal(size=n.size))
+    amp = n ** -float(g.get("slope", 1.0)) * np.abs(rng.normal(size=n.size)
+                                                   + 1j * rng.normal(size=n.size))
     c = amp * np.exp(1j * rng.uniform(0, TWO_PI, n.size))
     alphas = np.array([h.angle for h in enc.heads if h.name in enc.measure_heads])
     keep = np.abs(average_transfer(alphas, n)) > 0.5 if alphas.size > 1 else np.zeros(n.size, bool)
@@ -72,10 +73,8 @@ def graduation_truth(enc: Encoder) -> Series:
             cc[~keep] *= scale
             return _pp(cc, n) - target
 
-        if excess(0.0) < 0:
-            scale = _root(excess, 0.0, 1e3 / max(np.abs(c).max(), 1e-12))
-        else:
-            scale = 0.0
+        scale = _root(excess, 0.0, 1e3 / max(np.abs(c).max(), 1e-12)) if excess(0.0) < 0 \
+            else 0.0
         c[~keep] *= scale
     else:
         c *= target / _pp(c, n)

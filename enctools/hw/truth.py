@@ -14,9 +14,12 @@ Conventions (all angles in rad, errors in arcsec, radial motion in nm):
   the plane of that encoder, in nm, as a function of the *unwrapped* spindle angle
   theta (integer frequencies: synchronous part; the others: asynchronous).
 - ``signals[head]``: the head's signal faults (Heydemann model); the interpolation
-  error they cause is :func:`interpolation_error`.
-- ``motion``: theta(t) = theta0 + omega t + sum of speed-jitter sinusoids.
-- ``polygon``: face angle errors of the polygon, arcsec.
+  error they cause is :func:`interpolation_error` of the scale angle under the head
+  (head reading + alpha).
+- ``motion``: theta(t) = theta0 + omega t + sum of speed-jitter sinusoids, t the
+  stream's ``t`` [s] (continuous mode).
+- ``polygon``: face angle errors of the polygon, arcsec; the autocollimator reads
+  (theta - theta0 - j 2 pi / faces) [arcsec] + face error + noise at face j.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ class Series:
         out = np.zeros_like(x)
         integer = self.freq == np.round(self.freq)
         xr = np.mod(x, TWO_PI) if np.any(integer) else x
-        for f, a, b, is_int in zip(self.freq, self.a, self.b, integer):
+        for f, a, b, is_int in zip(self.freq, self.a, self.b, integer, strict=True):
             arg = f * (xr if is_int else x)
             out += a * np.cos(arg) + b * np.sin(arg)
         return out
@@ -68,7 +71,7 @@ class Series:
         c_n is in the unit of ``a``/``b`` (arcsec for graduation, nm for radial motion).
         """
         c = np.zeros(n_max + 1, dtype=np.complex128)
-        for f, a, b in zip(self.freq, self.a, self.b):
+        for f, a, b in zip(self.freq, self.a, self.b, strict=True):
             if f == round(f) and 0 <= f <= n_max:
                 c[int(f)] += a - 1j * b
         return c
@@ -169,7 +172,8 @@ class Motion:
     def __call__(self, t: np.ndarray) -> np.ndarray:
         t = np.asarray(t, dtype=np.float64) - self.t0
         out = self.theta0 + self.omega * t
-        for a, f, p in zip(self.jitter_amp, self.jitter_freq, self.jitter_phase):
+        for a, f, p in zip(self.jitter_amp, self.jitter_freq, self.jitter_phase,
+                           strict=True):
             out = out + a * np.sin(TWO_PI * f * t + p)
         return out
 
@@ -195,7 +199,6 @@ class Truth:
     signals: dict[str, SignalFaults] = field(default_factory=dict)
     polygon: np.ndarray | None = None
     motion: Motion | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -208,12 +211,10 @@ class Truth:
             d["polygon"] = list(map(float, self.polygon))
         if self.motion is not None:
             d["motion"] = self.motion.to_dict()
-        d.update(self.extra)
         return d
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Truth:
-        known = {"graduation", "radial", "signals", "polygon", "motion"}
         return cls(
             graduation={k: Series.from_dict(s) for k, s in d.get("graduation", {}).items()},
             radial={k: {ax: Series.from_dict(s) for ax, s in v.items()}
@@ -221,5 +222,4 @@ class Truth:
             signals={k: SignalFaults.from_dict(f) for k, f in d.get("signals", {}).items()},
             polygon=np.asarray(d["polygon"]) if "polygon" in d else None,
             motion=Motion.from_dict(d["motion"]) if "motion" in d else None,
-            extra={k: v for k, v in d.items() if k not in known},
         )

@@ -125,7 +125,8 @@ class VisaPort:
         try:
             self.resource.write(text)
         except self._errors.VisaIOError as exc:
-            msg = f"instrument {self.name} ({self.address}): cannot send {text!r}: {exc.description}"
+            msg = (f"instrument {self.name} ({self.address}): cannot send {text!r}: "
+                   f"{exc.description}")
             raise DeviceError(msg) from None
 
     def read_line(self) -> str:
@@ -152,13 +153,13 @@ class VisaPort:
     def clear(self) -> None:
         try:
             self.resource.clear()
-        except Exception as exc:  # noqa: BLE001 - not every interface or simulator clears
+        except Exception as exc:  # not every interface or simulator clears
             log.debug("%s: clear: %s", self.name, exc)
 
     def close(self) -> None:
         try:
             self.resource.close()
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             log.debug("%s: close: %s", self.name, exc)
 
     def hint(self) -> str:
@@ -174,7 +175,7 @@ def open_port(name: str, cfg: dict[str, Any], rig: Rig, policy: retry.Policy) ->
         raise DataError(msg)
     rm = resource_manager(rig)
     pyvisa = _pyvisa()
-    kw: dict[str, Any] = {"timeout": int(round(policy.timeout_s * 1000)),
+    kw: dict[str, Any] = {"timeout": round(policy.timeout_s * 1000),
                           "read_termination": _unescape(str(cfg.get("read_termination", "\n"))),
                           "write_termination": _unescape(str(cfg.get("write_termination", "\n")))}
     if "encoding" in cfg:

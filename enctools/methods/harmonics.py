@@ -42,19 +42,6 @@ def check_grid(points: int, band: int) -> None:
         raise UsageError(msg)
 
 
-def head_reading(counts: np.ndarray, counts_per_rev: int, zero_count: int,
-                 alpha: float) -> np.ndarray:
-    """A head's reading of the spindle angle theta [rad]: theta + its errors.
-
-    The counter of a head at nominal angle ``alpha`` [rad] is zeroed at the grating
-    line ``zero_count`` [count]; ``(counts + zero_count) * 2 pi / counts_per_rev`` is
-    then the scale angle under the head, and subtracting ``alpha`` leaves the spindle
-    angle plus the head's error (seed 000 eq. (1)).
-    """
-    c = np.asarray(counts, dtype=np.int64) + np.int64(zero_count)
-    return c.astype(np.float64) * (TWO_PI / counts_per_rev) - alpha
-
-
 def trapezoid_weights(x: np.ndarray) -> np.ndarray:
     """Trapezoid-rule weights [rad] of samples at ``x`` [rad] (monotonic either way)."""
     w = np.empty_like(x, dtype=np.float64)

@@ -154,7 +154,7 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
 
     The new column holds ``sum_k (counts_k)`` with ``counts_per_rev = N * cpr``,
     ``interpolation = N * interpolation`` and ``zero_count = sum_k zero_count_k`` and
-    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.methods.harmonics.head_reading`)
+    ``alpha_deg = mean_k alpha_k``: its reading (:func:`enctools.data.readings.head_reading`)
     is exactly the mean of the heads' readings (seed 000 eqs. (3), (6)); no rounding.
     Field metadata ``average_of`` names the heads; ``passes`` lists what A(n) keeps.
     """
@@ -261,12 +261,13 @@ def run(source: InputStream, settings: Settings) -> tuple[Header, Iterator[pa.Re
 
 def _measuring_groups(source: InputStream) -> tuple[tuple[str | None, tuple[str, ...]], ...]:
     """Each encoder's recorded measuring heads, as unnamed groups, where there are two or more."""
+    from enctools.data.readings import rig_encoders
     from enctools.data.schemas import columns_with_role
 
     present = set(columns_with_role(source.schema, "head"))
     groups: list[tuple[str | None, tuple[str, ...]]] = []
-    for enc in (source.meta.get("rig") or {}).get("encoders", []):
-        hs = tuple(h for h in enc.get("measure_heads", []) if h in present)
+    for enc in rig_encoders(source.meta):
+        hs = tuple(h for h in enc.measure_heads if h in present)
         if len(hs) >= 2:
             groups.append((None, hs))
     if not groups:

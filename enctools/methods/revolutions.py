@@ -221,7 +221,7 @@ class ChannelSpec:
 
 def mean_reading(batch: pa.RecordBatch, heads: tuple[HeadInfo, ...], source: str = "input",
                  minus: np.ndarray | None = None) -> np.ndarray:
-    """The mean of the heads' readings [rad] (:func:`~enctools.methods.harmonics.head_reading`)
+    """The mean of the heads' readings [rad] (:func:`~enctools.data.readings.head_reading`)
     over a batch.
 
     Counts are summed into one float64 array (exact below 2^53 counts) and scaled

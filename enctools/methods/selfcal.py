@@ -421,7 +421,7 @@ def plan(schema: pa.Schema, meta: dict, settings: Settings, source: str = "input
     heads when all are recorded (their average cancels radial motion), else the
     reference head.
     """
-    from enctools.data.readings import head_info
+    from enctools.data.readings import head_info, rig_measure_heads
     from enctools.data.readings import heads as all_heads
 
     infos = all_heads(schema)
@@ -434,10 +434,8 @@ def plan(schema: pa.Schema, meta: dict, settings: Settings, source: str = "input
         head_info(schema, name, source)  # DataError naming the heads present
     encoder = _encoder(infos, by_name, settings)
     enc_heads = [h for h in infos if h.encoder == encoder]
-    rig_enc: dict[str, Any] = next((e for e in (meta.get("rig") or {}).get("encoders", [])
-                                    if e.get("name") == encoder), {})
-    listed = rig_enc.get("measure_heads", [None])
-    measure = [n for n in rig_enc.get("measure_heads", []) if n in by_name]
+    listed = rig_measure_heads(meta, encoder)
+    measure = [n for n in listed if n in by_name]
     ref = settings.ref if settings.ref is not None else _nearest_zero(enc_heads).name
     heads = [h for h in _other_heads(settings, enc_heads, ref, measure) if h != ref]
     chosen = [by_name[ref]] + [by_name[h] for h in heads]

@@ -52,7 +52,7 @@ class Harmonics:
 
     def rows(self) -> list[dict[str, float]]:
         return [{"n": int(n), "amplitude": float(a), "phase": float(p)}
-                for n, a, p in zip(self.n, self.amplitude, self.phase)]
+                for n, a, p in zip(self.n, self.amplitude, self.phase, strict=True)]
 
 
 def _uniform_full_period(x: np.ndarray, period: float) -> bool:

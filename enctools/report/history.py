@@ -52,9 +52,6 @@ SCHEMA = pa.schema([
     pa.field("summary_json", pa.string()),
 ])
 
-FIGURE_COLUMNS = ("pp", "std", "mean", "max_abs", "drift_pp", "drift_max")
-
-
 def new_run_id(now: _dt.datetime | None = None) -> str:
     """A run id unique across hosts and processes: UTC time, host, pid, random."""
     now = now or _dt.datetime.now(_dt.UTC)

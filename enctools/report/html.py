@@ -6,6 +6,9 @@ comparison when several inputs carry deviation curves, the nightly history, and 
 conventions used (Bessel s, U with k = 2, ISO 230-2 definitions).
 """
 
+# The page's typography is meant: en dashes for missing values, minus signs and x.
+# ruff: noqa: RUF001
+
 from __future__ import annotations
 
 import base64
@@ -18,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from enctools import __version__
+from enctools.data.readings import rig_encoders
 from enctools.report import plots
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -70,18 +74,19 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
     return f"<table><tr>{th}</tr>{body}</table>"
 
 
-def _rig_html(rigs: dict[str, dict[str, Any]]) -> str:
-    if not rigs:
+def _rig_html(metas: dict[str, dict[str, Any]]) -> str:
+    """The rigs (name -> the metadata of an input recorded on it) as headings and tables."""
+    if not metas:
         return "<p>The inputs do not describe their rig.</p>"
     out = []
-    for name, rig in rigs.items():
+    for name, meta in metas.items():
+        rig = meta["rig"]
         out.append(f"<h3>{_e(name)}</h3><p>{_e(rig.get('description', ''))}</p>")
         rows = []
-        for enc in rig.get("encoders", []):
-            heads = ", ".join(f"{h.get('name')} {math.degrees(float(h.get('angle', 0))):g}°"
-                              for h in enc.get("heads", []))
-            rows.append([enc.get("name"), enc.get("model", ""), enc.get("periods_per_rev"),
-                         enc.get("interpolation"), enc.get("diameter_mm"), heads])
+        for enc in rig_encoders(meta):
+            heads = ", ".join(f"{h.name} {math.degrees(h.angle):g}°" for h in enc.heads)
+            rows.append([enc.name, enc.model, enc.periods_per_rev, enc.interpolation,
+                         enc.diameter_mm, heads])
         if rows:
             out.append(_table(["encoder", "model", "periods/rev", "interpolation",
                                "diameter [mm]", "heads (nominal angle)"], rows, left=2,
@@ -122,7 +127,7 @@ def _harmonics_table(curves: Sequence[Curve], top: int) -> str:
             continue
         h = c.harmonics.largest(top)
         cells = [f"n={int(n)}: {float(a):.3f} @ {math.degrees(float(p)):.0f}°"
-                 for n, a, p in zip(h.n, h.amplitude, h.phase)]
+                 for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         rows.append([c.name, c.unit] + cells + [""] * (top - len(cells)))
     if not rows:
         return ""
@@ -150,7 +155,7 @@ def _iso_html(s: Section) -> str:
         cols += ["x̄", "B_i", "R_i"]
     rows = []
     for r in iso.table():
-        row = [f"{r['position_deg']:.3f}"]
+        row: list[Any] = [f"{r['position_deg']:.3f}"]
         if iso.up is not None:
             row += [_f(r["mean_up"]), _f(r["s_up"]), _f(r["R_up"]), r["n_up"]]
         if iso.down is not None:
@@ -240,7 +245,7 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
             title: str | None = None) -> str:
     """The whole report as one HTML document (str)."""
     top = int(report.settings.get("top_harmonics", 5))
-    rigs = {s.rig_name: s.meta["rig"] for s in report.sections if s.rig_name}
+    rigs = {s.rig_name: s.meta for s in report.sections if s.rig_name}
     title = title or ("Calibration report" + (f" — {', '.join(rigs)}" if rigs else ""))
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"

@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import io
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from enctools.report.sections import Curve, Section, SpectrumRows
+
+if TYPE_CHECKING:
+    from matplotlib.projections.polar import PolarAxes
 
 SIZE = (7.2, 3.4)
 COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf",
@@ -121,7 +124,7 @@ def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:
     plotted as it is. Radial tick labels are nm of error (base circle = 0).
     """
     fig = Figure(figsize=(4.8, 4.8))
-    ax = fig.add_subplot(projection="polar")
+    ax = cast("PolarAxes", fig.add_subplot(projection="polar"))
     byname = {c.name.lower(): c for c in curves}
     xs = [c for n, c in byname.items() if n.endswith("x")]
     ys = [c for n, c in byname.items() if n.endswith("y")]

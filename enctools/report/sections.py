@@ -20,12 +20,14 @@ Readings are read batch by batch (memory does not grow with the run's length).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pyarrow as pa
 
+from enctools.data import readings
 from enctools.data.schemas import columns_with_role, field_meta
 from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
@@ -111,7 +113,11 @@ class Options:
     nmax: int = 100
 
 
-def build_section(stream: InputStream, opts: Options = Options()) -> Section:
+#: the report's default settings
+DEFAULT_OPTIONS = Options()
+
+
+def build_section(stream: InputStream, opts: Options = DEFAULT_OPTIONS) -> Section:
     """The section of one input stream (dispatch on its kind)."""
     build = {"deviations": _deviations, "spectrum": _spectrum, "points": _points,
              "model": _model, "rom": _rom, "readings": _readings}[stream.kind]
@@ -321,86 +327,101 @@ def _rom(stream: InputStream, s: Section, opts: Options) -> None:
 # -------------------------------------------------------------------- readings
 
 
+@dataclass
+class _ReadingsScan:
+    """What one pass over a readings stream gathers: extent, signals, step positions."""
+
+    rows: int = 0
+    t_first: float | None = None
+    t_last: float | None = None
+    first: dict[str, int] = field(default_factory=dict)    # head -> first count
+    last: dict[str, int] = field(default_factory=dict)     # head -> last count
+    signals: dict[str, list[np.ndarray]] = field(default_factory=dict)  # "H1.cos" -> parts
+    stride: int = 0                                         # signal samples kept: every n-th
+    target: list[np.ndarray] = field(default_factory=list)      # rad
+    direction: list[np.ndarray] = field(default_factory=list)
+    angle: list[np.ndarray] = field(default_factory=list)       # encoder angle [rad]
+
+
 def _readings(stream: InputStream, s: Section, opts: Options) -> None:
     schema = stream.schema
-    heads = columns_with_role(schema, "head")
-    hinfo = {h: field_meta(schema.field(h)) for h in heads}
-    signal_cols = {}
+    infos = readings.heads(schema)
+    signal_cols = _signal_columns(schema)
+    stepped = "target" in schema.names
+    # the positioning deviation is read on the heads of the first encoder
+    encoder = [i for i in infos if i.encoder == infos[0].encoder] if infos else []
+    scan = _ReadingsScan()
+    for batch in stream.batches():
+        if batch.num_rows:
+            _scan_batch(scan, batch, infos, signal_cols, encoder if stepped else [])
+    s.info["mode"] = s.meta.get("mode", "steps" if stepped else "continuous")
+    s.info["rows"] = scan.rows
+    s.info["heads"] = ", ".join(f"{i.name} ({i.encoder} at {math.degrees(i.alpha):g} deg)"
+                                for i in infos)
+    if scan.t_first is not None and scan.t_last is not None:
+        s.info["duration"] = f"{scan.t_last - scan.t_first:.4g} s"
+    if scan.rows and infos and not stepped:
+        h = infos[0]
+        turns = (scan.last[h.name] - scan.first[h.name]) / float(h.counts_per_rev)
+        s.info["turns"] = f"{turns:.4g} (head {h.name})"
+    for head in signal_cols:
+        if head + ".cos" in scan.signals:
+            c = np.concatenate(scan.signals[head + ".cos"])
+            sn = np.concatenate(scan.signals[head + ".sin"])
+            step = max(1, c.size // LISSAJOUS_POINTS)
+            s.signals[head] = (c[::step], sn[::step])
+    if stepped and infos and scan.rows:
+        _positioning(s, scan, encoder, opts)
+
+
+def _signal_columns(schema: pa.Schema) -> dict[str, dict[str, str]]:
+    """Raw signal columns: head -> component (cos, sin) -> column."""
+    out: dict[str, dict[str, str]] = {}
     for name in columns_with_role(schema, "signal"):
         fm = field_meta(schema.field(name))
-        signal_cols.setdefault(fm.get("head", name), {})[fm.get("component", "")] = name
-    stepped = "target" in schema.names
-    rows = 0
-    t_first = t_last = None
-    first = {h: None for h in heads}
-    last = {h: None for h in heads}
-    kept: dict[str, list[np.ndarray]] = {}
-    step_cols: dict[str, list[np.ndarray]] = {k: [] for k in ("target", "direction", "dev")}
-    stride = None
-    for batch in stream.batches():
-        if batch.num_rows == 0:
-            continue
-        rows += batch.num_rows
-        t = batch.column("t").to_numpy(zero_copy_only=False)
-        t_first = float(t[0]) if t_first is None else t_first
-        t_last = float(t[-1])
-        for h in heads:
-            c = batch.column(h)
-            first[h] = int(c[0].as_py()) if first[h] is None else first[h]
-            last[h] = int(c[-1].as_py())
-        if signal_cols:
-            if stride is None:
-                stride = max(1, batch.num_rows // 500)
-            for h, comp in signal_cols.items():
-                if "cos" in comp and "sin" in comp:
-                    kept.setdefault(h + ".cos", []).append(
-                        batch.column(comp["cos"]).to_numpy(zero_copy_only=False)[::stride])
-                    kept.setdefault(h + ".sin", []).append(
-                        batch.column(comp["sin"]).to_numpy(zero_copy_only=False)[::stride])
-        if stepped and heads:
-            step_cols["target"].append(batch.column("target").to_numpy(zero_copy_only=False))
-            if "direction" in schema.names:
-                step_cols["direction"].append(
-                    batch.column("direction").to_numpy(zero_copy_only=False))
-            step_cols["dev"].append(_encoder_angle(batch, heads, hinfo))
-    s.info["mode"] = s.meta.get("mode", "steps" if stepped else "continuous")
-    s.info["rows"] = rows
-    s.info["heads"] = ", ".join(f"{h} ({hinfo[h].get('encoder', '?')} at "
-                                f"{float(hinfo[h].get('alpha_deg', 0)):g} deg)" for h in heads)
-    if rows:
-        s.info["duration"] = f"{t_last - t_first:.4g} s"
-    if rows and heads and not stepped:
-        h = heads[0]
-        turns = (last[h] - first[h]) / float(hinfo[h]["counts_per_rev"])
-        s.info["turns"] = f"{turns:.4g} (head {h})"
-    for h in signal_cols:
-        if h + ".cos" in kept:
-            c = np.concatenate(kept[h + ".cos"])
-            sn = np.concatenate(kept[h + ".sin"])
-            step = max(1, c.size // LISSAJOUS_POINTS)
-            s.signals[h] = (c[::step], sn[::step])
-    if stepped and heads and rows:
-        target = np.concatenate(step_cols["target"])
-        angle = np.concatenate(step_cols["dev"])
-        dev = (np.mod(angle - target + np.pi, TWO_PI) - np.pi) / ARCSEC
-        dev -= dev.mean()
-        direction = np.concatenate(step_cols["direction"]) if step_cols["direction"] else None
-        enc = hinfo[heads[0]].get("encoder", "")
-        used = [h for h in heads if hinfo[h].get("encoder") == enc]
-        s.notes.append(f"positioning deviation = mean of heads {', '.join(used)} (encoder "
-                       f"{enc}) - target, mean removed (head zeros are set below one signal "
-                       "period)")
-        _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                     "positioning", tol_deg=1e-9)
+        out.setdefault(fm.get("head", name), {})[fm.get("component", "")] = name
+    return out
 
 
-def _encoder_angle(batch: pa.RecordBatch, heads: list[str],
-                   hinfo: dict[str, dict[str, str]]) -> np.ndarray:
-    """Mean angle [rad] of the heads of the first encoder (cancels odd harmonics, seed 000)."""
-    enc = hinfo[heads[0]].get("encoder")
-    used = [h for h in heads if hinfo[h].get("encoder") == enc]
-    total = np.zeros(batch.num_rows)
-    for h in used:
-        counts = batch.column(h).to_numpy(zero_copy_only=False).astype(np.float64)
-        total += counts * (TWO_PI / float(hinfo[h]["counts_per_rev"]))
-    return total / len(used)
+def _scan_batch(scan: _ReadingsScan, batch: pa.RecordBatch, infos: list[readings.HeadInfo],
+                signal_cols: dict[str, dict[str, str]],
+                encoder: list[readings.HeadInfo]) -> None:
+    """Add one batch to the scan; ``encoder``: the heads whose mean angle is recorded
+    with the targets (step runs only)."""
+    if not scan.rows:
+        scan.t_first = float(batch.column("t")[0].as_py())
+    scan.rows += batch.num_rows
+    scan.t_last = float(batch.column("t")[-1].as_py())
+    for i in infos:
+        c = batch.column(i.name)
+        scan.first.setdefault(i.name, int(c[0].as_py()))
+        scan.last[i.name] = int(c[-1].as_py())
+    if signal_cols:
+        scan.stride = scan.stride or max(1, batch.num_rows // 500)  # set by the first batch
+        for h, comp in signal_cols.items():
+            if "cos" in comp and "sin" in comp:
+                for part in ("cos", "sin"):
+                    scan.signals.setdefault(f"{h}.{part}", []).append(
+                        batch.column(comp[part]).to_numpy(zero_copy_only=False)[::scan.stride])
+    if encoder:
+        scan.target.append(batch.column("target").to_numpy(zero_copy_only=False))
+        if "direction" in batch.schema.names:
+            scan.direction.append(batch.column("direction").to_numpy(zero_copy_only=False))
+        scan.angle.append(readings.mean_head_angle([batch.column(i.name) for i in encoder],
+                                                   encoder))
+
+
+def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInfo],
+                 opts: Options) -> None:
+    """Positioning deviation of a step run: mean angle of the encoder's heads - target."""
+    target = np.concatenate(scan.target)
+    angle = np.concatenate(scan.angle)
+    dev = (np.mod(angle - target + np.pi, TWO_PI) - np.pi) / ARCSEC
+    dev -= dev.mean()
+    direction = np.concatenate(scan.direction) if scan.direction else None
+    enc = encoder[0].encoder
+    s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
+                   f"(encoder {enc}) - target, mean removed (head zeros are set below one "
+                   "signal period)")
+    _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
+                 "positioning", tol_deg=1e-9)

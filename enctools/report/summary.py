@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from enctools.data.streams import open_input
-from enctools.report.sections import Options, Section, build_section
+from enctools.report.sections import DEFAULT_OPTIONS, Options, Section, build_section
 
 
 @dataclass
@@ -26,7 +26,7 @@ class Report:
                     yield s, c
 
 
-def build_report(inputs: Sequence[str | None], opts: Options = Options()) -> Report:
+def build_report(inputs: Sequence[str | None], opts: Options = DEFAULT_OPTIONS) -> Report:
     """Read every input (a path, or None/'-' for stdin) into its section.
 
     Raises DataError (exit 2) naming the input when one cannot be read.

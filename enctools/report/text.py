@@ -34,7 +34,7 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
     if h is not None and h.n.size:
         per = "/period" if c.domain == "period" else "/rev"
         parts = [f"n={int(n)} {_g(a)}{sym} @ {np.degrees(p):.0f} deg"
-                 for n, a, p in zip(h.n, h.amplitude, h.phase)]
+                 for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
     return lines
 

@@ -9,6 +9,7 @@ not a measurement) are not checked.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,8 +51,8 @@ def parse_pairs(values: tuple[str, ...], option: str, key_type: type) -> dict:
             k = key_type(key.strip())
             lim = float(limit)
         except ValueError:
-            k = lim = None
-        if not sep or k is None or not np.isfinite(lim) or lim < 0:
+            k, lim = None, math.nan
+        if not sep or k is None or not math.isfinite(lim) or lim < 0:
             msg = f"{option} wants KEY:VALUE with VALUE >= 0 (e.g. {option} 2:0.5), not {v!r}"
             raise UsageError(msg)
         if key_type is str and k not in ISO_FIGURES:
