@@ -25,7 +25,8 @@ def _positive(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
     return value
 
 
-def _float_list(ctx: click.Context, param: click.Parameter, value: str | None) -> list[float] | None:
+def _float_list(ctx: click.Context, param: click.Parameter,
+                value: str | None) -> list[float] | None:
     if value is None:
         return None
     try:
