@@ -145,6 +145,7 @@ def test_settings_refuse_bad_band() -> None:
     ((("Z", ("H1", "P1")),), "--average Z: heads H1, P1 are of different encoders"),
     (((None, ("H1", "H1")),), "--average H: a head is named twice"),
     ((("H1", ("H2", "H3")),), "--average H1: the input already has a column 'H1'"),
+    ((("X", ("H1", "H3")), ("X", ("H2", "H4"))), "--average X: the name is given to two"),
 ])
 def test_groups_that_do_not_fit_the_heads(short_run: tuple, groups: tuple, expect: str) -> None:
     from enctools.data.streams import InputStream

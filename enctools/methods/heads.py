@@ -285,6 +285,9 @@ def _averages(schema: pa.Schema, groups: tuple[tuple[str | None, tuple[str, ...]
     resolved: list[AverageGroup] = []
     fields = []
     for name, hs in groups:
+        if name is not None and any(g.name == name for g in resolved):
+            msg = f"--average {name}: the name is given to two averages"
+            raise UsageError(msg)
         g = AverageGroup(name or default_name(hs, taken), tuple(hs))
         fields.append(average_field(schema, g, band, source))
         taken.add(g.name)
