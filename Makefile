@@ -4,9 +4,12 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 OUT     ?= demo-out
 ENC     := $(abspath $(BIN)/enc)
+# two workers, one test file each at a time: each file's module fixtures (simulator runs)
+# are then made once
+PYTEST   = -m pytest -q -n 2 --dist loadfile
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo screenshot nightly chromium test bench fuzz man lint clean
+.PHONY: help install demo screenshot nightly chromium test check bench fuzz man lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 12
@@ -44,8 +47,11 @@ chromium:
 	  && (apt-get update -qq && apt-get install -y -qq chromium) >/dev/null 2>&1; } \
 	  || echo "make: chromium is not installed; the report screenshot test will be skipped"
 
-test: $(VENV)/.installed-test chromium  ## install what the tests need and run them
-	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+test: $(VENV)/.installed-test chromium  ## install what the tests need and run them all
+	$(BIN)/python $(PYTEST)
+
+check: $(VENV)/.installed-test  ## the fast tier: every test not marked slow (under 30 s)
+	$(BIN)/python $(PYTEST) -m 'not slow'
 
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out

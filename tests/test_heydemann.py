@@ -78,6 +78,7 @@ def test_short_arc_is_a_clear_error(arc_deg):
         hd.fit_ellipse(*signals(phi))
 
 
+@pytest.mark.slow
 def test_partial_arcs_never_silently_wrong():
     """Noisy arcs of 60-300 deg: each fit is refused or within 5 stated u."""
     rng = np.random.default_rng(5)
