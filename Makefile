@@ -9,7 +9,8 @@ ENC     := $(abspath $(BIN)/enc)
 PYTEST   = -m pytest -q -n 2 --dist loadfile
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo screenshot nightly chromium test check bench fuzz man lint clean
+.PHONY: help install demo screenshot nightly chromium test check bench fuzz man lint typecheck \
+        clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 12
@@ -24,6 +25,10 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 
 $(VENV)/.installed-test: $(VENV)/.installed
 	$(BIN)/python -m pip install -q -e '.[test]'
+	@touch $@
+
+$(VENV)/.installed-lint: $(VENV)/.installed
+	$(BIN)/python -m pip install -q -e '.[lint]'
 	@touch $@
 
 install: $(VENV)/.installed  ## create .venv and install enctools into it
@@ -67,8 +72,12 @@ man:  ## check that every man page renders without warnings
 	@for f in man/*.[15]; do out=$$(LC_ALL=C.UTF-8 MANWIDTH=80 man --warnings -l $$f 2>&1 >/dev/null); \
 	  if [ -n "$$out" ]; then echo "$$f: $$out"; exit 1; fi; done; echo "man pages: ok"
 
-lint: $(VENV)/.installed-test  ## ruff over the code
-	$(BIN)/python -m pip install -q ruff && $(BIN)/ruff check enctools tests
+# ruff check only: the code is laid out by hand (aligned continuation lines), not by ruff format
+lint: $(VENV)/.installed-lint  ## ruff (pinned; rules in pyproject.toml) over the code and tests
+	$(BIN)/ruff check enctools tests
+
+typecheck: $(VENV)/.installed-lint  ## mypy (pinned; settings in pyproject.toml) over enctools
+	$(BIN)/mypy
 
 clean:  ## remove outputs (keeps .venv)
-	rm -rf $(OUT) bench-out fuzz-out nightly .pytest_cache
+	rm -rf $(OUT) bench-out fuzz-out nightly .pytest_cache .mypy_cache .ruff_cache
