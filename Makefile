@@ -4,13 +4,16 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 OUT     ?= demo-out
 ENC     := $(abspath $(BIN)/enc)
+# the oldest versions pyproject.toml declares, in a venv of their own (make test-min)
+VENV_MIN := .venv-min
+MIN_PINS := tests/min-versions.txt
 # two workers, one test file each at a time: each file's module fixtures (simulator runs)
 # are then made once
 PYTEST   = -m pytest -q -n 2 --dist loadfile
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo screenshot nightly chromium test check bench fuzz man lint typecheck \
-        clean
+.PHONY: help install demo screenshot nightly chromium test check test-min bench fuzz man lint \
+        typecheck clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 12
@@ -29,6 +32,14 @@ $(VENV)/.installed-test: $(VENV)/.installed
 
 $(VENV)/.installed-lint: $(VENV)/.installed
 	$(BIN)/python -m pip install -q -e '.[lint]'
+	@touch $@
+
+# compiled packages as wheels only: a floor without a wheel for this Python fails at once
+$(VENV_MIN)/.installed: pyproject.toml $(MIN_PINS)
+	rm -rf $(VENV_MIN)
+	$(PYTHON) -m venv $(VENV_MIN)
+	$(VENV_MIN)/bin/python -m pip install -q --only-binary numpy,scipy,pyarrow,h5py,matplotlib \
+	    -c $(MIN_PINS) -e '.[test]'
 	@touch $@
 
 install: $(VENV)/.installed  ## create .venv and install enctools into it
@@ -57,6 +68,9 @@ test: $(VENV)/.installed-test chromium  ## install what the tests need and run t
 
 check: $(VENV)/.installed-test  ## the fast tier: every test not marked slow (under 30 s)
 	$(BIN)/python $(PYTEST) -m 'not slow'
+
+test-min: $(VENV_MIN)/.installed  ## the whole suite on the oldest declared versions (.venv-min)
+	$(VENV_MIN)/bin/python $(PYTEST)
 
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out
