@@ -30,8 +30,9 @@ $(VENV)/.installed-test: $(VENV)/.installed
 	$(BIN)/python -m pip install -q -e '.[test]'
 	@touch $@
 
+# with the hardware extras, so that mypy sees pyvisa's types
 $(VENV)/.installed-lint: $(VENV)/.installed
-	$(BIN)/python -m pip install -q -e '.[lint]'
+	$(BIN)/python -m pip install -q -e '.[lint,hw]'
 	@touch $@
 
 # compiled packages as wheels only: a floor without a wheel for this Python fails at once
