@@ -4,9 +4,16 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 OUT     ?= demo-out
 ENC     := $(abspath $(BIN)/enc)
+# the oldest versions pyproject.toml declares, in a venv of their own (make test-min)
+VENV_MIN := .venv-min
+MIN_PINS := tests/min-versions.txt
+# two workers, one test file each at a time: each file's module fixtures (simulator runs)
+# are then made once
+PYTEST   = -m pytest -q -n 2 --dist loadfile
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo screenshot nightly chromium test bench fuzz man lint clean
+.PHONY: help install demo screenshot nightly chromium test check test-min bench fuzz man lint \
+        typecheck clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 12
@@ -21,6 +28,19 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 
 $(VENV)/.installed-test: $(VENV)/.installed
 	$(BIN)/python -m pip install -q -e '.[test]'
+	@touch $@
+
+# with the hardware extras, so that mypy sees pyvisa's types
+$(VENV)/.installed-lint: $(VENV)/.installed
+	$(BIN)/python -m pip install -q -e '.[lint,hw]'
+	@touch $@
+
+# compiled packages as wheels only: a floor without a wheel for this Python fails at once
+$(VENV_MIN)/.installed: pyproject.toml $(MIN_PINS)
+	rm -rf $(VENV_MIN)
+	$(PYTHON) -m venv $(VENV_MIN)
+	$(VENV_MIN)/bin/python -m pip install -q --only-binary numpy,scipy,pyarrow,h5py,matplotlib \
+	    -c $(MIN_PINS) -e '.[test]'
 	@touch $@
 
 install: $(VENV)/.installed  ## create .venv and install enctools into it
@@ -44,8 +64,14 @@ chromium:
 	  && (apt-get update -qq && apt-get install -y -qq chromium) >/dev/null 2>&1; } \
 	  || echo "make: chromium is not installed; the report screenshot test will be skipped"
 
-test: $(VENV)/.installed-test chromium  ## install what the tests need and run them
-	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+test: $(VENV)/.installed-test chromium  ## install what the tests need and run them all
+	$(BIN)/python $(PYTEST)
+
+check: $(VENV)/.installed-test  ## the fast tier: every test not marked slow (under 30 s)
+	$(BIN)/python $(PYTEST) -m 'not slow'
+
+test-min: $(VENV_MIN)/.installed  ## the whole suite on the oldest declared versions (.venv-min)
+	$(VENV_MIN)/bin/python $(PYTEST)
 
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out
@@ -61,8 +87,12 @@ man:  ## check that every man page renders without warnings
 	@for f in man/*.[15]; do out=$$(LC_ALL=C.UTF-8 MANWIDTH=80 man --warnings -l $$f 2>&1 >/dev/null); \
 	  if [ -n "$$out" ]; then echo "$$f: $$out"; exit 1; fi; done; echo "man pages: ok"
 
-lint: $(VENV)/.installed-test  ## ruff over the code
-	$(BIN)/python -m pip install -q ruff && $(BIN)/ruff check enctools tests
+# ruff check only: the code is laid out by hand (aligned continuation lines), not by ruff format
+lint: $(VENV)/.installed-lint  ## ruff (pinned; rules in pyproject.toml) over the code and tests
+	$(BIN)/ruff check enctools tests
+
+typecheck: $(VENV)/.installed-lint  ## mypy (pinned; settings in pyproject.toml) over enctools
+	$(BIN)/mypy
 
 clean:  ## remove outputs (keeps .venv)
-	rm -rf $(OUT) bench-out fuzz-out nightly .pytest_cache
+	rm -rf $(OUT) bench-out fuzz-out nightly .pytest_cache .mypy_cache .ruff_cache

@@ -1,11 +1,27 @@
-"""Shared fixtures: the enc executable, a runner for real subprocess pipelines, and
-session-scoped simulator runs so each is made once per test session."""
+"""Shared fixtures: the enc executable, a runner for real subprocess pipelines, an
+in-process runner for usage errors and small cases, and the simulator runs that several
+files read, made once per test session (once across xdist workers too).
+
+Tiers: ``make check`` runs the tests not marked ``slow`` (in under 30 s on two cores);
+``make test`` runs them all. A test is marked slow when it runs the simulator on a
+full-size run, reads one made by a slow fixture, or runs many subprocesses.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
+import io
+import logging
 import os
+import shlex
+import signal
 import subprocess
 import sys
+import tempfile
+import threading
+import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -40,6 +56,113 @@ def run(cmd: str | list[str], cwd: Path | None = None, input: bytes | None = Non
                           timeout=timeout, executable="/bin/bash" if shell else None)
 
 
+# ------------------------------------------------------------------ in-process runner
+
+@contextlib.contextmanager
+def _as_a_process(stdin: io.TextIOWrapper, stdout: io.TextIOWrapper,
+                  stderr: io.TextIOWrapper, env: dict[str, str] | None,
+                  cwd: Path | None) -> Iterator[None]:
+    """Standard streams, environment, cwd, SIGTERM handler, logging and warning filters as
+    a fresh ``enc`` process has them; everything put back afterwards."""
+    from enctools.cli import runner
+
+    saved_streams = sys.stdin, sys.stdout, sys.stderr
+    saved_env = dict(os.environ)
+    saved_cwd = os.getcwd()
+    saved_sigterm = signal.getsignal(signal.SIGTERM)
+    saved_state = dict(getattr(runner, "_state", {}))
+    log = logging.getLogger("enctools")
+    saved_log = log.handlers[:], log.level, log.propagate
+    os.environ.pop("ENC_DEBUG", None)
+    os.environ.update(env or {})
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        sys.stdin, sys.stdout, sys.stderr = stdin, stdout, stderr
+        with warnings.catch_warnings():
+            _fresh_warning_filters()
+            warnings.showwarning = _show_on_stderr
+            yield
+    finally:
+        sys.stdin, sys.stdout, sys.stderr = saved_streams
+        os.environ.clear()
+        os.environ.update(saved_env)
+        os.chdir(saved_cwd)
+        signal.signal(signal.SIGTERM, saved_sigterm)
+        if hasattr(runner, "_state"):
+            runner._state.clear()
+            runner._state.update(saved_state)
+        log.handlers[:], log.level, log.propagate = saved_log
+
+
+def _fresh_warning_filters() -> None:
+    """The warning filters of a fresh interpreter (pytest's would hide what enc shows)."""
+    warnings.resetwarnings()
+    for category in (ResourceWarning, ImportWarning, PendingDeprecationWarning,
+                     DeprecationWarning):
+        warnings.filterwarnings("ignore", category=category)
+    warnings.filterwarnings("default", category=DeprecationWarning, module="__main__")
+
+
+def _show_on_stderr(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                    file: object = None, line: str | None = None) -> None:
+    sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
+class _Captured(io.BytesIO):
+    """A captured stdout/stderr; closing it (as a command may close its output) keeps what
+    was written."""
+
+    def close(self) -> None:
+        pass
+
+
+def _exit_status(main: Callable[[list[str]], None], argv: list[str]) -> int:
+    """The status ``main(argv)`` exits with, as the interpreter would make it."""
+    try:
+        main(argv)
+    except SystemExit as exc:
+        if exc.code is None or isinstance(exc.code, int):
+            return exc.code or 0
+        sys.stderr.write(f"{exc.code}\n")
+        return 1
+    return 0
+
+
+def run_in_process(args: str | list[str], input: bytes | None = None,
+                   env: dict[str, str] | None = None,
+                   cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """Run one ``enc`` command inside this process; the result reads like :func:`run`'s.
+
+    ``args``: the command line (``"enc info x.parquet"`` or a list, with or without the
+    leading ``enc``); no shell, no pipes. stdin holds ``input`` (empty by default, like
+    /dev/null); stdout and stderr are captured as bytes; the exit status is the one
+    ``enctools.cli.main.main`` ends with. For usage errors and small cases: it saves the
+    interpreter's start-up (~0.3 s a command). Pipelines and signals need :func:`run`.
+    """
+    from enctools.cli.main import main
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.fail("in-process commands install a SIGTERM handler: they need the main "
+                    "thread (pytest-xdist >= 3.6 runs the tests there)")
+    argv = shlex.split(args) if isinstance(args, str) else [str(a) for a in args]
+    if argv[:1] == ["enc"]:
+        argv = argv[1:]
+    out, err = _Captured(), _Captured()
+    with tempfile.TemporaryFile() as raw_in:
+        raw_in.write(input or b"")
+        raw_in.seek(0)
+        stdin, stdout, stderr = (io.TextIOWrapper(f, encoding="utf-8", write_through=True)
+                                 for f in (raw_in, out, err))
+        with _as_a_process(stdin, stdout, stderr, env, cwd):
+            code = _exit_status(main, argv)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        for stream in (stdin, stdout, stderr):
+            stream.detach()
+    return subprocess.CompletedProcess(["enc", *argv], code, out.getvalue(), err.getvalue())
+
+
 def one_error_line(r: subprocess.CompletedProcess, code: int, cmd: str = "enc acquire") -> str:
     """The one error line of a failed command (warnings, e.g. logged retries, may precede it)."""
     err = r.stderr.decode()
@@ -50,21 +173,44 @@ def one_error_line(r: subprocess.CompletedProcess, code: int, cmd: str = "enc ac
     return lines[0]
 
 
+# ------------------------------------------------------------- shared simulator runs
+
+
+def _shared_dir(factory: pytest.TempPathFactory) -> Path:
+    """A folder every xdist worker of this session sees (the session's base temp's parent
+    under xdist, the base temp itself without)."""
+    base = factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+def made_once(factory: pytest.TempPathFactory, name: str, make: Callable[[Path], None]) -> Path:
+    """``name`` in the shared folder, made by ``make(path)`` by the first worker that asks
+    (the others wait for it on a lock): each simulator run once per test session."""
+    path = _shared_dir(factory) / "shared" / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path.parent / f".{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not path.exists():
+            make(path)
+    return path
+
+
+def _acquire(*args: str) -> Callable[[Path], None]:
+    """``enc acquire ARGS -o PATH`` (the file appears only once complete)."""
+    def make(path: Path) -> None:
+        r = run(["enc", "acquire", *args, "-o", str(path)])
+        assert r.returncode == 0, r.stderr.decode()
+    return make
+
+
 @pytest.fixture(scope="session")
 def sjtu_raw(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The default sjtu-dual run (20 revolutions, 9 heads) as Parquet."""
-    d = tmp_path_factory.mktemp("sjtu")
-    out = d / "raw.parquet"
-    r = run(["enc", "acquire", "--rig", "sjtu-dual", "-o", str(out)])
-    assert r.returncode == 0, r.stderr.decode()
-    return out
+    return made_once(tmp_path_factory, "sjtu-raw.parquet", _acquire("--rig", "sjtu-dual"))
 
 
 @pytest.fixture(scope="session")
 def ciomp_steps(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The default ciomp-23bit polygon run (24 positions) as Parquet."""
-    d = tmp_path_factory.mktemp("ciomp")
-    out = d / "steps.parquet"
-    r = run(["enc", "acquire", "--rig", "ciomp-23bit", "--mode", "steps", "-o", str(out)])
-    assert r.returncode == 0, r.stderr.decode()
-    return out
+    return made_once(tmp_path_factory, "ciomp-steps.parquet",
+                     _acquire("--rig", "ciomp-23bit", "--mode", "steps"))

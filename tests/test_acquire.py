@@ -20,6 +20,7 @@ def sjtu(sjtu_raw):
     return streams.read_table(str(sjtu_raw), "readings")
 
 
+@pytest.mark.slow
 def test_default_run_shape(sjtu):
     header, table = sjtu
     assert table.num_rows == 400_000  # 20 r at 1 r/min every 3 ms
@@ -37,6 +38,7 @@ def test_default_run_shape(sjtu):
     assert header.history[-1].endswith("enc acquire --rig sjtu-dual -o " + header.history[-1].split(" -o ")[-1])
 
 
+@pytest.mark.slow
 def test_every_format_reads_back_identical(sjtu_raw, sjtu, tmp_path):
     _, ref = sjtu
     r = run(f"enc acquire --rig sjtu-dual | cat > {tmp_path}/raw.arrows && "
@@ -63,6 +65,7 @@ def expected_reading(truth: Truth, info, theta: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("head", HEADS)
+@pytest.mark.slow
 def test_truth_reproduces_the_readings(sjtu, head):
     """Counts minus the model from the truth leave noise + quantisation only.
 
@@ -106,6 +109,7 @@ def _harmonics_over_turns(err: np.ndarray, theta: np.ndarray, nmax: int) -> np.n
     return out
 
 
+@pytest.mark.slow
 def test_four_equally_spaced_heads_keep_multiples_of_four(sjtu):
     """A sanity check of the simulator: mean(H1..H4) - theta has only multiples of 4.
 
@@ -157,6 +161,7 @@ def test_steps_run_on_the_polygon(ciomp_steps):
     assert np.std(enc_err[::5]) == pytest.approx(1.3, abs=0.25)  # seed 001: 1.30"
 
 
+@pytest.mark.slow
 def test_sweep_probes_follow_the_rotation(tmp_path):
     r = run(f"enc acquire --rig sjtu-dual --mode sweep --readings 1 -o {tmp_path}/s.parquet")
     assert r.returncode == 0, r.stderr
@@ -178,6 +183,7 @@ def test_counter_wrap_is_unwrapped():
     assert u(np.array([3]), expected=256 * 5.1)[0] == 256 * 5 + 3
 
 
+@pytest.mark.slow
 def test_replay_passes_the_recording_through(sjtu_raw, sjtu, tmp_path):
     r = run(f"enc acquire --replay {sjtu_raw} | enc acquire --replay - -o {tmp_path}/r.parquet")
     assert r.returncode == 0, r.stderr
@@ -192,6 +198,7 @@ def test_closed_pipe_ends_quietly():
     assert r.stdout.strip() == b"0"
 
 
+@pytest.mark.slow
 def test_seed_changes_noise_not_truth(tmp_path):
     run(f"enc acquire --rig sjtu-dual --revolutions 0.1 --seed 7 -o {tmp_path}/a.arrows")
     run(f"enc acquire --rig sjtu-dual --revolutions 0.1 --seed 8 -o {tmp_path}/b.arrows")

@@ -60,6 +60,7 @@ def combined_error(path: Path, name: str) -> np.ndarray:
 
 @pytest.mark.parametrize("name,encoder,angles,paper_pp", [
     ("H", "II", [0, 90, 180, 270], 0.34), ("P", "I", [0, 180], 0.54)])
+@pytest.mark.slow
 def test_combined_error_matches_filtered_truth(averaged: dict, name: str, encoder: str,
                                                angles: list[float], paper_pp: float) -> None:
     header, _ = read_table(averaged["path"])
@@ -74,6 +75,7 @@ def test_combined_error_matches_filtered_truth(averaged: dict, name: str, encode
     assert abs(pp - paper_pp) <= 0.1 * paper_pp, pp
 
 
+@pytest.mark.slow
 def test_sum_of_counts_is_exact(averaged: dict) -> None:
     t = pq.read_table(averaged["path"])
     total = sum(t.column(h).to_numpy() for h in ("H1", "H2", "H3", "H4"))
@@ -94,6 +96,7 @@ def test_average_transfer_summary() -> None:
     assert abs(s.radial_gain - np.cos(np.radians(30))) < 1e-12
 
 
+@pytest.mark.slow
 def test_named_groups_and_drop(tmp_path: Path) -> None:
     r = run(f"enc acquire --rig sjtu-dual --revolutions 0.2 | enc average-heads -a HA=H1,H3 "
             f"-a X=H1,H5 --drop -o {tmp_path}/a.parquet")
@@ -107,6 +110,7 @@ def test_named_groups_and_drop(tmp_path: Path) -> None:
                                         ("-a H9,H1", "no head 'H9'"),
                                         ("-a H1=H2,H3", "already has a column"),
                                         ("-a =", "expected NAME=")])
+@pytest.mark.slow
 def test_bad_groups(tmp_path: Path, opt: str, expect: str) -> None:
     out = tmp_path / "a.parquet"
     r = run(f"enc acquire --rig sjtu-dual --revolutions 0.05 | enc average-heads {opt} -o {out}")

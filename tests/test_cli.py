@@ -5,7 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from conftest import DATA, run
+import pytest
+from conftest import DATA, run_in_process
 
 HEAVY = ("numpy", "scipy", "pyarrow.parquet", "h5py", "matplotlib")
 
@@ -34,15 +35,16 @@ def test_every_command_help_imports_nothing_heavy():
     assert heavy == {name: [] for name in COMMANDS}, heavy
 
 
+@pytest.mark.slow
 def test_a_run_imports_only_what_it_uses(tmp_path):
     """A tiny run of a command that plots nothing and reads no HDF5 imports neither matplotlib
     nor h5py (nor scipy where the command needs none)."""
-    run(f"enc acquire --rig sjtu-dual --revolutions 0.0005 -q -o {tmp_path}/t.arrows")
+    run_in_process(f"enc acquire --rig sjtu-dual --revolutions 0.0005 -q -o {tmp_path}/t.arrows")
     cases = {"info": ([str(tmp_path / "t.arrows")], ("scipy", "matplotlib", "h5py")),
              "points": ([f"{DATA}/seed001_table1.csv"], ("scipy", "matplotlib", "h5py")),
              "make-rom": ([str(tmp_path / "m.arrows"), "--bits", "10", "-o",
                            str(tmp_path / "r.bin")], ("scipy", "matplotlib", "h5py"))}
-    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv -q -o {tmp_path}/m.arrows")
+    r = run_in_process(f"enc fit-rbf {DATA}/seed001_table1.csv -q -o {tmp_path}/m.arrows")
     assert r.returncode == 0, r.stderr.decode()
     code = ("import sys\nfrom enctools.cli.main import main\n"
             "try:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n    assert not e.code, e.code\n"
@@ -57,31 +59,32 @@ def test_a_run_imports_only_what_it_uses(tmp_path):
 
 
 def test_unknown_command_is_one_line():
-    r = run("enc frobnicate")
+    r = run_in_process("enc frobnicate")
     err = r.stderr.decode()
     assert r.returncode == 2
     assert err.count("\n") == 1 and "No such command 'frobnicate'" in err
 
 
 def test_no_command_prints_help_and_exits_2():
-    r = run("enc")
+    r = run_in_process("enc")
     assert r.returncode == 2
     assert b"Commands:" in r.stderr and r.stdout == b""
 
 
 def test_version():
-    r = run("enc --version")
+    r = run_in_process("enc --version")
     assert r.returncode == 0 and r.stdout.startswith(b"enctools, version")
 
 
 def test_debug_shows_a_traceback_only_when_asked(tmp_path):
-    r = run(f"enc info {tmp_path}/missing.parquet")
+    r = run_in_process(f"enc info {tmp_path}/missing.parquet")
     assert r.returncode == 2 and b"Traceback" not in r.stderr
     assert r.stderr.decode() == f"enc info: error: {tmp_path}/missing.parquet: no such file\n"
-    r = run(f"enc info --debug {tmp_path}/missing.parquet")
+    r = run_in_process(f"enc info --debug {tmp_path}/missing.parquet")
     assert r.returncode == 2 and b"Traceback" in r.stderr
 
 
+@pytest.mark.slow
 def test_sigterm_mid_run_keeps_a_valid_stream(tmp_path):
     """SIGTERM while writing: exit 143, the file holds every batch written before it."""
     import signal
@@ -108,8 +111,9 @@ def test_sigterm_mid_run_keeps_a_valid_stream(tmp_path):
 
 
 def test_shell_completion_script():
-    r = run("_ENC_COMPLETE=bash_source enc")
+    r = run_in_process("enc", env={"_ENC_COMPLETE": "bash_source"})
     assert r.returncode == 0
     assert b"complete" in r.stdout and b"_ENC_COMPLETE" in r.stdout
-    r = run("COMP_WORDS='enc acq' COMP_CWORD=1 _ENC_COMPLETE=bash_complete enc")
+    r = run_in_process("enc", env={"COMP_WORDS": "enc acq", "COMP_CWORD": "1",
+                                   "_ENC_COMPLETE": "bash_complete"})
     assert b"acquire" in r.stdout

@@ -43,6 +43,7 @@ def combined(truth: Truth, encoder: str, angles: list[float]) -> np.ndarray:
     return truth.graduation[encoder].harmonics(K) * average_transfer(np.radians(angles), n)
 
 
+@pytest.mark.slow
 def test_eq10_h_minus_p(raw31: Path, tmp_path: Path) -> None:
     r = run(f"enc average-heads {raw31} | enc compare --device H --ref P --band 100 "
             f"-o {tmp_path}/d.parquet --spectrum {tmp_path}/s.parquet")
@@ -59,6 +60,7 @@ def test_eq10_h_minus_p(raw31: Path, tmp_path: Path) -> None:
     assert s.num_rows == K and s.column("curve")[0].as_py() == "H-P"
 
 
+@pytest.mark.slow
 def test_heads_averaged_on_the_fly(raw31: Path, tmp_path: Path) -> None:
     """--device H1,H2,H3,H4 --ref P1,P2 is the same as averaging first."""
     r = run(f"enc compare {raw31} --device H1,H2,H3,H4 --ref P1,P2 --name d -o {tmp_path}/a.parquet"
@@ -70,6 +72,7 @@ def test_heads_averaged_on_the_fly(raw31: Path, tmp_path: Path) -> None:
     assert np.max(np.abs(a - b)) < 1e-9
 
 
+@pytest.mark.slow
 def test_reference_correction_from_selfcal(raw31: Path, tmp_path: Path) -> None:
     """Fig. 8 of seed 000: P's combined error from P - H plus the self-calibrated scale."""
     r = run(f"enc selfcal {raw31} -o {tmp_path}/grad.parquet && enc average-heads {raw31} | "
@@ -84,6 +87,7 @@ def test_reference_correction_from_selfcal(raw31: Path, tmp_path: Path) -> None:
     assert abs(np.ptp(got) - 0.54) < 0.054  # +/-0.27" (seed 000)
 
 
+@pytest.mark.slow
 def test_single_head_eq7(raw31: Path, tmp_path: Path) -> None:
     """eq. (7): H1 - P = eps_H(theta) + radial/R - eps'_P (band-limited), within 0.01"."""
     r = run(f"enc compare {raw31} --device H1 --ref P1,P2 --name e -o {tmp_path}/e.parquet")
@@ -99,6 +103,7 @@ def test_single_head_eq7(raw31: Path, tmp_path: Path) -> None:
     assert np.max(np.abs(got - (want - want.mean()))) <= 0.01
 
 
+@pytest.mark.slow
 def test_unfiltered_bins(raw31: Path, tmp_path: Path) -> None:
     r = run(f"enc compare {raw31} --device H1,H2,H3,H4 --ref P1,P2 --band 0 --points 360 "
             f"--name d -o {tmp_path}/d.parquet")
@@ -107,6 +112,7 @@ def test_unfiltered_bins(raw31: Path, tmp_path: Path) -> None:
     assert t.num_rows == 360 and np.all(np.isfinite(t.column("d").to_numpy()))
 
 
+@pytest.mark.slow
 def test_stroboscopic_sampling_warned(sjtu_raw: Path, tmp_path: Path) -> None:
     r = run(f"enc compare {sjtu_raw} --device H1,H2,H3,H4 --ref P1,P2 -o {tmp_path}/d.parquet")
     assert r.returncode == 0

@@ -49,6 +49,7 @@ def test_average_transfer_of_four_equal_heads() -> None:
     np.testing.assert_allclose(a.transfer[1:], [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_search_beats_or_matches_the_paper() -> None:
     res = design.search(4, 100)
     a = design.analyse(list(res.angles_deg), 100)

@@ -74,10 +74,11 @@ def test_partial_arc_noise_free_is_exact(arc_deg):
 @pytest.mark.parametrize("arc_deg", [30, 60])
 def test_short_arc_is_a_clear_error(arc_deg):
     phi = np.linspace(0, arc_deg * DEG, 200)
-    with pytest.raises(DataError, match="cover .* deg of the Lissajous ellipse"):
+    with pytest.raises(DataError, match=r"cover .* deg of the Lissajous ellipse"):
         hd.fit_ellipse(*signals(phi))
 
 
+@pytest.mark.slow
 def test_partial_arcs_never_silently_wrong():
     """Noisy arcs of 60-300 deg: each fit is refused or within 5 stated u."""
     rng = np.random.default_rng(5)

@@ -48,6 +48,7 @@ def gap_free_prefix(t: np.ndarray, interval: float) -> None:
 
 
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+@pytest.mark.slow
 def test_signal_mid_run_keeps_every_batch(tmp_path: Path, sig: int, code: int) -> None:
     tee = tmp_path / "tee.parquet"
     # 20 revolutions at 1 r/min would take 20 minutes in real time: it is interrupted.
@@ -64,6 +65,7 @@ def test_signal_mid_run_keeps_every_batch(tmp_path: Path, sig: int, code: int) -
     assert r.returncode == 0, r.stderr.decode()
 
 
+@pytest.mark.slow
 def test_sigint_to_file_output_leaves_a_valid_file(tmp_path: Path) -> None:
     out = tmp_path / "run.parquet"
     proc = subprocess.Popen([enc_exe(), "acquire", "--rig", "ciomp-23bit", "--realtime",
@@ -80,6 +82,7 @@ def test_sigint_to_file_output_leaves_a_valid_file(tmp_path: Path) -> None:
     assert not list(tmp_path.glob(".run.parquet.*"))  # no temporary file left
 
 
+@pytest.mark.slow
 def test_sigint_during_instrument_steps(tmp_path: Path) -> None:
     """SIGINT between positions of a pyvisa-sim steps run: whole positions, exit 130."""
     tee = tmp_path / "tee.arrows"
@@ -101,6 +104,7 @@ def dead_rig(tmp_path: Path) -> Path:
     return p
 
 
+@pytest.mark.slow
 def test_device_silent_mid_run_exit_3_keeps_stream(tmp_path: Path) -> None:
     """Silent beyond ~90 deg: positions 0..6 (0..90 deg) kept, exit 3, errors reported."""
     out = tmp_path / "run.parquet"

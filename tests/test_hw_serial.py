@@ -253,6 +253,7 @@ def write_rig(tmp_path: Path, text: str) -> Path:
     return p
 
 
+@pytest.mark.slow
 def test_polygon_run_gives_points_of_the_graduation_error(tmp_path: Path) -> None:
     """24-position polygon run through ptys -> enc points recovers the head-average error."""
     with Emulator() as emu:
@@ -282,6 +283,7 @@ def test_polygon_run_gives_points_of_the_graduation_error(tmp_path: Path) -> Non
     assert np.max(np.abs(err)) < 0.12, err
 
 
+@pytest.mark.slow
 def test_query_autocollimator_and_tee_to_pipe(tmp_path: Path) -> None:
     """--tee keeps a Parquet copy while the stream goes down a pipe."""
     with Emulator() as emu:
@@ -295,6 +297,7 @@ def test_query_autocollimator_and_tee_to_pipe(tmp_path: Path) -> None:
     assert r2.returncode == 0 and b"12 rows" in r2.stdout, r2.stderr.decode()
 
 
+@pytest.mark.slow
 def test_wrong_baud_is_one_line_exit_3(tmp_path: Path) -> None:
     with Emulator(ac_baud=19200) as emu:  # the instrument is at 19200, the rig says 9600
         rig = write_rig(tmp_path, rig_text(emu, host_ac_baud=9600))
@@ -317,6 +320,7 @@ def test_garbage_reply_quotes_the_raw_text(tmp_path: Path) -> None:
     assert "malformed reply 'E-07 OVERFLOW' to 'CNT?'" in line, line
 
 
+@pytest.mark.slow
 def test_silent_instrument_mid_run_keeps_batches(tmp_path: Path) -> None:
     """The autocollimator stops sending at position 10: exit 3, the file keeps 0..9."""
     with Emulator(ac_silent_after_moves=21) as emu:  # 2 moves per position (overshoot)
@@ -352,6 +356,7 @@ def test_unknown_key_in_instrument_table_is_exit_2(tmp_path: Path) -> None:
     assert "unknown key 'baud'" in line and "baudrate" in line, line
 
 
+@pytest.mark.slow
 def test_counter_hangs_in_continuous_run(tmp_path: Path) -> None:
     """The controller stops answering after 40 samples of a 100-sample run: exit 3,
     the error names the counter query (not the failed stop that follows), the file

@@ -42,6 +42,7 @@ def visa_steps(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_steps_stream_is_the_same_kind_as_the_simulators(visa_steps: Path,
                                                          ciomp_steps: Path) -> None:
     v = pq.read_table(visa_steps)
@@ -66,6 +67,7 @@ def test_steps_stream_is_the_same_kind_as_the_simulators(visa_steps: Path,
     assert r.returncode == 0 and b"backend" not in r.stderr
 
 
+@pytest.mark.slow
 def test_settings_name_the_backend_and_instruments(visa_steps: Path) -> None:
     import json
 
@@ -79,6 +81,7 @@ def test_settings_name_the_backend_and_instruments(visa_steps: Path) -> None:
     assert "truth" not in meta  # real instruments know no truth
 
 
+@pytest.mark.slow
 def test_pipeline_points_fit_report(visa_steps: Path, tmp_path: Path) -> None:
     pts = tmp_path / "points.parquet"
     r = run(f"enc points {visa_steps} -o {pts} && enc fit-rbf {pts} | enc report")
@@ -91,6 +94,7 @@ def test_pipeline_points_fit_report(visa_steps: Path, tmp_path: Path) -> None:
     assert r2.returncode == 0 and b"points" in r2.stdout, r2.stderr.decode()
 
 
+@pytest.mark.slow
 def test_continuous_polls_the_counter(tmp_path: Path) -> None:
     out = tmp_path / "c.parquet"
     r = run(f"enc acquire --rig {RIG} --mode continuous --speed 60 --revolutions 0.25 "

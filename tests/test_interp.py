@@ -60,6 +60,7 @@ def check(args: str, out) -> tuple:
     return (*read_table(out, "deviations"), r)
 
 
+@pytest.mark.slow
 def test_every_head_against_probes_matches_truth(sweep, tmp_path):
     header, table, r = check(str(sweep), tmp_path / "ic.parquet")
     truth = Truth.from_dict(header.meta["truth"])
@@ -84,6 +85,7 @@ def test_every_head_against_probes_matches_truth(sweep, tmp_path):
     assert len(lines) == len(HEADS) and all("p-p" in x for x in lines)
 
 
+@pytest.mark.slow
 def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
     _, probes, _ = check(f"{sweep} --heads H1,H2", tmp_path / "cs.parquet")
     header, by_p1, r = check(f"{sweep} --heads H1,H2 --ref P1", tmp_path / "p1.parquet")
@@ -106,6 +108,7 @@ def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
     assert np.abs(raw["H1"].to_numpy() - probes["H1"].to_numpy()).max() > 0.03
 
 
+@pytest.mark.slow
 def test_reference_with_longer_period_warns(sweep, tmp_path):
     # the plain filter cannot remove H1's 2nd harmonic, at 0.578 of P1's period
     header, _, r = check(f"{sweep} --heads P1 --ref H1 --ref-band 0",
@@ -126,12 +129,14 @@ def test_reference_with_longer_period_warns(sweep, tmp_path):
 
 
 @pytest.mark.parametrize("head, k", [("P1", 60), ("H1", 40)])
+@pytest.mark.slow
 def test_harmonics_beyond_the_sampling_are_refused(sweep, tmp_path, head, k):
     out = tmp_path / "o.parquet"
     r = run(f"enc interp-check {sweep} --heads {head} --band {k} -o {out}")
     assert "finely enough" in one_line_error(r, out)
 
 
+@pytest.mark.slow
 def test_head_average_matches_mean_of_truths(sweep, tmp_path):
     header, table, _ = check(f"{sweep} --heads H1,H2,H3,H4 --average", tmp_path / "a.parquet")
     name = "mean(H1,H2,H3,H4)"
@@ -148,6 +153,7 @@ def test_head_average_matches_mean_of_truths(sweep, tmp_path):
     assert np.abs(diff).max() < 0.01
 
 
+@pytest.mark.slow
 def test_signals_mode_recovers_faults_and_error(sweep, tmp_path):
     header, table, _r = check(f"{sweep} --signals --spectrum {tmp_path / 's.parquet'} "
                              f"--corrected {tmp_path / 'c.parquet'}", tmp_path / "sig.parquet")
@@ -174,6 +180,7 @@ def test_signals_mode_recovers_faults_and_error(sweep, tmp_path):
         assert np.ptp(fixed[name].to_numpy()) < 0.01
 
 
+@pytest.mark.slow
 def test_check_tolerance_exit_1(sweep, tmp_path):
     r = run(f"enc interp-check {sweep} --heads P1 --max-pm 0.01 -o {tmp_path / 'k.parquet'}")
     assert r.returncode == 1
@@ -182,6 +189,7 @@ def test_check_tolerance_exit_1(sweep, tmp_path):
     assert r.returncode == 0 and r.stderr == b""
 
 
+@pytest.mark.slow
 def test_pipeline_from_acquire(tmp_path):
     out = tmp_path / "p.arrows"
     r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 8 --step 0.25 --heads P1,P2 "
@@ -202,6 +210,7 @@ def one_line_error(r, out) -> str:
     return err[0]
 
 
+@pytest.mark.slow
 def test_sweep_shorter_than_one_period(tmp_path):
     out = tmp_path / "o.parquet"
     r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 10 --readings 1 --heads H1 "
@@ -209,6 +218,7 @@ def test_sweep_shorter_than_one_period(tmp_path):
     assert "signal period is 24.92" in one_line_error(r, out)
 
 
+@pytest.mark.slow
 def test_reference_without_overlap_in_time(sweep, tmp_path):
     header, table = read_table(sweep)
     t = table["t"].to_numpy() + 1e6
@@ -223,6 +233,7 @@ def test_reference_without_overlap_in_time(sweep, tmp_path):
     assert r.returncode == 0, r.stderr.decode()
 
 
+@pytest.mark.slow
 def test_zero_arm_length(sweep, tmp_path):
     out = tmp_path / "o.parquet"
     assert "--arm" in one_line_error(run(f"enc interp-check {sweep} --arm 0 -o {out}"), out)
@@ -248,11 +259,13 @@ def test_zero_arm_length(sweep, tmp_path):
     ("--signals --heads H1 --min-arc 400", "--min-arc"),
     ("--corrected x.parquet", "--corrected needs --signals"),
 ])
+@pytest.mark.slow
 def test_bad_options(sweep, tmp_path, args, words):
     out = tmp_path / "o.parquet"
     assert words in one_line_error(run(f"enc interp-check {sweep} {args} -o {out}"), out)
 
 
+@pytest.mark.slow
 def test_wrong_kind_and_short_arc(sweep, tmp_path):
     dev = tmp_path / "dev.parquet"
     assert run(f"enc interp-check {sweep} --heads P1 -o {dev}").returncode == 0
@@ -297,6 +310,7 @@ def test_probe_rotation_cancels_translation():
         probe_rotation([s1], [0.0], [1])
 
 
+@pytest.mark.slow
 def test_summary_meta_is_json(sweep, tmp_path):
     header, _, _ = check(f"{sweep} --heads P2", tmp_path / "j.parquet")
     json.dumps(header.meta)
@@ -304,6 +318,7 @@ def test_summary_meta_is_json(sweep, tmp_path):
     assert [x["n"] for x in h] == [1, 2, 3, 4]
 
 
+@pytest.mark.slow
 def test_seed000_test1_p1_figures(tmp_path):
     """Seed 000 table 1, test 1 (7.2" at 0.2", 37 points) on P1 and P2; fig. 10/11 figures:
     P1 p-p 0.086-0.100" within +/-0.06", P2 p-p 0.124-0.140", encoder I within +/-0.1"."""
@@ -327,6 +342,7 @@ def test_seed000_test1_p1_figures(tmp_path):
     assert h1[1] < 0.1 * h1[0] and h2[1] > 0.4 * h2[0]
 
 
+@pytest.mark.slow
 def test_missing_probe_readings_are_skipped(sweep, tmp_path):
     header, table = read_table(sweep)
     s1 = table["S1"].to_numpy().copy()
@@ -340,6 +356,7 @@ def test_missing_probe_readings_are_skipped(sweep, tmp_path):
     assert np.abs(t["H1"].to_numpy() - ref["H1"].to_numpy()).max() < 0.005
 
 
+@pytest.mark.slow
 def test_nan_probe_samples_are_skipped_and_said(sweep, tmp_path):
     """A probe that dropped out on a few samples (NaN): those samples are left out of
     the fit, the command says how many, and the result still matches the clean sweep."""

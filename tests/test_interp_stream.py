@@ -45,6 +45,7 @@ def kept_truth(truth: Truth, head: str, theta: np.ndarray, ppr: int, keep) -> np
     return sum((c[n] * np.exp(1j * n * theta)).real for n in keep)
 
 
+@pytest.mark.slow
 def test_continuous_h1_by_p1_matches_truth(run20, tmp_path):
     """20 revolutions (238 000 samples): H1's 1st and 2nd harmonics within 0.001" of the
     truth at every phase (0.8 % of its 0.12" 1st harmonic; the statistical u is 1e-4",
@@ -75,6 +76,7 @@ def test_continuous_h1_by_p1_matches_truth(run20, tmp_path):
     assert p1["amplitude"] == pytest.approx(abs(c1), abs=0.001)
 
 
+@pytest.mark.slow
 def test_window_choice_and_bad_windows(run20, tmp_path):
     """A wider window (2 deg) leaves more graduation error: a larger residual and u, the
     same curve within 0.002"; a window shorter than the signal period is refused."""
@@ -96,6 +98,7 @@ def test_window_choice_and_bad_windows(run20, tmp_path):
         run(f"enc interp-check {run20} --signals --window 900 -o {bad}"), bad)
 
 
+@pytest.mark.slow
 def test_stroboscopic_heads_are_named(tmp_path):
     """At 3 ms encoder I is sampled at 9.0 periods per sample: P2 asked for is refused in
     one line naming it; by default it is skipped with a warning, and P1 as the reference
@@ -115,6 +118,7 @@ def test_stroboscopic_heads_are_named(tmp_path):
     assert "reference_harmonics" not in header.meta["curves"]["H1"]
 
 
+@pytest.mark.slow
 def test_trend_projection_is_the_joint_fit():
     """TrendProjectedLSQ fed in uneven batches = one lstsq with a trend per window."""
     rng = np.random.default_rng(5)
@@ -152,6 +156,7 @@ def test_phase_coverage_bitmap_matches_sorted_gaps():
 
 @pytest.mark.skipif(not shutil.which("/usr/bin/time") or sys.platform != "linux",
                     reason="needs GNU time for the peak memory")
+@pytest.mark.slow
 def test_peak_memory_does_not_grow_with_revolutions(run20, tmp_path):
     """Peak memory (max RSS) of interp-check at 200 revolutions (2.4 M samples) within
     1.2x of 20 (the fit keeps sums, not samples)."""

@@ -45,6 +45,7 @@ def slow_rig(tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 def test_measured_lag_one_run(slow_rig):
     r = run(f"enc latency {slow_rig}/fwd.parquet --json")
     assert r.returncode == 0, r.stderr.decode()
@@ -53,6 +54,7 @@ def test_measured_lag_one_run(slow_rig):
     assert d["bits"] == 23
 
 
+@pytest.mark.slow
 def test_measured_lag_two_speeds_fits_offset(slow_rig):
     r = run(f"enc latency {slow_rig}/fwd.parquet {slow_rig}/rev.parquet --fit-offset --json")
     assert r.returncode == 0, r.stderr.decode()
@@ -70,6 +72,7 @@ def test_latency_bad_usage(ciomp_steps):
     assert r.returncode == 2
 
 
+@pytest.mark.slow
 def test_latency_bad_data(slow_rig, tmp_path):
     import numpy as np
     import pyarrow as pa

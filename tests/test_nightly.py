@@ -34,6 +34,7 @@ def nightly(hist: Path, cal: Path, *args: str, campaign: str | None = None):
     return run(cmd)
 
 
+@pytest.mark.slow
 def test_first_night_stores_calibration_then_rechecks(tmp_path):
     """Default campaign (re-acquire the polygon, enc points): night 1 stores the
     calibration, night 2 with another noise seed stays within 0.2" of it."""
@@ -59,6 +60,7 @@ def test_first_night_stores_calibration_then_rechecks(tmp_path):
     assert "Nightly history" in html and "Within every threshold" in html
 
 
+@pytest.mark.slow
 def test_drift_beyond_tolerance_exits_1_and_is_recorded(tmp_path):
     hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
     assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
@@ -87,6 +89,7 @@ def test_drift_beyond_tolerance_exits_1_and_is_recorded(tmp_path):
     ("device fault", "echo 'enc acquire: error: timeout' >&2; exit 3", 3),
     ("no result", "true", 2),
 ])
+@pytest.mark.slow
 def test_failed_runs_are_recorded(tmp_path, case, campaign, code):
     hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
     if case != "no calibration":
@@ -99,6 +102,7 @@ def test_failed_runs_are_recorded(tmp_path, case, campaign, code):
     assert h.column("status")[-1] == "error" and h.column("exit_code")[-1] == code
 
 
+@pytest.mark.slow
 def test_two_runs_at_once_both_land(tmp_path, enc):
     hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
     assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
@@ -123,6 +127,7 @@ _WRITERS = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_many_concurrent_writers_lose_nothing(tmp_path):
     procs = [subprocess.Popen([sys.executable, "-c", _WRITERS, str(tmp_path / "h"), "15", str(k)])
              for k in range(4)]
@@ -146,6 +151,7 @@ _KILLED = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_run_killed_mid_write_leaves_history_readable(tmp_path):
     hist = tmp_path / "hist"
     append_run(hist, {"rig": "before", "status": "ok", "pp": 1.0})
@@ -163,6 +169,7 @@ def test_run_killed_mid_write_leaves_history_readable(tmp_path):
     assert r.returncode == 0 and "2 run(s)" in r.stdout.decode()
 
 
+@pytest.mark.slow
 def test_killed_nightly_process_leaves_history_readable(tmp_path, enc):
     hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
     assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
@@ -194,6 +201,7 @@ def test_history_files_have_the_schema(tmp_path):
     assert t.schema.remove_metadata() == SCHEMA.remove_metadata() and t.num_rows == 1
 
 
+@pytest.mark.slow
 def test_history_errors(tmp_path):
     r = run(["enc", "report", "--history", str(tmp_path / "none")])
     assert r.returncode == 2 and "no such folder" in r.stderr.decode()
@@ -212,6 +220,7 @@ def test_nightly_man_page_lists_every_option():
             assert opt.replace("-", r"\-") in page, opt
 
 
+@pytest.mark.slow
 def test_first_night_makes_the_calibration_folder(tmp_path):
     """A lab's first cron night: neither the history nor the calibration folder exists."""
     hist, cal = tmp_path / "n" / "history", tmp_path / "n" / "cal" / "calibration.parquet"
@@ -220,6 +229,7 @@ def test_first_night_makes_the_calibration_folder(tmp_path):
     assert cal.exists() and read_history(hist).runs == 1
 
 
+@pytest.mark.slow
 def test_unwritable_calibration_is_one_line(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")

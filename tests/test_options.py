@@ -59,11 +59,11 @@ def test_thresholds_are_max_figure_numbers():
                                  "average-heads --band 1000000000", "report --band 2000000"])
 def test_absurd_orders_and_grids_are_usage_errors(cmd, tmp_path):
     """Not a MemoryError after reading the input: refused while parsing the options."""
-    from conftest import run
+    from conftest import run_in_process
 
     out = tmp_path / "o.parquet"
-    r = run(f"enc {cmd} -o {out} < /dev/null" if "design" not in cmd and "report" not in cmd
-            else f"enc {cmd} < /dev/null")
+    r = run_in_process(f"enc {cmd} -o {out}" if "design" not in cmd and "report" not in cmd
+                       else f"enc {cmd}")  # stdin: /dev/null
     err = r.stderr.decode()
     assert r.returncode == 2 and err.startswith(f"enc {cmd.split()[0]}: error:"), err
     assert err.count("\n") == 1 and "1048576" in err, err

@@ -1,5 +1,6 @@
 """Outputs that cannot be written: full disk, read-only folder, a directory, a missing
-folder. Each is one line on stderr, exit 2, and no file (not even a temporary one)."""
+folder. Each is one line on stderr, exit 2, and no file (not even a temporary one).
+The commands run in-process (the message and the status are the point here)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import run
+from conftest import run_in_process
 
 
 def _mount(path: Path, options: str) -> bool:
@@ -35,6 +36,11 @@ def read_only(tmp_path):
     subprocess.run(["umount", str(d)])
 
 
+def acquire(revolutions: float, out: Path | str):
+    """``enc acquire --rig sjtu-dual --revolutions R -o OUT``, in-process."""
+    return run_in_process(f"enc acquire --rig sjtu-dual --revolutions {revolutions} -o {out}")
+
+
 def _fails_cleanly(r, words):
     err = r.stderr.decode()
     assert r.returncode == 2, err
@@ -45,30 +51,26 @@ def _fails_cleanly(r, words):
 @pytest.mark.parametrize("ext", [".parquet", ".h5", ".arrow", ".arrows"])
 def test_full_disk(small_disk, ext):
     out = small_disk / f"x{ext}"
-    r = run(f"enc acquire --rig sjtu-dual --revolutions 40 -o {out}")
+    r = acquire(40, out)
     _fails_cleanly(r, f"output {out}: No space left on device")
     assert list(small_disk.iterdir()) == []
     small = small_disk / f"small{ext}"  # the same disk still takes what fits
-    assert run(f"enc acquire --rig sjtu-dual --revolutions 0.05 -o {small}").returncode == 0
+    assert acquire(0.05, small).returncode == 0
 
 
 def test_read_only_folder(read_only):
     out = read_only / "x.parquet"
-    _fails_cleanly(run(f"enc acquire --rig sjtu-dual --revolutions 0.01 -o {out}"),
-                   "is not writable")
+    _fails_cleanly(acquire(0.01, out), "is not writable")
     assert list(read_only.iterdir()) == []
 
 
 def test_output_is_a_directory(tmp_path):
-    _fails_cleanly(run(f"enc acquire --rig sjtu-dual --revolutions 0.01 -o {tmp_path}"),
-                   "is a directory")
+    _fails_cleanly(acquire(0.01, tmp_path), "is a directory")
 
 
 def test_output_folder_missing(tmp_path):
-    _fails_cleanly(run(f"enc acquire --rig sjtu-dual --revolutions 0.01 -o {tmp_path}/a/b.h5"),
-                   "does not exist")
+    _fails_cleanly(acquire(0.01, f"{tmp_path}/a/b.h5"), "does not exist")
 
 
 def test_cannot_create_in_folder():
-    _fails_cleanly(run("enc acquire --rig sjtu-dual --revolutions 0.01 -o /proc/x.parquet"),
-                   "cannot create a file in /proc")
+    _fails_cleanly(acquire(0.01, "/proc/x.parquet"), "cannot create a file in /proc")

@@ -95,6 +95,7 @@ def test_steps_run_options_on_a_csv_table_are_refused(tmp_path, opts):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_continuous_run_is_not_a_polygon_run(tmp_path):
     out = tmp_path / "p.parquet"
     r = run("enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 "
@@ -117,6 +118,7 @@ MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
 @pytest.mark.parametrize("name", ["calibration_data_input_example.csv",
                                   "calibration_data_input_example_add_75.csv",
                                   "calibration_data_input_example_add_260.csv"])
+@pytest.mark.slow
 def test_real_comparator_table_magalpha(tmp_path, name):
     """Real data: a magnetic angle sensor against a precision stage (reference and
     measured angle in degrees, wrapping at 360). The deviation is dominated by its first

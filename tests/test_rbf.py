@@ -50,6 +50,7 @@ def test_fourier_12_harmonics_reproduces_table1(table1):
     assert f.undetermined == ["b12"] and abs(f.b[12]) < 1e-9
 
 
+@pytest.mark.slow
 def test_fit_rbf_command_on_table1(tmp_path):
     for kernel, extra in (("rbf", ""), ("fourier", "--band 12")):
         out = tmp_path / f"{kernel}.parquet"
@@ -84,6 +85,7 @@ def polygon_fit(ciomp_steps, tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 def test_holdout_residuals_like_table3(polygon_fit):
     header, _ = streams.read_table(str(polygon_fit / "m.parquet"), "model")
     h = header.meta["residuals"]["holdout"]
@@ -93,6 +95,7 @@ def test_holdout_residuals_like_table3(polygon_fit):
     assert h["bessel_std_arcsec"] < 0.9
 
 
+@pytest.mark.slow
 def test_correction_of_a_dense_run_against_truth(polygon_fit):
     d = polygon_fit
     r = run("enc acquire --rig ciomp-23bit --mode continuous --revolutions 1 --speed 1 "
@@ -120,6 +123,7 @@ def test_correction_of_a_dense_run_against_truth(polygon_fit):
     assert after[mid].std() < 0.7 * before[mid].std()
 
 
+@pytest.mark.slow
 def test_fit_rbf_bad_input(tmp_path, ciomp_steps):
     out = tmp_path / "m.parquet"
     r = run(f"enc fit-rbf {ciomp_steps} -o {out}")  # a readings stream
@@ -145,6 +149,7 @@ def test_fit_rbf_bad_input(tmp_path, ciomp_steps):
         assert not out.exists()
 
 
+@pytest.mark.slow
 def test_check_threshold_exit_1(tmp_path):
     r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --max-std 0.01 -q -o {tmp_path}/m.parquet")
     assert r.returncode == 1 and b"leave_one_out" in r.stderr

@@ -148,6 +148,7 @@ def report_json(*args: str) -> dict:
     (2, 1.97, 0.499, 0.4989),   # paper 0.4989
     (3, 2.29, 0.529, 0.5264),   # paper 0.5264
 ])
+@pytest.mark.slow
 def test_seed001_tables_through_enc_points(table_no, pp, std, paper_std):
     """CSV -> enc points -> enc report: p-p and Bessel s over the rows as listed."""
     r = run(f"enc points {DATA}/seed001_table{table_no}.csv | enc report --json")
@@ -235,6 +236,7 @@ def test_spectrum_section_U_and_transfer(streams):
     assert sec["info"]["blind harmonics"] == "0"
 
 
+@pytest.mark.slow
 def test_iso230_from_a_polygon_run_against_truth(iso_run):
     """enc acquire (5 bidirectional runs) | enc points | enc report: ISO 230-2 figures.
     The mean bidirectional deviation per position follows the truth's graduation error
@@ -270,6 +272,7 @@ def _truth_of(path: Path):
         return Truth.from_dict(s.meta["truth"])
 
 
+@pytest.mark.slow
 def test_readings_section_steps_and_signals(tmp_path, ciomp_steps):
     sweep = tmp_path / "sweep.parquet"
     r = run(f"enc acquire --rig ciomp-23bit --mode sweep --signals -o {sweep}")
@@ -282,6 +285,7 @@ def test_readings_section_steps_and_signals(tmp_path, ciomp_steps):
     assert sw["kind"] == "readings" and "F1" in sw["info"]["heads"]
 
 
+@pytest.mark.slow
 def test_model_section_evaluates_the_model(tmp_path):
     model = tmp_path / "model.parquet"
     r = run(f"enc fit-rbf {DATA}/seed001_table1.csv -o {model}")
@@ -318,6 +322,7 @@ def test_threshold_within_limits_exit0_and_json_says_ok(streams):
     assert json.loads(r.stdout)["thresholds"] == {"exceeded": [], "ok": True}
 
 
+@pytest.mark.slow
 def test_threshold_iso_and_u_and_radial(streams, iso_run):
     r = run(f"enc points {iso_run} | enc report - {streams['deviations']} --max-iso R:0.01 "
             f"--max-u 0.01 --max-radial-pp 1")
@@ -347,6 +352,7 @@ def demo_html(tmp_path_factory, streams, iso_run) -> Path:
     return html
 
 
+@pytest.mark.slow
 def test_html_report_stands_alone(demo_html):
     text = demo_html.read_text()
     assert text.startswith("<!DOCTYPE html>")
@@ -358,6 +364,7 @@ def test_html_report_stands_alone(demo_html):
     assert text.count("data:image/png;base64,") >= 10
 
 
+@pytest.mark.slow
 def test_pdf_report(streams, tmp_path):
     pdf = tmp_path / "r.pdf"
     r = run(["enc", "report", str(streams["table1"]), "--pdf", str(pdf), "--max-pp", "1"])
@@ -367,6 +374,7 @@ def test_pdf_report(streams, tmp_path):
     assert data.count(b"/Type /Page") >= 3        # text page, deviation, spectrum
 
 
+@pytest.mark.slow
 def test_every_plot_has_axes_with_units(streams, iso_run):
     from enctools.report import plots
     from enctools.report.summary import build_report
@@ -383,6 +391,7 @@ def test_every_plot_has_axes_with_units(streams, iso_run):
 
 
 @pytest.mark.skipif(not Path("/usr/bin/chromium").exists(), reason="chromium not installed")
+@pytest.mark.slow
 def test_html_report_renders_in_headless_chromium(demo_html, tmp_path):
     png = tmp_path / "report.png"
     r = run([str(ROOT / "bin" / "enc-report-screenshot"), str(demo_html), str(png),
@@ -428,6 +437,7 @@ def test_nan_input_exit2_and_no_html_left(tmp_path):
     assert not html.exists() and not list(tmp_path.glob(".r.html*"))
 
 
+@pytest.mark.slow
 def test_existing_html_needs_force(streams, tmp_path):
     html = tmp_path / "r.html"
     html.write_text("old")
@@ -474,6 +484,7 @@ def _have(*commands: str) -> bool:
 
 @pytest.mark.skipif(not _have("selfcal", "compare", "interp-check"),
                     reason="selfcal/compare/interp-check not available")
+@pytest.mark.slow
 def test_real_pipeline_selfcal_compare_interp(sjtu_raw, tmp_path):
     """enc acquire | enc selfcal / compare / interp-check | enc report: every section is
     read, its figures equal the columns' own (numpy on the file), the HTML is written."""

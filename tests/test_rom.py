@@ -35,6 +35,7 @@ def rom23(model_file):
     return build_rom(from_stream(header, table), RomSpec(23, width=16)), from_stream(header, table)
 
 
+@pytest.mark.slow
 def test_quantisation_within_half_an_lsb(rom23):
     rom, model = rom23
     assert rom.values.size == 1 << 23 and rom.values.dtype == np.int16
@@ -49,6 +50,7 @@ def test_quantisation_within_half_an_lsb(rom23):
 
 
 @pytest.mark.parametrize("fmt", MEMORY)
+@pytest.mark.slow
 def test_full_23_bit_table_reads_back(rom23, tmp_path, fmt):
     rom, _ = rom23
     for endian in (("little", "big") if fmt in ("bin", "ihex") else ("little",)):
@@ -59,6 +61,7 @@ def test_full_23_bit_table_reads_back(rom23, tmp_path, fmt):
 
 
 @pytest.mark.parametrize("fmt", ("acs", "siemens"))
+@pytest.mark.slow
 def test_controller_tables_read_back(rom23, tmp_path, fmt):
     values = rom23[0].values[::32]  # 2^18 points: a big controller table
     target = rf.Target(fmt, 16, count_deg=360 / 2 ** 23, axis="0" if fmt == "acs" else "C1",
@@ -84,6 +87,7 @@ def test_mif_reader_takes_ranges_and_decimal(tmp_path):
     assert rf.read_table(str(f), rf.Target("mif", 8)).tolist() == [-1, -1, -1, 5, 6, 127]
 
 
+@pytest.mark.slow
 def test_make_rom_command_every_format(model_file, tmp_path):
     crcs = set()
     for _fmt, ext in (("bin", "bin"), ("ihex", "hex"), ("mif", "mif"), ("coe", "coe"),
@@ -100,6 +104,7 @@ def test_make_rom_command_every_format(model_file, tmp_path):
     assert f"{zlib.crc32(data):08x}" in crcs and len(data) == 2 * 4096
 
 
+@pytest.mark.slow
 def test_siemens_rotary_rules(model_file, tmp_path):
     out = tmp_path / "c.spf"
     r = run(f"enc make-rom {model_file} --bits 23 --address-bits 8 --axis C1 -o {out}")
@@ -159,6 +164,7 @@ def test_a_curve_with_empty_bins_is_interpolated_with_a_warning(tmp_path):
     assert np.abs(v - (-3.0 * np.sin(x))).max() < lsb / 2 + 0.002
 
 
+@pytest.mark.slow
 def test_rom_stream_output(model_file):
     r = run(f"enc make-rom {model_file} --bits 23 --address-bits 10 -q | enc info")
     assert r.returncode == 0, r.stderr.decode()
@@ -182,6 +188,7 @@ def test_make_rom_refuses(model_file, tmp_path, args, what):
     assert not out.exists() and not list(tmp_path.iterdir())  # no partial or temporary file
 
 
+@pytest.mark.slow
 def test_make_rom_wrong_kind_and_existing_output(tmp_path, model_file):
     out = tmp_path / "t.bin"
     r = run(f"enc points {DATA}/seed001_table1.csv | enc make-rom --bits 16 -o {out}")
@@ -202,6 +209,7 @@ def test_fourier_model_table_exact():
     assert rom.max_quantisation_lsb == pytest.approx(np.abs(np.rint(want) - want).max())
 
 
+@pytest.mark.slow
 def test_grid_evaluation_equals_the_model_everywhere(model_file):
     """The fast uniform-grid path (Fourier series by BLAS) gives the model's own values."""
     from enctools.models.rbf import RBFModel
@@ -223,6 +231,7 @@ def test_grid_evaluation_equals_the_model_everywhere(model_file):
                 assert np.abs(at(start, stop) - want).max() <= 1e-12 * scale
 
 
+@pytest.mark.slow
 def test_grid_and_plain_evaluation_build_the_same_table(model_file):
     """build_rom through on_grid and through plain calls at every address: equal tables."""
     header, table = streams.read_table(str(model_file), "model")

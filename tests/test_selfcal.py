@@ -81,6 +81,7 @@ def esa_default(sjtu_raw: Path, tmp_path_factory: pytest.TempPathFactory) -> dic
     return {"dir": d, "grad": d / "grad.parquet", "spec": d / "spec.parquet", "stderr": r.stderr}
 
 
+@pytest.mark.slow
 def test_esa_default_run_against_truth(esa_default: dict) -> None:
     truth = truth_of(esa_default["grad"])
     c, u = spectrum(esa_default["spec"])
@@ -106,6 +107,7 @@ def test_esa_default_run_against_truth(esa_default: dict) -> None:
     assert esa_default["stderr"] == b""
 
 
+@pytest.mark.slow
 def test_esa_pipeline_arrow_on_stdout(tmp_path: Path) -> None:
     r = run(f"enc acquire --rig sjtu-dual --revolutions 3 | enc selfcal --method esa --ref H1 "
             f"--heads H5,H6,H7 > {tmp_path}/grad.arrows")
@@ -120,6 +122,7 @@ def test_esa_pipeline_arrow_on_stdout(tmp_path: Path) -> None:
     assert table.num_rows == 1024
 
 
+@pytest.mark.slow
 def test_esa_noise_free(tmp_path: Path) -> None:
     rig = quiet_rig(tmp_path)
     r = run(f"enc acquire --rig {rig} --revolutions 4 | "
@@ -167,6 +170,7 @@ def test_fourier_machine_precision() -> None:
     assert not m.conditioning.blind
 
 
+@pytest.mark.slow
 def test_fourier_three_heads_pipeline(tmp_path: Path) -> None:
     """0/38/67 deg heads, no radial motion, no noise: the basic method recovers the truth."""
     rig = quiet_rig(tmp_path, {"H5": 38.0, "H6": 67.0}, radial=False, max_harmonic=K)
@@ -179,6 +183,7 @@ def test_fourier_three_heads_pipeline(tmp_path: Path) -> None:
     assert rms(c - truth.graduation["II"].harmonics(K)[1:]) <= 1e-4
 
 
+@pytest.mark.slow
 def test_fourier_default_run_beyond_radial_band(sjtu_raw: Path, tmp_path: Path) -> None:
     """fourier ignores radial motion: above its band (n > 13) it meets the truth; below it errs."""
     r = run(f"enc selfcal --method fourier --ref H1 --heads H5,H6,H7 {sjtu_raw} "
@@ -190,6 +195,7 @@ def test_fourier_default_run_beyond_radial_band(sjtu_raw: Path, tmp_path: Path) 
     assert rms((c - want)[1:12]) > 0.005  # radial motion shows up: the reason for esa
 
 
+@pytest.mark.slow
 def test_eda_four_equal_heads(sjtu_raw: Path, tmp_path: Path) -> None:
     r = run(f"enc selfcal --method eda --ref H1 --heads H2,H3,H4 {sjtu_raw} "
             f"-o {tmp_path}/g.parquet --spectrum {tmp_path}/s.parquet")
@@ -204,6 +210,7 @@ def test_eda_four_equal_heads(sjtu_raw: Path, tmp_path: Path) -> None:
     assert np.all(c[n % 4 == 0] == 0)  # blind: set to 0, never divided through
 
 
+@pytest.mark.slow
 def test_eda_refuses_unequal_spacing(sjtu_raw: Path, tmp_path: Path) -> None:
     r = run(f"enc selfcal --method eda --ref H1 --heads H5,H6,H7 {sjtu_raw} "
             f"-o {tmp_path}/g.parquet")
@@ -212,6 +219,7 @@ def test_eda_refuses_unequal_spacing(sjtu_raw: Path, tmp_path: Path) -> None:
     assert not (tmp_path / "g.parquet").exists()
 
 
+@pytest.mark.slow
 def test_blind_harmonic_named_and_strict(sjtu_raw: Path, tmp_path: Path) -> None:
     r = run(f"enc selfcal --band 130 --ref H1 --heads H5,H6,H7 {sjtu_raw} "
             f"-o {tmp_path}/g.parquet --spectrum {tmp_path}/s.parquet")
@@ -229,6 +237,7 @@ def test_blind_harmonic_named_and_strict(sjtu_raw: Path, tmp_path: Path) -> None
     assert not (tmp_path / "h.parquet").exists()
 
 
+@pytest.mark.slow
 def test_uncertainties_are_honest() -> None:
     """Over 20 noise seeds the error of each harmonic's re and im lies inside 2u ~95 %."""
     from enctools.data.rig import load_rig
@@ -286,6 +295,7 @@ def _bad(cmd: str, out: Path, expect: str) -> None:
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_bad_input(short_raw: Path, tmp_path: Path) -> None:
     out = tmp_path / "g.parquet"
     _bad(f"enc selfcal {short_raw} --heads H2,H3,H4 -o {out}", out, "no head 'H2'")
@@ -318,6 +328,7 @@ def test_points_must_carry_band(short_raw: Path, tmp_path: Path) -> None:
     assert r.stderr.decode().startswith("enc selfcal: error: --points 100 cannot carry --band 100")
 
 
+@pytest.mark.slow
 def test_settings_and_metadata(esa_default: dict) -> None:
     meta = json.loads(pq.read_schema(esa_default["spec"]).metadata[b"enctools"])
     assert meta["kind"] == "spectrum"

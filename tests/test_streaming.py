@@ -32,7 +32,7 @@ def exact_sums(x: np.ndarray, v: np.ndarray, band: int) -> np.ndarray:
     (20000, 100, 1, 1e-4),     # the sjtu-dual default: 20 000 samples, 100 harmonics
     (20000, 100, -1, 1e-4),    # turning backwards
     (3001, 20, 1, 0.0),        # uniform
-    (200000, 100, 1, 1e-3),    # fine sampling, large speed variation
+    pytest.param(200000, 100, 1, 1e-3, marks=pytest.mark.slow),  # fine, large speed variation
     (1000, 150, 1, 2e-3),      # coarse: more bins than samples
     (20000, 3, 1, 0.05),       # very uneven speed
     (20000, 1, 1, 1e-4),       # one harmonic: few wide bins
@@ -89,6 +89,7 @@ def test_enlarge_pipe() -> None:
         assert enlarge_pipe(f) is None  # not a pipe: left alone
 
 
+@pytest.mark.slow
 def test_interp_check_streams_a_long_run(tmp_path) -> None:
     """A continuous run of 100 revolutions (1.19 M samples, past the old 1 000 000 limit)
     piped in is fitted, not refused, and gives H1's harmonics of 20 revolutions (the same
@@ -125,6 +126,7 @@ with pa.ipc.new_stream(sys.stdout.buffer, t.schema) as w:
 
 
 @pytest.mark.parametrize("command", ["compare --device H1 --ref P1", "selfcal"])
+@pytest.mark.slow
 def test_an_error_mid_stream_ends_at_once_while_the_writer_is_quiet(
         tmp_path, sjtu_raw, command: str) -> None:
     """Bad data after the first batch, then a writer that neither writes nor closes: the

@@ -44,6 +44,7 @@ def readings_tables(draw):
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=readings_tables(), ext=st.sampled_from(FORMATS))
+@pytest.mark.slow
 def test_any_valid_table_round_trips_bit_for_bit(tmp_path, data, ext):
     header, table, rows = data
     path = tmp_path / f"t{ext}"
