@@ -35,7 +35,8 @@ def test_default_run_shape(sjtu):
     t = table.column("t").to_numpy()
     assert np.allclose(np.diff(t), 0.003)
     assert header.meta["settings"]["revolutions"] == 20
-    assert header.history[-1].endswith("enc acquire --rig sjtu-dual -o " + header.history[-1].split(" -o ")[-1])
+    last = header.history[-1]
+    assert last.endswith("enc acquire --rig sjtu-dual -o " + last.split(" -o ")[-1])
 
 
 @pytest.mark.slow
@@ -225,7 +226,8 @@ def test_seed_changes_noise_not_truth(tmp_path):
 ])
 def test_bad_usage(tmp_path, args, words):
     out = tmp_path / "out.parquet"
-    r = run(f"enc acquire {args} -o {out}" if "--format" not in args else f"set -o pipefail; enc acquire {args} | cat")
+    r = run(f"enc acquire {args} -o {out}" if "--format" not in args
+            else f"set -o pipefail; enc acquire {args} | cat")
     err = r.stderr.decode()
     assert r.returncode == 2, err
     assert err.startswith("enc acquire: error: ") and err.count("\n") == 1, err

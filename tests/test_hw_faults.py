@@ -25,7 +25,8 @@ from conftest import ROOT, enc_exe, run
 VISA_RIG = ROOT / "tests" / "rigs" / "visa-sim.toml"
 
 
-def interrupt(args: list[str], sig: int, after_batches: int, tee: Path) -> tuple[int, pa.Table, str]:
+def interrupt(args: list[str], sig: int, after_batches: int,
+              tee: Path) -> tuple[int, pa.Table, str]:
     """Run enc with args streaming to a pipe; signal it after some batches; read to the end."""
     proc = subprocess.Popen([enc_exe(), *args, "--tee", str(tee)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE)

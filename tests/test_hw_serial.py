@@ -100,7 +100,7 @@ class Emulator:
         vals = []
         for a in HEADS:
             reading = self.theta + graduation(self.theta + a) * ARCSEC
-            vals.append(int(round(reading * CPR / (2 * math.pi))) % (1 << BITS))
+            vals.append(round(reading * CPR / (2 * math.pi)) % (1 << BITS))
         return " ".join(str(v) for v in vals)
 
     def _answer(self, line: str) -> None:

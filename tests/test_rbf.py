@@ -107,7 +107,8 @@ def test_correction_of_a_dense_run_against_truth(polygon_fit):
     lat = header.meta["rig"]["encoders"][0]["latency_s"]
     t = table.column("t").to_numpy()
     theta = Motion.from_dict(header.meta["truth"]["motion"])(t - lat)
-    reading = np.mean([head_angle(table.column(h), head_info(header.schema, h)) for h in ("F1", "F2")],
+    reading = np.mean([head_angle(table.column(h), head_info(header.schema, h))
+                       for h in ("F1", "F2")],
                       axis=0)
     before = (reading - theta) / ARCSEC
     after = before - model(np.mod(reading / DEG, 360.0))

@@ -42,7 +42,8 @@ def readings_tables(draw):
     return streams.Header("readings", schema, meta), table, batch_rows
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=readings_tables(), ext=st.sampled_from(FORMATS))
 @pytest.mark.slow
 def test_any_valid_table_round_trips_bit_for_bit(tmp_path, data, ext):
@@ -97,7 +98,8 @@ def valid_files(tmp_path_factory):
     return out
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(ext=st.sampled_from(FORMATS), cut=st.floats(min_value=0.0, max_value=0.999),
        flip=st.integers(min_value=0, max_value=10**9))
 def test_truncated_or_flipped_valid_files(valid_files, ext, cut, flip):

@@ -170,7 +170,7 @@ def run(invoke: Callable[[], Any], debug: bool) -> int:
         error(f"{exc.strerror or exc}{where}")
         return 2 if exc.errno in (errno.ENOENT, errno.EACCES, errno.EISDIR, errno.ENOSPC,
                                   errno.EROFS, errno.ENOTDIR) else 3
-    except Exception as exc:  # a bug: say so in one line unless --debug
+    except Exception as exc:  # noqa: BLE001 - a bug: one line unless --debug
         if debug:
             import traceback
             traceback.print_exc()

@@ -75,7 +75,8 @@ class TableWriter:
                 dtype: Any = h5py.string_dtype()
             elif (pa.types.is_integer(f.type) or pa.types.is_floating(f.type)
                   or pa.types.is_boolean(f.type)):
-                dtype = f.type.to_pandas_dtype()
+                # (not DataType.to_pandas_dtype: before pyarrow 26 it needs pandas)
+                dtype = pa.array([], type=f.type).to_numpy(zero_copy_only=False).dtype
             else:
                 msg = f"HDF5 output cannot hold column {f.name!r} of type {f.type}"
                 raise DataError(msg)

@@ -118,7 +118,7 @@ class ReadAhead:
                 if not self._put(item):
                     return
             self._put(self._END)
-        except BaseException as exc:
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
             self._put(_Failed(exc))
 
     def __iter__(self) -> ReadAhead:

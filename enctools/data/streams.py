@@ -467,7 +467,7 @@ class OutputStream:
             try:
                 self.close()
                 return
-            except Exception:
+            except Exception:  # noqa: BLE001 - closing after a failure must not hide it
                 pass
         writer, self._writer = self._writer, None
         if writer is not None:

@@ -449,11 +449,11 @@ class InstrumentSession(Session):
         if counter is not None and hasattr(counter, "close"):
             try:
                 counter.close()
-            except Exception as exc:  # closing must not hide the first error
+            except Exception as exc:  # noqa: BLE001 - closing must not hide the first error
                 log.debug("closing the counter: %s", exc)
         links, self.links = self.links, {}
         for link in links.values():
             try:
                 link.close()
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - closing must not hide the first error
                 log.debug("closing %s: %s", link.name, exc)

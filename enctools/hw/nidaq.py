@@ -160,7 +160,7 @@ class NidaqCounter(Counter):
         except (UsageError, DataError):
             self._close_tasks()
             raise
-        except Exception as exc:  # every DAQmx failure becomes one line
+        except Exception as exc:  # noqa: BLE001 - every DAQmx failure becomes one line
             self._close_tasks()
             raise daq_error(nx, exc, doing) from None
 
@@ -170,7 +170,7 @@ class NidaqCounter(Counter):
         for t in tasks:
             try:
                 t.close()
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - closing must not hide the first error
                 log.debug("closing a DAQmx task: %s", exc)
 
     def read_now(self) -> dict[str, np.ndarray]:
@@ -180,7 +180,7 @@ class NidaqCounter(Counter):
         try:
             for name, task in self.tasks.items():
                 out[name] = np.array([round(float(task.read()))], dtype=np.int64)
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - every DAQmx failure becomes one line
             raise daq_error(self.nidaqmx, exc, "reading the counters") from None
         return out
 
@@ -198,7 +198,7 @@ class NidaqCounter(Counter):
                                                        timeout=self.timeout_s),
                                              dtype=np.float64)).astype(np.int64)
                     for name, task in self.tasks.items()}
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - every DAQmx failure becomes one line
             if getattr(exc, "error_code", None) == TIMEOUT_CODE:
                 msg = (f"NI-DAQmx: no samples within {self.timeout_s:g} s: is the sample clock "
                        f"{self.sample_clock or self.clock_counter} running?")

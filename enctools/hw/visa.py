@@ -95,7 +95,7 @@ def resource_manager(rig: Rig) -> Any:
             msg = (f"cannot load {what}: {retry_text(exc)} (install NI-VISA or pyvisa-py, "
                    "or set [backend] visa_library)")
             raise DeviceError(msg) from None
-        except Exception as exc:  # pyvisa-sim raises plain exceptions on bad yaml
+        except Exception as exc:  # noqa: BLE001 - pyvisa-sim raises plain exceptions on bad yaml
             msg = f"cannot load the VISA library {spec!r}: {type(exc).__name__}: {retry_text(exc)}"
             raise DeviceError(msg) from None
     return _MANAGERS[spec]
@@ -153,13 +153,13 @@ class VisaPort:
     def clear(self) -> None:
         try:
             self.resource.clear()
-        except Exception as exc:  # not every interface or simulator clears
+        except Exception as exc:  # noqa: BLE001 - not every interface or simulator clears
             log.debug("%s: clear: %s", self.name, exc)
 
     def close(self) -> None:
         try:
             self.resource.close()
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - closing must not hide the first error
             log.debug("%s: close: %s", self.name, exc)
 
     def hint(self) -> str:

@@ -7,7 +7,6 @@ conventions used (Bessel s, U with k = 2, ISO 230-2 definitions).
 """
 
 # The page's typography is meant: en dashes for missing values, minus signs and x.
-# ruff: noqa: RUF001
 
 from __future__ import annotations
 
