@@ -33,15 +33,13 @@ class Curve:
 def error_figures(curve: np.ndarray) -> dict[str, float]:
     """Figures of an error curve [arcsec] as the output's metadata holds them.
 
-    p-p, +/- (half the p-p), mean, max and min are those of
-    :func:`enctools.data.statistics.curve_figures`; the one named ``rms`` is the rms
-    about the mean (the population standard deviation), which the outputs have
-    always held under that name.
+    Those of :func:`enctools.data.statistics.curve_figures`, with its conventions (rms
+    of the values themselves): the curve holds harmonics of the signal period only,
+    sampled evenly over one period, so its mean is zero to rounding and its rms is
+    also its standard deviation about the mean.
     """
-    c = np.asarray(curve, dtype=np.float64)
-    f = curve_figures(c)
-    rms_about_mean = float(np.sqrt(np.mean((c - f.mean) ** 2)))
-    return {"pp": f.pp, "plus_minus": f.plus_minus, "mean": f.mean, "rms": rms_about_mean,
+    f = curve_figures(np.asarray(curve, dtype=np.float64))
+    return {"pp": f.pp, "plus_minus": f.plus_minus, "mean": f.mean, "rms": f.rms,
             "max": f.maximum, "min": f.minimum}
 
 
