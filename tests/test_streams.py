@@ -126,6 +126,16 @@ def test_history_line_names_the_command():
         assert re.search(rf"\b{lib} \d+\.\d+", line), line
 
 
+@pytest.mark.parametrize("name", ["numpy", "scipy", "pyarrow", "h5py", "click", "matplotlib"])
+def test_library_version_agrees_with_the_installed_metadata(name):
+    from importlib.metadata import version
+
+    from enctools.data.header import library_version
+
+    assert library_version(name) == version(name)
+    assert library_version("no_such_package_here") is None
+
+
 # ------------------------------------------------------------------ as a user, through a shell
 
 
