@@ -11,6 +11,7 @@ Missing drivers and packages are played by shadow packages on PYTHONPATH.
 
 from __future__ import annotations
 
+import shutil
 import signal
 import subprocess
 import time
@@ -98,7 +99,8 @@ def test_sigint_during_instrument_steps(tmp_path: Path) -> None:
 
 
 def dead_rig(tmp_path: Path) -> Path:
-    text = VISA_RIG.read_text().replace("../instruments/", f"{ROOT}/tests/instruments/")
+    shutil.copy(VISA_RIG.parent / "rotary-table.yaml", tmp_path)
+    text = VISA_RIG.read_text()
     text = text.replace("192.168.0.21", "192.168.0.22")  # the controller that goes silent
     p = tmp_path / "dead.toml"
     p.write_text(text)

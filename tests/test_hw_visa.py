@@ -1,4 +1,4 @@
-"""The visa backend against pyvisa-sim instruments (tests/instruments/rotary-table.yaml).
+"""The visa backend against pyvisa-sim instruments (tests/rigs/rotary-table.yaml).
 
 The scripted table goes exactly where it is told and its counter inputs read the
 commanded counts; the autocollimator reads a constant 0.120". So every number of the
@@ -9,6 +9,7 @@ no larger than the count quantisation.
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +25,9 @@ QUANT = 360 * 3600 / CPR  # one count [arcsec]
 
 
 def rig_variant(tmp_path: Path, **subs: str) -> Path:
-    """A copy of visa-sim.toml with text substitutions (old=new via dict items)."""
-    text = RIG.read_text().replace("../instruments/", f"{ROOT}/tests/instruments/")
+    """A copy of visa-sim.toml and its simulation file with text substitutions (old=new)."""
+    shutil.copy(RIG.parent / "rotary-table.yaml", tmp_path)
+    text = RIG.read_text()
     for old, new in subs.items():
         assert old in text, old
         text = text.replace(old, new)

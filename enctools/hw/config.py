@@ -7,6 +7,7 @@ relative paths are taken relative to the rig file's folder.
 from __future__ import annotations
 
 import difflib
+import string
 from pathlib import Path
 from typing import Any
 
@@ -49,3 +50,34 @@ def rig_dir(rig: Rig) -> Path:
     if src.endswith("(bundled)"):
         return Path.cwd()
     return Path(src).resolve().parent
+
+
+def check_template(tpl: str, fields: dict[str, Any], rig: Rig, where: str) -> None:
+    """Refuse a command template reaching beyond its plain fields (DataError, one line).
+
+    ``fields``: the allowed names with a sample value each. A field may be only one of
+    these names with an optional format spec (``{deg:.4f}``): no attribute or item
+    access (``{counts.real}``, ``{x[0]}``), conversion (``!r``), nested or positional
+    field, so a rig file cannot make a command out of the values' internals.
+    """
+    allowed = ", ".join("{" + k + "}" for k in fields)
+    rule = (f"allowed fields: {allowed} (plain names, with an optional format spec "
+            "such as {deg:.4f})")
+    head = f"rig file {rig.source}: {where}: template {tpl!r}"
+    try:
+        parts = list(string.Formatter().parse(tpl))
+    except ValueError as exc:
+        msg = f"{head} is not valid ({exc}); {rule}"
+        raise DataError(msg) from None
+    for _text, name, spec, conv in parts:
+        if name is None:
+            continue
+        if name not in fields or conv is not None or "{" in (spec or ""):
+            bad = "{" + name + (f"!{conv}" if conv else "") + (f":{spec}" if spec else "") + "}"
+            msg = f"{head} has the field {bad}; {rule}"
+            raise DataError(msg)
+    try:
+        tpl.format(**fields)
+    except (KeyError, ValueError, IndexError, TypeError) as exc:
+        msg = f"{head} is not valid ({type(exc).__name__}: {exc}); {rule}"
+        raise DataError(msg) from None

@@ -38,7 +38,7 @@ from enctools.data.rig import Rig
 from enctools.errors import DataError, DeviceError, UsageError
 from enctools.hw import retry
 from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session
-from enctools.hw.config import check_keys, need
+from enctools.hw.config import check_keys, check_template, need
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 log = logging.getLogger("enctools.hw")
@@ -53,6 +53,11 @@ SENSOR_KEYS = {"instrument", "read", "field", "scale", "offset"}
 MOTION_KEYS = {"instrument", "move", "in_position", "in_position_reply", "poll_s",
                "move_timeout_s", "rotate", "stop"}
 INSTRUMENT_KINDS = ("visa", "serial")
+# The fields of [motion.backend]'s command templates, with a sample value each.
+TEMPLATE_FIELDS: dict[str, dict[str, Any]] = {
+    "move": {"deg": 0.0, "rad": 0.0, "arcsec": 0.0, "counts": 0},
+    "rotate": {"rpm": 0.0, "deg_s": 0.0, "rad_s": 0.0},
+}
 _BLOCK_S = 0.25  # continuous mode: a block at least every this many seconds
 
 
@@ -252,6 +257,32 @@ class LineSensor(Sensor):
         return float(values[self.field]) * self.scale + self.offset
 
 
+def check_templates(cfg: dict[str, Any], rig: Rig) -> None:
+    """Check ``[motion.backend]``'s ``move`` and ``rotate`` templates (DataError, one line)."""
+    for key, fields in TEMPLATE_FIELDS.items():
+        tpl = need(cfg, key, str, rig, "motion.backend", "")
+        check_template(tpl, fields, rig, f"motion.backend.{key}")
+
+
+def check_rig(rig: Rig, kind: str) -> None:
+    """What can be checked before any instrument library is imported or loaded.
+
+    The VISA library string (never a path to a shared library) and the command
+    templates; DataError with one line.
+    """
+    be = rig.backend
+    instruments = be.get("instrument")
+    default = kind if kind in INSTRUMENT_KINDS else "visa"
+    kinds = {str(c.get("kind", default)) for c in instruments.values()
+             if isinstance(c, dict)} if isinstance(instruments, dict) else set()
+    if "visa_library" in be or kind == "visa" or "visa" in kinds:
+        from enctools.hw.visa import library_spec
+        library_spec(rig)
+    mb = rig.motion.get("backend")
+    if isinstance(mb, dict):
+        check_templates(mb, rig)
+
+
 class LineAxis(Axis):
     """A motion controller driven by command templates; waits for in-position."""
 
@@ -268,14 +299,7 @@ class LineAxis(Axis):
         self.move_timeout = float(need(cfg, "move_timeout_s", (int, float), rig, where, 120.0))
         self.rotate_tpl = need(cfg, "rotate", str, rig, where, "")
         self.stop_cmd = need(cfg, "stop", str, rig, where, "")
-        for tpl, fields in ((self.move_tpl, {"deg": 0.0, "rad": 0.0, "arcsec": 0.0, "counts": 0}),
-                            (self.rotate_tpl, {"rpm": 0.0, "deg_s": 0.0, "rad_s": 0.0})):
-            try:
-                tpl.format(**fields)
-            except (KeyError, ValueError, IndexError) as exc:
-                msg = (f"rig file {rig.source}: [motion.backend] template {tpl!r} is not "
-                       f"valid ({type(exc).__name__}: {exc}); fields: {', '.join(fields)}")
-                raise DataError(msg) from None
+        check_templates(cfg, rig)
 
     def _need(self, what: str, value: str) -> str:
         if not value:
@@ -347,6 +371,7 @@ class InstrumentSession(Session):
         be = rig.backend
         check_keys(be, BACKEND_KEYS, rig, "backend")
         self.kind = str(be.get("kind", "visa"))
+        check_rig(rig, self.kind)
         self.policy = retry.Policy(
             float(timeout_s if timeout_s is not None else need(be, "timeout_s", (int, float),
                                                                 rig, "backend", 1.0)),

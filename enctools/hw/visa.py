@@ -3,8 +3,9 @@
 An instrument is a table ``[backend.instrument.NAME]`` with a VISA ``resource``; the
 roles (head counters, probes, autocollimator, motion) and what to say to each are
 described in :mod:`enctools.hw.dialogue` and enc-rig(5). ``[backend] visa_library``
-chooses the PyVISA backend: empty for the system VISA (NI-VISA, Keysight), ``"@py"``
-for pyvisa-py, ``"FILE.yaml@sim"`` for pyvisa-sim (the path is relative to the rig file).
+chooses the PyVISA backend: empty or ``"@ivi"`` for the system VISA (NI-VISA, Keysight),
+``"@py"`` for pyvisa-py, ``"@sim"`` or ``"FILE.yaml@sim"`` for pyvisa-sim (the file
+relative to the rig file and inside its folder). Nothing else: never a library path.
 
 Example: a counter/interpolation box reading both heads in one query and a motion
 controller, on the LAN::
@@ -68,25 +69,52 @@ def _pyvisa() -> Any:
     return pyvisa
 
 
+# The PyVISA backends a rig file may name; anything else could be a shared library path.
+LIBRARIES = ("", "@ivi", "@py", "@sim")
+SIM_SUFFIXES = (".yaml", ".yml")
+
+
 def library_spec(rig: Rig) -> str:
-    """The PyVISA library string of a rig, with a pyvisa-sim file made absolute."""
-    spec = str(rig.backend.get("visa_library", ""))
-    if spec.endswith("@sim") and len(spec) > 4:
-        path = Path(spec[:-4])
-        if not path.is_absolute():
-            from enctools.hw.config import rig_dir
-            path = rig_dir(rig) / path
-        if not path.is_file():
-            msg = f"rig file {rig.source}: backend.visa_library: no such file {path}"
-            raise DataError(msg)
-        spec = f"{path}@sim"
-    return spec
+    """The PyVISA library string of a rig, with a pyvisa-sim file made absolute.
+
+    Only PyVISA's own backends are allowed (:data:`LIBRARIES`, or ``FILE.yaml@sim``
+    with the file inside the rig file's folder): a rig file never names a shared
+    library to load. Checked without importing pyvisa; DataError with one line.
+    """
+    spec = rig.backend.get("visa_library", "")
+    if spec in LIBRARIES:
+        return str(spec)
+    rule = ('allowed: "" (the system VISA), "@ivi", "@py" (pyvisa-py), "@sim" or '
+            '"FILE.yaml@sim" (a pyvisa-sim file in the rig file\'s folder), never a '
+            "library path")
+    head = f"rig file {rig.source}: backend.visa_library = {spec!r}"
+    if not isinstance(spec, str) or not spec.endswith("@sim"):
+        msg = f"{head}: not a PyVISA backend; {rule}"
+        raise DataError(msg)
+    return f"{_sim_file(spec[:-4], rig, head, rule)}@sim"
+
+
+def _sim_file(name: str, rig: Rig, head: str, rule: str) -> Path:
+    """The pyvisa-sim file ``name``: inside the rig file's folder, .yaml/.yml, a file."""
+    from enctools.hw.config import rig_dir
+    base = rig_dir(rig).resolve()
+    path = (base / name).resolve()
+    if not path.is_relative_to(base):
+        msg = f"{head}: the simulation file is outside the rig file's folder {base}; {rule}"
+        raise DataError(msg)
+    if path.suffix.lower() not in SIM_SUFFIXES:
+        msg = f"{head}: the simulation file must end in .yaml or .yml; {rule}"
+        raise DataError(msg)
+    if not path.is_file():
+        msg = f"{head}: no such file {path}"
+        raise DataError(msg)
+    return path
 
 
 def resource_manager(rig: Rig) -> Any:
     """One PyVISA ResourceManager per library string (cached for the process)."""
+    spec = library_spec(rig)  # checked before pyvisa is imported
     pyvisa = _pyvisa()
-    spec = library_spec(rig)
     if spec not in _MANAGERS:
         try:
             _MANAGERS[spec] = pyvisa.ResourceManager(spec) if spec else pyvisa.ResourceManager()
