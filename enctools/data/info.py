@@ -4,10 +4,15 @@ from __future__ import annotations
 
 from enctools.data.schemas import field_meta
 from enctools.data.streams import InputStream
+from enctools.data.text import printable_lines
 
 
 def describe(stream: InputStream) -> str:
-    """Read through a stream and describe it in a few lines (like ``ncdump -h``)."""
+    """Read through a stream and describe it in a few lines (like ``ncdump -h``).
+
+    Every value from the file is shown with its control characters escaped
+    (:func:`enctools.data.text.printable`): a line of the description is one line.
+    """
     rows = 0
     batches = 0
     for b in stream.batches():
@@ -37,4 +42,4 @@ def describe(stream: InputStream) -> str:
     lines.append(f"  metadata: {', '.join(keys) or '-'}")
     lines.append("  history:")
     lines += [f"    {line}" for line in h.history] or ["    -"]
-    return "\n".join(lines)
+    return printable_lines(lines)

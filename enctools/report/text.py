@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from enctools.data.text import printable_lines
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 
@@ -102,4 +103,4 @@ def to_text(report: Report) -> str:
     for s in report.sections:
         out += section_lines(s, top)
     out += history_lines(report)
-    return "\n".join(out)
+    return printable_lines(out)  # names, notes and history come from files
