@@ -8,4 +8,5 @@
 - :mod:`.curves`: deviations and spectrum tables as the methods return them.
 - :mod:`.rig`: rig description files (TOML); :mod:`.info`: ``enc info``'s description.
 - :mod:`.statistics`: p-p, +/-, mean, Bessel s and RMS, one convention for all.
+- :mod:`.text`: metadata strings made safe to print (control characters escaped).
 """
