@@ -126,7 +126,7 @@ def test_history_line_names_the_command():
         assert re.search(rf"\b{lib} \d+\.\d+", line), line
 
 
-@pytest.mark.parametrize("name", ["numpy", "scipy", "pyarrow", "h5py", "click", "matplotlib"])
+@pytest.mark.parametrize("name", ["numpy", "scipy", "pyarrow", "h5py", "matplotlib"])
 def test_library_version_agrees_with_the_installed_metadata(name):
     from importlib.metadata import version
 
