@@ -45,12 +45,16 @@ WRITERS = [
     ("make-rom", "{model} --bits 16 -o {out}", ".parquet"),
     ("make-rom", "{model} --bits 16 --target mif -o {out}", ".mif"),
     ("average-heads", "{raw} -o {out}", ".parquet"),
+    ("compare", "{raw} --device H1 --ref H2 -o {tmp}/c.parquet --spectrum {out}", ".parquet"),
+    ("fit-rbf", "{csv} -o {out}", ".parquet"),
+    ("points", "{csv} -o {out}", ".h5"),
+    ("interp-check", "{raw} --signals -o {tmp}/i.parquet --corrected {out}", ".arrows"),
 ]
 
 
 def _command(inputs: Path, tmp: Path, cmd: str, args: str, out: str) -> str:
     filled = args.format(out=out, tmp=tmp, raw=inputs / "raw.parquet",
-                         model=inputs / "m.parquet")
+                         model=inputs / "m.parquet", csv=DATA / "seed001_table1.csv")
     return f"enc {cmd} {filled} --force"
 
 

@@ -144,8 +144,9 @@ def remove_stale_temporaries(path: str | Path) -> list[str]:
         entries = list(os.scandir(folder))
     except OSError:
         return removed
+    start = f".{p.name}."
     for entry in entries:
-        m = pattern.fullmatch(entry.name)
+        m = pattern.fullmatch(entry.name) if entry.name.startswith(start) else None
         if m is None:
             continue
         try:
