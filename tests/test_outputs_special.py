@@ -197,3 +197,23 @@ def test_a_writer_names_itself_in_its_temporary(tmp_path):
     assert Path(tmp).name.startswith(f".y.parquet.{os.getpid()}@{files._host()}.")
     assert files._pattern("y.parquet").fullmatch(Path(tmp).name)
     assert not files._pattern("y").fullmatch(Path(tmp).name)
+
+
+def test_the_temporary_of_a_killed_run_is_removed_by_the_next(tmp_path, enc):
+    """kill -9 leaves ``.NAME.PID@HOST.*.tmp``; once old, the next run removes it."""
+    out = tmp_path / "raw.parquet"
+    p = subprocess.Popen([enc, "acquire", "--rig", "sjtu-dual", "--realtime", "-o", str(out)],
+                         stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    left: list[Path] = []
+    while not left and time.monotonic() < deadline:
+        time.sleep(0.1)
+        left = list(tmp_path.glob(f".{out.name}.{p.pid}@*.tmp"))
+    p.kill()
+    p.wait()
+    assert len(left) == 1 and not out.exists()
+    then = time.time() - 2 * files.STALE_AGE_S
+    os.utime(left[0], (then, then))
+    r = run_in_process(f"enc acquire --rig sjtu-dual --revolutions 0.01 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    assert [q.name for q in tmp_path.iterdir()] == [out.name]
