@@ -1,31 +1,55 @@
-"""Output files that are not streams: the overwrite rule and a write that leaves nothing partial.
+"""Output files: the overwrite rule and a write that leaves nothing partial.
 
 A command checks each file it will write with :func:`check_new_file` before doing any
-work (so a refusal costs nothing), then writes it with :func:`write_atomic`: into a
-temporary file in the same folder, renamed over the target only once complete, as NCO
-does. An interrupted or failed write leaves the old file (or none) in place.
+work (so a refusal costs nothing), then writes it with :func:`write_atomic` (streams:
+``streams.OutputStream``): into a temporary file ``.NAME.PID@HOST.XXXXXXXX.tmp`` in the
+same folder (:func:`new_temporary`), renamed over the target only once complete
+(:func:`rename_into_place`), as NCO does. An interrupted or failed write leaves the old
+file (or none) in place; a temporary left by a killed run is removed by the next run
+that writes the same NAME (:func:`remove_stale_temporaries`).
+
+Only regular files are ever replaced. An existing output that is a device, a FIFO or a
+socket (or a symbolic link to one) is refused, ``--force`` or not: the rename would put a
+regular file in its place (as root, ``-o /dev/null --force`` would replace /dev/null).
+A symbolic link to a regular file, or a broken one, counts as an existing output: with
+``--force`` the link itself is replaced by the new file and the file it pointed to is
+left as it was (what a rename does).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
+import re
+import socket
+import stat
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
 from enctools.errors import UsageError
 
+STALE_AGE_S = 3600.0
+"""A temporary of a dead writer is removed once its last write is this old [s]."""
+LEGACY_AGE_S = 86400.0
+"""A temporary that names no writer (older versions) is removed once this old [s]."""
+
+_KINDS = ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
+
 
 def check_new_file(path: str, force: bool) -> None:
-    """UsageError unless ``path`` can be written: not a folder, absent or ``force``, in a
-    folder that exists and is writable."""
+    """UsageError unless ``path`` can be written: not a folder nor any other non-regular
+    file, absent or ``force``, in a folder that exists and is writable."""
     p = Path(path)
     if p.is_dir():
         msg = f"output {path}: is a directory; give a file name"
         raise UsageError(msg)
-    if p.exists() and not force:
+    check_replaceable(path)
+    if os.path.lexists(p) and not force:
         msg = f"output {path} exists; use --force to replace it"
         raise UsageError(msg)
     parent = p.parent if str(p.parent) else Path(".")
@@ -37,17 +61,132 @@ def check_new_file(path: str, force: bool) -> None:
         raise UsageError(msg)
 
 
+def check_replaceable(path: str | Path) -> None:
+    """UsageError when ``path`` exists and is not a regular file (nor a link to one).
+
+    Absent paths and broken links pass: a rename puts a new file there and loses nothing.
+    """
+    try:
+        st = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return
+    except OSError as exc:
+        msg = f"output {path}: {exc.strerror}; only regular files are replaced"
+        raise UsageError(msg) from None
+    if stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode):
+        return  # a folder is refused by check_new_file, and by the rename itself
+    kind = next((name for test, name in _KINDS if test(st.st_mode)), "a special file")
+    if os.path.islink(path):
+        kind = f"a symbolic link to {kind}"
+    msg = (f"output {path}: is {kind}, not a regular file; only regular files are replaced "
+           "(write to stdout and redirect instead)")
+    raise UsageError(msg)
+
+
+def _host() -> str:
+    return re.sub(r"[^A-Za-z0-9.-]", "_", socket.gethostname())[:64] or "host"
+
+
+def new_temporary(path: str | Path) -> tuple[int, str]:
+    """A new empty temporary file beside ``path`` (after removing stale ones): its open
+    descriptor and its name ``.NAME.PID@HOST.XXXXXXXX.tmp``."""
+    p = Path(path)
+    folder = p.parent if str(p.parent) else Path(".")
+    remove_stale_temporaries(p)
+    prefix = f".{p.name}.{os.getpid()}@{_host()}."
+    if len(os.fsencode(prefix)) > 240:  # keep within NAME_MAX: the name without the writer
+        prefix = f".{p.name}."
+    return tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=str(folder))
+
+
+def _pattern(name: str) -> re.Pattern[str]:
+    return re.compile(rf"\.{re.escape(name)}\.(?:(\d+)@([A-Za-z0-9._-]+)\.)?[A-Za-z0-9_]+\.tmp")
+
+
+def _writer_gone(pid: str | None, host: str | None, age: float) -> bool:
+    """True when the writer named in a temporary's name cannot still be writing it."""
+    if pid is None:  # no writer named (older versions): the age alone decides
+        return age > LEGACY_AGE_S
+    if host != _host() or age <= STALE_AGE_S:
+        return False
+    if int(pid) == os.getpid():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # alive, another user's (EPERM), or cannot tell
+        return False
+    return False
+
+
+def remove_stale_temporaries(path: str | Path) -> list[str]:
+    """Remove the temporaries of ``path`` (``.NAME.*.tmp`` beside it) left by killed runs;
+    return their names (each logged at INFO).
+
+    A temporary is removed only when it is a regular file owned by this user, its last
+    write is more than :data:`STALE_AGE_S` ago, and the writer its name records (process
+    id and host) no longer runs on this host. Why the process id and not the age alone:
+    a live acquisition may write nothing for a long time (slow steps, long delays), and
+    only the writer's existence says it is done. Why not a lock on the file: HDF5 takes
+    and drops its own locks on the file it writes. A temporary written on another host
+    is left to that host's runs (its process ids mean nothing here); one naming no writer
+    (written by an older version) is removed after :data:`LEGACY_AGE_S`. A reused
+    process id keeps a stale file longer, never removes a live one.
+    """
+    p = Path(path)
+    folder = p.parent if str(p.parent) else Path(".")
+    pattern = _pattern(p.name)
+    removed: list[str] = []
+    uid = os.geteuid()
+    now = time.time()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    start = f".{p.name}."
+    for entry in entries:
+        m = pattern.fullmatch(entry.name) if entry.name.startswith(start) else None
+        if m is None:
+            continue
+        try:
+            st = entry.stat(follow_symlinks=False)
+            if (not stat.S_ISREG(st.st_mode) or st.st_uid != uid
+                    or not _writer_gone(m.group(1), m.group(2), now - st.st_mtime)):
+                continue
+            os.unlink(entry.path)
+        except OSError:
+            continue
+        removed.append(entry.path)
+        logging.getLogger("enctools").info("removed %s, a temporary file of %s left by a "
+                                           "run that was killed", entry.path, p)
+    return removed
+
+
+def rename_into_place(tmp: str, path: str | Path, force: bool = True) -> None:
+    """Rename the complete temporary ``tmp`` over ``path``, checking ``path`` again just
+    before (a device or FIFO may have appeared there since the command started; without
+    ``force``, any file). On a refusal, ``tmp`` is left for the caller to remove."""
+    check_replaceable(path)
+    if not force and os.path.lexists(path):  # appeared meanwhile
+        msg = f"output {path} exists; use --force to replace it"
+        raise UsageError(msg)
+    os.replace(tmp, path)
+
+
 def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
                  durable: bool = False, mode: int | None = None) -> None:
     """Write ``data`` (bytes, or a function writing to a binary file) to ``path`` atomically.
 
     The file gets ``mode`` (default: 0o666 less the umask, as ``open`` would give).
     ``durable``: fsync the file and its folder, so the file survives a power cut once
-    this returns (history records).
+    this returns (history records). A ``path`` that is not a regular file is refused
+    (:func:`check_replaceable`).
     """
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=str(folder))
+    check_replaceable(p)
+    fd, tmp = new_temporary(p)
     try:
         with os.fdopen(fd, "wb") as f:
             if isinstance(data, bytes):
@@ -62,7 +201,7 @@ def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
             os.umask(mask)
             mode = 0o666 & ~mask
         os.chmod(tmp, mode)
-        os.replace(tmp, p)
+        rename_into_place(tmp, p)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)

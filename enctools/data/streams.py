@@ -23,14 +23,13 @@ import io
 import os
 import re
 import sys
-import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
 import pyarrow as pa
 
-from enctools.data import pipes
+from enctools.data import files, pipes
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
 from enctools.errors import DataError, UsageError
@@ -346,9 +345,7 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
             msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
             raise UsageError(msg)
         return
-    from enctools.data.files import check_new_file
-
-    check_new_file(path, force)
+    files.check_new_file(path, force)
     format_for_path(path, fmt)
 
 
@@ -380,8 +377,7 @@ class OutputStream:
             self.format = format_for_path(self.path, fmt)
             p = Path(self.path)
             try:
-                fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp",
-                                           dir=str(p.parent) if str(p.parent) else ".")
+                fd, tmp = files.new_temporary(p)
             except OSError as exc:
                 msg = f"output {self.path}: cannot create a file in {p.parent}: {exc.strerror}"
                 raise UsageError(msg) from None
@@ -444,12 +440,12 @@ class OutputStream:
             raise self._write_error(exc) from None
         if self._tmp is not None:
             assert self.path is not None  # a temporary file is made for a named output only
-            if Path(self.path).exists() and not self.force:  # appeared meanwhile
-                os.unlink(self._tmp)
-                msg = f"output {self.path} exists; use --force to replace it"
-                raise UsageError(msg)
             os.chmod(self._tmp, 0o666 & ~_umask())
-            os.replace(self._tmp, self.path)
+            try:  # a file, device or FIFO that appeared meanwhile is refused
+                files.rename_into_place(self._tmp, self.path, self.force)
+            except UsageError:
+                self._discard()
+                raise
             self._tmp = None
         else:
             with contextlib.suppress(AttributeError):
