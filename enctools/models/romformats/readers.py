@@ -467,7 +467,7 @@ def read_acs(data: bytes, t: Target, src: str) -> np.ndarray:
     vals = _indexed(data, t.name.encode() + b"(",
                     rf"^\s*{re.escape(t.name)}\((?P<i>\d+)\)\s*=\s*(?P<v>{number})\s*$", src)
     m = re.search(rf"ERRORMAP1D\s+[^,]+,\s*[^,]+,\s*({number})\s*,\s*({number})\s*,\s*"
-                  rf"{re.escape(t.name)}".encode(), data)
+                  rf"{re.escape(t.name)}".encode(), re.sub(rb"![^\n]*", b"", data))  # not in comments
     if not m:
         msg = f"{src}: no ERRORMAP1D statement for array {t.name}"
         raise DataError(msg)
@@ -485,8 +485,10 @@ def read_siemens(data: bytes, t: Target, src: str) -> np.ndarray:
                     r"^\s*\$AA_ENC_COMP\[\s*\d+\s*,\s*(?P<i>\d+)\s*,\s*\w+\s*\]\s*="
                     r"\s*(?P<v>[-+0-9.eE]+)\s*$", src)
 
+    code = re.sub(rb";[^\n]*", b"", data)  # what comments say is not read
+
     def key(name: bytes) -> float:
-        m = re.search(rb"\$AA_ENC_COMP_" + name + rb"\[[^]]*\]\s*=\s*([-+0-9.eE]+)", data)
+        m = re.search(rb"\$AA_ENC_COMP_" + name + rb"\[[^]]*\]\s*=\s*([-+0-9.eE]+)", code)
         if not m:
             msg = f"{src}: no $AA_ENC_COMP_{name.decode()}"
             raise DataError(msg)

@@ -44,6 +44,31 @@ class Target:
         return np.dtype(f"{'<' if self.endian == 'little' else '>'}i{self.storage_bytes}")
 
 
+def comment_text(text: str, ascii_only: bool = False, reserved: str = "") -> str:
+    """``text`` made safe to stand in a one-line comment of a table file or machine program.
+
+    Every character that is not printable (C0 and C1 controls, CR, LF, TAB, ESC, DEL,
+    NEL U+0085, line and paragraph separators U+2028/2029, format characters such as
+    bidi overrides, lone surrogates of undecodable file names) and every ``reserved``
+    character (one that could close the format's comment, e.g. MIF's ``%``) becomes a
+    visible escape (``\\n``, ``\\x1b``, ``\\u2028``, ``\\x25``); with ``ascii_only`` every
+    other non-ASCII character becomes ``?``. The result is one line of text.
+    """
+    if text.isascii() and text.isprintable() and not any(c in text for c in reserved):
+        return text
+    out = []
+    for ch in text:
+        if not ch.isprintable():
+            out.append(ascii(ch)[1:-1])
+        elif ch in reserved:
+            out.append(f"\\x{ord(ch):02x}")
+        elif ascii_only and not ch.isascii():
+            out.append("?")
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
 def twos(values: np.ndarray, width: int) -> np.ndarray:
     """Two's complement of signed values in ``width`` bits, as non-negative int64."""
     return values.astype(np.int64) & ((1 << width) - 1)
