@@ -23,10 +23,14 @@ class Target:
     width: int = 16
     endian: str = "little"
     count_deg: float = 360.0 / 2 ** 23  # one LSB of the stored value [deg] (controllers)
-    axis: str = "AX1"  # siemens axis name, or ACS axis number
+    axis: str = ""  # siemens axis name, or ACS axis number ("": AX1, or 0 for acs)
     zone: int = 0  # ACS zone / SINUMERIK measuring system index
     name: str = "ENC_COMP"  # ACS array name
     max_entries: int | None = None
+
+    def __post_init__(self) -> None:
+        if not self.axis:
+            object.__setattr__(self, "axis", "0" if self.fmt == "acs" else "AX1")
 
     @property
     def storage_bytes(self) -> int:
