@@ -205,6 +205,8 @@ def fast_mif(data: bytes, t: Target, src: str) -> np.ndarray | None:
     them; others are placed by address (DataError unless each of 0..DEPTH-1 comes once).
     """
     begin, end = data.find(b"BEGIN"), data.rfind(b"END")
+    while begin >= 0 and b"--" in data[data.rfind(b"\n", 0, begin) + 1:begin]:  # a comment's
+        begin = data.find(b"BEGIN", begin + 5)
     if begin < 0 or end < begin:
         return None
     head = re.sub(rb"%[^%]*%", b"", re.sub(rb"--[^\n]*", b"", data[:begin]))
@@ -288,10 +290,28 @@ def _mif_statement(stmt: bytes, arad: int, drad: int, src: str) -> tuple[range, 
 # --------------------------------------------------------------------- COE
 
 
+def _coe_head(data: bytes) -> tuple[bytes, int]:
+    """The lines of a COE file before its vector, without the comment lines (``;`` first on
+    the line), and the offset of the line that starts the vector (or of the end)."""
+    head, pos = [], 0
+    while pos < len(data):
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end + 1
+        line = data[pos:end]
+        if not line.lstrip().startswith(b";"):
+            k = re.search(rb"memory_initialization_vector", line, re.IGNORECASE)
+            head.append(line if k is None else line[:k.start()])
+            if k is not None:
+                break
+        pos = end
+    return b"".join(head), pos
+
+
 def fast_coe(data: bytes, t: Target, src: str) -> np.ndarray | None:
     """A hex COE file as written here: one ``value,`` a line, the last ``value;``."""
-    m = re.search(rb"memory_initialization_vector\s*=[ \t]*\r?\n", data, re.IGNORECASE)
-    if m is None or not re.search(rb"memory_initialization_radix\s*=\s*16\s*;", data[:m.start()],
+    head, at = _coe_head(data)
+    m = re.compile(rb"memory_initialization_vector\s*=[ \t]*\r?\n", re.IGNORECASE).search(data, at)
+    if m is None or not re.search(rb"memory_initialization_radix\s*=\s*16\s*;", head,
                                   re.IGNORECASE):
         return None
     end = data.rstrip().rfind(b"\n") + 1
@@ -306,8 +326,9 @@ def fast_coe(data: bytes, t: Target, src: str) -> np.ndarray | None:
 
 def read_coe(data: bytes, t: Target, src: str) -> np.ndarray:
     """Any COE: radix 2..16, values separated by commas, blanks and line breaks."""
-    m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", data, re.IGNORECASE)
-    v = re.search(rb"memory_initialization_vector\s*=([^;]*);", data, re.IGNORECASE)
+    head, at = _coe_head(data)
+    m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", head, re.IGNORECASE)
+    v = re.compile(rb"memory_initialization_vector\s*=([^;]*);", re.IGNORECASE).search(data, at)
     if not (m and v):
         msg = f"{src}: no memory_initialization_radix/vector (not a COE file)"
         raise DataError(msg)
