@@ -13,6 +13,7 @@ import os
 import re
 import shutil
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -93,12 +94,12 @@ def test_hostile_names_stay_in_comments(model, tmp_path, monkeypatch, fmt):
     monkeypatch.setattr(sys, "argv", ["enc", *args])  # the history line is the command line
     r = run_in_process(args)
     assert r.returncode == 0, r.stderr.decode()
-    comments = check_lines(open(out, encoding="utf-8", newline="").read(), fmt)
+    data = Path(out).read_bytes()
+    comments = check_lines(data.decode("utf-8"), fmt)
     if fmt != "ihex":
         assert any("\\nM30\\r\\nM30\\x1b[2J" in c for c in comments), comments
     # both readers of the format read the table the control would (the comments say nothing)
     target = Settings(23, 5, 16, target=fmt).table
-    data = open(out, "rb").read()
     fast, general = rf.READERS[fmt]
     values = general(data, target, out)
     if fast is not None:  # the fast reader still takes the files written here

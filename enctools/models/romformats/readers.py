@@ -487,8 +487,9 @@ def read_acs(data: bytes, t: Target, src: str) -> np.ndarray:
     number = r"[-+0-9.eE]+"
     vals = _indexed(data, t.name.encode() + b"(",
                     rf"^\s*{re.escape(t.name)}\((?P<i>\d+)\)\s*=\s*(?P<v>{number})\s*$", src)
+    code = re.sub(rb"![^\n]*", b"", data)  # what comments say is not read
     m = re.search(rf"ERRORMAP1D\s+[^,]+,\s*[^,]+,\s*({number})\s*,\s*({number})\s*,\s*"
-                  rf"{re.escape(t.name)}".encode(), re.sub(rb"![^\n]*", b"", data))  # not in comments
+                  rf"{re.escape(t.name)}".encode(), code)
     if not m:
         msg = f"{src}: no ERRORMAP1D statement for array {t.name}"
         raise DataError(msg)
