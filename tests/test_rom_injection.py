@@ -177,3 +177,13 @@ def test_library_writers_check_names_too(tmp_path):
 def test_comment_text(text, ascii_only, reserved, want):
     from enctools.models.romformats.words import comment_text
     assert comment_text(text, ascii_only, reserved) == want
+
+
+@pytest.mark.parametrize(("data", "want"), [
+    (b"; memory_initialization_radix=2;\nmemory_initialization_radix=16; "
+     b"memory_initialization_vector=1,2,\nFFFF\n;\n", [1, 2, -1]),
+    (b"memory_initialization_radix=10;\n; memory_initialization_vector=9;\n"
+     b"memory_initialization_vector=\n1,\n0,\n3;\n", [1, 0, 3]),
+])
+def test_coe_keywords_in_comments_are_not_read(data, want):
+    assert rf.readers.read_coe(data, rf.Target("coe", 16), "x.coe").tolist() == want

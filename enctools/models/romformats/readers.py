@@ -291,20 +291,14 @@ def _mif_statement(stmt: bytes, arad: int, drad: int, src: str) -> tuple[range, 
 
 
 def _coe_head(data: bytes) -> tuple[bytes, int]:
-    """The lines of a COE file before its vector, without the comment lines (``;`` first on
-    the line), and the offset of the line that starts the vector (or of the end)."""
-    head, pos = [], 0
-    while pos < len(data):
-        end = data.find(b"\n", pos)
-        end = len(data) if end < 0 else end + 1
-        line = data[pos:end]
-        if not line.lstrip().startswith(b";"):
-            k = re.search(rb"memory_initialization_vector", line, re.IGNORECASE)
-            head.append(line if k is None else line[:k.start()])
-            if k is not None:
-                break
-        pos = end
-    return b"".join(head), pos
+    """The text of a COE file before its vector, without the comment lines (``;`` first on
+    the line), and the offset of the line that starts the vector (the end if none does)."""
+    comments = re.compile(rb"(?m)^[ \t]*;[^\n]*")
+    for k in re.finditer(rb"memory_initialization_vector", data, re.IGNORECASE):
+        start = data.rfind(b"\n", 0, k.start()) + 1
+        if not data[start:k.start()].lstrip().startswith(b";"):
+            return comments.sub(b"", data[:k.start()]), start
+    return comments.sub(b"", data), len(data)
 
 
 def fast_coe(data: bytes, t: Target, src: str) -> np.ndarray | None:
