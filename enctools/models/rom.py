@@ -129,9 +129,11 @@ class Settings:
         siemens), centre for a memory's.
     target : a format of :mod:`enctools.models.romformats`, or ``stream``.
     endian : bin and ihex: byte order of the words.
-    axis : acs: axis number (None: 0); siemens: machine axis (None: AX1).
-    zone : acs error-map zone, siemens measuring system index.
-    array_name : acs: the REAL array holding the map.
+    axis : acs: axis number 0..127 (None: 0); siemens: machine axis name, a letter then
+        letters, digits or _, at most 8 characters (None: AX1).
+    zone : acs error-map zone, siemens measuring system index (>= 0).
+    array_name : acs: the REAL array holding the map, an ACSPL+ name (a letter, then
+        letters, digits or _, at most 32 characters).
     max_entries : acs, siemens: table points the control holds (None: the format's default).
     """
 
@@ -171,9 +173,18 @@ class Settings:
             raise ValueError(msg)
         return romformats.Target(self.target, self.width, self.endian,
                                  count_deg=self.spec.lsb_arcsec / 3600.0,
-                                 axis=self.axis or ("0" if self.target == "acs" else "AX1"),
+                                 axis=self._axis(),
                                  zone=self.zone, name=self.array_name,
                                  max_entries=self.max_entries)
+
+    def _axis(self) -> str:
+        """The axis as the program names it: acs a number (leading zeros dropped), siemens a
+        name; checked by :func:`romformats.check_names`."""
+        if self.axis is None:
+            return "0" if self.target == "acs" else "AX1"
+        if self.target == "acs" and self.axis.isascii() and self.axis.isdigit():
+            return str(int(self.axis))
+        return self.axis
 
     def to_meta(self) -> dict[str, Any]:
         """The ``settings`` metadata of the output."""

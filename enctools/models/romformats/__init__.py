@@ -28,6 +28,7 @@ Hex words are two's complement in ``width`` bits, ``ceil(width / 4)`` digits.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO
@@ -85,7 +86,8 @@ def format_for(path: str, fmt: str | None) -> str:
 
 
 def check_capacity(target: Target, entries: int) -> None:
-    """Refuse (UsageError, one line) a table the target cannot hold."""
+    """Refuse (UsageError, one line) a table the target cannot hold, or names it cannot
+    take (:func:`check_names`)."""
     rows = entries + 1 if target.fmt in CONTROLLER else entries
     limit = target.max_entries if target.max_entries is not None else MAX_ENTRIES[target.fmt]
     if limit is not None and rows > limit:
@@ -98,6 +100,48 @@ def check_capacity(target: Target, entries: int) -> None:
         raise UsageError(msg)
     if target.fmt == "bin" and target.endian not in ("little", "big"):
         msg = f"--endian must be little or big, not {target.endian!r}"
+        raise UsageError(msg)
+    check_names(target)
+
+
+#: SINUMERIK axis names: a letter, then letters, digits or _; at most 8 characters
+#: (Siemens programming manual: axis identifiers up to 8 characters, e.g. AX1, C1)
+SIEMENS_AXIS = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,7}")
+#: ACSPL+ user variable names, the conservative common subset: a letter, then letters,
+#: digits or _; at most 32 characters
+ACS_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,31}")
+#: ACS axis indices accepted: 0..ACS_MAX_AXIS
+ACS_MAX_AXIS = 127
+#: the words of the ACS program written here: no array may take one of their names
+ACS_WORDS = frozenset({"AXIS_NO", "GLOBAL", "REAL", "INT", "STOP", "ERRORMAP1D",
+                       "ERRORUNMAP", "ERRORMAPON"})
+
+
+def check_names(target: Target) -> None:
+    """Refuse (UsageError, one line naming the option and the rule) an axis, array name or
+    zone that a controller's program cannot take as a name or number: nothing but a name
+    or a number ever lands in program text."""
+    if target.fmt not in CONTROLLER:
+        return
+    if isinstance(target.zone, bool) or not isinstance(target.zone, int) or target.zone < 0:
+        msg = f"--zone must be a whole number >= 0, not {target.zone!r}"
+        raise UsageError(msg)
+    if target.fmt == "siemens" and not SIEMENS_AXIS.fullmatch(target.axis):
+        msg = (f"--axis must be a SINUMERIK axis name (a letter, then letters, digits or _, "
+               f"at most 8 characters, e.g. AX1 or C1), not {target.axis!r}")
+        raise UsageError(msg)
+    if target.fmt != "acs":
+        return
+    if not (re.fullmatch(r"[0-9]{1,3}", target.axis) and int(target.axis) <= ACS_MAX_AXIS):
+        msg = f"--axis must be an ACS axis number 0..{ACS_MAX_AXIS}, not {target.axis!r}"
+        raise UsageError(msg)
+    if not ACS_NAME.fullmatch(target.name):
+        msg = (f"--array must be an ACSPL+ name (a letter, then letters, digits or _, at most "
+               f"32 characters), not {target.name!r}")
+        raise UsageError(msg)
+    if target.name.upper() in ACS_WORDS:
+        msg = (f"--array {target.name!r} is a word of the program written "
+               f"({', '.join(sorted(ACS_WORDS))}); choose another name")
         raise UsageError(msg)
 
 

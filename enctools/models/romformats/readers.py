@@ -205,6 +205,8 @@ def fast_mif(data: bytes, t: Target, src: str) -> np.ndarray | None:
     them; others are placed by address (DataError unless each of 0..DEPTH-1 comes once).
     """
     begin, end = data.find(b"BEGIN"), data.rfind(b"END")
+    while begin >= 0 and b"--" in data[data.rfind(b"\n", 0, begin) + 1:begin]:  # a comment's
+        begin = data.find(b"BEGIN", begin + 5)
     if begin < 0 or end < begin:
         return None
     head = re.sub(rb"%[^%]*%", b"", re.sub(rb"--[^\n]*", b"", data[:begin]))
@@ -288,10 +290,22 @@ def _mif_statement(stmt: bytes, arad: int, drad: int, src: str) -> tuple[range, 
 # --------------------------------------------------------------------- COE
 
 
+def _coe_head(data: bytes) -> tuple[bytes, int]:
+    """The text of a COE file before its vector, without the comment lines (``;`` first on
+    the line), and the offset of the line that starts the vector (the end if none does)."""
+    comments = re.compile(rb"(?m)^[ \t]*;[^\n]*")
+    for k in re.finditer(rb"memory_initialization_vector", data, re.IGNORECASE):
+        start = data.rfind(b"\n", 0, k.start()) + 1
+        if not data[start:k.start()].lstrip().startswith(b";"):
+            return comments.sub(b"", data[:k.start()]), start
+    return comments.sub(b"", data), len(data)
+
+
 def fast_coe(data: bytes, t: Target, src: str) -> np.ndarray | None:
     """A hex COE file as written here: one ``value,`` a line, the last ``value;``."""
-    m = re.search(rb"memory_initialization_vector\s*=[ \t]*\r?\n", data, re.IGNORECASE)
-    if m is None or not re.search(rb"memory_initialization_radix\s*=\s*16\s*;", data[:m.start()],
+    head, at = _coe_head(data)
+    m = re.compile(rb"memory_initialization_vector\s*=[ \t]*\r?\n", re.IGNORECASE).search(data, at)
+    if m is None or not re.search(rb"memory_initialization_radix\s*=\s*16\s*;", head,
                                   re.IGNORECASE):
         return None
     end = data.rstrip().rfind(b"\n") + 1
@@ -306,8 +320,9 @@ def fast_coe(data: bytes, t: Target, src: str) -> np.ndarray | None:
 
 def read_coe(data: bytes, t: Target, src: str) -> np.ndarray:
     """Any COE: radix 2..16, values separated by commas, blanks and line breaks."""
-    m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", data, re.IGNORECASE)
-    v = re.search(rb"memory_initialization_vector\s*=([^;]*);", data, re.IGNORECASE)
+    head, at = _coe_head(data)
+    m = re.search(rb"memory_initialization_radix\s*=\s*(\d+)\s*;", head, re.IGNORECASE)
+    v = re.compile(rb"memory_initialization_vector\s*=([^;]*);", re.IGNORECASE).search(data, at)
     if not (m and v):
         msg = f"{src}: no memory_initialization_radix/vector (not a COE file)"
         raise DataError(msg)
@@ -466,8 +481,9 @@ def read_acs(data: bytes, t: Target, src: str) -> np.ndarray:
     number = r"[-+0-9.eE]+"
     vals = _indexed(data, t.name.encode() + b"(",
                     rf"^\s*{re.escape(t.name)}\((?P<i>\d+)\)\s*=\s*(?P<v>{number})\s*$", src)
+    code = re.sub(rb"![^\n]*", b"", data)  # what comments say is not read
     m = re.search(rf"ERRORMAP1D\s+[^,]+,\s*[^,]+,\s*({number})\s*,\s*({number})\s*,\s*"
-                  rf"{re.escape(t.name)}".encode(), data)
+                  rf"{re.escape(t.name)}".encode(), code)
     if not m:
         msg = f"{src}: no ERRORMAP1D statement for array {t.name}"
         raise DataError(msg)
@@ -485,8 +501,10 @@ def read_siemens(data: bytes, t: Target, src: str) -> np.ndarray:
                     r"^\s*\$AA_ENC_COMP\[\s*\d+\s*,\s*(?P<i>\d+)\s*,\s*\w+\s*\]\s*="
                     r"\s*(?P<v>[-+0-9.eE]+)\s*$", src)
 
+    code = re.sub(rb";[^\n]*", b"", data)  # what comments say is not read
+
     def key(name: bytes) -> float:
-        m = re.search(rb"\$AA_ENC_COMP_" + name + rb"\[[^]]*\]\s*=\s*([-+0-9.eE]+)", data)
+        m = re.search(rb"\$AA_ENC_COMP_" + name + rb"\[[^]]*\]\s*=\s*([-+0-9.eE]+)", code)
         if not m:
             msg = f"{src}: no $AA_ENC_COMP_{name.decode()}"
             raise DataError(msg)

@@ -23,10 +23,14 @@ class Target:
     width: int = 16
     endian: str = "little"
     count_deg: float = 360.0 / 2 ** 23  # one LSB of the stored value [deg] (controllers)
-    axis: str = "AX1"  # siemens axis name, or ACS axis number
+    axis: str = ""  # siemens axis name, or ACS axis number ("": AX1, or 0 for acs)
     zone: int = 0  # ACS zone / SINUMERIK measuring system index
     name: str = "ENC_COMP"  # ACS array name
     max_entries: int | None = None
+
+    def __post_init__(self) -> None:
+        if not self.axis:
+            object.__setattr__(self, "axis", "0" if self.fmt == "acs" else "AX1")
 
     @property
     def storage_bytes(self) -> int:
@@ -42,6 +46,31 @@ class Target:
     def image_dtype(self) -> np.dtype:
         """The signed word of a binary image, in the target's byte order."""
         return np.dtype(f"{'<' if self.endian == 'little' else '>'}i{self.storage_bytes}")
+
+
+def comment_text(text: str, ascii_only: bool = False, reserved: str = "") -> str:
+    """``text`` made safe to stand in a one-line comment of a table file or machine program.
+
+    Every character that is not printable (C0 and C1 controls, CR, LF, TAB, ESC, DEL,
+    NEL U+0085, line and paragraph separators U+2028/2029, format characters such as
+    bidi overrides, lone surrogates of undecodable file names) and every ``reserved``
+    character (one that could close the format's comment, e.g. MIF's ``%``) becomes a
+    visible escape (``\\n``, ``\\x1b``, ``\\u2028``, ``\\x25``); with ``ascii_only`` every
+    other non-ASCII character becomes ``?``. The result is one line of text.
+    """
+    if text.isascii() and text.isprintable() and not any(c in text for c in reserved):
+        return text
+    out = []
+    for ch in text:
+        if not ch.isprintable():
+            out.append(ascii(ch)[1:-1])
+        elif ch in reserved:
+            out.append(f"\\x{ord(ch):02x}")
+        elif ascii_only and not ch.isascii():
+            out.append("?")
+        else:
+            out.append(ch)
+    return "".join(out)
 
 
 def twos(values: np.ndarray, width: int) -> np.ndarray:

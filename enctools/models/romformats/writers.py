@@ -14,7 +14,7 @@ from typing import IO
 
 import numpy as np
 
-from enctools.models.romformats.words import Target, twos
+from enctools.models.romformats.words import Target, comment_text, twos
 
 _HEX = np.frombuffer(b"0123456789ABCDEF", dtype=np.uint8)
 
@@ -102,6 +102,13 @@ def _write_chunked(f: IO[bytes], values: np.ndarray,
         f.write(make(values[start:start + chunk], start).reshape(-1).data)
 
 
+def _comments(comment: list[str], prefix: str, ascii_only: bool = False,
+              reserved: str = "") -> str:
+    """The comment lines, each ``prefix`` + :func:`~.words.comment_text` + newline: nothing
+    in them can end the comment or start a line of program or table."""
+    return "".join(f"{prefix}{comment_text(c, ascii_only, reserved)}\n" for c in comment)
+
+
 def write_bin(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Raw two's-complement words, 1, 2 or 4 bytes each, in the target's byte order."""
     values.astype(t.image_dtype, copy=False).tofile(f)
@@ -140,7 +147,7 @@ def _ihex_record(rtype: int, addr: int, data: list[int]) -> bytes:
 def write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Altera/Intel MIF: WIDTH, DEPTH, hex radices, one ``addr : value;`` a line."""
     adig = max(1, (int(values.size - 1).bit_length() + 3) // 4)
-    head = "".join(f"-- {c}\n" for c in comment)
+    head = _comments(comment, "-- ", reserved="%")  # % opens a block comment
     head += (f"WIDTH={t.width};\nDEPTH={values.size};\n\nADDRESS_RADIX=HEX;\nDATA_RADIX=HEX;\n\n"
              "CONTENT BEGIN\n")
     f.write(head.encode())
@@ -156,7 +163,7 @@ def write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
 
 def write_coe(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Xilinx COE, radix 16: one ``value,`` a line, the last ``value;``."""
-    head = "".join(f"; {c}\n" for c in comment)
+    head = _comments(comment, "; ")
     f.write((head + "memory_initialization_radix=16;\nmemory_initialization_vector=\n").encode())
 
     def make(v: np.ndarray, start: int) -> np.ndarray:
@@ -170,7 +177,7 @@ def write_coe(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
 
 def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Verilog ``$readmemh`` text: ``//`` comments, ``@0``, one hex word a line."""
-    f.write("".join(f"// {c}\n" for c in comment).encode())
+    f.write(_comments(comment, "// ", reserved="*").encode())  # no /* or */
     f.write(b"@0\n")
     _write_chunked(f, values, lambda v, s: _lines([_hex_columns(twos(v, t.width),
                                                                 t.hex_digits), b"\n"], v.size))
@@ -180,7 +187,7 @@ def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     """``address,correction`` in decimal after ``#`` comment lines."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
-    f.write("".join(f"# {c}\n" for c in comment).encode() + b"address,correction\n")
+    f.write(_comments(comment, "# ").encode() + b"address,correction\n")
     table = pa.table({"address": pa.array(np.arange(values.size, dtype=np.int64)),
                       "correction": pa.array(values.astype(np.int64))})
     pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
@@ -209,7 +216,7 @@ def write_acs(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     """ACS SPiiPlus program: a REAL array [deg] 0..360 deg, ERRORMAP1D, ERRORMAPON."""
     v = _closed(values)
     step = 360.0 / values.size
-    head = "".join(f"! {c}\n" for c in comment)
+    head = _comments(comment, "! ", ascii_only=True)
     head += (f"! enctools table: {v.size} points 0..360 deg, step {step!r} deg, "
              f"lsb {t.count_deg!r} deg\n"
              f"GLOBAL REAL {t.name}({v.size})\nINT AXIS_NO\nAXIS_NO = {t.axis}\n")
@@ -225,7 +232,7 @@ def write_siemens(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str
     v = _closed(values)
     step = 360.0 / values.size
     e, ax = t.zone, t.axis
-    head = "".join(f"; {c}\n" for c in comment)
+    head = _comments(comment, "; ", ascii_only=True)
     head += (f"; enctools table: {v.size} points 0..360 deg, lsb {t.count_deg!r} deg\n"
              "%_N_AX_EEC_INI\nCHANDATA(1)\n")
     f.write(head.encode())
