@@ -56,7 +56,7 @@ screenshot: demo chromium  ## picture of the demo's HTML report for the README
 
 nightly: $(VENV)/.installed  ## one nightly recheck of ciomp-23bit into nightly/ (exit 1 on drift)
 	PATH=$(abspath $(BIN)):$$PATH bin/enc-nightly --rig ciomp-23bit --history nightly/history \
-	    --calibration nightly/calibration.parquet --init --html nightly/latest.html
+	    --calibration nightly/calibration.parquet --init --html nightly/latest.html --force
 
 # Headless Chromium renders the HTML report in one test; installed when we may (root, apt).
 chromium:

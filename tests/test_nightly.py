@@ -239,6 +239,20 @@ def test_unwritable_calibration_is_one_line(tmp_path):
     assert read_history(tmp_path / "h").runs == 1  # the failed night is recorded
 
 
+def test_existing_html_is_replaced_only_with_force(tmp_path):
+    hist, cal, page = tmp_path / "h", tmp_path / "cal.parquet", tmp_path / "latest.html"
+    page.write_text("yesterday")
+    r = nightly(hist, cal, "--init", "--html", str(page), campaign=csv_campaign(1))
+    err = r.stderr.decode()
+    assert r.returncode == 2 and err.startswith("enc-nightly: error: output ") and \
+        "exists; use --force" in err and len(err.splitlines()) == 1, err
+    assert page.read_text() == "yesterday" and not cal.exists()
+    assert not hist.exists() or read_history(hist).runs == 0  # refused before the night
+    r = nightly(hist, cal, "--init", "--html", str(page), "--force", campaign=csv_campaign(1))
+    assert r.returncode == 0, r.stderr.decode()
+    assert "Nightly history" in page.read_text() and read_history(hist).runs == 1
+
+
 def test_help_names_the_command():
     r = run([NIGHTLY, "--help"])
     assert r.returncode == 0 and r.stdout.decode().startswith("Usage: enc-nightly [OPTIONS]")

@@ -34,15 +34,20 @@ PROG = "enc-nightly"
               help="Keep the campaign's outputs in DIR (default: a removed temporary folder).")
 @click.option("--html", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Also write this run's HTML report with the history.")
+@click.option("--force", is_flag=True, default=False,
+              help="Replace an existing --html FILE (a nightly report usually wants it).")
 def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: str,
-            tolerance: float, keep: str | None, html: str | None) -> None:
+            tolerance: float, keep: str | None, html: str | None, force: bool) -> None:
     """Nightly recheck: re-acquire, run the campaign, compare, append to the history.
 
     Exit status: 0 within tolerance, 1 drift beyond it, 2 bad usage or input, 3 device
     fault in the campaign.
     """
+    from enctools.data.files import check_new_file
     from enctools.report.nightly import Settings, run_nightly
 
+    if html is not None:  # refused before the night is run and recorded
+        check_new_file(html, force)
     night = run_nightly(Settings(rig, history_dir, calibration, campaign, tolerance, init,
                                  keep, html))
     if night.summary is not None:

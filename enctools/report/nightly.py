@@ -214,9 +214,10 @@ def _calibration_ready(s: Settings, result: Path, record: dict[str, Any], night:
         night.fail(f"--calibration {s.calibration}: no such file (use --init to store this "
                    "run as the calibration)", 2, record, summary="no stored calibration")
         return False
+    from enctools.data.files import write_atomic
+
     Path(s.calibration).parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(result, s.calibration + ".tmp")
-    os.replace(s.calibration + ".tmp", s.calibration)
+    write_atomic(s.calibration, result.read_bytes(), durable=True)
     night.messages.append(("info", f"stored this run as the calibration {s.calibration}"))
     return True
 
