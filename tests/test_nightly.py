@@ -224,9 +224,10 @@ def test_nightly_man_page_lists_every_option():
 def test_first_night_makes_the_calibration_folder(tmp_path):
     """A lab's first cron night: neither the history nor the calibration folder exists."""
     hist, cal = tmp_path / "n" / "history", tmp_path / "n" / "cal" / "calibration.parquet"
-    r = nightly(hist, cal, "--init", campaign=csv_campaign(1))
+    page = tmp_path / "n" / "www" / "latest.html"
+    r = nightly(hist, cal, "--init", "--html", str(page), campaign=csv_campaign(1))
     assert r.returncode == 0, r.stderr.decode()
-    assert cal.exists() and read_history(hist).runs == 1
+    assert cal.exists() and read_history(hist).runs == 1 and page.exists()
 
 
 @pytest.mark.slow

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import sys
+from pathlib import Path
 
 import click
 
@@ -47,6 +48,7 @@ def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: 
     from enctools.report.nightly import Settings, run_nightly
 
     if html is not None:  # refused before the night is run and recorded
+        Path(html).parent.mkdir(parents=True, exist_ok=True)  # as for the history, the calibration
         check_new_file(html, force)
     night = run_nightly(Settings(rig, history_dir, calibration, campaign, tolerance, init,
                                  keep, html))
