@@ -61,3 +61,12 @@ def test_report_shows_metadata_escaped(nasty: Path) -> None:
     for b in FORBIDDEN:
         assert b not in r.stdout, b
     assert "rig rig" + SHOWN in r.stdout.decode()
+
+
+def test_error_lines_escape_what_they_quote(tmp_path):
+    """A file name carrying escape sequences is quoted in the error line, never obeyed."""
+    name = str(tmp_path / "no\x1b[2J\x1b]0;title\x07such\x9b.parquet")
+    r = run_in_process(["info", name])
+    err = r.stderr.decode()
+    assert r.returncode == 2 and err.startswith("enc info: error: "), err
+    assert not any(c in err for c in "\x1b\x07\x9b\r") and "\\x1b[2J" in err, err

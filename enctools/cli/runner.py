@@ -122,8 +122,14 @@ def _quiet_stdout() -> None:
 
 
 def error(message: str) -> None:
-    """Print one line: ``enc CMD: error: message``."""
-    first = " ".join(str(message).split()) or "error"
+    """Print one line: ``enc CMD: error: message``, its control characters escaped.
+
+    A message may quote a file name, a column or a device's reply: none of them may
+    clear the screen, set the title or start a line of its own.
+    """
+    from enctools.data.text import printable
+
+    first = printable(" ".join(str(message).split())) or "error"
     sys.stderr.write(f"{command_name()}: error: {first}\n")
     sys.stderr.flush()
 
