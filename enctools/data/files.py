@@ -2,7 +2,7 @@
 
 A command checks each file it will write with :func:`check_new_file` before doing any
 work (so a refusal costs nothing), then writes it with :func:`write_atomic` (streams:
-``streams.OutputStream``): into a temporary file ``.NAME.PID@HOST.XXXXXXXX.tmp`` in the
+``streams.OutputStream``): into a temporary file ``.NAME.PID@HOST.RANDOM.tmp`` in the
 same folder (:func:`new_temporary`), renamed over the target only once complete
 (:func:`rename_into_place`), as NCO does. An interrupted or failed write leaves the old
 file (or none) in place; a temporary left by a killed run is removed by the next run
@@ -26,7 +26,7 @@ import socket
 import stat
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import BinaryIO
 
@@ -89,7 +89,7 @@ def _host() -> str:
 
 def new_temporary(path: str | Path) -> tuple[int, str]:
     """A new empty temporary file beside ``path`` (after removing stale ones): its open
-    descriptor and its name ``.NAME.PID@HOST.XXXXXXXX.tmp``."""
+    descriptor and its name ``.NAME.PID@HOST.RANDOM.tmp``."""
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     remove_stale_temporaries(p)
@@ -215,3 +215,20 @@ def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
                 os.close(dfd)
         except OSError:
             pass
+
+
+def format_by_extension(path: str, fmt: str | None, formats: Sequence[str],
+                        extensions: Mapping[str, str], what: str, hint: str) -> str:
+    """The format of an output: ``fmt`` if given (one of ``formats``), else the one
+    ``extensions`` gives for ``path``'s extension; UsageError naming ``what`` otherwise
+    (``hint`` says how to name it: the option and its choices)."""
+    if fmt:
+        if fmt not in formats:
+            msg = f"unknown {what} {fmt!r} (formats: {', '.join(formats)})"
+            raise UsageError(msg)
+        return fmt
+    ext = Path(path).suffix.lower()
+    if ext not in extensions:
+        msg = f"cannot tell the {what} of {path!r} from its extension; {hint}"
+        raise UsageError(msg)
+    return extensions[ext]
