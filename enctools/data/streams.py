@@ -319,17 +319,8 @@ def read_table(path: str | os.PathLike[str] | None,
 
 def format_for_path(path: str, fmt: str | None = None) -> str:
     """The output format: ``fmt`` if given, else from the file's extension."""
-    if fmt:
-        if fmt not in FORMATS:
-            msg = f"unknown format {fmt!r} (formats: {', '.join(FORMATS)})"
-            raise UsageError(msg)
-        return fmt
-    ext = Path(path).suffix.lower()
-    if ext not in EXTENSIONS:
-        msg = (f"cannot tell the format of {path!r} from its extension; use one of "
-               f"{', '.join(sorted(EXTENSIONS))} or --format")
-        raise UsageError(msg)
-    return EXTENSIONS[ext]
+    return files.format_by_extension(path, fmt, FORMATS, EXTENSIONS, "format",
+                                     f"use one of {', '.join(sorted(EXTENSIONS))} or --format")
 
 
 def check_output(path: str | None, force: bool = False, fmt: str | None = None,

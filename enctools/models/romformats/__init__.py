@@ -35,6 +35,7 @@ from typing import IO
 
 import numpy as np
 
+from enctools.data.files import format_by_extension
 from enctools.errors import CheckFailed, DataError, UsageError
 from enctools.models.romformats import readers, writers
 from enctools.models.romformats.words import Target
@@ -72,17 +73,8 @@ READERS: dict[str, tuple[FastReader | None, Reader]] = {
 
 def format_for(path: str, fmt: str | None) -> str:
     """The table format: ``fmt`` if given, else from the file's extension."""
-    if fmt:
-        if fmt not in FORMATS:
-            msg = f"unknown table format {fmt!r} (formats: {', '.join(FORMATS)})"
-            raise UsageError(msg)
-        return fmt
-    ext = Path(path).suffix.lower()
-    if ext not in EXTENSIONS:
-        msg = (f"cannot tell the table format of {path!r} from its extension; "
-               f"use --target ({', '.join(FORMATS)})")
-        raise UsageError(msg)
-    return EXTENSIONS[ext]
+    return format_by_extension(path, fmt, FORMATS, EXTENSIONS, "table format",
+                               f"use --target ({', '.join(FORMATS)})")
 
 
 def check_capacity(target: Target, entries: int) -> None:
