@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
-from conftest import DATA, ROOT, run
+from conftest import DATA, ROOT, one_error_line, run
 
 from enctools.report.history import SCHEMA, append_run, read_history
 
@@ -299,3 +299,231 @@ def test_settings_and_drift_in_process():
     assert d.offset == pytest.approx(5.0)
     assert np.allclose(d.drift, 0.3 * np.cos(2 * angle))
     assert d.max_abs == pytest.approx(0.3) and d.pp == pytest.approx(0.6)
+
+
+# ------------------------------------------------ signals, full disks, temporary folders
+
+def _sigterm_caught(pid: int) -> bool:
+    """True once process ``pid`` handles SIGTERM (its handler is installed), or is gone."""
+    import re
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+        if b"enctools.cli.nightly" not in Path(f"/proc/{pid}/cmdline").read_bytes():
+            return False  # still the shell script, before its exec
+    except OSError:
+        return True
+    m = re.search(r"SigCgt:\s*([0-9a-f]+)", status)
+    return m is None or bool(int(m.group(1), 16) & (1 << (signal.SIGTERM - 1)))
+
+
+def _nightly_env(enc: str, tmp: Path) -> dict[str, str]:
+    return dict(os.environ, PATH=f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}",
+                TMPDIR=str(tmp))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
+def test_sigterm_at_any_point_records_the_night_or_leaves_history_unchanged(tmp_path, enc):
+    """SIGTERM at 12 points of a night (imports, campaign, analysis, the row, the
+    clean-up): exit 143 with one line and no summary, the history valid with the
+    night's row or unchanged, no temporary folder or file left."""
+    import time
+    hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
+    tmp.mkdir()
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    env, runs, recorded = _nightly_env(enc, tmp), 1, 0
+    for delay in (0.0, 0.05, 0.15, 0.3, 0.6, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.5):
+        p = subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
+                              "--calibration", str(cal), "--html", str(tmp_path / "n.html"),
+                              "--force", "--campaign", csv_campaign(1, sleep=0.3)],
+                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        deadline = time.monotonic() + 30
+        while not _sigterm_caught(p.pid) and time.monotonic() < deadline:
+            time.sleep(0.002)
+        time.sleep(delay)
+        p.terminate()
+        out, err = p.communicate(timeout=60)
+        h = read_history(hist)
+        assert not h.skipped and not [f.name for f in hist.iterdir() if f.name.startswith(".")]
+        assert list(tmp.iterdir()) == [], delay
+        if p.returncode == 0:                      # done before the signal
+            runs += 1
+            assert h.runs == runs and b": ok: " in out
+            continue
+        assert p.returncode == 143, (delay, err)
+        assert err.decode().splitlines()[-1] == "enc-nightly: error: terminated", err
+        assert b": ok: " not in out and "Traceback" not in err.decode()
+        assert h.runs in (runs, runs + 1), delay
+        if h.runs == runs + 1:
+            recorded += 1
+            last = (h.column("status")[-1], h.column("exit_code")[-1])
+            assert last in (("error", 143), ("ok", 0)), last   # the row was being written
+        runs = h.runs
+    assert recorded >= 3   # most signals land in the night itself
+
+
+@pytest.mark.slow
+def test_sigterm_stops_every_process_of_the_campaign(tmp_path, enc):
+    """The campaign's pipeline is stopped with the night: nothing of it runs on."""
+    import time
+    hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
+    tmp.mkdir()
+    mark = tmp_path / "went-on"
+    p = subprocess.Popen([NIGHTLY, "--rig", "r", "--history", str(hist), "--calibration",
+                          str(cal), "--campaign",
+                          f'touch "{tmp_path}/started"; (sleep 2; touch {mark}) | cat'],
+                         env=_nightly_env(enc, tmp), stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "started").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    p.terminate()
+    assert p.wait(timeout=30) == 143
+    time.sleep(2.5)
+    assert not mark.exists() and list(tmp.iterdir()) == []
+    h = read_history(hist)
+    assert h.runs == 1 and h.column("exit_code")[0] == 143
+
+
+@pytest.mark.slow
+def test_work_folder_of_a_killed_night_is_removed_by_the_next(tmp_path, enc):
+    hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
+    tmp.mkdir()
+    env = _nightly_env(enc, tmp)
+    p = subprocess.Popen([NIGHTLY, "--rig", "r", "--history", str(hist), "--calibration",
+                          str(cal), "--campaign", 'touch "$OUT/started"; sleep 30'],
+                         env=env, start_new_session=True)
+    import time
+    deadline = time.monotonic() + 60
+    while not list(tmp.glob("*/started")) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    os.killpg(p.pid, signal.SIGKILL)
+    p.wait(timeout=30)
+    assert [f.name.startswith("enc-nightly-") for f in tmp.iterdir()] == [True]
+    r = subprocess.run([NIGHTLY, "--rig", "r", "--history", str(hist), "--calibration",
+                        str(cal), "--init", "--campaign", csv_campaign(1)], env=env,
+                       capture_output=True)
+    assert r.returncode == 0, r.stderr
+    assert list(tmp.iterdir()) == []
+
+
+def test_stale_work_folders_only_of_dead_processes(tmp_path):
+    from enctools.data.files import writer_tag
+    from enctools.report.nightly import remove_stale_work_folders
+    dead = 2**22 + 7                     # above any Linux pid_max: no such process
+    host = writer_tag().split("@", 1)[1]
+    names = [f"enc-nightly-{dead}@{host}-abc", f"enc-nightly-{os.getpid()}@{host}-abc",
+             f"enc-nightly-{dead}@another-host-abc", "enc-nightly-unrelated"]
+    for n in names:
+        (tmp_path / n).mkdir()
+        (tmp_path / n / "result.parquet").write_bytes(b"x")
+    assert remove_stale_work_folders(str(tmp_path)) == [str(tmp_path / names[0])]
+    assert sorted(f.name for f in tmp_path.iterdir()) == sorted(names[1:])
+
+
+def test_history_temporary_of_a_dead_writer_is_removed(tmp_path):
+    from enctools.data.files import writer_tag
+    host = writer_tag().split("@", 1)[1]
+    dead = tmp_path / f".run-x.parquet.{2**22 + 7}@{host}.abc123.tmp"
+    live = tmp_path / f".run-y.parquet.{writer_tag()}.abc123.tmp"
+    for f in (dead, live):
+        f.write_bytes(b"PAR1")
+    append_run(tmp_path, {"rig": "r", "status": "ok"})
+    assert not dead.exists() and live.exists()
+
+
+def _nightly_in_process(argv: list[str], env: dict[str, str]) -> subprocess.CompletedProcess:
+    """enc-nightly's main in this process (what a monkeypatch can reach)."""
+    import io
+    import tempfile
+
+    from conftest import _as_a_process, _Captured, _exit_status
+
+    from enctools.cli.nightly import main
+    out, err = _Captured(), _Captured()
+    with tempfile.TemporaryFile() as raw_in:
+        streams = [io.TextIOWrapper(f, encoding="utf-8", write_through=True)
+                   for f in (raw_in, out, err)]
+        with _as_a_process(*streams, env, None):
+            code = _exit_status(main, argv)
+        for s in streams:
+            s.detach()
+    return subprocess.CompletedProcess(argv, code, out.getvalue(), err.getvalue())
+
+
+@pytest.mark.parametrize("where", ["history", "html", "calibration", "both"])
+def test_full_disk_is_one_line_exit_2_and_no_ok(tmp_path, enc, monkeypatch, where):
+    """ENOSPC while writing the history row, the report or the calibration: one line
+    naming the file, exit 2 (not 1, which is drift), no "ok" summary on stdout."""
+    import errno
+
+    import pyarrow.parquet as pq
+
+    from enctools.data import files
+    hist, cal, page = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "n.html"
+    if where not in ("calibration", "both"):
+        append_run(hist, {"rig": "before", "status": "ok"})
+        assert nightly(tmp_path / "h0", cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    real = files.write_atomic
+
+    def full(path, data, **kw):
+        if (where in ("history", "both") and Path(path).parent == hist) \
+                or {"calibration": str(cal), "html": str(page),
+                    "both": str(cal)}.get(where) == str(path):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(path, data, **kw)
+    monkeypatch.setattr(files, "write_atomic", full)
+    monkeypatch.setattr("enctools.report.history.write_atomic", full)
+    env = {"PATH": f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}",
+           "TMPDIR": str(tmp_path)}
+    r = _nightly_in_process(["--rig", "r", "--history", str(hist), "--calibration", str(cal),
+                             "--init", "--html", str(page), "--campaign", csv_campaign(1)], env)
+    err = r.stderr.decode()
+    lines = [ln for ln in err.splitlines() if "error:" in ln]
+    assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert "No space left on device" in lines[0]
+    for name in {"history": [hist], "html": [page], "calibration": [cal],
+                 "both": [cal, hist]}[where]:
+        assert str(name) in lines[0], lines[0]
+    assert b"ok" not in r.stdout
+    if where == "both":
+        assert not hist.exists() or not list(hist.iterdir())
+        return
+    h = read_history(hist)
+    assert not h.skipped and h.runs == {"history": 1, "html": 2, "calibration": 1}[where]
+    assert not [f for f in tmp_path.iterdir() if f.name.startswith("enc-nightly-")]
+    del pq
+
+
+@pytest.fixture
+def full_tmpfs(tmp_path):
+    """A small tmpfs, filled up (root and mount permitted; skipped otherwise)."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mnt = tmp_path / "full"
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("mount is not permitted here")
+    try:
+        (mnt / "h").mkdir()
+        with open(mnt / "fill", "wb", buffering=0) as f, pytest.raises(OSError):
+            while True:
+                f.write(b"\0" * 4096)
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+@pytest.mark.slow
+def test_full_history_disk_is_one_line_not_ok(tmp_path, full_tmpfs):
+    cal = tmp_path / "cal.parquet"
+    assert nightly(tmp_path / "h0", cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    for hist, page in ((full_tmpfs / "h", tmp_path / "n.html"),
+                       (tmp_path / "h1", full_tmpfs / "n.html")):
+        r = nightly(hist, cal, "--html", str(page), campaign=csv_campaign(1))
+        line = one_error_line(r, 2, "enc-nightly")
+        assert "No space left on device" in line and str(page if hist.name == "h1" else hist) \
+            in line, line
+        assert b"ok" not in r.stdout
+        assert not [f.name for f in hist.iterdir() if f.name.startswith(".")]
+    assert read_history(full_tmpfs / "h").runs == 0

@@ -3,8 +3,17 @@ enctools.cli.nightly``); the work is :mod:`enctools.report.nightly`'s."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+
+if __name__ == "__main__":  # SIGTERM is exit 143 from here on, before the imports below
+    def _terminated(signum: int, frame: object) -> None:
+        sys.stderr.write("enc-nightly: error: terminated\n")
+        raise SystemExit(143)
+
+    signal.signal(signal.SIGTERM, _terminated)
 from pathlib import Path
 
 import click
@@ -41,18 +50,23 @@ def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: 
             tolerance: float, keep: str | None, html: str | None, force: bool) -> None:
     """Nightly recheck: re-acquire, run the campaign, compare, append to the history.
 
-    Exit status: 0 within tolerance, 1 drift beyond it, 2 bad usage or input, 3 device
-    fault in the campaign.
+    Exit status: 0 within tolerance, 1 drift beyond it, 2 bad usage or input or a file
+    that cannot be written (full disk, permission), 3 device fault in the campaign, 130
+    interrupted, 143 terminated.
     """
     from enctools.data.files import check_new_file
-    from enctools.report.nightly import Settings, run_nightly
+    from enctools.errors import DataError
+    from enctools.report.nightly import Settings, os_message, run_nightly
 
     if html is not None:  # refused before the night is run and recorded
-        Path(html).parent.mkdir(parents=True, exist_ok=True)  # as for the history, the calibration
+        try:  # as for the history, the calibration
+            Path(html).parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise DataError(f"--html {html}: " + os_message(exc)) from None
         check_new_file(html, force)
     night = run_nightly(Settings(rig, history_dir, calibration, campaign, tolerance, init,
                                  keep, html))
-    if night.summary is not None:
+    if night.summary is not None and night.code in (0, 1):  # a verdict, not a failure
         click.echo(night.summary)
     for level, text in night.messages:
         if level == "error":
@@ -72,7 +86,19 @@ def main(argv: list[str] | None = None) -> None:
         with command.make_context(PROG, list(args)) as ctx:
             command.invoke(ctx)
 
-    sys.exit(runner.run(invoke, debug=os.environ.get("ENC_DEBUG", "") not in ("", "0")))
+    code = runner.run(invoke, debug=os.environ.get("ENC_DEBUG", "") not in ("", "0"))
+    try:  # a full disk under a redirected stdout fails here: one line, not a traceback
+        sys.stdout.flush()
+    except OSError as exc:
+        runner.error(f"stdout: {exc.strerror or exc}")
+        code = code if code not in (0, 1) else 2
+        with contextlib.suppress(OSError, ValueError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    # the night is over and told: a signal now would only turn its status into -15
+    # (the interpreter's shutdown puts the default handlers back)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(code)
 
 
 if __name__ == "__main__":

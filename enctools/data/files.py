@@ -93,7 +93,7 @@ def new_temporary(path: str | Path) -> tuple[int, str]:
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     remove_stale_temporaries(p)
-    prefix = f".{p.name}.{os.getpid()}@{_host()}."
+    prefix = f".{p.name}.{writer_tag()}."
     if len(os.fsencode(prefix)) > 240:  # keep within NAME_MAX: the name without the writer
         prefix = f".{p.name}."
     return tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=str(folder))
@@ -103,21 +103,32 @@ def _pattern(name: str) -> re.Pattern[str]:
     return re.compile(rf"\.{re.escape(name)}\.(?:(\d+)@([A-Za-z0-9._-]+)\.)?[A-Za-z0-9_]+\.tmp")
 
 
-def _writer_gone(pid: str | None, host: str | None, age: float) -> bool:
-    """True when the writer named in a temporary's name cannot still be writing it."""
-    if pid is None:  # no writer named (older versions): the age alone decides
-        return age > LEGACY_AGE_S
-    if host != _host() or age <= STALE_AGE_S:
-        return False
-    if int(pid) == os.getpid():
+def writer_tag() -> str:
+    """``PID@HOST``: who writes a temporary file or folder, as its name records it."""
+    return f"{os.getpid()}@{_host()}"
+
+
+def process_gone(pid: int, host: str) -> bool:
+    """True when process ``pid`` of ``host`` surely no longer runs: ``host`` is this host
+    and no process has that id. Another host's, another user's or a reused id: False."""
+    if host != _host() or pid == os.getpid() or pid <= 0:
         return False
     try:
-        os.kill(int(pid), 0)
+        os.kill(pid, 0)
     except ProcessLookupError:
         return True
     except OSError:  # alive, another user's (EPERM), or cannot tell
         return False
     return False
+
+
+def _writer_gone(pid: str | None, host: str | None, age: float) -> bool:
+    """True when the writer named in a temporary's name cannot still be writing it."""
+    if pid is None:  # no writer named (older versions): the age alone decides
+        return age > LEGACY_AGE_S
+    if host is None or age <= STALE_AGE_S:
+        return False
+    return process_gone(int(pid), host)
 
 
 def remove_stale_temporaries(path: str | Path) -> list[str]:

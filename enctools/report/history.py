@@ -20,6 +20,7 @@ from __future__ import annotations
 import datetime as _dt
 import logging
 import os
+import re
 import secrets
 import socket
 from dataclasses import dataclass, field
@@ -86,14 +87,24 @@ def append_run(folder: str | os.PathLike[str], record: dict[str, Any]) -> Path:
     return final
 
 
+_TEMPORARY = re.compile(r"\.run-.*\.parquet\.(\d+)@([A-Za-z0-9._-]+)\.[A-Za-z0-9_]+\.tmp")
+
+
 def _remove_stale(d: Path, age_s: float = 86400.0) -> None:
-    """Remove temporary files of runs killed mid-write more than a day ago."""
+    """Remove the temporary files of runs killed mid-write (``kill -9``, a power cut):
+    at once when the process that wrote one no longer runs on this host, else after a day
+    (another host's, or a name that records no writer)."""
     import time
+
+    from enctools.data.files import process_gone
     now = time.time()
     for p in d.glob(".run-*.tmp"):
+        m = _TEMPORARY.fullmatch(p.name)
         try:
-            if now - p.stat().st_mtime > age_s:
+            if (m is not None and process_gone(int(m.group(1)), m.group(2))) \
+                    or now - p.stat().st_mtime > age_s:
                 p.unlink()
+                log.info("history: removed %s, left by a run that was killed", p.name)
         except OSError:
             pass
 

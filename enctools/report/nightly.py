@@ -19,12 +19,15 @@ append the run to the history dataset; the command is ``enc-nightly``
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -81,7 +84,8 @@ class Night:
         """End the run with an error: say why, keep it (or ``summary``) for the history."""
         self.messages.append(("error", why))
         self.code = code
-        record["summary_json"] = json.dumps({"error": summary or why})
+        if record:  # else the row is written already
+            record["summary_json"] = json.dumps({"error": summary or why})
 
 
 @dataclass
@@ -128,29 +132,135 @@ def drift(current: Curve, stored: Curve) -> Drift:
 
 
 def run_nightly(s: Settings) -> Night:
-    """One nightly run (steps 1-4 above); the history gets its row whatever happens."""
-    from enctools.report.history import append_run, new_run_id
+    """One nightly run (steps 1-4 above); the history gets its row whatever happens.
 
+    SIGINT and SIGTERM end the night as a failure (exit 130, 143) that is recorded like
+    any other; they wait while the row is written and the work folder removed, so a
+    signal never leaves half of either. An OS error (a full disk, no permission, a
+    read-only file system) is one message naming the file, exit 2.
+    """
     night = Night()
-    record: dict[str, Any] = {"run_id": new_run_id(), "rig": s.rig, "tolerance": s.tolerance,
+    record: dict[str, Any] = {"run_id": "", "rig": s.rig, "tolerance": s.tolerance,
                               "campaign": s.campaign}
-    work = Path(s.keep) if s.keep else Path(tempfile.mkdtemp(prefix="enc-nightly-"))
-    work.mkdir(parents=True, exist_ok=True)
+    work: Path | None = None
     try:
+        with signals_held():  # a signal inside an import would leave numpy unusable for the row
+            import pyarrow.parquet  # noqa: F401 - what append_run needs, imported whole
+
+            from enctools.report.history import new_run_id
+
+            record["run_id"] = new_run_id()
+            work = _work_folder(s)
         _recheck(s, work, record, night)
-    except EncError as exc:
+    except EncError as exc:  # SIGTERM too (Interrupted, exit 143)
         night.fail(str(exc), exc.exit_code, record)
+    except KeyboardInterrupt:
+        night.fail("interrupted", 130, record)
     except OSError as exc:  # a folder that cannot be made, a full disk: one line, exit 2
-        night.fail(f"{exc.strerror or exc}" + (f" ({exc.filename})" if exc.filename else ""),
-                   2, record)
+        night.fail(os_message(exc), 2, record)
     finally:  # a run that failed early is recorded too
-        if record:
-            record |= {"status": night.status if night.code in (0, 1) else "error",
-                       "exit_code": night.code}
-            append_run(s.history_dir, record)
-        if not s.keep:
-            shutil.rmtree(work, ignore_errors=True)
+        with signals_held():
+            if record:
+                record |= {"status": night.status if night.code in (0, 1) else "error",
+                           "exit_code": night.code}
+                _record_row(s, record, night)
+            if work is not None and not s.keep:
+                shutil.rmtree(work, ignore_errors=True)
     return night
+
+
+def os_message(exc: OSError, what: str | None = None) -> str:
+    """An OS error as one line naming its file (or ``what``)."""
+    where = exc.filename or what
+    return f"{where}: {exc.strerror or exc}" if where else str(exc.strerror or exc)
+
+
+def _record_row(s: Settings, record: dict[str, Any], night: Night) -> bool:
+    """Append ``record`` to the history (then empty it); False, told, when it cannot be."""
+    from enctools.report.history import append_run
+
+    with signals_held():
+        try:
+            append_run(s.history_dir, record)
+            return True
+        except OSError as exc:
+            why = "this run cannot be added to the history: " + os_message(exc, s.history_dir)
+            errors = [i for i, (level, _) in enumerate(night.messages) if level == "error"]
+            if night.code in (0, 1) or not errors:
+                night.messages.append(("error", why))
+                night.code = 2 if night.code in (0, 1) else night.code
+            else:  # the night failed already: one line still
+                night.messages[errors[-1]] = ("error", f"{night.messages[errors[-1]][1]}; "
+                                              f"{why}")
+            return False
+        finally:
+            record.clear()
+
+
+WORK_PREFIX = "enc-nightly-"
+
+
+def _work_folder(s: Settings) -> Path:
+    """The campaign's folder: ``--keep``, or a new temporary folder named after this
+    process (``enc-nightly-PID@HOST-RANDOM``), once those of killed runs are removed."""
+    if s.keep:
+        work = Path(s.keep)
+        work.mkdir(parents=True, exist_ok=True)
+        return work
+    from enctools.data.files import writer_tag
+
+    remove_stale_work_folders()
+    return Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{writer_tag()}-"))
+
+
+def remove_stale_work_folders(folder: str | None = None) -> list[str]:
+    """Remove the temporary folders of nightly runs killed without a chance to clean up
+    (``kill -9``): those of this user whose process no longer runs on this host."""
+    from enctools.data.files import process_gone
+
+    pattern = re.compile(rf"{WORK_PREFIX}(\d+)@([A-Za-z0-9._-]+)-[A-Za-z0-9_]+")
+    removed: list[str] = []
+    try:
+        entries = list(os.scandir(folder or tempfile.gettempdir()))
+    except OSError:
+        return removed
+    for entry in entries:
+        m = pattern.fullmatch(entry.name)
+        try:
+            if m is None or not entry.is_dir(follow_symlinks=False) \
+                    or entry.stat(follow_symlinks=False).st_uid != os.geteuid() \
+                    or not process_gone(int(m.group(1)), m.group(2)):
+                continue
+        except OSError:
+            continue
+        shutil.rmtree(entry.path, ignore_errors=True)
+        removed.append(entry.path)
+    return removed
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM until the block is done, then act on the first one held
+    as its handler would have (from the main thread; elsewhere nothing is held)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+
+    def hold(signum: int, frame: Any) -> None:
+        held.append(signum)
+
+    before = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in before.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+        if held:
+            signal.raise_signal(held[0])
 
 
 def _recheck(s: Settings, work: Path, record: dict[str, Any], night: Night) -> None:
@@ -168,9 +278,7 @@ def _recheck(s: Settings, work: Path, record: dict[str, Any], night: Night) -> N
         return
     d = drift(current, main_curve(_section(s.calibration)))
     record |= {"drift_max": d.max_abs, "drift_pp": d.pp}
-    night.status = "ok" if d.max_abs <= s.tolerance else "drift"
-    night.code = 0 if night.status == "ok" else 1
-    from enctools.report.history import append_run
+    status = "ok" if d.max_abs <= s.tolerance else "drift"
     from enctools.report.jsonout import report_dict
     from enctools.report.summary import Report
 
@@ -178,32 +286,77 @@ def _recheck(s: Settings, work: Path, record: dict[str, Any], night: Night) -> N
     summary = report_dict(rep)
     summary["drift"] = {"max_abs": d.max_abs, "pp": d.pp, "offset": d.offset,
                         "tolerance": s.tolerance, "calibration": s.calibration}
-    record["summary_json"] = json.dumps(summary)
-    night.summary = (f"{record['run_id']}: {night.status}: p-p {f.pp:.3f}\", s {f.std:.3f}\", "
-                     f"drift max {d.max_abs:.3f}\" (tolerance {s.tolerance:g}\")")
-    if night.status != "ok":
-        night.messages.append(("error", f"drift {d.max_abs:.3f} arcsec > --max-drift "
-                                        f"{s.tolerance:g} against {s.calibration}"))
-    record |= {"status": night.status, "exit_code": night.code}
-    append_run(s.history_dir, record)
-    record.clear()
+    record |= {"status": status, "exit_code": 0 if status == "ok" else 1,
+               "summary_json": json.dumps(summary)}
+    night.status, night.code = status, record["exit_code"]
+    night_id = record["run_id"]
+    if not _record_row(s, record, night):
+        return
     if s.html:
         _write_html(s.html, s, rep, d, night.status)
+    night.summary = (f"{night_id}: {status}: p-p {f.pp:.3f}\", "
+                     f"s {f.std:.3f}\", drift max {d.max_abs:.3f}\" "
+                     f"(tolerance {s.tolerance:g}\")")
+    if status != "ok":
+        night.messages.append(("error", f"drift {d.max_abs:.3f} arcsec > --max-drift "
+                                        f"{s.tolerance:g} against {s.calibration}"))
 
 
 def _run_campaign(s: Settings, work: Path, record: dict[str, Any], night: Night) -> Path | None:
     """Run the campaign in ``work``; its result stream, or None (the failure is told)."""
     env = dict(os.environ, RIG=s.rig, OUT=str(work), ENC_NIGHTLY_RUN=record["run_id"])
-    proc = subprocess.run(["/bin/bash", "-o", "pipefail", "-c", s.campaign], env=env,
-                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    code, err = run_campaign(s.campaign, env)
     result = work / "result.parquet"
-    if proc.returncode == 0 and result.exists():
+    if code == 0 and result.exists():
         return result
-    last = (proc.stderr.decode(errors="replace").strip().splitlines() or ["-"])[-1]
-    why = (f"campaign failed with exit {proc.returncode}: {last}" if proc.returncode
-           else f"campaign left no {result}")
-    night.fail(why, proc.returncode if proc.returncode in (1, 3) else 2, record)
+    last = (err.decode(errors="replace").strip().splitlines() or ["-"])[-1]
+    why = f"campaign failed with exit {code}: {last}" if code else f"campaign left no {result}"
+    night.fail(why, code if code in (1, 3) else 2, record)
     return None
+
+
+def run_campaign(command: str, env: dict[str, str]) -> tuple[int, bytes]:
+    """Run a shell command in a process group of its own; its status and stderr.
+
+    Whatever stops the wait (SIGTERM, SIGINT) stops the whole campaign first, every
+    process of its pipeline: SIGTERM, then SIGKILL for those still there after 5 s.
+    """
+    proc: subprocess.Popen[bytes] | None = None
+    try:
+        with signals_held():  # a signal is acted on once ``proc`` is known
+            proc = subprocess.Popen(["/bin/bash", "-o", "pipefail", "-c", command], env=env,
+                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                    stderr=subprocess.PIPE, start_new_session=True)
+        _, err = proc.communicate()
+    except BaseException:
+        if proc is not None:
+            with signals_held():
+                _stop_group(proc)
+        raise
+    return proc.returncode, err
+
+
+def _stop_group(proc: subprocess.Popen[bytes]) -> None:
+    """SIGTERM to the process group of ``proc``, SIGKILL to what is left after 5 s."""
+    import signal
+    import time
+
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(proc.pid, signal.SIGTERM)
+    deadline = time.monotonic() + 5.0
+    with contextlib.suppress(subprocess.TimeoutExpired):
+        proc.wait(timeout=5.0)
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(proc.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.05)
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    if proc.stderr is not None:
+        proc.stderr.close()
 
 
 def _calibration_ready(s: Settings, result: Path, record: dict[str, Any], night: Night) -> bool:
@@ -216,8 +369,9 @@ def _calibration_ready(s: Settings, result: Path, record: dict[str, Any], night:
         return False
     from enctools.data.files import write_atomic
 
-    Path(s.calibration).parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(s.calibration, result.read_bytes(), durable=True)
+    with _naming(s.calibration):
+        Path(s.calibration).parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(s.calibration, result.read_bytes(), durable=True)
     night.messages.append(("info", f"stored this run as the calibration {s.calibration}"))
     return True
 
@@ -231,7 +385,18 @@ def _write_html(path: str, s: Settings, rep: Report, d: Drift, status: str) -> N
     rep.history = read_history(s.history_dir)
     rep.settings["thresholds"] = {"drift tolerance": s.tolerance}
     fails = [] if status == "ok" else [f"drift {d.max_abs:.3f} arcsec > {s.tolerance:g}"]
-    write_atomic(path, to_html(rep, fails, f"Nightly recheck — {s.rig}").encode())
+    page = to_html(rep, fails, f"Nightly recheck — {s.rig}").encode()
+    with _naming(path):
+        write_atomic(path, page)
+
+
+@contextlib.contextmanager
+def _naming(path: str) -> Iterator[None]:
+    """An OS error of the block names ``path`` (not a temporary file beside it)."""
+    try:
+        yield
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), path) from None
 
 
 def _section(path: str) -> Section:
