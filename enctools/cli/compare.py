@@ -34,6 +34,7 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
     `enc compare --device H --ref P` after `enc average-heads` is eq. (10).
     """
     from enctools.data import streams
+    from enctools.data.files import OutputGroup
     from enctools.methods import compare
 
     settings = compare.Settings(device=tuple(device), ref=tuple(ref), band=band, points=points,
@@ -44,6 +45,8 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
         streams.check_output(spectrum_path, force)
     source = streams.open_input(input, "readings")
     (dh, dt), spec = compare.run(source, settings)
-    streams.write_table(output, streams.with_history(dh), dt, force, fmt)
-    if spectrum_path is not None and spec is not None:
-        streams.write_table(spectrum_path, streams.with_history(spec[0]), spec[1], force)
+    with OutputGroup() as outputs:  # both files, or neither
+        if spectrum_path is not None and spec is not None:
+            streams.write_table(spectrum_path, streams.with_history(spec[0]), spec[1], force,
+                                group=outputs)
+        streams.write_table(output, streams.with_history(dh), dt, force, fmt, group=outputs)

@@ -7,11 +7,14 @@ the error of each device against its phase within the signal period.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from enctools.cli import options, runner
+
+if TYPE_CHECKING:
+    from enctools.data.files import OutputGroup
 
 
 def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> list[int] | None:
@@ -87,6 +90,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     output's metadata.
     """
     from enctools.data import streams
+    from enctools.data.files import OutputGroup
     from enctools.errors import UsageError
     from enctools.methods.interp import Settings, check
 
@@ -111,13 +115,16 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     for c in curves:
         for w in c.warnings:
             runner.log.warning("%s", w)
-    streams.write_table(output, streams.with_history(header), out_table, force, fmt)
-    if spectrum_path:
-        sh, st = _spectrum(source.header, curves, checked.settings)
-        streams.write_table(spectrum_path, streams.with_history(sh), st, force, None)
-    if checked.corrected is not None and corrected:
-        _write_corrected(source.header, checked.corrected, [c.name for c in curves], corrected,
-                         force)
+    with OutputGroup() as outputs:  # every file, or none
+        if spectrum_path:
+            sh, st = _spectrum(source.header, curves, checked.settings)
+            streams.write_table(spectrum_path, streams.with_history(sh), st, force, None,
+                                group=outputs)
+        if checked.corrected is not None and corrected:
+            _write_corrected(source.header, checked.corrected, [c.name for c in curves],
+                             corrected, force, outputs)
+        streams.write_table(output, streams.with_history(header), out_table, force, fmt,
+                            group=outputs)
     if not runner.is_quiet():
         for c in curves:
             click.echo(_summary(c), err=True)
@@ -207,10 +214,11 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
                          domain="harmonics per signal period"), table
 
 
-def _write_corrected(header: Any, table: Any, names: list[str], path: str, force: bool) -> None:
+def _write_corrected(header: Any, table: Any, names: list[str], path: str, force: bool,
+                     group: OutputGroup) -> None:
     from enctools.data import streams
 
     meta = dict(header.meta)
     meta["settings"] = dict(meta.get("settings", {}), heydemann_corrected=names)
     h = streams.Header("readings", table.schema, meta)
-    streams.write_table(path, streams.with_history(h), table, force, None)
+    streams.write_table(path, streams.with_history(h), table, force, None, group=group)

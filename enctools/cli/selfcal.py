@@ -34,6 +34,7 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
     standard uncertainty, and with esa the spindle's radial error motion x, y [nm].
     """
     from enctools.data import streams
+    from enctools.data.files import OutputGroup
     from enctools.methods import selfcal
 
     settings = selfcal.Settings(method=method, ref=ref,
@@ -46,6 +47,9 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
         streams.check_output(spectrum_path, force)
     source = streams.open_input(input, "readings")
     deviations, spectrum = selfcal.run(source, settings, runner.Progress("revolutions", "rev"))
-    streams.write_table(output, streams.with_history(deviations[0]), deviations[1], force, fmt)
-    if spectrum_path is not None:
-        streams.write_table(spectrum_path, streams.with_history(spectrum[0]), spectrum[1], force)
+    with OutputGroup() as outputs:  # both files, or neither
+        if spectrum_path is not None:
+            streams.write_table(spectrum_path, streams.with_history(spectrum[0]), spectrum[1],
+                                force, group=outputs)
+        streams.write_table(output, streams.with_history(deviations[0]), deviations[1], force,
+                            fmt, group=outputs)

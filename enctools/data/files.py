@@ -5,8 +5,10 @@ work (so a refusal costs nothing), then writes it with :func:`write_atomic` (str
 ``streams.OutputStream``): into a temporary file ``.NAME.PID@HOST.RANDOM.tmp`` in the
 same folder (:func:`new_temporary`), renamed over the target only once complete
 (:func:`rename_into_place`), as NCO does. An interrupted or failed write leaves the old
-file (or none) in place; a temporary left by a killed run is removed by the next run
-that writes the same NAME (:func:`remove_stale_temporaries`).
+file (or none) in place. A command with several outputs writes them as one
+:class:`OutputGroup`: all are renamed into place once all are written, or none is. A
+temporary left by a killed run is removed by the next run that writes the same NAME
+(:func:`remove_stale_temporaries`).
 
 Only regular files are ever replaced. An existing output that is a device, a FIFO or a
 socket (or a symbolic link to one) is refused, ``--force`` or not: the rename would put a
@@ -195,7 +197,20 @@ def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
     (:func:`check_replaceable`).
     """
     p = Path(path)
-    folder = p.parent if str(p.parent) else Path(".")
+    tmp = _write_temporary(p, data, durable, mode)
+    try:
+        rename_into_place(tmp, p)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    if durable:
+        _sync_folder(p)
+
+
+def _write_temporary(p: Path, data: bytes | Callable[[BinaryIO], None], durable: bool,
+                     mode: int | None) -> str:
+    """``data`` written whole into a new temporary beside ``p``; its name."""
     check_replaceable(p)
     fd, tmp = new_temporary(p)
     try:
@@ -212,20 +227,92 @@ def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
             os.umask(mask)
             mode = 0o666 & ~mask
         os.chmod(tmp, mode)
-        rename_into_place(tmp, p)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
-    if durable:
-        try:  # make the rename itself durable
-            dfd = os.open(str(folder), os.O_RDONLY)
-            try:
-                os.fsync(dfd)
-            finally:
-                os.close(dfd)
-        except OSError:
-            pass
+    return tmp
+
+
+def _sync_folder(p: Path) -> None:
+    """Make a rename in ``p``'s folder durable (best effort)."""
+    folder = p.parent if str(p.parent) else Path(".")
+    try:
+        dfd = os.open(str(folder), os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+    except OSError:
+        pass
+
+
+class OutputGroup:
+    """The output files of one command: all of them replace their targets, or none does.
+
+    Each output is written whole into its temporary (:meth:`write`, or a writer that
+    :meth:`stage` s its finished temporary, as ``streams.OutputStream`` does); only when
+    the block ends without an exception are the targets all checked again, then renamed
+    into place one after the other (:meth:`commit`). On any failure, every temporary
+    is removed and no target is touched: the files of an earlier run stay as they were.
+
+    ``with OutputGroup() as outputs: streams.write_table(a, ..., group=outputs); ...``
+    """
+
+    def __init__(self) -> None:
+        self._staged: list[tuple[str, str, bool]] = []
+
+    def stage(self, tmp: str, path: str | Path, force: bool = True) -> None:
+        """Hold the complete temporary ``tmp`` until :meth:`commit` renames it to ``path``."""
+        self._staged.append((tmp, str(path), force))
+
+    def write(self, path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
+              mode: int | None = None, force: bool = True) -> None:
+        """Write ``data`` (as :func:`write_atomic` takes it) into a temporary for ``path``;
+        UsageError naming ``path`` when it cannot be written."""
+        try:
+            tmp = _write_temporary(Path(path), data, False, mode)
+        except OSError as exc:
+            msg = f"output {path}: {exc.strerror or exc}"
+            raise UsageError(msg) from None
+        self.stage(tmp, path, force)
+
+    def commit(self) -> None:
+        """Rename every temporary into place, once each target has passed its check."""
+        staged, self._staged = self._staged, []
+        try:
+            for _, path, force in staged:
+                check_replaceable(path)
+                if not force and os.path.lexists(path):  # appeared meanwhile
+                    msg = f"output {path} exists; use --force to replace it"
+                    raise UsageError(msg)
+            while staged:
+                tmp, path, _ = staged[0]
+                try:
+                    os.replace(tmp, path)
+                except OSError as exc:
+                    msg = f"output {path}: {exc.strerror or exc}"
+                    raise UsageError(msg) from None
+                staged.pop(0)
+        finally:
+            self._staged = staged
+            self.discard()
+
+    def discard(self) -> None:
+        """Remove every temporary not yet renamed."""
+        staged, self._staged = self._staged, []
+        for tmp, _, _ in staged:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+
+    def __enter__(self) -> OutputGroup:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.discard()
 
 
 def format_by_extension(path: str, fmt: str | None, formats: Sequence[str],

@@ -351,11 +351,12 @@ class OutputStream:
 
     def __init__(self, path: str | None, header: Header, force: bool = False,
                  fmt: str | None = None, stdout: IO[bytes] | None = None,
-                 keep_partial: bool = False) -> None:
+                 keep_partial: bool = False, group: files.OutputGroup | None = None) -> None:
         check_output(path, force, fmt, stdout)
         self.path = None if path in (None, "-") else str(path)
         self.header = header
         self.force = force
+        self.group = group  # a named file is then renamed with the group's others
         self.keep_partial = keep_partial
         self.rows = 0
         self._schema = header.arrow_schema()
@@ -432,6 +433,10 @@ class OutputStream:
         if self._tmp is not None:
             assert self.path is not None  # a temporary file is made for a named output only
             os.chmod(self._tmp, 0o666 & ~_umask())
+            if self.group is not None:
+                self.group.stage(self._tmp, self.path, self.force)
+                self._tmp = None
+                return
             try:  # a file, device or FIFO that appeared meanwhile is refused
                 files.rename_into_place(self._tmp, self.path, self.force)
             except UsageError:
@@ -482,7 +487,7 @@ def _umask() -> int:
 
 
 def write_table(path: str | None, header: Header, table: pa.Table, force: bool = False,
-                fmt: str | None = None) -> None:
-    """Write a whole table as one stream."""
-    with OutputStream(path, header, force=force, fmt=fmt) as out:
+                fmt: str | None = None, group: files.OutputGroup | None = None) -> None:
+    """Write a whole table as one stream (a named file renamed with ``group``'s others)."""
+    with OutputStream(path, header, force=force, fmt=fmt, group=group) as out:
         out.write(table)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from enctools.data.files import check_new_file, write_atomic
+from enctools.data.files import OutputGroup, check_new_file
 from enctools.errors import CheckFailed
 from enctools.report.sections import Options
 from enctools.report.summary import build_report
@@ -40,12 +40,13 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         from enctools.report.text import to_text
         sys.stdout.write(to_text(report) + "\n")
     sys.stdout.flush()
-    if html_path is not None:
-        from enctools.report.html import to_html
-        write_atomic(html_path, to_html(report, failures, title).encode())
-    if pdf_path is not None:
-        from enctools.report.pdf import to_pdf
-        write_atomic(pdf_path, to_pdf(report, failures, title))
+    with OutputGroup() as outputs:  # both reports, or neither
+        if html_path is not None:
+            from enctools.report.html import to_html
+            outputs.write(html_path, to_html(report, failures, title).encode())
+        if pdf_path is not None:
+            from enctools.report.pdf import to_pdf
+            outputs.write(pdf_path, to_pdf(report, failures, title))
     if failures:
         for line in failures:
             sys.stderr.write(f"{prog}: threshold exceeded: {line}\n")
