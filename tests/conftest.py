@@ -214,3 +214,25 @@ def ciomp_steps(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The default ciomp-23bit polygon run (24 positions) as Parquet."""
     return made_once(tmp_path_factory, "ciomp-steps.parquet",
                      _acquire("--rig", "ciomp-23bit", "--mode", "steps"))
+
+
+# ------------------------------------------------------------------ a full disk
+
+@pytest.fixture
+def full_tmpfs(tmp_path):
+    """A small tmpfs, filled up (root and mount permitted; skipped otherwise)."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mnt = tmp_path / "full"
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("mount is not permitted here")
+    try:
+        (mnt / "h").mkdir()
+        with open(mnt / "fill", "wb", buffering=0) as f, pytest.raises(OSError):
+            while True:
+                f.write(b"\0" * 4096)
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)

@@ -259,8 +259,12 @@ def test_help_names_the_command():
     assert r.returncode == 0 and r.stdout.decode().startswith("Usage: enc-nightly [OPTIONS]")
 
 
-def test_terminated_night_is_recorded(tmp_path, enc):
-    """SIGTERM (the shared prologue): the campaign is stopped, the row lands, exit 143."""
+@pytest.mark.parametrize(("sig", "code", "why"), [(signal.SIGTERM, 143, "terminated"),
+                                                  (signal.SIGINT, 130, "interrupted")])
+def test_terminated_night_is_recorded(tmp_path, enc, sig, code, why):
+    """SIGTERM as SIGINT: the campaign is stopped, the row lands, exit 143 (130)."""
+    if sig == signal.SIGINT and signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        pytest.skip("SIGINT is ignored here, and so in the command started")
     hist, cal, work = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "work"
     env = dict(os.environ, PATH=f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}")
     p = subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
@@ -271,12 +275,12 @@ def test_terminated_night_is_recorded(tmp_path, enc):
     deadline = time.monotonic() + 60
     while not (work / "started").exists() and time.monotonic() < deadline:
         time.sleep(0.05)
-    p.terminate()
+    p.send_signal(sig)
     _, err = p.communicate(timeout=30)
-    assert p.returncode == 143, err
-    assert err.decode().strip().splitlines()[-1] == "enc-nightly: error: terminated"
+    assert p.returncode == code, err
+    assert err.decode().strip().splitlines()[-1] == f"enc-nightly: error: {why}"
     h = read_history(hist)
-    assert h.runs == 1 and h.column("status")[0] == "error" and h.column("exit_code")[0] == 143
+    assert h.runs == 1 and h.column("status")[0] == "error" and h.column("exit_code")[0] == code
 
 
 def test_settings_and_drift_in_process():
@@ -492,26 +496,6 @@ def test_full_disk_is_one_line_exit_2_and_no_ok(tmp_path, enc, monkeypatch, wher
     assert not h.skipped and h.runs == {"history": 1, "html": 2, "calibration": 1}[where]
     assert not [f for f in tmp_path.iterdir() if f.name.startswith("enc-nightly-")]
     del pq
-
-
-@pytest.fixture
-def full_tmpfs(tmp_path):
-    """A small tmpfs, filled up (root and mount permitted; skipped otherwise)."""
-    if os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root")
-    mnt = tmp_path / "full"
-    mnt.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)],
-                      capture_output=True).returncode != 0:
-        pytest.skip("mount is not permitted here")
-    try:
-        (mnt / "h").mkdir()
-        with open(mnt / "fill", "wb", buffering=0) as f, pytest.raises(OSError):
-            while True:
-                f.write(b"\0" * 4096)
-        yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
 @pytest.mark.slow

@@ -106,3 +106,22 @@ def test_group_commit_and_discard(tmp_path):
         assert not b.exists()              # nothing is in place before the commit
     assert a.read_bytes() == b"new a" and b.read_bytes() == b"new b"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "b"]
+
+
+@pytest.mark.parametrize(("cmd", "args", "name"), [
+    ("selfcal", "{raw} -o {o}/d.parquet --spectrum {full}/s.parquet", "s.parquet"),
+    ("report", "{raw} --html {o}/r.html --pdf {full}/r.pdf", "r.pdf"),
+])
+def test_a_real_full_disk_for_one_output(raw, tmp_path, full_tmpfs, cmd, args, name):
+    """The second output on a file system that is full (a small tmpfs)."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "d.parquet").write_bytes(b"an earlier run's")
+    (out / "r.html").write_bytes(b"an earlier run's")
+    filled = args.format(raw=raw / "raw.parquet", o=out, full=full_tmpfs)
+    r = run_in_process(f"enc {cmd} {filled} --force")
+    line = one_error_line(r, 2, f"enc {cmd}")
+    assert line == f"enc {cmd}: error: output {full_tmpfs / name}: No space left on device"
+    assert sorted(p.name for p in out.iterdir()) == ["d.parquet", "r.html"]
+    assert {p.read_bytes() for p in out.iterdir()} == {b"an earlier run's"}
+    assert sorted(p.name for p in full_tmpfs.iterdir()) == ["fill", "h"]
