@@ -27,7 +27,7 @@ from enctools.data.rig import Rig
 from enctools.data.schemas import make_field
 from enctools.data.streams import BATCH_ROWS, Header
 from enctools.errors import DeviceError, UsageError
-from enctools.hw.base import Session
+from enctools.hw.base import Session, partial_block
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 MODES = ("continuous", "steps", "sweep")
@@ -230,31 +230,64 @@ def _unwrappers(rig: Rig) -> dict[str, tuple[Unwrapper, int]]:
 
 def _continuous(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
                 progress: Progress | None) -> Iterator[pa.RecordBatch]:
+    """The blocks of a continuous run as batches; a run stopped inside a block (a device
+    fault, SIGINT, SIGTERM) first yields the samples of it already read, then raises."""
     total = samples_total(s)
     unwrap = _unwrappers(rig)
     heads = tuple(f.name for f in schema if f.name in unwrap)
     done = 0
+    block: dict[str, np.ndarray] | None = None  # read and checked, not yet yielded
     try:
         while done < total:
             n = min(BATCH_ROWS, total - done)
-            block = session.counter.read_block(n)
-            check_block(block, heads)
-            got = len(block["t"])
-            if got == 0:
+            try:
+                got = session.counter.read_block(n)
+            except BaseException as exc:
+                block = _checked(partial_block(exc), heads)
+                raise
+            check_block(got, heads)
+            block = got
+            if len(block["t"]) == 0:
                 continue
-            cols = []
-            for f in schema:
-                if f.name in unwrap:
-                    cols.append(pa.array(unwrap[f.name][0](block[f.name]), pa.int64()))
-                else:
-                    cols.append(pa.array(np.asarray(block[f.name], dtype=np.float64)))
-            done += got
-            yield pa.RecordBatch.from_arrays(cols, schema=schema)
+            batch = _batch(block, schema, unwrap)
+            done += batch.num_rows
+            block = None
+            yield batch
             if progress:
                 progress(done, total)
+    except GeneratorExit:
+        raise
+    except BaseException:
+        if block is not None and len(block["t"]) > 0:
+            yield _batch(block, schema, unwrap)  # the caller writes it, then gets the error
+        raise
     finally:
         session.counter.stop()
         session.axis.stop()
+
+
+def _checked(block: dict[str, np.ndarray] | None,
+             heads: tuple[str, ...]) -> dict[str, np.ndarray] | None:
+    """A partial block if it is whole (every head, equal lengths), else None."""
+    if block is None:
+        return None
+    try:
+        check_block(block, heads)
+    except DeviceError:
+        return None
+    return block
+
+
+def _batch(block: dict[str, np.ndarray], schema: pa.Schema,
+           unwrap: dict[str, tuple[Unwrapper, int]]) -> pa.RecordBatch:
+    """A counter block as a record batch: counters unwrapped to int64 counts."""
+    cols = []
+    for f in schema:
+        if f.name in unwrap:
+            cols.append(pa.array(unwrap[f.name][0](block[f.name]), pa.int64()))
+        else:
+            cols.append(pa.array(np.asarray(block[f.name], dtype=np.float64)))
+    return pa.RecordBatch.from_arrays(cols, schema=schema)
 
 
 def _stepped(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
