@@ -135,3 +135,130 @@ def test_signal_inside_a_realtime_block_keeps_the_samples_whose_time_came(
     t = pq.read_table(out).column("t").to_numpy()
     assert 134 + 20 <= len(t) <= 134 + 47, len(t)  # 0.1 s of the third block, give or take
     assert np.allclose(np.diff(t), 0.003)
+
+
+@pytest.mark.parametrize("error", [OSError(5, "Input/output error"),
+                                   ValueError("I/O operation on closed file"),
+                                   OverflowError("cannot convert")])
+def test_serial_port_failures_are_device_errors(error: Exception) -> None:
+    pytest.importorskip("serial")
+    from enctools.errors import DeviceError
+    from enctools.hw.serialline import SerialPort
+
+    class Broken:
+        def write(self, data: bytes) -> None:
+            raise error
+
+        def read_until(self, term: bytes) -> bytes:
+            raise error
+
+    port = SerialPort("ac", Broken(), "/dev/ttyUSB0", 0.1, "\r", "\r\n", "ascii", "9600 8N1")
+    for call in (lambda: port.write("R"), port.read_line):
+        with pytest.raises(DeviceError, match=r"^instrument ac \(/dev/ttyUSB0\): .*") as info:
+            call()
+        assert str(error) in str(info.value)
+
+
+NIDAQ_RIG = """
+format = 1
+name = "nidaq-bench"
+[backend]
+kind = "nidaq"
+[backend.counter]
+decoding = "X4"
+clock_counter = "Dev1/ctr3"
+[[encoder]]
+name = "E"
+periods_per_rev = 9000
+interpolation = 4
+diameter_mm = 100.0
+[[encoder.head]]
+name = "H1"
+angle_deg = 0.0
+backend = { channel = "Dev1/ctr0" }
+"""
+
+# A stand-in for nidaqmx: counter tasks that count up, 1000 samples a read, until the
+# device is removed at the fourth block.
+FAKE_NIDAQMX = '''
+from . import constants, errors
+_reads = [0]
+class _Any:
+    def __getattr__(self, name):
+        return lambda *a, **k: None
+class _Stream:
+    avail_samp_per_chan = 1000
+class Task:
+    def __init__(self, name=""):
+        self.ci_channels = self.co_channels = self.timing = _Any()
+        self.in_stream = _Stream()
+        self.k = 0
+    def start(self):
+        pass
+    def close(self):
+        pass
+    def read(self, number_of_samples_per_channel=None, timeout=None):
+        _reads[0] += 1
+        if _reads[0] > 3:
+            raise errors.DaqReadError("Device has been removed from the system.", -88705)
+        n = number_of_samples_per_channel
+        self.k += n
+        return [float(self.k - n + i) for i in range(n)]
+'''
+FAKE_ERRORS = '''
+class DaqError(Exception):
+    def __init__(self, message, error_code):
+        super().__init__(message)
+        self.error_code = error_code
+class DaqReadError(DaqError):
+    pass
+'''
+FAKE_CONSTANTS = '''
+class _Names:
+    def __getattr__(self, name):
+        return name
+EncoderType = AngleUnits = AcquisitionType = _Names()
+'''
+
+
+def test_nidaq_removed_mid_run_is_exit_3_and_keeps_every_block(tmp_path: Path) -> None:
+    from conftest import run
+
+    d = tmp_path / "shadow" / "nidaqmx"
+    d.mkdir(parents=True)
+    for name, text in (("__init__.py", FAKE_NIDAQMX), ("errors.py", FAKE_ERRORS),
+                       ("constants.py", FAKE_CONSTANTS)):
+        (d / name).write_text(text)
+    rig = tmp_path / "nidaq.toml"
+    rig.write_text(NIDAQ_RIG)
+    out = tmp_path / "run.parquet"
+    r = run(f"enc acquire --rig {rig} --mode continuous -o {out}",
+            env={"PYTHONPATH": str(tmp_path / "shadow")})
+    line = one_error_line(r, 3)
+    assert "NI-DAQmx error -88705 while reading the counters: Device has been removed" in line
+    counts = pq.read_table(out).column("H1").to_numpy()
+    assert np.array_equal(counts, np.arange(3000))  # three blocks of 1000, as read
+
+
+def test_signal_while_a_position_is_packed_keeps_it(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A SIGINT after the readings of position 3 are taken, while they become a batch:
+    positions 0..3 are kept, whole."""
+    from enctools.hw import acquire
+
+    pack = acquire._rows_batch
+    calls = []
+
+    def interrupted(rows: Any, schema: Any) -> Any:
+        calls.append(1)
+        if len(calls) == 4:
+            raise KeyboardInterrupt  # as SIGINT's handler raises it, mid-conversion
+        return pack(rows, schema)
+
+    monkeypatch.setattr(acquire, "_rows_batch", interrupted)
+    out = tmp_path / "steps.parquet"
+    r = run_in_process(f"enc acquire --rig ciomp-23bit --mode steps -o {out}")
+    assert one_error_line(r, 130).endswith("error: interrupted")
+    steps = pq.read_table(out).column("step").to_pylist()
+    k = len(steps) // 4  # the rig's readings per position
+    assert k > 0 and steps == [p for p in range(4) for _ in range(k)]

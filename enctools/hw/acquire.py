@@ -292,34 +292,59 @@ def _batch(block: dict[str, np.ndarray], schema: pa.Schema,
 
 def _stepped(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
              progress: Progress | None) -> Iterator[pa.RecordBatch]:
+    """One batch per position, yielded once all its readings are taken; a position read
+    whole before a fault or signal is yielded before the run ends, never a part of one."""
     plan = targets(s)
     unwrap = _unwrappers(rig)
     overshoot = s.overshoot_deg * DEG
-    for i, (step, run, direction, target) in enumerate(plan):
-        if s.mode == "steps" and overshoot > 0:
-            session.axis.move_to(target - direction * overshoot)
-        session.axis.move_to(target)
-        session.clock.sleep(s.settle_s)
-        rows: dict[str, list[Any]] = {f.name: [] for f in schema}
-        for _ in range(s.readings):
-            sample = session.counter.read_now()
-            for name, (uw, cpr) in unwrap.items():
-                if name in rows:
-                    rows[name].append(int(uw(sample[name], expected=target * cpr / TWO_PI)[0]))
-            rows["t"].append(float(sample["t"][0]))
-            for key, val in sample.items():
-                if key != "t" and key not in unwrap and key in rows:
-                    rows[key].append(float(val[0]))
-            for name, sensor in session.sensors.items():
-                rows[name].append(float(sensor.read()))
-            rows["target"].append(target)
-            rows["step"].append(step)
-            rows["run"].append(run)
-            rows["direction"].append(direction)
-        yield pa.RecordBatch.from_arrays([pa.array(rows[f.name], f.type) for f in schema],
-                                         schema=schema)
-        if progress:
-            progress(i + 1, len(plan))
+    rows: dict[str, list[Any]] | None = None  # a position read, not yet yielded
+    try:
+        for i, (step, run, direction, target) in enumerate(plan):
+            if s.mode == "steps" and overshoot > 0:
+                session.axis.move_to(target - direction * overshoot)
+            session.axis.move_to(target)
+            session.clock.sleep(s.settle_s)
+            rows = _position(session, s, schema, unwrap, (step, run, direction, target))
+            batch = _rows_batch(rows, schema)
+            rows = None
+            yield batch
+            if progress:
+                progress(i + 1, len(plan))
+    except GeneratorExit:
+        raise
+    except BaseException:
+        if rows is not None:
+            yield _rows_batch(rows, schema)  # the caller writes it, then gets the error
+        raise
+
+
+def _position(session: Session, s: Settings, schema: pa.Schema,
+              unwrap: dict[str, tuple[Unwrapper, int]],
+              where: tuple[int, int, int, float]) -> dict[str, list[Any]]:
+    """The readings at one position: ``s.readings`` rows of every column."""
+    step, run, direction, target = where
+    rows: dict[str, list[Any]] = {f.name: [] for f in schema}
+    for _ in range(s.readings):
+        sample = session.counter.read_now()
+        for name, (uw, cpr) in unwrap.items():
+            if name in rows:
+                rows[name].append(int(uw(sample[name], expected=target * cpr / TWO_PI)[0]))
+        rows["t"].append(float(sample["t"][0]))
+        for key, val in sample.items():
+            if key != "t" and key not in unwrap and key in rows:
+                rows[key].append(float(val[0]))
+        for name, sensor in session.sensors.items():
+            rows[name].append(float(sensor.read()))
+        rows["target"].append(target)
+        rows["step"].append(step)
+        rows["run"].append(run)
+        rows["direction"].append(direction)
+    return rows
+
+
+def _rows_batch(rows: dict[str, list[Any]], schema: pa.Schema) -> pa.RecordBatch:
+    return pa.RecordBatch.from_arrays([pa.array(rows[f.name], f.type) for f in schema],
+                                      schema=schema)
 
 
 def check_block(block: dict[str, np.ndarray], heads: tuple[str, ...]) -> None:
