@@ -99,3 +99,41 @@ def test_full_tmpfs_keeps_the_other_output(tmp_path: Path) -> None:
         assert list(small.iterdir()) == []
     finally:
         subprocess.run(["umount", str(small)], check=False)
+
+
+def _endings() -> list[Any]:
+    from enctools.errors import DataError, DeviceError, Interrupted, OutputError, UsageError
+
+    return [(DeviceError("instrument x: read failed"), True),
+            (KeyboardInterrupt(), True),
+            (Interrupted("terminated", exit_code=143), True),
+            (BrokenPipeError(32, "Broken pipe"), True),
+            (OutputError("output other.parquet: No space left on device", "other.parquet"), True),
+            (ConnectionResetError(104, "Connection reset by peer"), True),
+            (RuntimeError("a bug"), True),
+            (UsageError("--heads: no head 'X'"), False),
+            (DataError("replay.arrows: truncated"), False),
+            (OutputError("output SELF: No space left on device", "SELF"), False)]
+
+
+@pytest.mark.parametrize("ending,kept", _endings(), ids=lambda x: type(x).__name__)
+def test_keep_partial_keeps_for_every_ending_but_bad_usage_or_input(
+        tmp_path: Path, ending: BaseException, kept: bool) -> None:
+    import pyarrow as pa
+
+    from enctools.data.header import Header
+
+    path = tmp_path / "run.parquet"
+    if getattr(ending, "path", None) == "SELF":
+        ending.path = str(path)  # type: ignore[attr-defined]
+    schema = pa.schema([pa.field("t", pa.float64())])
+    batch = pa.record_batch([pa.array([0.0, 0.1])], schema=schema)
+    header = Header("readings", schema, {})
+    with pytest.raises(type(ending)), \
+            streams.OutputStream(str(path), header, keep_partial=True) as out:
+        out.write(batch)
+        raise ending
+    assert path.exists() == kept
+    if kept:
+        assert pq.read_table(path).num_rows == 2
+    assert leftovers(tmp_path) == []
