@@ -159,27 +159,37 @@ def _pump(batches: Iterator[Any], outs: list[Any], failed: dict[Any, BaseExcepti
     (None: all read) and the rows read. ``failed``: the outputs that failed, with why."""
     it = iter(batches)
     rows = 0
+    batch = None  # read, not yet written (a signal just as the wait ends)
     try:
         while True:
             with guard.released():
                 batch = next(it, None)
             if batch is None:
                 return None, rows
-            rows += batch.num_rows
-            for o in outs:
-                if o not in failed:
-                    try:
-                        o.write(batch)
-                    except Exception as exc:  # noqa: BLE001 - the batch still goes to the others
-                        failed[o] = exc
+            got, batch = batch, None
+            rows += _to_all(outs, got, failed)
             if failed:
                 raise next(iter(failed.values()))
     except BaseException as exc:  # noqa: BLE001 - every ending closes the outputs first
+        guard.hold()
+        if batch is not None:
+            rows += _to_all(outs, batch, failed)
         with contextlib.suppress(Exception):
             close = getattr(it, "close", None)
             if close is not None:
                 close()  # stop the table and the sampling
         return exc, rows
+
+
+def _to_all(outs: list[Any], batch: Any, failed: dict[Any, BaseException]) -> int:
+    """Write a batch to every output that has not failed; its rows."""
+    for o in outs:
+        if o not in failed:
+            try:
+                o.write(batch)
+            except Exception as exc:  # noqa: BLE001 - the batch still goes to the others
+                failed[o] = exc
+    return int(batch.num_rows)
 
 
 def _finish(outs: list[Any], failed: dict[Any, BaseException],
@@ -245,6 +255,10 @@ class _SignalGuard:
             self.pending = signum
         if not self._held:
             raise self.interruption()
+
+    def hold(self) -> None:
+        """Defer signals again (the end of a wait that a signal cut short)."""
+        self._held = True
 
     @contextlib.contextmanager
     def released(self) -> Iterator[None]:
