@@ -25,6 +25,18 @@ class UsageError(EncError):
     exit_code = 2
 
 
+class OutputError(UsageError):
+    """An output that cannot be written (disk full, folder gone, read-only): exit 2.
+
+    ``path`` names the output (None: stdout), so that a command writing several outputs
+    can tell which one failed and keep the others.
+    """
+
+    def __init__(self, message: str, path: str | None = None) -> None:
+        super().__init__(message)
+        self.path = path
+
+
 class DataError(EncError):
     """Input data that cannot be read or does not fit its kind: exit 2."""
 

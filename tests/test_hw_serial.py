@@ -360,7 +360,7 @@ def test_unknown_key_in_instrument_table_is_exit_2(tmp_path: Path) -> None:
 def test_counter_hangs_in_continuous_run(tmp_path: Path) -> None:
     """The controller stops answering after 40 samples of a 100-sample run: exit 3,
     the error names the counter query (not the failed stop that follows), the file
-    keeps every block read before."""
+    keeps every sample read before, those of the block in progress included."""
     with Emulator(ctl_silent_after_counts=40) as emu:
         rig = write_rig(tmp_path, rig_text(emu, timeout_s=0.1, retries=1))
         out = tmp_path / "c.parquet"
@@ -372,6 +372,8 @@ def test_counter_hangs_in_continuous_run(tmp_path: Path) -> None:
     import pyarrow.parquet as pq
 
     t = pq.read_table(out)
-    assert 0 < t.num_rows < 40
+    # Every answer received, the block in progress included (a late answer on a loaded
+    # machine is a timeout, retried: then fewer than the 40 the emulator sent).
+    assert 0 < t.num_rows <= 40
     ts = t.column("t").to_numpy()
     assert np.all(np.diff(ts) > 0)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import signal
 from collections.abc import Iterator
 from typing import Any
@@ -113,32 +114,123 @@ def _write(header: Any, batches: Iterator[Any], output: str | None, force: bool,
            fmt: str | None, tee_path: str | None) -> int:
     """Write every batch as it arrives (and to the tee); on any ending keep what was read.
 
-    SIGINT and SIGTERM are held while a batch is being written, so the files hold
-    whole batches; they stop the run between batches (or inside a device wait).
+    The tee is written first: a pipe closed downstream finds the batch already in it.
+    SIGINT and SIGTERM are held except while waiting for the next batch (the device),
+    so the files hold whole batches and a batch read is never dropped on its way.
+    An output that fails (disk full) is dropped: the batch still goes to the others,
+    the run stops, and the others are closed with every batch read.
     """
     from enctools.data import streams
 
-    with contextlib.ExitStack() as stack:
-        out = stack.enter_context(streams.OutputStream(output, header, force, fmt,
-                                                       keep_partial=True))
-        tee = (stack.enter_context(streams.OutputStream(tee_path, header, force,
-                                                        keep_partial=True))
-               if tee_path else None)
-        guard = stack.enter_context(_SignalGuard())
-        for batch in batches:
-            with guard.held():
-                if tee is not None:
-                    tee.write(batch)
-                out.write(batch)
-        return out.rows
+    outs: list[Any] = []
+    try:
+        if tee_path:
+            outs.append(streams.OutputStream(tee_path, header, force, keep_partial=True))
+        outs.append(streams.OutputStream(output, header, force, fmt, keep_partial=True))
+    except BaseException:
+        for o in outs:
+            o.abort(False)
+        raise
+    failed: dict[Any, BaseException] = {}
+    with _SignalGuard() as guard:
+        ending, rows = _pump(batches, outs, failed, guard)
+        kept = _finish(outs, failed, ending)
+        if ending is None and guard.pending is not None:
+            ending = guard.interruption()
+    broken = {o: e for o, e in failed.items() if not _closed_pipe(e)}
+    if broken:
+        raise _output_failure(broken, kept, rows)
+    if ending is not None:
+        if _closed_pipe(ending):
+            runner.log.info("the pipe downstream closed after %d rows; kept in %s", rows,
+                            ", ".join(kept) or "no file")
+        raise ending
+    return rows
+
+
+def _closed_pipe(exc: BaseException) -> bool:
+    return isinstance(exc, BrokenPipeError) or (isinstance(exc, OSError)
+                                                and exc.errno == errno.EPIPE)
+
+
+def _pump(batches: Iterator[Any], outs: list[Any], failed: dict[Any, BaseException],
+          guard: _SignalGuard) -> tuple[BaseException | None, int]:
+    """Write the batches to every output until the end: the exception that ended the run
+    (None: all read) and the rows read. ``failed``: the outputs that failed, with why."""
+    it = iter(batches)
+    rows = 0
+    batch = None  # read, not yet written (a signal just as the wait ends)
+    try:
+        while True:
+            with guard.released():
+                batch = next(it, None)
+            if batch is None:
+                return None, rows
+            got, batch = batch, None
+            rows += _to_all(outs, got, failed)
+            if failed:
+                raise next(iter(failed.values()))
+    except BaseException as exc:  # noqa: BLE001 - every ending closes the outputs first
+        guard.hold()
+        if batch is not None:
+            rows += _to_all(outs, batch, failed)
+        with contextlib.suppress(Exception):
+            close = getattr(it, "close", None)
+            if close is not None:
+                close()  # stop the table and the sampling
+        return exc, rows
+
+
+def _to_all(outs: list[Any], batch: Any, failed: dict[Any, BaseException]) -> int:
+    """Write a batch to every output that has not failed; its rows."""
+    for o in outs:
+        if o not in failed:
+            try:
+                o.write(batch)
+            except Exception as exc:  # noqa: BLE001 - the batch still goes to the others
+                failed[o] = exc
+    return int(batch.num_rows)
+
+
+def _finish(outs: list[Any], failed: dict[Any, BaseException],
+            ending: BaseException | None) -> list[str]:
+    """Close the outputs: the failed ones leave nothing, the others keep what they hold
+    (unless the ending is bad usage or input). The names of the outputs kept."""
+    kept = []
+    for o in outs:
+        if o in failed:
+            o.abort(False)
+        elif ending is None or o.keeps(ending):
+            try:
+                o.close()
+            except Exception as exc:  # noqa: BLE001 - reported with the others' failures
+                failed[o] = exc
+                o.abort(False)
+                continue
+            kept.append(o.path or "stdout")
+        else:
+            o.abort(False)
+    return kept
+
+
+def _output_failure(failed: dict[Any, BaseException], kept: list[str], rows: int) -> Exception:
+    """One error for outputs that could not be written: which, why, and where the rows are."""
+    from enctools.errors import OutputError
+
+    why = "; ".join(str(e) if isinstance(e, OutputError)
+                    else f"output {o.path or 'stdout'}: {e}" for o, e in failed.items())
+    where = (f"the {rows} rows read are kept in {' and '.join(kept)}" if kept
+             else "no output could keep them")
+    return OutputError(f"{why}; {where}", next(iter(failed)).path)
 
 
 class _SignalGuard:
-    """SIGINT -> KeyboardInterrupt (130), SIGTERM -> Interrupted (143), deferred while held."""
+    """SIGINT -> KeyboardInterrupt (130), SIGTERM -> Interrupted (143); held (deferred)
+    except inside :meth:`released`."""
 
     def __init__(self) -> None:
-        self._held = False
-        self._pending: int | None = None
+        self._held = True
+        self.pending: int | None = None
         self._old: dict[int, Any] = {}
 
     def __enter__(self) -> _SignalGuard:
@@ -150,26 +242,31 @@ class _SignalGuard:
         for sig, old in self._old.items():
             signal.signal(sig, old)
 
-    def _raise(self, signum: int) -> None:
+    def interruption(self) -> BaseException:
+        """The exception of the signal received."""
         from enctools.errors import Interrupted
 
-        if signum == signal.SIGTERM:
-            raise Interrupted("terminated", exit_code=143)
-        raise KeyboardInterrupt
+        if self.pending == signal.SIGTERM:
+            return Interrupted("terminated", exit_code=143)
+        return KeyboardInterrupt()
 
     def _handle(self, signum: int, frame: Any) -> None:
-        if self._held:
-            self._pending = signum
-            return
-        self._raise(signum)
+        if self.pending is None:
+            self.pending = signum
+        if not self._held:
+            raise self.interruption()
+
+    def hold(self) -> None:
+        """Defer signals again (the end of a wait that a signal cut short)."""
+        self._held = True
 
     @contextlib.contextmanager
-    def held(self) -> Iterator[None]:
-        self._held = True
+    def released(self) -> Iterator[None]:
+        """Let a signal stop the run at once (a wait for the device)."""
+        if self.pending is not None:
+            raise self.interruption()
+        self._held = False
         try:
             yield
         finally:
-            self._held = False
-            if self._pending is not None:
-                signum, self._pending = self._pending, None
-                self._raise(signum)
+            self._held = True

@@ -19,6 +19,7 @@ size are :mod:`enctools.data.pipes`' job.
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import os
 import re
@@ -32,7 +33,7 @@ import pyarrow as pa
 from enctools.data import files, pipes
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, OutputError, UsageError
 
 __all__ = [
     "Header",
@@ -344,9 +345,11 @@ class OutputStream:
     """Writes one stream batch by batch; a named file appears only when closed cleanly.
 
     Use as a context manager: an exception inside the block removes the temporary file
-    (nothing partial is left). With ``keep_partial=True`` (acquisition), a device fault or
-    an interruption (SIGINT, SIGTERM) instead closes everything written so far into a
-    valid file under the final name; bad input or usage still leaves nothing.
+    (nothing partial is left). With ``keep_partial=True`` (acquisition), any other ending
+    instead closes everything written so far into a valid file under the final name (see
+    :meth:`keeps`): a device fault, an interruption (SIGINT, SIGTERM), a closed
+    downstream pipe, a sibling output that failed, even a bug. Bad usage or bad input
+    (UsageError, DataError), or a failure of this output itself, still leaves nothing.
     """
 
     def __init__(self, path: str | None, header: Header, force: bool = False,
@@ -411,14 +414,14 @@ class OutputStream:
             raise self._write_error(exc) from None
         self.rows += batch.num_rows
 
-    def _write_error(self, exc: OSError) -> OSError | UsageError:
+    def _write_error(self, exc: OSError) -> OSError | OutputError:
         """A failed write as a one-line error naming the output (a closed pipe stays EPIPE)."""
         text = str(exc)
         if isinstance(exc, BrokenPipeError) or "Broken pipe" in text or "errno 32" in text:
             return BrokenPipeError(32, "Broken pipe")
         m = re.search(r"\[errno \d+\] (.*)", text)
         reason = m.group(1) if m else (exc.strerror or text)
-        return UsageError(f"output {self.path or 'stdout'}: {reason}")
+        return OutputError(f"output {self.path or 'stdout'}: {reason}", self.path)
 
     def close(self) -> None:
         """Finish the stream; a named file is renamed into place."""
@@ -439,9 +442,12 @@ class OutputStream:
                 return
             try:  # a file, device or FIFO that appeared meanwhile is refused
                 files.rename_into_place(self._tmp, self.path, self.force)
-            except UsageError:
+            except UsageError as exc:
                 self._discard()
-                raise
+                raise OutputError(str(exc), self.path) from None
+            except OSError as exc:
+                self._discard()
+                raise self._write_error(exc) from None
             self._tmp = None
         else:
             with contextlib.suppress(AttributeError):
@@ -453,12 +459,15 @@ class OutputStream:
                 os.unlink(self._tmp)
             self._tmp = None
 
-    def abort(self, keep: bool | None = None) -> None:
-        """Stop writing: remove a temporary file, or (keep_partial) finish it."""
+    def abort(self, keep: bool | None = None) -> bool:
+        """Stop writing: remove a temporary file, or (keep_partial) finish it.
+
+        True when what was written is kept (closed into its file, or ended on stdout).
+        """
         if self.keep_partial if keep is None else keep:
             try:
                 self.close()
-                return
+                return True
             except Exception:  # noqa: BLE001 - closing after a failure must not hide it
                 pass
         writer, self._writer = self._writer, None
@@ -466,18 +475,31 @@ class OutputStream:
             with contextlib.suppress(Exception):
                 writer.close()
         self._discard()
+        return False
 
     def __enter__(self) -> OutputStream:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:
-        if exc_type is None:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: object) -> None:
+        if exc is None:
             self.close()
         else:
-            from enctools.errors import DeviceError, Interrupted
-            keep = self.keep_partial and issubclass(exc_type, (DeviceError, Interrupted,
-                                                               KeyboardInterrupt))
-            self.abort(keep)
+            self.abort(self.keep_partial and self.keeps(exc))
+
+    def keeps(self, exc: BaseException) -> bool:
+        """Whether ``keep_partial`` keeps what was written when ``exc`` ends the writing.
+
+        Kept for every ending but bad usage or bad input (UsageError, DataError) and a
+        failure of this output itself: a sibling output's failure (an OutputError naming
+        another path, or the pipe downstream closed) keeps this one.
+        """
+        if isinstance(exc, OutputError):
+            return exc.path != self.path
+        if isinstance(exc, BrokenPipeError) or (isinstance(exc, OSError)
+                                                and exc.errno == errno.EPIPE):
+            return self.path is not None  # the closed pipe is stdout, not this file
+        return not isinstance(exc, (UsageError, DataError))
 
 
 def _umask() -> int:

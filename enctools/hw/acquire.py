@@ -27,7 +27,7 @@ from enctools.data.rig import Rig
 from enctools.data.schemas import make_field
 from enctools.data.streams import BATCH_ROWS, Header
 from enctools.errors import DeviceError, UsageError
-from enctools.hw.base import Session
+from enctools.hw.base import Session, partial_block
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 MODES = ("continuous", "steps", "sweep")
@@ -230,63 +230,121 @@ def _unwrappers(rig: Rig) -> dict[str, tuple[Unwrapper, int]]:
 
 def _continuous(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
                 progress: Progress | None) -> Iterator[pa.RecordBatch]:
+    """The blocks of a continuous run as batches; a run stopped inside a block (a device
+    fault, SIGINT, SIGTERM) first yields the samples of it already read, then raises."""
     total = samples_total(s)
     unwrap = _unwrappers(rig)
     heads = tuple(f.name for f in schema if f.name in unwrap)
     done = 0
+    block: dict[str, np.ndarray] | None = None  # read and checked, not yet yielded
     try:
         while done < total:
             n = min(BATCH_ROWS, total - done)
-            block = session.counter.read_block(n)
-            check_block(block, heads)
-            got = len(block["t"])
-            if got == 0:
+            try:
+                got = session.counter.read_block(n)
+            except BaseException as exc:
+                block = _checked(partial_block(exc), heads)
+                raise
+            check_block(got, heads)
+            block = got
+            if len(block["t"]) == 0:
                 continue
-            cols = []
-            for f in schema:
-                if f.name in unwrap:
-                    cols.append(pa.array(unwrap[f.name][0](block[f.name]), pa.int64()))
-                else:
-                    cols.append(pa.array(np.asarray(block[f.name], dtype=np.float64)))
-            done += got
-            yield pa.RecordBatch.from_arrays(cols, schema=schema)
+            batch = _batch(block, schema, unwrap)
+            done += batch.num_rows
+            block = None
+            yield batch
             if progress:
                 progress(done, total)
+    except GeneratorExit:
+        raise
+    except BaseException:
+        if block is not None and len(block["t"]) > 0:
+            yield _batch(block, schema, unwrap)  # the caller writes it, then gets the error
+        raise
     finally:
         session.counter.stop()
         session.axis.stop()
 
 
+def _checked(block: dict[str, np.ndarray] | None,
+             heads: tuple[str, ...]) -> dict[str, np.ndarray] | None:
+    """A partial block if it is whole (every head, equal lengths), else None."""
+    if block is None:
+        return None
+    try:
+        check_block(block, heads)
+    except DeviceError:
+        return None
+    return block
+
+
+def _batch(block: dict[str, np.ndarray], schema: pa.Schema,
+           unwrap: dict[str, tuple[Unwrapper, int]]) -> pa.RecordBatch:
+    """A counter block as a record batch: counters unwrapped to int64 counts."""
+    cols = []
+    for f in schema:
+        if f.name in unwrap:
+            cols.append(pa.array(unwrap[f.name][0](block[f.name]), pa.int64()))
+        else:
+            cols.append(pa.array(np.asarray(block[f.name], dtype=np.float64)))
+    return pa.RecordBatch.from_arrays(cols, schema=schema)
+
+
 def _stepped(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
              progress: Progress | None) -> Iterator[pa.RecordBatch]:
+    """One batch per position, yielded once all its readings are taken; a position read
+    whole before a fault or signal is yielded before the run ends, never a part of one."""
     plan = targets(s)
     unwrap = _unwrappers(rig)
     overshoot = s.overshoot_deg * DEG
-    for i, (step, run, direction, target) in enumerate(plan):
-        if s.mode == "steps" and overshoot > 0:
-            session.axis.move_to(target - direction * overshoot)
-        session.axis.move_to(target)
-        session.clock.sleep(s.settle_s)
-        rows: dict[str, list[Any]] = {f.name: [] for f in schema}
-        for _ in range(s.readings):
-            sample = session.counter.read_now()
-            for name, (uw, cpr) in unwrap.items():
-                if name in rows:
-                    rows[name].append(int(uw(sample[name], expected=target * cpr / TWO_PI)[0]))
-            rows["t"].append(float(sample["t"][0]))
-            for key, val in sample.items():
-                if key != "t" and key not in unwrap and key in rows:
-                    rows[key].append(float(val[0]))
-            for name, sensor in session.sensors.items():
-                rows[name].append(float(sensor.read()))
-            rows["target"].append(target)
-            rows["step"].append(step)
-            rows["run"].append(run)
-            rows["direction"].append(direction)
-        yield pa.RecordBatch.from_arrays([pa.array(rows[f.name], f.type) for f in schema],
-                                         schema=schema)
-        if progress:
-            progress(i + 1, len(plan))
+    rows: dict[str, list[Any]] | None = None  # a position read, not yet yielded
+    try:
+        for i, (step, run, direction, target) in enumerate(plan):
+            if s.mode == "steps" and overshoot > 0:
+                session.axis.move_to(target - direction * overshoot)
+            session.axis.move_to(target)
+            session.clock.sleep(s.settle_s)
+            rows = _position(session, s, schema, unwrap, (step, run, direction, target))
+            batch = _rows_batch(rows, schema)
+            rows = None
+            yield batch
+            if progress:
+                progress(i + 1, len(plan))
+    except GeneratorExit:
+        raise
+    except BaseException:
+        if rows is not None:
+            yield _rows_batch(rows, schema)  # the caller writes it, then gets the error
+        raise
+
+
+def _position(session: Session, s: Settings, schema: pa.Schema,
+              unwrap: dict[str, tuple[Unwrapper, int]],
+              where: tuple[int, int, int, float]) -> dict[str, list[Any]]:
+    """The readings at one position: ``s.readings`` rows of every column."""
+    step, run, direction, target = where
+    rows: dict[str, list[Any]] = {f.name: [] for f in schema}
+    for _ in range(s.readings):
+        sample = session.counter.read_now()
+        for name, (uw, cpr) in unwrap.items():
+            if name in rows:
+                rows[name].append(int(uw(sample[name], expected=target * cpr / TWO_PI)[0]))
+        rows["t"].append(float(sample["t"][0]))
+        for key, val in sample.items():
+            if key != "t" and key not in unwrap and key in rows:
+                rows[key].append(float(val[0]))
+        for name, sensor in session.sensors.items():
+            rows[name].append(float(sensor.read()))
+        rows["target"].append(target)
+        rows["step"].append(step)
+        rows["run"].append(run)
+        rows["direction"].append(direction)
+    return rows
+
+
+def _rows_batch(rows: dict[str, list[Any]], schema: pa.Schema) -> pa.RecordBatch:
+    return pa.RecordBatch.from_arrays([pa.array(rows[f.name], f.type) for f in schema],
+                                      schema=schema)
 
 
 def check_block(block: dict[str, np.ndarray], heads: tuple[str, ...]) -> None:

@@ -42,6 +42,23 @@ class Clock:
             time.sleep(seconds)
 
 
+def carry_partial(exc: BaseException, block: dict[str, np.ndarray]) -> None:
+    """Attach to ``exc`` the samples a block read completed before ``exc`` stopped it.
+
+    A counter whose ``read_block`` is stopped by a fault or an interruption (SIGINT,
+    SIGTERM) after some samples passes them on this way: the acquisition writes them
+    before the run ends, so every sample read is kept.
+    """
+    if len(block.get("t", ())) > 0:
+        exc.enc_partial_block = block  # type: ignore[attr-defined]
+
+
+def partial_block(exc: BaseException) -> dict[str, np.ndarray] | None:
+    """The completed samples :func:`carry_partial` attached to ``exc``, if any."""
+    block = getattr(exc, "enc_partial_block", None)
+    return block if isinstance(block, dict) else None
+
+
 class Counter(ABC):
     """The encoder heads' counters, read together."""
 
@@ -55,7 +72,8 @@ class Counter(ABC):
     @abstractmethod
     def read_block(self, max_samples: int) -> dict[str, np.ndarray]:
         """The next samples since the last call (at most ``max_samples``): ``t`` [s] and
-        one raw counter array [count] per head."""
+        one raw counter array [count] per head. Stopped by an exception after some
+        samples, it attaches them to it (:func:`carry_partial`)."""
 
     @abstractmethod
     def stop(self) -> None:

@@ -37,7 +37,7 @@ import numpy as np
 from enctools.data.rig import Rig
 from enctools.errors import DataError, DeviceError, UsageError
 from enctools.hw import retry
-from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session
+from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session, carry_partial
 from enctools.hw.config import check_keys, check_template, need
 from enctools.units import ARCSEC, DEG, TWO_PI
 
@@ -202,22 +202,27 @@ class PolledCounter(Counter):
         self._next = self.clock.now()
 
     def read_block(self, max_samples: int) -> dict[str, np.ndarray]:
-        ts: list[float] = []
-        rows: list[list[int]] = []
+        samples: list[tuple[float, list[int]]] = []  # one append a sample: never half of one
         began = self.clock.now()
-        while len(ts) < max_samples:
-            self.clock.sleep(self._next - self.clock.now())
-            t, values = self._sample()
-            ts.append(t)
-            rows.append(values)
-            self._next += self.interval
-            now = self.clock.now()
-            if self._next < now - self.interval:  # fell behind: do not try to catch up
-                self._next = now
-            if now - began >= _BLOCK_S:
-                break
-        arr = np.array(rows, dtype=np.int64).reshape(len(ts), len(self.order))
-        out = {"t": np.array(ts)}
+        try:
+            while len(samples) < max_samples:
+                self.clock.sleep(self._next - self.clock.now())
+                samples.append(self._sample())
+                self._next += self.interval
+                now = self.clock.now()
+                if self._next < now - self.interval:  # fell behind: do not try to catch up
+                    self._next = now
+                if now - began >= _BLOCK_S:
+                    break
+        except BaseException as exc:  # a fault or a signal: the samples polled are kept
+            carry_partial(exc, self._block(samples))
+            raise
+        return self._block(samples)
+
+    def _block(self, samples: list[tuple[float, list[int]]]) -> dict[str, np.ndarray]:
+        arr = np.array([v for _, v in samples], dtype=np.int64).reshape(len(samples),
+                                                                         len(self.order))
+        out: dict[str, np.ndarray] = {"t": np.array([t for t, _ in samples], dtype=np.float64)}
         for i, name in enumerate(self.order):
             out[name] = arr[:, i]
         return out

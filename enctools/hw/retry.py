@@ -27,6 +27,7 @@ from enctools.errors import DeviceError
 
 log = logging.getLogger("enctools.hw")
 
+INT64 = (-(1 << 63), (1 << 63) - 1)  # the range of a counter value in the stream (int64)
 MAX_ERRORS = 32  # entries read from an error queue at most (a queue that never empties)
 
 
@@ -154,6 +155,8 @@ def numbers(raw: str, port: Port, sent: str, count: int | None = None,
                 v = float(p)
         except (ValueError, OverflowError):
             raise bad(f"{p!r} is not a number") from None
+        if integer and not INT64[0] <= v <= INT64[1]:
+            raise bad(f"{p} is out of range (a counter value fits in 64 bits)")
         out.append(v)
     return out
 

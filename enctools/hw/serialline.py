@@ -77,14 +77,14 @@ class SerialPort:
         try:
             self.ser.write((text + self.write_term).encode(self.encoding))
             self.ser.flush()
-        except (self._exc, OSError) as exc:
+        except Exception as exc:  # noqa: BLE001 - SerialException, OSError, an unencodable text
             msg = f"{retry.where(self)}: cannot send {text!r}: {retry_text(exc)} (unplugged?)"
             raise DeviceError(msg) from None
 
     def read_line(self) -> str:
         try:
             raw = self.ser.read_until(self.read_term)
-        except (self._exc, OSError) as exc:
+        except Exception as exc:  # noqa: BLE001 - SerialException, OSError, a closed port
             msg = f"{retry.where(self)}: read failed: {retry_text(exc)} (unplugged?)"
             raise DeviceError(msg) from None
         if not raw.endswith(self.read_term):
@@ -120,8 +120,12 @@ class SerialPort:
 
 
 def retry_text(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    return text[:200] or type(exc).__name__
+    """An exception as a short clause: its text, with its type when the text is bare."""
+    text = " ".join(str(exc).split())[:200]
+    if not text:
+        return type(exc).__name__
+    known = isinstance(exc, (_pyserial().SerialException, OSError))
+    return text if known else f"{type(exc).__name__}: {text}"
 
 
 def open_port(name: str, cfg: dict[str, Any], rig: Rig, policy: retry.Policy) -> SerialPort:

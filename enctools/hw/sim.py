@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from enctools.data.rig import Encoder, Rig
-from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session
+from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session, carry_partial
 from enctools.hw.sim_truth import jitter_motion, make_truth
 from enctools.hw.truth import Motion, Series, interpolation_error
 from enctools.units import ARCSEC, DEG, TWO_PI
@@ -295,9 +295,17 @@ class SimCounter(Counter):
         k = np.arange(self._k, self._k + max_samples)
         t = self._t0 + k * self._interval
         self._k += max_samples
+        block = self.sim.sample(t, with_signals=self.sim.signals)
         self.sim.clock.t = float(t[-1])
-        self.sim.clock.pace()
-        return self.sim.sample(t, with_signals=self.sim.signals)
+        try:
+            self.sim.clock.pace()
+        except BaseException as exc:  # a signal while waiting: the samples whose time came
+            clock = self.sim.clock
+            elapsed = time.monotonic() - clock.start if isinstance(clock, RealtimeClock) else 0.0
+            n = int(np.searchsorted(t, elapsed, side="right"))
+            carry_partial(exc, {name: v[:n] for name, v in block.items()})
+            raise
+        return block
 
     def stop(self) -> None:
         self._interval = 0.0

@@ -152,9 +152,9 @@ class VisaPort:
         log.debug("%s <- %r", self.name, text)
         try:
             self.resource.write(text)
-        except self._errors.VisaIOError as exc:
+        except Exception as exc:  # noqa: BLE001 - VISA, session and transport errors alike
             msg = (f"instrument {self.name} ({self.address}): cannot send {text!r}: "
-                   f"{exc.description}")
+                   f"{self._why(exc)}")
             raise DeviceError(msg) from None
 
     def read_line(self) -> str:
@@ -172,11 +172,21 @@ class VisaPort:
             msg = (f"instrument {self.name} ({self.address}): garbled reply "
                    f"{exc.object[:40]!r}: not text")
             raise DeviceError(msg) from None
+        except Exception as exc:  # noqa: BLE001 - a closed session, a reset connection, ...
+            msg = f"instrument {self.name} ({self.address}): read failed: {self._why(exc)}"
+            raise DeviceError(msg) from None
         if any("termination" in str(w.message) for w in caught):
             # The message ended (END) without the read termination: an incomplete line.
             raise retry.Timeout(reply.encode(errors="replace"))
         log.debug("%s -> %r", self.name, reply)
         return reply
+
+    def _why(self, exc: BaseException) -> str:
+        """What a failure says: a VISA status's description, else the exception's type
+        and text (a transport's ConnectionResetError, pyvisa's InvalidSession)."""
+        if isinstance(exc, self._errors.VisaIOError):
+            return str(exc.description)
+        return f"{type(exc).__name__}: {retry_text(exc)}"
 
     def clear(self) -> None:
         try:
