@@ -100,10 +100,43 @@ def test_shipped_rigs_are_within_the_limits() -> None:
 
 
 def test_every_range_is_in_the_man_page() -> None:
-    from enctools.data.riglimits import RANGES
+    from enctools.data.riglimits import RANGES, fmt
 
     man = (ROOT / "man" / "enc-rig.5").read_text().replace("\\-", "-").replace("\\&", "")
     for key, (lo, hi) in RANGES.items():
         assert key.rsplit(".", 1)[-1] in man, key
-        span = f"{lo:g}..{hi:g}" if isinstance(lo, float) else f"{lo}..{hi}"
+        span = f"{fmt(lo)}..{fmt(hi)}"
         assert span in man, f"{key}: {span} not in enc-rig(5)"
+
+
+@pytest.mark.parametrize("opts, named", [
+    ("--mode steps --count 1000000000", "--count must be 1..100000, not 1000000000"),
+    ("--mode continuous --speed 1e308", "--speed must be non-zero and -6000..6000 r/min"),
+    ("--mode continuous --speed 0", "--speed must be non-zero"),
+    ("--mode steps --positions ,", "--positions"),
+    ("--mode steps --positions 1e300", "--positions must be -360..360, not 1e+300"),
+    ("--mode continuous --revolutions 1e308", "--revolutions must be 1e-06..100000"),
+    ("--mode continuous --revolutions 1e-6 --speed 6000 --interval 1",
+     "0 samples requested (--revolutions/--speed/--interval); must be 1..2000000000"),
+    ("--mode continuous --interval 1e-300", "--interval must be 1e-07..3600"),
+    ("--mode sweep --step 1e-300", "--step must be 1e-06..1296000"),
+    ("--mode sweep --settle inf", "--settle must be 0..3600, not inf"),
+    ("--mode steps --readings 100000000", "--readings must be 1..10000"),
+    ("--mode steps --runs 1000 --count 100000 --bidirectional",
+     "200000000 positions requested (positions x --runs x directions); must be at most 1000000"),
+    ("--mode steps --overshoot 1e308", "--overshoot must be 0..360"),
+    ("--mode steps --start 1e308", "--start must be -360..360"),
+    ("--timeout 1e308", "--timeout"),
+    ("--retries 1000000000", "--retries"),
+])
+def test_acquire_counts_and_sizes_are_bounded(opts: str, named: str, tmp_path: Path) -> None:
+    line = acquire_line("ciomp-23bit", tmp_path, *opts.split())
+    assert named in line, line
+
+
+def test_backend_numbers_are_bounded(tmp_path: Path) -> None:
+    from test_rig_safety import variant
+
+    rig = variant(tmp_path / "rig", None, **{"timeout_s = 0.2": "timeout_s = 1e308"})
+    line = acquire_line(rig, tmp_path)
+    assert "backend.timeout_s must be 0.001..3600, not 1e+308" in line, line

@@ -34,6 +34,9 @@ def _float_list(ctx: click.Context, param: click.Parameter,
     except ValueError:
         msg = f"expected numbers separated by commas, not {value!r}"
         raise click.BadParameter(msg) from None
+    if not numbers:
+        msg = f"expected numbers separated by commas, not {value!r}"
+        raise click.BadParameter(msg)
     if not all(math.isfinite(v) for v in numbers):
         msg = f"expected finite numbers, not {value!r}"
         raise click.BadParameter(msg)

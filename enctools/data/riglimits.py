@@ -106,7 +106,10 @@ CHOICES: dict[str, tuple[str, ...]] = {
 LEAST: dict[str, int] = {"encoder": 1, "encoder.head": 1, "encoder.measure_heads": 1}
 
 
-def _fmt(v: float) -> str:
+def fmt(v: float) -> str:
+    """A limit or a value as an error line and enc-rig(5) write it (1296000, 1e-06, inf)."""
+    if isinstance(v, float) and v.is_integer() and abs(v) < 1e16:
+        return str(int(v))
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 
@@ -131,7 +134,7 @@ def _check_number(spec_key: str, value: float, source: str, loc: str) -> None:
         return
     lo, hi = RANGES[spec_key]
     if not (math.isfinite(value) and lo <= value <= hi):
-        msg = f"rig file {source}: {loc} must be {_fmt(lo)}..{_fmt(hi)}, not {_fmt(value)}"
+        msg = f"rig file {source}: {loc} must be {fmt(lo)}..{fmt(hi)}, not {fmt(value)}"
         raise DataError(msg)
     if spec_key == "probe.side" and value == 0:
         msg = f"rig file {source}: {loc} must be 1 or -1, not 0"
