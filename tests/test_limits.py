@@ -140,3 +140,118 @@ def test_backend_numbers_are_bounded(tmp_path: Path) -> None:
     rig = variant(tmp_path / "rig", None, **{"timeout_s = 0.2": "timeout_s = 1e308"})
     line = acquire_line(rig, tmp_path)
     assert "backend.timeout_s must be 0.001..3600, not 1e+308" in line, line
+
+
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A short sweep of sjtu-dual: 11 positions of 5 readings."""
+    out = tmp_path_factory.mktemp("sweep") / "sweep.parquet"
+    r = run_in_process(["enc", "acquire", "--rig", "sjtu-dual", "--mode", "sweep", "--range",
+                        "5", "--step", "0.5", "-o", str(out)])
+    assert r.returncode == 0, r.stderr.decode()
+    return out
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("model") / "model.parquet"
+    r = run_in_process(["enc", "fit-rbf", str(ROOT / "tests" / "data" / "seed001_table1.csv"),
+                        "-o", str(out)])
+    assert r.returncode == 0, r.stderr.decode()
+    return out
+
+
+def command_line(args: list[str], cmd: str) -> str:
+    r = run_in_process(["enc", *args])
+    line = one_error_line(r, 2, f"enc {cmd}")
+    assert "internal error" not in line, line
+    return line
+
+
+@pytest.mark.parametrize("opts, named", [
+    (["--band", "20000"], "--band must be 1..64 (at most 64, and half of --points 256), "
+                          "not 20000"),
+    (["--band", "8", "--points", "8"], "--band must be 1..4"),
+    (["--keep", "1000000000"], "--keep: harmonic orders must be 1..64"),
+    (["--window", "1e-300"], "--window must be 1..1296000 arcsec"),
+    (["--arm", "1e308"], "--arm must be 1e-06..10 m"),
+])
+def test_interp_check_orders_and_spans_are_bounded(opts: list[str], named: str, sweep: Path,
+                                                   tmp_path: Path) -> None:
+    line = command_line(["interp-check", str(sweep), "--heads", "H1", *opts,
+                         "-o", str(tmp_path / "d.parquet")], "interp-check")
+    assert named in line, line
+
+
+@pytest.mark.parametrize("opts, named", [
+    (["--spread", "1e-300"], "--spread must be 0.001..360 deg, not 1e-300"),
+    (["--spread", "1e308"], "--spread must be 0.001..360 deg"),
+    (["--goal", "inf"], "--goal must be 0..3600 arcsec, not inf"),
+    (["--kernel", "fourier", "--band", "1048576"], "--band must be 0..1024, not 1048576"),
+    (["--kernel", "fourier", "--band", "30"],
+     "--band 30: more harmonics than the 24 distinct positions can determine (at most 24)"),
+])
+def test_fit_rbf_spreads_and_orders_are_bounded(opts: list[str], named: str,
+                                                tmp_path: Path) -> None:
+    out = tmp_path / "m.parquet"
+    line = command_line(["fit-rbf", str(ROOT / "tests" / "data" / "seed001_table1.csv"), *opts,
+                         "-o", str(out)], "fit-rbf")
+    assert named in line, line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("opts, named", [
+    (["--curve", "X", "-o", "{d}/r.bin"], "--curve X chooses a curve of a deviations stream"),
+    (["--lsb", "1e-300", "-o", "{d}/r.bin"], "--lsb must be a positive number of counts, "
+                                             "1e-06..1099511627776"),
+    (["--zone", "100000000000", "--target", "acs", "-o", "{d}/r.prg"],
+     "--zone must be 0..2147483647"),
+    (["--max-entries", "1000000000000", "--target", "acs", "-o", "{d}/r.prg"],
+     "--max-entries must be 1..268435456"),
+    (["--axis", "3", "-o", "{d}/r.bin"], "--axis applies to the acs and siemens targets"),
+])
+def test_make_rom_refuses_contradictions_and_absurd_sizes(opts: list[str], named: str,
+                                                           model: Path, tmp_path: Path) -> None:
+    args = [o.format(d=tmp_path) for o in opts]
+    line = command_line(["make-rom", str(model), "--bits", "23", *args], "make-rom")
+    assert named in line, line
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("args, named", [
+    (["latency", "--bits", "23", "--delay", "inf"], "must be > 0 and <= 1 s, not inf"),
+    (["latency", "--bits", "23", "--delay", "1e-3", "--speed", "1e308"],
+     "at most 1000 speeds, each -1000000..1000000 r/min"),
+    (["latency", "--bits", "23", "--delay", "1e-3", "--speed", ","], "expected numbers"),
+    (["design", "--search", "4", "--band", "1048576"],
+     "--band must be at most 4096 with --search"),
+    (["design", "--angles", "0,60,135,228", "--mounting-error", "1e308"], "must be 0..10 deg"),
+    (["design", "--search", "4", "--step", "1e-300"], "must be 0.01..60 deg"),
+    (["design", "--search", "4", "--min-gap", "inf"], "must be 0..180 deg"),
+    (["design", "--angles", ","], "expected numbers"),
+    (["points", "--faces", "1000000000"], "--faces must be at most 720"),
+    (["report", "--top", "1000000000"], "--top"),
+])
+def test_other_counts_and_spans_are_bounded(args: list[str], named: str,
+                                            tmp_path: Path) -> None:
+    line = command_line(args, args[0])
+    assert named in line, line
+
+
+@pytest.mark.parametrize("args", [
+    ["report", "{m}", "--html", "{d}/x", "--pdf", "{d}/x"],
+    ["report", "{m}", "--html", "{d}/x", "--pdf", "{d}/./x"],
+    ["selfcal", "{s}", "-o", "{d}/x.parquet", "--spectrum", "{d}/x.parquet"],
+    ["compare", "{s}", "--device", "H1", "--ref", "H3", "-o", "{d}/x.parquet",
+     "--spectrum", "{d}/x.parquet"],
+    ["interp-check", "{s}", "-o", "{d}/x.parquet", "--spectrum", "{d}/x.parquet"],
+    ["interp-check", "{s}", "--signals", "-o", "{d}/x.parquet", "--corrected", "{d}/x.parquet"],
+    ["acquire", "--rig", "sjtu-dual", "-o", "{d}/x.parquet", "--tee", "{d}/x.parquet"],
+])
+def test_two_outputs_never_share_a_path(args: list[str], sweep: Path, model: Path,
+                                        tmp_path: Path) -> None:
+    argv = [a.format(d=tmp_path, s=sweep, m=model) for a in args]
+    r = run_in_process(["enc", *argv])
+    line = one_error_line(r, 2, f"enc {args[0]}")
+    assert "same file" in line or "must differ" in line, line
+    assert not list(tmp_path.iterdir())
