@@ -255,3 +255,18 @@ def test_two_outputs_never_share_a_path(args: list[str], sweep: Path, model: Pat
     line = one_error_line(r, 2, f"enc {args[0]}")
     assert "same file" in line or "must differ" in line, line
     assert not list(tmp_path.iterdir())
+
+
+def test_feedback_names_an_encoder_and_seeds_are_bounded(tmp_path: Path) -> None:
+    rig = rig_with(tmp_path, 'feedback = "II"', 'feedback = "III"', SJTU)
+    assert "motion.feedback names no encoder: 'III'" in acquire_line(rig, tmp_path)
+    line = acquire_line("sjtu-dual", tmp_path, "--seed", str(1 << 70))
+    assert "--seed" in line, line
+
+
+def test_min_arc_nan_is_refused() -> None:
+    from enctools.errors import UsageError
+    from enctools.methods.interp import Settings
+
+    with pytest.raises(UsageError, match=r"--min-arc must be 10\.\.360 deg, not nan"):
+        Settings(signals=True, min_arc_deg=float("nan"))

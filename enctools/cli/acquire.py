@@ -44,7 +44,7 @@ from enctools.cli import options, runner
 @options.heads("Record only these heads (default: all).")
 @click.option("--signals/--no-signals", default=None,
               help="Also record each head's raw sin/cos signals [V] (simulator).")
-@click.option("--seed", type=click.IntRange(min=0), default=None,
+@click.option("--seed", type=click.IntRange(0, (1 << 63) - 1), default=None,
               help="Simulator noise seed (default: the rig's).")
 @click.option("--replay", "replay_path", default=None,
               type=click.Path(dir_okay=False, allow_dash=True),

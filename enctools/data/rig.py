@@ -289,6 +289,11 @@ def _check_open_keys(raw: dict[str, Any], backend: dict[str, Any], source: str) 
         msg = f"rig file {source}: backend.kind must be string, not {backend['kind']!r}"
         raise DataError(msg)
     motion = raw.get("motion", {})
+    names = [e.get("name") for e in raw.get("encoder", [])]
+    if "feedback" in motion and motion["feedback"] not in names:
+        msg = (f"rig file {source}: motion.feedback names no encoder: {motion['feedback']!r} "
+               f"(encoders: {', '.join(map(str, names))})")
+        raise DataError(msg)
     if len(motion.get("jitter_arcsec", [])) != len(motion.get("jitter_hz", [])):
         msg = (f"rig file {source}: motion.jitter_arcsec and motion.jitter_hz must have "
                "as many items")

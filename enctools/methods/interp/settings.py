@@ -94,6 +94,9 @@ class Settings:
             msg = (f"--keep: harmonic orders must be 1..{most} (at most {MAX_HARMONICS}, and "
                    f"half of --points {self.points}), not {max(self.keep)}")
             raise UsageError(msg)
+        if not 10.0 <= self.min_arc_deg <= 360.0:  # also NaN, which click's range lets by
+            msg = f"--min-arc must be 10..360 deg, not {self.min_arc_deg!r}"
+            raise UsageError(msg)
         lo, hi = WINDOW_ARCSEC
         if self.window_arcsec is not None and not lo <= self.window_arcsec <= hi:
             msg = f"--window must be 1..1296000 arcsec, not {self.window_arcsec!r}"
