@@ -73,11 +73,8 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     """
     from enctools.data import streams
 
+    options.distinct_outputs({"-o": output, "--tee": tee_path})
     if tee_path is not None:
-        from pathlib import Path
-        if output is not None and output != "-" \
-                and Path(tee_path).resolve() == Path(output).resolve():
-            raise click.UsageError("--tee FILE must differ from -o PATH")
         streams.check_output(tee_path, force)
     if replay_path is not None:
         from enctools.hw.replay import replay
