@@ -83,9 +83,9 @@ def test_mounting_sensitivity_first_order() -> None:
                                          ("--angles 0,90,180 --method esa", "esa needs 4"),
                                          ("--search 3 --method esa", "esa arrangements have 4"),
                                          ("--angles 0,nan,90", "finite numbers"),
-                                         ("--angles 0,60,135,228 --mounting-error -1", ">= 0"),
-                                         ("--angles 0,60,135,228 --mounting-error nan", ">= 0"),
-                                         ("--search 4 --min-gap -5", ">= 0")])
+                                         ("--angles 0,60,135,228 --mounting-error -1", "0..10 deg"),
+                                         ("--angles 0,60,135,228 --mounting-error nan", "0..10"),
+                                         ("--search 4 --min-gap -5", "must be 0..180 deg")])
 def test_bad_usage(opts: str, expect: str) -> None:
     r = run(f"enc design {opts}")
     assert r.returncode == 2

@@ -379,8 +379,8 @@ def test_nan_probe_samples_are_skipped_and_said(sweep, tmp_path):
 
 
 @pytest.mark.parametrize("options, words", [
-    ({"arm_m": 0.0}, "--arm must be > 0 m"),
-    ({"arm_m": float("nan")}, "--arm must be > 0 m"),
+    ({"arm_m": 0.0}, "--arm must be 1e-06..10 m"),
+    ({"arm_m": float("nan")}, "--arm must be 1e-06..10 m"),
     ({"corrected": True}, "--corrected needs --signals"),
     ({"signals": True, "average": True}, "--average does not apply to --signals"),
     ({"signals": True, "window_arcsec": 900.0}, "--window applies to the reference mode"),

@@ -157,8 +157,8 @@ def test_check_threshold_exit_1(tmp_path):
 
 
 @pytest.mark.parametrize("kw, what", [
-    ({"goal_arcsec": -1.0}, "--goal must be >= 0 arcsec, not -1.0"),
-    ({"goal_arcsec": float("nan")}, "--goal must be >= 0 arcsec, not nan"),
+    ({"goal_arcsec": -1.0}, "--goal must be 0..3600 arcsec, not -1.0"),
+    ({"goal_arcsec": float("nan")}, "--goal must be 0..3600 arcsec, not nan"),
     ({"harmonics": 3}, "--band applies to --kernel fourier (the rbf kernel: --spread, --goal)"),
     ({"kernel": "fourier", "spread_deg": 3.0},
      "--spread applies to --kernel rbf (the fourier kernel: --band)"),

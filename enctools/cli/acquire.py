@@ -45,7 +45,7 @@ from enctools.cli import options, runner
 @options.heads("Record only these heads (default: all).")
 @click.option("--signals/--no-signals", default=None,
               help="Also record each head's raw sin/cos signals [V] (simulator).")
-@click.option("--seed", type=click.IntRange(min=0), default=None,
+@click.option("--seed", type=click.IntRange(0, (1 << 63) - 1), default=None,
               help="Simulator noise seed (default: the rig's).")
 @click.option("--replay", "replay_path", default=None,
               type=click.Path(dir_okay=False, allow_dash=True),
@@ -54,9 +54,9 @@ from enctools.cli import options, runner
               help="replay: at the recorded pace (default: as fast as possible).")
 @click.option("--realtime", is_flag=True, default=False,
               help="Simulator: run at wall-clock pace (live pipelines, interrupt drills).")
-@click.option("--timeout", "timeout_s", type=float, default=None, callback=options.positive,
+@click.option("--timeout", "timeout_s", type=click.FloatRange(0.001, 3600), default=None,
               help="Instruments: seconds to wait for each reply (default: the rig's, 1).")
-@click.option("--retries", type=click.IntRange(min=0), default=None,
+@click.option("--retries", type=click.IntRange(0, 100), default=None,
               help="Instruments: retries after a timeout before giving up (default: the rig's, 2).")
 @click.option("--tee", "tee_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Also keep a copy of the stream in FILE (format from its extension).")
@@ -74,11 +74,8 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     """
     from enctools.data import streams
 
+    options.distinct_outputs({"-o": output, "--tee": tee_path})
     if tee_path is not None:
-        from pathlib import Path
-        if output is not None and output != "-" \
-                and Path(tee_path).resolve() == Path(output).resolve():
-            raise click.UsageError("--tee FILE must differ from -o PATH")
         streams.check_output(tee_path, force)
     if replay_path is not None:
         from enctools.hw.replay import replay

@@ -40,6 +40,7 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
     settings = compare.Settings(device=tuple(device), ref=tuple(ref), band=band, points=points,
                                 name=name, ref_curve=ref_curve, ref_column=ref_column,
                                 spectrum=spectrum_path is not None)
+    options.distinct_outputs({"-o": output, "--spectrum": spectrum_path})
     streams.check_output(output, force, fmt)
     if spectrum_path is not None:
         streams.check_output(spectrum_path, force)

@@ -15,14 +15,15 @@ from enctools.cli import options
 @options.band("Highest harmonic K analysed.")
 @options.min_transfer()
 @click.option("--mounting-error", "mounting_error", type=float, default=0.01, show_default=True,
-              callback=options.non_negative,
+              callback=options.bounded(0.0, 10.0, unit=" deg"),
               help="RMS error of each head's mounting angle [deg] for the sensitivity.")
 @click.option("--search", "search_heads", type=int, default=None, metavar="M",
               help="Search the arrangement of M heads maximising min |W(n)|.")
 @click.option("--step", "step_deg", type=float, default=1.0, show_default=True,
-              callback=options.positive, help="search: grid step [deg] before refinement.")
+              callback=options.bounded(0.01, 60.0, unit=" deg"),
+              help="search: grid step [deg] before refinement.")
 @click.option("--min-gap", "min_gap", type=float, default=10.0, show_default=True,
-              callback=options.non_negative,
+              callback=options.bounded(0.0, 180.0, unit=" deg"),
               help="search: least angle between neighbouring heads [deg].")
 @click.option("--criterion", type=click.Choice(["w", "gain"]), default="w", show_default=True,
               help="search (esa): maximise min |W(n)| (w, as Jiao 2017) or min |W|/noise norm.")

@@ -100,6 +100,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         reference_harmonics=reference_harmonics, trend_degree=trend_degree,
         window_arcsec=window_arcsec, points=points, signals=signals_mode,
         min_arc_deg=min_arc_deg, corrected=bool(corrected))
+    options.distinct_outputs({"-o": output, "--spectrum": spectrum_path, "--corrected": corrected})
     streams.check_output(output, force, fmt)
     for extra in (spectrum_path, corrected):
         if extra:

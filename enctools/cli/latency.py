@@ -15,14 +15,31 @@ if TYPE_CHECKING:
     from enctools.methods.latency import RunLag
 
 
+#: the most speeds, and the largest |speed| [r/min], a latency table states
+MAX_SPEEDS = 1000
+MAX_RPM = 1e6
+
+
+def _speeds(ctx: click.Context, param: click.Parameter, value: str | None) -> list[float] | None:
+    speeds = options.float_list(ctx, param, value)
+    if speeds is not None and (len(speeds) > MAX_SPEEDS
+                               or any(abs(v) > MAX_RPM for v in speeds)):
+        msg = (f"at most {MAX_SPEEDS} speeds, each -1000000..1000000 r/min, not {value!r}"
+               if len(value or "") < 80 else
+               f"at most {MAX_SPEEDS} speeds, each -1000000..1000000 r/min")
+        raise click.BadParameter(msg)
+    return speeds
+
+
 @click.command("latency")
 @click.argument("inputs", nargs=-1, type=click.Path(dir_okay=False, allow_dash=True),
                 metavar="[RUN]...")
 @click.option("--bits", type=int, default=None,
               help="Bits n of the code (default: from the run's rig).")
-@click.option("--delay", "delay_s", type=float, default=None, callback=options.positive,
+@click.option("--delay", "delay_s", type=float, default=None,
+              callback=options.bounded(0.0, 1.0, low_open=True, unit=" s"),
               help="Readout delay t_d [s] (seed 001 eq. 1); default: the measured lag.")
-@click.option("--speed", "speeds", default=None, callback=options.float_list, metavar="RPM,...",
+@click.option("--speed", "speeds", default=None, callback=_speeds, metavar="RPM,...",
               help="Speeds [r/min] at which to state the dynamic error (seed 001 eq. 2).")
 @options.heads("Runs: heads averaged into the device reading (default: the rig's measuring heads).")
 @options.ref("Runs: the reference angle: 'truth' (simulator) or heads of a reference encoder.",

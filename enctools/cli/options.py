@@ -34,6 +34,9 @@ def _float_list(ctx: click.Context, param: click.Parameter,
     except ValueError:
         msg = f"expected numbers separated by commas, not {value!r}"
         raise click.BadParameter(msg) from None
+    if not numbers:
+        msg = f"expected numbers separated by commas, not {value!r}"
+        raise click.BadParameter(msg)
     if not all(math.isfinite(v) for v in numbers):
         msg = f"expected finite numbers, not {value!r}"
         raise click.BadParameter(msg)
@@ -109,6 +112,47 @@ def finite(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
         msg = f"must be a finite number, not {value}"
         raise click.BadParameter(msg)
     return value
+
+
+def bounded(lo: float, hi: float, low_open: bool = False,
+             unit: str = "") -> Callable[[click.Context, click.Parameter, Any], Any]:
+    """Callback: a finite number in lo..hi (bounds included; with ``low_open`` above lo).
+
+    The range is stated once, here in the option, and the error names it.
+    """
+    def fmt(v: float) -> str:
+        return str(int(v)) if float(v).is_integer() and abs(v) < 1e16 else f"{v:g}"
+
+    def check(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+        if value is None:
+            return value
+        ok = math.isfinite(value) and (lo < value if low_open else lo <= value) and value <= hi
+        if not ok:
+            span = f"> {fmt(lo)} and <= {fmt(hi)}" if low_open else f"{fmt(lo)}..{fmt(hi)}"
+            msg = f"must be {span}{unit}, not {value}"
+            raise click.BadParameter(msg)
+        return value
+
+    return check
+
+
+def distinct_outputs(paths: dict[str, str | None]) -> None:
+    """UsageError when two outputs of one command name the same file (``--html X --pdf X``
+    would leave only the last written). ``paths``: option -> path; None and ``-`` (stdout)
+    are left out, as are two paths that only differ by spelling the same file."""
+    import os
+
+    from enctools.errors import UsageError
+
+    seen: dict[str, str] = {}
+    for flag, path in paths.items():
+        if path is None or path == "-":
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            msg = f"{seen[key]} and {flag} name the same file {path}; give each output its own"
+            raise UsageError(msg)
+        seen[key] = flag
 
 
 def heads(help: str, flag: str = "--heads", dest: str | None = None) -> Callable[..., Any]:

@@ -16,8 +16,8 @@ from enctools.cli import options, runner
 @click.option("--pdf", "pdf_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Write the plots and tables as a PDF.")
 @click.option("--title", default=None, help="Title of the HTML/PDF report.")
-@click.option("--top", "top_harmonics", type=int, default=5, show_default=True, metavar="N",
-              callback=options.positive, help="List the N largest harmonics per curve.")
+@click.option("--top", "top_harmonics", type=click.IntRange(1, 10000), default=5,
+              show_default=True, metavar="N", help="List the N largest harmonics per curve.")
 @options.band("Highest harmonic order K considered.", dest="nmax")
 @options.threshold("--max-pp", "Fail (exit 1) when a curve's peak-to-peak exceeds this.")
 @options.threshold("--max-std", "Fail when a curve's Bessel standard deviation exceeds this.")
@@ -53,6 +53,7 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
                         max_radial_pp=max_radial_pp,
                         max_harmonic=parse_pairs(max_harmonic, "--max-harmonic", int),
                         max_iso=parse_pairs(max_iso, "--max-iso", str))
+    options.distinct_outputs({"--html": html_path, "--pdf": pdf_path})
     check_paths([html_path, pdf_path], force)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
     run_report(sources, Options(top_harmonics, nmax), limits, as_json=as_json,

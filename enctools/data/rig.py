@@ -12,12 +12,15 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
+import stat
 import tomllib
 from dataclasses import asdict, dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from enctools.data.riglimits import MAX_BYTES, MAX_DEPTH, check_value, depth
 from enctools.errors import DataError
 from enctools.units import DEG
 
@@ -158,21 +161,49 @@ def load_rig(name_or_path: str) -> Rig:
     except tomllib.TOMLDecodeError as exc:
         msg = f"rig file {source}: not valid TOML: {exc}"
         raise DataError(msg) from None
+    except RecursionError:
+        msg = f"rig file {source}: arrays or tables nested deeper than {MAX_DEPTH} levels"
+        raise DataError(msg) from None
+    if depth(raw) > MAX_DEPTH:
+        msg = f"rig file {source}: arrays or tables nested deeper than {MAX_DEPTH} levels"
+        raise DataError(msg)
     return parse_rig(raw, source)
+
+
+def _read_rig_file(p: Path, name: str) -> str:
+    """The text of a rig file: a regular file of at most MAX_BYTES, checked before reading."""
+    try:
+        with p.open("rb") as f:
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode):
+                msg = f"rig file {name}: not a regular file"
+                raise DataError(msg)
+            if st.st_size > MAX_BYTES:
+                msg = (f"rig file {name}: {st.st_size} bytes, more than a rig file may have "
+                       f"({MAX_BYTES})")
+                raise DataError(msg)
+            data = f.read(MAX_BYTES + 1)
+    except FileNotFoundError:
+        msg = f"rig file {name}: no such file"
+        raise DataError(msg) from None
+    except OSError as exc:
+        msg = f"rig file {name}: cannot read: {exc.strerror or exc}"
+        raise DataError(msg) from None
+    if len(data) > MAX_BYTES:
+        msg = f"rig file {name}: more than {MAX_BYTES} bytes, more than a rig file may have"
+        raise DataError(msg)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        msg = f"rig file {name}: cannot read: {exc}"
+        raise DataError(msg) from None
 
 
 def _rig_text(name_or_path: str) -> tuple[str, str]:
     p = Path(name_or_path)
-    looks_like_path = name_or_path.endswith(".toml") or "/" in name_or_path or p.is_file()
+    looks_like_path = name_or_path.endswith(".toml") or "/" in name_or_path or p.exists()
     if looks_like_path:
-        try:
-            return p.read_text(encoding="utf-8"), str(p)
-        except FileNotFoundError:
-            msg = f"rig file {name_or_path}: no such file"
-            raise DataError(msg) from None
-        except (OSError, UnicodeDecodeError) as exc:
-            msg = f"rig file {name_or_path}: cannot read: {exc}"
-            raise DataError(msg) from None
+        return _read_rig_file(p, name_or_path), str(p)
     names = bundled_rigs()
     if name_or_path not in names:
         hint = difflib.get_close_matches(name_or_path, names, n=1)
@@ -203,6 +234,7 @@ def _check(table: dict[str, Any], path: str, source: str, where: str) -> None:
             msg = f"rig file {source}: {loc} must be {want}, not {value!r}"
             raise DataError(msg)
         sub = f"{path}.{key}" if path else key
+        check_value(sub, value, source, f"{where}.{key}" if where else key)
         if sub in _OPEN_TABLES:
             continue
         if isinstance(value, dict) and sub in _SPEC:
@@ -236,11 +268,36 @@ def parse_rig(raw: dict[str, Any], source: str = "<rig>") -> Rig:
                      for i, e in enumerate(_require(raw, "encoder", source, "top level")))
     backend = dict(raw.get("backend", {"kind": "sim"}))
     backend.setdefault("kind", "sim")
+    _check_open_keys(raw, backend, source)
     return Rig(name=name, encoders=encoders, description=raw.get("description", ""),
                probes=_parse_probes(raw, source), polygon=dict(raw.get("polygon", {})),
                autocollimator=dict(raw.get("autocollimator", {})),
                motion=dict(raw.get("motion", {})), acquire=dict(raw.get("acquire", {})),
                backend=backend, source=source)
+
+
+def _check_open_keys(raw: dict[str, Any], backend: dict[str, Any], source: str) -> None:
+    """The keys of the open [backend] table that the rig itself reads, and the jitter's
+    two arrays, which go in pairs."""
+    if "seed" in backend:
+        seed = backend["seed"]
+        if not isinstance(seed, int) or isinstance(seed, bool):
+            msg = f"rig file {source}: backend.seed must be integer, not {seed!r}"
+            raise DataError(msg)
+        check_value("backend.seed", seed, source, "backend.seed")
+    if not isinstance(backend["kind"], str):
+        msg = f"rig file {source}: backend.kind must be string, not {backend['kind']!r}"
+        raise DataError(msg)
+    motion = raw.get("motion", {})
+    names = [e.get("name") for e in raw.get("encoder", [])]
+    if "feedback" in motion and motion["feedback"] not in names:
+        msg = (f"rig file {source}: motion.feedback names no encoder: {motion['feedback']!r} "
+               f"(encoders: {', '.join(map(str, names))})")
+        raise DataError(msg)
+    if len(motion.get("jitter_arcsec", [])) != len(motion.get("jitter_hz", [])):
+        msg = (f"rig file {source}: motion.jitter_arcsec and motion.jitter_hz must have "
+               "as many items")
+        raise DataError(msg)
 
 
 def _parse_encoder(e: dict[str, Any], where: str, source: str, seen: set[str]) -> Encoder:

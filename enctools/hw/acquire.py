@@ -24,6 +24,7 @@ import pyarrow as pa
 
 from enctools.data.readings import head_field
 from enctools.data.rig import Rig
+from enctools.data.riglimits import ARRAYS, RANGES, fmt
 from enctools.data.schemas import make_field
 from enctools.data.streams import BATCH_ROWS, Header
 from enctools.errors import DeviceError, UsageError
@@ -96,34 +97,71 @@ def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
     return s
 
 
+#: setting -> (option, the rig key whose range it shares: enc-rig(5) LIMITS)
+BOUNDS: dict[str, tuple[str, str]] = {
+    "revolutions": ("--revolutions", "acquire.revolutions"),
+    "interval_s": ("--interval", "acquire.interval_s"),
+    "count": ("--count", "acquire.steps.count"),
+    "settle_s": ("--settle", "acquire.steps.settle_s"),
+    "readings": ("--readings", "acquire.steps.readings"),
+    "runs": ("--runs", "acquire.steps.runs"),
+    "overshoot_deg": ("--overshoot", "acquire.steps.overshoot_deg"),
+    "start_deg": ("--start", "acquire.sweep.start_deg"),
+    "range_arcsec": ("--range", "acquire.sweep.range_arcsec"),
+    "step_arcsec": ("--step", "acquire.sweep.step_arcsec"),
+}
+#: the most positions a steps or sweep run visits (positions x runs x directions)
+MAX_TARGETS = 1_000_000
+#: the most samples of a continuous run
+MAX_SAMPLES = 2_000_000_000
+
+
+def _bounded(flag: str, v: Any, lo: float, hi: float) -> None:
+    if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            and lo <= v <= hi):
+        msg = f"{flag} must be {fmt(lo)}..{fmt(hi)}, not {v!r}"
+        raise UsageError(msg)
+
+
 def check(s: Settings) -> None:
-    """Reject settings no rig could carry out, naming the option."""
+    """Reject settings no rig could carry out, or that would loop or allocate without
+    end, naming the option and its range (the rig key's, enc-rig(5) LIMITS)."""
     if s.mode not in MODES:
         msg = f"--mode must be one of {', '.join(MODES)}, not {s.mode!r}"
         raise UsageError(msg)
-    positive = {"--revolutions": s.revolutions, "--interval": s.interval_s,
-                "--readings": s.readings, "--runs": s.runs}
-    if s.mode == "continuous":
-        positive["--speed"] = abs(s.speed_rpm)
-    if s.mode == "steps" and s.positions_deg is None:
-        positive["--count"] = s.count
-    if s.mode == "sweep":
-        positive["--step"] = s.step_arcsec
-    for name, v in positive.items():
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            msg = f"{name} must be a positive number, not {v!r}"
+    for name, (flag, key) in BOUNDS.items():
+        _bounded(flag, getattr(s, name), *RANGES[key])
+    lo, hi = RANGES["acquire.speed_rpm"]
+    if s.mode == "continuous" and not (isinstance(s.speed_rpm, int | float)
+                                       and 0 < abs(s.speed_rpm) <= hi):
+        msg = f"--speed must be non-zero and {fmt(lo)}..{fmt(hi)} r/min, not {s.speed_rpm!r}"
+        raise UsageError(msg)
+    if s.positions_deg is not None:
+        most = ARRAYS["acquire.steps.positions_deg"][1]
+        if not 1 <= len(s.positions_deg) <= most:
+            msg = f"--positions must give 1..{most} positions, not {len(s.positions_deg)}"
             raise UsageError(msg)
-    if s.settle_s < 0 or not math.isfinite(s.settle_s):
-        msg = f"--settle must be >= 0 s, not {s.settle_s!r}"
-        raise UsageError(msg)
-    if s.mode == "sweep" and not (0 <= s.range_arcsec <= 3600 * 360):
-        msg = f"--range must be 0..1296000 arcsec, not {s.range_arcsec!r}"
-        raise UsageError(msg)
+        for p in s.positions_deg:
+            _bounded("--positions", p, *RANGES["acquire.steps.positions_deg"])
     if s.mode == "continuous":
         n = samples_total(s)
-        if n > 2_000_000_000:
-            msg = f"{n} samples requested (--revolutions/--speed/--interval): too many"
+        if not 1 <= n <= MAX_SAMPLES:
+            msg = (f"{n} samples requested (--revolutions/--speed/--interval); "
+                   f"must be 1..{MAX_SAMPLES}")
             raise UsageError(msg)
+    else:
+        n = positions_total(s) * s.runs * (2 if s.bidirectional else 1)
+        if n > MAX_TARGETS:
+            msg = (f"{n} positions requested (positions x --runs x directions); "
+                   f"must be at most {MAX_TARGETS}")
+            raise UsageError(msg)
+
+
+def positions_total(s: Settings) -> int:
+    """Positions of one run of a steps or sweep run."""
+    if s.mode == "sweep":
+        return math.floor(s.range_arcsec / s.step_arcsec + 1e-9) + 1
+    return len(s.positions_deg) if s.positions_deg is not None else s.count
 
 
 def samples_total(s: Settings) -> int:
@@ -134,8 +172,7 @@ def samples_total(s: Settings) -> int:
 def targets(s: Settings) -> list[tuple[int, int, int, float]]:
     """(step, run, direction, target [rad]) in the order a steps or sweep run visits them."""
     if s.mode == "sweep":
-        n = math.floor(s.range_arcsec / s.step_arcsec + 1e-9) + 1
-        pos = [s.start_deg * DEG + k * s.step_arcsec * ARCSEC for k in range(n)]
+        pos = [s.start_deg * DEG + k * s.step_arcsec * ARCSEC for k in range(positions_total(s))]
     elif s.positions_deg is not None:
         pos = [p * DEG for p in s.positions_deg]
     else:

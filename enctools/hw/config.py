@@ -7,11 +7,13 @@ relative paths are taken relative to the rig file's folder.
 from __future__ import annotations
 
 import difflib
+import math
 import string
 from pathlib import Path
 from typing import Any
 
 from enctools.data.rig import Rig
+from enctools.data.riglimits import fmt
 from enctools.errors import DataError
 
 
@@ -25,9 +27,19 @@ def check_keys(table: dict[str, Any], allowed: set[str], rig: Rig, where: str) -
             raise DataError(msg)
 
 
+#: the ranges of the numbers of the backend tables (enc-rig(5) LIMITS): key -> (least,
+#: greatest), bounds included
+BACKEND_RANGES: dict[str, tuple[float, float]] = {
+    "timeout_s": (0.001, 3600.0), "retries": (0, 100), "poll_s": (0.001, 60.0),
+    "move_timeout_s": (0.001, 86400.0), "buffer_s": (0.01, 3600.0), "field": (0, 1000),
+    "scale": (-1e12, 1e12), "offset": (-1e12, 1e12),
+}
+
+
 def need(table: dict[str, Any], key: str, types: type | tuple[type, ...], rig: Rig,
          where: str, default: Any = None) -> Any:
-    """``table[key]`` checked against ``types``; ``default`` when absent (None: required)."""
+    """``table[key]`` checked against ``types`` (and a number against its range in
+    :data:`BACKEND_RANGES`); ``default`` when absent (None: required)."""
     if key not in table:
         if default is None:
             msg = f"rig file {rig.source}: [{where}] needs the key {key!r}"
@@ -41,6 +53,12 @@ def need(table: dict[str, Any], key: str, types: type | tuple[type, ...], rig: R
     if not ok:
         msg = f"rig file {rig.source}: {where}.{key} has the wrong type: {value!r}"
         raise DataError(msg)
+    if key in BACKEND_RANGES and isinstance(value, int | float):
+        lo, hi = BACKEND_RANGES[key]
+        if not (math.isfinite(value) and lo <= value <= hi):
+            msg = (f"rig file {rig.source}: {where}.{key} must be {fmt(lo)}..{fmt(hi)}, "
+                   f"not {fmt(value)}")
+            raise DataError(msg)
     return value
 
 

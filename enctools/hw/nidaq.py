@@ -85,7 +85,7 @@ class NidaqCounter(Counter):
     """One DAQmx counter-input task per head, sharing a sample clock when running."""
 
     def __init__(self, rig: Rig, cfg: dict[str, Any], clock: Clock, t0: float) -> None:
-        from enctools.hw.config import check_keys
+        from enctools.hw.config import check_keys, need
 
         self.nidaqmx = import_nidaqmx()
         check_keys(cfg, COUNTER_KEYS, rig, "backend.counter")
@@ -100,8 +100,8 @@ class NidaqCounter(Counter):
         self.decoding = dec
         self.sample_clock = str(cfg.get("sample_clock", ""))
         self.clock_counter = str(cfg.get("clock_counter", ""))
-        self.buffer_s = float(cfg.get("buffer_s", 10.0))
-        self.timeout_s = float(cfg.get("timeout_s", 2.0))
+        self.buffer_s = float(need(cfg, "buffer_s", (int, float), rig, "backend.counter", 10.0))
+        self.timeout_s = float(need(cfg, "timeout_s", (int, float), rig, "backend.counter", 2.0))
         self.heads = tuple(rig.head_names)
         self.counter_bits = {h.name: e.counter_bits for e, h in rig.heads}
         self.channels: dict[str, dict[str, Any]] = {}

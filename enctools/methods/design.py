@@ -32,6 +32,9 @@ from enctools.methods.selfcal import (
 )
 
 _BLIND = 1e-9
+#: the highest --band a --search scores (its candidates are scored in chunks of
+#: arrays of the band: 2^20 orders would take gigabytes)
+MAX_SEARCH_BAND = 4096
 #: the arrangements --method analyses, and those --criterion scores a search by
 METHODS = ("esa", "fourier", "average")
 CRITERIA = ("w", "gain")
@@ -73,6 +76,10 @@ class Settings:
             raise UsageError(msg)
         if self.search_heads is not None:
             check_search(self.search_heads, self.search_method, self.min_gap_deg)
+            if self.band > MAX_SEARCH_BAND:
+                msg = (f"--band must be at most {MAX_SEARCH_BAND} with --search (each "
+                       f"arrangement scored is an array of the band), not {self.band}")
+                raise UsageError(msg)
         elif self.angles_deg is not None:
             arrangement_method(list(self.angles_deg), self.method)
 

@@ -30,6 +30,7 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data.readings import head_angle, head_info, measuring_heads
+from enctools.data.riglimits import RANGES
 from enctools.data.schemas import column_with_role, make_field
 from enctools.data.statistics import Figures, figures_or_nan
 from enctools.errors import DataError, UsageError
@@ -85,6 +86,10 @@ class Settings:
     def __post_init__(self) -> None:
         if self.faces is not None and self.faces < 1:
             msg = f"--faces must be > 0, not {self.faces}"
+            raise UsageError(msg)
+        most = int(RANGES["polygon.faces"][1])
+        if self.faces is not None and self.faces > most:
+            msg = f"--faces must be at most {most} (a rig's polygon.faces), not {self.faces}"
             raise UsageError(msg)
 
     def given(self) -> list[str]:

@@ -21,7 +21,7 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data.schemas import column_with_role, make_field
-from enctools.errors import DataError
+from enctools.errors import DataError, UsageError
 from enctools.models.fourier import FourierModel
 from enctools.models.rbf import SPREAD_FACTOR, RBFModel
 from enctools.units import DEG, TWO_PI
@@ -85,6 +85,10 @@ def from_stream(header: Any, table: pa.Table, source: str = "input",
     """An evaluator (angles [deg] -> deviation [arcsec]) from a model or deviations stream."""
     if header.kind == "deviations":
         return curve_model(header, table, source, curve)
+    if curve is not None:
+        msg = (f"--curve {curve} chooses a curve of a deviations stream; {source} is a "
+               f"{header.kind} stream (leave --curve out)")
+        raise UsageError(msg)
     m = header.meta.get("model", {})
     kernel = m.get("kernel") if isinstance(m, dict) else None
     if table.num_rows == 0:

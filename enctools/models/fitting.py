@@ -17,6 +17,12 @@ from enctools.models.fourier import FourierModel, fit_fourier
 from enctools.models.rbf import RBFModel, choose_spread, fit_rbf, loo_residuals
 
 KERNELS = ("rbf", "fourier")
+#: the ranges of the options [deg], [arcsec], harmonic orders (bounds included): a
+#: spread below a thousandth of a degree underflows every unit, a larger order than
+#: MAX_HARMONICS allocates (2K+1)^2 words and no set of points determines it
+SPREAD_DEG = (0.001, 360.0)
+GOAL_ARCSEC = (0.0, 3600.0)
+MAX_HARMONICS = 1024
 
 
 @dataclass(frozen=True)
@@ -40,8 +46,14 @@ class Settings:
         if self.kernel not in KERNELS:
             msg = f"--kernel must be one of {', '.join(KERNELS)}, not {self.kernel!r}"
             raise UsageError(msg)
-        if not self.goal_arcsec >= 0:
-            msg = f"--goal must be >= 0 arcsec, not {self.goal_arcsec}"
+        if not GOAL_ARCSEC[0] <= self.goal_arcsec <= GOAL_ARCSEC[1]:
+            msg = f"--goal must be 0..3600 arcsec, not {self.goal_arcsec}"
+            raise UsageError(msg)
+        if self.spread_deg is not None and not SPREAD_DEG[0] <= self.spread_deg <= SPREAD_DEG[1]:
+            msg = f"--spread must be 0.001..360 deg, not {self.spread_deg}"
+            raise UsageError(msg)
+        if self.harmonics is not None and not 0 <= self.harmonics <= MAX_HARMONICS:
+            msg = f"--band must be 0..{MAX_HARMONICS}, not {self.harmonics}"
             raise UsageError(msg)
         if self.kernel == "rbf" and self.harmonics is not None:
             msg = "--band applies to --kernel fourier (the rbf kernel: --spread, --goal)"
@@ -126,6 +138,10 @@ def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings
         loo = loo_residuals(x, y, float(spread), goal) if n > 2 else np.full(n, np.nan)
         return model, loo
     k = n // 2 if settings.harmonics is None else int(settings.harmonics)
+    if k > n:
+        msg = (f"--band {k}: more harmonics than the {n} distinct positions can determine "
+               f"(at most {n})")
+        raise UsageError(msg)
     model = fit_fourier(x, y, k)
     loo = np.array([y[i] - fit_fourier(np.delete(x, i), np.delete(y, i), k)(x[i:i + 1])[0]
                     for i in range(n)]) if n > 2 else np.full(n, np.nan)

@@ -34,6 +34,11 @@ from enctools.models import romformats
 
 #: the largest table this module builds (2**28 entries, 512 MiB of int16)
 MAX_ADDRESS_BITS = 28
+#: --lsb [counts of the code per LSB]: finer makes every correction a number of
+#: hundreds of digits, coarser than 2^40 counts rounds every correction to 0
+LSB_COUNTS = (1e-6, float(1 << 40))
+#: --zone: a controller's zone or measuring-system index is a 32-bit integer
+MAX_ZONE = (1 << 31) - 1
 CHUNK = 1 << 20
 #: threads quantising chunks at once (at most 2: the evaluation itself may use BLAS threads)
 THREADS = min(2, os.cpu_count() or 1)
@@ -103,6 +108,9 @@ class RomSpec:
         if not (self.lsb > 0 and np.isfinite(self.lsb)):
             msg = f"--lsb must be a positive number of counts, not {self.lsb}"
             raise UsageError(msg)
+        if not LSB_COUNTS[0] <= self.lsb <= LSB_COUNTS[1]:
+            msg = f"--lsb must be a positive number of counts, 1e-06..1099511627776, not {self.lsb}"
+            raise UsageError(msg)
         if self.sample not in ("centre", "start"):
             msg = f"--sample must be centre or start, not {self.sample!r}"
             raise UsageError(msg)
@@ -155,8 +163,26 @@ class Settings:
                    f"not {self.target!r}")
             raise UsageError(msg)
         self.spec.check()
+        self._check_controller_options()
         if self.target != "stream":
             romformats.check_capacity(self.table, self.spec.entries)
+
+    def _check_controller_options(self) -> None:
+        """--zone and --max-entries in their ranges; --axis and --max-entries only where a
+        controller's table takes them (elsewhere they would be silently ignored)."""
+        if not 0 <= self.zone <= MAX_ZONE:
+            msg = f"--zone must be 0..{MAX_ZONE}, not {self.zone}"
+            raise UsageError(msg)
+        if self.max_entries is not None and not 1 <= self.max_entries <= 1 << MAX_ADDRESS_BITS:
+            msg = f"--max-entries must be 1..{1 << MAX_ADDRESS_BITS}, not {self.max_entries}"
+            raise UsageError(msg)
+        if self.target not in romformats.CONTROLLER:
+            given = [f for f, v in (("--axis", self.axis), ("--max-entries", self.max_entries))
+                     if v is not None]
+            if given:
+                msg = (f"{given[0]} applies to the acs and siemens targets, "
+                       f"not --target {self.target}")
+                raise UsageError(msg)
 
     @property
     def spec(self) -> RomSpec:

@@ -11,6 +11,13 @@ from enctools.errors import UsageError
 #: default window of a continuous run [arcsec]: a line per 0.5 deg leaves of the
 #: graduation error of sjtu-dual (harmonics up to 180 per turn) 0.004" rms
 DEFAULT_WINDOW_ARCSEC = 1800.0
+#: the highest harmonic of a signal period a check fits or keeps: an interpolation error
+#: lives in the first few; 2 K parameters per window are solved by normal equations
+MAX_HARMONICS = 64
+#: --window [arcsec]: at least one arcsec, at most a turn
+WINDOW_ARCSEC = (1.0, 1_296_000.0)
+#: --arm [m]
+ARM_M = (1e-6, 10.0)
 
 
 def _names(value: Sequence[Any] | None) -> tuple[Any, ...] | None:
@@ -62,9 +69,10 @@ class Settings:
 
     def check(self) -> None:
         """UsageError naming the option when the settings cannot go together."""
-        if self.arm_m is not None and not self.arm_m > 0:
-            msg = f"--arm must be > 0 m (psi = h / L), not {self.arm_m!r}"
+        if self.arm_m is not None and not ARM_M[0] <= self.arm_m <= ARM_M[1]:
+            msg = f"--arm must be 1e-06..10 m (psi = h / L), not {self.arm_m!r}"
             raise UsageError(msg)
+        self._check_sizes()
         if self.corrected and not self.signals:
             msg = "--corrected needs --signals"
             raise UsageError(msg)
@@ -73,6 +81,25 @@ class Settings:
             raise UsageError(msg)
         if self.signals and self.window_arcsec is not None:
             msg = "--window applies to the reference mode, not --signals"
+            raise UsageError(msg)
+
+    def _check_sizes(self) -> None:
+        """The orders fitted and kept against MAX_HARMONICS and the output's --points."""
+        most = min(MAX_HARMONICS, self.points // 2)
+        if self.harmonics is not None and not 1 <= self.harmonics <= most:
+            msg = (f"--band must be 1..{most} (at most {MAX_HARMONICS}, and half of "
+                   f"--points {self.points}), not {self.harmonics}")
+            raise UsageError(msg)
+        if self.keep is not None and not all(1 <= k <= most for k in self.keep):
+            msg = (f"--keep: harmonic orders must be 1..{most} (at most {MAX_HARMONICS}, and "
+                   f"half of --points {self.points}), not {max(self.keep)}")
+            raise UsageError(msg)
+        if not 10.0 <= self.min_arc_deg <= 360.0:  # also NaN, which click's range lets by
+            msg = f"--min-arc must be 10..360 deg, not {self.min_arc_deg!r}"
+            raise UsageError(msg)
+        lo, hi = WINDOW_ARCSEC
+        if self.window_arcsec is not None and not lo <= self.window_arcsec <= hi:
+            msg = f"--window must be 1..1296000 arcsec, not {self.window_arcsec!r}"
             raise UsageError(msg)
 
     def trend_window_arcsec(self, continuous: bool) -> float | None:
