@@ -31,8 +31,15 @@ from typing import Any, TypeAlias
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.limits import FIELD_RANGES
 from enctools.data.rig import Encoder, Head
-from enctools.data.schemas import columns_with_role, field_meta, make_field
+from enctools.data.schemas import (
+    check_field_values,
+    columns_with_role,
+    field_meta,
+    make_field,
+    parse_field_value,
+)
 from enctools.errors import DataError
 from enctools.units import DEG, TWO_PI
 
@@ -93,12 +100,21 @@ def head_info(schema: pa.Schema, name: str, source: str = "input") -> HeadInfo:
     if fm.get("role") != "head":
         msg = f"{source}: column {name!r} is not a head"
         raise DataError(msg)
-    cpr = int(fm["counts_per_rev"])
-    ppr = int(fm["periods_per_rev"])
-    return HeadInfo(name=name, encoder=fm["encoder"], alpha=float(fm["alpha_deg"]) * DEG,
+    check_field_values(name, fm, source)
+    ranges = FIELD_RANGES["head"]
+
+    def value(key: str, default: str | None = None) -> Any:
+        text = fm.get(key, default)
+        if text is None:
+            msg = f"{source}: column {name!r} lacks field metadata {key}"
+            raise DataError(msg)
+        return parse_field_value(text, ranges[key])
+
+    cpr, ppr = value("counts_per_rev"), value("periods_per_rev")
+    return HeadInfo(name=name, encoder=value("encoder"), alpha=value("alpha_deg") * DEG,
                     counts_per_rev=cpr, periods_per_rev=ppr,
-                    interpolation=int(fm.get("interpolation", cpr // ppr)),
-                    radius_m=float(fm["radius_m"]), zero_count=int(fm.get("zero_count", 0)))
+                    interpolation=value("interpolation", str(cpr // ppr)),
+                    radius_m=value("radius_m"), zero_count=value("zero_count", "0"))
 
 
 def heads(schema: pa.Schema) -> list[HeadInfo]:

@@ -1,0 +1,198 @@
+"""What a file can make enctools allocate or loop over is bounded: a stream or table beyond
+a limit of enc-streams(5) LIMITS is refused with one line and exit 2, quickly and in
+bounded memory, before the work starts."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from conftest import one_error_line, run
+
+from enctools.data import streams
+
+# peak memory of a refused input (the child's maximum resident set) [KiB]
+MAX_RSS_KIB = 500 << 10
+
+
+@pytest.fixture(scope="module")
+def raw(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("limits")
+    r = run(f"enc acquire --rig sjtu-dual --revolutions 0.5 -o {d}/raw.parquet")
+    assert r.returncode == 0, r.stderr.decode()
+    return d / "raw.parquet"
+
+
+def rewrite(src: Path, dst: Path, fields: dict[str, dict[str, str]] | None = None,
+            meta: dict | None = None, columns: dict[str, np.ndarray] | None = None) -> Path:
+    """``src`` with field metadata, stream metadata or column values replaced."""
+    header, table = streams.read_table(str(src))
+    schema = header.schema
+    for name, changes in (fields or {}).items():
+        i = schema.get_field_index(name)
+        f = schema.field(i)
+        md = {k.decode(): v.decode() for k, v in (f.metadata or {}).items()} | changes
+        schema = schema.set(i, f.with_metadata(md))
+    arrays = [pa.array(columns[n], type=schema.field(n).type) if columns and n in columns
+              else table.column(n) for n in schema.names]
+    table = pa.table(arrays, schema=schema)
+    m = dict(header.meta) if meta is None else meta
+    streams.write_table(str(dst), streams.Header(header.kind, schema, m), table, force=True)
+    return dst
+
+
+_MEASURED = ("import resource, subprocess, sys; "
+             "code = subprocess.run(sys.argv[1:]).returncode; "
+             "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); "
+             "sys.exit(code)")
+
+
+def refused(cmd: str, what: str, name: str | None = None, timeout: float = 60) -> str:
+    """Run ``cmd`` (enc ...); its one error line, once its peak memory is under 500 MB."""
+    r = run([sys.executable, "-c", _MEASURED, "bash", "-c", cmd], timeout=timeout)
+    *lines, rss = r.stderr.decode().splitlines()
+    assert int(rss) < MAX_RSS_KIB, f"{cmd}: peak resident set {int(rss) >> 10} MiB"
+    r = subprocess.CompletedProcess(r.args, r.returncode, r.stdout,
+                                    "".join(f"{ln}\n" for ln in lines).encode())
+    line = one_error_line(r, 2, name or f"enc {cmd.split()[1]}")
+    assert what in line, line
+    assert "internal error" not in line
+    return line
+
+
+@pytest.mark.parametrize("key, value", [
+    ("counts_per_rev", "1"), ("counts_per_rev", "-5"), ("periods_per_rev", "1e18"),
+    ("interpolation", "0"), ("alpha_deg", "abc"), ("alpha_deg", "nan"),
+    ("radius_m", "-1"), ("zero_count", "1e30"), ("encoder", ""),
+])
+@pytest.mark.parametrize("command", ["selfcal --method esa",
+                                     "compare --device H1,H2,H3,H4 --ref P1,P2", "info"])
+def test_head_field_metadata_out_of_range(raw, tmp_path, key, value, command):
+    bad = rewrite(raw, tmp_path / "bad.parquet", {"H1": {key: value}})
+    out = "" if command == "info" else f" -o {tmp_path}/out.parquet"
+    line = refused(f"enc {command} {bad}{out}", key)
+    assert "'H1'" in line and (value in line or key == "encoder")
+
+
+def test_counts_per_rev_must_be_periods_times_interpolation(raw, tmp_path):
+    bad = rewrite(raw, tmp_path / "bad.parquet", {"H2": {"counts_per_rev": "212992001"}})
+    refused(f"enc selfcal --method esa {bad} -o {tmp_path}/out.parquet", "counts_per_rev")
+
+
+def _deep_header(path: Path, depth: int) -> Path:
+    schema = pa.schema([pa.field("theta", pa.float64(), metadata={"unit": "rad"}),
+                        pa.field("H", pa.float64(), metadata={"unit": "arcsec",
+                                                              "role": "deviation"})])
+    deep = "[" * depth + "]" * depth
+    text = '{"kind": "deviations", "schema_version": 1, "x": ' + deep + "}"
+    schema = schema.with_metadata({b"kind": b"deviations", b"enctools": text.encode()})
+    pq.write_table(pa.table([[0.0], [0.0]], schema=schema), path)
+    return path
+
+
+def test_deeply_nested_metadata(tmp_path):
+    line = refused(f"enc info {_deep_header(tmp_path / 'deep.parquet', 200_000)}", "nested")
+    assert "200001" in line and "64" in line
+    r = run(f"enc info {_deep_header(tmp_path / 'ok.parquet', 20)}")
+    assert r.returncode == 0, r.stderr.decode()
+
+
+def test_huge_metadata(tmp_path):
+    schema = pa.schema([pa.field("theta", pa.float64(), metadata={"unit": "rad"})])
+    text = json.dumps({"kind": "deviations", "pad": "x" * (17 << 20)})
+    schema = schema.with_metadata({b"kind": b"deviations", b"enctools": text.encode()})
+    pq.write_table(pa.table([[0.0]], schema=schema), tmp_path / "big.parquet")
+    refused(f"enc info {tmp_path}/big.parquet", "bytes")
+
+
+def _hdf5_claiming(path: Path, rows: int, chunk: int, compression: str | None = None) -> Path:
+    import h5py
+
+    with h5py.File(path, "w") as h5:
+        g = h5.create_group("deviations")
+        g.attrs["kind"] = np.bytes_(b"deviations")
+        g.attrs["enctools"] = np.bytes_(b'{"kind": "deviations", "schema_version": 1}')
+        g.attrs["columns"] = np.bytes_(b'["theta", "H"]')
+        for name, unit, role in (("theta", b"rad", None), ("H", b"arcsec", b"deviation")):
+            ds = g.create_dataset(name, shape=(rows,), maxshape=(None,), dtype="f8",
+                                  chunks=(chunk,), compression=compression)
+            if compression:
+                ds[:chunk] = 0.0
+            ds.attrs["arrow_type"] = np.bytes_(b"double")
+            ds.attrs["unit"] = np.bytes_(unit)
+            if role:
+                ds.attrs["role"] = np.bytes_(role)
+    return path
+
+
+def test_hdf5_claiming_1e12_rows(tmp_path):
+    bad = _hdf5_claiming(tmp_path / "claims.h5", 10**12, 8192)
+    assert bad.stat().st_size < 100_000
+    line = refused(f"enc info {bad}", "1000000000000 rows", timeout=30)
+    assert "1000000000" in line
+
+
+def test_hdf5_with_a_huge_gzip_chunk(tmp_path):
+    bad = _hdf5_claiming(tmp_path / "chunk.h5", 1 << 27, 1 << 27, "gzip")
+    refused(f"enc info {bad}", "chunks of", timeout=30)
+
+
+def test_hdf5_mostly_fill_value(tmp_path):
+    bad = _hdf5_claiming(tmp_path / "fill.h5", 500_000_000, 8192)
+    refused(f"enc info {bad}", "bytes of data in", timeout=30)
+
+
+def test_latency_on_a_parquet_of_2e8_rows(raw, tmp_path):
+    header, _ = streams.read_table(str(raw))
+    n = 200_000_000
+    schema = header.schema
+    writer = pq.ParquetWriter(tmp_path / "long.parquet", header.arrow_schema())
+    cols = [pa.array(np.zeros(n // 1000, dtype=schema.field(i).type.to_pandas_dtype()))
+            for i in range(len(schema))]
+    block = pa.table(cols, schema=schema)
+    for _ in range(1000):
+        writer.write_table(block)
+    writer.close()
+    size = (tmp_path / "long.parquet").stat().st_size
+    assert size < 64 << 20
+    line = refused(f"enc latency {tmp_path}/long.parquet", "rows", timeout=60)
+    assert "200000000" in line
+
+
+@pytest.mark.parametrize("rows", [6_000_000])
+def test_whole_table_commands_refuse_long_streams(tmp_path, rows):
+    schema = pa.schema([pa.field("position", pa.float64(), metadata={"unit": "deg"}),
+                        pa.field("deviation", pa.float64(), metadata={"unit": "arcsec"})])
+    h = streams.Header("points", schema, {})
+    table = pa.table([np.linspace(0, 360, rows), np.zeros(rows)], schema=schema)
+    streams.write_table(str(tmp_path / "p.parquet"), h, table)
+    refused(f"enc fit-rbf {tmp_path}/p.parquet -o {tmp_path}/m.parquet", "rows")
+
+
+def test_counts_near_the_int64_maximum(raw, tmp_path):
+    _, table = streams.read_table(str(raw))
+    h1 = table.column("H1").to_numpy() + (np.iinfo(np.int64).max - 10**9)
+    bad = rewrite(raw, tmp_path / "big.parquet", columns={"H1": h1})
+    for cmd in (f"enc selfcal --method esa {bad} -o {tmp_path}/o.parquet",
+                f"enc compare --device H1,H2,H3,H4 --ref P1,P2 {bad} -o {tmp_path}/o.parquet"):
+        refused(cmd, "'H1'")
+
+
+def test_latency_on_constant_t(raw, tmp_path):
+    _, table = streams.read_table(str(raw))
+    bad = rewrite(raw, tmp_path / "t0.parquet", columns={"t": np.zeros(table.num_rows)})
+    refused(f"enc latency {bad}", "'t'")
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_average_heads_refuses_non_finite_t(raw, tmp_path, value):
+    t = streams.read_table(str(raw))[1].column("t").to_numpy().copy()
+    t[5] = value
+    bad = rewrite(raw, tmp_path / "t.parquet", columns={"t": t})
+    refused(f"enc average-heads {bad} -o {tmp_path}/o.parquet", "'t'")
