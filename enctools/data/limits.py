@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 # ------------------------------------------------------------------ the header
 
@@ -54,6 +55,8 @@ MAX_CSV_BYTES = 256 << 20
 
 # ------------------------------------------------------------------ values
 
+DEG_RAD = math.pi / 180.0  # radians in a degree
+
 #: largest count a head column may hold in magnitude (2^62: differences of two counts
 #: and sums of a few heads stay within int64, and counts * 2 pi / counts_per_rev
 #: stays exact enough in float64) [count]
@@ -61,6 +64,41 @@ MAX_ABS_COUNT = 1 << 62
 #: largest magnitude of a deviation, autocollimator reading or model weight: a
 #: full turn (1 296 000 arcsec) [arcsec]
 MAX_ABS_ARCSEC = 1_296_000.0
+#: largest magnitude of an angle in a stream (a position, a grid angle, a target):
+#: a million turns [deg]
+MAX_ABS_DEG = 360e6
+#: largest magnitude of a time [s] (t of readings: some 30 years)
+MAX_ABS_SECONDS = 1e9
+#: largest magnitude of a displacement (a probe reading, a radial error) [m]
+MAX_ABS_METRES = 1.0
+
+#: the values each column of a kind may hold, by column name or by role: (min, max,
+#: unit), both inclusive; infinities are refused too, and NaN but in the columns of
+#: :data:`NAN_ALLOWED` (a deviation curve marks its empty angle bins with NaN).
+#: Checked batch by batch as a stream is read and as one is written (data/streams.py).
+VALUE_RANGES: dict[str, dict[str, tuple[float, float, str]]] = {
+    "readings": {
+        "t": (-MAX_ABS_SECONDS, MAX_ABS_SECONDS, "s"),
+        "head": (-MAX_ABS_COUNT, MAX_ABS_COUNT, "count"),
+        "autocollimator": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+        "probe": (-MAX_ABS_METRES, MAX_ABS_METRES, "m"),
+        "target": (-MAX_ABS_DEG * DEG_RAD, MAX_ABS_DEG * DEG_RAD, "rad"),
+    },
+    "deviations": {
+        "theta": (-MAX_ABS_DEG * DEG_RAD, MAX_ABS_DEG * DEG_RAD, "rad"),
+        "deviation": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+        "radial": (-MAX_ABS_METRES * 1e9, MAX_ABS_METRES * 1e9, "nm"),
+    },
+    "points": {
+        "position": (-MAX_ABS_DEG, MAX_ABS_DEG, "deg"),
+        "deviation": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+    },
+    "model": {
+        "centre": (-MAX_ABS_DEG, MAX_ABS_DEG, "deg"),
+        "weight": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+        "weight_sin": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+    },
+}
 
 
 # ------------------------------------------------------------------ field metadata
@@ -88,7 +126,7 @@ class Range:
 
 
 def _num(x: float) -> str:
-    return f"{int(x)}" if float(x).is_integer() and abs(x) < 1e16 else f"{x:g}"
+    return f"{int(x)}" if float(x).is_integer() and abs(x) < 1e19 else f"{x:g}"
 
 
 #: the field-metadata keys of each role (schemas/*.json names which a role requires)
@@ -112,3 +150,48 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
         "component": Range("text", choices=("cos", "sin")),
     },
 }
+
+#: (kind, column name or role) whose NaN values mean "no value" rather than a fault
+NAN_ALLOWED = {("deviations", "deviation"), ("deviations", "radial")}
+
+
+def value_checks(kind: str, schema: Any) -> list[tuple[str, float, float, str, bool]]:
+    """The columns of a stream whose values :data:`VALUE_RANGES` bounds: (name, min, max,
+    unit, NaN allowed), by column name first, else by the role in its field metadata."""
+    ranges = VALUE_RANGES.get(kind, {})
+    out = []
+    for f in schema:
+        role = (f.metadata or {}).get(b"role", b"").decode()
+        key = f.name if f.name in ranges else role
+        if key in ranges:
+            out.append((f.name, *ranges[key], (kind, key) in NAN_ALLOWED))
+    return out
+
+
+def check_batch(batch: Any, checks: list[tuple[str, float, float, str, bool]],
+                source: str) -> None:
+    """Every bounded column of a record batch finite and in its range (DataError naming the
+    column, the value and the range)."""
+    import numpy as np
+
+    from enctools.errors import DataError
+
+    for name, lo, hi, unit, nan_ok in checks:
+        col = batch.column(name)
+        if col.null_count or len(col) == 0:
+            continue
+        a = col.to_numpy(zero_copy_only=False)
+        if a.dtype.kind not in "iuf":
+            continue
+        if nan_ok and a.dtype.kind == "f":
+            a = a[~np.isnan(a)]
+            if a.size == 0:
+                continue
+        if a.min() >= lo and a.max() <= hi:  # NaN fails both
+            continue
+        bad = a[~((a >= lo) & (a <= hi))][0]
+        shown = "NaN" if np.isnan(bad) else str(bad)
+        msg = (f"{source}: column {name!r} holds {shown} {unit}; values must be finite and "
+               f"within [{_num(lo)}, {_num(hi)}] {unit} (enc-streams(5), LIMITS)").replace(
+                   " ;", ";")
+        raise DataError(msg)

@@ -205,7 +205,7 @@ def rig_encoders(meta: Mapping[str, Any]) -> tuple[Encoder, ...]:
     try:
         return tuple(_encoder(e) for e in rig.get("encoders") or () if isinstance(e, Mapping))
     except (TypeError, ValueError) as exc:
-        msg = f"the rig description in the metadata has a malformed encoder ({exc})"
+        msg = f"the rig description in the metadata has a malformed encoder: {exc}"
         raise DataError(msg) from None
 
 
@@ -224,17 +224,28 @@ def rig_measure_heads(meta: Mapping[str, Any], encoder: str) -> tuple[str, ...]:
 
 
 def _encoder(d: Mapping[str, Any]) -> Encoder:
-    heads = tuple(Head(str(h.get("name", "")), float(h.get("angle", 0.0)),
-                       float(h.get("noise_arcsec", 0.0)), dict(h.get("signal") or {}),
-                       dict(h.get("backend") or {}))
-                  for h in d.get("heads") or () if isinstance(h, Mapping))
-    return Encoder(name=str(d.get("name", "")), periods_per_rev=int(d.get("periods_per_rev", 0)),
-                   interpolation=int(d.get("interpolation", 0)),
-                   diameter_mm=float(d.get("diameter_mm", 0.0)), heads=heads,
-                   model=str(d.get("model", "")), counter_bits=int(d.get("counter_bits", 32)),
-                   latency_s=float(d.get("latency_s", 0.0)),
-                   plane_mm=float(d.get("plane_mm", 0.0)),
-                   measure_heads=tuple(d.get("measure_heads") or ()),
+    name = str(d.get("name", ""))
+
+    def num(obj: Mapping[str, Any], key: str, kind: type, default: Any, where: str = "") -> Any:
+        value = obj.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                kind is int and not float(value).is_integer()):
+            msg = (f"rig encoder {name!r}{where}: {key} = {str(value)[:40]!r} is not "
+                   f"{'an integer' if kind is int else 'a number'}")
+            raise ValueError(msg)
+        return kind(value)
+
+    heads = tuple(Head(str(h.get("name", "")), num(h, "angle", float, 0.0, f" head {k}"),
+                       num(h, "noise_arcsec", float, 0.0, f" head {k}"),
+                       dict(h.get("signal") or {}), dict(h.get("backend") or {}))
+                  for k, h in enumerate(d.get("heads") or ()) if isinstance(h, Mapping))
+    return Encoder(name=name, periods_per_rev=num(d, "periods_per_rev", int, 0),
+                   interpolation=num(d, "interpolation", int, 0),
+                   diameter_mm=num(d, "diameter_mm", float, 0.0), heads=heads,
+                   model=str(d.get("model", "")), counter_bits=num(d, "counter_bits", int, 32),
+                   latency_s=num(d, "latency_s", float, 0.0),
+                   plane_mm=num(d, "plane_mm", float, 0.0),
+                   measure_heads=tuple(str(h) for h in d.get("measure_heads") or ()),
                    graduation=dict(d.get("graduation") or {}),
                    radial=dict(d.get("radial") or {}))
 

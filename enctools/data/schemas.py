@@ -260,6 +260,23 @@ def parse_field_value(text: str, rng: limits.Range) -> float | int | str | None:
     return value
 
 
+def check_new_columns(kind: str, names: list[str], what: str) -> None:
+    """Names a command will give columns of a ``kind`` output by role: none empty, none
+    a named column of the kind (``theta``...), none twice; ``what`` (an option) names
+    their origin in the one-line UsageError, raised before any work."""
+    from enctools.errors import UsageError
+
+    fixed = {c.name for c in kind_spec(kind).columns if c.name}
+    for name in names:
+        if not name.strip() or len(name) > limits.MAX_FIELD_TEXT or name in fixed:
+            why = "is a column of its own" if name in fixed else "is not a column name"
+            msg = f"{what} {name!r} {why} in a {kind} stream; choose another"
+            raise UsageError(msg)
+    if len(set(names)) < len(names):
+        msg = f"{what}: the names {', '.join(names)} are not distinct"
+        raise UsageError(msg)
+
+
 def columns_with_role(schema: pa.Schema, role: str) -> list[str]:
     """Names of the columns whose field metadata has this role, in schema order."""
     return [f.name for f in schema if field_meta(f).get("role") == role]

@@ -124,7 +124,8 @@ class InputStream:
         that thread too (per-batch numpy work, which also releases the GIL); its
         results are yielded instead of the batches, its exceptions raised here.
         """
-        items: Iterator[Any] = (_clean(b) for b in self._batches)
+        checks = limits.value_checks(self.kind, self.schema)
+        items: Iterator[Any] = (self._checked(_clean(b), checks) for b in self._batches)
         if prepare is not None:
             items = map(prepare, items)
         source = pipes.ReadAhead(items, read_ahead, self.cancel) if read_ahead > 0 else items
@@ -139,6 +140,12 @@ class InputStream:
             if isinstance(source, pipes.ReadAhead) and not source.stop():
                 self._closer = None  # the reader is still in a read: leave the file to it
             self.close()
+
+    def _checked(self, batch: pa.RecordBatch, checks: list) -> pa.RecordBatch:
+        """The batch, once its values are within :data:`~enctools.data.limits.VALUE_RANGES`."""
+        if checks:
+            limits.check_batch(batch, checks, self.source)
+        return batch
 
     def read_all(self, max_rows: int | None = None) -> pa.Table:
         """All batches as one table (schema without metadata).
@@ -403,6 +410,10 @@ class OutputStream:
                  keep_partial: bool = False) -> None:
         check_output(path, force, fmt, stdout)
         self.path = None if path in (None, "-") else str(path)
+        # what a command writes, enctools reads back: the header fits its kind
+        validate(header.schema, {**header.meta, "kind": header.kind}, header.kind,
+                 f"output {self.path or 'stdout'}")
+        self._checks = limits.value_checks(header.kind, header.schema)
         self.header = header
         self.force = force
         self.keep_partial = keep_partial
@@ -453,6 +464,8 @@ class OutputStream:
             return
         if batch.schema.remove_metadata() != self._schema.remove_metadata():
             batch = pa.RecordBatch.from_arrays(batch.columns, schema=self._schema)
+        if self._checks:  # a result out of range (NaN weights...) is a fault, not an output
+            limits.check_batch(batch, self._checks, f"output {self.path or 'stdout'}")
         try:
             self._writer.write_batch(batch)
         except OSError as exc:
