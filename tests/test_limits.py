@@ -270,3 +270,12 @@ def test_autocollimator_of_1e308(tmp_path):
     bad = rewrite(tmp_path / "steps.parquet", tmp_path / "bad.parquet", columns={ac: values})
     line = refused(f"enc points {bad} -o {tmp_path}/p.parquet", f"'{ac}'")
     assert "1e+308" in line
+
+
+def test_a_small_but_consistent_counts_per_rev(raw, tmp_path):
+    tiny = {"counts_per_rev": "16", "periods_per_rev": "1", "interpolation": "16"}
+    bad = rewrite(raw, tmp_path / "c16.parquet", {h: tiny for h in ("H1", "H2", "H3", "H4")})
+    for cmd in (f"enc selfcal --method esa --heads H1,H2,H3,H4 {bad} -o {tmp_path}/o.parquet",
+                f"enc compare --device P1,P2 --ref H1,H2,H3,H4 {bad} -o {tmp_path}/o.parquet"):
+        line = refused(cmd, "turns between two samples", timeout=30)
+        assert "counts_per_rev" in line
