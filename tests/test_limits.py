@@ -279,3 +279,20 @@ def test_a_small_but_consistent_counts_per_rev(raw, tmp_path):
                 f"enc compare --device P1,P2 --ref H1,H2,H3,H4 {bad} -o {tmp_path}/o.parquet"):
         line = refused(cmd, "turns between two samples", timeout=30)
         assert "counts_per_rev" in line
+
+
+def _model(path: Path, rows: int, spread: object = 5.0) -> Path:
+    schema = pa.schema([pa.field("centre", pa.float64(), metadata={"unit": "deg"}),
+                        pa.field("weight", pa.float64(), metadata={"unit": "arcsec"})])
+    h = streams.Header("model", schema, {"model": {"kernel": "rbf", "spread_deg": spread}})
+    pq.write_table(pa.table([np.linspace(0, 360, rows, endpoint=False), np.zeros(rows)],
+                            schema=h.arrow_schema()), path)
+    return path
+
+
+@pytest.mark.parametrize("rows, spread, what", [
+    (20_000, 5.0, "10000"), (24, "abc", "spread_deg"), (24, 1e308, "spread_deg"),
+])
+def test_make_rom_model_limits(tmp_path, rows, spread, what):
+    model = _model(tmp_path / "m.parquet", rows, spread)
+    refused(f"enc make-rom {model} --bits 23 --address-bits 12 -o {tmp_path}/r.bin", what)

@@ -46,6 +46,10 @@ MAX_HDF5_EXPANSION = 1000
 #: decoded bytes every HDF5 column may hold whatever its size in the file [byte]
 HDF5_EXPANSION_SLACK = 1 << 20
 
+#: rows of a model stream (RBF centres or harmonics), each evaluated at every address
+#: of a correction table [rows]
+MAX_MODEL_TERMS = 10_000
+
 # ------------------------------------------------------------------ text tables
 
 #: bytes of one field of a CSV points table [byte]
