@@ -146,7 +146,7 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
         "zero_count": Range("int", -(1 << 40), 1 << 40, "count"),
     },
     "probe": {
-        "arm_m": Range("float", 1e-4, 100.0, "m"),
+        "arm_m": Range("float", 0.0, 100.0, "m"),  # 0: refused by the method that needs it
         "side": Range("int", -1, 1, ""),
     },
     "signal": {
@@ -156,7 +156,9 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
 }
 
 #: (kind, column name or role) whose NaN values mean "no value" rather than a fault
-NAN_ALLOWED = {("deviations", "deviation"), ("deviations", "radial")}
+#: (a sweep's autocollimator has no face in view, a probe reading may be missing)
+NAN_ALLOWED = {("deviations", "deviation"), ("deviations", "radial"),
+               ("readings", "autocollimator"), ("readings", "probe")}
 
 
 def value_checks(kind: str, schema: Any) -> list[tuple[str, float, float, str, bool]]:
