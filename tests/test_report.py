@@ -14,12 +14,14 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 from conftest import DATA, ROOT, run
 
 from enctools.data.rig import load_rig
 from enctools.data.schemas import make_field
 from enctools.data.streams import Header, write_table
+from enctools.errors import DataError
 from enctools.hw.sim_truth import make_truth
 from enctools.hw.truth import interpolation_error
 from enctools.units import ARCSEC, TWO_PI
@@ -428,8 +430,11 @@ def test_nan_input_exit2_and_no_html_left(tmp_path):
     schema = pa.schema([make_field("position", pa.float64(), "deg"),
                         make_field("deviation", pa.float64(), "arcsec")])
     bad = tmp_path / "bad.parquet"
-    write_table(str(bad), Header("points", schema, {}),
-                pa.table([[0.0, 15.0, 30.0, 45.0], [0.0, np.nan, 1.0, 2.0]], schema=schema))
+    with pytest.raises(DataError, match="NaN"):  # enctools writes no such stream
+        write_table(str(bad), Header("points", schema, {}),
+                    pa.table([[0.0, 15.0, 30.0, 45.0], [0.0, np.nan, 1.0, 2.0]], schema=schema))
+    pq.write_table(pa.table([[0.0, 15.0, 30.0, 45.0], [0.0, np.nan, 1.0, 2.0]],
+                            schema=Header("points", schema, {}).arrow_schema()), bad)
     html = tmp_path / "r.html"
     r = run(["enc", "report", str(bad), "--html", str(html)])
     assert r.returncode == 2

@@ -73,15 +73,24 @@ def test_missing_unit_and_unknown_column_are_named(tmp_path):
                         make_field("H", pa.float64(), "nm", "deviation")])
     table = pa.table([[0.0], [1.0]], schema=schema)
     p = tmp_path / "bad.arrows"
-    streams.write_table(str(p), streams.Header("deviations", schema, {}), table)
+    with pytest.raises(DataError, match=r"output .*column 'H' is in 'nm'"):
+        streams.write_table(str(p), streams.Header("deviations", schema, {}), table)
+    assert not p.exists()  # enctools writes no stream it would refuse to read
+    _write_unchecked(p, streams.Header("deviations", schema, {}), table)
     with pytest.raises(DataError, match="column 'H' is in 'nm'"):
         streams.open_input(str(p))
     schema = pa.schema([make_field("theta", pa.float64(), "rad"),
                         pa.field("mystery", pa.float64())])
-    streams.write_table(str(p), streams.Header("deviations", schema, {}),
-                        pa.table([[0.0], [1.0]], schema=schema), force=True)
+    _write_unchecked(p, streams.Header("deviations", schema, {}),
+                     pa.table([[0.0], [1.0]], schema=schema))
     with pytest.raises(DataError, match="column 'mystery' is not part of a deviations stream"):
         streams.open_input(str(p))
+
+
+def _write_unchecked(path, header, table):
+    """A stream as another program may write it, past the checks of streams.write_table."""
+    with pa.OSFile(str(path), "wb") as f, pa.ipc.new_stream(f, header.arrow_schema()) as w:
+        w.write_table(table)
 
 
 def test_foreign_arrow_file_is_not_an_enctools_stream(tmp_path):

@@ -18,8 +18,9 @@ from enctools.errors import DataError
 
 FORMATS = [".parquet", ".h5", ".arrow", ".arrows"]
 
-floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
-ints = st.integers(min_value=-(2**63), max_value=2**63 - 1)
+# valid: within enc-streams(5) LIMITS (t within +-1e9 s, counts within +-2^62)
+floats = st.floats(min_value=-1e9, max_value=1e9, width=64)
+ints = st.integers(min_value=-(2**62), max_value=2**62)
 
 
 @st.composite

@@ -143,6 +143,10 @@ def _measure(inputs: tuple[str, ...], heads: list[str] | None,
         t = table.column("t").to_numpy(zero_copy_only=False).astype(np.float64)
         if not np.all(np.isfinite(t)):
             raise DataError(f"{src.source}: column 't' has NaN or infinite values")
+        if t.size > 1 and not np.all(t[1:] > t[:-1]):
+            row = int(np.argmax(t[1:] <= t[:-1])) + 1
+            raise DataError(f"{src.source}: column 't' does not rise at row {row} "
+                            f"({t[row - 1]!r} s, then {t[row]!r} s); a run's times must increase")
         device = _mean_reading(table, schema, dev_heads, src.source)
         info = head_info(schema, dev_heads[0], src.source)
         cpr = info.counts_per_rev

@@ -18,6 +18,8 @@ from typing import IO, Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data import limits
+from enctools.data.header import load_metadata
 from enctools.errors import DataError
 
 _CHUNK = 65536  # rows per batch read
@@ -166,7 +168,7 @@ def _read_layout(g: Any, source: str, name: str) -> tuple[dict[str, Any], pa.Sch
 
     try:
         gattrs = _text_attrs(g)
-        meta = json.loads(gattrs.get("enctools", "{}"))
+        meta = load_metadata(gattrs.get("enctools", "{}"), source)
         names = json.loads(gattrs["columns"])
         if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
             msg = "'columns' is not a list of names"
@@ -177,11 +179,12 @@ def _read_layout(g: Any, source: str, name: str) -> tuple[dict[str, Any], pa.Sch
             if not isinstance(ds, h5py.Dataset) or len(ds.shape) != 1:
                 msg = f"column {n!r} is not a one-dimensional dataset"
                 raise ValueError(msg)
+            _check_dataset(ds, n, source)
             attrs = _text_attrs(ds)
             arrow_type = attrs.pop("arrow_type")
             fields.append(pa.field(n, _arrow_type(arrow_type), metadata=attrs or None))
         nrows = {g[n].shape[0] for n in names}
-    except (KeyError, ValueError, TypeError) as exc:
+    except (KeyError, ValueError, TypeError, RecursionError) as exc:
         msg = f"{source}: HDF5 table {name!r} is not an enctools table ({exc})"
         raise DataError(msg) from None
     if len(nrows) > 1:
@@ -189,6 +192,26 @@ def _read_layout(g: Any, source: str, name: str) -> tuple[dict[str, Any], pa.Sch
         raise DataError(msg)
     meta.setdefault("kind", gattrs["kind"])
     return meta, pa.schema(fields), nrows.pop() if nrows else 0
+
+
+def _check_dataset(ds: Any, name: str, source: str) -> None:
+    """A column's rows, chunk size and decoded size against :mod:`~enctools.data.limits`,
+    from its layout alone (DataError naming the column)."""
+    rows = int(ds.shape[0])
+    where = f"{source}: HDF5 column {name!r}"
+    if rows > limits.MAX_STREAM_ROWS:
+        msg = f"{where} claims {rows} rows; at most {limits.MAX_STREAM_ROWS} are read"
+        raise DataError(msg)
+    item = max(int(ds.dtype.itemsize), 1)
+    if ds.chunks is not None and int(ds.chunks[0]) * item > limits.MAX_HDF5_CHUNK_BYTES:
+        msg = (f"{where} has chunks of {int(ds.chunks[0]) * item} bytes; at most "
+               f"{limits.MAX_HDF5_CHUNK_BYTES} are read")
+        raise DataError(msg)
+    stored = int(ds.id.get_storage_size())
+    if rows * item > limits.MAX_HDF5_EXPANSION * stored + limits.HDF5_EXPANSION_SLACK:
+        msg = (f"{where} claims {rows * item} bytes of data in {stored} bytes of the file; "
+               f"at most {limits.MAX_HDF5_EXPANSION} times as many are read")
+        raise DataError(msg)
 
 
 def _batches(g: Any, schema: pa.Schema, total: int) -> Iterator[pa.RecordBatch]:

@@ -118,12 +118,43 @@ def header_from_arrow(schema: pa.Schema, source: str) -> Header:
     if META_KEY not in md:
         msg = f"{source}: not an enctools stream (its schema carries no enctools metadata)"
         raise DataError(msg)
+    meta = load_metadata(md[META_KEY], source)
+    return Header(str(meta.get("kind")), schema.remove_metadata(), meta)
+
+
+_JSON_STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
+
+
+def load_metadata(raw: bytes | str, source: str) -> dict[str, Any]:
+    """A header's JSON metadata as a dict, once its size and nesting are within the limits.
+
+    :data:`~enctools.data.limits.MAX_METADATA_BYTES` and ``MAX_METADATA_DEPTH`` are
+    checked before the JSON is parsed (a deep nesting would exhaust the parser's
+    recursion); a one-line DataError otherwise.
+    """
+    import numpy as np
+
+    from enctools.data.limits import MAX_METADATA_BYTES, MAX_METADATA_DEPTH
+
+    data = raw.encode() if isinstance(raw, str) else bytes(raw)
+    if len(data) > MAX_METADATA_BYTES:
+        msg = (f"{source}: enctools metadata of {len(data)} bytes; at most "
+               f"{MAX_METADATA_BYTES} are read")
+        raise DataError(msg)
+    codes = np.frombuffer(_JSON_STRING.sub(b'""', data), dtype=np.uint8)
+    steps = (np.isin(codes, (ord("{"), ord("["))).astype(np.int64)
+             - np.isin(codes, (ord("}"), ord("]"))))
+    depth = int(np.cumsum(steps).max(initial=0))
+    if depth > MAX_METADATA_DEPTH:
+        msg = (f"{source}: enctools metadata nested {depth} levels deep; at most "
+               f"{MAX_METADATA_DEPTH} are read")
+        raise DataError(msg)
     try:
-        meta = json.loads(md[META_KEY])
-    except ValueError:
+        meta = json.loads(data)
+    except (ValueError, RecursionError):
         msg = f"{source}: enctools metadata is not valid JSON"
         raise DataError(msg) from None
     if not isinstance(meta, dict):
         msg = f"{source}: enctools metadata is not a JSON object"
         raise DataError(msg)
-    return Header(str(meta.get("kind")), schema.remove_metadata(), meta)
+    return meta

@@ -31,8 +31,15 @@ from typing import Any, TypeAlias
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.limits import FIELD_RANGES
 from enctools.data.rig import Encoder, Head
-from enctools.data.schemas import columns_with_role, field_meta, make_field
+from enctools.data.schemas import (
+    check_field_values,
+    columns_with_role,
+    field_meta,
+    make_field,
+    parse_field_value,
+)
 from enctools.errors import DataError
 from enctools.units import DEG, TWO_PI
 
@@ -93,12 +100,21 @@ def head_info(schema: pa.Schema, name: str, source: str = "input") -> HeadInfo:
     if fm.get("role") != "head":
         msg = f"{source}: column {name!r} is not a head"
         raise DataError(msg)
-    cpr = int(fm["counts_per_rev"])
-    ppr = int(fm["periods_per_rev"])
-    return HeadInfo(name=name, encoder=fm["encoder"], alpha=float(fm["alpha_deg"]) * DEG,
+    check_field_values(name, fm, source)
+    ranges = FIELD_RANGES["head"]
+
+    def value(key: str, default: str | None = None) -> Any:
+        text = fm.get(key, default)
+        if text is None:
+            msg = f"{source}: column {name!r} lacks field metadata {key}"
+            raise DataError(msg)
+        return parse_field_value(text, ranges[key])
+
+    cpr, ppr = value("counts_per_rev"), value("periods_per_rev")
+    return HeadInfo(name=name, encoder=value("encoder"), alpha=value("alpha_deg") * DEG,
                     counts_per_rev=cpr, periods_per_rev=ppr,
-                    interpolation=int(fm.get("interpolation", cpr // ppr)),
-                    radius_m=float(fm["radius_m"]), zero_count=int(fm.get("zero_count", 0)))
+                    interpolation=value("interpolation", str(cpr // ppr)),
+                    radius_m=value("radius_m"), zero_count=value("zero_count", "0"))
 
 
 def heads(schema: pa.Schema) -> list[HeadInfo]:
@@ -189,7 +205,7 @@ def rig_encoders(meta: Mapping[str, Any]) -> tuple[Encoder, ...]:
     try:
         return tuple(_encoder(e) for e in rig.get("encoders") or () if isinstance(e, Mapping))
     except (TypeError, ValueError) as exc:
-        msg = f"the rig description in the metadata has a malformed encoder ({exc})"
+        msg = f"the rig description in the metadata has a malformed encoder: {exc}"
         raise DataError(msg) from None
 
 
@@ -208,17 +224,28 @@ def rig_measure_heads(meta: Mapping[str, Any], encoder: str) -> tuple[str, ...]:
 
 
 def _encoder(d: Mapping[str, Any]) -> Encoder:
-    heads = tuple(Head(str(h.get("name", "")), float(h.get("angle", 0.0)),
-                       float(h.get("noise_arcsec", 0.0)), dict(h.get("signal") or {}),
-                       dict(h.get("backend") or {}))
-                  for h in d.get("heads") or () if isinstance(h, Mapping))
-    return Encoder(name=str(d.get("name", "")), periods_per_rev=int(d.get("periods_per_rev", 0)),
-                   interpolation=int(d.get("interpolation", 0)),
-                   diameter_mm=float(d.get("diameter_mm", 0.0)), heads=heads,
-                   model=str(d.get("model", "")), counter_bits=int(d.get("counter_bits", 32)),
-                   latency_s=float(d.get("latency_s", 0.0)),
-                   plane_mm=float(d.get("plane_mm", 0.0)),
-                   measure_heads=tuple(d.get("measure_heads") or ()),
+    name = str(d.get("name", ""))
+
+    def num(obj: Mapping[str, Any], key: str, kind: type, default: Any, where: str = "") -> Any:
+        value = obj.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                kind is int and not float(value).is_integer()):
+            msg = (f"rig encoder {name!r}{where}: {key} = {str(value)[:40]!r} is not "
+                   f"{'an integer' if kind is int else 'a number'}")
+            raise ValueError(msg)
+        return kind(value)
+
+    heads = tuple(Head(str(h.get("name", "")), num(h, "angle", float, 0.0, f" head {k}"),
+                       num(h, "noise_arcsec", float, 0.0, f" head {k}"),
+                       dict(h.get("signal") or {}), dict(h.get("backend") or {}))
+                  for k, h in enumerate(d.get("heads") or ()) if isinstance(h, Mapping))
+    return Encoder(name=name, periods_per_rev=num(d, "periods_per_rev", int, 0),
+                   interpolation=num(d, "interpolation", int, 0),
+                   diameter_mm=num(d, "diameter_mm", float, 0.0), heads=heads,
+                   model=str(d.get("model", "")), counter_bits=num(d, "counter_bits", int, 32),
+                   latency_s=num(d, "latency_s", float, 0.0),
+                   plane_mm=num(d, "plane_mm", float, 0.0),
+                   measure_heads=tuple(str(h) for h in d.get("measure_heads") or ()),
                    graduation=dict(d.get("graduation") or {}),
                    radial=dict(d.get("radial") or {}))
 

@@ -17,6 +17,7 @@ from typing import Any
 
 import pyarrow as pa
 
+from enctools.data import limits
 from enctools.errors import DataError
 
 KINDS = ("readings", "deviations", "spectrum", "points", "model", "rom")
@@ -116,6 +117,9 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
     """
     spec = _header_kind(meta, expect, source)
     kind = spec.kind
+    if len(schema) > limits.MAX_COLUMNS:
+        msg = f"{source}: {len(schema)} columns; at most {limits.MAX_COLUMNS} are read"
+        raise DataError(msg)
     names = set(schema.names)
     for col in spec.columns:
         if col.required and col.name not in names:
@@ -196,6 +200,81 @@ def _check_column(f: pa.Field, schema: pa.Schema, spec: KindSpec, source: str) -
     if missing:
         msg = f"{source}: column {f.name!r} lacks field metadata {', '.join(missing)}"
         raise DataError(msg)
+    check_field_values(f.name, fm, source)
+
+
+def check_field_values(name: str, fm: dict[str, str], source: str) -> None:
+    """A column's field metadata within :data:`~enctools.data.limits.FIELD_RANGES`.
+
+    DataError with one line naming the column, the key, its value and the range.
+    """
+    ranges = limits.FIELD_RANGES.get(fm.get("role", ""), {})
+    for key, text in fm.items():
+        if len(text) > limits.MAX_FIELD_TEXT:
+            msg = (f"{source}: column {name!r}: field metadata {key!r} has {len(text)} "
+                   f"characters; at most {limits.MAX_FIELD_TEXT}")
+            raise DataError(msg)
+        rng = ranges.get(key)
+        if rng is not None and parse_field_value(text, rng) is None:
+            shown = text if len(text) <= 40 else text[:40] + "..."
+            msg = (f"{source}: column {name!r}: field metadata {key}={shown!r} is out of "
+                   f"range; it must be {rng.describe()}")
+            raise DataError(msg)
+    if fm.get("role") == "head":
+        _check_head_periods(name, fm, source)
+
+
+def _check_head_periods(name: str, fm: dict[str, str], source: str) -> None:
+    """counts_per_rev = periods_per_rev * interpolation (the interpolation given or not)."""
+    ranges = limits.FIELD_RANGES["head"]
+    cpr = parse_field_value(fm.get("counts_per_rev", ""), ranges["counts_per_rev"])
+    ppr = parse_field_value(fm.get("periods_per_rev", ""), ranges["periods_per_rev"])
+    if not isinstance(cpr, int) or not isinstance(ppr, int):
+        return
+    interp = fm.get("interpolation")
+    ok = cpr % ppr == 0 if interp is None else \
+        parse_field_value(interp, ranges["interpolation"]) == cpr // ppr and cpr % ppr == 0
+    if not ok:
+        msg = (f"{source}: column {name!r}: counts_per_rev={cpr} is not periods_per_rev={ppr} "
+               f"times interpolation={interp or 'an integer'}")
+        raise DataError(msg)
+
+
+def parse_field_value(text: str, rng: limits.Range) -> float | int | str | None:
+    """A field-metadata value as its range's type, or None when it is not one in range."""
+    if rng.type == "text":
+        return text if (not rng.choices or text in rng.choices) and text.strip() else None
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    if not rng.min <= value <= rng.max:  # also refuses NaN
+        return None
+    if rng.type == "int":
+        if not value.is_integer():
+            return None
+        try:
+            return int(text)
+        except ValueError:
+            return int(value)
+    return value
+
+
+def check_new_columns(kind: str, names: list[str], what: str) -> None:
+    """Names a command will give columns of a ``kind`` output by role: none empty, none
+    a named column of the kind (``theta``...), none twice; ``what`` (an option) names
+    their origin in the one-line UsageError, raised before any work."""
+    from enctools.errors import UsageError
+
+    fixed = {c.name for c in kind_spec(kind).columns if c.name}
+    for name in names:
+        if not name.strip() or len(name) > limits.MAX_FIELD_TEXT or name in fixed:
+            why = "is a column of its own" if name in fixed else "is not a column name"
+            msg = f"{what} {name!r} {why} in a {kind} stream; choose another"
+            raise UsageError(msg)
+    if len(set(names)) < len(names):
+        msg = f"{what}: the names {', '.join(names)} are not distinct"
+        raise UsageError(msg)
 
 
 def columns_with_role(schema: pa.Schema, role: str) -> list[str]:

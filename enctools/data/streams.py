@@ -30,7 +30,7 @@ from typing import IO, Any
 
 import pyarrow as pa
 
-from enctools.data import files, pipes
+from enctools.data import files, limits, pipes
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
 from enctools.errors import DataError, OutputError, UsageError
@@ -99,6 +99,8 @@ class InputStream:
         self._closer = closer
         #: set to stop a read-ahead thread waiting on a pipe (see pipes.Prefixed)
         self.cancel: Any = None
+        #: the rows the file says it holds (Parquet, HDF5), None when only reading tells
+        self.claimed_rows: int | None = None
 
     @property
     def kind(self) -> str:
@@ -123,7 +125,8 @@ class InputStream:
         that thread too (per-batch numpy work, which also releases the GIL); its
         results are yielded instead of the batches, its exceptions raised here.
         """
-        items: Iterator[Any] = (_clean(b) for b in self._batches)
+        checks = limits.value_checks(self.kind, self.schema)
+        items: Iterator[Any] = (self._checked(_clean(b), checks) for b in self._batches)
         if prepare is not None:
             items = map(prepare, items)
         source = pipes.ReadAhead(items, read_ahead, self.cancel) if read_ahead > 0 else items
@@ -139,9 +142,34 @@ class InputStream:
                 self._closer = None  # the reader is still in a read: leave the file to it
             self.close()
 
-    def read_all(self) -> pa.Table:
-        """All batches as one table (schema without metadata)."""
-        return pa.Table.from_batches(list(self.batches()), schema=self.schema)
+    def _checked(self, batch: pa.RecordBatch, checks: list) -> pa.RecordBatch:
+        """The batch, once its values are within :data:`~enctools.data.limits.VALUE_RANGES`."""
+        if checks:
+            limits.check_batch(batch, checks, self.source)
+        return batch
+
+    def read_all(self, max_rows: int | None = None) -> pa.Table:
+        """All batches as one table (schema without metadata).
+
+        At most ``max_rows`` rows (default :data:`~enctools.data.limits.MAX_TABLE_ROWS`):
+        a file that claims more is refused before it is read, one that holds more as
+        soon as the batches read exceed it (DataError naming both numbers).
+        """
+        limit = limits.MAX_TABLE_ROWS if max_rows is None else max_rows
+        if self.claimed_rows is not None and self.claimed_rows > limit:
+            self.close()
+            raise self._too_many(self.claimed_rows, limit)
+        batches, rows = [], 0
+        for b in self.batches():
+            rows += b.num_rows
+            if rows > limit:
+                raise self._too_many(rows, limit, "over ")
+            batches.append(b)
+        return pa.Table.from_batches(batches, schema=self.schema)
+
+    def _too_many(self, rows: int, limit: int, over: str = "") -> DataError:
+        return DataError(f"{self.source}: {over}{rows} rows; this command holds at most "
+                         f"{limit} rows in memory (enc-streams(5), LIMITS)")
 
     def close(self) -> None:
         if self._closer is not None:
@@ -230,8 +258,24 @@ def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
         stream = _open_arrows(io.BufferedReader(wrapped, buffer_size=1 << 20), source)
         stream.cancel = cancel
         return stream
-    data = prefix + raw.read()  # needs seeking: buffer in memory
+    data = prefix + _read_at_most(raw, limits.MAX_PIPE_BUFFER_BYTES)  # needs seeking
+    if len(data) > limits.MAX_PIPE_BUFFER_BYTES:
+        msg = (f"{source}: a {fmt} stream on a pipe is held in memory, and this one is over "
+               f"{limits.MAX_PIPE_BUFFER_BYTES} bytes; give it as a file, or pipe Arrow IPC")
+        raise DataError(msg)
     return _open_seekable(io.BytesIO(data), fmt, source)
+
+
+def _read_at_most(raw: IO[bytes], limit: int) -> bytes:
+    """What a pipe holds up to its end, or the first ``limit`` + 1 bytes of it."""
+    parts, n = [], 0
+    while n <= limit:
+        chunk = raw.read(min(1 << 20, limit + 1 - n))
+        if not chunk:
+            break
+        parts.append(chunk)
+        n += len(chunk)
+    return b"".join(parts)
 
 
 def _validated(stream: InputStream, expect: str | tuple[str, ...] | None) -> InputStream:
@@ -290,8 +334,20 @@ def _open_parquet(f: IO[bytes], source: str) -> InputStream:
 
     pf = pq.ParquetFile(f, pre_buffer=False)  # pre-buffering holds the whole file
     header = header_from_arrow(pf.schema_arrow, source)
-    return InputStream(header, pf.iter_batches(batch_size=BATCH_ROWS), source, "Parquet",
-                       f.close)
+    rows = pf.metadata.num_rows
+    if rows > limits.MAX_STREAM_ROWS:
+        msg = f"{source}: claims {rows} rows; at most {limits.MAX_STREAM_ROWS} are read"
+        raise DataError(msg)
+    groups = (pf.metadata.row_group(i).num_rows for i in range(pf.metadata.num_row_groups))
+    largest = max(groups, default=0)
+    if largest > limits.MAX_ROW_GROUP_ROWS:
+        msg = (f"{source}: a Parquet row group of {largest} rows; at most "
+               f"{limits.MAX_ROW_GROUP_ROWS} are read (rewrite it with smaller row groups)")
+        raise DataError(msg)
+    stream = InputStream(header, pf.iter_batches(batch_size=BATCH_ROWS), source, "Parquet",
+                         f.close)
+    stream.claimed_rows = rows
+    return stream
 
 
 def _open_arrow_file(f: IO[bytes], source: str) -> InputStream:
@@ -357,6 +413,10 @@ class OutputStream:
                  keep_partial: bool = False, group: files.OutputGroup | None = None) -> None:
         check_output(path, force, fmt, stdout)
         self.path = None if path in (None, "-") else str(path)
+        # what a command writes, enctools reads back: the header fits its kind
+        validate(header.schema, {**header.meta, "kind": header.kind}, header.kind,
+                 f"output {self.path or 'stdout'}")
+        self._checks = limits.value_checks(header.kind, header.schema)
         self.header = header
         self.force = force
         self.group = group  # a named file is then renamed with the group's others
@@ -408,6 +468,8 @@ class OutputStream:
             return
         if batch.schema.remove_metadata() != self._schema.remove_metadata():
             batch = pa.RecordBatch.from_arrays(batch.columns, schema=self._schema)
+        if self._checks:  # a result out of range (NaN weights...) is a fault, not an output
+            limits.check_batch(batch, self._checks, f"output {self.path or 'stdout'}")
         try:
             self._writer.write_batch(batch)
         except OSError as exc:

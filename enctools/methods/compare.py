@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from enctools.data.schemas import check_new_columns
 from enctools.errors import DataError, UsageError
 from enctools.methods.harmonics import analyse, check_grid, grid, synthesize
 from enctools.methods.revolutions import (
@@ -77,6 +78,8 @@ class Settings:
             raise UsageError(msg)
         if self.band > 0:
             check_grid(self.points, self.band)
+        check_new_columns("deviations", [self.label, f"u_{self.label}"],
+                          "--name" if self.name is not None else "the column name")
 
     @property
     def label(self) -> str:

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data import limits
 from enctools.data.readings import head_angle, head_info, measuring_heads
 from enctools.data.riglimits import RANGES
 from enctools.data.schemas import column_with_role, make_field
@@ -251,16 +252,15 @@ def _comparator_points(path: str | Path, rows: list[list[str]]) -> Points:
     return Points(np.mod(vals[:, 0], 360.0), dev, np.ones(n, np.int8), np.zeros(n, np.int32))
 
 
-def points_from_csv(path: str | Path) -> Points:
-    """Points from a CSV table (``#`` comments), in one of two layouts.
-
-    ``position_deg,deviation_arcsec[,direction,run]``: calibration points as measured;
-    ``reference_deg,measured_deg`` (any header naming a reference then a measured angle,
-    e.g. ``Reference Angle [degree],Measured Angle [degree]``): a comparator's table,
-    see :func:`_comparator_points`.
-    """
+def _csv_rows(path: str | Path) -> list[list[str]]:
+    """The rows of a CSV table without comments and blank lines, within the limits of
+    :mod:`~enctools.data.limits` (its bytes, one field's bytes, its rows)."""
     p = Path(path)
     try:
+        size = p.stat().st_size
+        if size > limits.MAX_CSV_BYTES:
+            msg = f"{path}: a CSV table of {size} bytes; at most {limits.MAX_CSV_BYTES} are read"
+            raise DataError(msg)
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         msg = f"{path}: no such file"
@@ -272,7 +272,44 @@ def points_from_csv(path: str | Path) -> Points:
     if not lines:
         msg = f"{path}: no points (the file is empty or only comments)"
         raise DataError(msg)
-    rows = list(csv.reader(io.StringIO("\n".join(lines))))
+    if len(lines) > limits.MAX_TABLE_ROWS:
+        msg = f"{path}: {len(lines)} lines; at most {limits.MAX_TABLE_ROWS} rows are read"
+        raise DataError(msg)
+    longest = max(range(len(lines)), key=lambda k: len(lines[k]))
+    if len(lines[longest]) > limits.MAX_CSV_FIELD_BYTES:
+        msg = (f"{path}: line {longest + 1} (without comments) has {len(lines[longest])} "
+               f"characters; a CSV line is at most {limits.MAX_CSV_FIELD_BYTES}")
+        raise DataError(msg)
+    try:
+        return list(csv.reader(io.StringIO("\n".join(lines))))
+    except csv.Error as exc:
+        msg = f"{path}: not a CSV table ({exc})"
+        raise DataError(msg) from None
+
+
+def check_points(points: Points, source: str) -> Points:
+    """The points, once finite and within :mod:`~enctools.data.limits`' ranges: positions
+    within +-MAX_ABS_DEG deg, deviations within +-MAX_ABS_ARCSEC arcsec, directions +-1."""
+    for what, values, bound, unit in (("position", points.position_deg, limits.MAX_ABS_DEG, "deg"),
+                                      ("deviation", points.deviation, limits.MAX_ABS_ARCSEC,
+                                       "arcsec")):
+        bad = ~(np.abs(values) <= bound)
+        if bad.any():
+            msg = (f"{source}: {what} {values[bad][0]} {unit} is not finite within "
+                   f"+-{bound:g} {unit} (enc-streams(5), LIMITS)")
+            raise DataError(msg)
+    return points
+
+
+def points_from_csv(path: str | Path) -> Points:
+    """Points from a CSV table (``#`` comments), in one of two layouts.
+
+    ``position_deg,deviation_arcsec[,direction,run]``: calibration points as measured;
+    ``reference_deg,measured_deg`` (any header naming a reference then a measured angle,
+    e.g. ``Reference Angle [degree],Measured Angle [degree]``): a comparator's table,
+    see :func:`_comparator_points`.
+    """
+    rows = _csv_rows(path)
     head = [c.strip().lower() for c in rows[0]]
     if _is_comparator_header(head):
         return _comparator_points(path, rows)
@@ -356,9 +393,9 @@ def read_points(path: str | None) -> tuple[Header, Points]:
 
     if path is not None and is_csv_file(path):
         header = streams.Header("points", points_schema(), {"source": f"CSV {path}"})
-        return header, points_from_csv(path)
+        return header, check_points(points_from_csv(path), path)
     src = streams.open_input(path, "points")
-    return src.header, from_table(src.read_all(), src.source)
+    return src.header, check_points(from_table(src.read_all(), src.source), src.source)
 
 
 def make_points(path: str | None, settings: Settings) -> tuple[Header, Points]:
@@ -372,11 +409,12 @@ def make_points(path: str | None, settings: Settings) -> tuple[Header, Points]:
 
     if path is not None and is_csv_file(path):
         settings.check_table(path)
-        points = points_from_csv(path)
+        points = check_points(points_from_csv(path), path)
         header = streams.Header("points", points_schema(), {"source": f"CSV {path}", "history": []})
     else:
         src = streams.open_input(path, "readings")
-        points = points_from_steps(src.header, src.read_all(), settings, src.source)
+        points = check_points(points_from_steps(src.header, src.read_all(), settings, src.source),
+                              src.source)
         header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")
     header.meta["settings"] = settings.to_meta()
     header.meta["figures"] = figures_meta(figures_or_nan(distinct(points)[1]))

@@ -303,6 +303,20 @@ def batch_channels(batch: pa.RecordBatch, spec: ChannelSpec,
     return BatchChannels(t, u, values, rising, sense if n > 1 else 0)
 
 
+def _check_steps(u: np.ndarray, before: float, spec: ChannelSpec, source: str) -> None:
+    """No step of the coordinate ``u`` [rad] (from ``before``, the last of the batch before)
+    of half a turn or more: such samples cannot be cut into revolutions, and a few rows
+    would make millions of them (a counts_per_rev far below the counts recorded)."""
+    steps = np.abs(np.diff(u, prepend=before))
+    if steps.size and float(steps.max()) >= np.pi:
+        k = int(np.argmax(steps))
+        names = ", ".join(h.name for h in spec.coordinate)
+        msg = (f"{source}: the angle coordinate (mean of {names}) moves {steps[k] / TWO_PI:.4g} "
+               "turns between two samples; at most half a turn is read (is counts_per_rev "
+               "in the field metadata right?)")
+        raise DataError(msg)
+
+
 class RevolutionCutter:
     """The sequential half of :func:`revolution_spectra`: checks across batches, and
     the cut into whole revolutions of the coordinate.
@@ -345,6 +359,7 @@ class RevolutionCutter:
                    "turns back; self-calibration and comparison need a continuous run in "
                    "one direction")
             raise DataError(msg)
+        _check_steps(u, first, self.spec, self.source)
         if n > 1 and not np.isfinite(self._spacing):
             _warn_stroboscopic(float(np.median(np.abs(np.diff(u[:4097])))), self.spec)
         if n > 1:  # the mean step over the batch

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.limits import MAX_MODEL_TERMS
 from enctools.data.schemas import column_with_role, make_field
 from enctools.errors import DataError, UsageError
 from enctools.models.fourier import FourierModel
@@ -80,6 +81,15 @@ def _col(table: pa.Table, name: str, source: str) -> np.ndarray:
     return a
 
 
+def _meta_number(m: dict, key: str, default: float, source: str) -> float:
+    """A finite number of the model metadata (DataError naming the key)."""
+    value = m.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        msg = f"{source}: model metadata {key} = {str(value)[:40]!r} is not a finite number"
+        raise DataError(msg)
+    return float(value)
+
+
 def from_stream(header: Any, table: pa.Table, source: str = "input",
                 curve: str | None = None) -> Evaluator:
     """An evaluator (angles [deg] -> deviation [arcsec]) from a model or deviations stream."""
@@ -94,13 +104,17 @@ def from_stream(header: Any, table: pa.Table, source: str = "input",
     if table.num_rows == 0:
         msg = f"{source}: the model stream has no rows"
         raise DataError(msg)
+    if table.num_rows > MAX_MODEL_TERMS:
+        msg = (f"{source}: a model of {table.num_rows} centres or harmonics; at most "
+               f"{MAX_MODEL_TERMS} are evaluated (enc-streams(5), LIMITS)")
+        raise DataError(msg)
     if kernel == "rbf":
-        spread = float(m.get("spread_deg", 0.0))
-        if not spread > 0:
-            msg = f"{source}: rbf model without a positive spread_deg in its metadata"
+        spread = _meta_number(m, "spread_deg", 0.0, source)
+        if not 0 < spread <= 360:
+            msg = f"{source}: rbf model without a spread_deg in (0, 360] deg in its metadata"
             raise DataError(msg)
         return RBFModel(_col(table, "centre", source), _col(table, "weight", source),
-                        float(m.get("bias_arcsec", 0.0)), spread)
+                        _meta_number(m, "bias_arcsec", 0.0, source), spread)
     if kernel == "fourier":
         n = _col(table, "n", source).astype(np.int64)
         if n.min() < 0:

@@ -1,0 +1,203 @@
+"""Limits on what an input FILE can make enctools allocate or loop over, in one place.
+
+Every stream or table a command reads is checked against these before the work that
+depends on them starts; a value beyond a limit is a one-line
+:class:`~enctools.errors.DataError` (exit 2) naming the value and the limit. The
+numbers are stated in man/enc-streams.5 (section LIMITS); change both together.
+
+Rig files and command options have limits of their own (data/rig.py, cli/options.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+# ------------------------------------------------------------------ the header
+
+#: bytes of the JSON metadata of a stream header (key ``enctools``) [byte]
+MAX_METADATA_BYTES = 16 << 20
+#: nesting depth of the JSON metadata (objects and arrays inside each other) [levels]
+MAX_METADATA_DEPTH = 64
+#: columns of a stream [columns]
+MAX_COLUMNS = 4096
+#: characters of one field-metadata value (a head's ``encoder``, a ``unit``) [characters]
+MAX_FIELD_TEXT = 4096
+
+# ------------------------------------------------------------------ rows and bytes
+
+#: rows of a stream that a command holds whole in memory (latency, points, fit-rbf,
+#: compare, report): some 40 bytes a row for a few columns, under 500 MB [rows]
+MAX_TABLE_ROWS = 5_000_000
+#: rows of any stream, even one read batch by batch (about a day at 10 kHz) [rows]
+MAX_STREAM_ROWS = 1_000_000_000
+#: bytes of a Parquet, Arrow file or HDF5 stream arriving on a pipe, which is held in
+#: memory to be read (it needs seeking; Arrow IPC streams are read as they come) [byte]
+MAX_PIPE_BUFFER_BYTES = 256 << 20
+#: rows of one Parquet row group (read whole by the Parquet decoder) [rows]
+MAX_ROW_GROUP_ROWS = 4 << 20
+#: bytes of one HDF5 chunk once decoded (read whole by libhdf5) [byte]
+MAX_HDF5_CHUNK_BYTES = 16 << 20
+#: decoded bytes of an HDF5 column per byte it takes in the file, plus
+#: :data:`HDF5_EXPANSION_SLACK`: refuses a file whose columns are mostly fill value
+#: or compressed beyond what real readings compress to [ratio]
+MAX_HDF5_EXPANSION = 1000
+#: decoded bytes every HDF5 column may hold whatever its size in the file [byte]
+HDF5_EXPANSION_SLACK = 1 << 20
+
+#: rows of a model stream (RBF centres or harmonics), each evaluated at every address
+#: of a correction table [rows]
+MAX_MODEL_TERMS = 10_000
+
+# ------------------------------------------------------------------ text tables
+
+#: bytes of one field of a CSV points table [byte]
+MAX_CSV_FIELD_BYTES = 128 << 10
+#: bytes of a CSV points table [byte]
+MAX_CSV_BYTES = 256 << 20
+
+# ------------------------------------------------------------------ values
+
+DEG_RAD = math.pi / 180.0  # radians in a degree
+
+#: largest count a head column may hold in magnitude (2^62: differences of two counts
+#: and sums of a few heads stay within int64, and counts * 2 pi / counts_per_rev
+#: stays exact enough in float64) [count]
+MAX_ABS_COUNT = 1 << 62
+#: largest magnitude of a deviation, autocollimator reading or model weight: a
+#: full turn (1 296 000 arcsec) [arcsec]
+MAX_ABS_ARCSEC = 1_296_000.0
+#: largest magnitude of an angle in a stream (a position, a grid angle, a target):
+#: a million turns [deg]
+MAX_ABS_DEG = 360e6
+#: largest magnitude of a time [s] (t of readings: some 30 years)
+MAX_ABS_SECONDS = 1e9
+#: largest magnitude of a displacement (a probe reading, a radial error) [m]
+MAX_ABS_METRES = 1.0
+
+#: the values each column of a kind may hold, by column name or by role: (min, max,
+#: unit), both inclusive; infinities are refused too, and NaN but in the columns of
+#: :data:`NAN_ALLOWED` (a deviation curve marks its empty angle bins with NaN).
+#: Checked batch by batch as a stream is read and as one is written (data/streams.py).
+VALUE_RANGES: dict[str, dict[str, tuple[float, float, str]]] = {
+    "readings": {
+        "t": (-MAX_ABS_SECONDS, MAX_ABS_SECONDS, "s"),
+        "head": (-MAX_ABS_COUNT, MAX_ABS_COUNT, "count"),
+        "autocollimator": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+        "probe": (-MAX_ABS_METRES, MAX_ABS_METRES, "m"),
+        "target": (-MAX_ABS_DEG * DEG_RAD, MAX_ABS_DEG * DEG_RAD, "rad"),
+    },
+    "deviations": {
+        "theta": (-MAX_ABS_DEG * DEG_RAD, MAX_ABS_DEG * DEG_RAD, "rad"),
+        "deviation": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+        "radial": (-MAX_ABS_METRES * 1e9, MAX_ABS_METRES * 1e9, "nm"),
+    },
+    "points": {
+        "position": (-MAX_ABS_DEG, MAX_ABS_DEG, "deg"),
+        "deviation": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+    },
+    "model": {
+        "centre": (-MAX_ABS_DEG, MAX_ABS_DEG, "deg"),
+        "weight": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+        "weight_sin": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+    },
+}
+
+
+# ------------------------------------------------------------------ field metadata
+
+
+@dataclass(frozen=True)
+class Range:
+    """The values a field-metadata key may take: ``type`` int, float or text; ``min``
+    and ``max`` inclusive, in ``unit``; ``choices`` for text with a fixed set."""
+
+    type: str
+    min: float = -math.inf
+    max: float = math.inf
+    unit: str = ""
+    choices: tuple[str, ...] = ()
+
+    def describe(self) -> str:
+        if self.choices:
+            return " or ".join(self.choices)
+        if self.type == "text":
+            return f"text of at most {MAX_FIELD_TEXT} characters"
+        what = "an integer" if self.type == "int" else "a number"
+        unit = f" {self.unit}" if self.unit else ""
+        return f"{what} in [{_num(self.min)}, {_num(self.max)}]{unit}"
+
+
+def _num(x: float) -> str:
+    return f"{int(x)}" if float(x).is_integer() and abs(x) < 1e19 else f"{x:g}"
+
+
+#: the field-metadata keys of each role (schemas/*.json names which a role requires)
+#: and the values they may take; keys not named here are kept as text.
+FIELD_RANGES: dict[str, dict[str, Range]] = {
+    "head": {
+        "encoder": Range("text"),
+        "alpha_deg": Range("float", -360.0, 360.0, "deg"),
+        "counts_per_rev": Range("int", 16, 1 << 40, "count"),
+        "periods_per_rev": Range("int", 1, 1 << 32, "period"),
+        "interpolation": Range("int", 1, 1 << 32, "count/period"),
+        "radius_m": Range("float", 1e-4, 100.0, "m"),
+        "zero_count": Range("int", -(1 << 40), 1 << 40, "count"),
+    },
+    "probe": {
+        "arm_m": Range("float", 0.0, 100.0, "m"),  # 0: refused by the method that needs it
+        "side": Range("int", -1, 1, ""),
+    },
+    "signal": {
+        "head": Range("text"),
+        "component": Range("text", choices=("cos", "sin")),
+    },
+}
+
+#: (kind, column name or role) whose NaN values mean "no value" rather than a fault
+#: (a sweep's autocollimator has no face in view, a probe reading may be missing)
+NAN_ALLOWED = {("deviations", "deviation"), ("deviations", "radial"),
+               ("readings", "autocollimator"), ("readings", "probe")}
+
+
+def value_checks(kind: str, schema: Any) -> list[tuple[str, float, float, str, bool]]:
+    """The columns of a stream whose values :data:`VALUE_RANGES` bounds: (name, min, max,
+    unit, NaN allowed), by column name first, else by the role in its field metadata."""
+    ranges = VALUE_RANGES.get(kind, {})
+    out = []
+    for f in schema:
+        role = (f.metadata or {}).get(b"role", b"").decode()
+        key = f.name if f.name in ranges else role
+        if key in ranges:
+            out.append((f.name, *ranges[key], (kind, key) in NAN_ALLOWED))
+    return out
+
+
+def check_batch(batch: Any, checks: list[tuple[str, float, float, str, bool]],
+                source: str) -> None:
+    """Every bounded column of a record batch finite and in its range (DataError naming the
+    column, the value and the range)."""
+    import numpy as np
+
+    from enctools.errors import DataError
+
+    for name, lo, hi, unit, nan_ok in checks:
+        col = batch.column(name)
+        if col.null_count or len(col) == 0:
+            continue
+        a = col.to_numpy(zero_copy_only=False)
+        if a.dtype.kind not in "iuf":
+            continue
+        if nan_ok and a.dtype.kind == "f":
+            a = a[~np.isnan(a)]
+            if a.size == 0:
+                continue
+        if a.min() >= lo and a.max() <= hi:  # NaN fails both
+            continue
+        bad = a[~((a >= lo) & (a <= hi))][0]
+        shown = "NaN" if np.isnan(bad) else str(bad)
+        msg = (f"{source}: column {name!r} holds {shown} {unit}; values must be finite and "
+               f"within [{_num(lo)}, {_num(hi)}] {unit} (enc-streams(5), LIMITS)").replace(
+                   " ;", ";")
+        raise DataError(msg)
