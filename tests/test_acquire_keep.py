@@ -126,9 +126,13 @@ def test_keep_partial_keeps_for_every_ending_but_bad_usage_or_input(
     path = tmp_path / "run.parquet"
     if getattr(ending, "path", None) == "SELF":
         ending.path = str(path)  # type: ignore[attr-defined]
-    schema = pa.schema([pa.field("t", pa.float64())])
-    batch = pa.record_batch([pa.array([0.0, 0.1])], schema=schema)
-    header = Header("readings", schema, {})
+    from enctools.data.readings import head_field
+    from enctools.data.schemas import make_field
+
+    schema = pa.schema([make_field("t", pa.float64(), "s"),
+                        head_field("A", "enc", 0.0, 1 << 20, 1 << 12, 1 << 8, 0.1, 0)])
+    batch = pa.record_batch([pa.array([0.0, 0.1]), pa.array([0, 5], pa.int64())], schema=schema)
+    header = Header("readings", schema, {"rig": {"name": "x"}, "settings": {}})
     with pytest.raises(type(ending)), \
             streams.OutputStream(str(path), header, keep_partial=True) as out:
         out.write(batch)
