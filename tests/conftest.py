@@ -214,3 +214,28 @@ def ciomp_steps(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The default ciomp-23bit polygon run (24 positions) as Parquet."""
     return made_once(tmp_path_factory, "ciomp-steps.parquet",
                      _acquire("--rig", "ciomp-23bit", "--mode", "steps"))
+
+
+# ------------------------------------------------------------ the adversarial catalogue
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
+    """One line on the catalogue's cases run (tests/test_adversarial.py): how many per
+    category and the largest peak memory (each case's properties come back from the
+    xdist workers in its report)."""
+    per_category: dict[str, int] = {}
+    peak, where, seconds = 0.0, "", 0.0
+    for reports in terminalreporter.stats.values():
+        for rep in reports:
+            props = dict(getattr(rep, "user_properties", None) or [])
+            if getattr(rep, "when", "") != "call" or "adv_id" not in props:
+                continue
+            cat = str(props["adv_category"])
+            per_category[cat] = per_category.get(cat, 0) + 1
+            seconds += float(props["adv_seconds"])
+            if float(props["adv_peak_mb"]) > peak:
+                peak, where = float(props["adv_peak_mb"]), str(props["adv_id"])
+    if per_category:
+        cats = ", ".join(f"{k}: {v}" for k, v in sorted(per_category.items()))
+        terminalreporter.write_line(
+            f"adversarial catalogue: {sum(per_category.values())} cases ({cats}), "
+            f"peak memory max {peak:.0f} MB in case {where}; {seconds:.0f} s of child time")
