@@ -13,6 +13,7 @@ limit of 2 GiB, so that a runaway allocation fails in the child (a MemoryError: 
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import hashlib
 import os
 import re
@@ -182,7 +183,7 @@ def problems(case: Case, r: Result, folder: Path, before: dict[str, str],
 def _file_problems(case: Case, r: Result, folder: Path, before: dict[str, str],
                    kept: dict[str, str]) -> list[str]:
     bad = []
-    bad += [f"{f} is missing" for f in case.files if not os.path.lexists(folder / f)]
+    bad += [f"{f} is missing" for f in case.files if not _exists(folder, f)]
     bad += [f"{f} exists" for f in case.absent if os.path.lexists(folder / f)]
     bad += [f"{f} was changed" for f, d in kept.items()
             if not os.path.lexists(folder / f) or _digest(folder / f) != d]
@@ -190,7 +191,10 @@ def _file_problems(case: Case, r: Result, folder: Path, before: dict[str, str],
     if temporaries:
         bad.append(f"temporary files left: {temporaries}")
     if r.code != 0:
-        new = sorted(set(snapshot(folder)) - set(before) - set(case.files))
+        new = [p for p in sorted(set(snapshot(folder)) - set(before))
+               if not any(fnmatch.fnmatch(p, f) or fnmatch.fnmatch(p, f"{f}/*")
+                          or any(fnmatch.fnmatch(q, f) for q in _under(folder, p))
+                          for f in case.files)]
         if new:
             bad.append(f"a failed command left {new}")
     for name in case.readable:
@@ -202,14 +206,28 @@ def _file_problems(case: Case, r: Result, folder: Path, before: dict[str, str],
     return bad
 
 
+def _exists(folder: Path, name: str) -> bool:
+    """Whether ``name`` (a glob: ``hist/run-*.parquet``) names something in the folder."""
+    return os.path.lexists(folder / name) or any(True for _ in folder.glob(name))
+
+
+def _under(folder: Path, rel: str) -> list[str]:
+    """The entries below a new folder (a failed command may leave a folder holding a file
+    it is allowed to leave)."""
+    p = folder / rel
+    return [str(q.relative_to(folder)) for q in p.rglob("*")] if p.is_dir() else []
+
+
 def _unreadable(path: Path) -> list[str]:
-    """Nothing when ``path`` is a complete stream with rows; else what is wrong."""
+    """Nothing when ``path`` is a complete stream (no rows is complete: an interruption
+    before the first batch); else what is wrong."""
     from enctools.data import streams
     from enctools.errors import EncError
 
     try:
         with streams.open_input(str(path)) as s:
-            rows = sum(b.num_rows for b in s.batches())
+            for _ in s.batches():
+                pass
     except (EncError, OSError) as exc:
         return [f"{path.name} is not a readable stream: {exc}"]
-    return [] if rows else [f"{path.name} has no rows"]
+    return []
