@@ -219,11 +219,12 @@ def ciomp_steps(tmp_path_factory: pytest.TempPathFactory) -> Path:
 # ------------------------------------------------------------ the adversarial catalogue
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
-    """One line on the catalogue's cases run (tests/test_adversarial.py): how many per
-    category and the largest peak memory (each case's properties come back from the
-    xdist workers in its report)."""
+    """One line on the catalogue's cases run (tests/test_adversarial*.py): how many per
+    category and the largest peak memory, over all of them and over those that passed
+    (each case's properties come back from the xdist workers in its report)."""
     per_category: dict[str, int] = {}
-    peak, where, seconds = 0.0, "", 0.0
+    peak: dict[str, tuple[float, str]] = {"all": (0.0, ""), "passed": (0.0, "")}
+    seconds = 0.0
     for reports in terminalreporter.stats.values():
         for rep in reports:
             props = dict(getattr(rep, "user_properties", None) or [])
@@ -232,10 +233,15 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
             cat = str(props["adv_category"])
             per_category[cat] = per_category.get(cat, 0) + 1
             seconds += float(props["adv_seconds"])
-            if float(props["adv_peak_mb"]) > peak:
-                peak, where = float(props["adv_peak_mb"]), str(props["adv_id"])
+            mb, case = float(props["adv_peak_mb"]), str(props["adv_id"])
+            for key in ("all", "passed") if rep.passed and not hasattr(rep, "wasxfail") \
+                    else ("all",):
+                if mb > peak[key][0]:
+                    peak[key] = (mb, case)
     if per_category:
         cats = ", ".join(f"{k}: {v}" for k, v in sorted(per_category.items()))
         terminalreporter.write_line(
             f"adversarial catalogue: {sum(per_category.values())} cases ({cats}), "
-            f"peak memory max {peak:.0f} MB in case {where}; {seconds:.0f} s of child time")
+            f"peak memory max {peak['all'][0]:.0f} MB in case {peak['all'][1]} "
+            f"(of the passing cases: {peak['passed'][0]:.0f} MB in {peak['passed'][1]}); "
+            f"{seconds:.0f} s of child time")
