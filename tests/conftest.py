@@ -224,7 +224,7 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
     (each case's properties come back from the xdist workers in its report)."""
     per_category: dict[str, int] = {}
     peak: dict[str, tuple[float, str]] = {"all": (0.0, ""), "passed": (0.0, "")}
-    seconds = 0.0
+    seconds = cpu = 0.0
     for reports in terminalreporter.stats.values():
         for rep in reports:
             props = dict(getattr(rep, "user_properties", None) or [])
@@ -233,6 +233,7 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
             cat = str(props["adv_category"])
             per_category[cat] = per_category.get(cat, 0) + 1
             seconds += float(props["adv_seconds"])
+            cpu += float(props.get("adv_cpu_s", 0.0))
             mb, case = float(props["adv_peak_mb"]), str(props["adv_id"])
             for key in ("all", "passed") if rep.passed and not hasattr(rep, "wasxfail") \
                     else ("all",):
@@ -244,4 +245,4 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
             f"adversarial catalogue: {sum(per_category.values())} cases ({cats}), "
             f"peak memory max {peak['all'][0]:.0f} MB in case {peak['all'][1]} "
             f"(of the passing cases: {peak['passed'][0]:.0f} MB in {peak['passed'][1]}); "
-            f"{seconds:.0f} s of child time")
+            f"children: {seconds:.0f} s, {cpu:.0f} s of CPU")

@@ -46,6 +46,7 @@ class Result:
     peak_mb: float
     seconds: float
     timed_out: bool
+    cpu_s: float = 0.0
 
 
 def _env(case: Case) -> dict[str, str]:
@@ -123,7 +124,7 @@ def run(case: Case, folder: Path, base: Path) -> Result:
         out.seek(0)
         err.seek(0)
         return Result(proc.returncode, out.read(), err.read(), usage.ru_maxrss / 1024, seconds,
-                      timed_out.is_set())
+                      timed_out.is_set(), usage.ru_utime + usage.ru_stime)
 
 
 # ------------------------------------------------------------------ the folder
