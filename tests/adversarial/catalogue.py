@@ -27,7 +27,7 @@ CASE_KEYS: dict[str, type | tuple[type, ...]] = {
 READER_KEYS = {"name", "argv", "valid", "other_kind", "column", "stdin", "pending", "outputs",
                "setup"}
 HOSTILE_IN_KEYS = {"id", "setup", "stdin", "exit", "why"}
-WRITER_KEYS = {"name", "argv", "ext", "setup", "pending"}
+WRITER_KEYS = {"name", "argv", "ext", "setup", "pending", "timeout"}
 HOSTILE_OUT_KEYS = {"id", "setup", "out", "force", "exit", "unchanged", "files", "why"}
 
 
@@ -49,7 +49,7 @@ class Case:
     stdout_lacks: list[str] = field(default_factory=list)
     file_lacks: list[dict[str, str]] = field(default_factory=list)
     signal: dict[str, Any] | None = None
-    timeout: float = 20.0
+    timeout: float = 10.0
     pending: str | None = None
     error_cmd: str | None = None
     why: str = ""
@@ -153,7 +153,7 @@ def _writers(doc: dict[str, Any], source: str) -> list[Case]:
                 exit=[h.get("exit", 2)], unchanged=_fill(h.get("unchanged", []), subs),
                 files=_fill(h.get("files", []), subs),
                 pending=w.get("pending", {}).get(h["id"]), why=h.get("why", ""),
-                source=source, matrix=True))
+                timeout=w.get("timeout", 10.0), source=source, matrix=True))
     return out
 
 
