@@ -77,11 +77,16 @@ bench: $(VENV)/.installed  ## measure speed and memory of every command (table f
 	$(BIN)/python benchmarks/bench.py --out bench-out
 
 FUZZ_SECONDS ?= 300
-fuzz: $(VENV)/.installed  ## fuzz the stream readers with atheris (findings in fuzz-out/)
+# three fuzzers, a third of FUZZ_SECONDS each: streams, rig files, CSV and correction tables
+fuzz: $(VENV)/.installed  ## fuzz stream readers, rig files and tables with atheris (findings in fuzz-out/)
 	$(BIN)/python -m pip install -q atheris
 	@mkdir -p fuzz-out
-	$(BIN)/python tests/fuzz_readers.py fuzz-out/corpus -max_total_time=$(FUZZ_SECONDS) \
+	$(BIN)/python tests/fuzz_readers.py fuzz-out/corpus -max_total_time=$$(($(FUZZ_SECONDS) / 3)) \
 	    -artifact_prefix=fuzz-out/ -rss_limit_mb=4096
+	$(BIN)/python tests/fuzz_rigs.py fuzz-out/corpus-rigs -max_total_time=$$(($(FUZZ_SECONDS) / 3)) \
+	    -artifact_prefix=fuzz-out/rigs- -rss_limit_mb=4096
+	$(BIN)/python tests/fuzz_tables.py fuzz-out/corpus-tables \
+	    -max_total_time=$$(($(FUZZ_SECONDS) / 3)) -artifact_prefix=fuzz-out/tables- -rss_limit_mb=4096
 
 man:  ## check that every man page renders without warnings
 	@for f in man/*.[15]; do out=$$(LC_ALL=C.UTF-8 MANWIDTH=80 man --warnings -l $$f 2>&1 >/dev/null); \

@@ -236,3 +236,35 @@ def full_tmpfs(tmp_path):
         yield mnt
     finally:
         subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+# ------------------------------------------------------------ the adversarial catalogue
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
+    """One line on the catalogue's cases run (tests/test_adversarial*.py): how many per
+    category and the largest peak memory, over all of them and over those that passed
+    (each case's properties come back from the xdist workers in its report)."""
+    per_category: dict[str, int] = {}
+    peak: dict[str, tuple[float, str]] = {"all": (0.0, ""), "passed": (0.0, "")}
+    seconds = cpu = 0.0
+    for reports in terminalreporter.stats.values():
+        for rep in reports:
+            props = dict(getattr(rep, "user_properties", None) or [])
+            if getattr(rep, "when", "") != "call" or "adv_id" not in props:
+                continue
+            cat = str(props["adv_category"])
+            per_category[cat] = per_category.get(cat, 0) + 1
+            seconds += float(props["adv_seconds"])
+            cpu += float(props.get("adv_cpu_s", 0.0))
+            mb, case = float(props["adv_peak_mb"]), str(props["adv_id"])
+            for key in ("all", "passed") if rep.passed and not hasattr(rep, "wasxfail") \
+                    else ("all",):
+                if mb > peak[key][0]:
+                    peak[key] = (mb, case)
+    if per_category:
+        cats = ", ".join(f"{k}: {v}" for k, v in sorted(per_category.items()))
+        terminalreporter.write_line(
+            f"adversarial catalogue: {sum(per_category.values())} cases ({cats}), "
+            f"peak memory max {peak['all'][0]:.0f} MB in case {peak['all'][1]} "
+            f"(of the passing cases: {peak['passed'][0]:.0f} MB in {peak['passed'][1]}); "
+            f"children: {seconds:.0f} s, {cpu:.0f} s of CPU")

@@ -1,0 +1,384 @@
+"""Builders of the catalogue's hostile inputs.
+
+A case's ``setup`` is a list of steps, ``{use = "NAME", ...}``: each calls the builder
+``NAME(folder, base, **the other keys)``, which writes into the case's own folder. ``base``
+is a folder of small valid inputs made once per test session (:func:`make_base`); the
+builders copy from it, then break the copy. A builder writes what it is told and no more:
+the runner takes a snapshot of the folder after the setup, and a failing command must
+leave it as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random as _random
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT / "tests" / "data"
+RIGS = ROOT / "tests" / "rigs"
+BUNDLED = ROOT / "enctools" / "rigs"
+
+#: the base inputs in waves (a wave reads only what earlier waves made): file name ->
+#: the enc command (after ``enc``) that makes it
+BASE: list[dict[str, list[str]]] = [
+    {"raw.arrows": ["acquire", "--rig", "sjtu-dual", "--revolutions", "0.05"],
+     "r2.parquet": ["acquire", "--rig", "sjtu-dual", "--revolutions", "2",
+                    "--heads", "H1,H2,H3,H4,P1,P2"],
+     "lat.parquet": ["acquire", "--rig", "ciomp-23bit", "--mode", "continuous",
+                     "--revolutions", "0.05"],
+     "steps.parquet": ["acquire", "--rig", "ciomp-23bit", "--mode", "steps"],
+     "sweep.parquet": ["acquire", "--rig", "sjtu-dual", "--mode", "sweep"],
+     "points.parquet": ["points", str(DATA / "seed001_table1.csv")],
+     "points.arrows": ["points", str(DATA / "seed001_table1.csv")]},
+    {"raw.parquet": ["acquire", "--replay", "raw.arrows"],
+     "raw.h5": ["acquire", "--replay", "raw.arrows"],
+     "raw.arrow": ["acquire", "--replay", "raw.arrows"],
+     "steps.h5": ["acquire", "--replay", "steps.parquet"],
+     "model.parquet": ["fit-rbf", "points.parquet", "--spread", "15"],
+     "model.h5": ["fit-rbf", "points.parquet", "--spread", "15"],
+     "dev.parquet": ["selfcal", "r2.parquet", "--spectrum", "spec.parquet"],
+     "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--ref", "P1"]},
+    {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream"]},
+]
+
+
+def _enc() -> str:
+    return str(Path(sys.executable).parent / "enc")
+
+
+def make_base(folder: Path) -> None:
+    """The valid inputs every case starts from (a few seconds, once per session)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def make(name: str, args: list[str]) -> None:
+        r = subprocess.run([_enc(), *args, "-q", "-o", name], cwd=folder, capture_output=True,
+                           timeout=300)
+        if r.returncode != 0:
+            msg = f"base input {name}: {r.stderr.decode()}"
+            raise RuntimeError(msg)
+
+    folder.mkdir(parents=True, exist_ok=True)
+    with ThreadPoolExecutor(4) as pool:
+        for wave in BASE:
+            for f in [pool.submit(make, name, args) for name, args in wave.items()]:
+                f.result()
+    shutil.copy(DATA / "seed001_table1.csv", folder / "table1.csv")
+
+
+# ------------------------------------------------------------------ plain files
+
+def copy(folder: Path, base: Path, src: str, to: str | None = None) -> None:
+    """A base input (or a file of tests/data, tests/rigs: ``data:NAME``, ``rigs:NAME``)."""
+    shutil.copy(_source(base, src), folder / (to or Path(src).name.split(":")[-1]))
+
+
+def _source(base: Path, src: str) -> Path:
+    if src.startswith("data:"):
+        return DATA / src[5:]
+    if src.startswith("rigs:"):
+        return RIGS / src[5:]
+    if src.startswith("bundled:"):
+        return BUNDLED / f"{src[8:]}.toml"
+    return base / src
+
+
+def empty(folder: Path, base: Path, to: str) -> None:
+    (folder / to).write_bytes(b"")
+
+
+def text(folder: Path, base: Path, to: str, content: str) -> None:
+    """A file holding ``content`` (UTF-8, written as given)."""
+    (folder / to).write_text(content, encoding="utf-8")
+
+
+def random_bytes(folder: Path, base: Path, to: str, size: int = 4096, seed: int = 0,
+                 prefix: str = "") -> None:
+    """``size`` random bytes, optionally after a prefix (magic bytes, given as latin-1)."""
+    rng = _random.Random(seed)
+    (folder / to).write_bytes(prefix.encode("latin-1") + rng.randbytes(size))
+
+
+def truncate(folder: Path, base: Path, src: str, to: str, at: float) -> None:
+    """A base input cut short: at byte ``at`` (negative: that many bytes before the end;
+    a fraction between 0 and 1: that part of the file)."""
+    data = _source(base, src).read_bytes()
+    n = int(len(data) * at) if 0 < at < 1 else int(at)
+    (folder / to).write_bytes(data[:n])
+
+
+def big_csv_field(folder: Path, base: Path, to: str, size: int = 200_000) -> None:
+    """A points CSV whose second data line holds one field of ``size`` characters."""
+    (folder / to).write_text("position_deg,deviation_arcsec\n0,1.0\n15," + "7" * size + "\n")
+
+
+def csv_rows(folder: Path, base: Path, to: str, rows: list[list[Any]],
+             header: str = "position_deg,deviation_arcsec") -> None:
+    lines = [header, *(",".join(str(v) for v in row) for row in rows)]
+    (folder / to).write_text("\n".join(lines) + "\n")
+
+
+def fifo(folder: Path, base: Path, to: str) -> None:
+    os.mkfifo(folder / to)
+
+
+def mkdir(folder: Path, base: Path, to: str) -> None:
+    (folder / to).mkdir(parents=True, exist_ok=True)
+
+
+def symlink(folder: Path, base: Path, to: str, target: str) -> None:
+    (folder / to).symlink_to(target)
+
+
+def stale_temporary(folder: Path, base: Path, name: str, age_s: float = 7200) -> None:
+    """What kill -9 leaves: ``.NAME.PID@HOST.RANDOM.tmp`` of an ended writer, ``age_s`` old."""
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    host = os.uname().nodename
+    t = folder / f".{name}.{p.pid}@{host}.k9x{p.pid % 1000}.tmp"
+    t.write_bytes(b"PAR1 partial")
+    then = time.time() - age_s
+    os.utime(t, (then, then))
+
+
+# ------------------------------------------------------------------ streams
+
+def _read(path: Path) -> Any:
+    """A stream file as an Arrow table, its schema metadata kept (any of the four formats)."""
+    from enctools.data import streams
+
+    with streams.open_input(str(path)) as s:
+        table = s.read_all()
+        meta = {b"kind": s.header.kind.encode(),
+                b"enctools": json.dumps(s.header.meta).encode()}
+    return table.replace_schema_metadata({**(table.schema.metadata or {}), **meta})
+
+
+def _write(table: Any, path: Path) -> None:
+    """``table`` as Parquet or Arrow IPC (by the extension), its metadata as it is."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    if path.suffix in (".arrows", ".ipc"):
+        with pa.ipc.new_stream(path, table.schema) as w:
+            w.write_table(table)
+    elif path.suffix in (".arrow", ".feather"):
+        with pa.ipc.new_file(path, table.schema) as w:
+            w.write_table(table)
+    else:
+        pq.write_table(table, path)
+
+
+def drop_column(folder: Path, base: Path, src: str, to: str, column: str) -> None:
+    table = _read(_source(base, src))
+    _write(table.drop_columns([column]), folder / to)
+
+
+def field_meta(folder: Path, base: Path, src: str, to: str, column: str, key: str,
+               value: str | None) -> None:
+    """A stream whose column's field metadata ``key`` is ``value`` (None: removed)."""
+    import pyarrow as pa
+
+    table = _read(_source(base, src))
+    i = table.schema.get_field_index(column)
+    f = table.schema.field(i)
+    md = dict(f.metadata or {})
+    md.pop(key.encode(), None)
+    if value is not None:
+        md[key.encode()] = str(value).encode()
+    schema = table.schema.set(i, pa.field(f.name, f.type, metadata=md))
+    _write(pa.Table.from_arrays(table.columns, schema=schema), folder / to)
+
+
+def _set_path(meta: dict[str, Any], path: str, value: Any) -> None:
+    keys = path.split(".")
+    node: Any = meta
+    for k in keys[:-1]:
+        node = node[int(k)] if isinstance(node, list) else node.setdefault(k, {})
+    if isinstance(node, list):
+        node[int(keys[-1])] = value
+    else:
+        node[keys[-1]] = value
+
+
+def stream_meta(folder: Path, base: Path, src: str, to: str, path: str, value: Any) -> None:
+    """A stream whose ``enctools`` metadata has ``value`` at the dotted ``path``
+    (``rig.polygon.faces``, ``rig``)."""
+    table = _read(_source(base, src))
+    meta = json.loads(table.schema.metadata[b"enctools"])
+    _set_path(meta, path, value)
+    md = {**table.schema.metadata, b"enctools": json.dumps(meta).encode()}
+    _write(table.replace_schema_metadata(md), folder / to)
+
+
+def raw_meta(folder: Path, base: Path, src: str, to: str, key: str, value: str) -> None:
+    """A stream whose schema metadata ``key`` (``enctools``, ``kind``) is the raw text."""
+    table = _read(_source(base, src))
+    md = {**table.schema.metadata, key.encode(): value.encode()}
+    _write(table.replace_schema_metadata(md), folder / to)
+
+
+def deep_json_meta(folder: Path, base: Path, src: str, to: str, depth: int,
+                   where: str = "settings") -> None:
+    """The ``enctools`` metadata with a list nested ``depth`` deep at ``where``."""
+    table = _read(_source(base, src))
+    text_ = table.schema.metadata[b"enctools"].decode()
+    nested = "[" * depth + "]" * depth
+    assert text_.startswith("{")
+    text_ = "{" + json.dumps(where) + ": " + nested + ", " + text_[1:]
+    md = {**table.schema.metadata, b"enctools": text_.encode()}
+    _write(table.replace_schema_metadata(md), folder / to)
+
+
+def nasty_meta(folder: Path, base: Path, src: str, to: str, extra: str = "") -> None:
+    """A stream whose rig name, description and a history line carry terminal controls
+    (and ``extra``)."""
+    nasty = "\x1b[2J\x1b]0;title\x07\rerror: fake\x9b31m\x7f" + extra
+    table = _read(_source(base, src))
+    meta = json.loads(table.schema.metadata[b"enctools"])
+    meta["rig"] = {**(meta.get("rig") or {}), "name": "rig" + nasty,
+                   "description": "desc" + nasty + "\nsecond line"}
+    meta["history"] = [*meta.get("history", []), "hist" + nasty]
+    md = {**table.schema.metadata, b"enctools": json.dumps(meta).encode()}
+    _write(table.replace_schema_metadata(md), folder / to)
+
+
+def nasty_column(folder: Path, base: Path, src: str, to: str, column: str) -> None:
+    """A stream whose column ``column`` is renamed to a name carrying terminal controls,
+    with a unit that does too."""
+    import pyarrow as pa
+
+    table = _read(_source(base, src))
+    i = table.schema.get_field_index(column)
+    f = table.schema.field(i)
+    md = {**(f.metadata or {}), b"unit": b"arcsec\x1b[2J"}
+    schema = table.schema.set(i, pa.field(f"{column}\x1b]0;x\x07", f.type, metadata=md))
+    _write(pa.Table.from_arrays(table.columns, schema=schema), folder / to)
+
+
+def set_values(folder: Path, base: Path, src: str, to: str, column: str, value: Any,
+               rows: str = "all") -> None:
+    """A stream whose ``column`` holds ``value`` ("nan", "inf", "-inf", "int64max", a
+    number) in every row (``rows = "all"``), the first (``"first"``) or the middle one."""
+    import numpy as np
+    import pyarrow as pa
+
+    table = _read(_source(base, src))
+    i = table.schema.get_field_index(column)
+    f = table.schema.field(i)
+    col = table.column(i).to_numpy().copy()
+    special = {"nan": np.nan, "inf": np.inf, "-inf": -np.inf,
+               "int64max": np.iinfo(np.int64).max, "int64min": np.iinfo(np.int64).min}
+    v = special.get(value, value) if isinstance(value, str) else value
+    if rows == "all":
+        col[:] = v
+    else:
+        col[0 if rows == "first" else len(col) // 2] = v
+    cols = list(table.columns)
+    cols[i] = pa.array(col, type=f.type)
+    _write(pa.Table.from_arrays(cols, schema=table.schema), folder / to)
+
+
+def h5_claims_rows(folder: Path, base: Path, src: str, to: str, rows: int) -> None:
+    """An HDF5 copy of a stream whose every column dataset claims ``rows`` rows: chunked,
+    never written (a few kB on disk)."""
+    import h5py
+
+    shutil.copy(_source(base, src), folder / to)
+    with h5py.File(folder / to, "r+") as h5:
+        for gname, g in list(h5.items()):
+            if not isinstance(g, h5py.Group):
+                continue
+            for name, ds in list(g.items()):
+                attrs = dict(ds.attrs)
+                dtype = ds.dtype
+                del g[name]
+                new = g.create_dataset(name, shape=(rows,), dtype=dtype, chunks=(1 << 16,))
+                for k, v in attrs.items():
+                    new.attrs[k] = v
+            del gname
+
+
+def many_rows(folder: Path, base: Path, src: str, to: str, rows: int) -> None:
+    """A Parquet readings file of ``rows`` rows of one repeated row of ``src`` (each column
+    one value: dictionary-encoded, a few MB). Made once per session and linked."""
+    import fcntl
+
+    cache = base / f"many-{rows}-{Path(src).stem}.parquet"
+    with open(base / ".many.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not cache.exists():
+            _write_many(_source(base, src), cache, rows)
+    os.link(cache, folder / to)
+
+
+def _write_many(src: Path, out: Path, rows: int) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = _read(src)
+    chunk = 1 << 22
+    one = table.slice(0, 1)
+    block = pa.Table.from_arrays([pa.repeat(c.chunk(0)[0], chunk) if hasattr(pa, "repeat")
+                                  else c.take([0] * chunk) for c in one.columns],
+                                 schema=table.schema)
+    tmp = out.with_suffix(".part")
+    with pq.ParquetWriter(tmp, table.schema, compression="zstd",
+                          use_dictionary=True) as w:
+        done = 0
+        while done < rows:
+            n = min(chunk, rows - done)
+            w.write_table(block.slice(0, n), row_group_size=chunk)
+            done += n
+    tmp.rename(out)
+
+
+# ------------------------------------------------------------------ rig files
+
+def rig(folder: Path, base: Path, to: str = "rig.toml", src: str = "bundled:ciomp-23bit",
+        replace: dict[str, str] | None = None, append: str = "", prepend: str = "") -> None:
+    """A rig file: ``src`` (a bundled rig, or ``rigs:visa-sim.toml`` with its pyvisa-sim
+    file beside it) with text substitutions (each must match) and lines added."""
+    path = _source(base, src)
+    body = path.read_text()
+    for old, new in (replace or {}).items():
+        if old not in body:
+            msg = f"rig builder: {old!r} is not in {path}"
+            raise ValueError(msg)
+        body = body.replace(old, new)
+    (folder / to).write_text(prepend + body + append)
+    if src.startswith("rigs:"):
+        shutil.copy(RIGS / "rotary-table.yaml", folder)
+
+
+def deep_toml(folder: Path, base: Path, to: str, depth: int, how: str = "array") -> None:
+    """A rig file nesting an array (or inline table) ``depth`` deep."""
+    if how == "array":
+        value = "[" * depth + "1" + "]" * depth
+    else:
+        value = "{a = " * depth + "1" + "}" * depth
+    (folder / to).write_text(f'format = 1\nname = "deep"\ndescription = {value}\n')
+
+
+BUILDERS: dict[str, Callable[..., None]] = {
+    f.__name__: f for f in (copy, empty, text, random_bytes, truncate, big_csv_field,
+                            csv_rows, fifo, mkdir, symlink, stale_temporary, drop_column,
+                            field_meta, stream_meta, raw_meta, deep_json_meta, nasty_meta,
+                            nasty_column, set_values, h5_claims_rows, many_rows, rig,
+                            deep_toml)
+}
+
+
+def build(folder: Path, base: Path, steps: list[dict[str, Any]]) -> None:
+    """Run a case's setup steps in order."""
+    for step in steps:
+        args = dict(step)
+        name = args.pop("use")
+        BUILDERS[name](folder, base, **args)

@@ -1,0 +1,234 @@
+"""Run one catalogue case in a child process and check what it promised.
+
+Peak memory: the child is waited for with ``os.wait4``, whose ``ru_maxrss`` (KiB on
+Linux) is the high-water resident set of that child *and of every descendant it waited
+for* (the kernel folds a reaped child's peak into its parent's). So for a ``shell`` case,
+``bash -c 'enc a | enc b'`` reports the largest of bash, enc a and enc b: the largest
+single process of the pipeline, not their sum. A descendant that is not waited for
+(``cmd &`` left to init) is not counted. The child also runs under an address-space
+limit of 2 GiB, so that a runaway allocation fails in the child (a MemoryError: an
+"internal error" line, a failed case) instead of starving the machine.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fnmatch
+import hashlib
+import os
+import re
+import resource
+import signal
+import stat
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from adversarial.builders import DATA, RIGS, ROOT
+from adversarial.catalogue import Case
+
+#: the peak resident memory every case must stay under [MB]
+MAX_MB = 500.0
+#: the address-space limit of a case's process [bytes]
+ADDRESS_LIMIT = 2 << 30
+ERROR_LINE = re.compile(r"^(enc [a-z-]+|enc-nightly): error: ")
+
+
+@dataclass
+class Result:
+    code: int
+    stdout: bytes
+    stderr: bytes
+    peak_mb: float
+    seconds: float
+    timed_out: bool
+    cpu_s: float = 0.0
+
+
+def _env(case: Case) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ENC_")}
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{ROOT / 'bin'}{os.pathsep}" \
+                  f"{env.get('PATH', '')}"
+    env.update(case.env)
+    return env
+
+
+def _subs(text: str, folder: Path, base: Path) -> str:
+    for k, v in {"data": DATA, "rigs": RIGS, "root": ROOT, "base": base, "dir": folder}.items():
+        text = text.replace("{" + k + "}", str(v))
+    return text
+
+
+def command_line(case: Case, folder: Path, base: Path) -> list[str]:
+    if case.shell is not None:
+        return ["/bin/bash", "-o", "pipefail", "-c", _subs(case.shell, folder, base)]
+    assert case.argv is not None
+    argv = [_subs(a, folder, base) for a in case.argv]
+    if argv[0] == "enc":
+        argv[0] = str(Path(sys.executable).parent / "enc")
+    elif argv[0] == "enc-nightly":
+        argv[0] = str(ROOT / "bin" / "enc-nightly")
+    return argv
+
+
+def _limits() -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_LIMIT, ADDRESS_LIMIT))
+
+
+def _send_signal(case: Case, proc: subprocess.Popen, folder: Path) -> None:
+    """Once the signal's ``when`` glob matches in the folder (or at once), wait ``delay``
+    seconds and send it."""
+    assert case.signal is not None
+    deadline = time.monotonic() + case.timeout / 2
+    when = case.signal.get("when")
+    while when and not list(folder.glob(when)) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    time.sleep(float(case.signal.get("delay", 0.0)))
+    with contextlib.suppress(ProcessLookupError):
+        proc.send_signal(getattr(signal, f"SIG{case.signal['sig']}"))
+
+
+def run(case: Case, folder: Path, base: Path) -> Result:
+    """Run the case's command in ``folder`` and wait for it (killed at its timeout)."""
+    stdin = open(folder / case.stdin, "rb") if case.stdin else subprocess.DEVNULL  # noqa: SIM115
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        start = time.monotonic()
+        proc = subprocess.Popen(command_line(case, folder, base), cwd=folder, env=_env(case),
+                                stdin=stdin, stdout=out, stderr=err, preexec_fn=_limits,
+                                start_new_session=True)
+        timed_out = threading.Event()
+
+        def kill() -> None:
+            timed_out.set()
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+
+        timer = threading.Timer(case.timeout, kill)
+        timer.start()
+        try:
+            if case.signal:
+                _send_signal(case, proc, folder)
+            _, status, usage = os.wait4(proc.pid, 0)
+        finally:
+            timer.cancel()
+            if not isinstance(stdin, int):
+                stdin.close()
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)  # what the command left running
+        seconds = time.monotonic() - start
+        out.seek(0)
+        err.seek(0)
+        return Result(proc.returncode, out.read(), err.read(), usage.ru_maxrss / 1024, seconds,
+                      timed_out.is_set(), usage.ru_utime + usage.ru_stime)
+
+
+# ------------------------------------------------------------------ the folder
+
+def _digest(path: Path) -> str:
+    st = os.lstat(path)
+    if stat.S_ISREG(st.st_mode):
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    if stat.S_ISLNK(st.st_mode):
+        return "link:" + os.readlink(path)
+    return f"mode:{stat.S_IFMT(st.st_mode):o}"
+
+
+def snapshot(folder: Path) -> dict[str, str]:
+    """Every entry under the folder: its relative path -> what kind it is (not its content;
+    a FIFO is never opened)."""
+    out = {}
+    for p in folder.rglob("*"):
+        st = os.lstat(p)
+        out[str(p.relative_to(folder))] = f"mode:{stat.S_IFMT(st.st_mode):o}"
+    return out
+
+
+def digests(folder: Path, names: list[str]) -> dict[str, str]:
+    return {n: _digest(folder / n) for n in names}
+
+
+# ------------------------------------------------------------------ the checks
+
+def problems(case: Case, r: Result, folder: Path, before: dict[str, str],
+             kept: dict[str, str]) -> list[str]:
+    """What the case promised and the run did not do (empty: it passed)."""
+    err = r.stderr.decode("utf-8", "replace")
+    bad = []
+    if r.timed_out:
+        bad.append(f"timed out after {case.timeout:g} s")
+    if r.code not in case.exit:
+        bad.append(f"exit {r.code}, expected {' or '.join(map(str, case.exit))}")
+    if r.peak_mb >= MAX_MB:
+        bad.append(f"peak memory {r.peak_mb:.0f} MB >= {MAX_MB:.0f} MB")
+    if "internal error" in err.lower() or "Traceback" in err:
+        bad.append("an internal error or a traceback")
+    if r.code not in (0, 1):
+        lines = [ln for ln in err.splitlines() if "error:" in ln]
+        want = f"{case.command()}: error: "
+        if len(lines) != 1 or not lines[0].startswith(want):
+            bad.append(f"not exactly one line starting {want!r}")
+    if case.stderr and not re.search(case.stderr, err):
+        bad.append(f"stderr does not match {case.stderr!r}")
+    bad += _file_problems(case, r, folder, before, kept)
+    for s in case.stdout_lacks:
+        if s.encode() in r.stdout or s.encode() in r.stderr:
+            bad.append(f"the output holds {s!r}")
+    return bad
+
+
+def _file_problems(case: Case, r: Result, folder: Path, before: dict[str, str],
+                   kept: dict[str, str]) -> list[str]:
+    bad = []
+    bad += [f"{f} is missing" for f in case.files if not _exists(folder, f)]
+    bad += [f"{f} exists" for f in case.absent if os.path.lexists(folder / f)]
+    bad += [f"{f} was changed" for f, d in kept.items()
+            if not os.path.lexists(folder / f) or _digest(folder / f) != d]
+    temporaries = [str(p.relative_to(folder)) for p in folder.rglob(".*.tmp")]
+    if temporaries:
+        bad.append(f"temporary files left: {temporaries}")
+    if r.code != 0:
+        new = [p for p in sorted(set(snapshot(folder)) - set(before))
+               if not any(fnmatch.fnmatch(p, f) or fnmatch.fnmatch(p, f"{f}/*")
+                          or any(fnmatch.fnmatch(q, f) for q in _under(folder, p))
+                          for f in case.files)]
+        if new:
+            bad.append(f"a failed command left {new}")
+    for name in case.readable:
+        bad += _unreadable(folder / name)
+    for rule in case.file_lacks:
+        p = folder / rule["file"]
+        if p.exists() and re.search(rule["regex"], p.read_text("utf-8", "replace"), re.M):
+            bad.append(f"{rule['file']} holds a line matching {rule['regex']!r}")
+    return bad
+
+
+def _exists(folder: Path, name: str) -> bool:
+    """Whether ``name`` (a glob: ``hist/run-*.parquet``) names something in the folder."""
+    return os.path.lexists(folder / name) or any(True for _ in folder.glob(name))
+
+
+def _under(folder: Path, rel: str) -> list[str]:
+    """The entries below a new folder (a failed command may leave a folder holding a file
+    it is allowed to leave)."""
+    p = folder / rel
+    return [str(q.relative_to(folder)) for q in p.rglob("*")] if p.is_dir() else []
+
+
+def _unreadable(path: Path) -> list[str]:
+    """Nothing when ``path`` is a complete stream (no rows is complete: an interruption
+    before the first batch); else what is wrong."""
+    from enctools.data import streams
+    from enctools.errors import EncError
+
+    try:
+        with streams.open_input(str(path)) as s:
+            for _ in s.batches():
+                pass
+    except (EncError, OSError) as exc:
+        return [f"{path.name} is not a readable stream: {exc}"]
+    return []

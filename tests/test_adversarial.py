@@ -1,0 +1,90 @@
+"""The adversarial catalogue (tests/adversarial/cases/*.toml): every hostile case in a child
+process with a timeout, its peak memory measured (under 500 MB), its exit status, files
+and error line checked (tests/adversarial/runner.py).
+
+A case marked ``pending`` is a known failure, expected to fail (strict): when the fix
+lands it passes, the test fails loudly, and the marker is to be deleted from its row.
+The cases spawn many processes: marked slow (``make test``, not ``make check``), but for
+the checks of the catalogue itself.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from adversarial import builders, catalogue, runner
+from conftest import made_once
+
+CASES = catalogue.load()
+#: the rows written one by one here; the matrices' rows run in test_adversarial_matrix.py
+#: (two files: the two xdist workers of make test take one each)
+ROWS = [c for c in CASES if not c.matrix]
+
+
+def _param(case: catalogue.Case) -> object:
+    marks = [pytest.mark.slow]
+    if case.pending:
+        strict = not case.pending.startswith("intermittent:")
+        marks.append(pytest.mark.xfail(strict=strict, reason=f"pending: {case.pending}"))
+    return pytest.param(case, id=case.id, marks=marks)
+
+
+def _make_base(path: Path) -> None:
+    part = path.with_name(path.name + ".part")
+    shutil.rmtree(part, ignore_errors=True)
+    builders.make_base(part)
+    part.rename(path)
+
+
+@pytest.fixture(scope="session")
+def base(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return made_once(tmp_path_factory, "adversarial-base", _make_base)
+
+
+def run_case(case: catalogue.Case, base: Path, tmp_path: Path, record_property) -> None:
+    """Build the case's inputs, run it, record its figures, check its promises."""
+    folder = tmp_path / "case"
+    folder.mkdir()
+    builders.build(folder, base, case.setup)
+    before = runner.snapshot(folder)
+    kept = runner.digests(folder, case.unchanged)
+    r = runner.run(case, folder, base)
+    record_property("adv_id", case.id)
+    record_property("adv_category", case.category)
+    record_property("adv_peak_mb", round(r.peak_mb, 1))
+    record_property("adv_seconds", round(r.seconds, 2))
+    record_property("adv_cpu_s", round(r.cpu_s, 2))
+    bad = runner.problems(case, r, folder, before, kept)
+    assert not bad, (f"{case.id} ({case.source}): " + "; ".join(bad)
+                     + f"\nexit {r.code}, {r.seconds:.1f} s, {r.peak_mb:.0f} MB"
+                     + f"\nstderr: {r.stderr.decode('utf-8', 'replace')[-2000:]}")
+
+
+@pytest.mark.parametrize("case", [_param(c) for c in ROWS])
+def test_case(case: catalogue.Case, base: Path, tmp_path: Path, record_property) -> None:
+    run_case(case, base, tmp_path, record_property)
+
+
+# ------------------------------------------------------------------ the catalogue itself
+
+def test_every_row_is_well_formed() -> None:
+    """Ids unique (load checks), builders known, categories from the documented list."""
+    known = {"inputs", "options", "rigs", "outputs", "signals", "devices", "injection",
+             "terminal", "metadata", "fuzz"}
+    for c in CASES:
+        assert c.category in known, c.id
+        for step in c.setup:
+            assert step["use"] in builders.BUILDERS, (c.id, step)
+        assert all(code in (0, 1, 2, 3, 130, 143) for code in c.exit), c.id
+    assert len(CASES) >= 250
+
+
+def test_every_command_is_in_the_catalogue() -> None:
+    from enctools.cli.main import COMMANDS
+
+    argv0 = {(c.argv or ["", ""])[1] for c in CASES if c.argv and c.argv[0] == "enc"}
+    missing = set(COMMANDS) - argv0
+    assert not missing, f"commands without an adversarial case: {sorted(missing)}"
+    assert any(c.argv and c.argv[0] == "enc-nightly" for c in CASES)
