@@ -54,7 +54,8 @@ from enctools.cli import options, runner
               help="replay: at the recorded pace (default: as fast as possible).")
 @click.option("--realtime", is_flag=True, default=False,
               help="Simulator: run at wall-clock pace (live pipelines, interrupt drills).")
-@click.option("--timeout", "timeout_s", type=click.FloatRange(0.001, 3600), default=None,
+@click.option("--timeout", "timeout_s", type=float, default=None,
+              callback=options.bounded(0.001, 3600, unit=" s"),
               help="Instruments: seconds to wait for each reply (default: the rig's, 1).")
 @click.option("--retries", type=click.IntRange(0, 100), default=None,
               help="Instruments: retries after a timeout before giving up (default: the rig's, 2).")

@@ -64,7 +64,8 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @options.points("Points of the output curve per signal period.", 256, minimum=8)
 @click.option("--signals", "signals_mode", is_flag=True, default=False,
               help="Raw-signal mode: Heydemann ellipse fit of each head's sin/cos signals.")
-@click.option("--min-arc", "min_arc_deg", type=click.FloatRange(10, 360), default=90.0,
+@click.option("--min-arc", "min_arc_deg", type=float, default=90.0,
+              callback=options.bounded(10, 360, unit=" deg"),
               show_default=True, help="--signals: refuse a fit over a shorter arc [deg].")
 @click.option("--corrected", default=None, type=click.Path(dir_okay=False),
               help="--signals: also write the readings with each head's counts "

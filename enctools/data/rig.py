@@ -172,8 +172,8 @@ def load_rig(name_or_path: str) -> Rig:
 
 def _read_rig_file(p: Path, name: str) -> str:
     """The text of a rig file: a regular file of at most MAX_BYTES, checked before reading."""
-    try:
-        with p.open("rb") as f:
+    try:  # O_NONBLOCK: opening a FIFO must not wait for a writer before it is refused
+        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NONBLOCK), "rb") as f:
             st = os.fstat(f.fileno())
             if not stat.S_ISREG(st.st_mode):
                 msg = f"rig file {name}: not a regular file"

@@ -139,7 +139,25 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
         if key not in meta:
             msg = f"{source}: {kind} stream lacks the metadata key {key!r}"
             raise DataError(msg)
+    _check_meta_types(meta, source)
     return kind
+
+
+#: metadata keys whose values are JSON objects (tables of named values) in every kind
+_OBJECT_META = ("rig", "settings", "truth", "model", "rom")
+
+
+def _check_meta_types(meta: dict[str, Any], source: str) -> None:
+    """The metadata's tables are objects and its history a list of lines (enc-streams(5))."""
+    for key in _OBJECT_META:
+        if key in meta and not isinstance(meta[key], dict):
+            msg = (f"{source}: metadata {key!r} must be an object, "
+                   f"not {type(meta[key]).__name__}")
+            raise DataError(msg)
+    history = meta.get("history", [])
+    if not (isinstance(history, list) and all(isinstance(x, str) for x in history)):
+        msg = f"{source}: metadata 'history' must be a list of lines"
+        raise DataError(msg)
 
 
 def _header_kind(meta: dict[str, Any], expect: str | tuple[str, ...] | None,

@@ -329,32 +329,50 @@ def _open_seekable(f: IO[bytes], fmt: str, source: str) -> InputStream:
         raise DataError(msg) from None
 
 
+def _native(f: IO[bytes]) -> pa.NativeFile:
+    """The file as pyarrow's own reader (a buffer, or the file opened again by name):
+    reading a Python file object, pyarrow may leave a read pending on one of its threads
+    when opening a truncated file fails, and the process aborts at exit (SIGABRT)."""
+    return (pa.BufferReader(f.getvalue()) if isinstance(f, io.BytesIO)
+            else pa.OSFile(os.fsencode(f.name)))  # bytes: any name the file system takes
+
+
 def _open_parquet(f: IO[bytes], source: str) -> InputStream:
     import pyarrow.parquet as pq
 
-    pf = pq.ParquetFile(f, pre_buffer=False)  # pre-buffering holds the whole file
-    header = header_from_arrow(pf.schema_arrow, source)
-    rows = pf.metadata.num_rows
-    if rows > limits.MAX_STREAM_ROWS:
-        msg = f"{source}: claims {rows} rows; at most {limits.MAX_STREAM_ROWS} are read"
-        raise DataError(msg)
-    groups = (pf.metadata.row_group(i).num_rows for i in range(pf.metadata.num_row_groups))
-    largest = max(groups, default=0)
-    if largest > limits.MAX_ROW_GROUP_ROWS:
-        msg = (f"{source}: a Parquet row group of {largest} rows; at most "
-               f"{limits.MAX_ROW_GROUP_ROWS} are read (rewrite it with smaller row groups)")
-        raise DataError(msg)
+    native = _native(f)
+    try:
+        pf = pq.ParquetFile(native, pre_buffer=False)  # pre-buffering holds the whole file
+        header = header_from_arrow(pf.schema_arrow, source)
+        rows = pf.metadata.num_rows
+        if rows > limits.MAX_STREAM_ROWS:
+            msg = f"{source}: claims {rows} rows; at most {limits.MAX_STREAM_ROWS} are read"
+            raise DataError(msg)
+        groups = (pf.metadata.row_group(i).num_rows for i in range(pf.metadata.num_row_groups))
+        largest = max(groups, default=0)
+        if largest > limits.MAX_ROW_GROUP_ROWS:
+            msg = (f"{source}: a Parquet row group of {largest} rows; at most "
+                   f"{limits.MAX_ROW_GROUP_ROWS} are read (rewrite it with smaller row groups)")
+            raise DataError(msg)
+    except BaseException:
+        native.close()
+        raise
     stream = InputStream(header, pf.iter_batches(batch_size=BATCH_ROWS), source, "Parquet",
-                         f.close)
+                         lambda: (native.close(), f.close()))
     stream.claimed_rows = rows
     return stream
 
 
 def _open_arrow_file(f: IO[bytes], source: str) -> InputStream:
-    reader = pa.ipc.open_file(f)
-    header = header_from_arrow(reader.schema, source)
+    native = _native(f)
+    try:
+        reader = pa.ipc.open_file(native)
+        header = header_from_arrow(reader.schema, source)
+    except BaseException:
+        native.close()
+        raise
     batches = (reader.get_batch(i) for i in range(reader.num_record_batches))
-    return InputStream(header, batches, source, "Arrow file", f.close)
+    return InputStream(header, batches, source, "Arrow file", lambda: (native.close(), f.close()))
 
 
 def _open_hdf5(f: IO[bytes], source: str) -> InputStream:

@@ -165,12 +165,25 @@ def _steps_inputs(header: Header, settings: Settings, source: str
                                       source, "--autocollimator")
     faces = settings.faces
     if faces is None:
-        rig = header.meta.get("rig") or {}
-        faces = int((rig.get("polygon") or {}).get("faces", 0)) or None
-        if faces is None:
-            msg = f"{source}: the rig names no polygon; give --faces"
-            raise DataError(msg)
+        faces = _rig_faces(header.meta, source)
     return infos, autocollimator, faces
+
+
+def _rig_faces(meta: dict[str, Any], source: str) -> int:
+    """The polygon's faces named by a stream's rig, within a rig file's range."""
+    polygon = (meta.get("rig") or {}).get("polygon") or {}
+    faces = polygon.get("faces") if isinstance(polygon, dict) else None
+    if faces is None:
+        msg = f"{source}: the rig names no polygon; give --faces"
+        raise DataError(msg)
+    lo, hi = RANGES["polygon.faces"]
+    if isinstance(faces, float) and faces.is_integer():
+        faces = int(faces)
+    if isinstance(faces, bool) or not isinstance(faces, int) or not lo <= faces <= hi:
+        msg = (f"{source}: the rig's polygon.faces must be a whole number {int(lo)}..{int(hi)}, "
+               f"not {faces!r}; give --faces")
+        raise DataError(msg)
+    return faces
 
 
 def _visits(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, direction: np.ndarray,

@@ -27,7 +27,7 @@ CASE_KEYS: dict[str, type | tuple[type, ...]] = {
 READER_KEYS = {"name", "argv", "valid", "other_kind", "column", "stdin", "pending", "outputs",
                "setup"}
 HOSTILE_IN_KEYS = {"id", "setup", "stdin", "exit", "why"}
-WRITER_KEYS = {"name", "argv", "ext", "setup", "pending", "timeout"}
+WRITER_KEYS = {"name", "argv", "ext", "setup", "pending", "timeout", "not_for"}
 HOSTILE_OUT_KEYS = {"id", "setup", "out", "force", "exit", "unchanged", "files", "why"}
 
 
@@ -144,6 +144,8 @@ def _writers(doc: dict[str, Any], source: str) -> list[Case]:
     out = []
     for w in writers:
         for h in hostile:
+            if h["id"] in w.get("not_for", {}):  # the writer's man page says otherwise
+                continue
             target = _fill(h["out"], {"ext": w["ext"]})
             subs = {"out": target, "ext": w["ext"]}
             argv = _fill(w["argv"], subs) + (["--force"] if h.get("force") else [])

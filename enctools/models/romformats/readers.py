@@ -121,12 +121,12 @@ def read_ihex(data: bytes, t: Target, src: str) -> np.ndarray:
         msg = f"{src}: no end-of-file record (truncated?)"
         raise DataError(msg)
     size = max((a + len(b) for a, b in chunks.items()), default=0)
+    if sum(len(b) for b in chunks.values()) != size:  # before the image is allocated
+        msg = f"{src}: the records leave gaps in the image (or overlap)"
+        raise DataError(msg)
     image = bytearray(size)
     for a, b in chunks.items():
         image[a:a + len(b)] = b
-    if sum(len(b) for b in chunks.values()) != size:
-        msg = f"{src}: the records leave gaps in the image"
-        raise DataError(msg)
     return image_values(bytes(image), t, src)
 
 
