@@ -218,24 +218,31 @@ def ciomp_steps(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 # ------------------------------------------------------------------ a full disk
 
-@pytest.fixture
-def full_tmpfs(tmp_path):
-    """A small tmpfs, filled up (root and mount permitted; skipped otherwise)."""
+@contextlib.contextmanager
+def small_tmpfs(mnt: Path, size: str) -> Iterator[Path]:
+    """A tmpfs of ``size`` ("64k") mounted on a new folder ``mnt`` (root and mount
+    permitted; the test is skipped otherwise), unmounted afterwards."""
     if os.geteuid() != 0:
         pytest.skip("mounting a tmpfs needs root")
-    mnt = tmp_path / "full"
     mnt.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)],
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mnt)],
                       capture_output=True).returncode != 0:
         pytest.skip("mount is not permitted here")
     try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+@pytest.fixture
+def full_tmpfs(tmp_path):
+    """A small tmpfs, filled up, with an empty folder ``h`` in it."""
+    with small_tmpfs(tmp_path / "full", "256k") as mnt:
         (mnt / "h").mkdir()
         with open(mnt / "fill", "wb", buffering=0) as f, pytest.raises(OSError):
             while True:
                 f.write(b"\0" * 4096)
         yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
 # ------------------------------------------------------------ the adversarial catalogue

@@ -142,24 +142,7 @@ def shadow(tmp_path: Path, name: str, files: dict[str, str]) -> dict[str, str]:
     return {"PYTHONPATH": str(tmp_path / "shadow")}
 
 
-NIDAQ_RIG = """
-format = 1
-name = "nidaq-bench"
-[backend]
-kind = "nidaq"
-[backend.counter]
-decoding = "X4"
-clock_counter = "Dev1/ctr3"
-[[encoder]]
-name = "E"
-periods_per_rev = 9000
-interpolation = 4
-diameter_mm = 100.0
-[[encoder.head]]
-name = "H1"
-angle_deg = 0.0
-backend = { channel = "Dev1/ctr0" }
-"""
+NIDAQ_RIG = (ROOT / "tests" / "rigs" / "nidaq-bench.toml").read_text()
 
 
 def test_nidaq_without_package_is_exit_2(tmp_path: Path) -> None:

@@ -159,24 +159,7 @@ def test_serial_port_failures_are_device_errors(error: Exception) -> None:
         assert str(error) in str(info.value)
 
 
-NIDAQ_RIG = """
-format = 1
-name = "nidaq-bench"
-[backend]
-kind = "nidaq"
-[backend.counter]
-decoding = "X4"
-clock_counter = "Dev1/ctr3"
-[[encoder]]
-name = "E"
-periods_per_rev = 9000
-interpolation = 4
-diameter_mm = 100.0
-[[encoder.head]]
-name = "H1"
-angle_deg = 0.0
-backend = { channel = "Dev1/ctr0" }
-"""
+NIDAQ_RIG = (ROOT / "tests" / "rigs" / "nidaq-bench.toml").read_text()
 
 # A stand-in for nidaqmx: counter tasks that count up, 1000 samples a read, until the
 # device is removed at the fourth block.
