@@ -164,7 +164,8 @@ def heads(help: str, flag: str = "--heads", dest: str | None = None) -> Callable
 
 def ref(help: str, dest: str = "ref", metavar: str = "HEAD", **kw: Any) -> Callable[..., Any]:
     """--ref (also --reference): the reference a command measures against."""
-    kw.setdefault("default", None)
+    if not kw.get("required"):  # a default, even None, would satisfy a required option
+        kw.setdefault("default", None)
     return click.option("--ref", "--reference", dest, metavar=metavar, help=help, **kw)
 
 
