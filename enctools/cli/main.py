@@ -31,6 +31,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "points": ("points", "Turn step-run readings into calibration points."),
     "report": ("report", "Figures, uncertainty, ISO 230-2, plots and thresholds."),
     "info": ("info", "Describe a stream: kind, columns, units, rows, history."),
+    "rig": ("rig", "List the bundled rigs, print one to edit, check a rig file."),
 }
 
 

@@ -155,7 +155,7 @@ def bundled_rigs() -> list[str]:
 
 def load_rig(name_or_path: str) -> Rig:
     """Load a rig by bundled name or TOML path; raises DataError with one line."""
-    text, source = _rig_text(name_or_path)
+    text, source = rig_text(name_or_path)
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -199,7 +199,8 @@ def _read_rig_file(p: Path, name: str) -> str:
         raise DataError(msg) from None
 
 
-def _rig_text(name_or_path: str) -> tuple[str, str]:
+def rig_text(name_or_path: str) -> tuple[str, str]:
+    """The TOML text of a bundled rig (by name) or of a rig file, and its source's name."""
     p = Path(name_or_path)
     looks_like_path = name_or_path.endswith(".toml") or "/" in name_or_path or p.exists()
     if looks_like_path:
