@@ -22,7 +22,10 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
-$(VENV)/.installed: pyproject.toml | $(BIN)/python
+# the man pages are installed as copies (share/man of the venv): a changed page reinstalls
+MAN_PAGES := $(wildcard man/*.[15])
+
+$(VENV)/.installed: pyproject.toml $(MAN_PAGES) | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
 	@touch $@
 
@@ -36,7 +39,7 @@ $(VENV)/.installed-lint: $(VENV)/.installed
 	@touch $@
 
 # compiled packages as wheels only: a floor without a wheel for this Python fails at once
-$(VENV_MIN)/.installed: pyproject.toml $(MIN_PINS)
+$(VENV_MIN)/.installed: pyproject.toml $(MIN_PINS) $(MAN_PAGES)
 	rm -rf $(VENV_MIN)
 	$(PYTHON) -m venv $(VENV_MIN)
 	$(VENV_MIN)/bin/python -m pip install -q --only-binary numpy,scipy,pyarrow,h5py,matplotlib \

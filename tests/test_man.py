@@ -54,3 +54,28 @@ def test_page_renders_without_warnings(page):
     assert r.returncode == 0
     assert r.stderr.decode().strip() == "", r.stderr.decode()
     assert len(r.stdout) > 500
+
+
+def test_every_page_is_installed_with_the_package():
+    """pyproject's shared-data puts each page in share/man/manN of the environment."""
+    import tomllib
+
+    project = tomllib.loads((MAN.parent / "pyproject.toml").read_text())
+    shared = project["tool"]["hatch"]["build"]["targets"]["wheel"]["shared-data"]
+    assert shared == {f"man/{p.name}": f"share/man/man{p.suffix[1:]}/{p.name}" for p in PAGES}
+
+
+@pytest.mark.skipif(shutil.which("man") is None, reason="man is not installed")
+@pytest.mark.parametrize("section,name", [("1", "enc"), ("1", "enc-selfcal"),
+                                          ("5", "enc-streams"), ("5", "enc-rig")])
+def test_man_finds_the_installed_pages_from_path(section, name):
+    """`man enc` with the environment's bin on PATH opens enctools' page, not another enc."""
+    import sys
+
+    bindir = Path(sys.executable).parent
+    r = subprocess.run(["man", "-w", section, name], capture_output=True, timeout=60,
+                       env={"PATH": f"{bindir}:/usr/bin:/bin", "LC_ALL": "C.UTF-8"})
+    assert r.returncode == 0, r.stderr.decode()
+    found = Path(r.stdout.decode().strip())
+    assert found == Path(sys.prefix) / "share" / "man" / f"man{section}" / f"{name}.{section}"
+    assert found.read_bytes() == (MAN / f"{name}.{section}").read_bytes()
