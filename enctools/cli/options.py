@@ -66,7 +66,19 @@ force = click.option("--force", is_flag=True, default=False,
                      help="Replace an existing output file.")
 out_format = click.option("--format", "fmt", type=click.Choice(FORMATS), default=None,
                           help="Output format (default: from -o's extension; arrows on stdout).")
+def complete_rig(ctx: click.Context, param: click.Parameter,
+                 incomplete: str) -> list[click.shell_completion.CompletionItem]:
+    """Shell completion of --rig: the bundled rigs that match, then files (*.toml)."""
+    from click.shell_completion import CompletionItem
+
+    from enctools.data.rig import bundled_rigs
+
+    names = [CompletionItem(n) for n in bundled_rigs() if n.startswith(incomplete)]
+    return [*names, CompletionItem(incomplete, type="file")]
+
+
 rig = click.option("--rig", default=None, metavar="NAME|PATH", envvar="ENC_RIG",
+                   shell_complete=complete_rig,
                    help="Rig: a bundled name (sjtu-dual, ciomp-23bit) or a rig file.")
 
 

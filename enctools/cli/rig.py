@@ -28,7 +28,7 @@ def list_() -> None:
 
 
 @command.command("show")
-@click.argument("rig", metavar="NAME|PATH")
+@click.argument("rig", metavar="NAME|PATH", shell_complete=options.complete_rig)
 @options.verbosity
 def show(rig: str) -> None:
     """Print a rig file (a bundled name or a path) as TOML, its comments kept."""
@@ -38,7 +38,7 @@ def show(rig: str) -> None:
 
 
 @command.command("check")
-@click.argument("rig", metavar="NAME|PATH")
+@click.argument("rig", metavar="NAME|PATH", shell_complete=options.complete_rig)
 @options.verbosity
 def check(rig: str) -> None:
     """Read a rig file as every command does and summarise it; exit 2 naming the key at fault."""
