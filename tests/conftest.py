@@ -216,6 +216,22 @@ def ciomp_steps(tmp_path_factory: pytest.TempPathFactory) -> Path:
                      _acquire("--rig", "ciomp-23bit", "--mode", "steps"))
 
 
+# ------------------------------------------------------------ in-process simulation
+
+def simulate(rig_name: str, seed: int, **given) -> tuple:
+    """A run of a bundled rig simulated in-process: (header, list of batches); ``given``
+    are acquisition settings as options name them (revolutions, interval_s, heads...)."""
+    from enctools.data.rig import load_rig
+    from enctools.hw import acquire as acq
+    from enctools.hw import open_session
+
+    rig = load_rig(rig_name)
+    s = acq.resolve(rig, {**given, "seed": seed})
+    with open_session(rig, seed=seed) as session:
+        header, batches = acq.acquire(rig, session, s)
+        return header, list(batches)
+
+
 # ------------------------------------------------------------------ a full disk
 
 @contextlib.contextmanager

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import run
+from conftest import run, simulate
 
 from enctools.data.readings import head_info, head_reading
 from enctools.data.streams import read_table
@@ -126,15 +126,7 @@ def test_bad_groups(tmp_path: Path, opt: str, expect: str) -> None:
 @pytest.fixture(scope="module")
 def short_run() -> tuple:
     """0.05 revolutions of sjtu-dual, simulated in-process."""
-    from enctools.data.rig import load_rig
-    from enctools.hw import acquire as acq
-    from enctools.hw import open_session
-
-    rig = load_rig("sjtu-dual")
-    s = acq.resolve(rig, {"revolutions": 0.05, "seed": 3})
-    with open_session(rig, seed=3) as session:
-        header, batches = acq.acquire(rig, session, s)
-        return header, list(batches)
+    return simulate("sjtu-dual", 3, revolutions=0.05)
 
 
 def test_settings_refuse_bad_band() -> None:

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import run
+from conftest import run, simulate
 
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth
@@ -344,15 +344,7 @@ def test_settings_and_metadata(esa_default: dict) -> None:
 @pytest.fixture(scope="module")
 def short_run() -> tuple:
     """2.2 revolutions of sjtu-dual at a 12 ms sample interval, simulated in-process."""
-    from enctools.data.rig import load_rig
-    from enctools.hw import acquire as acq
-    from enctools.hw import open_session
-
-    rig = load_rig("sjtu-dual")
-    s = acq.resolve(rig, {"revolutions": 2.2, "interval_s": 0.012, "seed": 1})
-    with open_session(rig, seed=1) as session:
-        header, batches = acq.acquire(rig, session, s)
-        return header, list(batches)
+    return simulate("sjtu-dual", 1, revolutions=2.2, interval_s=0.012)
 
 
 @pytest.mark.parametrize("given,expect", [
