@@ -14,6 +14,7 @@ from typing import Any
 import click
 
 from enctools.cli import runner
+from enctools.units import DISPLAY_UNITS
 
 FORMATS = ("arrows", "parquet", "arrow", "hdf5")
 
@@ -230,5 +231,9 @@ def min_transfer(help: str = "Normalised |W(n)| below this is ill-conditioned.")
 
 strict = click.option("--strict", is_flag=True, default=False,
                       help="Exit 2 when the band holds blind or ill-conditioned harmonics.")
+unit = click.option("--unit", "unit", type=click.Choice(DISPLAY_UNITS), default=DISPLAY_UNITS[0],
+                    envvar="ENC_UNIT", show_default=True,
+                    help="Unit of the angle errors a person reads: text, HTML, PDF and CSV "
+                         "(JSON and streams keep their documented units).")
 as_json = click.option("--json", "as_json", is_flag=True, default=False,
                        help="Print the figures as JSON instead of text.")
