@@ -10,6 +10,7 @@ from enctools.cli import options
 @click.command("compare")
 @options.input_arg
 @click.option("--device", required=True, callback=options.name_list, metavar="HEAD[,HEAD...]",
+              shell_complete=options.complete_heads,
               help="Device channel: a head, an average channel, or heads to average.")
 @options.ref("Reference channel (its reading is the angle): a head, an average or heads.",
              metavar="HEAD[,HEAD...]", required=True, callback=options.name_list)

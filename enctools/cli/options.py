@@ -14,6 +14,7 @@ from typing import Any
 import click
 
 from enctools.cli import runner
+from enctools.cli.completion import complete_heads, complete_rig
 from enctools.units import DISPLAY_UNITS
 
 FORMATS = ("arrows", "parquet", "arrow", "hdf5")
@@ -67,17 +68,6 @@ force = click.option("--force", is_flag=True, default=False,
                      help="Replace an existing output file.")
 out_format = click.option("--format", "fmt", type=click.Choice(FORMATS), default=None,
                           help="Output format (default: from -o's extension; arrows on stdout).")
-def complete_rig(ctx: click.Context, param: click.Parameter,
-                 incomplete: str) -> list[click.shell_completion.CompletionItem]:
-    """Shell completion of --rig: the bundled rigs that match, then files (*.toml)."""
-    from click.shell_completion import CompletionItem
-
-    from enctools.data.rig import bundled_rigs
-
-    names = [CompletionItem(n) for n in bundled_rigs() if n.startswith(incomplete)]
-    return [*names, CompletionItem(incomplete, type="file")]
-
-
 rig = click.option("--rig", default=None, metavar="NAME|PATH", envvar="ENC_RIG",
                    shell_complete=complete_rig,
                    help="Rig: a bundled name (sjtu-dual, ciomp-23bit) or a rig file.")
@@ -172,13 +162,14 @@ def heads(help: str, flag: str = "--heads", dest: str | None = None) -> Callable
     """A comma-separated list of head (or channel) names, e.g. --heads H1,H2."""
     decls = [flag] if dest is None else [flag, dest]
     return click.option(*decls, default=None, callback=name_list, metavar="H1,H2,...",
-                        help=help)
+                        shell_complete=complete_heads, help=help)
 
 
 def ref(help: str, dest: str = "ref", metavar: str = "HEAD", **kw: Any) -> Callable[..., Any]:
     """--ref (also --reference): the reference a command measures against."""
     if not kw.get("required"):  # a default, even None, would satisfy a required option
         kw.setdefault("default", None)
+    kw.setdefault("shell_complete", complete_heads)
     return click.option("--ref", "--reference", dest, metavar=metavar, help=help, **kw)
 
 
