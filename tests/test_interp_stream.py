@@ -3,11 +3,12 @@
 A continuous run has a trend per window of the reference angle (default 1800",
 0.5 deg): a line per window leaves 0.004" rms of the sjtu-dual graduation errors
 (harmonics up to 180 per turn), below the heads' noise (0.02" for H, 0.01" for P).
-The runs here are sampled every 5.05 ms at 1 r/min (109" per sample: 4.36 H periods,
+The runs here are sampled every 5.05 ms at 1 r/min (109" per sample: 4.38 H periods,
 15.15 P periods), so that the aliased phase steps of H1's 1st/2nd and P1's 1st/2nd
 harmonics (0.377, 0.247, 0.15, 0.30 cycles per sample) are apart and away from 0
-and 0.5: every harmonic goes through several cycles within a window. At 3 ms
-(the rig's default) encoder I is sampled at 9.0 periods per sample (stroboscopic).
+and 0.5: every harmonic goes through several cycles within a window (5.05 ms is the
+rig's default). At the paper's 3 ms encoder I is sampled at 9.0 periods per sample
+(stroboscopic).
 """
 
 from __future__ import annotations
@@ -104,7 +105,8 @@ def test_stroboscopic_heads_are_named(tmp_path):
     one line naming it; by default it is skipped with a warning, and P1 as the reference
     is not fitted (its error goes into the trends)."""
     raw = tmp_path / "r.arrows"
-    r = run(f"enc acquire --rig sjtu-dual --revolutions 2 --heads P1,P2,H1 -o {raw}")
+    r = run(f"enc acquire --rig sjtu-dual --interval 0.003 --revolutions 2 --heads P1,P2,H1 "
+            f"-o {raw}")
     assert r.returncode == 0
     out = tmp_path / "o.parquet"
     err = one_line_error(run(f"enc interp-check {raw} --heads P2 --ref P1 -o {out}"), out)

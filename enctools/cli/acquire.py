@@ -69,7 +69,7 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     """Acquire readings from a rig and write them as a readings stream.
 
     Defaults come from the rig file's [acquire] tables: `enc acquire --rig sjtu-dual`
-    records 20 revolutions at 1 r/min every 3 ms; `enc acquire --rig ciomp-23bit
+    records 20 revolutions at 1 r/min every 5.05 ms; `enc acquire --rig ciomp-23bit
     --mode steps` the 24 polygon positions. Options > ENC_ACQUIRE_* environment >
     rig file > built-in defaults.
     """
