@@ -176,6 +176,15 @@ def test_info_json(runs):
     assert doc["columns"][0]["unit"] == "s" and len(doc["history"]) == 1
 
 
+def test_rig_check_json():
+    doc = json_of("enc rig check --json sjtu-dual")
+    enc_ii = next(e for e in doc["encoders"] if e["name"] == "II")
+    assert enc_ii["counts_per_rev"] == 52000 * 4096
+    assert enc_ii["lsb_arcsec"] == pytest.approx(1_296_000 / (52000 * 4096))
+    assert [h["alpha_deg"] for h in enc_ii["heads"]] == pytest.approx(
+        [0, 90, 180, 270, 60, 135, 228])
+
+
 def test_report_json_keys_as_the_commands(runs, tmp_path):
     out = tmp_path / "sc.parquet"
     sc = json_of(f"enc selfcal {runs}/run.parquet --json -o {out}")

@@ -19,7 +19,7 @@ from typing import Any
 from enctools.cli import runner
 
 #: how a key's stem reads in text (the stem is the key without its unit suffix)
-LABELS = {"pp": "p-p", "pm": "+/-", "s_bessel": "Bessel s",
+LABELS = {"pp": "p-p", "pm": "+/-", "s_bessel": "Bessel s", "n_points": "n",
           "max_abs": "max |e|", "u_max": "u max", "expanded_u_max": "U(k=2) max"}
 #: unit suffixes of keys other than angles, printed after the value as they are
 SUFFIXES = ("nm", "deg_s", "rpm", "rev_s", "s", "deg", "rad", "lsb", "bytes", "m", "counts")
