@@ -19,7 +19,7 @@ from typing import Any
 from enctools.cli import runner
 
 #: how a key's stem reads in text (the stem is the key without its unit suffix)
-LABELS = {"pp": "p-p", "pm": "+/-", "s_bessel": "Bessel s", "n_points": "n",
+LABELS = {"pp": "p-p", "pm": "+/-", "s_bessel": "Bessel s", "n_points": "n", "lsb": "LSB",
           "max_abs": "max |e|", "u_max": "u max", "expanded_u_max": "U(k=2) max"}
 #: unit suffixes of keys other than angles, printed after the value as they are
 SUFFIXES = ("nm", "deg_s", "rpm", "rev_s", "s", "deg", "rad", "lsb", "bytes", "m", "counts")
@@ -63,19 +63,27 @@ def text_lines(summary: dict[str, Any], unit: str = "arcsec") -> list[str]:
     per group (a dict) and per named item of a list of dicts."""
     from enctools.data.text import printable
 
-    head: list[str] = []
     lines: list[str] = []
+    plain: list[str] = []  # consecutive plain values: one line, in their place
+
+    def flush() -> None:
+        if any(plain):
+            lines.append(", ".join(p for p in plain if p))
+        plain.clear()
+
     for key, value in summary.items():
         if isinstance(value, dict):
+            flush()
             lines.append(f"{key.replace('_', ' ')}: {_items(value, unit)}")
         elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+            flush()
             for v in value:
                 name = v.get("name", key)
                 lines.append(f"{name}: {_items({k: x for k, x in v.items() if k != 'name'}, unit)}")
         else:
-            head.append(_item(key, value, unit))
-    out = ([", ".join(h for h in head if h)] if any(head) else []) + lines
-    return [printable(ln) for ln in out]
+            plain.append(_item(key, value, unit))
+    flush()
+    return [printable(ln) for ln in lines]
 
 
 def _items(d: dict[str, Any], unit: str) -> str:
