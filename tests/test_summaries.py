@@ -212,6 +212,8 @@ def test_json_needs_o_file_when_the_stream_takes_stdout(cmd, runs):
 def test_quiet_is_silent_and_unit_converts(runs, tmp_path):
     for cmd in (f"enc average-heads {runs}/run.parquet -o {tmp_path}/a.parquet",
                 f"enc selfcal {runs}/run.parquet -o {tmp_path}/s.parquet",
+                f"enc compare {runs}/run.parquet --device H1,H2,H3,H4 --ref P1,P2 "
+                f"-o {tmp_path}/c.parquet",
                 f"enc points {runs}/steps.parquet -o {tmp_path}/p.parquet",
                 f"enc fit-rbf {DATA}/seed001_table1.csv -o {tmp_path}/m.parquet",
                 f"enc make-rom {tmp_path}/m.parquet --bits 16 -o {tmp_path}/t.mif",
