@@ -267,7 +267,10 @@ def test_progress_on_a_terminal_and_not_with_q(runs, tmp_path):
                        "revolutions"),
                       (["interp-check", str(runs / "run.parquet"), "--ref", "P1",
                         "--heads", "H1"], "rows read"),
-                      (["fit-rbf", f"{DATA}/seed001_table1.csv"], "spread search")):
+                      (["fit-rbf", f"{DATA}/seed001_table1.csv"], "spread search"),
+                      (["make-rom", str(tmp_path / "fit-rbf.parquet"), "--bits", "16"],
+                       "evaluating"),
+                      (["acquire", "--rig", "ciomp-23bit", "--mode", "steps"], "steps")):
         out = str(tmp_path / f"{cmd[0]}.parquet")
         code, shown = _on_a_terminal([enc_exe(), *cmd, "-o", out])
         assert code == 0, shown
@@ -276,6 +279,11 @@ def test_progress_on_a_terminal_and_not_with_q(runs, tmp_path):
         assert re.search(rf"\n\s*enc {cmd[0]}: [^\r]*\n", shown.replace("\r\n", "\n")), shown
         code, shown = _on_a_terminal([enc_exe(), *cmd, "-o", out, "--force", "-q"])
         assert code == 0 and shown == "", shown
+    # enc report: the inputs read and the HTML rendered
+    code, shown = _on_a_terminal([enc_exe(), "report", str(tmp_path / "selfcal.parquet"),
+                                  "--html", str(tmp_path / "r.html")])
+    assert code == 0 and "\renc report: inputs and renderings " in shown, shown
+    assert "100.0% (2/2" in shown, shown
 
 
 def test_library_warnings_are_one_line():
