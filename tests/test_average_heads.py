@@ -114,7 +114,7 @@ def test_named_groups_and_drop(tmp_path: Path) -> None:
 @pytest.mark.slow
 def test_bad_groups(tmp_path: Path, opt: str, expect: str) -> None:
     out = tmp_path / "a.parquet"
-    r = run(f"enc acquire --rig sjtu-dual --revolutions 0.05 | enc average-heads {opt} -o {out}")
+    r = run(f"enc acquire --rig sjtu-dual --revolutions 0.05 -q | enc average-heads {opt} -o {out}")
     assert r.returncode == 2
     lines = r.stderr.decode().strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("enc average-heads: error:")

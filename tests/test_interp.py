@@ -213,7 +213,7 @@ def one_line_error(r, out) -> str:
 @pytest.mark.slow
 def test_sweep_shorter_than_one_period(tmp_path):
     out = tmp_path / "o.parquet"
-    r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 10 --readings 1 --heads H1 "
+    r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 10 --readings 1 --heads H1 -q "
             f"| enc interp-check -o {out}")
     assert "signal period is 24.92" in one_line_error(r, out)
 
@@ -272,7 +272,7 @@ def test_wrong_kind_and_short_arc(sweep, tmp_path):
     out = tmp_path / "o.parquet"
     assert "readings" in one_line_error(run(f"enc interp-check {dev} -o {out}"), out)
     r = run(f"enc acquire --rig sjtu-dual --mode sweep --range 1 --step 0.1 --readings 1 "
-            f"--signals --heads H1 | enc interp-check --signals -o {out}")
+            f"--signals --heads H1 -q | enc interp-check --signals -o {out}")
     assert "head H1" in one_line_error(r, out) and "deg" in r.stderr.decode()
 
 

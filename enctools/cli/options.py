@@ -228,3 +228,6 @@ unit = click.option("--unit", "unit", type=click.Choice(DISPLAY_UNITS), default=
                          "(JSON and streams keep their documented units).")
 as_json = click.option("--json", "as_json", is_flag=True, default=False,
                        help="Print the figures as JSON instead of text.")
+json_summary = click.option("--json", "as_json", is_flag=True, default=False,
+                            help="Print the summary as JSON on stdout instead of text on "
+                                 "stderr (needs -o FILE when the command writes a stream).")
