@@ -107,10 +107,10 @@ def make_points(path: Path, table_no: int) -> Path:
     rows = [line.split(",") for line in (DATA / f"seed001_table{table_no}.csv").read_text()
             .splitlines() if line and not line.startswith("#") and line[0].isdigit()]
     pos, dev = np.array(rows, dtype=float).T
-    schema = pa.schema([make_field("position", pa.float64(), "deg"),
+    schema = pa.schema([make_field("position", pa.float64(), "rad"),
                         make_field("deviation", pa.float64(), "arcsec")])
     write_table(str(path), Header("points", schema, {"source": f"seed 001 table {table_no}"}),
-                pa.table([pos, dev], schema=schema), force=True)
+                pa.table([np.radians(pos), dev], schema=schema), force=True)
     return path
 
 
@@ -427,7 +427,7 @@ def test_bad_usage_one_line_exit2(args, needle, streams):
 
 
 def test_nan_input_exit2_and_no_html_left(tmp_path):
-    schema = pa.schema([make_field("position", pa.float64(), "deg"),
+    schema = pa.schema([make_field("position", pa.float64(), "rad"),
                         make_field("deviation", pa.float64(), "arcsec")])
     bad = tmp_path / "bad.parquet"
     with pytest.raises(DataError, match="NaN"):  # enctools writes no such stream

@@ -171,7 +171,7 @@ def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) ->
                                  period_arcsec=repr(c.meta["period_arcsec"]),
                                  reference=c.meta.get("reference", "")))
         arrays.append(pa.array(np.asarray(c.error, dtype=np.float64)))
-        fields.append(make_field(f"u({c.name})", pa.float64(), "arcsec", "uncertainty",
+        fields.append(make_field(f"u_{c.name}", pa.float64(), "arcsec", "uncertainty",
                                  of=c.name))
         arrays.append(pa.array(np.asarray(c.u, dtype=np.float64)))
     schema = pa.schema(fields)

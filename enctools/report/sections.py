@@ -28,6 +28,7 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data import readings
+from enctools.data.columns import column, declared_unit, uncertainty_columns
 from enctools.data.schemas import columns_with_role, field_meta
 from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
@@ -156,8 +157,7 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
     if _period_domain(s.meta, table.schema):
         s.domain = "period"
     theta = _col(table, "theta")
-    unc = {field_meta(f).get("of"): f.name for f in table.schema
-           if field_meta(f).get("role") == "uncertainty"}
+    unc = uncertainty_columns(table.schema)
     for role, unit in (("deviation", "arcsec"), ("radial", "nm")):
         for name in columns_with_role(table.schema, role):
             fm = field_meta(table.schema.field(name))
@@ -218,8 +218,8 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
     if table.num_rows == 0:
         msg = f"{s.source}: points stream has no rows"
         raise DataError(msg)
-    pos = _col(table, "position")
-    dev = _col(table, "deviation")
+    pos = column(table, "position", "deg", s.source, declared_unit("points", s.meta, "position"))
+    dev = column(table, "deviation", "arcsec", s.source)
     direction = (table.column("direction").to_numpy(zero_copy_only=False)
                  if "direction" in table.schema.names else None)
     _points_into(s, pos, dev, direction, opts, "deviation", "points")
