@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from enctools.cli import options
+from enctools.units import DEG
 
 
 @click.command("design")
@@ -51,10 +52,9 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
     a = res.analysis
     if table:
         click.echo("n\ttransfer\tnormalised\tgain\tsensitivity_per_deg")
-        import numpy as np
         for k in range(1, band + 1):
             click.echo(f"{k}\t{a.transfer[k]:.6g}\t{a.normalised[k]:.6g}\t{a.gain[k]:.6g}\t"
-                       f"{a.sensitivity[k] * np.radians(1.0):.6g}")
+                       f"{a.sensitivity[k] * DEG:.6g}")
     else:
         click.echo(design.report(a, mounting_error))
     design.refuse_or_warn(a, strict)

@@ -161,6 +161,7 @@ def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) ->
     import numpy as np
     import pyarrow as pa
 
+    from enctools.data.columns import uncertainty_name
     from enctools.data.schemas import make_field
 
     fields = [make_field("theta", pa.float64(), "rad")]
@@ -171,8 +172,8 @@ def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) ->
                                  period_arcsec=repr(c.meta["period_arcsec"]),
                                  reference=c.meta.get("reference", "")))
         arrays.append(pa.array(np.asarray(c.error, dtype=np.float64)))
-        fields.append(make_field(f"u_{c.name}", pa.float64(), "arcsec", "uncertainty",
-                                 of=c.name))
+        fields.append(make_field(uncertainty_name(c.name), pa.float64(), "arcsec",
+                                 "uncertainty", of=c.name))
         arrays.append(pa.array(np.asarray(c.u, dtype=np.float64)))
     schema = pa.schema(fields)
     periods = {c.meta["period_arcsec"] for c in curves}

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.columns import uncertainty_name
 from enctools.data.schemas import make_field
 
 
@@ -24,6 +25,12 @@ class Column:
     role: str = "deviation"           # deviation [arcsec] | radial [nm] | uncertainty [arcsec]
     unit: str = "arcsec"
     meta: dict[str, Any] = field(default_factory=dict)
+
+
+def uncertainty(of: str, values: np.ndarray, unit: str = "arcsec") -> Column:
+    """The standard uncertainty of curve ``of`` [its unit: arcsec or nm] as the naming rule
+    has it: column ``u_<of>``, role ``uncertainty``, field metadata ``of``."""
+    return Column(uncertainty_name(of), values, "uncertainty", unit, {"of": of})
 
 
 def deviations_table(theta: np.ndarray, columns: list[Column]) -> pa.Table:

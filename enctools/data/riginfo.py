@@ -5,10 +5,9 @@
 
 from __future__ import annotations
 
-import math
-
 from enctools.data.rig import Rig, bundled_rigs, load_rig, rig_text
 from enctools.data.text import printable
+from enctools.units import DEG, TWO_PI, factor
 
 
 def listing() -> list[tuple[str, str]]:
@@ -30,11 +29,11 @@ def summary(rig: Rig) -> list[str]:
         out.append(f"  {printable(rig.description)}")
     out.append(f"  backend: {printable(str(rig.backend.get('kind', 'sim')))}")
     for e in rig.encoders:
-        lsb = 1_296_000.0 / e.counts_per_rev
+        lsb = TWO_PI * factor("rad", "arcsec") / e.counts_per_rev
         out.append(f"  encoder {printable(e.name)}: {e.periods_per_rev} periods x "
                    f"{e.interpolation} = {e.counts_per_rev} counts/rev ({lsb:.4g}\"), "
                    f"diameter {e.diameter_mm:g} mm, {e.counter_bits}-bit counter")
-        heads = ", ".join(f"{printable(h.name)} {math.degrees(h.angle):g}" for h in e.heads)
+        heads = ", ".join(f"{printable(h.name)} {h.angle / DEG:g}" for h in e.heads)
         out.append(f"    heads [deg]: {heads}")
     for p in rig.probes:
         out.append(f"  probe {printable(p.name)}: arm {p.arm_mm:g} mm, side {p.side:+d}")

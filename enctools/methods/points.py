@@ -30,9 +30,9 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data import limits
+from enctools.data.columns import column, declared_unit
 from enctools.data.readings import head_angle, head_info, measuring_heads
 from enctools.data.riglimits import RANGES
-from enctools.data.columns import column, declared_unit
 from enctools.data.schemas import column_with_role, make_field
 from enctools.data.statistics import Figures, figures_or_nan
 from enctools.errors import DataError, UsageError

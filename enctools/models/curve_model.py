@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from enctools.data.limits import MAX_MODEL_TERMS
 from enctools.data.columns import column, declared_unit
+from enctools.data.limits import MAX_MODEL_TERMS
 from enctools.data.schemas import column_with_role, make_field
 from enctools.errors import DataError, UsageError
 from enctools.models.fourier import FourierModel

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 from enctools.data.files import OutputGroup, check_new_file
 from enctools.errors import CheckFailed
+from enctools.report.display import in_unit
 from enctools.report.sections import Options
 from enctools.report.summary import build_report
 from enctools.report.thresholds import Thresholds, check
@@ -22,10 +23,12 @@ def check_paths(paths: Sequence[str | None], force: bool) -> None:
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
-               prog: str = "enc report") -> None:
+               prog: str = "enc report", unit: str = "arcsec") -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
-    A threshold exceeded is one line on stderr each, headed by ``prog``.
+    A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
+    and PDF show angle errors in ``unit`` (:func:`~enctools.report.display.in_unit`);
+    the JSON summary and the thresholds keep arcsec.
     """
     report = build_report(sources, opts)
     if history_dir is not None:
@@ -33,20 +36,21 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         report.history = read_history(history_dir)
     report.settings["thresholds"] = limits.to_dict()
     failures = check(report, limits)
+    shown = in_unit(report, unit)
     if as_json:
         from enctools.report.jsonout import to_json
         sys.stdout.write(to_json(report, failures if limits.any else None) + "\n")
     else:
         from enctools.report.text import to_text
-        sys.stdout.write(to_text(report) + "\n")
+        sys.stdout.write(to_text(shown) + "\n")
     sys.stdout.flush()
     with OutputGroup() as outputs:  # both reports, or neither
         if html_path is not None:
             from enctools.report.html import to_html
-            outputs.write(html_path, to_html(report, failures, title).encode())
+            outputs.write(html_path, to_html(shown, failures, title).encode())
         if pdf_path is not None:
             from enctools.report.pdf import to_pdf
-            outputs.write(pdf_path, to_pdf(report, failures, title))
+            outputs.write(pdf_path, to_pdf(shown, failures, title))
     if failures:
         for line in failures:
             sys.stderr.write(f"{prog}: threshold exceeded: {line}\n")

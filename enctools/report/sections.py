@@ -20,7 +20,6 @@ Readings are read batch by batch (memory does not grow with the run's length).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -74,6 +73,7 @@ class SpectrumRows:
     phase: np.ndarray
     u: np.ndarray | None = None
     transfer: np.ndarray | None = None
+    unit: str = "arcsec"            # of amplitude and u
 
     def largest(self, count: int) -> np.ndarray:
         """Row indices of the ``count`` largest amplitudes (n > 0), largest first."""
@@ -89,6 +89,7 @@ class Section:
     kind: str
     meta: dict[str, Any]
     domain: str = "revolution"      # or "period" (interpolation errors)
+    unit: str = "arcsec"            # of its angle errors (enc report --unit)
     curves: list[Curve] = field(default_factory=list)
     spectra: list[SpectrumRows] = field(default_factory=list)
     iso: Iso230 | None = None
@@ -356,7 +357,7 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
             _scan_batch(scan, batch, infos, signal_cols, encoder if stepped else [])
     s.info["mode"] = s.meta.get("mode", "steps" if stepped else "continuous")
     s.info["rows"] = scan.rows
-    s.info["heads"] = ", ".join(f"{i.name} ({i.encoder} at {math.degrees(i.alpha):g} deg)"
+    s.info["heads"] = ", ".join(f"{i.name} ({i.encoder} at {i.alpha / DEG:g} deg)"
                                 for i in infos)
     if scan.t_first is not None and scan.t_last is not None:
         s.info["duration"] = f"{scan.t_last - scan.t_first:.4g} s"
