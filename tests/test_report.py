@@ -3,7 +3,7 @@ truth, thresholds (the cron contract), HTML/PDF output, the Chromium screenshot,
 
 Streams of the kinds other commands make (deviations with uncertainties and radial
 motion, interpolation errors within a signal period, spectra) are built here from the
-simulator's ground truth through enctools.streams, following schemas/*.v1.json.
+simulator's ground truth through enctools.streams, following schemas/*.json.
 """
 
 from __future__ import annotations
