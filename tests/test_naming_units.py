@@ -160,8 +160,9 @@ def test_model_v1_in_deg_gives_the_same_table_as_v2(tmp_path):
     pq.write_table(pa.table([table.column("centre").to_numpy() * 180.0 / np.pi,
                              table.column("weight")], schema=old.arrow_schema()),
                    tmp_path / "m1.parquet")
-    r = run(f"enc make-rom m1.parquet --bits 23 --address-bits 12 --target stream -o r1.parquet && "
-            f"enc make-rom m2.parquet --bits 23 --address-bits 12 --target stream -o r2.parquet", cwd=tmp_path)
+    rom = "--bits 23 --address-bits 12 --target stream"
+    r = run(f"enc make-rom m1.parquet {rom} -o r1.parquet && "
+            f"enc make-rom m2.parquet {rom} -o r2.parquet", cwd=tmp_path)
     assert r.returncode == 0, r.stderr.decode()
     c1, c2 = (read_table(str(tmp_path / f"r{k}.parquet"))[1].column("correction").to_numpy()
               for k in (1, 2))
