@@ -157,14 +157,15 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
         raise DataError(msg)
     if _period_domain(s.meta, table.schema):
         s.domain = "period"
-    theta = _col(table, "theta")
+    theta = column(table, "theta", "rad", s.source)
     unc = uncertainty_columns(table.schema)
     for role, unit in (("deviation", "arcsec"), ("radial", "nm")):
         for name in columns_with_role(table.schema, role):
             fm = field_meta(table.schema.field(name))
-            u = _col(table, unc[name]) if name in unc else None
+            u = column(table, unc[name], unit, s.source) if name in unc else None
             in_period = s.domain == "period" and role == "deviation"
-            s.curves.append(_curve(name, unit, role, theta, _col(table, name), opts, s.source,
+            values = column(table, name, unit, s.source)
+            s.curves.append(_curve(name, unit, role, theta, values, opts, s.source,
                                    u=u, head=fm.get("head", name if in_period else None),
                                    domain="period" if in_period else "revolution"))
             if in_period and "period_arcsec" in fm:
@@ -188,9 +189,10 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
     for curve in dict.fromkeys(curves):
         mask = np.array([c == curve for c in curves])
         s.spectra.append(SpectrumRows(
-            curve=str(curve), n=n_all[mask], amplitude=_col(table, "amplitude")[mask],
-            phase=_col(table, "phase")[mask],
-            u=_col(table, "u")[mask] if "u" in names else None,
+            curve=str(curve), n=n_all[mask],
+            amplitude=column(table, "amplitude", "arcsec", s.source)[mask],
+            phase=column(table, "phase", "rad", s.source)[mask],
+            u=column(table, "u", "arcsec", s.source)[mask] if "u" in names else None,
             transfer=_col(table, "transfer")[mask] if "transfer" in names else None))
     blind = s.meta.get("blind")
     if blind:
