@@ -67,7 +67,7 @@ def model_table(model: RBFModel | FourierModel) -> tuple[pa.Table, dict[str, Any
         meta = {"kernel": "fourier", "harmonics": int(model.n.max()),
                 "undetermined": list(model.undetermined),
                 "equation": "y = sum_n weight cos(n x) + weight_sin sin(n x)"}
-    meta |= {"argument": "indicated angle [deg], periodic in 360",
+    meta |= {"argument": "indicated angle x [rad], periodic in 2 pi",
              "output": "deviation [arcsec] = indicated - true; correction = -deviation"}
     return table, meta
 
