@@ -37,7 +37,7 @@ UNITS = {
     ("deviations", "radial"): "nm",
     ("spectrum", "n"): "", ("spectrum", "amplitude"): "arcsec", ("spectrum", "phase"): "rad",
     ("spectrum", "re"): "arcsec", ("spectrum", "im"): "arcsec", ("spectrum", "transfer"): "",
-    ("spectrum", "u"): "arcsec", ("spectrum", "curve"): "",
+    ("spectrum", "curve"): "",
     ("points", "position"): "rad", ("points", "deviation"): "arcsec",
     ("points", "direction"): "", ("points", "run"): "",
     ("model", "centre"): "rad", ("model", "n"): "", ("model", "weight"): "arcsec",
@@ -100,16 +100,15 @@ def test_every_uncertainty_column_is_u_and_the_curve_it_qualifies(outputs):
     seen = []
     for name, path in outputs.items():
         header, _ = read_table(str(path))
-        if header.kind != "deviations":
-            continue
-        curves = [f.name for f in header.schema if _fm(f).get("role") in ("deviation", "radial")]
-        uncertain = {_fm(f)["of"]: f.name for f in header.schema
-                     if _fm(f).get("role") == "uncertainty"}
-        assert uncertain, f"{name} has no uncertainty column"
-        for of, col in uncertain.items():
-            assert of in curves and col == "u_" + of, (name, col, of)
+        uncertain = {f.name: _fm(f).get("of") for f in header.schema
+                     if _fm(f).get("role") == "uncertainty" or f.name.startswith("u_")}
+        if header.kind in ("deviations", "spectrum"):
+            assert uncertain, f"{name} has no uncertainty column"
+        for col, of in uncertain.items():
+            assert of in header.schema.names and col == "u_" + of, (name, col, of)
+            assert _fm(header.schema.field(col))["role"] == "uncertainty", (name, col)
             seen.append(col)
-    assert {"u_graduation", "u_x", "u_y", "u_H-P", "u_H1"} <= set(seen)
+    assert {"u_graduation", "u_x", "u_y", "u_H-P", "u_H1", "u_amplitude"} <= set(seen)
 
 
 # ------------------------------------------------------------ v1 and v2 streams
@@ -167,6 +166,25 @@ def test_model_v1_in_deg_gives_the_same_table_as_v2(tmp_path):
     c1, c2 = (read_table(str(tmp_path / f"r{k}.parquet"))[1].column("correction").to_numpy()
               for k in (1, 2))
     assert np.array_equal(c1, c2) and np.ptp(c1) > 0
+
+
+def test_spectrum_v1_u_reads_as_v2_u_amplitude(tmp_path):
+    n = np.arange(1, 9)
+    amplitude, u = 1.0 / n, 0.01 * n
+    for version, u_name, extra in ((1, "u", {}), (2, "u_amplitude",
+                                                  {"role": "uncertainty", "of": "amplitude"})):
+        meta = {"unit": "arcsec", **extra}
+        schema = pa.schema([make_field("n", pa.int64(), ""),
+                            make_field("amplitude", pa.float64(), "arcsec"),
+                            make_field("phase", pa.float64(), "rad"),
+                            pa.field(u_name, pa.float64(), metadata=meta)])
+        header = Header("spectrum", schema, {"schema_version": version})
+        pq.write_table(pa.table([n, amplitude, np.zeros(8), u], schema=header.arrow_schema()),
+                       tmp_path / f"s{version}.parquet")
+    r = run("enc report s1.parquet && enc report s2.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    one, two = r.stdout.decode().split("s2.parquet")
+    assert "(U 0.020\")" in one and one.replace("s1.parquet", "") == two
 
 
 def test_a_v1_position_beyond_its_range_in_deg_is_refused(tmp_path):

@@ -93,7 +93,8 @@ def make_spectrum(path: Path, nmax: int = 60) -> Path:
     schema = pa.schema([make_field("n", pa.int64(), ""),
                         make_field("amplitude", pa.float64(), "arcsec"),
                         make_field("phase", pa.float64(), "rad"),
-                        make_field("u", pa.float64(), "arcsec"),
+                        make_field("u_amplitude", pa.float64(), "arcsec", "uncertainty",
+                                   of="amplitude"),
                         make_field("transfer", pa.float64(), "")])
     u = 0.005 / np.maximum(w, 0.1)
     table = pa.table([n, np.abs(c), np.angle(c), u, w], schema=schema)

@@ -191,9 +191,12 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
     import numpy as np
     import pyarrow as pa
 
+    from enctools.data.columns import uncertainty_name
     from enctools.data.schemas import make_field
 
-    rows: dict[str, list] = {k: [] for k in ("n", "amplitude", "phase", "re", "im", "u", "curve")}
+    u_name = uncertainty_name("amplitude")
+    rows: dict[str, list] = {k: [] for k in ("n", "amplitude", "phase", "re", "im", u_name,
+                                             "curve")}
     for c in curves:
         h = c.harmonics
         u = h.amplitude_u if h.cov.size and np.any(h.cov) else np.full(h.orders.size, np.nan)
@@ -203,14 +206,15 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
             rows["phase"].append(float(np.angle(coef)))
             rows["re"].append(float(coef.real))
             rows["im"].append(float(coef.imag))
-            rows["u"].append(float(uu))
+            rows[u_name].append(float(uu))
             rows["curve"].append(c.name)
     schema = pa.schema([make_field("n", pa.int64(), ""),
                         make_field("amplitude", pa.float64(), "arcsec"),
                         make_field("phase", pa.float64(), "rad"),
                         make_field("re", pa.float64(), "arcsec"),
                         make_field("im", pa.float64(), "arcsec"),
-                        make_field("u", pa.float64(), "arcsec"),
+                        make_field(u_name, pa.float64(), "arcsec", "uncertainty",
+                                   of="amplitude"),
                         make_field("curve", pa.string(), "")])
     table = pa.Table.from_pydict(rows, schema=schema)
     return header.derive("spectrum", schema, settings=settings,

@@ -186,13 +186,15 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
     curves = (table.column("curve").to_pylist() if "curve" in names
               else [s.meta.get("curve", "spectrum")] * table.num_rows)
     n_all = table.column("n").to_numpy(zero_copy_only=False).astype(np.int64)
+    # the amplitude's uncertainty: by its field metadata 'of' (v2), else the v1 column u
+    u_col = uncertainty_columns(table.schema).get("amplitude", "u" if "u" in names else None)
     for curve in dict.fromkeys(curves):
         mask = np.array([c == curve for c in curves])
         s.spectra.append(SpectrumRows(
             curve=str(curve), n=n_all[mask],
             amplitude=column(table, "amplitude", "arcsec", s.source)[mask],
             phase=column(table, "phase", "rad", s.source)[mask],
-            u=column(table, "u", "arcsec", s.source)[mask] if "u" in names else None,
+            u=column(table, u_col, "arcsec", s.source)[mask] if u_col else None,
             transfer=_col(table, "transfer")[mask] if "transfer" in names else None))
     blind = s.meta.get("blind")
     if blind:
