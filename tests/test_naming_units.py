@@ -310,6 +310,19 @@ def test_html_and_pdf_in_urad_every_axis_names_its_unit(tmp_path):
     assert r.returncode == 0, r.stderr.decode()
     page = (tmp_path / "r.html").read_text()
     assert "µrad" in page and "[arcsec]" not in page
+    r = run(["enc", "report", str(pts), "--html", str(tmp_path / "a.html")])
+    assert r.returncode == 0, r.stderr.decode()
+    cells = {}
+    for name in ("a", "r"):
+        tds = re.findall(r"<td[^>]*>([^<]*)</td>", (tmp_path / f"{name}.html").read_text())
+        cells[name] = [float(x) for td in tds for x in re.findall(r"-?\d+\.\d+", td)]
+    assert len(cells["a"]) == len(cells["r"]) >= 40
+    scaled = 0
+    for x, y in zip(cells["a"], cells["r"], strict=True):
+        if x != y:  # positions, counts and degrees stay; every angle error is scaled
+            assert y == pytest.approx(x * URAD_PER_ARCSEC, abs=0.004), (x, y)
+            scaled += 1
+    assert scaled >= 30
     assert (tmp_path / "r.pdf").read_bytes().startswith(b"%PDF")
     report = in_unit(build_report([str(pts)]), "urad")
     figs = [f for s in report.sections for _, f in plots.section_figures(s)]

@@ -45,7 +45,11 @@ if TYPE_CHECKING:
 
 @dataclass
 class Points:
-    """Calibration points: positions [deg], deviations [arcsec], direction, run."""
+    """Calibration points: positions [deg], deviations [arcsec], direction, run.
+
+    In memory positions are degrees, the argument of the error models; the ``points``
+    stream holds them in rad (:meth:`table`, :func:`from_table`).
+    """
 
     position_deg: np.ndarray
     deviation: np.ndarray
