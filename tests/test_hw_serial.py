@@ -271,7 +271,8 @@ def test_polygon_run_gives_points_of_the_graduation_error(tmp_path: Path) -> Non
     assert not np.isnan(t.column("AC").to_numpy()).any()
     p = pq.read_table(pts)
     assert p.schema.metadata[b"kind"] == b"points"
-    pos = p.column("position").to_numpy()
+    assert p.schema.field("position").metadata[b"unit"] == b"rad"
+    pos = np.degrees(p.column("position").to_numpy())
     dev = p.column("deviation").to_numpy()
     assert len(pos) == 24
     truth = np.array([head_mean_error(np.deg2rad(x)) for x in pos])

@@ -65,7 +65,7 @@ def test_every_head_against_probes_matches_truth(sweep, tmp_path):
     header, table, r = check(str(sweep), tmp_path / "ic.parquet")
     truth = Truth.from_dict(header.meta["truth"])
     theta = table["theta"].to_numpy()
-    assert [c for c in table.column_names if not c.startswith(("theta", "u("))] == HEADS
+    assert [c for c in table.column_names if not c.startswith(("theta", "u_"))] == HEADS
     for name in HEADS:
         curve = header.meta["curves"][name]
         ppr = curve["periods_per_rev"]
@@ -75,7 +75,7 @@ def test_every_head_against_probes_matches_truth(sweep, tmp_path):
         diff = np.abs(got - want).max()
         assert diff < 0.01, f"{name}: {diff:.4f}\" from the truth"
         # the stated uncertainty is honest: within 4.5 u at every phase
-        u = table[f"u({name})"].to_numpy()
+        u = table[f"u_{name}"].to_numpy()
         assert np.all(np.abs(got - want) < 4.5 * u + 0.003), name
         fig = curve["figures"]
         assert fig["pp"] == pytest.approx(np.ptp(want), abs=0.015)
@@ -140,7 +140,7 @@ def test_harmonics_beyond_the_sampling_are_refused(sweep, tmp_path, head, k):
 def test_head_average_matches_mean_of_truths(sweep, tmp_path):
     header, table, _ = check(f"{sweep} --heads H1,H2,H3,H4 --average", tmp_path / "a.parquet")
     name = "mean(H1,H2,H3,H4)"
-    assert table.column_names == ["theta", name, f"u({name})"]
+    assert table.column_names == ["theta", name, f"u_{name}"]
     truth = Truth.from_dict(header.meta["truth"])
     _, raw = read_table(sweep)
     infos = [head_info(raw.schema, h) for h in ("H1", "H2", "H3", "H4")]
@@ -196,7 +196,7 @@ def test_pipeline_from_acquire(tmp_path):
             f"| enc interp-check | enc info > {out}")
     assert r.returncode == 0, r.stderr.decode()
     text = out.read_text()
-    assert "deviations stream" in text and "u(P2)" in text
+    assert "deviations stream" in text and "u_P2" in text
 
 
 # ----------------------------------------------------------------- bad input

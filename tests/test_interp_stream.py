@@ -69,7 +69,7 @@ def test_continuous_h1_by_p1_matches_truth(run20, tmp_path):
     theta = table["theta"].to_numpy()
     want = kept_truth(truth, "H1", theta, 52000, [1, 2])
     got = table["H1"].to_numpy()
-    u = table["u(H1)"].to_numpy()
+    u = table["u_H1"].to_numpy()
     assert np.abs(got - want).max() < 0.001
     assert np.all(np.abs(got - want) < 5 * u + 0.0005)
     p1 = header.meta["curves"]["H1"]["reference_harmonics"][0]

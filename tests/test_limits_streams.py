@@ -174,7 +174,7 @@ def test_latency_on_a_parquet_of_2e8_rows(raw, tmp_path):
 def test_whole_table_commands_refuse_long_streams(tmp_path, rows):
     schema = pa.schema([pa.field("position", pa.float64(), metadata={"unit": "deg"}),
                         pa.field("deviation", pa.float64(), metadata={"unit": "arcsec"})])
-    h = streams.Header("points", schema, {})
+    h = streams.Header("points", schema, {"schema_version": 1})  # v1: position in deg
     table = pa.table([np.linspace(0, 360, rows), np.zeros(rows)], schema=schema)
     streams.write_table(str(tmp_path / "p.parquet"), h, table)
     refused(f"enc fit-rbf {tmp_path}/p.parquet -o {tmp_path}/m.parquet", "rows")
@@ -234,7 +234,7 @@ def test_a_stream_enctools_would_refuse_is_not_written(tmp_path):
     with pytest.raises(DataError, match=r"output .*column 'H' is in 'nm'"):
         streams.write_table(str(tmp_path / "m.parquet"), h,
                             pa.table([[0.0], [0.0]], schema=schema))
-    schema = pa.schema([make_field("centre", pa.float64(), "deg"),
+    schema = pa.schema([make_field("centre", pa.float64(), "rad"),
                         make_field("weight", pa.float64(), "arcsec")])
     h = streams.Header("model", schema, {"model": {}})
     with pytest.raises(DataError, match=r"output .*column 'weight' holds NaN"):
@@ -286,7 +286,8 @@ def test_a_small_but_consistent_counts_per_rev(raw, tmp_path):
 def _model(path: Path, rows: int, spread: object = 5.0) -> Path:
     schema = pa.schema([pa.field("centre", pa.float64(), metadata={"unit": "deg"}),
                         pa.field("weight", pa.float64(), metadata={"unit": "arcsec"})])
-    h = streams.Header("model", schema, {"model": {"kernel": "rbf", "spread_deg": spread}})
+    h = streams.Header("model", schema, {"model": {"kernel": "rbf", "spread_deg": spread},
+                                         "schema_version": 1})  # v1: centre in deg
     pq.write_table(pa.table([np.linspace(0, 360, rows, endpoint=False), np.zeros(rows)],
                             schema=h.arrow_schema()), path)
     return path

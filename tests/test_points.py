@@ -9,6 +9,7 @@ import pytest
 from conftest import DATA, run
 
 from enctools.data import streams
+from enctools.data.columns import column
 from enctools.data.statistics import curve_figures
 from enctools.data.streams import read_table
 from enctools.hw.truth import Truth, interpolation_error
@@ -39,8 +40,10 @@ def test_steps_run_gives_the_head_average_error(ciomp_steps, tmp_path):
     assert r.returncode == 0, r.stderr.decode()
     header, table = streams.read_table(str(out), "points")
     truth = Truth.from_dict(header.meta["truth"])
-    pos = table.column("position").to_numpy()
+    pos = column(table, "position", "deg")  # the stream holds rad
     dev = table.column("deviation").to_numpy()
+    assert table.column_names[0] == "position"
+    assert table.schema.field("position").metadata[b"unit"] == b"rad"
     assert table.num_rows == 24
     assert np.allclose(np.diff(pos), 15.0, atol=0.01)
     th = pos * DEG
@@ -127,7 +130,7 @@ def test_real_comparator_table_magalpha(tmp_path, name):
     r = run(f"enc points {MAGALPHA / name} -o {out} && enc report --json {out}")
     assert r.returncode == 0, r.stderr.decode()
     _, table = read_table(str(out), "points")
-    pos = table.column("position").to_numpy()
+    pos = column(table, "position", "deg")
     dev = table.column("deviation").to_numpy()
     assert table.num_rows == 200 and np.all((pos >= 0) & (pos < 360))
     assert abs(dev.mean()) < 1.0 and np.ptp(dev) < 20 * 3600  # offset removed, no wraps

@@ -3,7 +3,7 @@ truth, thresholds (the cron contract), HTML/PDF output, the Chromium screenshot,
 
 Streams of the kinds other commands make (deviations with uncertainties and radial
 motion, interpolation errors within a signal period, spectra) are built here from the
-simulator's ground truth through enctools.streams, following schemas/*.v1.json.
+simulator's ground truth through enctools.streams, following schemas/*.json.
 """
 
 from __future__ import annotations
@@ -93,7 +93,8 @@ def make_spectrum(path: Path, nmax: int = 60) -> Path:
     schema = pa.schema([make_field("n", pa.int64(), ""),
                         make_field("amplitude", pa.float64(), "arcsec"),
                         make_field("phase", pa.float64(), "rad"),
-                        make_field("u", pa.float64(), "arcsec"),
+                        make_field("u_amplitude", pa.float64(), "arcsec", "uncertainty",
+                                   of="amplitude"),
                         make_field("transfer", pa.float64(), "")])
     u = 0.005 / np.maximum(w, 0.1)
     table = pa.table([n, np.abs(c), np.angle(c), u, w], schema=schema)
@@ -107,10 +108,10 @@ def make_points(path: Path, table_no: int) -> Path:
     rows = [line.split(",") for line in (DATA / f"seed001_table{table_no}.csv").read_text()
             .splitlines() if line and not line.startswith("#") and line[0].isdigit()]
     pos, dev = np.array(rows, dtype=float).T
-    schema = pa.schema([make_field("position", pa.float64(), "deg"),
+    schema = pa.schema([make_field("position", pa.float64(), "rad"),
                         make_field("deviation", pa.float64(), "arcsec")])
     write_table(str(path), Header("points", schema, {"source": f"seed 001 table {table_no}"}),
-                pa.table([pos, dev], schema=schema), force=True)
+                pa.table([np.radians(pos), dev], schema=schema), force=True)
     return path
 
 
@@ -428,7 +429,7 @@ def test_bad_usage_one_line_exit2(args, needle, streams):
 
 
 def test_nan_input_exit2_and_no_html_left(tmp_path):
-    schema = pa.schema([make_field("position", pa.float64(), "deg"),
+    schema = pa.schema([make_field("position", pa.float64(), "rad"),
                         make_field("deviation", pa.float64(), "arcsec")])
     bad = tmp_path / "bad.parquet"
     with pytest.raises(DataError, match="NaN"):  # enctools writes no such stream

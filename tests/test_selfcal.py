@@ -66,7 +66,8 @@ def truth_of(path: Path) -> Truth:
 
 def spectrum(path: Path) -> tuple[np.ndarray, np.ndarray]:
     t = pq.read_table(path)
-    return t.column("re").to_numpy() + 1j * t.column("im").to_numpy(), t.column("u").to_numpy()
+    c = t.column("re").to_numpy() + 1j * t.column("im").to_numpy()
+    return c, t.column("u_amplitude").to_numpy()
 
 
 def rms(c: np.ndarray) -> float:
@@ -263,7 +264,7 @@ def test_uncertainties_are_honest() -> None:
         if want is None:
             want = Truth.from_dict(header.meta["truth"]).graduation["II"].harmonics(K)[1:]
         c = st.column("re").to_numpy() + 1j * st.column("im").to_numpy()
-        u = st.column("u").to_numpy()
+        u = st.column("u_amplitude").to_numpy()
         inside += list(np.abs((c - want).real) <= 2 * u) + list(np.abs((c - want).imag) <= 2 * u)
     frac = float(np.mean(inside))
     assert 0.90 <= frac <= 0.99, frac

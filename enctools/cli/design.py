@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from enctools.cli import options
+from enctools.units import DEG
 
 
 @click.command("design")
@@ -60,10 +61,9 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
     a = res.analysis
     if table:
         click.echo("n\ttransfer\tnormalised\tgain\tsensitivity_per_deg")
-        import numpy as np
         for k in range(1, band + 1):
             click.echo(f"{k}\t{a.transfer[k]:.6g}\t{a.normalised[k]:.6g}\t{a.gain[k]:.6g}\t"
-                       f"{a.sensitivity[k] * np.radians(1.0):.6g}")
+                       f"{a.sensitivity[k] * DEG:.6g}")
     else:
         click.echo(design.report(a, mounting_error))
     design.refuse_or_warn(a, strict)
@@ -82,7 +82,7 @@ def _summary(res: Any, mounting_error_deg: float, table: bool) -> dict[str, Any]
                            "min_transfer_n": nw, "blind": list(a.blind),
                            "ill_conditioned": list(a.ill), "max_noise_gain": g,
                            "max_noise_gain_n": ng}
-    sens = a.sensitivity[a.first:] * np.radians(mounting_error_deg)
+    sens = a.sensitivity[a.first:] * (mounting_error_deg * DEG)
     fin = np.isfinite(sens)
     out |= {"mounting_error_deg": mounting_error_deg,
             "max_relative_error": float(np.max(sens[fin])) if fin.any() else None}
@@ -93,6 +93,6 @@ def _summary(res: Any, mounting_error_deg: float, table: bool) -> dict[str, Any]
     if table:
         out["harmonics"] = [{"n": k, "transfer": a.transfer[k], "normalised": a.normalised[k],
                              "noise_gain": a.gain[k],
-                             "sensitivity_per_deg": a.sensitivity[k] * np.radians(1.0)}
+                             "sensitivity_per_deg": a.sensitivity[k] * DEG}
                             for k in range(1, a.band + 1)]
     return out

@@ -173,6 +173,7 @@ def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) ->
     import numpy as np
     import pyarrow as pa
 
+    from enctools.data.columns import uncertainty_name
     from enctools.data.schemas import make_field
 
     fields = [make_field("theta", pa.float64(), "rad")]
@@ -183,8 +184,8 @@ def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) ->
                                  period_arcsec=repr(c.meta["period_arcsec"]),
                                  reference=c.meta.get("reference", "")))
         arrays.append(pa.array(np.asarray(c.error, dtype=np.float64)))
-        fields.append(make_field(f"u({c.name})", pa.float64(), "arcsec", "uncertainty",
-                                 of=c.name))
+        fields.append(make_field(uncertainty_name(c.name), pa.float64(), "arcsec",
+                                 "uncertainty", of=c.name))
         arrays.append(pa.array(np.asarray(c.u, dtype=np.float64)))
     schema = pa.schema(fields)
     periods = {c.meta["period_arcsec"] for c in curves}
@@ -202,9 +203,12 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
     import numpy as np
     import pyarrow as pa
 
+    from enctools.data.columns import uncertainty_name
     from enctools.data.schemas import make_field
 
-    rows: dict[str, list] = {k: [] for k in ("n", "amplitude", "phase", "re", "im", "u", "curve")}
+    u_name = uncertainty_name("amplitude")
+    rows: dict[str, list] = {k: [] for k in ("n", "amplitude", "phase", "re", "im", u_name,
+                                             "curve")}
     for c in curves:
         h = c.harmonics
         u = h.amplitude_u if h.cov.size and np.any(h.cov) else np.full(h.orders.size, np.nan)
@@ -214,14 +218,15 @@ def _spectrum(header: Any, curves: list, settings: dict) -> tuple[Any, Any]:
             rows["phase"].append(float(np.angle(coef)))
             rows["re"].append(float(coef.real))
             rows["im"].append(float(coef.imag))
-            rows["u"].append(float(uu))
+            rows[u_name].append(float(uu))
             rows["curve"].append(c.name)
     schema = pa.schema([make_field("n", pa.int64(), ""),
                         make_field("amplitude", pa.float64(), "arcsec"),
                         make_field("phase", pa.float64(), "rad"),
                         make_field("re", pa.float64(), "arcsec"),
                         make_field("im", pa.float64(), "arcsec"),
-                        make_field("u", pa.float64(), "arcsec"),
+                        make_field(u_name, pa.float64(), "arcsec", "uncertainty",
+                                   of="amplitude"),
                         make_field("curve", pa.string(), "")])
     table = pa.Table.from_pydict(rows, schema=schema)
     return header.derive("spectrum", schema, settings=settings,

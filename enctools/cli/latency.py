@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 import click
 
 from enctools.cli import options
+from enctools.units import factor
 
 if TYPE_CHECKING:
     import numpy as np
@@ -81,13 +82,14 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
         raise UsageError(f"the readout delay must be > 0 s (measured {delay_s:.3g} s); "
                          "is the reference right?")
     skip = lat.code_skip_speed_deg_s(bits, delay_s)
-    out |= {"bits": bits, "delay_s": delay_s, "resolution_arcsec": lat.resolution_deg(bits) * 3600,
+    out |= {"bits": bits, "delay_s": delay_s,
+            "resolution_arcsec": lat.resolution_deg(bits) * factor("deg", "arcsec"),
             "code_skip_speed_deg_s": skip, "code_skip_speed_rev_s": skip / 360.0,
             "code_skip_speed_rpm": skip / 6.0}
     rows = []
     for rpm in speeds or []:
         v = rpm * 6.0
-        err = lat.dynamic_error_deg(delay_s, v) * 3600.0
+        err = lat.dynamic_error_deg(delay_s, v) * factor("deg", "arcsec")
         rows.append({"speed_rpm": rpm, "dynamic_error_arcsec": err,
                      "dynamic_error_codes": err / out["resolution_arcsec"],
                      "skips_codes": abs(v) > skip})

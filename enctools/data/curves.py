@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.columns import uncertainty_name
 from enctools.data.schemas import make_field
 
 
@@ -24,6 +25,12 @@ class Column:
     role: str = "deviation"           # deviation [arcsec] | radial [nm] | uncertainty [arcsec]
     unit: str = "arcsec"
     meta: dict[str, Any] = field(default_factory=dict)
+
+
+def uncertainty(of: str, values: np.ndarray, unit: str = "arcsec") -> Column:
+    """The standard uncertainty of curve ``of`` [its unit: arcsec or nm] as the naming rule
+    has it: column ``u_<of>``, role ``uncertainty``, field metadata ``of``."""
+    return Column(uncertainty_name(of), values, "uncertainty", unit, {"of": of})
 
 
 def deviations_table(theta: np.ndarray, columns: list[Column]) -> pa.Table:
@@ -42,10 +49,11 @@ def spectrum_table(curves: list[tuple[str, np.ndarray, np.ndarray | None, np.nda
 
     ``curves``: (name, coefficients c_0..c_K [arcsec], transfer |W(n)| or None,
     standard uncertainty u [arcsec] or None). amplitude = |c_n|, phase = arg c_n
-    (``amplitude * cos(n x + phase)``), re = a, im = -b.
+    (``amplitude * cos(n x + phase)``), re = a, im = -b, ``u_amplitude`` = u.
     """
+    u_name = uncertainty_name("amplitude")
     rows: dict[str, list[Any]] = {k: [] for k in ("n", "amplitude", "phase", "re", "im",
-                                                  "transfer", "u", "curve")}
+                                                  "transfer", u_name, "curve")}
     for name, c, transfer, u in curves:
         n = np.arange(first, c.size)
         cc = c[first:]
@@ -56,10 +64,11 @@ def spectrum_table(curves: list[tuple[str, np.ndarray, np.ndarray | None, np.nda
         rows["im"] += cc.imag.tolist()
         none = np.full(n.size, np.nan)
         rows["transfer"] += (none if transfer is None else transfer[first:]).tolist()
-        rows["u"] += (none if u is None else u[first:]).tolist()
+        rows[u_name] += (none if u is None else u[first:]).tolist()
         rows["curve"] += [name] * n.size
     fields = [make_field("n", pa.int64(), ""), make_field("amplitude", pa.float64(), "arcsec"),
               make_field("phase", pa.float64(), "rad"), make_field("re", pa.float64(), "arcsec"),
               make_field("im", pa.float64(), "arcsec"), make_field("transfer", pa.float64(), ""),
-              make_field("u", pa.float64(), "arcsec"), make_field("curve", pa.string(), "")]
+              make_field(u_name, pa.float64(), "arcsec", "uncertainty", of="amplitude"),
+              make_field("curve", pa.string(), "")]
     return pa.Table.from_pydict(rows, schema=pa.schema(fields))

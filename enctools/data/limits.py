@@ -14,6 +14,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from enctools.units import ANGLE_UNITS, DEG, factor
+
 # ------------------------------------------------------------------ the header
 
 #: bytes of the JSON metadata of a stream header (key ``enctools``) [byte]
@@ -59,8 +61,6 @@ MAX_CSV_BYTES = 256 << 20
 
 # ------------------------------------------------------------------ values
 
-DEG_RAD = math.pi / 180.0  # radians in a degree
-
 #: largest count a head column may hold in magnitude (2^62: differences of two counts
 #: and sums of a few heads stay within int64, and counts * 2 pi / counts_per_rev
 #: stays exact enough in float64) [count]
@@ -71,6 +71,8 @@ MAX_ABS_ARCSEC = 1_296_000.0
 #: largest magnitude of an angle in a stream (a position, a grid angle, a target):
 #: a million turns [deg]
 MAX_ABS_DEG = 360e6
+#: the same in radians [rad]
+MAX_ABS_RAD = MAX_ABS_DEG * DEG
 #: largest magnitude of a time [s] (t of readings: some 30 years)
 MAX_ABS_SECONDS = 1e9
 #: largest magnitude of a displacement (a probe reading, a radial error) [m]
@@ -86,19 +88,19 @@ VALUE_RANGES: dict[str, dict[str, tuple[float, float, str]]] = {
         "head": (-MAX_ABS_COUNT, MAX_ABS_COUNT, "count"),
         "autocollimator": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
         "probe": (-MAX_ABS_METRES, MAX_ABS_METRES, "m"),
-        "target": (-MAX_ABS_DEG * DEG_RAD, MAX_ABS_DEG * DEG_RAD, "rad"),
+        "target": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),
     },
     "deviations": {
-        "theta": (-MAX_ABS_DEG * DEG_RAD, MAX_ABS_DEG * DEG_RAD, "rad"),
+        "theta": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),
         "deviation": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
         "radial": (-MAX_ABS_METRES * 1e9, MAX_ABS_METRES * 1e9, "nm"),
     },
     "points": {
-        "position": (-MAX_ABS_DEG, MAX_ABS_DEG, "deg"),
+        "position": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),
         "deviation": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
     },
     "model": {
-        "centre": (-MAX_ABS_DEG, MAX_ABS_DEG, "deg"),
+        "centre": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),
         "weight": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
         "weight_sin": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
     },
@@ -170,7 +172,13 @@ def value_checks(kind: str, schema: Any) -> list[tuple[str, float, float, str, b
         role = (f.metadata or {}).get(b"role", b"").decode()
         key = f.name if f.name in ranges else role
         if key in ranges:
-            out.append((f.name, *ranges[key], (kind, key) in NAN_ALLOWED))
+            lo, hi, unit = ranges[key]
+            have = (f.metadata or {}).get(b"unit", b"").decode()
+            if have != unit and have in ANGLE_UNITS and unit in ANGLE_UNITS:
+                # an older schema's angle (points v1: deg): the same bound in its unit
+                k = factor(unit, have)
+                lo, hi, unit = lo * k, hi * k, have
+            out.append((f.name, lo, hi, unit, (kind, key) in NAN_ALLOWED))
     return out
 
 

@@ -5,11 +5,11 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from enctools.data.rig import Rig, bundled_rigs, load_rig, rig_text
 from enctools.data.text import printable
+from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
 
 def listing() -> list[tuple[str, str]]:
@@ -31,11 +31,11 @@ def summary(rig: Rig) -> list[str]:
         out.append(f"  {printable(rig.description)}")
     out.append(f"  backend: {printable(str(rig.backend.get('kind', 'sim')))}")
     for e in rig.encoders:
-        lsb = 1_296_000.0 / e.counts_per_rev
+        lsb = TWO_PI * factor("rad", "arcsec") / e.counts_per_rev
         out.append(f"  encoder {printable(e.name)}: {e.periods_per_rev} periods x "
                    f"{e.interpolation} = {e.counts_per_rev} counts/rev ({lsb:.4g}\"), "
                    f"diameter {e.diameter_mm:g} mm, {e.counter_bits}-bit counter")
-        heads = ", ".join(f"{printable(h.name)} {math.degrees(h.angle):g}" for h in e.heads)
+        heads = ", ".join(f"{printable(h.name)} {h.angle / DEG:g}" for h in e.heads)
         out.append(f"    heads [deg]: {heads}")
     for p in rig.probes:
         out.append(f"  probe {printable(p.name)}: arm {p.arm_mm:g} mm, side {p.side:+d}")
@@ -54,9 +54,9 @@ def summary_dict(rig: Rig) -> dict[str, Any]:
         "backend": str(rig.backend.get("kind", "sim")),
         "encoders": [{"name": e.name, "periods_per_rev": e.periods_per_rev,
                       "interpolation": e.interpolation, "counts_per_rev": e.counts_per_rev,
-                      "lsb_arcsec": 1_296_000.0 / e.counts_per_rev,
+                      "lsb_arcsec": TWO_PI / e.counts_per_rev / ARCSEC,
                       "diameter_mm": e.diameter_mm, "counter_bits": e.counter_bits,
-                      "heads": [{"name": h.name, "alpha_deg": math.degrees(h.angle)}
+                      "heads": [{"name": h.name, "alpha_deg": h.angle / DEG}
                                 for h in e.heads]} for e in rig.encoders],
         "probes": [{"name": p.name, "arm_mm": p.arm_mm, "side": p.side} for p in rig.probes],
         "polygon_faces": rig.polygon.get("faces") if rig.polygon else None,

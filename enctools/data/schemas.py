@@ -62,14 +62,19 @@ def _schema_dir() -> Path:
 
 
 @functools.cache
-def kind_spec(kind: str) -> KindSpec:
-    """The newest schema of a kind."""
+def kind_spec(kind: str, version: int | None = None) -> KindSpec:
+    """The schema of a kind: the newest, or the one of ``version`` when that file exists.
+
+    Streams of an older version are read as they were written: each column in the
+    unit its field metadata names (:func:`enctools.data.columns.column` converts it).
+    """
     if kind not in KINDS:
         msg = f"unknown stream kind {kind!r} (kinds: {', '.join(KINDS)})"
         raise DataError(msg)
     files = sorted(_schema_dir().glob(f"{kind}.v*.json"),
                    key=lambda p: int(p.name.split(".v")[1].split(".")[0]))
-    raw: dict[str, Any] = json.loads(files[-1].read_text())
+    chosen = [p for p in files if p.name == f"{kind}.v{version}.json"]
+    raw: dict[str, Any] = json.loads((chosen or files)[-1].read_text())
     cols = tuple(ColumnSpec(type=c["type"], unit=_units(c.get("unit", "")), name=c.get("name"),
                             role=c.get("role"), required=c.get("required", False),
                             min=c.get("min", 0), field_metadata=tuple(c.get("field_metadata", ())),
@@ -174,12 +179,17 @@ def _header_kind(meta: dict[str, Any], expect: str | tuple[str, ...] | None,
         msg = f"{source}: is a {kind} stream; this command reads {' or '.join(expect)}"
         raise DataError(msg)
     spec = kind_spec(kind)
-    version = int(meta.get("schema_version", 0))
+    try:
+        version = int(meta.get("schema_version", 0))
+    except (TypeError, ValueError, OverflowError):
+        msg = (f"{source}: schema_version must be a whole number, not "
+               f"{str(meta.get('schema_version'))[:40]!r}")
+        raise DataError(msg) from None
     if version > spec.version:
         msg = (f"{source}: {kind} schema version {version} is newer than this enctools "
                f"reads ({spec.version}); upgrade enctools")
         raise DataError(msg)
-    return spec
+    return kind_spec(kind, version) if version >= 1 else spec
 
 
 def _check_column(f: pa.Field, schema: pa.Schema, spec: KindSpec, source: str) -> None:

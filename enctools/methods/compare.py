@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from enctools.data.columns import uncertainty_name
 from enctools.data.schemas import check_new_columns
 from enctools.errors import DataError, UsageError
 from enctools.methods.harmonics import analyse, check_grid, grid, synthesize
@@ -78,7 +79,7 @@ class Settings:
             raise UsageError(msg)
         if self.band > 0:
             check_grid(self.points, self.band)
-        check_new_columns("deviations", [self.label, f"u_{self.label}"],
+        check_new_columns("deviations", [self.label, uncertainty_name(self.label)],
                           "--name" if self.name is not None else "the column name")
 
     @property
@@ -222,13 +223,13 @@ def run(source: InputStream, settings: Settings, progress: Callable[[int], Any] 
 def _outputs(header: Header, settings: Settings, res: Comparison
              ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
     """The deviations (curve on the grid) and, band-limited, spectrum of a comparison."""
-    from enctools.data.curves import Column, deviations_table, spectrum_table
+    from enctools.data.curves import Column, deviations_table, spectrum_table, uncertainty
 
     label = settings.label
     cols = [Column(label, res.curve, "deviation", "arcsec",
                    {"device": ",".join(settings.device), "reference": ",".join(settings.ref),
                     "argument": "reference angle", "band": settings.band}),
-            Column(f"u_{label}", res.curve_uncertainty, "uncertainty", "arcsec", {"of": label})]
+            uncertainty(label, res.curve_uncertainty)]
     table = deviations_table(grid(settings.points), cols)
     recorded = settings.to_dict() | {"revolutions": res.revolutions}
     deviations = header.derive("deviations", table.schema, settings=recorded,

@@ -30,6 +30,7 @@ from enctools.methods.selfcal import (
     esa_weights,
     fourier_transfer,
 )
+from enctools.units import DEG
 
 _BLIND = 1e-9
 #: the highest --band a --search scores (its candidates are scored in chunks of
@@ -128,7 +129,7 @@ class Analysis:
 def arrangement_method(angles_deg: list[float], method: str | None) -> str:
     """The method analysing heads at ``angles_deg`` [deg]: ``method``, else esa for 4
     heads, else fourier; UsageError naming the option when the heads do not fit it."""
-    al = np.radians(np.asarray(angles_deg, dtype=np.float64))
+    al = np.asarray(angles_deg, dtype=np.float64) * DEG
     if al.size < 2 and method != "average":
         raise UsageError("give at least 2 head angles (--angles 0,60,135,228)")
     if len(set(np.round(np.mod(angles_deg, 360.0), 9))) != al.size:
@@ -156,7 +157,7 @@ def analyse(angles_deg: list[float], band: int, method: str | None = None,
     for fourier.
     """
     method = arrangement_method(angles_deg, method)
-    al = np.radians(np.asarray(angles_deg, dtype=np.float64))
+    al = np.asarray(angles_deg, dtype=np.float64) * DEG
     n = np.arange(band + 1)
     if method == "esa":
         a = esa_weights(al[0], al[1:])
@@ -219,7 +220,7 @@ def _esa_scores(angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray
 
 def _esa_grid_scores(idx: np.ndarray, step: float, n: np.ndarray, criterion: str) -> np.ndarray:
     """As :func:`_esa_scores` for angles on a grid (indices into k * step deg): a table lookup."""
-    slots = np.arange(round(360.0 / step)) * np.radians(step)
+    slots = np.arange(round(360.0 / step)) * (step * DEG)
     table = np.exp(1j * np.outer(slots, n)) - 1.0  # (slots, K)
     sn, cs = np.sin(slots), np.cos(slots) - 1.0
     out = np.empty(idx.shape[0])
@@ -269,7 +270,7 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
     if method == "esa":
         sc = _esa_grid_scores(np.rint(cand / step).astype(np.int64), step, n, criterion)
     else:
-        sc = score(np.radians(cand), n, criterion)
+        sc = score(cand * DEG, n, criterion)
     order = np.argsort(-sc)[:keep]
     best = [(float(sc[i]), cand[i]) for i in order]
     h = step
@@ -283,7 +284,7 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
                 pts_ok = pts[_feasible(pts, min_gap_deg)]
                 if pts_ok.size == 0:
                     break
-                s = score(np.radians(pts_ok), n, criterion)
+                s = score(pts_ok * DEG, n, criterion)
                 evaluated += s.size
                 j = int(np.argmax(s))
                 if s[j] <= s0 + 1e-12:
@@ -349,7 +350,7 @@ def report(a: Analysis, mounting_error_deg: float) -> str:
         gains = gains[np.isfinite(gains)]
         lines.append(f"noise gain: max {g:.3g} at n = {ng}; "
                      f"RMS over the band {np.sqrt(np.mean(np.square(gains))):.3g}")
-        sens = a.sensitivity[a.first:] * np.radians(mounting_error_deg)
+        sens = a.sensitivity[a.first:] * (mounting_error_deg * DEG)
         fin = np.isfinite(sens)
         k = int(np.argmax(np.where(fin, sens, -1))) + a.first
         lines.append(f"mounting error {mounting_error_deg:g} deg (RMS per head): relative error "

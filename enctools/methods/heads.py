@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from enctools.errors import UsageError
+from enctools.units import DEG
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -92,7 +93,7 @@ def summarize_average(alphas: np.ndarray, band: int) -> AverageSummary:
     passed = tuple(int(k) for k in n[mag > 1 - 1e-9])
     cancelled = tuple(int(k) for k in n[mag < 1e-9])
     partial = tuple(int(k) for k in n[(mag >= 1e-9) & (mag <= 1 - 1e-9)])
-    return AverageSummary(tuple(float(np.degrees(a)) for a in alphas), band, passed, cancelled,
+    return AverageSummary(tuple(float(a / DEG) for a in alphas), band, passed, cancelled,
                           partial, radial_gain(alphas))
 
 
@@ -184,12 +185,12 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
     if n * i0.counts_per_rev > (1 << 62) // 1024:
         raise DataError(f"--average {group.name}: counts would overflow int64")
     return make_field(group.name, pa.int64(), "count", "head", encoder=i0.encoder,
-                      alpha_deg=repr(float(np.degrees(alphas.mean()))),
+                      alpha_deg=repr(float(alphas.mean() / DEG)),
                       counts_per_rev=n * i0.counts_per_rev, periods_per_rev=i0.periods_per_rev,
                       interpolation=n * i0.interpolation, radius_m=repr(i0.radius_m),
                       zero_count=sum(i.zero_count for i in infos),
                       average_of=",".join(group.heads),
-                      average_alphas_deg=",".join(repr(float(np.degrees(a))) for a in alphas),
+                      average_alphas_deg=",".join(repr(float(a / DEG)) for a in alphas),
                       passes=format_orders(s.passed) or "none",
                       radial_gain=f"{s.radial_gain:.3g}" if s.radial_gain > 1e-12 else "0")
 
@@ -211,8 +212,8 @@ def head_alphas(field: pa.Field) -> np.ndarray:
 
     fm = field_meta(field)
     if "average_alphas_deg" in fm:
-        return np.radians([float(a) for a in fm["average_alphas_deg"].split(",")])
-    return np.radians([float(fm["alpha_deg"])])
+        return np.array([float(a) for a in fm["average_alphas_deg"].split(",")]) * DEG
+    return np.array([float(fm["alpha_deg"])]) * DEG
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from enctools.errors import DataError
-from enctools.units import ARCSEC, DEG, TWO_PI
+from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
 
 def readout_delay(t_ad_s: float, t_m_s: float) -> float:
@@ -92,7 +92,7 @@ def lag_from_runs(runs: list[RunLag], offset_arcsec: float | None = 0.0
     at different speeds and ``offset_arcsec=None``: least squares of mean = offset
     - v t_d.
     """
-    v = np.array([r.speed_deg_s for r in runs]) * 3600.0  # arcsec/s
+    v = np.array([r.speed_deg_s for r in runs]) * factor("deg", "arcsec")  # arcsec/s
     m = np.array([r.mean_difference_arcsec for r in runs])
     if offset_arcsec is None:
         if np.ptp(v) < 1e-9 * max(np.abs(v).max(), 1.0):

@@ -30,12 +30,13 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data import limits
+from enctools.data.columns import column, declared_unit
 from enctools.data.readings import head_angle, head_info, measuring_heads
 from enctools.data.riglimits import RANGES
 from enctools.data.schemas import column_with_role, make_field
 from enctools.data.statistics import Figures, figures_or_nan
 from enctools.errors import DataError, UsageError
-from enctools.units import ARCSEC, DEG, TWO_PI
+from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
 if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
@@ -44,7 +45,11 @@ if TYPE_CHECKING:
 
 @dataclass
 class Points:
-    """Calibration points: positions [deg], deviations [arcsec], direction, run."""
+    """Calibration points: positions [deg], deviations [arcsec], direction, run.
+
+    In memory positions are degrees, the argument of the error models; the ``points``
+    stream holds them in rad (:meth:`table`, :func:`from_table`).
+    """
 
     position_deg: np.ndarray
     deviation: np.ndarray
@@ -55,16 +60,16 @@ class Points:
         return int(self.position_deg.size)
 
     def table(self) -> pa.Table:
-        """The rows of a ``points`` stream: position [deg], deviation [arcsec], direction, run."""
+        """The rows of a ``points`` stream: position [rad], deviation [arcsec], direction, run."""
         schema = points_schema()
-        return pa.table([pa.array(self.position_deg, pa.float64()),
+        return pa.table([pa.array(self.position_deg * factor("deg", "rad"), pa.float64()),
                          pa.array(self.deviation, pa.float64()),
                          pa.array(self.direction, pa.int8()),
                          pa.array(self.run, pa.int32())], schema=schema)
 
 
 def points_schema() -> pa.Schema:
-    return pa.schema([make_field("position", pa.float64(), "deg"),
+    return pa.schema([make_field("position", pa.float64(), "rad"),
                       make_field("deviation", pa.float64(), "arcsec"),
                       make_field("direction", pa.int8(), ""),
                       make_field("run", pa.int32(), "")])
@@ -258,7 +263,7 @@ def _comparator_points(path: str | Path, rows: list[list[str]]) -> Points:
     if not np.all(np.isfinite(vals)):
         msg = f"{path}: the table holds NaN or infinity"
         raise DataError(msg)
-    diff = np.radians(vals[:, 1] - vals[:, 0])
+    diff = (vals[:, 1] - vals[:, 0]) * DEG
     offset = np.angle(np.mean(np.exp(1j * diff)))
     dev = np.angle(np.exp(1j * (diff - offset))) / ARCSEC
     n = len(dev)
@@ -358,14 +363,18 @@ def points_from_csv(path: str | Path) -> Points:
     return Points(vals[:, 0], vals[:, 1], vals[:, 2].astype(np.int8), vals[:, 3].astype(np.int32))
 
 
-def from_table(table: pa.Table, source: str = "input") -> Points:
-    """Points from the rows of a ``points`` stream (position [deg], deviation [arcsec])."""
+def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | None = None
+               ) -> Points:
+    """Points from the rows of a ``points`` stream: position in the unit of its field
+    metadata (rad; deg in a v1 stream), deviation [arcsec]. ``meta``: the stream's
+    metadata, whose schema version says the unit of a column that names none."""
     n = table.num_rows
     if n == 0:
         msg = f"{source}: the points stream has no rows"
         raise DataError(msg)
-    pos = table.column("position").to_numpy(zero_copy_only=False).astype(np.float64)
-    dev = table.column("deviation").to_numpy(zero_copy_only=False).astype(np.float64)
+    pos = column(table, "position", "deg", source,
+                 declared_unit("points", meta or {}, "position"))
+    dev = column(table, "deviation", "arcsec", source)
     if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(dev))):
         msg = f"{source}: position or deviation holds NaN or infinite values"
         raise DataError(msg)
@@ -408,7 +417,8 @@ def read_points(path: str | None) -> tuple[Header, Points]:
         header = streams.Header("points", points_schema(), {"source": f"CSV {path}"})
         return header, check_points(points_from_csv(path), path)
     src = streams.open_input(path, "points")
-    return src.header, check_points(from_table(src.read_all(), src.source), src.source)
+    return src.header, check_points(from_table(src.read_all(), src.source, src.header.meta),
+                                     src.source)
 
 
 def make_points(path: str | None, settings: Settings) -> tuple[Header, Points]:

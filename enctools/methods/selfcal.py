@@ -42,7 +42,7 @@ from enctools.methods.revolutions import (
     require_continuous,
     revolution_spectra,
 )
-from enctools.units import ARCSEC
+from enctools.units import ARCSEC, DEG
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -212,9 +212,9 @@ def check_equal_spacing(alphas: np.ndarray, names: list[str], tol_deg: float = 0
     n = len(alphas)
     a = np.sort(np.mod(alphas, 2 * np.pi))
     gaps = np.diff(np.append(a, a[0] + 2 * np.pi))
-    if n < 2 or np.max(np.abs(gaps - 2 * np.pi / n)) > np.radians(tol_deg):
+    if n < 2 or np.max(np.abs(gaps - 2 * np.pi / n)) > tol_deg * DEG:
         msg = (f"eda needs equally spaced heads; {', '.join(names)} are at "
-               f"{'/'.join(f'{np.degrees(x):g}' for x in alphas)} deg "
+               f"{'/'.join(f'{x / DEG:g}' for x in alphas)} deg "
                "(use --method fourier or esa)")
         raise UsageError(msg)
 
@@ -554,21 +554,19 @@ def _refuse_or_warn(method: Method, strict: bool) -> None:
 def _outputs(header: Header, p: Plan, res: Result
              ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table]]:
     """The deviations (curves on the grid) and spectrum (coefficients) of a result."""
-    from enctools.data.curves import Column, deviations_table, spectrum_table
+    from enctools.data.curves import Column, deviations_table, spectrum_table, uncertainty
 
     cols = [Column("graduation", res.curves["graduation"], "deviation", "arcsec",
                    {"encoder": p.encoder, "argument": "scale angle",
                     "method": p.method.name}),
-            Column("u_graduation", res.curve_uncertainty["graduation"], "uncertainty", "arcsec",
-                   {"of": "graduation"})]
+            uncertainty("graduation", res.curve_uncertainty["graduation"])]
     for ax in ("x", "y"):
         if ax in res.curves:
             u_rms = float(np.sqrt(np.mean(res.curve_uncertainty[ax] ** 2)))
             cols.append(Column(ax, res.curves[ax], "radial", "nm",
                                {"encoder": p.encoder, "argument": "spindle angle",
                                 "u_rms_nm": f"{u_rms:.4g}"}))
-            cols.append(Column(f"u_{ax}", res.curve_uncertainty[ax], "uncertainty", "nm",
-                               {"of": ax}))
+            cols.append(uncertainty(ax, res.curve_uncertainty[ax], "nm"))
     table = deviations_table(grid(p.settings.points), cols)
     cond = p.method.conditioning
     meta = {"settings": p.settings.to_dict() | {"encoder": p.encoder,

@@ -1,6 +1,6 @@
 """Model streams: error models any command can evaluate at any angle.
 
-A ``model`` stream holds an RBF network (one row per unit: ``centre`` [deg],
+A ``model`` stream holds an RBF network (one row per unit: ``centre`` [rad; deg in v1],
 ``weight`` [arcsec]) or a Fourier series (one row per harmonic: ``n``, ``weight``
 = cosine and ``weight_sin`` = sine coefficient [arcsec]); its metadata key
 ``model`` names the kernel and its parameters. A ``deviations`` stream (a curve on
@@ -20,12 +20,13 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.columns import column, declared_unit
 from enctools.data.limits import MAX_MODEL_TERMS
 from enctools.data.schemas import column_with_role, make_field
 from enctools.errors import DataError, UsageError
 from enctools.models.fourier import FourierModel
 from enctools.models.rbf import SPREAD_FACTOR, RBFModel
-from enctools.units import DEG, TWO_PI
+from enctools.units import TWO_PI, factor
 
 KERNELS = ("rbf", "fourier")
 
@@ -49,9 +50,10 @@ Evaluator = Callable[[np.ndarray], np.ndarray]
 def model_table(model: RBFModel | FourierModel) -> tuple[pa.Table, dict[str, Any]]:
     """The rows and the ``model`` metadata of a model stream."""
     if isinstance(model, RBFModel):
-        schema = pa.schema([make_field("centre", pa.float64(), "deg"),
+        schema = pa.schema([make_field("centre", pa.float64(), "rad"),
                             make_field("weight", pa.float64(), "arcsec")])
-        table = pa.table([pa.array(model.centres_deg), pa.array(model.weights)], schema=schema)
+        table = pa.table([pa.array(model.centres_deg * factor("deg", "rad")),
+                          pa.array(model.weights)], schema=schema)
         meta = {"kernel": "rbf", "spread_deg": float(model.spread_deg),
                 "spread_factor": SPREAD_FACTOR, "distance": "chord on the unit circle",
                 "bias_arcsec": float(model.bias), "units": int(model.centres_deg.size),
@@ -65,16 +67,20 @@ def model_table(model: RBFModel | FourierModel) -> tuple[pa.Table, dict[str, Any
         meta = {"kernel": "fourier", "harmonics": int(model.n.max()),
                 "undetermined": list(model.undetermined),
                 "equation": "y = sum_n weight cos(n x) + weight_sin sin(n x)"}
-    meta |= {"argument": "indicated angle [deg], periodic in 360",
+    meta |= {"argument": "indicated angle x [rad], periodic in 2 pi",
              "output": "deviation [arcsec] = indicated - true; correction = -deviation"}
     return table, meta
 
 
-def _col(table: pa.Table, name: str, source: str) -> np.ndarray:
+def _col(table: pa.Table, name: str, source: str, unit: str = "",
+         meta: dict[str, Any] | None = None) -> np.ndarray:
+    """Column ``name`` of a model stream, finite, in ``unit`` (converted from the unit of
+    its field metadata, else of the schema version ``meta`` declares)."""
     if name not in table.column_names:
         msg = f"{source}: model stream lacks the column {name!r} its kernel needs"
         raise DataError(msg)
-    a = table.column(name).to_numpy()
+    a = (column(table, name, unit, source, declared_unit("model", meta or {}, name)) if unit
+         else table.column(name).to_numpy())
     if not np.all(np.isfinite(a)):
         msg = f"{source}: column {name!r} holds NaN or infinite values"
         raise DataError(msg)
@@ -113,14 +119,16 @@ def from_stream(header: Any, table: pa.Table, source: str = "input",
         if not 0 < spread <= 360:
             msg = f"{source}: rbf model without a spread_deg in (0, 360] deg in its metadata"
             raise DataError(msg)
-        return RBFModel(_col(table, "centre", source), _col(table, "weight", source),
+        return RBFModel(_col(table, "centre", source, "deg", header.meta),
+                        _col(table, "weight", source, "arcsec", header.meta),
                         _meta_number(m, "bias_arcsec", 0.0, source), spread)
     if kernel == "fourier":
         n = _col(table, "n", source).astype(np.int64)
         if n.min() < 0:
             msg = f"{source}: negative harmonic order in column 'n'"
             raise DataError(msg)
-        return FourierModel(n, _col(table, "weight", source), _col(table, "weight_sin", source))
+        return FourierModel(n, _col(table, "weight", source, "arcsec", header.meta),
+                            _col(table, "weight_sin", source, "arcsec", header.meta))
     msg = f"{source}: unknown model kernel {kernel!r} (kernels: {', '.join(KERNELS)})"
     raise DataError(msg)
 
@@ -129,8 +137,8 @@ def curve_model(header: Any, table: pa.Table, source: str, curve: str | None) ->
     """A deviations curve as a model: periodic linear interpolation of its values [arcsec]
     on its grid (theta [rad], kept in deg); NaN points are bridged with a warning."""
     curve = column_with_role(header.schema, "deviation", curve, source, "--curve")
-    theta = table.column("theta").to_numpy().astype(np.float64)
-    values = table.column(curve).to_numpy().astype(np.float64)
+    theta = column(table, "theta", "rad", source)
+    values = column(table, curve, "arcsec", source)
     ok = np.isfinite(theta) & np.isfinite(values)
     if ok.sum() < 2:
         msg = f"{source}: curve {curve!r} has fewer than 2 finite points"
@@ -141,6 +149,6 @@ def curve_model(header: Any, table: pa.Table, source: str, curve: str | None) ->
         logging.getLogger("enctools").warning(
             "%s: curve %r has %d of %d points NaN (e.g. empty angle bins); the table "
             "interpolates across them", source, curve, int((~ok).sum()), ok.size)
-    th = np.mod(theta[ok], TWO_PI) / DEG
+    th = np.mod(theta[ok], TWO_PI) * factor("rad", "deg")
     order = np.argsort(th)
     return CurveModel(th[order], values[ok][order], curve)

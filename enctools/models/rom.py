@@ -31,6 +31,7 @@ from enctools.data.header import Header, history_line
 from enctools.data.schemas import make_field
 from enctools.errors import DataError, UsageError
 from enctools.models import romformats
+from enctools.units import TWO_PI, factor
 
 #: the largest table this module builds (2**28 entries, 512 MiB of int16)
 MAX_ADDRESS_BITS = 28
@@ -72,7 +73,7 @@ class RomSpec:
     @property
     def count_arcsec(self) -> float:
         """One count of the n-bit code [arcsec] (seed 001 eq. 3: 360 deg / 2**n)."""
-        return 1_296_000.0 / 2.0 ** self.code_bits
+        return TWO_PI * factor("rad", "arcsec") / 2.0 ** self.code_bits
 
     @property
     def lsb_arcsec(self) -> float:
@@ -198,7 +199,7 @@ class Settings:
             msg = "a rom stream is not a table file"
             raise ValueError(msg)
         return romformats.Target(self.target, self.width, self.endian,
-                                 count_deg=self.spec.lsb_arcsec / 3600.0,
+                                 count_deg=self.spec.lsb_arcsec * factor("arcsec", "deg"),
                                  axis=self._axis(),
                                  zone=self.zone, name=self.array_name,
                                  max_entries=self.max_entries)

@@ -116,6 +116,7 @@ class History:
     folder: str
     table: pa.Table
     skipped: list[str] = field(default_factory=list)
+    unit: str = "arcsec"  # of the figures (enc report --unit shows another)
 
     @property
     def runs(self) -> int:
@@ -141,7 +142,7 @@ class History:
         if not self.runs:
             return lines
         lines.append(f"  {'time (UTC)':<20} {'rig':<12} {'status':<7} {'p-p':>7} {'s':>7} "
-                     f"{'drift':>7} {'tol':>7}  [arcsec]")
+                     f"{'drift':>7} {'tol':>7}  [{self.unit}]")
         for r in self.to_records():
             def g(v: Any) -> str:
                 return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) \
@@ -151,7 +152,8 @@ class History:
                          f"{g(r['drift_max']):>7} {g(r['tolerance']):>7}")
         drift = [v for v in self.column("drift_max") if v is not None and np.isfinite(v)]
         if len(drift) >= 2:
-            lines.append(f"  drift: last {drift[-1]:.3f}\", largest {max(drift):.3f}\" "
+            mark = '"' if self.unit == "arcsec" else f" {self.unit}"
+            lines.append(f"  drift: last {drift[-1]:.3f}{mark}, largest {max(drift):.3f}{mark} "
                          f"over {len(drift)} runs")
         return lines
 

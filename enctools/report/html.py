@@ -22,8 +22,10 @@ import numpy as np
 from enctools import __version__
 from enctools.data.readings import rig_encoders
 from enctools.report import plots
+from enctools.report.display import label
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
+from enctools.units import DEG
 
 CSS = """
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;max-width:1000px;
@@ -83,7 +85,7 @@ def _rig_html(metas: dict[str, dict[str, Any]]) -> str:
         out.append(f"<h3>{_e(name)}</h3><p>{_e(rig.get('description', ''))}</p>")
         rows = []
         for enc in rig_encoders(meta):
-            heads = ", ".join(f"{h.name} {math.degrees(h.angle):g}°" for h in enc.heads)
+            heads = ", ".join(f"{h.name} {h.angle / DEG:g}°" for h in enc.heads)
             rows.append([enc.name, enc.model, enc.periods_per_rev, enc.interpolation,
                          enc.diameter_mm, heads])
         if rows:
@@ -113,7 +115,7 @@ def _summary_rows(report: Report) -> list[list[str]]:
     rows = []
     for s, c in report.curves():
         f = c.figures
-        rows.append([s.source, c.name, c.unit, f.n, _f(f.pp), _f(f.plus_minus), _f(f.mean),
+        rows.append([s.source, c.name, label(c.unit), f.n, _f(f.pp), _f(f.plus_minus), _f(f.mean),
                      _f(f.std), _f(c.U_max)])
     return rows
 
@@ -125,9 +127,9 @@ def _harmonics_table(curves: Sequence[Curve], top: int) -> str:
         if c.harmonics is None:
             continue
         h = c.harmonics.largest(top)
-        cells = [f"n={int(n)}: {float(a):.3f} @ {math.degrees(float(p)):.0f}°"
+        cells = [f"n={int(n)}: {float(a):.3f} @ {float(p) / DEG:.0f}°"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
-        rows.append([c.name, c.unit] + cells + [""] * (top - len(cells)))
+        rows.append([c.name, label(c.unit)] + cells + [""] * (top - len(cells)))
     if not rows:
         return ""
     return ("<p class='note'>Largest harmonics, A cos(n x + p): n, amplitude A, phase p.</p>"
@@ -141,7 +143,8 @@ def _iso_html(s: Section) -> str:
     axis = iso.axis()
     out = ["<h3>ISO 230-2 (2014)</h3>",
            _table(list(axis), [[_f(v) for v in axis.values()]], left=0),
-           "<p class='note'>[arcsec]. R_i = 4 s_i (±2 s); bidirectional R = max R_i with "
+           f"<p class='note'>[{_e(label(iso.unit))}]. R_i = 4 s_i (±2 s); "
+           "bidirectional R = max R_i with "
            "R_i = max(2 s_i↑ + 2 s_i↓ + |B_i|, R_i↑, R_i↓); E over both directions' mean "
            "deviations; M = range of x̄_i; A = max(x̄ + 2s) − min(x̄ − 2s) over both "
            "directions; B = max |B_i|.</p>"]
@@ -195,12 +198,13 @@ def _compare_html(report: Report) -> str:
     a graduation error and an H - P difference are different measurands.
     """
     groups: dict[str, list[tuple[str, Curve]]] = {}
-    for s, c in report.curves("arcsec"):
+    unit = str(report.settings.get("unit", "arcsec"))
+    for s, c in report.curves(unit):
         if c.domain == "revolution" and c.role in ("deviation", "points", "positioning"):
-            label = s.source.rsplit("/", 1)[-1]
-            if len([x for x in s.curves if x.unit == "arcsec"]) > 1:
-                label += f":{c.name}"
-            groups.setdefault(s.kind, []).append((label, c))
+            name = s.source.rsplit("/", 1)[-1]
+            if len([x for x in s.curves if x.unit == unit]) > 1:
+                name += f":{c.name}"
+            groups.setdefault(s.kind, []).append((name, c))
     out = []
     for kind, pairs in groups.items():
         if len({label.split(":")[0] for label, _ in pairs}) < 2:
@@ -215,7 +219,7 @@ def _compare_html(report: Report) -> str:
         out.append(f"<h2>Comparison of the {_e(kind)} inputs (before / after compensation)</h2>"
                    + _img(plots.compare_plot(pairs[:8], f"{kind}: every input"),
                           "Deviation of every input on one plot (the first: before)")
-                   + _table(["input", "p-p [arcsec]", "s [arcsec]"], rows)
+                   + _table(["input", f"p-p [{label(unit)}]", f"s [{label(unit)}]"], rows)
                    + f"<ul class='note'>{ratio}</ul>")
     return "".join(out)
 
@@ -231,11 +235,14 @@ def _history_html(report: Report) -> str:
         t = h.times()
         series = {name: h.column(name).astype(float) for name in ("pp", "std", "drift_max")}
         bad = np.array([s != "ok" for s in h.column("status")])
-        out.append(_img(plots.history_plot(t, series, "figures of each nightly run", bad),
+        out.append(_img(plots.history_plot(t, series, "figures of each nightly run", bad,
+                                           h.unit),
                         "p-p, s and drift of every run (× marks runs that failed)"))
         rows = [[r["time"], r["rig"] or "–", r["status"] or "–", _f(r["pp"]), _f(r["std"]),
                  _f(r["drift_max"]), _f(r["tolerance"])] for r in h.to_records()]
-        out.append(_table(["time (UTC)", "rig", "status", "p-p", "s", "drift", "tolerance"],
+        u = f" [{label(h.unit)}]"
+        out.append(_table(["time (UTC)", "rig", "status", "p-p" + u, "s" + u, "drift" + u,
+                           "tolerance" + u],
                           rows, left=3))
     return "".join(out)
 
@@ -244,6 +251,7 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
             title: str | None = None) -> str:
     """The whole report as one HTML document (str)."""
     top = int(report.settings.get("top_harmonics", 5))
+    unit = str(report.settings.get("unit", "arcsec"))
     rigs = {s.rig_name: s.meta for s in report.sections if s.rig_name}
     title = title or ("Calibration report" + (f" — {', '.join(rigs)}" if rigs else ""))
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
@@ -273,7 +281,7 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
     parts.append(_history_html(report))
     parts.append(
         "<h2>Conventions</h2><ul class='note'>"
-        "<li>Deviation = indicated − true angle [arcsec]; angles in degrees.</li>"
+        f"<li>Deviation = indicated − true angle [{_e(label(unit))}]; angles in degrees.</li>"
         "<li>s: Bessel standard deviation √(Σ(x_i − x̄)²/(n − 1)) over the values as "
         "given (seed 001 eq. 8); ± is half the peak-to-peak.</li>"
         "<li>U: expanded uncertainty, U = k·u with k = 2, from the standard "

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from enctools.errors import DataError
+from enctools.units import DEG
 
 UP, DOWN = 1, -1
 
@@ -62,6 +63,7 @@ class Iso230:
     down: DirectionFigures | None
     bidirectional: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    unit: str = "arcsec"          # of the figures (enc report --unit shows another)
 
     @property
     def is_bidirectional(self) -> bool:
@@ -135,9 +137,9 @@ def target_positions(position_deg: np.ndarray, tol_deg: float = 0.01, circular: 
     index[order] = group_sorted
     counts = np.bincount(index)
     if circular:
-        z = np.bincount(index, weights=np.cos(np.radians(p))) + \
-            1j * np.bincount(index, weights=np.sin(np.radians(p)))
-        targets = np.mod(np.degrees(np.angle(z)), 360.0)
+        z = np.bincount(index, weights=np.cos(p * DEG)) + \
+            1j * np.bincount(index, weights=np.sin(p * DEG))
+        targets = np.mod(np.angle(z) / DEG, 360.0)
         targets[np.abs(targets - 360.0) < 1e-9] = 0.0
     else:
         targets = np.bincount(index, weights=p) / counts

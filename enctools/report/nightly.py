@@ -122,8 +122,10 @@ def drift(current: Curve, stored: Curve) -> Drift:
     curve's angles [deg], the mean offset removed."""
     import numpy as np
 
-    x = np.mod(np.degrees(current.angle), 360.0)
-    xs = np.mod(np.degrees(stored.angle), 360.0)
+    from enctools.units import DEG
+
+    x = np.mod(np.asarray(current.angle) / DEG, 360.0)
+    xs = np.mod(np.asarray(stored.angle) / DEG, 360.0)
     order = np.argsort(xs)
     ref = np.interp(x, xs[order], stored.values[order], period=360.0)
     d = current.values - ref

@@ -7,6 +7,7 @@ from collections.abc import Callable, Sequence
 
 from enctools.data.files import OutputGroup, check_new_file
 from enctools.errors import CheckFailed
+from enctools.report.display import in_unit
 from enctools.report.sections import Options
 from enctools.report.summary import build_report
 from enctools.report.thresholds import Thresholds, check
@@ -22,12 +23,14 @@ def check_paths(paths: Sequence[str | None], force: bool) -> None:
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
-               prog: str = "enc report",
+               prog: str = "enc report", unit: str = "arcsec",
                progress: Callable[[int, int], object] | None = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
-    A threshold exceeded is one line on stderr each, headed by ``prog``.
-    ``progress(done, total)`` counts the inputs read and the HTML and PDF renderings.
+    A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
+    and PDF show angle errors in ``unit`` (:func:`~enctools.report.display.in_unit`);
+    the JSON summary and the thresholds keep arcsec. ``progress(done, total)`` counts
+    the inputs read and the HTML and PDF renderings.
     """
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
@@ -41,23 +44,24 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         report.history = read_history(history_dir)
     report.settings["thresholds"] = limits.to_dict()
     failures = check(report, limits)
+    shown = in_unit(report, unit)
     if as_json:
         from enctools.report.jsonout import to_json
         sys.stdout.write(to_json(report, failures if limits.any else None) + "\n")
     else:
         from enctools.report.text import to_text
-        sys.stdout.write(to_text(report) + "\n")
+        sys.stdout.write(to_text(shown) + "\n")
     sys.stdout.flush()
     with OutputGroup() as outputs:  # both reports, or neither
         done = len(sources)
         if html_path is not None:
             from enctools.report.html import to_html
-            outputs.write(html_path, to_html(report, failures, title).encode())
+            outputs.write(html_path, to_html(shown, failures, title).encode())
             done += 1
             step(done)
         if pdf_path is not None:
             from enctools.report.pdf import to_pdf
-            outputs.write(pdf_path, to_pdf(report, failures, title))
+            outputs.write(pdf_path, to_pdf(shown, failures, title))
             step(done + 1)
     if failures:
         for line in failures:

@@ -47,6 +47,6 @@ def to_pdf(report: Report, failures: Sequence[str] | None = None,
         if h is not None and h.runs:
             bad = np.array([st != "ok" for st in h.column("status")])
             series = {n: h.column(n).astype(float) for n in ("pp", "std", "drift_max")}
-            pdf.savefig(plots.history_plot(h.times(), series, "nightly history", bad),
+            pdf.savefig(plots.history_plot(h.times(), series, "nightly history", bad, h.unit),
                         bbox_inches="tight")
     return buf.getvalue()

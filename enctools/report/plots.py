@@ -1,8 +1,8 @@
 """The report's plots, as matplotlib Figures (object API: no pyplot state, no display).
 
 Every plot labels both axes with units: angle [deg] (or phase within the signal
-period [deg]), deviation [arcsec], radial motion [nm], signals [V], harmonic order
-[1/rev or 1/period], time [UTC].
+period [deg]), deviation [arcsec, or the unit of ``enc report --unit``], radial
+motion [nm], signals [V], harmonic order [1/rev or 1/period], time [UTC].
 """
 
 from __future__ import annotations
@@ -14,7 +14,9 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from matplotlib.figure import Figure
 
+from enctools.report.display import label
 from enctools.report.sections import Curve, Section, SpectrumRows
+from enctools.units import ANGLE_UNITS, DEG, TWO_PI
 
 if TYPE_CHECKING:
     from matplotlib.projections.polar import PolarAxes
@@ -32,8 +34,8 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
 
 
 def _angle_deg(c: Curve) -> np.ndarray:
-    return np.degrees(np.mod(np.asarray(c.angle), 2 * np.pi)) if c.domain == "period" \
-        else np.degrees(np.asarray(c.angle))
+    return np.mod(np.asarray(c.angle), TWO_PI) / DEG if c.domain == "period" \
+        else np.asarray(c.angle) / DEG
 
 
 def _angle_label(c: Curve) -> str:
@@ -41,8 +43,9 @@ def _angle_label(c: Curve) -> str:
 
 
 def _unit_label(unit: str) -> str:
-    return {"arcsec": "deviation [arcsec]", "nm": "radial motion [nm]",
-            "count": "correction [count]"}.get(unit, f"[{unit}]")
+    if unit in ANGLE_UNITS:
+        return f"deviation [{label(unit)}]"
+    return {"nm": "radial motion [nm]", "count": "correction [count]"}.get(unit, f"[{unit}]")
 
 
 def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
@@ -101,7 +104,7 @@ def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") ->
         ax.bar(n, sp.amplitude[keep], width=width, color=COLORS[i % len(COLORS)],
                yerr=err, capsize=1.5, error_kw={"lw": 0.6}, label=sp.curve)
     ax.set_xlabel(f"harmonic order n [1/{per}]")
-    ax.set_ylabel("amplitude [arcsec]")
+    ax.set_ylabel(f"amplitude [{label(rows[0].unit)}]")
     ax.set_xlim(0, min(_last_significant(rows), max(int(sp.n.max()) for sp in rows)) + 0.6)
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3, axis="y")
@@ -112,7 +115,8 @@ def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") ->
 
 def harmonics_rows(curves: Sequence[Curve]) -> list[SpectrumRows]:
     """The harmonics of curves as spectrum rows (for :func:`spectrum_plot`)."""
-    return [SpectrumRows(c.name, c.harmonics.n, c.harmonics.amplitude, c.harmonics.phase)
+    return [SpectrumRows(c.name, c.harmonics.n, c.harmonics.amplitude, c.harmonics.phase,
+                         unit=c.unit)
             for c in curves if c.harmonics is not None]
 
 
@@ -183,7 +187,7 @@ def iso_plot(iso: Any, title: str) -> Figure:
         ax.errorbar(x, d.mean, yerr=2 * d.s, fmt="o-", ms=3, lw=1, capsize=2, color=color,
                     label=f"mean {name} ± 2s")
     ax.set_xlabel("target position [deg]")
-    ax.set_ylabel("positioning deviation [arcsec]")
+    ax.set_ylabel(f"positioning deviation [{label(iso.unit)}]")
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
@@ -194,15 +198,16 @@ def compare_plot(pairs: Sequence[tuple[str, Curve]], title: str) -> Figure:
     """Curves of several inputs on one plot (before/after compensation)."""
     fig = Figure(figsize=SIZE)
     ax = fig.add_subplot()
-    for i, (label, c) in enumerate(pairs):
+    unit = label(pairs[0][1].unit)
+    for i, (name, c) in enumerate(pairs):
         x = _angle_deg(c)
         order = np.argsort(x)
         ax.plot(x[order], c.values[order], "o-" if c.values.size <= 100 else "-", ms=3, lw=1.1,
                 color=COLORS[i % len(COLORS)],
-                label=f"{label} (p-p {c.figures.pp:.3g}\", s {c.figures.std:.3g}\")")
+                label=f"{name} (p-p {c.figures.pp:.3g} {unit}, s {c.figures.std:.3g} {unit})")
     ax.axhline(0, color="0.6", lw=0.6)
     ax.set_xlabel("angle [deg]")
-    ax.set_ylabel("deviation [arcsec]")
+    ax.set_ylabel(f"deviation [{unit}]")
     ax.set_xlim(0, 360)
     ax.set_xticks(np.arange(0, 361, 45))
     ax.set_title(title, fontsize=10)
@@ -212,7 +217,7 @@ def compare_plot(pairs: Sequence[tuple[str, Curve]], title: str) -> Figure:
 
 
 def history_plot(times: np.ndarray, series: dict[str, np.ndarray], title: str,
-                 bad: np.ndarray | None = None) -> Figure:
+                 bad: np.ndarray | None = None, unit: str = "arcsec") -> Figure:
     """Figures of the nightly runs against time [UTC], drift runs marked."""
     fig = Figure(figsize=SIZE)
     ax = fig.add_subplot()
@@ -221,7 +226,7 @@ def history_plot(times: np.ndarray, series: dict[str, np.ndarray], title: str,
         if bad is not None and np.any(bad):
             ax.plot(times[bad], y[bad], "x", ms=8, color="k")
     ax.set_xlabel("run time [UTC]")
-    ax.set_ylabel("figure [arcsec]")
+    ax.set_ylabel(f"figure [{label(unit)}]")
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
@@ -233,9 +238,9 @@ def section_figures(s: Section, top: int = 5) -> list[tuple[str, Figure]]:
     """Every plot of one section, with a caption."""
     out: list[tuple[str, Figure]] = []
     name = s.source
-    dev = [c for c in s.curves if c.unit == "arcsec"]
+    dev = [c for c in s.curves if c.unit in ANGLE_UNITS]
     radial = [c for c in s.curves if c.unit == "nm"]
-    other = [c for c in s.curves if c.unit not in ("arcsec", "nm")]
+    other = [c for c in s.curves if c.unit not in ANGLE_UNITS and c.unit != "nm"]
     if dev:
         if s.domain == "period":
             out.append(("Interpolation error per head within one signal period",

@@ -20,7 +20,6 @@ Readings are read batch by batch (memory does not grow with the run's length).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -28,6 +27,7 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data import readings
+from enctools.data.columns import column, declared_unit, uncertainty_columns
 from enctools.data.schemas import columns_with_role, field_meta
 from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
@@ -73,6 +73,7 @@ class SpectrumRows:
     phase: np.ndarray
     u: np.ndarray | None = None
     transfer: np.ndarray | None = None
+    unit: str = "arcsec"            # of amplitude and u
 
     def largest(self, count: int) -> np.ndarray:
         """Row indices of the ``count`` largest amplitudes (n > 0), largest first."""
@@ -88,6 +89,7 @@ class Section:
     kind: str
     meta: dict[str, Any]
     domain: str = "revolution"      # or "period" (interpolation errors)
+    unit: str = "arcsec"            # of its angle errors (enc report --unit)
     curves: list[Curve] = field(default_factory=list)
     spectra: list[SpectrumRows] = field(default_factory=list)
     iso: Iso230 | None = None
@@ -155,15 +157,15 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
         raise DataError(msg)
     if _period_domain(s.meta, table.schema):
         s.domain = "period"
-    theta = _col(table, "theta")
-    unc = {field_meta(f).get("of"): f.name for f in table.schema
-           if field_meta(f).get("role") == "uncertainty"}
+    theta = column(table, "theta", "rad", s.source)
+    unc = uncertainty_columns(table.schema)
     for role, unit in (("deviation", "arcsec"), ("radial", "nm")):
         for name in columns_with_role(table.schema, role):
             fm = field_meta(table.schema.field(name))
-            u = _col(table, unc[name]) if name in unc else None
+            u = column(table, unc[name], unit, s.source) if name in unc else None
             in_period = s.domain == "period" and role == "deviation"
-            s.curves.append(_curve(name, unit, role, theta, _col(table, name), opts, s.source,
+            values = column(table, name, unit, s.source)
+            s.curves.append(_curve(name, unit, role, theta, values, opts, s.source,
                                    u=u, head=fm.get("head", name if in_period else None),
                                    domain="period" if in_period else "revolution"))
             if in_period and "period_arcsec" in fm:
@@ -184,12 +186,15 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
     curves = (table.column("curve").to_pylist() if "curve" in names
               else [s.meta.get("curve", "spectrum")] * table.num_rows)
     n_all = table.column("n").to_numpy(zero_copy_only=False).astype(np.int64)
+    # the amplitude's uncertainty: by its field metadata 'of' (v2), else the v1 column u
+    u_col = uncertainty_columns(table.schema).get("amplitude", "u" if "u" in names else None)
     for curve in dict.fromkeys(curves):
         mask = np.array([c == curve for c in curves])
         s.spectra.append(SpectrumRows(
-            curve=str(curve), n=n_all[mask], amplitude=_col(table, "amplitude")[mask],
-            phase=_col(table, "phase")[mask],
-            u=_col(table, "u")[mask] if "u" in names else None,
+            curve=str(curve), n=n_all[mask],
+            amplitude=column(table, "amplitude", "arcsec", s.source)[mask],
+            phase=column(table, "phase", "rad", s.source)[mask],
+            u=column(table, u_col, "arcsec", s.source)[mask] if u_col else None,
             transfer=_col(table, "transfer")[mask] if "transfer" in names else None))
     blind = s.meta.get("blind")
     if blind:
@@ -218,8 +223,8 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
     if table.num_rows == 0:
         msg = f"{s.source}: points stream has no rows"
         raise DataError(msg)
-    pos = _col(table, "position")
-    dev = _col(table, "deviation")
+    pos = column(table, "position", "deg", s.source, declared_unit("points", s.meta, "position"))
+    dev = column(table, "deviation", "arcsec", s.source)
     direction = (table.column("direction").to_numpy(zero_copy_only=False)
                  if "direction" in table.schema.names else None)
     _points_into(s, pos, dev, direction, opts, "deviation", "points")
@@ -356,7 +361,7 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
             _scan_batch(scan, batch, infos, signal_cols, encoder if stepped else [])
     s.info["mode"] = s.meta.get("mode", "steps" if stepped else "continuous")
     s.info["rows"] = scan.rows
-    s.info["heads"] = ", ".join(f"{i.name} ({i.encoder} at {math.degrees(i.alpha):g} deg)"
+    s.info["heads"] = ", ".join(f"{i.name} ({i.encoder} at {i.alpha / DEG:g} deg)"
                                 for i in infos)
     if scan.t_first is not None and scan.t_last is not None:
         s.info["duration"] = f"{scan.t_last - scan.t_first:.4g} s"

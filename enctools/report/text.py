@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from enctools.data.text import printable_lines
+from enctools.report.display import mark
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
+from enctools.units import DEG
 
 
 def _g(x: float | None, digits: int = 3) -> str:
@@ -22,7 +22,7 @@ def _g(x: float | None, digits: int = 3) -> str:
 def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
     f = c.figures
     u = c.unit
-    sym = '"' if u == "arcsec" else f" {u}"
+    sym = mark(u)
     lines = [f"  {c.name} [{u}]{' (head ' + c.head + ')' if c.head else ''}: n={f.n}  "
              f"p-p {_g(f.pp)}{sym}  +/-{_g(f.plus_minus)}{sym}  mean {_g(f.mean)}{sym}  "
              f"s {_g(f.std)}{sym} (Bessel n-1, seed 001 eq. 8)"]
@@ -34,7 +34,7 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
     h = c.harmonics.largest(top) if c.harmonics is not None else None
     if h is not None and h.n.size:
         per = "/period" if c.domain == "period" else "/rev"
-        parts = [f"n={int(n)} {_g(a)}{sym} @ {np.degrees(p):.0f} deg"
+        parts = [f"n={int(n)} {_g(a)}{sym} @ {p / DEG:.0f} deg"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
     return lines
@@ -45,7 +45,7 @@ def iso_lines(s: Section) -> list[str]:
     if iso is None:
         return []
     axis = iso.axis()
-    lines = ["  ISO 230-2 (R = 4s, A with +/-2s) [arcsec]: "
+    lines = [f"  ISO 230-2 (R = 4s, A with +/-2s) [{iso.unit}]: "
              + "  ".join(f"{k} {_g(v)}" for k, v in axis.items())]
     head = "    pos [deg]"
     cols = []
@@ -78,9 +78,9 @@ def section_lines(s: Section, top: int) -> list[str]:
     for sp in s.spectra:
         parts = []
         for i in sp.largest(top):
-            p = f"n={int(sp.n[i])} {_g(float(sp.amplitude[i]))}\""
+            p = f"n={int(sp.n[i])} {_g(float(sp.amplitude[i]))}{mark(sp.unit)}"
             if sp.u is not None:
-                p += f" (U {_g(2 * float(sp.u[i]))}\")"
+                p += f" (U {_g(2 * float(sp.u[i]))}{mark(sp.unit)})"
             if sp.transfer is not None:
                 p += f" |W| {_g(float(sp.transfer[i]), 2)}"
             parts.append(p)

@@ -1,0 +1,99 @@
+"""The report in the angle unit a person asked for (``enc report --unit``).
+
+Streams and ``--json`` keep their documented units (angle errors in arcsec); the
+text, HTML and PDF a person reads show every angle error in the unit chosen by
+``--unit`` (arcsec, urad, mrad, deg, rad). :func:`in_unit` returns a copy of a
+report whose angle errors (curves, uncertainties, figures, harmonic amplitudes,
+spectra, ISO 230-2 figures, the nightly history) are in that unit, each converted
+by :func:`enctools.units.factor`; radial motion stays nm, correction tables count,
+and positions and phases are shown in degrees by the renderers.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from enctools.data.schemas import field_meta
+from enctools.report.iso230 import DirectionFigures, Iso230
+from enctools.report.sections import Curve, Section
+from enctools.report.summary import Report
+from enctools.units import factor, symbol
+
+#: the unit angle errors have in a report as built (that of the streams)
+STORED = "arcsec"
+_FIGURES = ("mean", "minimum", "maximum", "pp", "plus_minus", "std", "rms")
+
+
+def mark(unit: str) -> str:
+    """How a value in ``unit`` is followed in plain text: ``"`` for arcsec, else a space
+    and the unit's ASCII name (``0.12 urad``)."""
+    return '"' if unit == "arcsec" else f" {unit}"
+
+
+def label(unit: str) -> str:
+    """The unit as a figure or a web page names it: ``arcsec``, ``µrad``, ``deg``."""
+    return "arcsec" if unit == "arcsec" else ("deg" if unit == "deg" else symbol(unit))
+
+
+def in_unit(report: Report, unit: str) -> Report:
+    """A copy of ``report`` with every angle error in ``unit`` (the input is unchanged)."""
+    k = factor(STORED, unit)
+    out = Report(sections=[_section(s, unit, k) for s in report.sections],
+                 history=None if report.history is None else _history(report.history, unit, k),
+                 settings=dict(report.settings) | {"unit": unit})
+    return out
+
+
+def _section(s: Section, unit: str, k: float) -> Section:
+    new = copy.copy(s)
+    new.unit = unit
+    new.curves = [_curve(c, unit, k) if c.unit == STORED else c for c in s.curves]
+    new.spectra = [dataclasses.replace(sp, amplitude=sp.amplitude * k,
+                                       u=None if sp.u is None else sp.u * k, unit=unit)
+                   for sp in s.spectra]
+    new.iso = None if s.iso is None else _iso(s.iso, unit, k)
+    return new
+
+
+def _curve(c: Curve, unit: str, k: float) -> Curve:
+    figures = dataclasses.replace(c.figures, **{f: getattr(c.figures, f) * k for f in _FIGURES})
+    harmonics = None if c.harmonics is None else dataclasses.replace(
+        c.harmonics, amplitude=c.harmonics.amplitude * k)
+    extra = dict(c.extra)
+    if "std_distinct" in extra:
+        extra["std_distinct"] *= k
+    return dataclasses.replace(c, unit=unit, values=c.values * k,
+                               u=None if c.u is None else c.u * k, figures=figures,
+                               harmonics=harmonics, extra=extra)
+
+
+def _direction(d: DirectionFigures | None, k: float) -> DirectionFigures | None:
+    if d is None:
+        return None
+    return dataclasses.replace(d, mean=d.mean * k, s=d.s * k, R_i=d.R_i * k, R=d.R * k,
+                               E=d.E * k, A=d.A * k)
+
+
+def _iso(iso: Iso230, unit: str, k: float) -> Iso230:
+    bidirectional: dict[str, Any] = {key: (np.asarray(v) * k if isinstance(v, np.ndarray)
+                                           else float(v) * k)
+                                     for key, v in iso.bidirectional.items()}
+    return dataclasses.replace(iso, up=_direction(iso.up, k), down=_direction(iso.down, k),
+                               bidirectional=bidirectional, unit=unit)
+
+
+def _history(history: Any, unit: str, k: float) -> Any:
+    """The history with its columns in arcsec (by their field metadata) in ``unit``."""
+    table: pa.Table = history.table
+    for i, f in enumerate(table.schema):
+        if field_meta(f).get("unit") == STORED:
+            values = table.column(i).to_numpy(zero_copy_only=False).astype(np.float64) * k
+            meta = field_meta(f) | {"unit": unit}
+            table = table.set_column(i, pa.field(f.name, f.type, metadata=meta),
+                                     pa.array(values, f.type))
+    return dataclasses.replace(history, table=table, unit=unit)
