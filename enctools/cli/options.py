@@ -16,7 +16,7 @@ import click
 from enctools.cli import runner
 from enctools.units import DISPLAY_UNITS
 
-FORMATS = ("arrows", "parquet", "arrow", "hdf5")
+FORMATS = ("arrows", "parquet", "arrow", "hdf5", "csv", "tsv")
 
 
 def _positive(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
@@ -105,8 +105,23 @@ def verbosity(f: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def outputs(f: Callable[..., Any]) -> Callable[..., Any]:
-    """-o/--output, --force, --format."""
-    return output(force(out_format(f)))
+    """-o/--output, --force, --format, and --unit for the angle errors of a CSV or TSV output.
+
+    --unit is set for the stream outputs of the command (``csvio.set_error_unit``); the
+    command function receives it only if it has a ``unit`` parameter (for its own text).
+    """
+    import inspect
+
+    passes = "unit" in inspect.signature(f).parameters
+
+    @functools.wraps(f)
+    def with_unit(*args: Any, unit: str, **kwargs: Any) -> Any:
+        from enctools.data import csvio
+
+        csvio.set_error_unit(unit)
+        return f(*args, **kwargs, **({"unit": unit} if passes else {}))
+
+    return output(force(out_format(unit(with_unit))))
 
 
 # Ideas several commands share: one spelling, one metavar, one check.
