@@ -339,24 +339,32 @@ def open_table(f: IO[bytes], source: str) -> tuple[Header, Iterator[pa.RecordBat
         if f.read(1) != b"\n":
             msg = f"{source}: truncated (its last line does not end with a newline)"
             raise DataError(msg)
-    f.seek(0)
-    return header, _batches(f, layout, header.schema, source), layout.rows, f.close
+    # pyarrow's own file, not the Python one: reading a Python file object, pyarrow may
+    # leave a read pending on one of its threads when a read fails (SIGABRT at exit)
+    native = pa.OSFile(os.fsencode(f.name))
+
+    def close() -> None:
+        native.close()
+        f.close()
+
+    return header, _batches(native, layout, header.schema, source), layout.rows, close
 
 
-def _reader(f: IO[bytes], layout: _Layout, schema: pa.Schema) -> Any:
+def _reader(f: Any, layout: _Layout, schema: pa.Schema) -> Any:
     import pyarrow.csv as pcsv
 
-    text = any(pa.types.is_string(x.type) for x in schema) or any(
-        re.search(r'[\n\r"]', t) for t in layout.titles)
+    # newlines_in_values: a quoted field may hold a line end; it also holds a line to the
+    # block's size (without it, a line of any length is read whole)
     return pcsv.open_csv(
-        f, read_options=pcsv.ReadOptions(block_size=limits.MAX_CSV_LINE_BYTES),
-        parse_options=pcsv.ParseOptions(delimiter=layout.delimiter, newlines_in_values=text),
+        f, read_options=pcsv.ReadOptions(block_size=limits.MAX_CSV_LINE_BYTES,
+                                         use_threads=False),
+        parse_options=pcsv.ParseOptions(delimiter=layout.delimiter, newlines_in_values=True),
         convert_options=pcsv.ConvertOptions(
             column_types={t: x.type for t, x in zip(layout.titles, schema)}, null_values=[],
             strings_can_be_null=False, quoted_strings_can_be_null=False))
 
 
-def _batches(f: IO[bytes], layout: _Layout, schema: pa.Schema,
+def _batches(f: Any, layout: _Layout, schema: pa.Schema,
              source: str) -> Iterator[pa.RecordBatch]:
     """The table's rows as batches of the stream's schema, angle errors back in arcsec."""
     import pyarrow.compute as pc
