@@ -135,6 +135,9 @@ def test_titles_carry_the_unit_and_the_sidecar_is_csvw(tmp_path):
     streams.write_table(str(tmp_path / "s.tsv"), header, table)
     assert (tmp_path / "s.tsv").read_text().split("\n")[0].split("\t") == [
         "n", "amplitude_arcsec", "phase_rad", "transfer", "u_arcsec", "curve"]
+    # a string in quotes only when it needs them
+    assert (tmp_path / "s.tsv").read_text().split("\n")[1].endswith('\ta,b,,')  # no tab in it
+    assert (tmp_path / "s.tsv").read_text().split("\n")[2].endswith('\t"say ""x"""')
 
 
 def test_pandas_reads_it_with_its_defaults(tmp_path):
@@ -183,6 +186,21 @@ def test_csvkit_reads_it_with_its_defaults(tmp_path):
         # (csvkit reads text with universal newlines: a CR inside a quoted field is a LF)
         assert [row["curve"] for row in rows] == [
             c.replace("\r", "\n") for c in t.column("curve").to_pylist()]
+        assert [row["n"] for row in rows] == t.column("n").to_pylist()
+
+
+@pytest.mark.skipif(shutil.which("mlr") is None, reason="Miller is not installed")
+def test_miller_reads_it_with_its_defaults(tmp_path):
+    header, table = kind_table("spectrum", 6)
+    plain = table.set_column(5, header.schema.field("curve"), pa.array(["H-P", "a b"] * 3))
+    for fmt, t in (("csv", table), ("tsv", plain), ("csv", plain)):
+        streams.write_table(str(tmp_path / f"s.{fmt}"), header, t, force=True)
+        r = run(f"mlr --i{fmt} --ojson cat s.{fmt}", cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        rows = json.loads(r.stdout)
+        assert list(rows[0]) == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_arcsec",
+                                 "curve"]
+        assert [row["curve"] for row in rows] == t.column("curve").to_pylist()
         assert [row["n"] for row in rows] == t.column("n").to_pylist()
 
 

@@ -6,8 +6,9 @@ A stream written as CSV (``x.csv``) or TSV (``x.tsv``) is two files:
   title is its name followed by ``_`` and its unit (``deviation`` in arcsec is
   ``deviation_arcsec``, ``theta`` in rad ``theta_rad``); a column without a unit keeps
   its name (``n``, ``run``). Floats in the shortest form that reads back to the same
-  number (``nan``, ``inf`` spelt so), integers as integers, strings always quoted (RFC
-  4180: ``"`` doubled inside); fields separated by ``,`` (CSV) or a tab (TSV); lines
+  number (``nan``, ``inf`` spelt so), integers as integers, a string (or title) in
+  quotes when it holds the delimiter, a quote or a line end (RFC 4180: ``"`` doubled
+  inside); fields separated by ``,`` (CSV) or a tab (TSV); lines
   end with ``\\n``.
 - the sidecar ``x.csv-metadata.json``: W3C CSV on the Web (CSVW) metadata describing the
   table (``@context``, ``url``, ``dialect``, ``tableSchema.columns`` with ``name``,
@@ -128,16 +129,20 @@ class TableWriter:
         self._f.write(f"{line}\n".encode())
 
     def write_batch(self, batch: pa.RecordBatch) -> None:
+        """Append the batch's rows: each value as text (Arrow's shortest round-trip form
+        for floats), joined by the delimiter, one line a row."""
+        import numpy as np
         import pyarrow.compute as pc
-        import pyarrow.csv as pcsv
 
         if batch.num_rows == 0:
             return
-        arrays = [pc.multiply(c, pa.scalar(s, c.type)) if s != 1.0 else c
-                  for c, s in zip(batch.columns, self._scale)]
-        names = [f"c{k}" for k in range(len(arrays))]  # the header line is written already
-        pcsv.write_csv(pa.RecordBatch.from_arrays(arrays, names=names), self._f,
-                       pcsv.WriteOptions(include_header=False, delimiter=self._delimiter))
+        texts = [_text(pc.multiply(c, pa.scalar(s, c.type)) if s != 1.0 else c, self._delimiter)
+                 for c, s in zip(batch.columns, self._scale)]
+        lines = pc.binary_join_element_wise(*texts, _large(self._delimiter))
+        lines = pc.binary_join_element_wise(lines, _large(""), _large("\n"))  # line + "\n"
+        offsets = np.frombuffer(lines.buffers()[1], dtype=np.int64)
+        data = lines.buffers()[2]
+        self._f.write(memoryview(data)[offsets[lines.offset]:offsets[lines.offset + len(lines)]])
         self.rows += batch.num_rows
 
     def close(self) -> None:
@@ -183,6 +188,24 @@ def stage(tmp: str, path: str, sidecar: bytes, force: bool,
         if group is None:
             together.discard()
         raise OutputError(str(exc), path) from None
+
+
+def _text(column: pa.Array, delimiter: str) -> pa.Array:
+    """A column as large strings the way the table holds them: numbers in Arrow's
+    shortest round-trip form, strings quoted when they need it (:func:`_quoted`)."""
+    import pyarrow.compute as pc
+
+    if not (pa.types.is_string(column.type) or pa.types.is_large_string(column.type)):
+        return pc.cast(column, pa.large_string())
+    column = pc.cast(column, pa.large_string())
+    special = "[" + re.escape(delimiter) + '"\n\r]'
+    quoted = pc.binary_join_element_wise(_large('"'), pc.replace_substring(column, '"', '""'),
+                                         _large('"'), _large(""))
+    return pc.if_else(pc.match_substring_regex(column, special), quoted, column)
+
+
+def _large(text: str) -> pa.Scalar:
+    return pa.scalar(text, pa.large_string())
 
 
 def _quoted(text: str, delimiter: str) -> str:
