@@ -277,7 +277,7 @@ class _Layout:
     def __init__(self, doc: dict[str, Any], source: str) -> None:
         try:
             self._parse(doc)
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:
             msg = f"{source}: not an enctools CSV sidecar ({_short(exc)})"
             raise DataError(msg) from None
         if self.rows > limits.MAX_STREAM_ROWS:
@@ -308,6 +308,8 @@ class _Layout:
             text = c["titles"]
             self.titles.append(text if isinstance(text, str) else str(text[0]))
             self.units.append(str(c.get("schema:unitText", "")))
+        if len(set(self.titles)) < len(self.titles):
+            raise ValueError("two columns have the same title")
         self.rows = int(own["rows"])
         if self.rows < 0:
             raise ValueError("rows < 0")
