@@ -100,9 +100,12 @@ def same_stream(a: tuple[streams.Header, pa.Table], b: tuple[streams.Header, pa.
             assert x.to_numpy().tobytes() == y.to_numpy().tobytes(), name
 
 
-@pytest.mark.parametrize("fmt", ["csv", "tsv"])
-@pytest.mark.parametrize("rows", [0, 1, 70_000])
-@pytest.mark.parametrize("kind", KINDS)
+CASES = [(kind, rows, fmt) for kind in KINDS for rows in (0, 1, 37) for fmt in ("csv", "tsv")]
+# more rows than a batch (65536): several batches written and read
+CASES += [("deviations", 70_000, "csv"), ("spectrum", 70_000, "tsv")]
+
+
+@pytest.mark.parametrize(("kind", "rows", "fmt"), CASES)
 def test_every_kind_reads_back_to_the_same_stream(tmp_path, kind, rows, fmt):
     header, table = kind_table(kind, rows)
     streams.write_table(str(tmp_path / "ref.parquet"), header, table)
@@ -352,3 +355,27 @@ def test_an_error_unit_other_than_arcsec_reads_back_in_arcsec(tmp_path):
                        rtol=1e-15, atol=1e-300)
     assert back.column("position").to_numpy().tobytes() == \
         table.column("position").to_numpy().tobytes()
+
+
+def test_unit_option_and_env_for_the_csv_of_a_command(tmp_path):
+    from conftest import run_in_process
+
+    table1 = str(DATA / "seed001_table1.csv")
+    r = run_in_process(["points", table1, "-o", str(tmp_path / "ref.parquet")])
+    assert r.returncode == 0, r.stderr
+    r = run_in_process(["points", table1, "-o", str(tmp_path / "u.csv"), "--unit", "urad"])
+    assert r.returncode == 0, r.stderr
+    assert csvio.error_unit() == "arcsec"  # the command's unit ends with it
+    r = run_in_process(["points", table1, "-o", str(tmp_path / "d.tsv")], env={"ENC_UNIT": "deg"})
+    assert r.returncode == 0, r.stderr
+    _, ref = streams.read_table(str(tmp_path / "ref.parquet"))
+    for name, unit in (("u.csv", "urad"), ("d.tsv", "deg")):
+        titles = (tmp_path / name).read_text().split("\n")[0]
+        assert f"deviation_{unit}" in titles and "arcsec" not in titles
+        _, back = streams.read_table(str(tmp_path / name))
+        assert np.allclose(back.column("deviation").to_numpy(),
+                           ref.column("deviation").to_numpy(), rtol=1e-14, atol=0)
+        assert back.column("position").to_numpy().tobytes() == \
+            ref.column("position").to_numpy().tobytes()
+    r = run_in_process(["points", table1, "-o", str(tmp_path / "x.csv"), "--unit", "furlong"])
+    assert r.returncode == 2 and b"--unit" in r.stderr

@@ -107,8 +107,9 @@ def verbosity(f: Callable[..., Any]) -> Callable[..., Any]:
 def outputs(f: Callable[..., Any]) -> Callable[..., Any]:
     """-o/--output, --force, --format, and --unit for the angle errors of a CSV or TSV output.
 
-    --unit is set for the stream outputs of the command (``csvio.set_error_unit``); the
-    command function receives it only if it has a ``unit`` parameter (for its own text).
+    --unit is set for the stream outputs of the command (``csvio.set_error_unit``, for
+    the command's run); the command function receives it only if it has a ``unit``
+    parameter (for its own text).
     """
     import inspect
 
@@ -118,8 +119,12 @@ def outputs(f: Callable[..., Any]) -> Callable[..., Any]:
     def with_unit(*args: Any, unit: str, **kwargs: Any) -> Any:
         from enctools.data import csvio
 
+        before = csvio.error_unit()
         csvio.set_error_unit(unit)
-        return f(*args, **kwargs, **({"unit": unit} if passes else {}))
+        try:
+            return f(*args, **kwargs, **({"unit": unit} if passes else {}))
+        finally:  # a command run in-process leaves the library as it found it
+            csvio.set_error_unit(before)
 
     return output(force(out_format(unit(with_unit))))
 
