@@ -379,3 +379,18 @@ def test_unit_option_and_env_for_the_csv_of_a_command(tmp_path):
             ref.column("position").to_numpy().tobytes()
     r = run_in_process(["points", table1, "-o", str(tmp_path / "x.csv"), "--unit", "furlong"])
     assert r.returncode == 2 and b"--unit" in r.stderr
+
+
+@pytest.mark.parametrize("what", ["table", "sidecar"])
+def test_a_full_disk_leaves_neither_file(tmp_path, what):
+    from conftest import small_tmpfs
+
+    from enctools.errors import OutputError
+
+    header, table = kind_table("deviations", 5000 if what == "table" else 3)
+    if what == "sidecar":  # the table fits, its sidecar does not
+        header.meta["history"] = ["x" * 1000] * 300
+    with small_tmpfs(tmp_path / "full", "128k") as mnt:
+        with pytest.raises((OutputError, UsageError), match="No space left on device"):
+            streams.write_table(str(mnt / "d.csv"), header, table)
+        assert list(mnt.iterdir()) == []
