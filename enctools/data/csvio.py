@@ -136,6 +136,10 @@ class TableWriter:
 
         if batch.num_rows == 0:
             return
+        for name, c in zip(batch.schema.names, batch.columns):
+            if c.null_count:
+                msg = f"CSV output cannot hold missing values (column {name!r})"
+                raise DataError(msg)
         texts = [_text(pc.multiply(c, pa.scalar(s, c.type)) if s != 1.0 else c, self._delimiter)
                  for c, s in zip(batch.columns, self._scale)]
         lines = pc.binary_join_element_wise(*texts, _large(self._delimiter))
@@ -170,7 +174,8 @@ class TableWriter:
                "enctools": {"kind": meta.pop("kind"),
                             "schema_version": meta.pop("schema_version"),
                             "rows": self.rows, "columns": described, "metadata": meta}}
-        return (json.dumps(doc, indent=1, allow_nan=False) + "\n").encode()
+        # NaN as the stream's own metadata writes it (figures of too few points)
+        return (json.dumps(doc, indent=1) + "\n").encode()
 
 
 def stage(tmp: str, path: str, sidecar: bytes, force: bool,
