@@ -147,6 +147,8 @@ class TableWriter:
         offsets = np.frombuffer(lines.buffers()[1], dtype=np.int64)
         data = lines.buffers()[2]
         self._f.write(memoryview(data)[offsets[lines.offset]:offsets[lines.offset + len(lines)]])
+        if not self._own:  # stdout: each batch as it comes (a terminal, a pipe to Miller)
+            self._f.flush()
         self.rows += batch.num_rows
 
     def close(self) -> None:
