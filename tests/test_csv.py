@@ -14,12 +14,24 @@ import pytest
 from conftest import DATA, one_error_line, run
 
 from enctools.data import csvio, streams
-from enctools.data.schemas import KINDS, make_field
+from enctools.data.schemas import KINDS, kind_spec, make_field
 from enctools.errors import DataError, UsageError
 
 NAN = float("nan")
 #: curve names a person may give (--name, --curve): commas, quotes, newlines, tabs, unicode
 HOSTILE = ["a,b", 'say "x"', "two\nlines", "tab\there", "ü µrad", " lead", "cr\rx"]
+
+
+def unit(kind: str, name: str) -> str:
+    """The unit the schema gives a named column of a kind (the first, if several)."""
+    spec = kind_spec(kind).column(name)
+    assert spec is not None
+    return spec.unit if isinstance(spec.unit, str) else spec.unit[0]
+
+
+def named(kind: str, name: str, type_: pa.DataType) -> pa.Field:
+    """A named column of a kind, in the unit its schema gives."""
+    return make_field(name, type_, unit(kind, name))
 
 
 def _head(name: str) -> pa.Field:
@@ -41,15 +53,15 @@ def kind_table(kind: str, n: int) -> tuple[streams.Header, pa.Table]:
     meta = {"rig": {"name": 'rig "x",\nnew', "note": "ü"}, "settings": {"a": 1.5},
             "figures": {"bessel_std_arcsec": NAN}, "history": ["line one", "line,\ttwo"]}
     if kind == "readings":
-        fields = [make_field("t", pa.float64(), "s"), _head("H1"), _head("P,2"),
+        fields = [named(kind, "t", pa.float64()), _head("H1"), _head("P,2"),
                   make_field("AC 1", pa.float64(), "arcsec", "autocollimator"),
                   make_field("probe", pa.float64(), "m", "probe", arm_m=0.1, side=1),
-                  make_field("target", pa.float64(), "rad"),
-                  make_field("step", pa.int32(), ""), make_field("direction", pa.int8(), "")]
+                  named(kind, "target", pa.float64()), named(kind, "step", pa.int32()),
+                  named(kind, "direction", pa.int8())]
         cols = [np.abs(f), ints, ints[::-1].copy(), with_nan, f * 1e-6, f, np.arange(n),
                 np.resize(np.array([1, -1], np.int8), n)]
     elif kind == "deviations":
-        fields = [make_field("theta", pa.float64(), "rad")]
+        fields = [named(kind, "theta", pa.float64())]
         cols = [np.linspace(0, 2 * math.pi, n, endpoint=False)]
         for name in HOSTILE:
             fields += [make_field(name, pa.float64(), "arcsec", "deviation"),
@@ -58,25 +70,22 @@ def kind_table(kind: str, n: int) -> tuple[streams.Header, pa.Table]:
         fields.append(make_field("x", pa.float64(), "nm", "radial"))
         cols.append(with_nan * 10)
     elif kind == "spectrum":
-        fields = [make_field(c, t, u) for c, t, u in (
-            ("n", pa.int64(), ""), ("amplitude", pa.float64(), "arcsec"),
-            ("phase", pa.float64(), "rad"), ("transfer", pa.float64(), ""),
-            ("u", pa.float64(), "arcsec"), ("curve", pa.string(), ""))]
+        fields = [named(kind, c, t) for c, t in (
+            ("n", pa.int64()), ("amplitude", pa.float64()), ("phase", pa.float64()),
+            ("transfer", pa.float64()), ("u", pa.float64()), ("curve", pa.string()))]
         cols = [np.arange(1, n + 1), np.abs(f), f, with_nan, np.abs(f),
                 [HOSTILE[k % len(HOSTILE)] + ("" if k else ",,") for k in range(n)]]
     elif kind == "points":
-        fields = [make_field("position", pa.float64(), "deg"),
-                  make_field("deviation", pa.float64(), "arcsec"),
-                  make_field("direction", pa.int8(), ""), make_field("run", pa.int32(), "")]
-        cols = [f * 100, f, np.resize(np.array([1, -1], np.int8), n), np.arange(n) // 4]
+        fields = [named(kind, "position", pa.float64()), named(kind, "deviation", pa.float64()),
+                  named(kind, "direction", pa.int8()), named(kind, "run", pa.int32())]
+        cols = [f, f, np.resize(np.array([1, -1], np.int8), n), np.arange(n) // 4]
     elif kind == "model":
-        fields = [make_field("n", pa.int64(), ""), make_field("weight", pa.float64(), "arcsec"),
-                  make_field("weight_sin", pa.float64(), "arcsec")]
+        fields = [named(kind, "n", pa.int64()), named(kind, "weight", pa.float64()),
+                  named(kind, "weight_sin", pa.float64())]
         cols = [np.arange(n), f, -f]
         meta["model"] = {"kernel": "fourier", "period_deg": 360.0}
     else:
-        fields = [make_field("address", pa.int64(), ""),
-                  make_field("correction", pa.int64(), "count")]
+        fields = [named(kind, "address", pa.int64()), named(kind, "correction", pa.int64())]
         cols = [np.arange(n), ints % 32768 - 16384]
         meta["rom"] = {"entries": n, "crc32": "0"}
     schema = pa.schema(fields)
@@ -357,7 +366,8 @@ def test_an_error_unit_other_than_arcsec_reads_back_in_arcsec(tmp_path):
         streams.write_table(str(tmp_path / "p.csv"), header, table)
     finally:
         csvio.set_error_unit("arcsec")
-    assert (tmp_path / "p.csv").read_text().startswith("position_deg,deviation_deg,direction,")
+    position = f"position_{unit('points', 'position')}"  # the schema's unit, not --unit's
+    assert (tmp_path / "p.csv").read_text().startswith(f"{position},deviation_deg,direction,")
     _, back = streams.read_table(str(tmp_path / "p.csv"))
     assert np.allclose(back.column("deviation").to_numpy(), table.column("deviation").to_numpy(),
                        rtol=1e-15, atol=1e-300)
@@ -377,9 +387,9 @@ def test_unit_option_and_env_for_the_csv_of_a_command(tmp_path):
     r = run_in_process(["points", table1, "-o", str(tmp_path / "d.tsv")], env={"ENC_UNIT": "deg"})
     assert r.returncode == 0, r.stderr
     _, ref = streams.read_table(str(tmp_path / "ref.parquet"))
-    for name, unit in (("u.csv", "urad"), ("d.tsv", "deg")):
+    for name, shown in (("u.csv", "urad"), ("d.tsv", "deg")):
         titles = (tmp_path / name).read_text().split("\n")[0]
-        assert f"deviation_{unit}" in titles and "arcsec" not in titles
+        assert f"deviation_{shown}" in titles and "arcsec" not in titles
         _, back = streams.read_table(str(tmp_path / name))
         assert np.allclose(back.column("deviation").to_numpy(),
                            ref.column("deviation").to_numpy(), rtol=1e-14, atol=0)
