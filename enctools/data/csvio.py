@@ -259,14 +259,20 @@ def text_format(path: str) -> str | None:
 def read_sidecar(path: str) -> dict[str, Any]:
     """The sidecar of the table at ``path``, within the metadata limits (DataError: none,
     not JSON, too large or deep)."""
+    import stat
+
     side = sidecar_path(path)
     try:
-        size = os.stat(side).st_size
+        st = os.stat(side)
     except OSError:
         msg = (f"{path}: a CSV or TSV table is read as a stream with its sidecar "
                f"{side}, which is missing (without one, only a points table "
                "position_deg,deviation_arcsec[,direction,run] is read)")
         raise DataError(msg) from None
+    if not stat.S_ISREG(st.st_mode):  # a FIFO would wait for a writer
+        msg = f"{side}: not a regular file"
+        raise DataError(msg)
+    size = st.st_size
     if size > limits.MAX_METADATA_BYTES:
         msg = f"{side}: a sidecar of {size} bytes; at most {limits.MAX_METADATA_BYTES} are read"
         raise DataError(msg)
