@@ -12,6 +12,8 @@ import numpy as np
 import pyarrow as pa
 import pytest
 from conftest import DATA, one_error_line, run
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from enctools.data import csvio, streams
 from enctools.data.schemas import KINDS, kind_spec, make_field
@@ -412,3 +414,33 @@ def test_a_full_disk_leaves_neither_file(tmp_path, what):
         with pytest.raises((OutputError, UsageError), match="No space left on device"):
             streams.write_table(str(mnt / "d.csv"), header, table)
         assert list(mnt.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def valid_pair(tmp_path_factory):
+    d = tmp_path_factory.mktemp("pair")
+    header, table = kind_table("spectrum", 40)
+    streams.write_table(str(d / "s.csv"), header, table)
+    return (d / "s.csv").read_bytes(), (d / "s.csv-metadata.json").read_bytes()
+
+
+def _read_pair(tmp_path, table: bytes, sidecar: bytes) -> None:
+    (tmp_path / "x.csv").write_bytes(table)
+    (tmp_path / "x.csv-metadata.json").write_bytes(sidecar)
+    try:
+        streams.read_table(str(tmp_path / "x.csv"))
+    except DataError as exc:
+        assert "\n" not in str(exc)
+
+
+@settings(max_examples=80, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(cut=st.floats(min_value=0.0, max_value=1.0), flip=st.integers(0, 10**9),
+       byte=st.integers(0, 255), side=st.booleans())
+def test_cut_or_changed_tables_and_sidecars_read_or_fail_with_one_line(
+        tmp_path, valid_pair, cut, flip, byte, side):
+    table, sidecar = valid_pair
+    data = bytearray(sidecar if side else table)
+    data[flip % len(data)] = byte
+    changed = bytes(data[: max(1, int(len(data) * cut))])
+    _read_pair(tmp_path, table if side else changed, changed if side else sidecar)
