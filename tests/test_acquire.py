@@ -23,7 +23,7 @@ def sjtu(sjtu_raw):
 @pytest.mark.slow
 def test_default_run_shape(sjtu):
     header, table = sjtu
-    assert table.num_rows == 400_000  # 20 r at 1 r/min every 3 ms
+    assert table.num_rows == 237_624  # 20 r at 1 r/min every 5.05 ms (1200 s / 5.05 ms)
     assert table.column_names == ["t"] + HEADS
     for h in HEADS:
         f = table.schema.field(h)
@@ -33,7 +33,7 @@ def test_default_run_shape(sjtu):
     assert head_info(table.schema, "H7").alpha == pytest.approx(np.radians(228))
     assert head_info(table.schema, "P1").radius_m == pytest.approx(0.063)
     t = table.column("t").to_numpy()
-    assert np.allclose(np.diff(t), 0.003)
+    assert np.allclose(np.diff(t), 0.00505)
     assert header.meta["settings"]["revolutions"] == 20
     last = header.history[-1]
     assert last.endswith("enc acquire --rig sjtu-dual -o " + last.split(" -o ")[-1])
@@ -172,6 +172,24 @@ def test_sweep_probes_follow_the_rotation(tmp_path):
     s2 = table.column("S2").to_numpy()
     psi = (s1 - s2) / 2 / 0.2 / ARCSEC  # side * h / L, averaged
     assert psi[-1] == pytest.approx(25.0, abs=0.05)
+    assert np.all(np.isfinite(s1)) and np.all(np.isfinite(s2))  # 24 um: within range
+
+
+@pytest.mark.slow
+def test_probes_beyond_their_range_read_nan(tmp_path):
+    """A steps run round the circle (README: an ISO 230-2 run of a rig of your own) turns
+    the 200 mm arm metres past the probes: they read NaN beyond 1 mm of their zero, as a
+    real probe out of range does, and the run is kept."""
+    out = tmp_path / "iso.parquet"
+    r = run(f"enc acquire --rig sjtu-dual --mode steps --count 8 --readings 2 -o {out}")
+    assert r.returncode == 0 and r.stderr == b"", r.stderr.decode()
+    _, table = streams.read_table(str(out))
+    step = table.column("step").to_numpy()
+    for name in ("S1", "S2"):
+        s = table.column(name).to_numpy()
+        assert np.all(np.isfinite(s[step == 0])) and np.all(np.abs(s[step == 0]) < 1e-6)
+        assert np.all(np.isnan(s[step > 0])), name
+    assert np.all(table.column("H1").is_valid().to_numpy(zero_copy_only=False))
 
 
 def test_counter_wrap_is_unwrapped():

@@ -54,7 +54,8 @@ def gap_free_prefix(t: np.ndarray, interval: float) -> None:
 def test_signal_mid_run_keeps_every_batch(tmp_path: Path, sig: int, code: int) -> None:
     tee = tmp_path / "tee.parquet"
     # 20 revolutions at 1 r/min would take 20 minutes in real time: it is interrupted.
-    got_code, table, err = interrupt(["acquire", "--rig", "sjtu-dual", "--realtime"], sig, 3, tee)
+    got_code, table, err = interrupt(["acquire", "--rig", "sjtu-dual", "--interval", "0.003",
+                                      "--realtime"], sig, 3, tee)
     assert got_code == code, err
     assert err.strip().splitlines()[-1] == ("enc acquire: error: interrupted" if code == 130
                                             else "enc acquire: error: terminated")

@@ -367,7 +367,9 @@ def test_counter_hangs_in_continuous_run(tmp_path: Path) -> None:
         r = run(f"enc acquire --rig {rig} --mode continuous --speed 60 --revolutions 1 "
                 f"--interval 0.01 -o {out}")
     line = one_error_line(r, 3)
-    assert "no answer to 'CNT?' after 2 attempts" in line, line
+    # the counter query is named; on a loaded machine a 0.1 s write to the pseudo-terminal
+    # can itself time out first ("cannot send 'CNT?'"), which is the same fault
+    assert "no answer to 'CNT?' after 2 attempts" in line or "cannot send 'CNT?'" in line, line
     assert "could not stop the table" in r.stderr.decode()
     import pyarrow.parquet as pq
 

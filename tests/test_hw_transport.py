@@ -113,8 +113,9 @@ def test_transport_fault_in_continuous_keeps_the_block_in_progress(
 
 def test_signal_inside_a_realtime_block_keeps_the_samples_whose_time_came(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The simulator at wall-clock pace reads blocks of 0.2 s (67 samples at 3 ms): a
-    SIGINT halfway through the third wait keeps the two blocks and about half the third."""
+    """The simulator at wall-clock pace reads blocks of 0.2 s (67 samples at 3 ms, the
+    interval given): a SIGINT halfway through the third wait keeps the two blocks and
+    about half the third."""
     import time
 
     from enctools.hw import sim
@@ -130,7 +131,7 @@ def test_signal_inside_a_realtime_block_keeps_the_samples_whose_time_came(
 
     monkeypatch.setattr(sim.RealtimeClock, "pace", pace)
     out = tmp_path / "run.parquet"
-    r = run_in_process(f"enc acquire --rig sjtu-dual --realtime -o {out}")
+    r = run_in_process(f"enc acquire --rig sjtu-dual --interval 0.003 --realtime -o {out}")
     assert one_error_line(r, 130).endswith("error: interrupted")
     t = pq.read_table(out).column("t").to_numpy()
     assert 134 + 20 <= len(t) <= 134 + 47, len(t)  # 0.1 s of the third block, give or take

@@ -3,11 +3,12 @@
 A continuous run has a trend per window of the reference angle (default 1800",
 0.5 deg): a line per window leaves 0.004" rms of the sjtu-dual graduation errors
 (harmonics up to 180 per turn), below the heads' noise (0.02" for H, 0.01" for P).
-The runs here are sampled every 5.05 ms at 1 r/min (109" per sample: 4.36 H periods,
+The runs here are sampled every 5.05 ms at 1 r/min (109" per sample: 4.38 H periods,
 15.15 P periods), so that the aliased phase steps of H1's 1st/2nd and P1's 1st/2nd
 harmonics (0.377, 0.247, 0.15, 0.30 cycles per sample) are apart and away from 0
-and 0.5: every harmonic goes through several cycles within a window. At 3 ms
-(the rig's default) encoder I is sampled at 9.0 periods per sample (stroboscopic).
+and 0.5: every harmonic goes through several cycles within a window (5.05 ms is the
+rig's default). At the paper's 3 ms encoder I is sampled at 9.0 periods per sample
+(stroboscopic).
 """
 
 from __future__ import annotations
@@ -104,7 +105,8 @@ def test_stroboscopic_heads_are_named(tmp_path):
     one line naming it; by default it is skipped with a warning, and P1 as the reference
     is not fitted (its error goes into the trends)."""
     raw = tmp_path / "r.arrows"
-    r = run(f"enc acquire --rig sjtu-dual --revolutions 2 --heads P1,P2,H1 -o {raw}")
+    r = run(f"enc acquire --rig sjtu-dual --interval 0.003 --revolutions 2 --heads P1,P2,H1 "
+            f"-o {raw}")
     assert r.returncode == 0
     out = tmp_path / "o.parquet"
     err = one_line_error(run(f"enc interp-check {raw} --heads P2 --ref P1 -o {out}"), out)
@@ -118,28 +120,53 @@ def test_stroboscopic_heads_are_named(tmp_path):
     assert "reference_harmonics" not in header.meta["curves"]["H1"]
 
 
-@pytest.mark.slow
-def test_trend_projection_is_the_joint_fit():
-    """TrendProjectedLSQ fed in uneven batches = one lstsq with a trend per window."""
-    rng = np.random.default_rng(5)
+@pytest.mark.parametrize("degree", [0, 1, 2, 3])
+@pytest.mark.parametrize("consecutive", [True, False])
+def test_trend_projection_is_the_joint_fit(degree, consecutive):
+    """TrendProjectedLSQ fed in uneven batches = one lstsq with a trend per group.
+
+    Windows met in order (a continuous run) or groups interleaved (a sweep's runs),
+    with groups of one sample and of one repeated abscissa among them: their trend
+    fits them exactly and only as many trend terms as they determine are counted.
+    """
+    rng = np.random.default_rng(5 + degree)
     n, width = 5000, 0.37
     x = np.cumsum(rng.uniform(0.0, 0.01, n))
     keys = np.floor(x / width).astype(np.int64)
+    keys[1234] = 10_000                               # a group of one sample
+    keys[2000:2006], x[2000:2006] = 10_001, x[2000]    # one abscissa, six samples
+    if not consecutive:
+        keys = rng.permutation(5)[keys % 5] * 100_003 + keys // 5 % 3   # interleaved runs
+        keys[1234], keys[2000:2006] = 10_000, 10_001
     cols = np.column_stack([np.cos(7.3 * x * 40), np.sin(7.3 * x * 40), np.cos(3.1 * x * 40)])
     y = cols @ [0.3, -0.2, 0.05] + np.sin(x) * 3 + x ** 2 + rng.normal(0, 0.01, n) + 100.0
-    lsq = TrendProjectedLSQ(3, 2, consecutive=True)
-    centre = (keys + 0.5) * width
+    closed = []
+    lsq = TrendProjectedLSQ(3, degree, consecutive=consecutive, n_labels=3,
+                            on_close=lambda counts, lo, hi: closed.append(counts))
+    labels = rng.integers(0, 3, n)
+    groups = np.unique(keys)
+    # off-centre (the group's least abscissa), so that the trend's terms are not orthogonal
+    centre = np.array([x[keys == k].min() for k in groups])[np.searchsorted(groups, keys)]
+    scale = width / 2 if consecutive else np.ptp(x) / 2    # z within about [-1, 1]
     for a, b in [(0, 1), (1, 700), (700, 701), (701, 3333), (3333, n)]:
-        lsq.add(cols[a:b].T, y[a:b], x[a:b], keys[a:b], width / 2, centre=centre[a:b])
+        lsq.add(cols[a:b].T, y[a:b], x[a:b], keys[a:b], scale, centre=centre[a:b],
+                labels=labels[a:b])
     lsq.close_all()
     coef = np.linalg.solve(lsq.xtx, lsq.xty)
-    trend = np.column_stack([np.where(keys == k, x ** d, 0.0)
-                             for k in np.unique(keys) for d in range(3)])
-    full, *_ = np.linalg.lstsq(np.column_stack([cols, trend]), y, rcond=None)
+    trend = np.column_stack([np.where(keys == k, ((x - centre) / scale) ** d, 0.0)
+                             for k in groups for d in range(degree + 1)])
+    full, _, rank, _ = np.linalg.lstsq(np.column_stack([cols, trend]), y, rcond=None)
     assert np.allclose(coef, full[:3], atol=1e-9)
     resid = y - np.column_stack([cols, trend]) @ full
     assert lsq.yty - coef @ lsq.xty == pytest.approx(resid @ resid, rel=1e-6)
-    assert lsq.n_trend == 3 * np.unique(keys).size and lsq.n == n
+    assert lsq.n_trend == rank - 3 and lsq.n == n and lsq.groups == groups.size
+    # per group: its samples, then those of each label
+    counts = np.concatenate(closed)
+    assert counts.shape == (groups.size, 4)
+    sizes = np.bincount(np.searchsorted(groups, keys))
+    assert np.array_equal(np.sort(counts[:, 0]), np.sort(sizes))
+    assert np.array_equal(counts[:, 1:].sum(axis=0), np.bincount(labels, minlength=3))
+    assert np.array_equal(counts[:, 1:].sum(axis=1), counts[:, 0])
 
 
 def test_phase_coverage_bitmap_matches_sorted_gaps():

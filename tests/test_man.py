@@ -79,3 +79,17 @@ def test_man_finds_the_installed_pages_from_path(section, name):
     found = Path(r.stdout.decode().strip())
     assert found == Path(sys.prefix) / "share" / "man" / f"man{section}" / f"{name}.{section}"
     assert found.read_bytes() == (MAN / f"{name}.{section}").read_bytes()
+
+
+def test_every_rig_key_is_described_in_enc_rig():
+    """Each key a rig file may hold is described in enc-rig(5) above LIMITS (the table of
+    ranges alone does not say what a key means: speed_error_ppm once had only its range)."""
+    import re
+
+    from enctools.data.rig import _SPEC
+
+    text = (MAN / "enc-rig.5").read_text().replace("\\-", "-").replace("\\&", "")
+    body = text.split(".SH LIMITS")[0]
+    missing = [f"{table}.{key}".lstrip(".") for table, keys in _SPEC.items() for key in keys
+               if not re.search(rf"(?m)^\.(B|BR|BI|RB|IR|SH|SS)\b.*\b{re.escape(key)}\b", body)]
+    assert not missing, f"enc-rig(5) does not describe {', '.join(missing)}"

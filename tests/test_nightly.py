@@ -55,7 +55,7 @@ def test_first_night_stores_calibration_then_rechecks(tmp_path):
     # the polygon run's figures: about 1.5" Bessel s, p-p about 5" (ciomp-23bit rig)
     assert 1.0 < h.column("std")[1] < 2.0
     summary = json.loads(h.column("summary_json")[1])
-    assert summary["drift"]["tolerance"] == 0.2
+    assert summary["drift"]["tolerance_arcsec"] == 0.2
     html = (tmp_path / "n.html").read_text()
     assert "Nightly history" in html and "Within every threshold" in html
 

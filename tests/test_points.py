@@ -98,7 +98,7 @@ def test_steps_run_options_on_a_csv_table_are_refused(tmp_path, opts):
 @pytest.mark.slow
 def test_continuous_run_is_not_a_polygon_run(tmp_path):
     out = tmp_path / "p.parquet"
-    r = run("enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 "
+    r = run("enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 -q "
             f"| enc points -o {out}")
     assert r.returncode == 2
     assert b"steps" in r.stderr and r.stderr.count(b"\n") == 1

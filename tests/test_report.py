@@ -156,12 +156,12 @@ def test_seed001_tables_through_enc_points(table_no, pp, std, paper_std):
     r = run(f"enc points {DATA}/seed001_table{table_no}.csv | enc report --json")
     assert r.returncode == 0, r.stderr.decode()
     curve = json.loads(r.stdout)["sections"][0]["curves"][0]
-    assert curve["n"] == (25 if table_no < 3 else 24)      # the 360 deg row counts
-    assert curve["pp"] == pytest.approx(pp, abs=1e-9)
-    assert curve["std"] == pytest.approx(std, abs=5e-4)
+    assert curve["n_points"] == (25 if table_no < 3 else 24)      # the 360 deg row counts
+    assert curve["pp_arcsec"] == pytest.approx(pp, abs=1e-9)
+    assert curve["s_bessel_arcsec"] == pytest.approx(std, abs=5e-4)
     assert "Bessel" in curve["std_convention"]
     # the paper's figures: tables 2 and 3 within 0.003", table 1 is 0.056" off
-    assert abs(curve["std"] - paper_std) < (0.06 if table_no == 1 else 0.003)
+    assert abs(curve["s_bessel_arcsec"] - paper_std) < (0.06 if table_no == 1 else 0.003)
 
 
 def test_seed001_table1_conventions(streams):
@@ -173,8 +173,8 @@ def test_seed001_table1_conventions(streams):
     assert 'p-p 5.460"' in out and 's 1.244" (Bessel n-1' in out
     assert 'closing row dropped) 1.267"' in out
     c = report_json(streams["table1"])["sections"][0]["curves"][0]
-    assert c["std_distinct"] == pytest.approx(1.2674, abs=1e-4)
-    assert c["plus_minus"] == pytest.approx(2.73)
+    assert c["s_bessel_distinct_arcsec"] == pytest.approx(1.2674, abs=1e-4)
+    assert c["pm_arcsec"] == pytest.approx(2.73)
 
 
 # ------------------------------------------------------------- sections vs the truth
@@ -186,16 +186,16 @@ def test_deviations_section_against_truth(streams):
     grid = np.arange(1440) * TWO_PI / 1440
     sec = report_json(streams["deviations"])["sections"][0]
     grad, rx, ry = sec["curves"]
-    assert grad["pp"] == pytest.approx(np.ptp(eps(grid)), rel=1e-9)
-    assert grad["U_max"] == pytest.approx(2 * 1.5 * U_STD, rel=1e-9)     # U = 2u, k = 2
+    assert grad["pp_arcsec"] == pytest.approx(np.ptp(eps(grid)), rel=1e-9)
+    assert grad["expanded_u_max_arcsec"] == pytest.approx(2 * 1.5 * U_STD, rel=1e-9)  # U = 2u
     # the largest harmonic and its phase, against c_n of the truth
     c = eps.harmonics(100)
     n_big = int(np.argmax(np.abs(c[1:]))) + 1
     top = grad["harmonics"][0]
     assert top["n"] == n_big
-    assert top["amplitude"] == pytest.approx(abs(c[n_big]), abs=1e-6)
-    assert top["phase"] == pytest.approx(np.angle(c[n_big]), abs=1e-6)
-    assert rx["unit"] == "nm" and rx["pp"] > 0 and ry["pp"] > 0
+    assert top["amplitude_arcsec"] == pytest.approx(abs(c[n_big]), abs=1e-6)
+    assert top["phase_rad"] == pytest.approx(np.angle(c[n_big]), abs=1e-6)
+    assert rx["unit"] == "nm" and rx["pp_nm"] > 0 and ry["pp_nm"] > 0
 
 
 def test_interp_section_per_period(streams):
@@ -207,7 +207,7 @@ def test_interp_section_per_period(streams):
     phase = np.arange(256) * TWO_PI / 256
     for c in sec["curves"]:
         want = interpolation_error(truth.signals[c["head"]], phase / 52000, 52000)
-        assert c["pp"] == pytest.approx(np.ptp(want), rel=1e-9)
+        assert c["pp_arcsec"] == pytest.approx(np.ptp(want), rel=1e-9)
         # harmonics are counted per signal period: 1st and 2nd dominate (seed 000 sec. 4)
         assert {h["n"] for h in c["harmonics"][:2]} <= {1, 2}
 
@@ -231,10 +231,11 @@ def test_spectrum_section_U_and_transfer(streams):
     sec = report_json(streams["spectrum"], "--top", "3")["sections"][0]
     rows = sec["spectra"][0]["harmonics"]
     assert len(rows) == 3
-    assert rows[0]["amplitude"] >= rows[1]["amplitude"] >= rows[2]["amplitude"]
+    amplitudes = [row["amplitude_arcsec"] for row in rows]
+    assert amplitudes == sorted(amplitudes, reverse=True)
     for row in rows:
         w = row["transfer"]
-        assert row["U"] == pytest.approx(2 * 0.005 / max(w, 0.1))
+        assert row["expanded_u_arcsec"] == pytest.approx(2 * 0.005 / max(w, 0.1))
     assert sec["info"]["blind harmonics"] == "0"
 
 
@@ -283,7 +284,7 @@ def test_readings_section_steps_and_signals(tmp_path, ciomp_steps):
     steps, sw = out["sections"]
     assert steps["info"]["mode"] == "steps" and steps["info"]["positions"] == 24
     # the axis servo holds the encoder on target: encoder - target is small
-    assert steps["curves"][0]["pp"] < 0.5
+    assert steps["curves"][0]["pp_arcsec"] < 0.5
     assert sw["kind"] == "readings" and "F1" in sw["info"]["heads"]
 
 
@@ -295,9 +296,9 @@ def test_model_section_evaluates_the_model(tmp_path):
         pytest.skip("enc fit-rbf not available: " + r.stderr.decode()[:100])
     sec = report_json(model)["sections"][0]
     c = sec["curves"][0]
-    assert c["role"] == "model" and c["n"] == 720
+    assert c["role"] == "model" and c["n_points"] == 720
     # the RBF network passes through table 1 (seed 001: training goal 1e-4"), p-p ~ 5.46
-    assert c["pp"] == pytest.approx(5.46, abs=0.3)
+    assert c["pp_arcsec"] == pytest.approx(5.46, abs=0.3)
 
 
 # ---------------------------------------------------------------------- thresholds
@@ -510,11 +511,11 @@ def test_real_pipeline_selfcal_compare_interp(sjtu_raw, tmp_path):
         t = pq.read_table(f)
         for c in sec["curves"]:
             col = t.column(c["name"]).to_numpy()
-            assert c["pp"] == pytest.approx(np.ptp(col), rel=1e-12)
-            assert c["std"] == pytest.approx(np.std(col, ddof=1), rel=1e-12)
+            assert c[f"pp_{c['unit']}"] == pytest.approx(np.ptp(col), rel=1e-12)
+            assert c[f"s_bessel_{c['unit']}"] == pytest.approx(np.std(col, ddof=1), rel=1e-12)
     selfcal, _, _, interp = out["sections"]
     assert {c["unit"] for c in selfcal["curves"]} == {"arcsec", "nm"}
-    assert any("U_max" in c for c in selfcal["curves"])
+    assert any(k.startswith("expanded_u_max_") for c in selfcal["curves"] for k in c)
     assert interp["domain"] == "period"
     assert all(c["harmonics"][0]["n"] in (1, 2) for c in interp["curves"])
     # the graduation error the self-calibration found vs the truth: p-p within 0.1"
@@ -522,7 +523,7 @@ def test_real_pipeline_selfcal_compare_interp(sjtu_raw, tmp_path):
     grid = np.arange(1024) * TWO_PI / 1024
     grad = next(c for c in selfcal["curves"] if c["unit"] == "arcsec")
     want = truth.graduation["II"].band(n_max=100)(grid)
-    assert grad["pp"] == pytest.approx(np.ptp(want), abs=0.1)
+    assert grad["pp_arcsec"] == pytest.approx(np.ptp(want), abs=0.1)
 
 
 def test_rom_section_counts(tmp_path):
@@ -539,5 +540,5 @@ def test_rom_section_counts(tmp_path):
     assert r.returncode == 0, r.stderr.decode()
     sec = json.loads(r.stdout)["sections"][0]
     c = sec["curves"][0]
-    assert c["unit"] == "count" and c["pp"] == 40 and c["harmonics"][0]["n"] == 2
+    assert c["unit"] == "count" and c["pp_count"] == 40 and c["harmonics"][0]["n"] == 2
     assert sec["info"]["bits"] == 12

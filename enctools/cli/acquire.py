@@ -61,21 +61,29 @@ from enctools.cli import options, runner
               help="Instruments: retries after a timeout before giving up (default: the rig's, 2).")
 @click.option("--tee", "tee_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Also keep a copy of the stream in FILE (format from its extension).")
+@options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool,
             timeout_s: float | None, retries: int | None, tee_path: str | None,
-            output: str | None, force: bool, fmt: str | None, **given: Any) -> None:
+            as_json: bool, output: str | None, force: bool, fmt: str | None,
+            **given: Any) -> None:
     """Acquire readings from a rig and write them as a readings stream.
 
     Defaults come from the rig file's [acquire] tables: `enc acquire --rig sjtu-dual`
-    records 20 revolutions at 1 r/min every 3 ms; `enc acquire --rig ciomp-23bit
+    records 20 revolutions at 1 r/min every 5.05 ms; `enc acquire --rig ciomp-23bit
     --mode steps` the 24 polygon positions. Options > ENC_ACQUIRE_* environment >
     rig file > built-in defaults.
     """
+    import time
+
+    from enctools.cli.summary import check_json
     from enctools.data import streams
 
     options.distinct_outputs({"-o": output, "--tee": tee_path})
+    check_json(as_json, output)
+    start = time.monotonic()
     if tee_path is not None:
         streams.check_output(tee_path, force)
     if replay_path is not None:
@@ -86,7 +94,8 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
         header = streams.with_history(source.header)
         header.meta["settings"] = dict(header.meta.get("settings", {}), replayed=replay_path,
                                        pace=pace)
-        _write(header, replay(source, pace), output, force, fmt, tee_path)
+        rows = _write(header, replay(source, pace), output, force, fmt, tee_path)
+        _summary("replay", rows, time.monotonic() - start, output, tee_path, as_json)
         return
 
     if rig is None:
@@ -105,7 +114,19 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
                       realtime=realtime, timeout_s=timeout_s, retries=retries) as session:
         header, batches = acq.acquire(rig_, session, settings, runner.Progress(settings.mode, unit))
         rows = _write(streams.with_history(header), batches, output, force, fmt, tee_path)
-    runner.log.info("%d rows written to %s", rows, output or "stdout")
+    _summary(settings.mode, rows, time.monotonic() - start, output, tee_path, as_json)
+
+
+def _summary(mode: str, rows: int, seconds: float, output: str | None, tee: str | None,
+             as_json: bool) -> None:
+    """The end-of-run line: mode, rows and where they went, seconds taken [s]."""
+    from enctools.cli.summary import emit
+
+    out: dict[str, Any] = {"mode": mode, "n_rows": rows, "elapsed_s": round(seconds, 3),
+                           "output": output or "-"}
+    if tee:
+        out["tee"] = tee
+    emit(out, as_json)
 
 
 def _write(header: Any, batches: Iterator[Any], output: str | None, force: bool,

@@ -10,6 +10,7 @@ from enctools.cli import options
 @click.command("compare")
 @options.input_arg
 @click.option("--device", required=True, callback=options.name_list, metavar="HEAD[,HEAD...]",
+              shell_complete=options.complete_heads,
               help="Device channel: a head, an average channel, or heads to average.")
 @options.ref("Reference channel (its reading is the angle): a head, an average or heads.",
              metavar="HEAD[,HEAD...]", required=True, callback=options.name_list)
@@ -23,16 +24,20 @@ from enctools.cli import options
 @click.option("--ref-column", "ref_column", default=None, metavar="NAME",
               help="Column of --ref-curve (default: its first deviation column).")
 @options.spectrum("Also write the spectrum to FILE (needs --band).")
+@options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, device: list[str], ref: list[str], band: int, points: int,
             name: str | None, ref_curve: str | None, ref_column: str | None,
-            spectrum_path: str | None, output: str | None, force: bool, fmt: str | None) -> None:
+            spectrum_path: str | None, as_json: bool, unit: str, output: str | None,
+            force: bool, fmt: str | None) -> None:
     """Deviation of a device against a reference over a continuous run (seed 000 eqs. 7, 8, 10).
 
     Averages the revolutions of the reference and keeps the first --band harmonics.
     `enc compare --device H --ref P` after `enc average-heads` is eq. (10).
     """
+    from enctools.cli import runner, summary
     from enctools.data import streams
     from enctools.data.files import OutputGroup
     from enctools.methods import compare
@@ -41,13 +46,19 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
                                 name=name, ref_curve=ref_curve, ref_column=ref_column,
                                 spectrum=spectrum_path is not None)
     options.distinct_outputs({"-o": output, "--spectrum": spectrum_path})
+    summary.check_json(as_json, output)
     streams.check_output(output, force, fmt)
     if spectrum_path is not None:
         streams.check_output(spectrum_path, force)
     source = streams.open_input(input, "readings")
-    (dh, dt), spec = compare.run(source, settings)
+    expected = int(float((source.meta.get("settings") or {}).get("revolutions") or 0))
+    progress = runner.Progress("revolutions", "rev").every(expected)
+    (dh, dt), spec = compare.run(source, settings, progress)
     with OutputGroup() as outputs:  # both files, or neither
         if spectrum_path is not None and spec is not None:
             streams.write_table(spectrum_path, streams.with_history(spec[0]), spec[1], force,
                                 group=outputs)
         streams.write_table(output, streams.with_history(dh), dt, force, fmt, group=outputs)
+    summary.emit({"device": ",".join(device), "reference": ",".join(ref),
+                  "n_revolutions": dh.meta["settings"].get("revolutions"),
+                  "curves": summary.curves(dh, dt)}, as_json, unit)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from enctools.cli import options
@@ -30,10 +32,11 @@ from enctools.cli import options
 @click.option("--table", is_flag=True, default=False,
               help="Print n, |W(n)|, normalised |W(n)|, noise gain, sensitivity as TSV.")
 @options.strict
+@options.as_json
 @options.verbosity
 def command(angles: list[float] | None, method: str | None, band: int, min_transfer: float,
             mounting_error: float, search_heads: int | None, step_deg: float, min_gap: float,
-            criterion: str, table: bool, strict: bool) -> None:
+            criterion: str, table: bool, strict: bool, as_json: bool) -> None:
     """Transfer function |W(n)|, blind harmonics, noise gain and mounting sensitivity
     of a head arrangement; with --search, the arrangement that maximises min |W(n)|."""
     from enctools.methods import design
@@ -44,6 +47,12 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
                                step_deg=step_deg, min_gap_deg=min_gap, criterion=criterion,
                                strict=strict)
     res = design.run(settings)
+    if as_json:
+        from enctools.cli.summary import emit
+
+        emit(_summary(res, mounting_error, table), as_json=True)
+        design.refuse_or_warn(res.analysis, strict)
+        return
     if res.search is not None:
         click.echo(f"best {search_heads}-head arrangement for n <= {band}: "
                    f"{'/'.join(f'{a:g}' for a in res.search.angles_deg)} deg "
@@ -58,3 +67,32 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
     else:
         click.echo(design.report(a, mounting_error))
     design.refuse_or_warn(a, strict)
+
+
+def _summary(res: Any, mounting_error_deg: float, table: bool) -> dict[str, Any]:
+    """The arrangement, its worst |W(n)|, blind and ill-conditioned harmonics, noise gain
+    and mounting sensitivity; the search's result; with ``table``, every harmonic."""
+    import numpy as np
+
+    a = res.analysis
+    w, nw = a.worst
+    g, ng = a.max_gain
+    out: dict[str, Any] = {"angles_deg": list(a.angles_deg), "method": a.method,
+                           "n_first": a.first, "band": a.band, "min_transfer": w,
+                           "min_transfer_n": nw, "blind": list(a.blind),
+                           "ill_conditioned": list(a.ill), "max_noise_gain": g,
+                           "max_noise_gain_n": ng}
+    sens = a.sensitivity[a.first:] * np.radians(mounting_error_deg)
+    fin = np.isfinite(sens)
+    out |= {"mounting_error_deg": mounting_error_deg,
+            "max_relative_error": float(np.max(sens[fin])) if fin.any() else None}
+    if res.search is not None:
+        s = res.search
+        out["search"] = {"angles_deg": list(s.angles_deg), "score": s.score,
+                         "criterion": s.criterion, "n_evaluated": s.evaluated}
+    if table:
+        out["harmonics"] = [{"n": k, "transfer": a.transfer[k], "normalised": a.normalised[k],
+                             "noise_gain": a.gain[k],
+                             "sensitivity_per_deg": a.sensitivity[k] * np.radians(1.0)}
+                            for k in range(1, a.band + 1)]
+    return out

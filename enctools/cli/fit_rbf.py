@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from enctools.cli import options, runner
@@ -23,11 +25,14 @@ from enctools.cli import options, runner
               help="Points never used in the fit (a points stream or CSV): report their residuals.")
 @options.threshold("--max-std", "Exit 1 when the hold-out (else leave-one-out) Bessel s "
                    "exceeds this [arcsec].", dest="check_arcsec")
+@options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, kernel: str, spread_deg: float | None, goal: float,
             harmonics: int | None, holdout_path: str | None, check_arcsec: float | None,
-            output: str | None, force: bool, fmt: str | None) -> None:
+            as_json: bool, unit: str, output: str | None, force: bool,
+            fmt: str | None) -> None:
     """Fit an error model to sparse calibration points and write it as a model stream.
 
     INPUT is a points stream (`enc points`) or a CSV file position_deg,deviation_arcsec.
@@ -35,6 +40,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     on stderr gives the Bessel s and p-p of the points (seed 001 eq. 8) and the
     training, leave-one-out and hold-out residuals.
     """
+    from enctools.cli.summary import check_json, emit
     from enctools.data import streams
     from enctools.data.streams import with_history
     from enctools.errors import CheckFailed
@@ -43,6 +49,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     from enctools.models.curve_model import model_table
 
     settings = fitting.Settings(kernel, spread_deg, goal, harmonics, holdout_path)
+    check_json(as_json, output)
     streams.check_output(output, force, fmt)
     header, pts = read_points(input)
     x, y, closure = distinct(pts, source=header.meta.get("source", "input"))
@@ -53,12 +60,12 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     if holdout_path is not None:
         _, hp = read_points(holdout_path)
         hold = distinct(hp, source=holdout_path)[:2]
-    fit = fitting.fit_points(x, y, settings, hold)
+    fit = fitting.fit_points(x, y, settings, hold, runner.Progress("spread search", "spreads"))
     table, meta = model_table(fit.model)
     out = header.derive("model", table.schema, model=meta, residuals=fit.residuals(),
                         settings=settings.to_meta())
     streams.write_table(output, with_history(out), table, force, fmt)
-    _summary(fit, meta)
+    emit(_summary(fit, meta), as_json, unit)
     if check_arcsec is not None:
         which = "holdout" if fit.holdout else "leave_one_out"
         s = fit.residuals()[which]["bessel_std_arcsec"]
@@ -67,25 +74,22 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
             raise CheckFailed(msg)
 
 
-def _summary(fit, meta) -> None:
-    if runner.is_quiet():
-        return
-    import sys
-    p, t, lo = fit.points, fit.training, fit.loo
-    kern = (f"rbf, {meta['units']} units, spread {meta['spread_deg']:.4g} deg"
-            if meta["kernel"] == "rbf" else f"fourier, harmonics 0..{meta['harmonics']}")
-    lines = [f"model: {kern}",
-             f"points: {p['n']} positions, Bessel s {p['bessel_std_arcsec']:.4f} arcsec, "
-             f"p-p {p['peak_to_peak_arcsec']:.4f} arcsec",
-             f"training: max |residual| {t['max_abs_arcsec']:.3g} arcsec",
-             f"leave-one-out: rms {lo['rms_arcsec']:.4f} arcsec, "
-             f"max {lo['max_abs_arcsec']:.4f} arcsec"]
+def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
+    """The model, the points' figures and the residuals [arcsec] (enc-streams(5))."""
+    from enctools.data.summaries import from_meta
+
+    model: dict[str, Any] = {"kernel": meta["kernel"]}
+    if meta["kernel"] == "rbf":
+        model |= {"n_units": meta["units"], "spread_deg": meta["spread_deg"]}
+    else:
+        model["n_harmonics"] = meta["harmonics"]
+    out: dict[str, Any] = {"model": model, "points": from_meta(fit.points),
+                           "training": from_meta(fit.training),
+                           "leave_one_out": from_meta(fit.loo)}
     if fit.holdout:
-        h = fit.holdout
-        lines.append(f"hold-out: {h['n']} positions, Bessel s {h['before_bessel_std_arcsec']:.4f}"
-                     f" -> {h['bessel_std_arcsec']:.4f} arcsec, "
-                     f"p-p {h['peak_to_peak_arcsec']:.4f} arcsec")
+        h = from_meta(fit.holdout)
+        h["before"] = {k[len("before_"):]: h.pop(k) for k in list(h) if k.startswith("before_")}
+        out["holdout"] = h
     if meta.get("undetermined"):
-        lines.append("undetermined by the points (set to 0): " + ", ".join(meta["undetermined"]))
-    for ln in lines:
-        sys.stderr.write(f"enc fit-rbf: {ln}\n")
+        out["undetermined"] = list(meta["undetermined"])
+    return out

@@ -73,6 +73,8 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @options.spectrum("Also write the harmonics (per signal period) as a spectrum stream.")
 @options.threshold("--max-pm", "Exit 1 when any curve's +/- (half its peak-to-peak) "
                    "exceeds this [arcsec].", dest="tolerance")
+@options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, heads: list[str] | None, average: bool, reference: str,
@@ -80,7 +82,8 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
             harmonics: int | None, keep: list[int] | None, reference_harmonics: int,
             trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool,
             min_arc_deg: float, corrected: str | None, spectrum_path: str | None,
-            tolerance: float | None, output: str | None, force: bool, fmt: str | None) -> None:
+            tolerance: float | None, as_json: bool, unit: str, output: str | None,
+            force: bool, fmt: str | None) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
 
     Reads a readings stream of a small-angle sweep (enc acquire --mode sweep) or a
@@ -90,6 +93,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     uncertainty. Figures (p-p, +/-) and harmonics go to stderr and into the
     output's metadata.
     """
+    from enctools.cli.summary import check_json, emit
     from enctools.data import streams
     from enctools.data.files import OutputGroup
     from enctools.errors import UsageError
@@ -102,12 +106,13 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         window_arcsec=window_arcsec, points=points, signals=signals_mode,
         min_arc_deg=min_arc_deg, corrected=bool(corrected))
     options.distinct_outputs({"-o": output, "--spectrum": spectrum_path, "--corrected": corrected})
+    check_json(as_json, output)
     streams.check_output(output, force, fmt)
     for extra in (spectrum_path, corrected):
         if extra:
             streams.check_output(extra, force, None)
     source = streams.open_input(input, "readings")
-    checked = check.run(source, settings)
+    checked = check.run(runner.RowsRead(source), settings)
     curves = checked.curves
     if not curves:
         msg = "no curve: the heads with signals carry no encoder geometry"
@@ -127,9 +132,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
                              corrected, force, outputs)
         streams.write_table(output, streams.with_history(header), out_table, force, fmt,
                             group=outputs)
-    if not runner.is_quiet():
-        for c in curves:
-            click.echo(_summary(c), err=True)
+    emit({"curves": [_summary(c) for c in curves]}, as_json, unit)
     if tolerance is not None:
         _check_tolerance(curves, tolerance)
 
@@ -145,16 +148,25 @@ def _check_tolerance(curves: list[Any], tolerance: float) -> None:
         raise CheckFailed(msg)
 
 
-def _summary(c: Any) -> str:
-    f = c.meta["figures"]
-    h = c.meta.get("harmonics", [])[:2]
-    harm = ", ".join(f"n={x['n']}: {x['amplitude']:.4f}\"" for x in h)
-    ref = c.meta.get("reference", "")
-    ratio = f", period ratio {c.meta['period_ratio']:.4g}" if "period_ratio" in c.meta else ""
-    kept = f", kept {','.join(map(str, c.meta['kept']))}" if "kept" in c.meta and ratio else ""
-    return (f"{c.name}: +/-{f['plus_minus']:.4f}\" p-p {f['pp']:.4f}\" u<={c.u.max():.4f}\" "
-            f"({harm}; period "
-            f"{c.meta['period_arcsec']:.4g}\", ref {ref}{ratio}{kept})")
+def _summary(c: Any) -> dict[str, Any]:
+    """A curve's figures [arcsec], largest u, harmonics and reference (enc-streams(5))."""
+    import numpy as np
+
+    from enctools.data.statistics import curve_figures
+    from enctools.data.summaries import figure_dict
+
+    h = c.harmonics
+    u = h.amplitude_u if h.cov.size and np.any(h.cov) else np.full(h.orders.size, np.nan)
+    out: dict[str, Any] = {"name": c.name}
+    out |= figure_dict(curve_figures(c.error), "arcsec", ("pm", "pp", "rms"))
+    out |= {"u_max_arcsec": float(c.u.max()) if c.u.size else None,
+            "period_arcsec": c.meta["period_arcsec"], "reference": c.meta.get("reference", "")}
+    if "period_ratio" in c.meta:
+        out |= {"period_ratio": c.meta["period_ratio"], "kept": list(c.meta.get("kept", []))}
+    out["harmonics"] = [{"n": int(n), "amplitude_arcsec": float(a), "phase_rad": float(p),
+                         "u_amplitude_arcsec": float(uu)}
+                        for n, a, p, uu in zip(h.orders, h.amplitude, h.phase, u, strict=True)]
+    return out
 
 
 def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) -> tuple[Any, Any]:

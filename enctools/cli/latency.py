@@ -58,8 +58,6 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
     heads against a reference (the simulator's truth or another encoder's heads),
     then the same figures from it.
     """
-    import json
-
     from enctools.errors import UsageError
     from enctools.methods import latency as lat
 
@@ -67,7 +65,9 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
     if inputs:
         runs, rig_bits = _measure(inputs, heads, reference)
         lag, offset = lat.lag_from_runs(runs, None if fit_offset else 0.0)
-        out["runs"] = [r.__dict__ for r in runs]
+        out["runs"] = [{"speed_deg_s": r.speed_deg_s,
+                        "mean_difference_arcsec": r.mean_difference_arcsec,
+                        "n_revolutions": r.turns, "n_samples": r.samples} for r in runs]
         out["measured_lag_s"] = lag
         out["offset_arcsec"] = offset
         bits = bits or rig_bits
@@ -93,7 +93,9 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
                      "skips_codes": abs(v) > skip})
     out["speeds"] = rows
     if as_json:
-        click.echo(json.dumps(out, indent=2))
+        from enctools.cli.summary import emit
+
+        emit(out, as_json=True)
     else:
         _echo_text(out, fit_offset)
 
@@ -101,7 +103,7 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
 def _echo_text(out: dict, fit_offset: bool) -> None:
     """The figures of ``out`` (as --json prints them) as lines of text."""
     for r in out.get("runs", []):
-        click.echo(f"run: {r['speed_deg_s'] / 6:.6g} r/min over {r['turns']:.3g} turns, "
+        click.echo(f"run: {r['speed_deg_s'] / 6:.6g} r/min over {r['n_revolutions']:.3g} turns, "
                    f"device - reference {r['mean_difference_arcsec']:.6g} arcsec")
     if "measured_lag_s" in out:
         click.echo(f"measured lag: {out['measured_lag_s']:.6g} s "

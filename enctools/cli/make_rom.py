@@ -43,11 +43,14 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
 @options.force
 @click.option("--format", "fmt", type=click.Choice(options.FORMATS), default=None,
               help="With --target stream: the stream's format.")
+@options.json_summary
+@options.unit
 @options.verbosity
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
             axis: str | None, zone: int, array_name: str, max_entries: int | None, verify: bool,
-            output: str | None, force: bool, fmt: str | None) -> None:
+            output: str | None, force: bool, fmt: str | None, as_json: bool,
+            unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -60,12 +63,14 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     import time
     from pathlib import Path
 
+    from enctools.cli.summary import check_json, emit
     from enctools.data import streams
     from enctools.errors import UsageError
     from enctools.models import rom, romformats
     from enctools.models.curve_model import from_stream
 
     target, path = _target(target, output, force, fmt)
+    check_json(as_json, output, "-o FILE (a table file or a stream file)")
     src = streams.open_input(input, ("model", "deviations"))
     evaluate = from_stream(src.header, src.read_all(), src.source, curve)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
@@ -88,7 +93,8 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
                                       table.file_comment())
         if verify:
             romformats.verify_table(path, table.values, settings.table)
-    _report(summary, size, output, time.monotonic() - t0, verify and size is not None)
+    emit(_summary(summary, size, output, time.monotonic() - t0, verify and size is not None),
+         as_json, unit)
 
 
 def _target(target: str | None, output: str | None, force: bool, fmt: str | None
@@ -134,18 +140,15 @@ def _bits_from_rig(meta: dict) -> int:
     raise UsageError(msg)
 
 
-def _report(s: dict, size: int | None, output: str | None, seconds: float, verified: bool) -> None:
-    if runner.is_quiet():
-        return
-    import sys
-    lines = [f"{s['entries']} entries (top {s['address_bits']} of {s['code_bits']} bits), "
-             f"{s['width_bits']}-bit signed, LSB {s['lsb_arcsec']:.6g} arcsec",
-             f"corrections {s['min_lsb']}..{s['max_lsb']} LSB; largest quantisation error "
-             f"{s['max_quantisation_error_lsb']:.4f} LSB = "
-             f"{s['max_quantisation_error_arcsec']:.4g} arcsec",
-             f"CRC-32 {s['crc32']} of the {s['crc32_of']} ({s['image_bytes']} bytes)"]
+def _summary(s: dict, size: int | None, output: str | None, seconds: float,
+             verified: bool) -> dict:
+    """The table's layout, its corrections [LSB, arcsec], CRC-32 and file (enc-streams(5))."""
+    out = {"table": {k: s[k] for k in ("entries", "code_bits", "address_bits", "width_bits",
+                                       "lsb_arcsec")},
+           "corrections": {k: s[k] for k in ("min_lsb", "max_lsb", "max_quantisation_error_lsb",
+                                             "max_quantisation_error_arcsec")},
+           "crc32": {"value": s["crc32"], "of": s["crc32_of"], "image_bytes": s["image_bytes"]},
+           "output": output or "-", "elapsed_s": round(seconds, 3)}
     if size is not None:
-        lines.append(f"wrote {output}: {size} bytes in {seconds:.2f} s"
-                     + ("; read back equal" if verified else ""))
-    for ln in lines:
-        sys.stderr.write(f"enc make-rom: {ln}\n")
+        out |= {"file_bytes": size, "verified": verified}
+    return out

@@ -14,6 +14,7 @@ from typing import Any
 import click
 
 from enctools.cli import runner
+from enctools.cli.completion import complete_heads, complete_rig
 from enctools.units import DISPLAY_UNITS
 
 FORMATS = ("arrows", "parquet", "arrow", "hdf5", "csv", "tsv")
@@ -67,17 +68,6 @@ force = click.option("--force", is_flag=True, default=False,
                      help="Replace an existing output file.")
 out_format = click.option("--format", "fmt", type=click.Choice(FORMATS), default=None,
                           help="Output format (default: from -o's extension; arrows on stdout).")
-def complete_rig(ctx: click.Context, param: click.Parameter,
-                 incomplete: str) -> list[click.shell_completion.CompletionItem]:
-    """Shell completion of --rig: the bundled rigs that match, then files (*.toml)."""
-    from click.shell_completion import CompletionItem
-
-    from enctools.data.rig import bundled_rigs
-
-    names = [CompletionItem(n) for n in bundled_rigs() if n.startswith(incomplete)]
-    return [*names, CompletionItem(incomplete, type="file")]
-
-
 rig = click.option("--rig", default=None, metavar="NAME|PATH", envvar="ENC_RIG",
                    shell_complete=complete_rig,
                    help="Rig: a bundled name (sjtu-dual, ciomp-23bit) or a rig file.")
@@ -105,28 +95,30 @@ def verbosity(f: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def outputs(f: Callable[..., Any]) -> Callable[..., Any]:
-    """-o/--output, --force, --format, and --unit for the angle errors of a CSV or TSV output.
+    """-o/--output, --force, --format; the command's --unit (:data:`unit`, stacked with it)
+    also sets the unit of the angle errors in a CSV or TSV output.
 
-    --unit is set for the stream outputs of the command (``csvio.set_error_unit``, for
-    the command's run); the command function receives it only if it has a ``unit``
-    parameter (for its own text).
+    The unit holds for the command's run (``csvio.set_error_unit``); a command without
+    --unit writes arcsec. The command function receives ``unit`` if it takes it (its
+    summary's unit).
     """
     import inspect
 
-    passes = "unit" in inspect.signature(f).parameters
+    takes_unit = "unit" in inspect.signature(f).parameters
 
     @functools.wraps(f)
-    def with_unit(*args: Any, unit: str, **kwargs: Any) -> Any:
+    def with_csv_unit(*args: Any, **kwargs: Any) -> Any:
         from enctools.data import csvio
 
         before = csvio.error_unit()
-        csvio.set_error_unit(unit)
+        chosen = kwargs.get("unit") if takes_unit else kwargs.pop("unit", None)
+        csvio.set_error_unit(chosen or before)
         try:
-            return f(*args, **kwargs, **({"unit": unit} if passes else {}))
+            return f(*args, **kwargs)
         finally:  # a command run in-process leaves the library as it found it
             csvio.set_error_unit(before)
 
-    return output(force(out_format(unit(with_unit))))
+    return output(force(out_format(with_csv_unit)))
 
 
 # Ideas several commands share: one spelling, one metavar, one check.
@@ -192,13 +184,14 @@ def heads(help: str, flag: str = "--heads", dest: str | None = None) -> Callable
     """A comma-separated list of head (or channel) names, e.g. --heads H1,H2."""
     decls = [flag] if dest is None else [flag, dest]
     return click.option(*decls, default=None, callback=name_list, metavar="H1,H2,...",
-                        help=help)
+                        shell_complete=complete_heads, help=help)
 
 
 def ref(help: str, dest: str = "ref", metavar: str = "HEAD", **kw: Any) -> Callable[..., Any]:
     """--ref (also --reference): the reference a command measures against."""
     if not kw.get("required"):  # a default, even None, would satisfy a required option
         kw.setdefault("default", None)
+    kw.setdefault("shell_complete", complete_heads)
     return click.option("--ref", "--reference", dest, metavar=metavar, help=help, **kw)
 
 
@@ -257,3 +250,6 @@ unit = click.option("--unit", "unit", type=click.Choice(DISPLAY_UNITS), default=
                          "(JSON and streams keep their documented units).")
 as_json = click.option("--json", "as_json", is_flag=True, default=False,
                        help="Print the figures as JSON instead of text.")
+json_summary = click.option("--json", "as_json", is_flag=True, default=False,
+                            help="Print the summary as JSON on stdout instead of text on "
+                                 "stderr (needs -o FILE when the command writes a stream).")

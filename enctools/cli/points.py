@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options
 
 
 @click.command("points")
@@ -14,10 +14,13 @@ from enctools.cli import options, runner
               help="Autocollimator column (default: the only one).")
 @click.option("--faces", type=int, default=None, callback=options.positive,
               help="Faces of the polygon (default: the rig's).")
+@options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, heads: list[str] | None, autocollimator: str | None,
-            faces: int | None, output: str | None, force: bool, fmt: str | None) -> None:
+            faces: int | None, as_json: bool, unit: str, output: str | None, force: bool,
+            fmt: str | None) -> None:
     """Turn a polygon step run, or a CSV table, into a points stream.
 
     INPUT is a readings stream from `enc acquire --mode steps` on a rig with a
@@ -25,14 +28,16 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     heads relative to the first position, against the polygon angle), or a CSV file
     position_deg,deviation_arcsec[,direction,run] with # comment lines.
     """
+    from enctools.cli.summary import check_json, emit
     from enctools.data import streams
     from enctools.data.streams import with_history
+    from enctools.data.summaries import from_meta
     from enctools.methods import points
 
+    check_json(as_json, output)
     streams.check_output(output, force, fmt)
     settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces)
     header, found = points.make_points(input, settings)
-    fig = header.meta["figures"]
-    runner.log.info("%d points; at %d distinct positions: Bessel s %.3f arcsec, p-p %.3f arcsec",
-                    len(found), fig["n"], fig["bessel_std_arcsec"], fig["peak_to_peak_arcsec"])
     streams.write_table(output, with_history(header), found.table(), force, fmt)
+    emit({"n_rows": len(found), "distinct_positions": from_meta(header.meta["figures"])},
+         as_json, unit)

@@ -58,4 +58,4 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
     run_report(sources, Options(top_harmonics, nmax), limits, as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
-               prog=runner.command_name())
+               prog=runner.command_name(), progress=runner.Progress("inputs and renderings"))

@@ -39,11 +39,18 @@ def show(rig: str) -> None:
 
 @command.command("check")
 @click.argument("rig", metavar="NAME|PATH", shell_complete=options.complete_rig)
+@options.as_json
 @options.verbosity
-def check(rig: str) -> None:
+def check(rig: str, as_json: bool) -> None:
     """Read a rig file as every command does and summarise it; exit 2 naming the key at fault."""
     from enctools.data.rig import load_rig
-    from enctools.data.riginfo import summary
+    from enctools.data.riginfo import summary, summary_dict
 
-    for line in summary(load_rig(rig)):
+    loaded = load_rig(rig)
+    if as_json:
+        from enctools.cli.summary import emit
+
+        emit(summary_dict(loaded), as_json=True)
+        return
+    for line in summary(loaded):
         click.echo(line)

@@ -42,7 +42,28 @@ def setup_logging(verbose: int = 0, quiet: int = 0) -> None:
     root.handlers[:] = [handler]
     root.setLevel(max(logging.DEBUG, min(logging.CRITICAL, level)))
     root.propagate = False
+    # the libraries' own loggers (matplotlib, ...), which have no handler: the same
+    # one-line form, warnings and errors only (errors only with -q)
+    others = logging.StreamHandler(sys.stderr)
+    others.setFormatter(handler.formatter)
+    others.setLevel(logging.ERROR if quiet > 0 else logging.WARNING)
+    logging.lastResort = others
+    import warnings
+    warnings.showwarning = _warning_line
     _state["quiet"] = quiet > 0
+
+
+def _warning_line(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
+    """A Python warning (numpy's RuntimeWarning, a library's deprecation) as one line of
+    the command's log, ``enc CMD: WARNING: message``, without the file and the source
+    line; silenced by -q like every warning."""
+    import logging
+
+    from enctools.data.text import printable
+
+    text = printable(" ".join(str(message).split())) or category.__name__
+    logging.getLogger("enctools").warning("%s", text)
 
 
 _state: dict[str, Any] = {"command": "enc", "quiet": False}
@@ -78,12 +99,62 @@ class Progress:
         if now - self._last < 0.2 and done < total:
             return
         self._last = now
-        pct = 100.0 * done / total if total else 100.0
-        sys.stderr.write(f"\r{command_name()}: {self.what} {pct:5.1f}% "
-                         f"({done}/{total}{' ' + self.unit if self.unit else ''}, "
-                         f"{now - self._start:.1f} s)")
-        if done >= total:
-            sys.stderr.write("\n")
+        unit = f" {self.unit}" if self.unit else ""
+        if total <= 0:  # the total is not known: the count so far
+            sys.stderr.write(f"\r{command_name()}: {self.what} {done}{unit} "
+                             f"({now - self._start:.1f} s)")
+            _state["progress_open"] = True
+        else:
+            pct = 100.0 * done / total
+            sys.stderr.write(f"\r{command_name()}: {self.what} {pct:5.1f}% "
+                             f"({done}/{total}{unit}, {now - self._start:.1f} s)")
+            _state["progress_open"] = done < total
+            if done >= total:
+                sys.stderr.write("\n")
+        sys.stderr.flush()
+
+    def every(self, total: int) -> Callable[[int], None]:
+        """A progress callback of one argument (done) out of ``total`` expected (a method
+        that counts what it has done but not what is to come; 0: not known)."""
+        return lambda done: self(done, max(total, done) if total > 0 else 0)
+
+
+def expected_rows(meta: dict[str, Any]) -> int:
+    """The rows a continuous run's settings promise (revolutions, speed [r/min],
+    interval [s]); 0 when they do not say."""
+    s = meta.get("settings") or {}
+    try:
+        seconds = float(s["revolutions"]) * 60.0 / abs(float(s["speed_rpm"]))
+        return max(int(seconds / float(s["interval_s"])), 0)
+    except (KeyError, TypeError, ValueError, ZeroDivisionError, OverflowError):
+        return 0
+
+
+class RowsRead:
+    """A stream whose ``batches()`` report the rows read to a progress line; everything
+    else is the stream's own."""
+
+    def __init__(self, source: Any, what: str = "rows read") -> None:
+        self._source = source
+        self._progress = Progress(what, "rows").every(expected_rows(source.meta))
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._source, name)
+
+    def batches(self, *args: Any, **kwargs: Any) -> Any:
+        rows = 0
+        for b in self._source.batches(*args, **kwargs):
+            rows += b.num_rows
+            self._progress(rows)
+            yield b
+
+
+def end_progress() -> None:
+    """End a progress line left open (the work stopped short of its total), so that
+    what is written next on stderr starts a line of its own."""
+    if _state.get("progress_open"):
+        _state["progress_open"] = False
+        sys.stderr.write("\n")
         sys.stderr.flush()
 
 
@@ -130,6 +201,7 @@ def error(message: str) -> None:
     from enctools.data.text import printable
 
     first = printable(" ".join(str(message).split())) or "error"
+    end_progress()
     sys.stderr.write(f"{command_name()}: error: {first}\n")
     sys.stderr.flush()
 

@@ -21,18 +21,21 @@ from enctools.cli import options, runner
 @options.min_transfer("Harmonics whose normalised |W(n)| is below this are ill-conditioned.")
 @options.strict
 @options.spectrum("Also write the spectrum (|W(n)|, u per harmonic) to FILE.")
+@options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, method: str | None, ref: str | None, heads: list[str] | None,
             angle_from: list[str] | None, band: int, points: int, min_transfer: float,
-            strict: bool, spectrum_path: str | None, output: str | None, force: bool,
-            fmt: str | None) -> None:
+            strict: bool, spectrum_path: str | None, as_json: bool, unit: str,
+            output: str | None, force: bool, fmt: str | None) -> None:
     """Self-calibrate a scale's graduation error from a continuous run of its heads.
 
     Reads a readings stream, averages the revolutions and writes a deviations
     stream: the graduation error [arcsec] on a uniform grid of the scale angle, its
     standard uncertainty, and with esa the spindle's radial error motion x, y [nm].
     """
+    from enctools.cli import summary
     from enctools.data import streams
     from enctools.data.files import OutputGroup
     from enctools.methods import selfcal
@@ -43,6 +46,7 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
                                 band=band, points=points, min_transfer=min_transfer,
                                 strict=strict)
     options.distinct_outputs({"-o": output, "--spectrum": spectrum_path})
+    summary.check_json(as_json, output)
     streams.check_output(output, force, fmt)
     if spectrum_path is not None:
         streams.check_output(spectrum_path, force)
@@ -54,3 +58,9 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
                                 force, group=outputs)
         streams.write_table(output, streams.with_history(deviations[0]), deviations[1], force,
                             fmt, group=outputs)
+    meta = deviations[0].meta
+    summary.emit({"method": meta["settings"].get("method"),
+                  "n_revolutions": meta["settings"].get("revolutions"),
+                  "blind": list(meta.get("blind", [])),
+                  "ill_conditioned": list(meta.get("ill_conditioned", [])),
+                  "curves": summary.curves(*deviations)}, as_json, unit)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from enctools.data.schemas import field_meta
 from enctools.data.streams import InputStream
 from enctools.data.text import printable_lines
@@ -43,3 +45,29 @@ def describe(stream: InputStream) -> str:
     lines.append("  history:")
     lines += [f"    {line}" for line in h.history] or ["    -"]
     return printable_lines(lines)
+
+
+def info_dict(stream: InputStream) -> dict[str, Any]:
+    """A stream described as a dict for ``enc info --json`` (enc-streams(5), SUMMARIES):
+    source, kind, schema version, format, rows and batches read, the rig's name, the
+    mode, each column with its type, unit, role and other field metadata, the keys of
+    the stream metadata and the history lines."""
+    rows = batches = 0
+    for b in stream.batches():
+        rows += b.num_rows
+        batches += 1
+    h = stream.header
+    columns = []
+    for f in h.schema:
+        fm = field_meta(f)
+        columns.append({"name": f.name, "type": str(f.type), "unit": fm.pop("unit", ""),
+                        "role": fm.pop("role", ""), "metadata": fm})
+    rig = h.meta.get("rig")
+    return {"source": stream.source, "kind": h.kind,
+            "schema_version": h.meta.get("schema_version"), "format": stream.format,
+            "n_rows": rows, "n_batches": batches,
+            "rig": rig.get("name") if isinstance(rig, dict) else None,
+            "mode": h.meta.get("mode"), "columns": columns,
+            "metadata_keys": [k for k in h.meta if k not in ("history", "kind",
+                                                             "schema_version")],
+            "history": list(h.history)}

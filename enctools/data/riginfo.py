@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from enctools.data.rig import Rig, bundled_rigs, load_rig, rig_text
 from enctools.data.text import printable
@@ -43,3 +44,20 @@ def summary(rig: Rig) -> list[str]:
     mode = rig.acquire.get("mode", "continuous")
     out.append(f"  acquire: {printable(str(mode))} by default")
     return out
+
+
+def summary_dict(rig: Rig) -> dict[str, Any]:
+    """What :func:`summary` says, as a dict for ``enc rig check --json``
+    (enc-streams(5), SUMMARIES): head angles [deg], resolution [arcsec], sizes [mm]."""
+    return {
+        "name": rig.name, "source": rig.source, "description": rig.description,
+        "backend": str(rig.backend.get("kind", "sim")),
+        "encoders": [{"name": e.name, "periods_per_rev": e.periods_per_rev,
+                      "interpolation": e.interpolation, "counts_per_rev": e.counts_per_rev,
+                      "lsb_arcsec": 1_296_000.0 / e.counts_per_rev,
+                      "diameter_mm": e.diameter_mm, "counter_bits": e.counter_bits,
+                      "heads": [{"name": h.name, "alpha_deg": math.degrees(h.angle)}
+                                for h in e.heads]} for e in rig.encoders],
+        "probes": [{"name": p.name, "arm_mm": p.arm_mm, "side": p.side} for p in rig.probes],
+        "polygon_faces": rig.polygon.get("faces") if rig.polygon else None,
+        "acquire_mode": str(rig.acquire.get("mode", "continuous"))}

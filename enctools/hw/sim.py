@@ -358,8 +358,12 @@ class SimProbe(Sensor):
     """A displacement probe on an arm [m]: side * arm * rotation + translation + noise.
 
     Zeroed at its first reading. The translation is the radial motion (y) in the
-    plane of the rig's first encoder; two probes on opposite sides cancel it.
+    plane of the rig's first encoder; two probes on opposite sides cancel it. Beyond
+    :data:`RANGE_M` from its zero the probe is out of range and reads NaN, as a real
+    one does (a steps run round the circle turns the arm metres past it).
     """
+
+    RANGE_M = 1e-3
 
     def __init__(self, rig: VirtualRig, name: str, arm_m: float, side: int, noise_nm: float,
                  plane: str) -> None:
@@ -378,7 +382,8 @@ class SimProbe(Sensor):
             self.zero = theta
         translation = float(sim._radial[self.plane]["y"](np.array([theta]))[0]) * 1e-9
         noise = float(sim.rng.normal(0.0, self.noise)) if self.noise > 0 else 0.0
-        return self.side * self.arm * (theta - self.zero) + translation + noise
+        value = self.side * self.arm * (theta - self.zero) + translation + noise
+        return value if abs(value) <= self.RANGE_M else float("nan")
 
 
 class SimAutocollimator(Sensor):

@@ -31,6 +31,9 @@ import numpy as np
 
 from enctools.units import ARCSEC, TWO_PI
 
+#: samples x terms up to which a Series is summed as one matrix product (8 bytes each)
+_OUTER_TERMS = 1 << 16
+
 
 @dataclass(frozen=True)
 class Series:
@@ -54,11 +57,18 @@ class Series:
         return bool(np.all(self.freq == np.round(self.freq)))
 
     def __call__(self, x: np.ndarray | float) -> np.ndarray:
-        """Evaluate at angles ``x`` [rad] (any shape)."""
+        """Evaluate at angles ``x`` [rad] (any shape).
+
+        A few angles (a steps or sweep reading) are summed as one matrix product over
+        the terms; many, term by term, in memory of the size of ``x``.
+        """
         x = np.asarray(x, dtype=np.float64)
-        out = np.zeros_like(x)
         integer = self.freq == np.round(self.freq)
         xr = np.mod(x, TWO_PI) if np.any(integer) else x
+        if x.size * self.freq.size <= _OUTER_TERMS:
+            arg = np.where(integer, xr.reshape(-1, 1) * self.freq, x.reshape(-1, 1) * self.freq)
+            return (np.cos(arg) @ self.a + np.sin(arg) @ self.b).reshape(x.shape)
+        out = np.zeros_like(x)
         for f, a, b, is_int in zip(self.freq, self.a, self.b, integer, strict=True):
             arg = f * (xr if is_int else x)
             out += a * np.cos(arg) + b * np.sin(arg)

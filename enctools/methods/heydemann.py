@@ -207,8 +207,15 @@ def fit_ellipse(i: np.ndarray, q: np.ndarray, min_arc: float = 90 * DEG,
     the arc covered [rad]; ``warnings`` name a partial arc.
     """
     i, q = _finite_signals(i, q)
-    p0, arc = _first_guess(i, q, min_arc)
-    p, cov, noise = _refine(p0, i, q)
+    # the fit is done on signals scaled to about 1: volts of 1e300 or 1e-300 would
+    # overflow or underflow in the squares of the conic and the Sampson distance
+    scale = float(max(np.max(np.abs(i)), np.max(np.abs(q))))
+    if not (scale > 0 and np.isfinite(scale)):
+        scale = 1.0
+    p0, arc = _first_guess(i / scale, q / scale, min_arc)
+    p, cov, noise = _refine(p0, i / scale, q / scale)
+    to_volts = np.array([scale, scale, scale, 1.0, 1.0])
+    p, cov, noise = p * to_volts, cov * np.outer(to_volts, to_volts), noise * scale
     u = {name: float(np.sqrt(max(cov[k, k], 0.0))) for k, name in enumerate(PARAMS)}
     if not (0.5 < p[3] < 2.0 and abs(p[4]) < 45 * DEG):
         msg = (f"ellipse fit implausible for a head (ratio {p[3]:.3g}, phase error "
@@ -227,6 +234,11 @@ def fit_ellipse(i: np.ndarray, q: np.ndarray, min_arc: float = 90 * DEG,
                       u, cov, noise, arc, int(i.size), warnings)
 
 
+#: the largest |sample| [V] of a quadrature signal taken in; beyond, its square and the
+#: covariance of the fit [V^2] would leave the range of a float
+MAX_SIGNAL_V = 1e12
+
+
 def _finite_signals(i: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The samples [V] where both I and Q are finite; DataError for fewer than 8."""
     i = np.asarray(i, dtype=np.float64).ravel()
@@ -236,6 +248,11 @@ def _finite_signals(i: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarra
         raise DataError(msg)
     good = np.isfinite(i) & np.isfinite(q)
     i, q = i[good], q[good]
+    big = float(max(np.max(np.abs(i), initial=0.0), np.max(np.abs(q), initial=0.0)))
+    if big > MAX_SIGNAL_V:
+        msg = (f"a signal sample of {big:.3g} V: beyond {MAX_SIGNAL_V:.0e} V it is no "
+               f"voltage an encoder gives (are the signal columns in volts?)")
+        raise DataError(msg)
     if i.size < 8:
         msg = f"{i.size} finite signal samples: the ellipse fit needs at least 8"
         raise DataError(msg)
@@ -252,7 +269,8 @@ def _first_guess(i: np.ndarray, q: np.ndarray, min_arc: float) -> tuple[np.ndarr
     if arc >= min_arc:
         p0 = _from_conic(_conic(i, q))
         arc = min(arc, arc_covered(corrected_phase(i, q, *p0)))
-    if arc < min_arc:
+    if not arc >= min_arc:  # NaN too: no arc at all
+        arc = arc if np.isfinite(arc) else 0.0
         msg = (f"the signals cover {arc / DEG:.0f} deg of the Lissajous ellipse (< "
                f"{min_arc / DEG:.0f} deg): offsets and ratio are undetermined; "
                f"record over at least a quarter of a signal period, better one or more")

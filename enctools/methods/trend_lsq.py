@@ -34,18 +34,20 @@ class TrendProjectedLSQ:
     ``consecutive``: groups are windows met in order; a group closes as soon as a
     batch ends past it (memory does not grow with the length of the input).
     Otherwise (a sweep's runs, few) every group stays open until :meth:`close_all`.
-    ``on_close(extra, lo, hi)`` receives, for the groups that close, the sums of the
-    ``extra`` columns given to :meth:`add` and the least/greatest ``x``.
+    ``on_close(counts, lo, hi)`` receives, for the groups that close, their counts
+    (groups, 1 + n_labels): the samples, then the samples of each label given to
+    :meth:`add` (e.g. the quarter of the signal period a sample's phase lies in), and
+    the least/greatest ``x``.
     """
 
     def __init__(self, n_cols: int, degree: int, consecutive: bool,
                  on_close: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
-                 n_extra: int = 0) -> None:
+                 n_labels: int = 0) -> None:
         self.p = n_cols
         self.d1 = degree + 1
         self.consecutive = consecutive
         self.on_close = on_close
-        self.n_extra = n_extra
+        self.n_labels = n_labels
         self.xtx = np.zeros((n_cols, n_cols))
         self.xty = np.zeros(n_cols)
         self.yty = 0.0
@@ -54,7 +56,7 @@ class TrendProjectedLSQ:
         self.n_trend = 0
         self.groups = 0
         d1 = self.d1
-        self._width = d1 * d1 + d1 * n_cols + d1 + n_extra
+        self._width = d1 * d1 + d1 * n_cols + d1 + n_labels
         self._keys = np.zeros(0, dtype=np.int64)
         self._mom = np.zeros((0, self._width))
         self._y0 = np.zeros(0)
@@ -64,9 +66,10 @@ class TrendProjectedLSQ:
 
     def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray,
             scale: float, centre: np.ndarray | None = None,
-            extra: np.ndarray | None = None) -> None:
+            labels: np.ndarray | None = None) -> None:
         """Add m samples: the columns X transposed, ``x_rows`` (p, m); data ``y`` (m);
-        trend abscissa ``x`` (m); group ``keys`` (m); ``extra`` (n_extra, m) or None.
+        trend abscissa ``x`` (m); group ``keys`` (m); ``labels`` (m) integers in
+        [0, n_labels) counted per group, or None.
 
         The trend coordinate is z = (x - centre) / scale, ``centre`` per sample, or
         (None) the first x of the sample's group.
@@ -78,8 +81,9 @@ class TrendProjectedLSQ:
         y0, x0 = y[first].astype(np.float64), x[first].astype(np.float64)
         mom = np.zeros((uk.size, self._width))
         # groups still open from earlier batches keep their anchors and moments
-        old = np.flatnonzero(np.isin(self._keys, uk))
-        where = np.searchsorted(uk, self._keys[old])
+        where = np.searchsorted(uk, self._keys)             # uk is sorted
+        old = np.flatnonzero(uk[np.minimum(where, uk.size - 1)] == self._keys)
+        where = where[old]
         y0[where], x0[where] = self._y0[old], self._x0[old]
         lo[where] = np.minimum(lo[where], self._lo[old])
         hi[where] = np.maximum(hi[where], self._hi[old])
@@ -88,29 +92,53 @@ class TrendProjectedLSQ:
         # sums of squares so that they do not cancel
         yc = y - y0[inv]
         z = (x - (x0[inv] if centre is None else centre)) / scale
-        xt = np.ascontiguousarray(x_rows)                                  # (p, m)
-        mom += _group_sums(self._moment_rows(z, xt, yc, extra), inv, uk.size)
-        self.xtx += xt @ xt.T
+        xt = np.ascontiguousarray(x_rows, dtype=np.float64)               # (p, m)
+        mom += self._moments(z, xt, yc, labels, inv, uk.size)
+        g = xt @ xt.T
+        self.xtx += g
+        self.raw_ss += np.diagonal(g)
         self.xty += xt @ yc
         self.yty += float(yc @ yc)
-        self.raw_ss += np.einsum("ij,ij->i", xt, xt)
         self.n += m
         self._hold(old, uk, mom, y0, x0, lo, hi, keys[-1])
 
-    def _moment_rows(self, z: np.ndarray, xt: np.ndarray, yc: np.ndarray,
-                     extra: np.ndarray | None) -> np.ndarray:
-        """Per sample (columns) the products T T, T X, T y and the extra rows: (width, m)."""
-        # one row per moment, one column per sample: reduceat along contiguous rows
-        t = np.polynomial.legendre.legvander(z, self.d1 - 1).T.copy()     # (d1, m)
+    def _moments(self, z: np.ndarray, xt: np.ndarray, yc: np.ndarray, labels: np.ndarray | None,
+                 inv: np.ndarray, n_groups: int) -> np.ndarray:
+        """The sums T^T T, T^T X, T^T y and the label counts of each group: (groups, width).
+
+        ``add.reduceat`` over the samples (columns) of each group, row by row: X is
+        summed without a copy for the constant polynomial (t_0 = 1, whose own sums are
+        the counts), and only the distinct products t_i t_j are formed.
+        """
         d1, p, m = self.d1, self.p, z.size
-        rows = np.empty((self._width, m))
-        np.multiply(t[:, None, :], t[None, :, :], out=rows[:d1 * d1].reshape(d1, d1, m))
-        np.multiply(t[:, None, :], xt[None, :, :],
-                    out=rows[d1 * d1:d1 * (d1 + p)].reshape(d1, p, m))
-        np.multiply(t, yc, out=rows[d1 * (d1 + p):d1 * (d1 + p + 1)])
-        if extra is not None:
-            rows[d1 * (d1 + p + 1):] = extra
-        return rows
+        if not bool(np.all(inv[1:] >= inv[:-1])):  # a sweep's runs interleaved: sort once
+            order = np.argsort(inv, kind="stable")
+            inv, z, xt, yc = inv[order], z[order], xt[:, order], yc[order]
+            labels = None if labels is None else labels[order]
+        starts = np.searchsorted(inv, np.arange(n_groups))
+        # t_1 .. t_degree (t_0 = 1)
+        tz = list(np.polynomial.legendre.legvander(z, d1 - 1).T[1:]) if d1 > 2 else [z][:d1 - 1]
+
+        def sums(row: np.ndarray) -> np.ndarray:
+            return np.add.reduceat(row, starts, axis=-1)
+
+        mom = np.zeros((n_groups, self._width))
+        gram = mom[:, :d1 * d1].reshape(n_groups, d1, d1)
+        gram[:, 0, 0] = np.diff(np.append(starts, m))
+        for i in range(1, d1):
+            gram[:, 0, i] = gram[:, i, 0] = sums(tz[i - 1])
+            for j in range(i, d1):
+                gram[:, i, j] = gram[:, j, i] = sums(tz[i - 1] * tz[j - 1])
+        tx, ty = d1 * d1, d1 * (d1 + p)      # where T^T X and T^T y start in a row
+        mom[:, tx:tx + p] = sums(xt).T
+        mom[:, ty] = sums(yc)
+        for i in range(1, d1):
+            mom[:, tx + i * p:tx + (i + 1) * p] = sums(xt * tz[i - 1]).T
+            mom[:, ty + i] = sums(yc * tz[i - 1])
+        if self.n_labels and labels is not None:
+            counted = np.bincount(inv * self.n_labels + labels, minlength=n_groups * self.n_labels)
+            mom[:, ty + d1:] = counted.reshape(n_groups, self.n_labels)
+        return mom
 
     def _hold(self, old: np.ndarray, uk: np.ndarray, mom: np.ndarray, y0: np.ndarray,
               x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, last_key: np.integer) -> None:
@@ -118,7 +146,8 @@ class TrendProjectedLSQ:
 
         ``consecutive``: every group but the one of ``last_key`` closes now.
         """
-        keep_old = np.setdiff1d(np.arange(self._keys.size), old)
+        keep_old = np.ones(self._keys.size, dtype=bool)
+        keep_old[old] = False
         keys_all = np.concatenate([self._keys[keep_old], uk])
         parts = [(self._mom[keep_old], mom), (self._y0[keep_old], y0), (self._x0[keep_old], x0),
                  (self._lo[keep_old], lo), (self._hi[keep_old], hi)]
@@ -146,21 +175,51 @@ class TrendProjectedLSQ:
         gram = mom[:, :d1 * d1].reshape(k, d1, d1)
         tx = mom[:, d1 * d1:d1 * d1 + d1 * p].reshape(k, d1, p)
         ty = mom[:, d1 * d1 + d1 * p:d1 * d1 + d1 * p + d1]
-        w, v = np.linalg.eigh(gram)
-        # the rank of each trend: a group with fewer distinct abscissae than the
-        # degree + 1 is fitted exactly by its trend and adds nothing
-        ok = w > np.maximum(w[:, -1:], 0.0) * 1e-10
-        s = np.where(ok, 1.0 / np.sqrt(np.where(ok, w, 1.0)), 0.0)
-        basis = v * s[:, None, :]                          # (T^T T)^+ = basis basis^T
-        a = np.einsum("kij,kip->kjp", basis, tx)
-        b = np.einsum("kij,ki->kj", basis, ty)
-        self.xtx -= np.einsum("kjp,kjq->pq", a, a)
-        self.xty -= np.einsum("kjp,kj->p", a, b)
-        self.yty -= float(np.sum(b * b))
+        basis, ok = _inverse_root(gram)                    # (T^T T)^+ = basis basis^T
+        # per basis vector j: a_j = tx projected on it (k, p), b_j likewise; their
+        # products summed over the groups are one matrix product each
+        for j in range(d1):
+            a = sum(basis[:, i, j, None] * tx[:, i] for i in range(j + 1 if d1 <= 2 else d1))
+            b = sum(basis[:, i, j] * ty[:, i] for i in range(j + 1 if d1 <= 2 else d1))
+            self.xtx -= a.T @ a
+            self.xty -= a.T @ b
+            self.yty -= float(b @ b)
         self.n_trend += int(ok.sum())
         self.groups += k
         if self.on_close is not None:
-            self.on_close(mom[:, self._width - self.n_extra:], lo, hi)
+            counts = np.column_stack([gram[:, 0, 0], mom[:, self._width - self.n_labels:]])
+            self.on_close(counts, lo, hi)
+
+
+def _inverse_root(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """B with B B^T the pseudo-inverse of each Gram matrix (k, d, d), and which columns count.
+
+    A group with fewer distinct abscissae than the degree + 1 is fitted exactly by its
+    trend: directions with an eigenvalue below 1e-10 of the largest add nothing. For
+    d <= 2 (a trend of degree 0 or 1, the usual) the basis is written in closed form,
+    centred: 1/sqrt(n) and (z - mean z)/sqrt(S_zz), with S_zz = sum (z - mean z)^2.
+    """
+    k, d, _ = gram.shape
+    if d > 2:
+        w, v = np.linalg.eigh(gram)
+        ok = w > np.maximum(w[:, -1:], 0.0) * 1e-10
+        s = np.where(ok, 1.0 / np.sqrt(np.where(ok, w, 1.0)), 0.0)
+        return v * s[:, None, :], ok
+    n = gram[:, 0, 0]
+    basis = np.zeros((k, d, d))
+    ok = np.zeros((k, d), dtype=bool)
+    ok[:, 0] = n > 0
+    basis[:, 0, 0] = np.where(ok[:, 0], 1.0 / np.sqrt(np.where(ok[:, 0], n, 1.0)), 0.0)
+    if d == 2:
+        mean = gram[:, 0, 1] / np.where(ok[:, 0], n, 1.0)
+        szz = gram[:, 1, 1] - mean * gram[:, 0, 1]
+        # the smaller eigenvalue is det / larger >= det / trace; det = n S_zz
+        trace = n + gram[:, 1, 1]
+        ok[:, 1] = n * szz > 1e-10 * trace * trace
+        root = np.where(ok[:, 1], 1.0 / np.sqrt(np.where(ok[:, 1], szz, 1.0)), 0.0)
+        basis[:, 1, 1] = root
+        basis[:, 0, 1] = -mean * root
+    return basis, ok
 
 
 def _groups(keys: np.ndarray, x: np.ndarray
@@ -180,14 +239,3 @@ def _groups(keys: np.ndarray, x: np.ndarray
         np.minimum.at(lo, inv, x)
         np.maximum.at(hi, inv, x)
     return uk, first, inv, lo, hi
-
-
-def _group_sums(rows: np.ndarray, inv: np.ndarray, n_groups: int) -> np.ndarray:
-    """Sums of ``rows`` (width, m) over the samples of each group ``inv``: (n_groups, width)."""
-    if np.all(inv[1:] >= inv[:-1]):    # groups met in order (windows): no sort
-        starts = np.searchsorted(inv, np.arange(n_groups))
-    else:
-        order = np.argsort(inv, kind="stable")
-        starts = np.searchsorted(inv[order], np.arange(n_groups))
-        rows = rows[:, order]
-    return np.add.reduceat(rows, starts, axis=1).T

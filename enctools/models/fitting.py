@@ -5,6 +5,7 @@ hold-out residuals [arcsec].
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -88,7 +89,8 @@ class Fit:
 
 
 def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settings,
-               holdout: tuple[np.ndarray, np.ndarray] | None = None) -> Fit:
+               holdout: tuple[np.ndarray, np.ndarray] | None = None,
+               progress: Callable[[int, int], object] | None = None) -> Fit:
     """Fit an RBF network or a Fourier series to distinct points; report its residuals.
 
     Parameters
@@ -108,7 +110,7 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
     """
     x = np.asarray(angle_deg, dtype=np.float64)
     y = np.asarray(error_arcsec, dtype=np.float64)
-    model, loo = _model_and_loo(x, y, settings)
+    model, loo = _model_and_loo(x, y, settings, progress)
     train, left_out = figures_or_nan(y - model(x)), figures_or_nan(loo)
     fit = Fit(model, figures_meta(figures_or_nan(y)),
               {"max_abs_arcsec": train.max_abs, "rms_arcsec": train.rms},
@@ -125,7 +127,8 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
     return fit
 
 
-def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings
+def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
+                   progress: Callable[[int, int], object] | None = None
                    ) -> tuple[RBFModel | FourierModel, np.ndarray]:
     """The model fitted to points [deg, arcsec] and its leave-one-out residuals [arcsec]
     (NaN for fewer than 3 points)."""
@@ -133,7 +136,8 @@ def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings
     model: RBFModel | FourierModel
     if settings.kernel == "rbf":
         goal = settings.goal_arcsec
-        spread = choose_spread(x, y, goal) if settings.spread_deg is None else settings.spread_deg
+        spread = (choose_spread(x, y, goal, progress=progress) if settings.spread_deg is None
+                  else settings.spread_deg)
         model = fit_rbf(x, y, float(spread), goal)
         loo = loo_residuals(x, y, float(spread), goal) if n > 2 else np.full(n, np.nan)
         return model, loo

@@ -193,18 +193,22 @@ def loo_residuals(angle_deg: np.ndarray, error_arcsec: np.ndarray, spread_deg: f
 
 
 def choose_spread(angle_deg: np.ndarray, error_arcsec: np.ndarray, goal: float = 1e-4,
-                  factors: np.ndarray | None = None) -> float:
+                  factors: np.ndarray | None = None,
+                  progress: Callable[[int, int], object] | None = None) -> float:
     """The spread [deg] with the smallest RMS leave-one-out residual.
 
-    Tries multiples (0.5 to 2.5 by default) of the mean spacing of the points.
+    Tries multiples (0.5 to 2.5 by default) of the mean spacing of the points;
+    ``progress(done, total)`` is called after each spread tried.
     """
     x = np.sort(np.mod(np.asarray(angle_deg, dtype=np.float64), 360.0))
     spacing = 360.0 / x.size
     factors = np.arange(0.5, 2.51, 0.125) if factors is None else factors
     best, best_rms = spacing, np.inf
-    for f in factors:
+    for k, f in enumerate(factors):
         r = loo_residuals(angle_deg, error_arcsec, f * spacing, goal)
         rms = float(np.sqrt(np.mean(r ** 2)))
+        if progress is not None:
+            progress(k + 1, len(factors))
         if rms < best_rms * (1 - 1e-9):
             best, best_rms = f * spacing, rms
     return float(best)

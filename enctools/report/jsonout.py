@@ -1,56 +1,46 @@
 """The report as JSON for machines (``enc report --json``; the nightly history).
 
-Numbers are plain floats in the units named by the keys' ``unit`` fields (arcsec,
-nm, count, deg); NaN becomes null.
+The figures have the keys every command's ``--json`` gives them
+(:mod:`enctools.data.summaries`, enc-streams(5) SUMMARIES): each number's key ends in
+its unit (``pp_arcsec``, ``pp_nm`` for radial motion); NaN becomes null.
 """
 
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
-import numpy as np
-
+from enctools.data.summaries import clean, figure_dict
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.report.summary import Report
 
 
-def _clean(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    if isinstance(x, (np.floating, float)):
-        return None if not math.isfinite(float(x)) else float(x)
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
-
-
 def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
-    d: dict[str, Any] = {"name": c.name, "unit": c.unit, "role": c.role}
-    d |= c.figures.to_dict()
+    u = c.unit
+    d: dict[str, Any] = {"name": c.name, "unit": u, "role": c.role}
+    d |= figure_dict(c.figures, u)
     d["std_convention"] = "Bessel, n-1, over the n values as given (seed 001 eq. 8)"
-    d |= c.extra
+    for k, v in c.extra.items():  # period_arcsec; std_distinct in the curve's unit
+        d[f"s_bessel_distinct_{u}" if k == "std_distinct" else k] = v
     if c.head:
         d["head"] = c.head
     if c.u is not None:
-        d["U_max"] = c.U_max
-        d["k"] = 2
+        d[f"expanded_u_max_{u}"] = c.U_max
+        d["coverage_k"] = 2
     if c.harmonics is not None:
-        d["harmonics"] = c.harmonics.largest(top).rows()
+        h = c.harmonics.largest(top)
+        d["harmonics"] = [{"n": int(n), f"amplitude_{u}": float(a), "phase_rad": float(p)}
+                          for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
     return d
 
 
 def spectrum_dict(sp: SpectrumRows, top: int) -> dict[str, Any]:
     rows = []
     for i in sp.largest(top):
-        r = {"n": int(sp.n[i]), "amplitude": float(sp.amplitude[i]), "phase": float(sp.phase[i])}
+        r = {"n": int(sp.n[i]), "amplitude_arcsec": float(sp.amplitude[i]),
+             "phase_rad": float(sp.phase[i])}
         if sp.u is not None:
-            r["U"] = 2.0 * float(sp.u[i])
+            r["expanded_u_arcsec"] = 2.0 * float(sp.u[i])
         if sp.transfer is not None:
             r["transfer"] = float(sp.transfer[i])
         rows.append(r)
@@ -80,7 +70,7 @@ def report_dict(report: Report, failures: list[str] | None = None) -> dict[str, 
         d["history"] = report.history.to_records()
     if failures is not None:
         d["thresholds"] = {"exceeded": failures, "ok": not failures}
-    return _clean(d)
+    return clean(d)
 
 
 def to_json(report: Report, failures: list[str] | None = None) -> str:

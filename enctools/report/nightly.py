@@ -284,8 +284,9 @@ def _recheck(s: Settings, work: Path, record: dict[str, Any], night: Night) -> N
 
     rep = Report(sections=[section], settings={"top_harmonics": 5})
     summary = report_dict(rep)
-    summary["drift"] = {"max_abs": d.max_abs, "pp": d.pp, "offset": d.offset,
-                        "tolerance": s.tolerance, "calibration": s.calibration}
+    summary["drift"] = {"max_abs_arcsec": d.max_abs, "pp_arcsec": d.pp,
+                        "offset_arcsec": d.offset, "tolerance_arcsec": s.tolerance,
+                        "calibration": s.calibration}
     record |= {"status": status, "exit_code": 0 if status == "ok" else 1,
                "summary_json": json.dumps(summary)}
     night.status, night.code = status, record["exit_code"]

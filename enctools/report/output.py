@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from enctools.data.files import OutputGroup, check_new_file
 from enctools.errors import CheckFailed
@@ -22,12 +22,20 @@ def check_paths(paths: Sequence[str | None], force: bool) -> None:
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
-               prog: str = "enc report") -> None:
+               prog: str = "enc report",
+               progress: Callable[[int, int], object] | None = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
     A threshold exceeded is one line on stderr each, headed by ``prog``.
+    ``progress(done, total)`` counts the inputs read and the HTML and PDF renderings.
     """
-    report = build_report(sources, opts)
+    total = len(sources) + (html_path is not None) + (pdf_path is not None)
+
+    def step(done: int) -> None:
+        if progress is not None:
+            progress(done, total)
+
+    report = build_report(sources, opts, step)
     if history_dir is not None:
         from enctools.report.history import read_history
         report.history = read_history(history_dir)
@@ -41,12 +49,16 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         sys.stdout.write(to_text(report) + "\n")
     sys.stdout.flush()
     with OutputGroup() as outputs:  # both reports, or neither
+        done = len(sources)
         if html_path is not None:
             from enctools.report.html import to_html
             outputs.write(html_path, to_html(report, failures, title).encode())
+            done += 1
+            step(done)
         if pdf_path is not None:
             from enctools.report.pdf import to_pdf
             outputs.write(pdf_path, to_pdf(report, failures, title))
+            step(done + 1)
     if failures:
         for line in failures:
             sys.stderr.write(f"{prog}: threshold exceeded: {line}\n")

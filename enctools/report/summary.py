@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,13 +26,17 @@ class Report:
                     yield s, c
 
 
-def build_report(inputs: Sequence[str | None], opts: Options = DEFAULT_OPTIONS) -> Report:
-    """Read every input (a path, or None/'-' for stdin) into its section.
+def build_report(inputs: Sequence[str | None], opts: Options = DEFAULT_OPTIONS,
+                 progress: Callable[[int], object] | None = None) -> Report:
+    """Read every input (a path, or None/'-' for stdin) into its section;
+    ``progress(done)`` is called with the inputs read.
 
     Raises DataError (exit 2) naming the input when one cannot be read.
     """
     report = Report(settings={"top_harmonics": opts.top_harmonics, "nmax": opts.nmax})
-    for path in inputs:
+    for k, path in enumerate(inputs):
         with open_input(path) as stream:
             report.sections.append(build_section(stream, opts))
+        if progress is not None:
+            progress(k + 1)
     return report

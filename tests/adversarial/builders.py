@@ -36,6 +36,8 @@ BASE: list[dict[str, list[str]]] = [
                      "--revolutions", "0.05"],
      "steps.parquet": ["acquire", "--rig", "ciomp-23bit", "--mode", "steps"],
      "sweep.parquet": ["acquire", "--rig", "sjtu-dual", "--mode", "sweep"],
+     "signals.parquet": ["acquire", "--rig", "sjtu-dual", "--mode", "sweep", "--readings", "1",
+                         "--runs", "1", "--signals", "--heads", "P1,P2"],
      "points.parquet": ["points", str(DATA / "seed001_table1.csv")],
      "points.arrows": ["points", str(DATA / "seed001_table1.csv")]},
     {"raw.parquet": ["acquire", "--replay", "raw.arrows"],

@@ -81,30 +81,24 @@ class PhaseCoverage:
         return int(np.floor(np.pi / gap - 1e-9)) if gap > 0 else n
 
 
-def sample_counts(phase: np.ndarray, step: np.ndarray | None = None,
-                  steps: int = 0) -> np.ndarray:
-    """Rows summed per group: 1 per sample, then per quarter of the period an indicator.
+def sectors(phase: np.ndarray, step: np.ndarray | None = None, steps: int = 0) -> np.ndarray:
+    """The quarter of the signal period (0 .. :data:`SECTORS` - 1) each sample's phase is in.
 
     ``phase`` [rad], or with ``step`` [count] its count within ``steps`` per period.
-    Returns an array (1 + :data:`SECTORS`, samples).
+    The fit counts them per group (a window covers the period when every quarter has a
+    sample).
     """
     if step is not None:
-        sector = step * SECTORS // steps
-    else:
-        sector = np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
-                            SECTORS - 1)
-    extra = np.empty((1 + SECTORS, phase.size))
-    extra[0] = 1.0
-    for k in range(SECTORS):
-        np.equal(sector, k, out=extra[1 + k], casting="unsafe")
-    return extra
+        return np.asarray(step, dtype=np.int64) * SECTORS // steps
+    return np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
+                      SECTORS - 1)
 
 
 class RunCoverage:
     """The runs of a sweep: each must span one signal period (to within a step).
 
-    :meth:`closed` receives per closed run the sums of :func:`sample_counts` and its
-    least and greatest reference angle [rad].
+    :meth:`closed` receives per closed run its samples and those of each quarter of the
+    period (:func:`sectors`), and its least and greatest reference angle [rad].
     """
 
     def __init__(self) -> None:
@@ -133,8 +127,9 @@ class RunCoverage:
 class WindowCoverage:
     """The windows of a continuous run: which carry the phase through a whole period.
 
-    ``window`` [rad]. :meth:`closed` receives per closed window the sums of
-    :func:`sample_counts` and its least and greatest reference angle [rad].
+    ``window`` [rad]. :meth:`closed` receives per closed window its samples and those
+    of each quarter of the period (:func:`sectors`), and its least and greatest
+    reference angle [rad].
     """
 
     def __init__(self, window: float) -> None:

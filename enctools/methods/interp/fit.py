@@ -27,7 +27,7 @@ from enctools.methods.interp.coverage import (
     PhaseCoverage,
     RunCoverage,
     WindowCoverage,
-    sample_counts,
+    sectors,
 )
 from enctools.methods.interp.curve import error_figures
 from enctools.methods.interp.model import (
@@ -148,7 +148,7 @@ class InterpolationFit:
             RunCoverage() if window is None else WindowCoverage(window)
         n_cols = 2 * self.orders.size + 2 * self.ref_orders.size
         self.lsq = TrendProjectedLSQ(n_cols, trend_degree, consecutive=window is not None,
-                                     on_close=self.runs.closed, n_extra=1 + SECTORS)
+                                     on_close=self.runs.closed, n_labels=SECTORS)
         self._origin: float | None = None
         self.skipped = 0  # samples with a NaN or infinite reading, probe or phase
 
@@ -178,16 +178,16 @@ class InterpolationFit:
         ref = s.reference_rad
         keys = np.zeros(ref.size, np.int64) if s.groups is None \
             else np.asarray(s.groups).astype(np.int64)
-        extra = sample_counts(s.device_phase, dev_step, dev_steps)
+        quarter = sectors(s.device_phase, dev_step, dev_steps)
         if self.window is None:
-            self.lsq.add(x_rows, zeta, ref, keys, self.period, extra=extra)
+            self.lsq.add(x_rows, zeta, ref, keys, self.period, labels=quarter)
             return
         if self._origin is None:
             self._origin = float(ref[0])
         w = np.floor((ref - self._origin) / self.window)
         centre = self._origin + (w + 0.5) * self.window
         keys = (keys << 40) + w.astype(np.int64)
-        self.lsq.add(x_rows, zeta, ref, keys, self.window / 2, centre=centre, extra=extra)
+        self.lsq.add(x_rows, zeta, ref, keys, self.window / 2, centre=centre, labels=quarter)
 
     def _checked(self, device_rad: np.ndarray, device_phase: np.ndarray,
                  reference_rad: np.ndarray, groups: np.ndarray | None,
