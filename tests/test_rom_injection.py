@@ -23,7 +23,7 @@ from enctools.models import romformats as rf
 from enctools.models.rom import Settings
 
 #: a comment in each text format (the text after the prefix is checked separately)
-COMMENT = {"mif": "-- ", "coe": "; ", "mem": "// ", "csv": "# ", "acs": "! ", "siemens": "; "}
+COMMENT = {"mif": "-- ", "coe": "; ", "mem": "// ", "acs": "! ", "siemens": "; "}
 #: what may not stand inside a comment of the format (it could close or confuse it)
 CLOSERS = {"mif": ("%",), "mem": ("/*", "*/")}
 NUM = r"-?[0-9][0-9.e+-]*"
@@ -96,7 +96,9 @@ def test_hostile_names_stay_in_comments(model, tmp_path, monkeypatch, fmt):
     assert r.returncode == 0, r.stderr.decode()
     data = Path(out).read_bytes()
     comments = check_lines(data.decode("utf-8"), fmt)
-    if fmt != "ihex":
+    if fmt == "csv":  # header first, no comments: the names are nowhere
+        assert not comments and data.startswith(b"address,correction\n")
+    elif fmt != "ihex":
         assert any("\\nM30\\r\\nM30\\x1b[2J" in c for c in comments), comments
     # both readers of the format read the table the control would (the comments say nothing)
     target = Settings(23, 5, 16, target=fmt).table

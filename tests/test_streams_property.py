@@ -16,7 +16,7 @@ from enctools.data import streams
 from enctools.data.schemas import make_field
 from enctools.errors import DataError
 
-FORMATS = [".parquet", ".h5", ".arrow", ".arrows"]
+FORMATS = [".parquet", ".h5", ".arrow", ".arrows", ".csv", ".tsv"]
 
 # valid: within enc-streams(5) LIMITS (t within +-1e9 s, counts within +-2^62)
 floats = st.floats(min_value=-1e9, max_value=1e9, width=64)

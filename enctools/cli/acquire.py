@@ -62,6 +62,7 @@ from enctools.cli import options, runner
 @click.option("--tee", "tee_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Also keep a copy of the stream in FILE (format from its extension).")
 @options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool,

@@ -33,6 +33,7 @@ def _groups(ctx: click.Context, param: click.Parameter,
 @click.option("--drop", is_flag=True, default=False,
               help="Drop the averaged heads from the output (keep the new channels).")
 @options.json_summary
+@options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, groups: list[tuple[str | None, list[str]]], band: int, drop: bool,

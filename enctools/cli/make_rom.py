@@ -124,7 +124,9 @@ def _is_stream_path(path: str) -> bool:
     from pathlib import Path
 
     from enctools.data.streams import EXTENSIONS
-    return Path(path).suffix.lower() in EXTENSIONS
+    from enctools.models import romformats
+    ext = Path(path).suffix.lower()  # .csv is a table format's (address,correction)
+    return ext in EXTENSIONS and ext not in romformats.EXTENSIONS
 
 
 def _bits_from_rig(meta: dict) -> int:

@@ -54,10 +54,12 @@ MAX_MODEL_TERMS = 10_000
 
 # ------------------------------------------------------------------ text tables
 
-#: bytes of one field of a CSV points table [byte]
+#: bytes of one field of a CSV or TSV table (a points table's line, a string) [byte]
 MAX_CSV_FIELD_BYTES = 128 << 10
-#: bytes of a CSV points table [byte]
+#: bytes of a CSV points table read without a sidecar (read whole) [byte]
 MAX_CSV_BYTES = 256 << 20
+#: bytes of one line of a CSV or TSV stream (read with its sidecar, block by block) [byte]
+MAX_CSV_LINE_BYTES = 1 << 20
 
 # ------------------------------------------------------------------ values
 

@@ -144,6 +144,18 @@ class ReadAhead:
 PIPE_BUFFER = 1 << 20
 
 
+def read_at_most(raw: IO[bytes], limit: int) -> bytes:
+    """What a pipe holds up to its end, or the first ``limit`` + 1 bytes of it."""
+    parts, n = [], 0
+    while n <= limit:
+        chunk = raw.read(min(1 << 20, limit + 1 - n))
+        if not chunk:
+            break
+        parts.append(chunk)
+        n += len(chunk)
+    return b"".join(parts)
+
+
 def enlarge_pipe(f: Any, size: int = PIPE_BUFFER) -> int | None:
     """Ask for a ``size``-byte kernel buffer on the pipe behind ``f``; its size, or None.
 

@@ -1,4 +1,4 @@
-"""Reading and writing enctools streams: Arrow IPC, Parquet and HDF5, files and pipes.
+"""Reading and writing enctools streams: Arrow IPC, Parquet, HDF5, CSV and TSV; files and pipes.
 
 A stream is a :class:`Header` (kind, Arrow schema with field metadata, and a JSON
 metadata dict carrying the rig, the settings, the ground truth and the ``history``)
@@ -6,11 +6,13 @@ plus Arrow record batches.
 
 - Input: a path, or ``-``/``None`` for stdin. The format is found from the magic
   bytes (``PAR1``, ``ARROW1``, ``FF FF FF FF``, ``\\x89HDF\\r\\n\\x1a\\n``), whatever
-  the name. Arrow IPC streams are read batch by batch; Parquet, Arrow files and HDF5
+  the name; a CSV or TSV table (:mod:`enctools.data.csvio`) by its sidecar or its
+  extension. Arrow IPC streams are read batch by batch; Parquet, Arrow files and HDF5
   arriving on a pipe are buffered in memory first (they need seeking).
 - Output: a path, whose extension chooses the format, or stdout (Arrow IPC stream,
-  or Parquet with ``fmt="parquet"``). Named outputs are written to a temporary file
-  in the same folder and renamed only on success; binary data never goes to a terminal.
+  or Parquet, CSV, TSV with ``fmt``). Named outputs are written to a temporary file
+  in the same folder and renamed only on success (a table with its sidecar); binary
+  data never goes to a terminal.
 
 Reading a pipe that can be stopped, reading ahead on a thread and the pipe buffer
 size are :mod:`enctools.data.pipes`' job.
@@ -30,7 +32,7 @@ from typing import IO, Any
 
 import pyarrow as pa
 
-from enctools.data import files, limits, pipes
+from enctools.data import csvio, files, limits, pipes
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
 from enctools.errors import DataError, OutputError, UsageError
@@ -57,8 +59,9 @@ MAGIC = {
     b"\x89HDF\r\n\x1a\n": "hdf5",
 }
 EXTENSIONS = {".parquet": "parquet", ".pq": "parquet", ".h5": "hdf5", ".hdf5": "hdf5",
-              ".arrow": "arrow", ".feather": "arrow", ".arrows": "arrows", ".ipc": "arrows"}
-FORMATS = ("arrows", "parquet", "arrow", "hdf5")
+              ".arrow": "arrow", ".feather": "arrow", ".arrows": "arrows", ".ipc": "arrows",
+              **csvio.EXTENSIONS}
+FORMATS = ("arrows", "parquet", "arrow", "hdf5", *csvio.FORMATS)
 
 # What the Arrow, Parquet and HDF5 decoders raise on corrupt or truncated input (h5py
 # raises RuntimeError and KeyError for damaged B-trees and heaps; pyarrow's "not
@@ -229,7 +232,12 @@ def _open_file(fh: IO[bytes], source: str) -> InputStream:
     if not prefix:
         msg = f"{source}: empty file"
         raise DataError(msg)
-    fmt = _known_format(prefix, source)
+    fmt = detect_format(prefix) or csvio.text_format(source) or _known_format(prefix, source)
+    if fmt in csvio.FORMATS:  # a text table, read with its sidecar
+        header, batches, rows, closer = csvio.open_table(fh, source)
+        stream = InputStream(header, batches, source, fmt.upper(), closer)
+        stream.claimed_rows = rows
+        return stream
     return _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
 
 
@@ -258,24 +266,12 @@ def _open_pipe(raw: IO[bytes], source: str) -> InputStream:
         stream = _open_arrows(io.BufferedReader(wrapped, buffer_size=1 << 20), source)
         stream.cancel = cancel
         return stream
-    data = prefix + _read_at_most(raw, limits.MAX_PIPE_BUFFER_BYTES)  # needs seeking
+    data = prefix + pipes.read_at_most(raw, limits.MAX_PIPE_BUFFER_BYTES)  # needs seeking
     if len(data) > limits.MAX_PIPE_BUFFER_BYTES:
         msg = (f"{source}: a {fmt} stream on a pipe is held in memory, and this one is over "
                f"{limits.MAX_PIPE_BUFFER_BYTES} bytes; give it as a file, or pipe Arrow IPC")
         raise DataError(msg)
     return _open_seekable(io.BytesIO(data), fmt, source)
-
-
-def _read_at_most(raw: IO[bytes], limit: int) -> bytes:
-    """What a pipe holds up to its end, or the first ``limit`` + 1 bytes of it."""
-    parts, n = [], 0
-    while n <= limit:
-        chunk = raw.read(min(1 << 20, limit + 1 - n))
-        if not chunk:
-            break
-        parts.append(chunk)
-        n += len(chunk)
-    return b"".join(parts)
 
 
 def _validated(stream: InputStream, expect: str | tuple[str, ...] | None) -> InputStream:
@@ -297,8 +293,8 @@ def _known_format(prefix: bytes, source: str) -> str:
     """The format named by a stream's first bytes; a one-line DataError for any other."""
     fmt = detect_format(prefix)
     if fmt is None:
-        msg = (f"{source}: not an Arrow, Parquet or HDF5 stream "
-               f"(starts with bytes {prefix[:8].hex(' ')})")
+        msg = (f"{source}: not an Arrow, Parquet or HDF5 stream, nor a CSV or TSV file with "
+               f"its sidecar (starts with bytes {prefix[:8].hex(' ')})")
         raise DataError(msg)
     return fmt
 
@@ -403,16 +399,17 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
     """Fail early (before any work) when the output cannot be written."""
     if path is None or path == "-":
         fmt = fmt or "arrows"
-        if fmt not in ("arrows", "parquet"):
+        if fmt not in ("arrows", "parquet", *csvio.FORMATS):
             msg = f"{fmt} cannot be written to a pipe (it needs seeking); use -o FILE"
             raise UsageError(msg)
         out = stdout if stdout is not None else sys.stdout
-        if hasattr(out, "isatty") and out.isatty():
+        if fmt not in csvio.FORMATS and hasattr(out, "isatty") and out.isatty():
             msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
             raise UsageError(msg)
         return
     files.check_new_file(path, force)
-    format_for_path(path, fmt)
+    if format_for_path(path, fmt) in csvio.FORMATS:  # its sidecar is written with it
+        files.check_new_file(csvio.sidecar_path(path), force)
 
 
 class OutputStream:
@@ -462,6 +459,8 @@ class OutputStream:
     def _make_writer(self) -> Any:
         target = self._tmp if self._tmp is not None else self._sink
         try:
+            if self.format in csvio.FORMATS:
+                return csvio.TableWriter(target, self.header, self.format)
             if self.format == "arrows":
                 return pa.ipc.new_stream(target, self._schema)
             if self.format == "arrow":
@@ -515,7 +514,12 @@ class OutputStream:
             raise self._write_error(exc) from None
         if self._tmp is not None:
             assert self.path is not None  # a temporary file is made for a named output only
-            os.chmod(self._tmp, 0o666 & ~_umask())
+            os.chmod(self._tmp, 0o666 & ~files.umask())
+            if isinstance(writer, csvio.TableWriter):  # the table and its sidecar together
+                tmp, self._tmp = self._tmp, None
+                csvio.stage(tmp, self.path, writer.sidecar(Path(self.path).name), self.force,
+                            self.group)
+                return
             if self.group is not None:
                 self.group.stage(self._tmp, self.path, self.force)
                 self._tmp = None
@@ -580,12 +584,6 @@ class OutputStream:
                                                 and exc.errno == errno.EPIPE):
             return self.path is not None  # the closed pipe is stdout, not this file
         return not isinstance(exc, (UsageError, DataError))
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def write_table(path: str | None, header: Header, table: pa.Table, force: bool = False,

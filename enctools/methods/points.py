@@ -386,18 +386,21 @@ def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | No
 
 
 def is_csv_file(path: str | None) -> bool:
-    """Whether ``path`` names a regular file of text (a CSV table), not a stream.
+    """Whether ``path`` names a regular file of text without a sidecar (a CSV points
+    table), not a stream.
 
-    A stream starts with its format's magic bytes; stdin (None, "-") and pipes are
+    A stream starts with its format's magic bytes, or is a CSV or TSV table with its
+    sidecar (read as a stream, see enc-streams(5)); stdin (None, "-") and pipes are
     streams (a pipe can be read once only). An unreadable path is not CSV: opening it
     as a stream then says what is wrong.
     """
     import os
     import stat
 
+    from enctools.data.csvio import sidecar_path
     from enctools.data.streams import detect_format
 
-    if path is None or path == "-":
+    if path is None or path == "-" or os.path.exists(sidecar_path(path)):
         return False
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):

@@ -47,7 +47,8 @@ BASE: list[dict[str, list[str]]] = [
      "model.parquet": ["fit-rbf", "points.parquet", "--spread", "15"],
      "model.h5": ["fit-rbf", "points.parquet", "--spread", "15"],
      "dev.parquet": ["selfcal", "r2.parquet", "--spectrum", "spec.parquet"],
-     "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--ref", "P1"]},
+     "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--ref", "P1"],
+     "dev.csv": ["selfcal", "r2.parquet", "--spectrum", "spec.tsv"]},
     {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream"]},
 ]
 
@@ -125,6 +126,60 @@ def csv_rows(folder: Path, base: Path, to: str, rows: list[list[Any]],
              header: str = "position_deg,deviation_arcsec") -> None:
     lines = [header, *(",".join(str(v) for v in row) for row in rows)]
     (folder / to).write_text("\n".join(lines) + "\n")
+
+
+# ------------------------------------------------------------------ CSV streams
+
+SIDECAR = "-metadata.json"
+
+
+def csv_pair(folder: Path, base: Path, src: str, to: str, sidecar_of: str | None = None,
+             table: bool = True) -> None:
+    """A CSV or TSV stream of the base with its sidecar: the sidecar of ``sidecar_of``
+    instead (another table's), or the sidecar alone (``table`` false)."""
+    if table:
+        shutil.copy(_source(base, src), folder / to)
+    shutil.copy(_source(base, (sidecar_of or src) + SIDECAR), folder / (to + SIDECAR))
+
+
+def csv_cut(folder: Path, base: Path, src: str, to: str, at: float = 0.0,
+            lines: int = 0) -> None:
+    """A CSV stream with its sidecar, the table cut at a fraction ``at`` of its bytes, or
+    its last ``lines`` lines dropped (the file still ends with a newline)."""
+    csv_pair(folder, base, src, to)
+    data = (folder / to).read_bytes()
+    if lines:
+        data = b"".join(data.splitlines(keepends=True)[:-lines])
+    else:
+        data = data[: int(len(data) * at)]
+    (folder / to).write_bytes(data)
+
+
+def csv_field(folder: Path, base: Path, src: str, to: str, value: str, line: int = 1,
+              repeat: int = 1) -> None:
+    """A CSV stream with its sidecar whose data line ``line`` starts with ``value`` *
+    ``repeat`` in place of its first field (a number without quotes)."""
+    csv_pair(folder, base, src, to)
+    lines = (folder / to).read_bytes().splitlines(keepends=True)
+    _, sep, rest = lines[line].partition(b",")
+    lines[line] = (value * repeat).encode() + sep + rest
+    (folder / to).write_bytes(b"".join(lines))
+
+
+def csv_sidecar(folder: Path, base: Path, src: str, to: str, path: str = "",
+                value: Any = None, text: str | None = None, depth: int = 0) -> None:
+    """A CSV stream whose sidecar has ``value`` at the dotted ``path``
+    (``enctools.kind``), or is the raw ``text``, or nests a list ``depth`` deep."""
+    csv_pair(folder, base, src, to)
+    side = folder / (to + SIDECAR)
+    if text is not None:
+        side.write_text(text)
+        return
+    doc = json.loads(side.read_text())
+    if depth:
+        value = json.loads("[" * depth + "]" * depth)
+    _set_path(doc, path, value)
+    side.write_text(json.dumps(doc))
 
 
 def fifo(folder: Path, base: Path, to: str) -> None:
@@ -374,7 +429,7 @@ BUILDERS: dict[str, Callable[..., None]] = {
                             csv_rows, fifo, mkdir, symlink, stale_temporary, drop_column,
                             field_meta, stream_meta, raw_meta, deep_json_meta, nasty_meta,
                             nasty_column, set_values, h5_claims_rows, many_rows, rig,
-                            deep_toml)
+                            deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar)
 }
 
 

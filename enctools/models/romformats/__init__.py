@@ -13,7 +13,7 @@ mif       Altera/Intel Memory Initialization File (WIDTH, DEPTH, HEX radix)
 coe       Xilinx coefficient file (memory_initialization_radix=16;
           memory_initialization_vector=...;)
 mem       Verilog ``$readmemh`` text: one hex word a line, // comments
-csv       ``address,correction`` in decimal
+csv       ``address,correction`` in decimal, header line first, no comments
 acs       ACS SPiiPlus ACSPL+ program: a REAL array filled element by
           element, then ``ERRORMAP1D axis, zone, base, step, array`` and
           ``ERRORMAPON``; values in degrees

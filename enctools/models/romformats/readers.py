@@ -383,7 +383,8 @@ def read_mem(data: bytes, t: Target, src: str) -> np.ndarray:
 
 
 def read_csv(data: bytes, t: Target, src: str) -> np.ndarray:
-    """``address,correction`` in decimal after ``#`` comment lines (Arrow's CSV reader)."""
+    """``address,correction`` in decimal, after ``#`` comment lines if any (older
+    versions wrote them; Arrow's CSV reader)."""
     import io
 
     import pyarrow.csv as pcsv
