@@ -117,3 +117,23 @@ def test_shell_completion_script():
     r = run_in_process("enc", env={"COMP_WORDS": "enc acq", "COMP_CWORD": "1",
                                    "_ENC_COMPLETE": "bash_complete"})
     assert b"acquire" in r.stdout
+
+
+@pytest.mark.parametrize("stop, code, line", [
+    ("Interrupted('terminated', exit_code=143)", 143, "terminated"),
+    ("KeyboardInterrupt()", 130, "interrupted"),
+])
+def test_a_signal_wrapped_by_the_code_it_landed_in_is_still_the_signal(stop, code, line):
+    """SIGTERM during an import (matplotlib's class bodies) reaches the runner as
+    RuntimeError('Error calling __set_name__') caused by the interruption: it ends as the
+    signal does (143 / 130), not as an internal error."""
+    body = ("import sys; from enctools.cli import runner; from enctools.errors import Interrupted\n"
+            "def invoke():\n"
+            "    try:\n"
+            f"        raise {stop}\n"
+            "    except BaseException as exc:\n"
+            "        raise RuntimeError('Error calling __set_name__') from exc\n"
+            "runner.set_command('report'); sys.exit(runner.run(invoke, debug=False))\n")
+    r = subprocess.run([sys.executable, "-c", body], capture_output=True, timeout=60)
+    assert r.returncode == code
+    assert r.stderr.decode() == f"enc report: error: {line}\n"

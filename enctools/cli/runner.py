@@ -206,6 +206,22 @@ def error(message: str) -> None:
     sys.stderr.flush()
 
 
+def _interruption(exc: BaseException) -> BaseException | None:
+    """The SIGINT or SIGTERM in ``exc``'s chain of causes, if one is there.
+
+    A signal lands wherever the interpreter is: inside an import, Python reports the
+    exception a class body raised as ``RuntimeError: Error calling __set_name__``
+    with the interruption as its cause.
+    """
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, (Interrupted, KeyboardInterrupt)):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__  # type: ignore[assignment]
+    return None
+
+
 def run(invoke: Callable[[], Any], debug: bool) -> int:
     """Run a command; map its ending to an exit status with one line on stderr."""
     try:
@@ -249,6 +265,10 @@ def run(invoke: Callable[[], Any], debug: bool) -> int:
         return 2 if exc.errno in (errno.ENOENT, errno.EACCES, errno.EISDIR, errno.ENOSPC,
                                   errno.EROFS, errno.ENOTDIR) else 3
     except Exception as exc:  # noqa: BLE001 - a bug: one line unless --debug
+        stop = _interruption(exc)
+        if stop is not None:  # SIGINT/SIGTERM wrapped by the code it landed in
+            error(str(stop) if isinstance(stop, Interrupted) else "interrupted")
+            return stop.exit_code if isinstance(stop, Interrupted) else 130
         if debug:
             import traceback
             traceback.print_exc()
