@@ -74,7 +74,9 @@ def kind_table(kind: str, n: int) -> tuple[streams.Header, pa.Table]:
     elif kind == "spectrum":
         fields = [named(kind, c, t) for c, t in (
             ("n", pa.int64()), ("amplitude", pa.float64()), ("phase", pa.float64()),
-            ("transfer", pa.float64()), ("u", pa.float64()), ("curve", pa.string()))]
+            ("transfer", pa.float64()))]
+        fields += [make_field("u_amplitude", pa.float64(), unit(kind, "u_amplitude"),
+                              "uncertainty", of="amplitude"), named(kind, "curve", pa.string())]
         cols = [np.arange(1, n + 1), np.abs(f), f, with_nan, np.abs(f),
                 [HOSTILE[k % len(HOSTILE)] + ("" if k else ",,") for k in range(n)]]
     elif kind == "points":
@@ -148,7 +150,7 @@ def test_titles_carry_the_unit_and_the_sidecar_is_csvw(tmp_path):
     header, table = kind_table("spectrum", 2)
     streams.write_table(str(tmp_path / "s.tsv"), header, table)
     assert (tmp_path / "s.tsv").read_text().split("\n")[0].split("\t") == [
-        "n", "amplitude_arcsec", "phase_rad", "transfer", "u_arcsec", "curve"]
+        "n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec", "curve"]
     # a string in quotes only when it needs them
     assert (tmp_path / "s.tsv").read_text().split("\n")[1].endswith('\ta,b,,')  # no tab in it
     assert (tmp_path / "s.tsv").read_text().split("\n")[2].endswith('\t"say ""x"""')
@@ -159,7 +161,7 @@ def test_pandas_reads_it_with_its_defaults(tmp_path):
     header, table = kind_table("spectrum", 50)
     streams.write_table(str(tmp_path / "s.csv"), header, table)
     df = pd.read_csv(tmp_path / "s.csv")
-    assert list(df.columns) == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_arcsec",
+    assert list(df.columns) == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec",
                                 "curve"]
     assert [str(t) for t in df.dtypes[:5]] == ["int64", "float64", "float64", "float64",
                                               "float64"]
@@ -193,7 +195,7 @@ def test_csvkit_reads_it_with_its_defaults(tmp_path):
         r = run(f"csvcut -n {name}", cwd=tmp_path)
         assert r.returncode == 0, r.stderr
         titles = [ln.split(":", 1)[1].strip() for ln in r.stdout.decode().splitlines()]
-        assert titles == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_arcsec", "curve"]
+        assert titles == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec", "curve"]
         r = run(f"csvjson {sniff}{name}", cwd=tmp_path)
         assert r.returncode == 0, r.stderr
         rows = json.loads(r.stdout)
@@ -212,7 +214,7 @@ def test_miller_reads_it_with_its_defaults(tmp_path):
         r = run(f"mlr --i{fmt} --ojson cat s.{fmt}", cwd=tmp_path)
         assert r.returncode == 0, r.stderr
         rows = json.loads(r.stdout)
-        assert list(rows[0]) == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_arcsec",
+        assert list(rows[0]) == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec",
                                  "curve"]
         assert [row["curve"] for row in rows] == t.column("curve").to_pylist()
         assert [row["n"] for row in rows] == t.column("n").to_pylist()
