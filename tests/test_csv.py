@@ -20,6 +20,8 @@ from enctools.data.schemas import KINDS, kind_spec, make_field
 from enctools.errors import DataError, UsageError
 
 NAN = float("nan")
+#: the titles of kind_table("spectrum")
+SPECTRUM_TITLES = ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec", "curve"]
 #: curve names a person may give (--name, --curve): commas, quotes, newlines, tabs, unicode
 HOSTILE = ["a,b", 'say "x"', "two\nlines", "tab\there", "ü µrad", " lead", "cr\rx"]
 
@@ -161,8 +163,7 @@ def test_pandas_reads_it_with_its_defaults(tmp_path):
     header, table = kind_table("spectrum", 50)
     streams.write_table(str(tmp_path / "s.csv"), header, table)
     df = pd.read_csv(tmp_path / "s.csv")
-    assert list(df.columns) == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec",
-                                "curve"]
+    assert list(df.columns) == SPECTRUM_TITLES
     assert [str(t) for t in df.dtypes[:5]] == ["int64", "float64", "float64", "float64",
                                               "float64"]
     assert pd.api.types.is_string_dtype(df["curve"])  # object before pandas 3, str since
@@ -195,7 +196,7 @@ def test_csvkit_reads_it_with_its_defaults(tmp_path):
         r = run(f"csvcut -n {name}", cwd=tmp_path)
         assert r.returncode == 0, r.stderr
         titles = [ln.split(":", 1)[1].strip() for ln in r.stdout.decode().splitlines()]
-        assert titles == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec", "curve"]
+        assert titles == SPECTRUM_TITLES
         r = run(f"csvjson {sniff}{name}", cwd=tmp_path)
         assert r.returncode == 0, r.stderr
         rows = json.loads(r.stdout)
@@ -214,8 +215,7 @@ def test_miller_reads_it_with_its_defaults(tmp_path):
         r = run(f"mlr --i{fmt} --ojson cat s.{fmt}", cwd=tmp_path)
         assert r.returncode == 0, r.stderr
         rows = json.loads(r.stdout)
-        assert list(rows[0]) == ["n", "amplitude_arcsec", "phase_rad", "transfer", "u_amplitude_arcsec",
-                                 "curve"]
+        assert list(rows[0]) == SPECTRUM_TITLES
         assert [row["curve"] for row in rows] == t.column("curve").to_pylist()
         assert [row["n"] for row in rows] == t.column("n").to_pylist()
 
