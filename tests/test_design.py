@@ -122,5 +122,7 @@ def test_run_searches_then_analyses() -> None:
     assert res.search is not None and res.analysis.angles_deg == res.search.angles_deg
     res = design.run(design.Settings(angles_deg=(0, 60, 135, 228), band=130, strict=True))
     assert res.search is None and res.analysis.blind == [119, 120, 121]
-    with pytest.raises(UsageError, match=r"blind harmonics 119, 120, 121 \(--strict\)"):
+    assert res.analysis.blind_radial == [119, 120, 121]
+    with pytest.raises(UsageError, match=r"blind harmonics 119, 120, 121; radial motion x, y "
+                                         r"blind at 119, 120, 121 \(--strict\)"):
         design.refuse_or_warn(res.analysis, strict=True)

@@ -233,6 +233,7 @@ def test_blind_harmonic_named_and_strict(sjtu_raw: Path, tmp_path: Path) -> None
     assert c[119] == 0
     header, _ = read_table(tmp_path / "s.parquet")
     assert 120 in header.meta["blind"]
+    assert header.meta["blind_radial"] == [119, 120, 121]  # x, y left out there too
     r = run(f"enc selfcal --band 130 --strict --ref H1 --heads H5,H6,H7 {sjtu_raw} "
             f"-o {tmp_path}/h.parquet")
     assert r.returncode == 2
@@ -338,6 +339,7 @@ def test_settings_and_metadata(esa_default: dict) -> None:
     assert meta["kind"] == "spectrum"
     assert meta["settings"]["angle_from"] == ["H1", "H2", "H3", "H4"]
     assert meta["settings"]["revolutions"] == 20
+    assert meta["blind"] == [] and meta["blind_radial"] == []  # 0/60/135/228 to n = 100
     t = pq.read_table(esa_default["spec"])
     transfer = t.column("transfer").to_numpy()
     assert abs(transfer[41] - 1.176) < 0.01  # n = 42

@@ -80,7 +80,9 @@ def _summary(res: Any, mounting_error_deg: float, table: bool) -> dict[str, Any]
     out: dict[str, Any] = {"angles_deg": list(a.angles_deg), "method": a.method,
                            "n_first": a.first, "band": a.band, "min_transfer": w,
                            "min_transfer_n": nw, "blind": list(a.blind),
-                           "ill_conditioned": list(a.ill), "max_noise_gain": g,
+                           "ill_conditioned": list(a.ill),
+                           "blind_radial": None if a.blind_radial is None
+                           else list(a.blind_radial), "max_noise_gain": g,
                            "max_noise_gain_n": ng}
     sens = a.sensitivity[a.first:] * (mounting_error_deg * DEG)
     fin = np.isfinite(sens)

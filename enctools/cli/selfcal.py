@@ -63,4 +63,6 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
                   "n_revolutions": meta["settings"].get("revolutions"),
                   "blind": list(meta.get("blind", [])),
                   "ill_conditioned": list(meta.get("ill_conditioned", [])),
+                  "blind_radial": (list(meta["blind_radial"]) if "blind_radial" in meta
+                                   else None),
                   "curves": summary.curves(*deviations)}, as_json, unit)

@@ -3,7 +3,8 @@
 For heads at angles alpha_k (the first is the reference) and a band of harmonics
 K this module gives |W(n)| of the method (esa: seed 000 eq. (15) with the weights of
 eq. (14), C = 1; fourier: the least-squares |W|; average: |A(n)|), the blind and
-ill-conditioned harmonics, min |W| and where, the noise amplification, and the
+ill-conditioned harmonics, the orders where radial motion x, y is blind (esa: those
+where W(n) = 0), min |W| and where, the noise amplification, and the
 sensitivity of the result to errors in the heads' mounting angles. The search
 finds the arrangement of m heads that maximises min |W(n)| over n = 2..K (esa) or
 1..K (fourier), as in Jiao et al. 2017 (seed 000 ref. [16]), on a grid refined
@@ -105,6 +106,9 @@ class Analysis:
     blind: list[int]
     ill: list[int]
     min_transfer: float
+    #: orders 2..K where radial motion x, y is not determined (esa: W(n) = 0); None
+    #: when the method does not separate radial motion at all (fourier, average)
+    blind_radial: list[int] | None = None
 
     @property
     def worst(self) -> tuple[float, int]:
@@ -186,8 +190,9 @@ def analyse(angles_deg: list[float], band: int, method: str | None = None,
     blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
     ill = [] if method == "average" else \
         [int(k) for k in n[1:] if _BLIND < normalised[k] < min_transfer]
+    radial = [k for k in blind if k >= 2] if method == "esa" else None
     return Analysis(method, tuple(float(x) for x in angles_deg), band, transfer, normalised,
-                    gain, sens, first, blind, ill, min_transfer)
+                    gain, sens, first, blind, ill, min_transfer, radial)
 
 
 @dataclass
@@ -343,6 +348,10 @@ def report(a: Analysis, mounting_error_deg: float) -> str:
     lines.append(f"min {label} over {a.first}..{a.band}: {w:.4g} at n = {nw}"
                  + (" (blind harmonics excluded)" if a.blind else ""))
     lines.append(f"blind harmonics: {format_orders(a.blind) or 'none'}")
+    if a.blind_radial is None:
+        lines.append(f"radial motion x, y: not separated ({a.method})")
+    else:
+        lines.append(f"radial motion x, y blind at: {format_orders(a.blind_radial) or 'none'}")
     if a.method != "average":
         lines.append(f"ill-conditioned (noise gain > {1 / a.min_transfer:g}): "
                      f"{format_orders(a.ill) or 'none'}")
@@ -383,6 +392,8 @@ def refuse_or_warn(a: Analysis, strict: bool) -> None:
     problems = []
     if a.blind:
         problems.append(f"blind harmonics {format_orders(a.blind)}")
+    if a.blind_radial:
+        problems.append(f"radial motion x, y blind at {format_orders(a.blind_radial)}")
     if a.ill:
         problems.append(f"ill-conditioned harmonics {format_orders(a.ill)}")
     if not problems:

@@ -17,7 +17,9 @@ motion.
 - ``esa``: the four-head error separation (seed 000 eqs. (11)-(18)): the weights
   a1..a3 of eq. (14) cancel radial motion in the weighted sum of the differences to
   the reference head, ``F(n) = E(n) / W(n)`` for n >= 2 (eqs. (15), (16)), the 1st
-  harmonic from the basic model, and x(theta), y(theta) from eqs. (17), (18).
+  harmonic from the basic model, and x(theta), y(theta) from eqs. (17), (18). Where
+  W(n) = 0 the graduation term at order n is itself a radial-motion pattern: F(n),
+  X(n) and Y(n) are all undetermined, and all three are set to 0 and named.
 
 The 1st harmonic of radial motion cannot be told from the scale's eccentricity:
 it is reported as part of the graduation error (the simulator's truth does the same).
@@ -126,7 +128,9 @@ class Conditioning:
     ``transfer``: |W(n)| as the method defines it (seed 000 eq. (15) with C = 1 for
     esa); ``gain``: noise amplification, the factor from one head's noise to F(n)
     (1 / normalised transfer); ``blind``/``ill``: harmonic orders 1..K that are not
-    determined / whose gain exceeds 1 / ``min_transfer``.
+    determined / whose gain exceeds 1 / ``min_transfer``; ``blind_radial``: orders
+    2..K where radial motion x, y is not determined (esa: where W(n) = 0 the
+    graduation term is a radial-motion pattern, eqs. (11), (15)), set to 0 in x, y.
     """
 
     transfer: np.ndarray
@@ -134,12 +138,15 @@ class Conditioning:
     blind: list[int] = field(default_factory=list)
     ill: list[int] = field(default_factory=list)
     limit: float = MIN_TRANSFER
+    blind_radial: list[int] = field(default_factory=list)
 
     def message(self) -> str | None:
-        """One line naming the blind and ill-conditioned harmonics, or None."""
+        """One line naming the blind (graduation, then x, y) and ill-conditioned orders."""
         parts = []
         if self.blind:
             parts.append(f"blind harmonics (|W(n)| = 0): {format_orders(self.blind)}")
+        if self.blind_radial:
+            parts.append(f"radial motion x, y blind at {format_orders(self.blind_radial)}")
         if self.ill:
             parts.append(f"ill-conditioned harmonics (noise gain > "
                          f"{1 / self.limit:g}): {format_orders(self.ill)}")
@@ -265,7 +272,8 @@ class Method:
             gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
         blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
         ill = [int(k) for k in n[1:] if _BLIND < normalised[k] < self.min_transfer]
-        return Conditioning(transfer, gain, blind, ill, self.min_transfer)
+        radial = [k for k in blind if k >= 2] if self.name == "esa" else []
+        return Conditioning(transfer, gain, blind, ill, self.min_transfer, radial)
 
     def solve(self, spectra: np.ndarray) -> Solution:
         """Solve one set of head spectra (heads: ref first, then ``alphas``; rad) for F, X, Y."""
@@ -296,8 +304,11 @@ class Method:
         m = np.stack([s, c], axis=1)  # resid = m @ [X, Y]
         xy = np.linalg.lstsq(m, resid, rcond=None)[0]
         x, y = xy[0], xy[1]
-        x[:2] = 0  # DC: not observable; 1st harmonic: counted as eccentricity in F
-        y[:2] = 0
+        # DC: not observable; 1st harmonic: counted as eccentricity in F; where W(n) = 0
+        # F(n) and X(n), Y(n) trade against each other: neither is determined
+        for gone in (slice(0, 2), self.conditioning.blind_radial):
+            x[gone] = 0
+            y[gone] = 0
         return Solution(f, x, y)
 
     def coordinate_error(self, sol: Solution, alphas: np.ndarray) -> np.ndarray:
@@ -548,7 +559,7 @@ def _refuse_or_warn(method: Method, strict: bool) -> None:
     if strict:
         msg = f"{where}: {problem} (--strict; narrow --band or move heads)"
         raise UsageError(msg)
-    log.warning("%s: %s; these harmonics are set to 0, not divided through", where, problem)
+    log.warning("%s: %s; these orders are set to 0, not divided through", where, problem)
 
 
 def _outputs(header: Header, p: Plan, res: Result
@@ -572,6 +583,8 @@ def _outputs(header: Header, p: Plan, res: Result
     meta = {"settings": p.settings.to_dict() | {"encoder": p.encoder,
                                                 "revolutions": res.revolutions},
             "blind": cond.blind, "ill_conditioned": cond.ill, "domain": "revolution"}
+    if "x" in res.curves:
+        meta["blind_radial"] = cond.blind_radial
     dev_header = header.derive("deviations", table.schema, **meta)
     st = spectrum_table([("graduation", res.coefficients["graduation"], cond.transfer,
                           res.uncertainty["graduation"])])

@@ -202,9 +202,10 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
             blind, list) else str(blind)
     if _period_domain(s.meta, table.schema):
         s.domain = "period"
-    for key in ("ill_conditioned",):
+    for key, label in (("ill_conditioned", "ill-conditioned harmonics"),
+                       ("blind_radial", "radial motion x, y blind at")):
         if s.meta.get(key):
-            s.info[key.replace("_", "-") + " harmonics"] = ", ".join(map(str, s.meta[key]))
+            s.info[label] = ", ".join(map(str, s.meta[key]))
 
 
 def _period_domain(meta: dict[str, Any], schema: pa.Schema) -> bool:
