@@ -285,9 +285,10 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
         "<li>s: Bessel standard deviation √(Σ(x_i − x̄)²/(n − 1)) over the values as "
         "given (seed 001 eq. 8); ± is half the peak-to-peak.</li>"
         "<li>U: expanded uncertainty, U = k·u with k = 2, from the standard "
-        "uncertainties the input carries (or s/√n of repeated readings).</li>"
+        "uncertainties the input carries (or s/√n over the runs of repeated positions).</li>"
         "<li>Harmonics: A cos(n x + p), n per revolution (per signal period for "
         "interpolation errors).</li>"
-        "<li>ISO 230-2:2014 definitions; repeatability uses ±2 s (R = 4 s).</li></ul>")
+        "<li>ISO 230-2:2014 definitions; repeatability uses ±2 s (R = 4 s); the readings "
+        "of one approach are one x_ij, n counts runs.</li></ul>")
     parts.append("</body></html>")
     return "\n".join(p for p in parts if p)

@@ -24,8 +24,13 @@ Of the axis:
 - accuracy  A up = max(x_i up + 2 s_i up) - min(x_i up - 2 s_i up); bidirectional
   A = max(x_i up + 2 s_i up, x_i down + 2 s_i down) - min(x_i up - 2 s_i up, x_i down - 2 s_i down)
 
-The standard asks for n >= 5 runs (and at least 5 targets per metre, or per turn
-here); fewer runs give figures with a warning (:attr:`Iso230.warnings`).
+One approach is one run's visit of one target in one direction: its readings are
+averaged into one x_ij first, so n counts approaches (runs), never readings, and s_i
+is the scatter of the runs' means. The standard's test cycle asks for 5 runs in each
+direction, for linear and rotary axes alike (rotary axes up to 360 deg: targets over
+the turn including 0, 90, 180 and 270 deg, at least 8 of them over a full turn);
+fewer runs give the figures with one warning line (:attr:`Iso230.warnings`). A
+rotary axis's 0 and 360 deg are one target (``circular``).
 """
 
 from __future__ import annotations
@@ -47,7 +52,7 @@ class DirectionFigures:
 
     mean: np.ndarray          # x_i, per position
     s: np.ndarray             # s_i, per position
-    runs: np.ndarray          # n_i, readings per position
+    runs: np.ndarray          # n_i, approaches (runs) per position
     R_i: np.ndarray           # 4 s_i
     R: float                  # max R_i
     E: float                  # max x_i - min x_i
@@ -98,25 +103,49 @@ class Iso230:
         return rows
 
 
-def _direction(pos_index: np.ndarray, x: np.ndarray, m: int, label: str,
-               warnings: list[str]) -> DirectionFigures:
+def _direction(pos_index: np.ndarray, x: np.ndarray, m: int, label: str) -> DirectionFigures:
+    """Figures of one direction from one x_ij per approach [arcsec] at target ``pos_index``."""
     counts = np.bincount(pos_index, minlength=m)
     if np.any(counts == 0):
         msg = f"ISO 230-2: {label} approach misses {int(np.sum(counts == 0))} target position(s)"
         raise DataError(msg)
+    if np.any(counts < 2):
+        msg = f"ISO 230-2: one run per position ({label}); s and R are undefined"
+        raise DataError(msg)
     mean = np.bincount(pos_index, weights=x, minlength=m) / counts
     resid = x - mean[pos_index]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = np.sqrt(np.bincount(pos_index, weights=resid * resid, minlength=m) / (counts - 1))
-    if np.any(counts < 2):
-        msg = f"ISO 230-2: one reading per position ({label}); s and R are undefined"
-        raise DataError(msg)
-    if np.min(counts) < 5:
-        warnings.append(f"ISO 230-2 asks for 5 runs or more; {label} has {int(np.min(counts))}")
+    s = np.sqrt(np.bincount(pos_index, weights=resid * resid, minlength=m) / (counts - 1))
     R_i = 4.0 * s
     return DirectionFigures(mean=mean, s=s, runs=counts, R_i=R_i, R=float(R_i.max()),
                             E=float(mean.max() - mean.min()),
                             A=float((mean + 2 * s).max() - (mean - 2 * s).min()))
+
+
+def approaches(index: np.ndarray, x: np.ndarray, direction: np.ndarray, run: np.ndarray | None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One x_ij per approach: the mean deviation [arcsec] of the readings of one run at
+    one target in one direction. ``run`` None: every reading is one approach.
+    Returns (target index, direction, x_ij [arcsec], readings per approach)."""
+    if run is None:
+        return index, direction, x, np.ones(x.size, np.int64)
+    keys = np.stack([direction, index, np.asarray(run, np.int64)]).T
+    uniq, group = np.unique(keys, axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    counts = np.bincount(group)
+    return uniq[:, 1], uniq[:, 0], np.bincount(group, weights=x) / counts, counts
+
+
+def _runs_warning(up: DirectionFigures | None, down: DirectionFigures | None,
+                  per_approach: np.ndarray) -> list[str]:
+    """One line when a direction has fewer than the 5 runs the standard asks for."""
+    n = {name: int(d.runs.min()) for name, d in (("up", up), ("down", down)) if d is not None}
+    if min(n.values()) >= 5:
+        return []
+    each = ", ".join(f"{k} {v}" for k, v in n.items())
+    readings = (f"; the {int(per_approach.max())} readings of one approach count once"
+                if per_approach.max() > 1 else "")
+    return [f"ISO 230-2 asks for 5 runs in each direction; runs counted per target: {each}"
+            f"{readings}"]
 
 
 def target_positions(position_deg: np.ndarray, tol_deg: float = 0.01, circular: bool = False
@@ -146,19 +175,33 @@ def target_positions(position_deg: np.ndarray, tol_deg: float = 0.01, circular: 
     return targets, index, counts
 
 
+def _targets_warning(positions: np.ndarray) -> list[str]:
+    """One line when a rotary axis has fewer targets than the standard asks for its
+    range: 3 up to 90 deg, 5 up to 180 deg, 8 beyond (a full turn) [deg]."""
+    p = np.sort(np.mod(positions, 360.0))
+    gaps = np.diff(np.r_[p, p[0] + 360.0])
+    span = 360.0 - float(gaps.max()) if p.size > 1 else 0.0
+    need = 3 if span <= 90.0 else 5 if span <= 180.0 else 8
+    if p.size >= need:
+        return []
+    return [f"ISO 230-2 asks for {need} targets or more over a rotary axis's "
+            f"{span:.4g} deg; {p.size} here"]
+
+
 def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
-             tol_deg: float = 0.01, circular: bool = False) -> Iso230:
-    """ISO 230-2 figures from every reading of a step run.
+             tol_deg: float = 0.01, circular: bool = False, run: np.ndarray | None = None
+             ) -> Iso230:
+    """ISO 230-2 figures from every reading of a step run, one x_ij per approach.
 
     Parameters
     ----------
     position_deg : target position of each reading [deg]
     deviation : positioning deviation x_ij of each reading [arcsec]
     direction : +1 (approach from below) / -1 (from above) per reading; None: all up.
-        Each reading counts as one run at its position (average the readings of one
-        visit first if a run takes several readings per target).
     tol_deg : measured positions closer than this [deg] are one target position.
-    circular : group positions modulo 360 deg (rotary axis, measured positions).
+    circular : group positions modulo 360 deg (rotary axis: 0 and 360 deg are one target).
+    run : the run of each reading; the readings of one run at one target in one
+        direction are averaged into one x_ij. None: every reading is one approach.
     """
     p = np.asarray(position_deg, dtype=np.float64)
     x = np.asarray(deviation, dtype=np.float64)
@@ -176,12 +219,18 @@ def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndar
     if not np.all(np.isfinite(p)):
         msg = "ISO 230-2: a position is NaN or infinite"
         raise DataError(msg)
+    if run is not None and np.asarray(run).size != p.size:
+        msg = "ISO 230-2: runs and positions differ in length"
+        raise DataError(msg)
     positions, index, _ = target_positions(p, tol_deg, circular)
     m = positions.size
-    warnings: list[str] = []
-    up = _direction(index[d == UP], x[d == UP], m, "up", warnings) if np.any(d == UP) else None
-    down = (_direction(index[d == DOWN], x[d == DOWN], m, "down", warnings)
+    a_index, a_dir, a_x, per_approach = approaches(index, x, d, run)
+    up = _direction(a_index[a_dir == UP], a_x[a_dir == UP], m, "up") if np.any(d == UP) else None
+    down = (_direction(a_index[a_dir == DOWN], a_x[a_dir == DOWN], m, "down")
             if np.any(d == DOWN) else None)
+    warnings = _runs_warning(up, down, per_approach)
+    if circular:
+        warnings += _targets_warning(positions)
     result = Iso230(positions, up, down, warnings=warnings)
     if up is not None and down is not None:
         mean_i = (up.mean + down.mean) / 2.0

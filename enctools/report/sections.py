@@ -33,7 +33,7 @@ from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
 from enctools.errors import DataError
 from enctools.report.figures import Harmonics, expanded_uncertainty, harmonics
-from enctools.report.iso230 import Iso230, iso230_2, target_positions
+from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 #: Lissajous plots keep at most this many samples per head
@@ -226,18 +226,22 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
         raise DataError(msg)
     pos = column(table, "position", "deg", s.source, declared_unit("points", s.meta, "position"))
     dev = column(table, "deviation", "arcsec", s.source)
-    direction = (table.column("direction").to_numpy(zero_copy_only=False)
-                 if "direction" in table.schema.names else None)
-    _points_into(s, pos, dev, direction, opts, "deviation", "points")
+    direction, run = (table.column(c).to_numpy(zero_copy_only=False)
+                      if c in table.schema.names else None for c in ("direction", "run"))
+    _points_into(s, pos, dev, direction, opts, "deviation", "points", run=run)
 
 
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                  direction: np.ndarray | None, opts: Options, name: str, role: str,
-                 tol_deg: float = 0.01) -> None:
+                 tol_deg: float = 0.01, run: np.ndarray | None = None,
+                 no_iso: str | None = None) -> None:
     """Points -> one curve (means per target when positions repeat) and ISO 230-2.
 
     ``tol_deg``: measured positions closer than this are one target (commanded
-    targets of a readings stream are exact: a tiny tolerance)."""
+    targets of a readings stream are exact: a tiny tolerance). ``run``: the run of
+    each reading; the readings of one run at one target in one direction are one
+    approach, averaged first (None: each reading is one). ``no_iso``: why the run
+    gets no ISO 230-2 figures (a sweep), as a note."""
     if not np.all(np.isfinite(pos_deg)):
         msg = f"{s.source}: a position is NaN or infinite"
         raise DataError(msg)
@@ -259,30 +263,67 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
             s.notes.append("a position repeats modulo 360 deg (closing row): std counts "
                            "every row as given; std_distinct drops the repeat")
     else:
-        means = np.bincount(index, weights=dev) / counts
-        curve = _curve(name, "arcsec", role, unique * DEG, means, opts, s.source)
-        s.notes.append(f"{pos_deg.size} readings at {unique.size} positions: the curve and "
-                       "its figures use the mean deviation per position")
-        if np.min(counts) >= 2:
-            try:
-                s.iso = iso230_2(pos_deg, dev, direction, tol_deg, circular=True)
-            except DataError as exc:
-                s.notes.append(f"no ISO 230-2 figures: {exc}")
-            else:
-                s.notes += s.iso.warnings
-                if s.iso.is_bidirectional:
-                    curve = _curve(name, "arcsec", role, s.iso.positions * DEG,
-                                   s.iso.bidirectional["mean_i"], opts, s.source)
-                    s.notes.append("with both directions the curve is the mean "
-                                   "bidirectional positioning deviation x_i")
-            # standard uncertainty of a position's mean: s / sqrt(n) (type A)
-            resid = dev - np.bincount(index, weights=dev)[index] / counts[index]
-            s_pos = np.sqrt(np.bincount(index, weights=resid ** 2) / (counts - 1))
-            if curve.values.size == unique.size:
-                curve.u = s_pos / np.sqrt(counts)
+        curve = _repeated(s, pos_deg, dev, direction, run, (unique, index), opts,
+                          (name, role, tol_deg), no_iso)
     s.curves.append(curve)
     s.info["positions"] = int(unique.size)
     s.info["readings"] = int(pos_deg.size)
+
+
+def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.ndarray | None,
+              run: np.ndarray | None, targets: tuple[np.ndarray, np.ndarray], opts: Options,
+              what: tuple[str, str, float], no_iso: str | None) -> Curve:
+    """The curve of points whose positions repeat: per target the mean over the
+    directions of the mean over approaches (one run's readings at one target in one
+    direction averaged first) [arcsec], its standard uncertainty from the approaches'
+    scatter, and ISO 230-2 when every target has 2 approaches or more."""
+    name, role, tol_deg = what
+    unique, index = targets
+    d = np.ones(dev.size, np.int64) if direction is None else np.asarray(direction, np.int64)
+    a_index, a_dir, a_x, _ = approaches(index, dev, d, run)
+    means, u, n_min = _means_and_u(a_index, a_dir, a_x, unique.size)
+    curve = _curve(name, "arcsec", role, unique * DEG, means, opts, s.source)
+    s.notes.append(f"{dev.size} readings at {unique.size} positions ({a_x.size} approaches): "
+                   "the curve and its figures use the mean deviation per position")
+    if n_min < 2:
+        s.notes.append("no ISO 230-2 figures: one run per target and direction (the run "
+                       "column numbers them; its readings are one approach); s needs 2 or more")
+        return curve
+    curve.u = u
+    if no_iso is not None:
+        s.notes.append(f"no ISO 230-2 figures: {no_iso}")
+        return curve
+    try:
+        s.iso = iso230_2(pos_deg, dev, direction, tol_deg, circular=True, run=run)
+    except DataError as exc:
+        s.notes.append(f"no ISO 230-2 figures: {exc}")
+    else:
+        s.notes += s.iso.warnings
+        if s.iso.is_bidirectional:
+            s.notes.append("with both directions the curve is the mean "
+                           "bidirectional positioning deviation x_i")
+    return curve
+
+
+def _means_and_u(a_index: np.ndarray, a_dir: np.ndarray, a_x: np.ndarray, m: int
+                 ) -> tuple[np.ndarray, np.ndarray | None, int]:
+    """Per target: the mean over the directions of each direction's mean x_ij [arcsec]
+    (x_i of ISO 230-2 with both), its standard uncertainty (type A: s / sqrt(n) of each
+    direction, combined) [arcsec], and the fewest approaches of a target and direction."""
+    means, var, n_min, dirs = np.zeros(m), np.zeros(m), np.inf, np.unique(a_dir)
+    for sign in dirs:
+        sel = a_dir == sign
+        n = np.bincount(a_index[sel], minlength=m)
+        n_min = min(n_min, int(n.min()))
+        if n.min() == 0:        # a direction misses a target: pooled, ISO 230-2 says so
+            total = np.bincount(a_index, minlength=m)
+            return np.bincount(a_index, weights=a_x, minlength=m) / total, None, int(total.min())
+        mean = np.bincount(a_index[sel], weights=a_x[sel], minlength=m) / n
+        resid = a_x[sel] - mean[a_index[sel]]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            var += np.bincount(a_index[sel], weights=resid ** 2, minlength=m) / (n - 1) / n
+        means += mean
+    return means / dirs.size, np.sqrt(var) / dirs.size, int(n_min)
 
 
 # --------------------------------------------------------------- model and rom
@@ -346,6 +387,7 @@ class _ReadingsScan:
     stride: int = 0                                         # signal samples kept: every n-th
     target: list[np.ndarray] = field(default_factory=list)      # rad
     direction: list[np.ndarray] = field(default_factory=list)
+    run: list[np.ndarray] = field(default_factory=list)
     angle: list[np.ndarray] = field(default_factory=list)       # encoder angle [rad]
 
 
@@ -378,6 +420,9 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
             s.signals[head] = (c[::step], sn[::step])
     if stepped and infos and scan.rows:
         _positioning(s, scan, encoder, opts)
+    elif scan.rows and not stepped:
+        s.notes.append("no ISO 230-2 figures: a continuous run has no target positions to "
+                       "approach (enc acquire --mode steps)")
 
 
 def _signal_columns(schema: pa.Schema) -> dict[str, dict[str, str]]:
@@ -413,6 +458,8 @@ def _scan_batch(scan: _ReadingsScan, batch: pa.RecordBatch, infos: list[readings
         scan.target.append(batch.column("target").to_numpy(zero_copy_only=False))
         if "direction" in batch.schema.names:
             scan.direction.append(batch.column("direction").to_numpy(zero_copy_only=False))
+        if "run" in batch.schema.names:
+            scan.run.append(batch.column("run").to_numpy(zero_copy_only=False))
         scan.angle.append(readings.mean_head_angle([batch.column(i.name) for i in encoder],
                                                    encoder))
 
@@ -425,9 +472,14 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
     dev = (np.mod(angle - target + np.pi, TWO_PI) - np.pi) / ARCSEC
     dev -= dev.mean()
     direction = np.concatenate(scan.direction) if scan.direction else None
+    run = np.concatenate(scan.run) if scan.run else None
+    no_iso = None
+    if s.info.get("mode") == "sweep":
+        no_iso = ("a sweep steps over a small range, not targets over the axis's travel "
+                  "(a full turn) as ISO 230-2 asks")
     enc = encoder[0].encoder
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "
                    "signal period)")
     _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                 "positioning", tol_deg=1e-9)
+                 "positioning", tol_deg=1e-9, run=run, no_iso=no_iso)
