@@ -406,3 +406,22 @@ def test_plan_refuses_heads_that_do_not_fit(short_run: tuple) -> None:
              "eda needs equally spaced heads")):
         with pytest.raises(UsageError, match=re.escape(expect)):
             plan(header.schema, header.meta, settings)
+
+
+def test_ill_conditioned_orders_are_divided_through_and_said_so(tmp_path):
+    """--min-transfer above the arrangement's smallest |W| (1.18 at n = 42): those orders
+    are named as ill-conditioned and, unlike blind ones, kept (divided through)."""
+    out, spec = tmp_path / "g.parquet", tmp_path / "s.parquet"
+    r = run(f"enc acquire --rig sjtu-dual --revolutions 2 -q | enc selfcal --min-transfer 1.5 "
+            f"-q -o {out} --spectrum {spec}")
+    assert r.returncode == 0, r.stderr.decode()
+    r = run(f"enc acquire --rig sjtu-dual --revolutions 2 -q | enc selfcal --min-transfer 1.5 "
+            f"-o {tmp_path / 'g2.parquet'}")
+    warning = [line for line in r.stderr.decode().splitlines() if "ill-conditioned" in line]
+    assert len(warning) == 1 and "divided through" in warning[0], r.stderr.decode()
+    _, table = read_table(str(spec))
+    header, _ = read_table(str(out))
+    ill = header.meta["ill_conditioned"]
+    assert 42 in ill
+    amplitude = table.column("amplitude").to_numpy()[np.isin(table.column("n").to_numpy(), ill)]
+    assert np.all(amplitude > 0)

@@ -559,7 +559,12 @@ def _refuse_or_warn(method: Method, strict: bool) -> None:
     if strict:
         msg = f"{where}: {problem} (--strict; narrow --band or move heads)"
         raise UsageError(msg)
-    log.warning("%s: %s; these orders are set to 0, not divided through", where, problem)
+    what = []
+    if method.conditioning.blind:
+        what.append("blind orders are set to 0")
+    if method.conditioning.ill:
+        what.append("ill-conditioned ones are divided through, their noise amplified (in u)")
+    log.warning("%s: %s; %s", where, problem, ", ".join(what) or "see enc-selfcal(1)")
 
 
 def _outputs(header: Header, p: Plan, res: Result
