@@ -151,12 +151,13 @@ def curves(header: Any, table: Any) -> list[dict[str, Any]]:
     its unit (arcsec, nm), with the largest standard uncertainty of its ``u`` column."""
     import numpy as np
 
+    from enctools.data.columns import uncertainty_columns
     from enctools.data.schemas import field_meta
     from enctools.data.statistics import curve_figures
     from enctools.data.summaries import figure_dict
 
     metas = {f.name: field_meta(f) for f in header.schema}
-    u_of = {m.get("of"): name for name, m in metas.items() if m.get("role") == "uncertainty"}
+    u_of = uncertainty_columns(header.schema)
     out = []
     for name, m in metas.items():
         if m.get("role") not in ("deviation", "radial"):

@@ -7,9 +7,9 @@ its unit (``pp_arcsec``, ``pp_nm`` for radial motion); NaN becomes null.
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
+from enctools.data import summaries
 from enctools.data.summaries import clean, figure_dict
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.report.summary import Report
@@ -74,4 +74,4 @@ def report_dict(report: Report, failures: list[str] | None = None) -> dict[str, 
 
 
 def to_json(report: Report, failures: list[str] | None = None) -> str:
-    return json.dumps(report_dict(report, failures), indent=1, allow_nan=False)
+    return summaries.to_json(report_dict(report, failures))
