@@ -36,7 +36,7 @@ import pyarrow as pa
 
 from enctools.data import files, limits
 from enctools.data.header import META_KEY, Header, load_metadata
-from enctools.data.text import printable
+from enctools.data.text import first_line, printable
 from enctools.errors import DataError, OutputError, UsageError
 from enctools.units import ANGLE_UNITS, DISPLAY_UNITS, factor
 
@@ -291,7 +291,7 @@ class _Layout:
         try:
             self._parse(doc)
         except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:
-            msg = f"{source}: not an enctools CSV sidecar ({_short(exc)})"
+            msg = f"{source}: not an enctools CSV sidecar ({printable(first_line(exc))})"
             raise DataError(msg) from None
         if self.rows > limits.MAX_STREAM_ROWS:
             msg = f"{source}: claims {self.rows} rows; at most {limits.MAX_STREAM_ROWS} are read"
@@ -352,11 +352,6 @@ def _arrow_type(name: str) -> pa.DataType:
         msg = f"column type {name!r} is not one of {', '.join(_DATATYPES)}"
         raise ValueError(msg)
     return pa.string() if name == "string" else pa.type_for_alias(name)
-
-
-def _short(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()[0][:200] if str(exc).strip() else type(exc).__name__
-    return printable(text)
 
 
 def open_table(f: IO[bytes], source: str) -> tuple[Header, Iterator[pa.RecordBatch], int,
@@ -436,7 +431,7 @@ def _batches(f: Any, layout: _Layout, schema: pa.Schema,
 
 
 def _arrow_message(exc: BaseException) -> str:
-    text = _short(exc)
+    text = printable(first_line(exc))
     if "straddling" in text or ("block" in text and "size" in text):
         return f"a line over {limits.MAX_CSV_LINE_BYTES} bytes"
     return text

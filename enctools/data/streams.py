@@ -35,6 +35,7 @@ import pyarrow as pa
 from enctools.data import csvio, files, limits, pipes
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
+from enctools.data.text import first_line
 from enctools.errors import DataError, OutputError, UsageError
 
 __all__ = [
@@ -138,7 +139,7 @@ class InputStream:
         except _DECODE_ERRORS as exc:
             if isinstance(exc, BrokenPipeError):
                 raise
-            msg = f"{self.source}: truncated or corrupt {self.format} data ({_short(exc)})"
+            msg = f"{self.source}: truncated or corrupt {self.format} data ({first_line(exc)})"
             raise DataError(msg) from None
         finally:
             if isinstance(source, pipes.ReadAhead) and not source.stop():
@@ -185,10 +186,6 @@ class InputStream:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _short(exc: BaseException) -> str:
-    return str(exc).strip().splitlines()[0][:200] if str(exc).strip() else type(exc).__name__
 
 
 def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...] | None = None,
@@ -284,7 +281,7 @@ def _validated(stream: InputStream, expect: str | tuple[str, ...] | None) -> Inp
         raise
     except (UnicodeDecodeError, TypeError, ValueError) as exc:
         stream.close()
-        msg = f"{source}: corrupt metadata ({_short(exc)})"
+        msg = f"{source}: corrupt metadata ({first_line(exc)})"
         raise DataError(msg) from None
     return stream
 
@@ -303,7 +300,7 @@ def _open_arrows(f: IO[bytes], source: str) -> InputStream:
     try:
         reader = pa.ipc.open_stream(f)
     except _DECODE_ERRORS as exc:
-        msg = f"{source}: truncated or corrupt Arrow stream ({_short(exc)})"
+        msg = f"{source}: truncated or corrupt Arrow stream ({first_line(exc)})"
         raise DataError(msg) from None
     header = header_from_arrow(reader.schema, source)
     return InputStream(header, iter(reader), source, "Arrow IPC stream", f.close)
@@ -321,7 +318,7 @@ def _open_seekable(f: IO[bytes], fmt: str, source: str) -> InputStream:
         raise
     except _DECODE_ERRORS as exc:
         f.close()
-        msg = f"{source}: truncated or corrupt {fmt} file ({_short(exc)})"
+        msg = f"{source}: truncated or corrupt {fmt} file ({first_line(exc)})"
         raise DataError(msg) from None
 
 

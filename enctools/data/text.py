@@ -21,3 +21,11 @@ def printable(s: str) -> str:
 def printable_lines(lines: list[str]) -> str:
     """``lines`` made printable one by one, joined by newlines."""
     return "\n".join(printable(line) for line in lines)
+
+
+def first_line(exc: BaseException, limit: int = 200) -> str:
+    """The first line of an exception's message, at most ``limit`` characters, for an
+    error line of our own (its type's name when the message is empty). Not escaped:
+    :func:`printable` it when it may carry a file's bytes."""
+    text = str(exc).strip()
+    return text.splitlines()[0][:limit] if text else type(exc).__name__
