@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import DATA, one_error_line, run, run_in_process
+from conftest import DATA, ROOT, one_error_line, run, run_in_process
 
 from enctools.data import streams
 from enctools.data.curves import Column, deviations_table
@@ -139,6 +139,42 @@ def test_controller_table_gives_the_intended_correction(tmp_path, ext):
                        atol=1e-9)
 
 
+# ------------------------------------------------------------ models and curves as tables
+
+
+def test_a_model_undoes_the_points_it_was_fitted_to(tables, tmp_path):
+    # seed 001 eqs. 5-7: 24 units through the 24 points of table 1, goal 1e-4"
+    s = summary(run_in_process(f"enc correct {DATA}/seed001_table1.csv "
+                               f"--table {tables}/m.parquet --json"))
+    assert s["table"]["family"] == "model"
+    assert s["before"]["pp_arcsec"] == pytest.approx(5.46)  # seed 001 table 1
+    assert s["before"]["s_bessel_arcsec"] == pytest.approx(1.2674, abs=1e-4)
+    assert s["after"]["max_abs_arcsec"] < 1e-4
+
+
+def test_a_deviations_curve_is_interpolated_between_its_points(tmp_path):
+    theta = np.arange(64) * (2 * np.pi / 64)
+    curve = deviations_table(theta, [Column("e", curve_arcsec(theta))])
+    streams.write_table(str(tmp_path / "dev.parquet"), Header("deviations", curve.schema, {}),
+                        curve)
+    at = np.rad2deg(theta)
+    write_points(tmp_path / "p.csv", np.r_[at, at + 360 / 128], np.zeros(128))
+    r = run_in_process(f"enc correct {tmp_path}/p.csv --table {tmp_path}/dev.parquet --curve e "
+                       f"-o {tmp_path}/c.parquet")
+    assert r.returncode == 0, r.stderr.decode()
+    got = pq.read_table(tmp_path / "c.parquet").column("deviation").to_numpy()
+    want = -curve_arcsec(theta)
+    assert np.abs(got[:64] - want).max() < 1e-9
+    assert np.abs(got[64:] - (want + np.roll(want, -1)) / 2).max() < 1e-9
+
+
+@pytest.mark.parametrize("args,what", [("--bits 23", "--bits describes a table"),
+                                       ("--heads F1", "--heads applies to readings")])
+def test_options_that_do_not_apply_are_refused(tables, args, what):
+    r = run_in_process(f"enc correct {DATA}/seed001_table1.csv --table {tables}/m.parquet {args}")
+    assert what in one_error_line(r, 2, "enc correct")
+
+
 # ------------------------------------------------------------ seed 001's loop, end to end
 
 
@@ -180,6 +216,17 @@ def test_seed001_loop_on_a_dense_run(tmp_path):
     dev_header, dev = streams.read_table(str(d / "dev.parquet"), "deviations")
     assert dev.column_names == ["theta", "before", "after"]
     assert dev_header.meta["settings"]["table"]["format"] == "mif"
+    # seed 001 table 3: the polygon set 5 deg further on, positions the model never saw,
+    # measured with the ROM loaded (the paper: 0.53")
+    rig = (ROOT / "enctools/rigs/ciomp-23bit.toml").read_text()
+    (d / "shifted.toml").write_text(rig.replace("start_deg = 0.0", "start_deg = 5.0", 1))
+    s3 = summary(run(f"enc acquire --rig {d}/shifted.toml --mode steps --start 5 --seed 7 "
+                     f"| enc points | enc correct --table {d}/rom.mif --json"))
+    print(f"table 3 route: s {s3['before']['s_bessel_arcsec']:.3f} -> "
+          f"{s3['after']['s_bessel_arcsec']:.3f} arcsec")
+    assert s3["input"]["n_rows"] == 24
+    assert s3["after"]["s_bessel_arcsec"] < 0.6 * s3["before"]["s_bessel_arcsec"]
+    assert s3["after"]["s_bessel_arcsec"] < 0.8
 
 
 # ------------------------------------------------------------ real data: MagAlpha
@@ -283,6 +330,34 @@ def test_bad_input_is_one_line_exit_2_and_no_output(tables, tmp_path, case):
 def test_a_steps_run_is_sent_to_enc_points(ciomp_steps, tables):
     r = run(f"enc correct {ciomp_steps} --table {tables}/rom.parquet")
     assert "enc points" in one_error_line(r, 2, "enc correct")
+
+
+@pytest.mark.slow
+def test_readings_against_a_reference_encoder(tmp_path):
+    """sjtu-dual: encoder I (P1, P2) against encoder II's four H heads; a zero curve
+    leaves the error as it was, and the error is the test's own P-mean minus H-mean."""
+    theta = np.arange(8) * (np.pi / 4)
+    zero = deviations_table(theta, [Column("e", np.zeros(8))])
+    streams.write_table(str(tmp_path / "zero.parquet"), Header("deviations", zero.schema, {}),
+                        zero)
+    s = summary(run(f"enc acquire --rig sjtu-dual --revolutions 1 --tee {tmp_path}/run.parquet "
+                    f"| enc correct --table {tmp_path}/zero.parquet --heads P1,P2 "
+                    f"--ref H1,H2,H3,H4 --json"))
+    assert s["input"]["reference"] == ["H1", "H2", "H3", "H4"]
+    assert s["after"] == s["before"]
+    header, table = streams.read_table(str(tmp_path / "run.parquet"), "readings")
+    from enctools.data.readings import head_info, mean_head_reading
+    infos = {h: head_info(header.schema, h) for h in ("P1", "P2", "H1", "H2", "H3", "H4")}
+    cpr = infos["P1"].counts_per_rev
+    p1, p2 = (table.column(h).to_numpy() for h in ("P1", "P2"))
+    p2 = p1 + (np.mod(p2 - p1 + cpr // 2, cpr) - cpr // 2)
+    code = np.mod((p1 + p2) // 2, cpr)
+    ref = mean_head_reading([table.column(h) for h in ("H1", "H2", "H3", "H4")],
+                            [infos[h] for h in ("H1", "H2", "H3", "H4")])
+    e = np.angle(np.exp(1j * (code * 2 * np.pi / cpr - ref)))
+    e = np.angle(np.exp(1j * (e - np.angle(np.mean(np.exp(1j * e)))))) * TURN_ARCSEC / (2 * np.pi)
+    assert s["before"]["s_bessel_arcsec"] == pytest.approx(np.std(e, ddof=1), abs=1e-9)
+    assert s["before"]["pp_arcsec"] == pytest.approx(np.ptp(e), abs=1e-9)
 
 
 @pytest.mark.slow

@@ -101,9 +101,11 @@ def _apply(input: str | None, table: Correction, heads: list[str] | None,
     """The input's header, the corrected stream's rows, the residuals, and what the
     summary says of the input."""
     from enctools.data import streams
+    from enctools.errors import UsageError
     from enctools.methods.points import check_points, from_table, is_csv_file, read_points
     from enctools.models.corrected import correct_points
 
+    given = [o for o, v in (("--heads", heads), ("--ref", reference)) if v is not None]
     if input is not None and is_csv_file(input):
         header, pts = read_points(input)
         source = input
@@ -113,6 +115,9 @@ def _apply(input: str | None, table: Correction, heads: list[str] | None,
         if header.kind == "readings":
             return _readings(src, table, heads, reference, points)
         pts = check_points(from_table(src.read_all(), source, header.meta), source)
+    if given:
+        msg = f"{given[0]} applies to readings; {source} holds points"
+        raise UsageError(msg)
     fixed, res = correct_points(pts, table, source)
     return header, fixed.table(), res, {"input": {"kind": "points", "source": source,
                                                   "n_rows": len(pts)}}

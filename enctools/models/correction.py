@@ -210,14 +210,19 @@ def file_layout(data: bytes, settings: TableSettings, path: str) -> Layout:
         return Layout(settings.code_bits, settings.width or 16, settings.lsb or 1.0, False)
     entries, width, bits = int(m.group(1)), int(m.group(2)), int(m.group(3))
     lsb = float(m.group(4)) / (TWO_PI / 2.0 ** bits * factor("rad", "arcsec"))
-    found = {"--bits": bits, "--width": width, "--lsb": lsb,
-             "--address-bits": entries.bit_length() - 1}
+    check_given(settings, {"--bits": bits, "--width": width, "--lsb": lsb,
+                           "--address-bits": entries.bit_length() - 1}, path, "its comment")
+    return Layout(bits, width, lsb, True)
+
+
+def check_given(settings: TableSettings, found: dict[str, Any], path: str, where: str) -> None:
+    """UsageError when an option given contradicts what the table itself states."""
     for option, value in settings.given().items():
-        if not np.isclose(value, found[option], rtol=1e-9, atol=0):
-            msg = (f"{path}: its comment says the table was made with {option} "
+        if found.get(option) is not None and not np.isclose(value, found[option], rtol=1e-9,
+                                                            atol=0):
+            msg = (f"{path}: {where} says the table was made with {option} "
                    f"{found[option]:.10g}, not {value:.10g}; leave {option} out")
             raise UsageError(msg)
-    return Layout(bits, width, lsb, True)
 
 
 def _read_values(path: str, settings: TableSettings, fmt: str, layout: Layout,
@@ -310,6 +315,8 @@ def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,
     if not np.array_equal(address, np.arange(address.size)):
         msg = f"{source}: addresses are not 0, 1, 2, ... without gaps"
         raise DataError(msg)
+    check_given(settings, {"--bits": bits, "--lsb": lsb, "--width": rom.get("width_bits"),
+                           "--address-bits": rom.get("address_bits")}, source, "its metadata")
     return checked_memory(np.asarray(values, dtype=np.int64), bits, settings.address_bits,
                           float(lsb), source, "stream", rom.get("width_bits"))
 
@@ -347,6 +354,10 @@ def load(path: str, settings: TableSettings, curve: str | None = None) -> Correc
 
     src = streams.open_input(path, ("rom", "model", "deviations"))
     table = src.read_all()
+    if src.header.kind != "rom" and (settings.given() or settings.fmt is not None):
+        option = next(iter(settings.given()), "--target")
+        msg = f"{option} describes a table; {src.source} is a {src.header.kind} stream"
+        raise UsageError(msg)
     if src.header.kind == "rom":
         if table.column("address").null_count or table.column("correction").null_count:
             msg = f"{src.source}: the rom stream has empty addresses or corrections"
