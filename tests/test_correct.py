@@ -371,3 +371,13 @@ def test_json_needs_a_file_when_the_stream_goes_to_stdout(tables):
     r = run(f"enc correct {DATA}/seed001_table1.csv --table {tables}/rom.parquet -o - --json")
     assert "--json" in one_error_line(r, 2, "enc correct")
 
+
+
+def test_a_bidirectional_point_table_corrects_each_direction_with_its_own_points():
+    from enctools.models.correction import PointTable
+
+    at = np.arange(4) * (np.pi / 2)
+    table = PointTable(at, np.array([1.0, 2.0, 3.0, 4.0]), np.array([-1.0, -2.0, -3.0, -4.0]))
+    x = np.array([0.0, np.pi / 4, 7 * np.pi / 4, 2 * np.pi + np.pi / 2, np.pi / 4])
+    got = table.correction_rad(x, np.array([1, 1, 1, -1, -1]))
+    assert np.allclose(got, [1.0, 1.5, 2.5, -2.0, -1.5])  # modulo 360, across 360 -> 0

@@ -40,6 +40,8 @@ COMMENT = re.compile(r"enctools make-rom: (\d+) entries, (\d+)-bit signed correc
                      r"to a (\d+)-bit code, LSB ([-+0-9.eE]+) arcsec")
 #: bits of the code a table may be built for (enc make-rom --bits)
 MAX_CODE_BITS = 40
+#: the formats of an FPGA's memory: looked up by the code's top bits
+MEMORY_FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv")
 
 
 class Correction(Protocol):
@@ -294,6 +296,9 @@ def read_file(path: str, settings: TableSettings) -> Correction:
         raise DataError(msg) from None
     if fmt in POINT_READERS:
         return POINT_READERS[fmt](path, data, settings, fmt)
+    if fmt not in MEMORY_FORMATS:
+        msg = f"{path}: {fmt} tables are written by enc make-rom but not applied here yet"
+        raise UsageError(msg)
     return memory_table(path, data, settings, fmt)
 
 
