@@ -3,10 +3,14 @@
 ENC ?= enc
 RIG ?= ciomp-23bit
 OUT ?= out
+# the reference a dense run is checked against (truth: the simulator's motion; a real
+# rig: the heads of a reference encoder, e.g. R1,R2) and the s it must reach [arcsec]
+REF ?= truth
+MAX_STD ?= 0.65
 
 .PHONY: all
 all: $(OUT)/report.html $(OUT)/correction.mif $(OUT)/correction.bin $(OUT)/ENC_COMP.SPF \
-     $(OUT)/latency.txt
+     $(OUT)/latency.txt $(OUT)/residual.parquet
 	@$(ENC) report -q $(OUT)/points.parquet $(OUT)/model.parquet
 
 # 1. Readout latency: dynamic error and code-skip speed (eqs. 1-4) at 1 and 10 r/s
@@ -37,6 +41,12 @@ $(OUT)/correction.bin: $(OUT)/model.parquet
 # 6. A 256-point table for a SINUMERIK rotary axis (0..360 deg, both ends present)
 $(OUT)/ENC_COMP.SPF: $(OUT)/model.parquet
 	$(ENC) make-rom $< --address-bits 8 --axis C1 --verify -o $@ --force
+
+# 6b. The ROM applied to a dense turn as the FPGA would (look-up by code, words added):
+#     the error before and after (seed 001 tables 1-2: s 1.30" -> 0.50"); exit 1 above MAX_STD
+$(OUT)/residual.parquet: $(OUT)/correction.mif
+	$(ENC) acquire --rig $(RIG) --mode continuous --revolutions 1 -o $(OUT)/dense.parquet --force
+	$(ENC) correct $(OUT)/dense.parquet --table $< --ref $(REF) --max-std $(MAX_STD) -o $@ --force
 
 # 7. The calibration report
 $(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet

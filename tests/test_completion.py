@@ -82,3 +82,10 @@ def test_heads_complete_nothing_from_what_is_not_a_stream(tmp_path):
                         (f"enc selfcal {tmp_path}/missing --ref ", 4),
                         ("enc acquire --rig no-such-rig --heads ", 5)):
         assert plain(complete(line, cword)) == [], line
+
+
+def test_correct_completes_its_table_and_format():
+    assert ("plain", "correct") in complete("enc cor", 1)
+    assert {("plain", "--table"), ("plain", "--target")} <= set(complete("enc correct --ta", 2))
+    assert complete("enc correct --table ", 3) == [("file", "")]
+    assert plain(complete("enc correct --target m", 3)) == ["mif", "mem"]

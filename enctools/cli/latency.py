@@ -10,9 +10,6 @@ from enctools.cli import options
 from enctools.units import factor
 
 if TYPE_CHECKING:
-    import numpy as np
-    import pyarrow as pa
-
     from enctools.methods.latency import RunLag
 
 
@@ -127,12 +124,10 @@ def _measure(inputs: tuple[str, ...], heads: list[str] | None,
              reference: list[str] | None) -> tuple[list[RunLag], int | None]:
     """The device-minus-reference difference of each run, and the bits of a 2^n-count
     device (None otherwise)."""
-    import numpy as np
-
+    from enctools.cli.reference import mean_reading, reference_angle, times
     from enctools.data.readings import head_info, measuring_heads
     from enctools.data.streams import open_input
     from enctools.errors import DataError
-    from enctools.hw.truth import Motion
     from enctools.methods import latency as lat
 
     runs: list[RunLag] = []
@@ -144,32 +139,13 @@ def _measure(inputs: tuple[str, ...], heads: list[str] | None,
             raise DataError(f"{src.source}: a steps run; the lag needs a continuous run")
         schema, meta = src.header.schema, src.header.meta
         dev_heads = heads or measuring_heads(schema, meta, src.source)
-        t = table.column("t").to_numpy(zero_copy_only=False).astype(np.float64)
-        if not np.all(np.isfinite(t)):
-            raise DataError(f"{src.source}: column 't' has NaN or infinite values")
-        if t.size > 1 and not np.all(t[1:] > t[:-1]):
-            row = int(np.argmax(t[1:] <= t[:-1])) + 1
-            raise DataError(f"{src.source}: column 't' does not rise at row {row} "
-                            f"({t[row - 1]!r} s, then {t[row]!r} s); a run's times must increase")
-        device = _mean_reading(table, schema, dev_heads, src.source)
+        t = times(table, src.source)
+        device = mean_reading(table, schema, dev_heads, src.source)
         info = head_info(schema, dev_heads[0], src.source)
         cpr = info.counts_per_rev
         if cpr & (cpr - 1) == 0:
             bits = bits or cpr.bit_length() - 1
-        if reference is None or reference == ["truth"]:
-            motion = (meta.get("truth") or {}).get("motion")
-            if motion is None:
-                raise DataError(f"{src.source}: no true motion in the stream; give --ref HEADS")
-            ref = Motion.from_dict(motion)(t)
-        else:
-            ref = _mean_reading(table, schema, reference, src.source)
+        ref = reference_angle(table, schema, meta, t, reference, src.source)
         runs.append(lat.run_difference(t, device, ref))
     return runs, bits
 
-
-def _mean_reading(table: pa.Table, schema: pa.Schema, names: list[str],
-                  source: str) -> np.ndarray:
-    """Mean spindle reading [rad] of heads (each head's alpha and zero count removed)."""
-    from enctools.data.readings import head_info, mean_head_reading
-    infos = [head_info(schema, h, source) for h in names]
-    return mean_head_reading([table.column(i.name) for i in infos], infos)

@@ -27,6 +27,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "interp-check": ("interp_check", "Interpolation error within a signal period."),
     "fit-rbf": ("fit_rbf", "Fit an RBF or Fourier error model to sparse points."),
     "make-rom": ("make_rom", "Evaluate a model into a correction table (ROM)."),
+    "correct": ("correct", "Apply a correction table as the hardware would: error before, after."),
     "latency": ("latency", "Dynamic error and code-skip speed from readout latency."),
     "points": ("points", "Turn step-run readings into calibration points."),
     "report": ("report", "Figures, uncertainty, ISO 230-2, plots and thresholds."),

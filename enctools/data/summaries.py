@@ -80,3 +80,14 @@ def from_meta(meta: dict[str, Any]) -> dict[str, Any]:
     """Figures [arcsec] as stream metadata names them (``bessel_std_arcsec``,
     ``peak_to_peak_arcsec``, ``plus_minus``) under their summary keys."""
     return {META_NAMES.get(k, k): v for k, v in meta.items()}
+
+
+def before_after(before: Figures, after: Figures) -> dict[str, Any]:
+    """The figures [arcsec] of an error before and after a correction, and by what factor
+    the correction divides its Bessel s and its p-p (``s_ratio``, ``pp_ratio``: before /
+    after; null when the after figure is 0)."""
+    def ratio(b: float, a: float) -> float:
+        return b / a if a > 0 else math.nan
+
+    return {"before": figure_dict(before, "arcsec"), "after": figure_dict(after, "arcsec"),
+            "s_ratio": ratio(before.std, after.std), "pp_ratio": ratio(before.pp, after.pp)}

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from enctools.data.statistics import Figures
 from enctools.errors import UsageError
 from enctools.report.summary import Report
 
@@ -71,23 +72,33 @@ def _arcsec_curves(report: Report):
             yield s, c
 
 
+def exceeded(value: float | None, limit: float | None, what: str, where: str, option: str,
+             unit: str = "arcsec") -> list[str]:
+    """The line naming a figure over its limit (``value > limit``), or none."""
+    if limit is None or value is None or not value > limit:
+        return []
+    sep = "" if option.endswith(":") else " "
+    return [f"{what} of {where} is {value:.4g} {unit} > {option}{sep}{limit:g}"]
+
+
+def figure_limits(f: Figures, limits: Thresholds, where: str) -> list[str]:
+    """--max-pp, --max-std and --max-abs over the figures [arcsec] of one set of values."""
+    return (exceeded(f.pp, limits.max_pp, "p-p", where, "--max-pp")
+            + exceeded(f.std, limits.max_std, "s (Bessel)", where, "--max-std")
+            + exceeded(f.max_abs, limits.max_abs, "max |deviation|", where, "--max-abs"))
+
+
 def check(report: Report, limits: Thresholds) -> list[str]:
     """Every threshold exceeded, one line each (empty: all within limits)."""
     bad: list[str] = []
 
     def over(value: float | None, limit: float | None, what: str, where: str, option: str,
              unit: str = "arcsec") -> None:
-        if limit is not None and value is not None and value > limit:
-            sep = "" if option.endswith(":") else " "
-            bad.append(f"{what} of {where} is {value:.4g} {unit} > {option}{sep}{limit:g}")
+        bad.extend(exceeded(value, limit, what, where, option, unit))
 
     for s, c in _arcsec_curves(report):
         where = f"{c.name} in {s.source}"
-        f = c.figures
-        over(f.pp, limits.max_pp, "p-p", where, "--max-pp")
-        over(f.std, limits.max_std, "s (Bessel)", where, "--max-std")
-        over(max(abs(f.minimum), abs(f.maximum)), limits.max_abs, "max |deviation|", where,
-             "--max-abs")
+        bad.extend(figure_limits(c.figures, limits, where))
         over(c.U_max, limits.max_u, "U (k=2)", where, "--max-u")
     for s, c in report.curves("nm"):
         over(c.figures.pp, limits.max_radial_pp, "p-p", f"{c.name} in {s.source}",

@@ -1,0 +1,159 @@
+"""enc correct: apply a correction table to points or readings as the hardware would, and
+report the error before and after."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import click
+
+from enctools.cli import options
+
+if TYPE_CHECKING:
+    from enctools.data.streams import Header
+    from enctools.models.corrected import Residuals
+    from enctools.models.correction import Correction
+
+
+@click.command("correct")
+@options.input_arg
+@click.option("--table", "table_path", required=True, metavar="FILE",
+              type=click.Path(dir_okay=False),
+              help="The correction: a table file (bin, ihex, mif, coe, mem, csv, acs, siemens), "
+                   "a rom stream, a model stream or a deviations stream.")
+@click.option("--target", type=click.Choice(("bin", "ihex", "mif", "coe", "mem", "csv", "acs",
+                                             "siemens")), default=None,
+              help="The table file's format (default: from its extension).")
+@click.option("--bits", "code_bits", type=int, default=None,
+              help="Bits n of the code the table is for (default: from its comment).")
+@click.option("--address-bits", type=int, default=None,
+              help="The table is addressed by the code's top M bits (default: from its size).")
+@click.option("--width", type=int, default=None,
+              help="Word width [bit] of bin and ihex tables (default: from the comment, else 16).")
+@click.option("--lsb", type=float, default=None,
+              help="Counts of the code per LSB of a value (default: from the comment, else 1).")
+@click.option("--endian", type=click.Choice(["little", "big"]), default="little",
+              show_default=True, help="bin and ihex: byte order of the words.")
+@click.option("--array", "array_name", default="ENC_COMP", show_default=True,
+              help="acs: name of the REAL array holding the map.")
+@click.option("--curve", default=None, metavar="NAME",
+              help="A deviations stream as the correction: the curve to use.")
+@options.heads("Readings: heads averaged into the encoder's code (default: the rig's "
+               "measuring heads).")
+@options.ref("Readings: the reference angle: 'truth' (simulator) or heads of a reference "
+             "encoder (default: truth).", dest="reference", metavar="truth|H1,...",
+             callback=options.name_list)
+@options.points("Readings: bins of the output deviations curves.", 1024)
+@options.threshold("--max-pp", "Exit 1 when the corrected peak-to-peak exceeds this.")
+@options.threshold("--max-std", "Exit 1 when the corrected Bessel s exceeds this.")
+@options.threshold("--max-abs", "Exit 1 when the largest corrected |deviation| exceeds this.")
+@options.json_summary
+@options.unit
+@options.outputs
+@options.verbosity
+def command(input: str | None, table_path: str, target: str | None, code_bits: int | None,
+            address_bits: int | None, width: int | None, lsb: float | None, endian: str,
+            array_name: str, curve: str | None, heads: list[str] | None,
+            reference: list[str] | None, points: int, max_pp: float | None,
+            max_std: float | None, max_abs: float | None, as_json: bool, unit: str,
+            output: str | None, force: bool, fmt: str | None) -> None:
+    """Apply a correction table to points or readings as an FPGA or a controller would.
+
+    INPUT is a points stream or CSV table (position = the indicated angle), or a
+    continuous readings stream with a reference angle (--ref). Memory tables are looked
+    up by the code's top bits and their integer added in LSBs; controller tables are
+    interpolated between their points, modulo 360 deg; a model is applied unquantised.
+    The error before and after goes to stderr (or stdout with --json); -o writes the
+    corrected points (or, from readings, a deviations stream of both curves).
+    """
+    from enctools.cli.summary import check_json, emit
+    from enctools.data import streams
+    from enctools.data.summaries import before_after
+    from enctools.errors import CheckFailed
+    from enctools.models import correction
+    from enctools.report.thresholds import Thresholds, figure_limits
+
+    if output == "-":
+        check_json(as_json, output)
+    if output is not None:
+        streams.check_output(output, force, fmt)
+    settings = correction.TableSettings(target, code_bits, address_bits, width, lsb, endian,
+                                        array_name)
+    table = correction.load(table_path, settings, curve)
+    header, out, res, extra = _apply(input, table, heads, reference, points)
+    described = {"file": table_path} | table.describe()
+    if output is not None:
+        kind = "deviations" if header.kind == "readings" else "points"
+        out_header = header.derive(kind, out.schema, source=extra["input"]["source"],
+                                   settings={"table": described})
+        streams.write_table(output, streams.with_history(out_header), out, force, fmt)
+    emit({"table": described} | extra | before_after(res.figures_before, res.figures_after)
+         | ({"output": output} if output is not None else {}), as_json, unit)
+    bad = figure_limits(res.figures_after, Thresholds(max_pp, max_std, max_abs),
+                        f"the corrected {header.kind} of {extra['input']['source']}")
+    if bad:
+        raise CheckFailed("; ".join(bad))
+
+
+def _apply(input: str | None, table: Correction, heads: list[str] | None,
+           reference: list[str] | None, points: int
+           ) -> tuple[Header, Any, Residuals, dict[str, Any]]:
+    """The input's header, the corrected stream's rows, the residuals, and what the
+    summary says of the input."""
+    from enctools.data import streams
+    from enctools.errors import UsageError
+    from enctools.methods.points import check_points, from_table, is_csv_file, read_points
+    from enctools.models.corrected import correct_points
+
+    given = [o for o, v in (("--heads", heads), ("--ref", reference)) if v is not None]
+    if input is not None and is_csv_file(input):
+        header, pts = read_points(input)
+        source = input
+    else:
+        src = streams.open_input(input, ("points", "readings"))
+        header, source = src.header, src.source
+        if header.kind == "readings":
+            return _readings(src, table, heads, reference, points)
+        pts = check_points(from_table(src.read_all(), source, header.meta), source)
+    if given:
+        msg = f"{given[0]} applies to readings; {source} holds points"
+        raise UsageError(msg)
+    fixed, res = correct_points(pts, table, source)
+    return header, fixed.table(), res, {"input": {"kind": "points", "source": source,
+                                                  "n_rows": len(pts)}}
+
+
+def _readings(src: Any, table: Correction, heads: list[str] | None,
+              reference: list[str] | None, points: int
+              ) -> tuple[Header, Any, Residuals, dict[str, Any]]:
+    """A continuous run's residuals against its reference, and both curves binned."""
+    import numpy as np
+
+    from enctools.cli.reference import reference_angle, times
+    from enctools.data.curves import Column, deviations_table
+    from enctools.data.readings import head_info, measuring_heads
+    from enctools.errors import DataError
+    from enctools.methods.harmonics import bin_average, grid
+    from enctools.models.corrected import correct_readings, encoder_code
+
+    header, rows = src.header, src.read_all()
+    if "step" in rows.column_names:
+        msg = (f"{src.source}: a steps run; make its points first "
+               "(enc points RUN | enc correct --table ...)")
+        raise DataError(msg)
+    names = heads or measuring_heads(header.schema, header.meta, src.source)
+    infos = [head_info(header.schema, h, src.source) for h in names]
+    cpr = infos[0].counts_per_rev
+    if any(i.counts_per_rev != cpr for i in infos):
+        raise DataError(f"{src.source}: heads {', '.join(names)} count differently per turn")
+    code = encoder_code([rows.column(i.name).to_numpy(zero_copy_only=False) for i in infos], cpr)
+    ref = reference_angle(rows, header.schema, header.meta, times(rows, src.source), reference,
+                          src.source)
+    angle, res = correct_readings(code, cpr, ref, table, src.source)
+    curves = bin_average(angle, np.stack([res.before, res.after]), points)
+    out = deviations_table(grid(points), [Column("before", curves[0]), Column("after", curves[1])])
+    return header, out, res, {"input": {"kind": "readings", "source": src.source,
+                                        "n_samples": int(code.size),
+                                        "heads": names, "reference": reference or ["truth"]},
+                              "zero_offset_arcsec": res.zero_offset}
+

@@ -1,0 +1,372 @@
+"""Correction tables applied as the hardware applies them: one :class:`Correction` per
+table family.
+
+A correction is what an FPGA or a motion controller adds to the encoder's indicated
+angle; it is the negative of the error model's deviation (indicated minus true). Each
+family applies it its own way:
+
+- :class:`MemoryTable` (bin, ihex, mif, coe, mem, csv, a ``rom`` stream): the FPGA looks
+  the code c up by its top m bits, ``address = c >> (n - m)``, and adds the stored
+  signed integer times ``lsb`` counts: ``c + table[address] * lsb`` (seed 001 sec. 4.2).
+  No interpolation, no other rounding than the table's own.
+- :class:`PointTable` (acs, siemens, and any controller table: interpolation points):
+  the controller interpolates linearly between points at given positions of its axis,
+  modulo 360 deg; a bidirectional table holds one correction per direction.
+- :class:`ModelCorrection` (a model stream of enc fit-rbf, a deviations curve): minus
+  the model at the indicated angle, unquantised: what a perfect table would add.
+
+A new controller format plugs in as another :class:`PointTable`: its reader returns the
+points' positions [rad] and corrections [rad] (one array per direction if it has two),
+registered in :data:`POINT_READERS`.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from enctools.errors import DataError, UsageError
+from enctools.models import romformats
+from enctools.models.rom import LSB_COUNTS, MAX_ADDRESS_BITS
+from enctools.units import ARCSEC, DEG, TWO_PI, factor
+
+#: the first comment line enc make-rom writes in a text table (mif, coe, mem, acs, siemens)
+COMMENT = re.compile(r"enctools make-rom: (\d+) entries, (\d+)-bit signed corrections to add "
+                     r"to a (\d+)-bit code, LSB ([-+0-9.eE]+) arcsec")
+#: bits of the code a table may be built for (enc make-rom --bits)
+MAX_CODE_BITS = 40
+#: the formats of an FPGA's memory: looked up by the code's top bits
+MEMORY_FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv")
+
+
+class Correction(Protocol):
+    """What a table adds to an indicated angle, as the hardware that holds it would."""
+
+    def correction_rad(self, indicated_rad: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """The correction [rad] added to each indicated angle [rad], approached in
+        ``direction`` (+1 or -1 a reading)."""
+        ...
+
+    def describe(self) -> dict[str, Any]:
+        """The table's layout for a summary (units as key suffixes)."""
+        ...
+
+
+@dataclass(frozen=True)
+class MemoryTable:
+    """A ROM over the top ``address_bits`` m of an n-bit code.
+
+    values : signed corrections [LSB], one per address (2**m of them).
+    code_bits : n, bits of the code (counts per turn = 2**n).
+    lsb : counts of the code per LSB of a value.
+    """
+
+    values: np.ndarray
+    code_bits: int
+    lsb: float
+    fmt: str = "bin"
+    width: int | None = None
+
+    @property
+    def address_bits(self) -> int:
+        return int(self.values.size).bit_length() - 1
+
+    def correction_counts(self, code: np.ndarray) -> np.ndarray:
+        """The correction [count] an FPGA adds to each code (integers mod 2**n):
+        ``table[code >> (n - m)] * lsb``."""
+        c = np.mod(np.asarray(code, dtype=np.int64), np.int64(1) << self.code_bits)
+        return self.values[c >> (self.code_bits - self.address_bits)] * self.lsb
+
+    def code_of(self, indicated_rad: np.ndarray) -> np.ndarray:
+        """The code [count] of an indicated angle [rad]: the nearest one, mod 2**n."""
+        counts = np.rint(np.asarray(indicated_rad, dtype=np.float64) * (2.0 ** self.code_bits
+                                                                         / TWO_PI))
+        return np.mod(counts, 2.0 ** self.code_bits).astype(np.int64)
+
+    def correction_rad(self, indicated_rad: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        count_rad = TWO_PI / 2.0 ** self.code_bits
+        return self.correction_counts(self.code_of(indicated_rad)) * count_rad
+
+    def describe(self) -> dict[str, Any]:
+        count_arcsec = TWO_PI / 2.0 ** self.code_bits * factor("rad", "arcsec")
+        out: dict[str, Any] = {"family": "memory", "format": self.fmt,
+                               "entries": int(self.values.size), "code_bits": self.code_bits,
+                               "address_bits": self.address_bits}
+        if self.width is not None:
+            out["width_bits"] = self.width
+        return out | {"lsb_arcsec": self.lsb * count_arcsec,
+                      "min_lsb": int(self.values.min()), "max_lsb": int(self.values.max())}
+
+
+@dataclass(frozen=True)
+class PointTable:
+    """A controller's table: corrections [rad] at positions [rad] of its axis, linear
+    interpolation between them, periodic in 2 pi.
+
+    position_rad : the points, ascending within [0, 2 pi) (a 360 deg point that repeats
+        0 deg is left out by the reader).
+    forward_rad : the correction at each point (the only one of a unidirectional table).
+    backward_rad : the correction for readings approached backwards (direction -1), or
+        None (the forward one serves both).
+    """
+
+    position_rad: np.ndarray
+    forward_rad: np.ndarray
+    backward_rad: np.ndarray | None = None
+    fmt: str = "siemens"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def correction_rad(self, indicated_rad: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        x = np.mod(np.asarray(indicated_rad, dtype=np.float64), TWO_PI)
+        out = np.interp(x, self.position_rad, self.forward_rad, period=TWO_PI)
+        if self.backward_rad is not None:
+            back = np.asarray(direction) < 0
+            out[back] = np.interp(x[back], self.position_rad, self.backward_rad, period=TWO_PI)
+        return out
+
+    def describe(self) -> dict[str, Any]:
+        step = np.diff(self.position_rad) / DEG
+        return {"family": "points", "format": self.fmt, "entries": int(self.position_rad.size),
+                "bidirectional": self.backward_rad is not None,
+                "step_deg": float(step.mean()) if step.size else 360.0} | self.extra
+
+
+@dataclass(frozen=True)
+class ModelCorrection:
+    """Minus an error model (angles [deg] -> deviation [arcsec]), unquantised."""
+
+    model: Callable[[np.ndarray], np.ndarray]
+    kind: str = "model"
+
+    def correction_rad(self, indicated_rad: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        deg = np.mod(np.asarray(indicated_rad, dtype=np.float64) / DEG, 360.0)
+        return -np.asarray(self.model(deg), dtype=np.float64) * ARCSEC
+
+    def describe(self) -> dict[str, Any]:
+        return {"family": "model", "format": self.kind}
+
+
+@dataclass(frozen=True)
+class TableSettings:
+    """How to read a table file, as enc make-rom names its options; None: from the file's
+    comment (enc make-rom writes one in mif, coe, mem, acs and siemens tables), else the
+    default.
+
+    fmt : a format of :mod:`enctools.models.romformats` (None: from the extension).
+    code_bits : n, bits of the code (no default: memory tables without a comment need it).
+    address_bits : m, the code's top bits addressing the table (default: from its size).
+    width : word width [bit] (default 16): bin and ihex need it to split words.
+    lsb : counts of the code per LSB (default 1).
+    endian : bin and ihex byte order.
+    array_name : acs: the REAL array holding the map.
+    """
+
+    fmt: str | None = None
+    code_bits: int | None = None
+    address_bits: int | None = None
+    width: int | None = None
+    lsb: float | None = None
+    endian: str = "little"
+    array_name: str = "ENC_COMP"
+
+    def __post_init__(self) -> None:
+        if self.code_bits is not None and not 1 <= self.code_bits <= MAX_CODE_BITS:
+            msg = f"--bits must be 1..{MAX_CODE_BITS}, not {self.code_bits}"
+            raise UsageError(msg)
+        if self.address_bits is not None and not 1 <= self.address_bits <= MAX_ADDRESS_BITS:
+            msg = f"--address-bits must be 1..{MAX_ADDRESS_BITS}, not {self.address_bits}"
+            raise UsageError(msg)
+        if self.width is not None and not 2 <= self.width <= 32:
+            msg = f"--width must be 2..32 bits, not {self.width}"
+            raise UsageError(msg)
+        if self.lsb is not None and not LSB_COUNTS[0] <= self.lsb <= LSB_COUNTS[1]:
+            msg = f"--lsb must be a positive number of counts, 1e-06..1099511627776, not {self.lsb}"
+            raise UsageError(msg)
+
+    def given(self) -> dict[str, Any]:
+        """The table options given, by option name."""
+        return {k: v for k, v in (("--bits", self.code_bits), ("--address-bits", self.address_bits),
+                                  ("--width", self.width), ("--lsb", self.lsb)) if v is not None}
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A table's layout as resolved: code bits n, word width [bit], lsb [counts]."""
+
+    code_bits: int | None
+    width: int
+    lsb: float
+    from_comment: bool
+
+
+def file_layout(data: bytes, settings: TableSettings, path: str) -> Layout:
+    """The layout of a table file: the options given, else its make-rom comment, else the
+    defaults; UsageError when an option contradicts the comment."""
+    m = COMMENT.search(data[:4096].decode("utf-8", "replace"))
+    if m is None:
+        return Layout(settings.code_bits, settings.width or 16, settings.lsb or 1.0, False)
+    entries, width, bits = int(m.group(1)), int(m.group(2)), int(m.group(3))
+    lsb = float(m.group(4)) / (TWO_PI / 2.0 ** bits * factor("rad", "arcsec"))
+    check_given(settings, {"--bits": bits, "--width": width, "--lsb": lsb,
+                           "--address-bits": entries.bit_length() - 1}, path, "its comment")
+    return Layout(bits, width, lsb, True)
+
+
+def check_given(settings: TableSettings, found: dict[str, Any], path: str, where: str) -> None:
+    """UsageError when an option given contradicts what the table itself states."""
+    for option, value in settings.given().items():
+        if found.get(option) is not None and not np.isclose(value, found[option], rtol=1e-9,
+                                                            atol=0):
+            msg = (f"{path}: {where} says the table was made with {option} "
+                   f"{found[option]:.10g}, not {value:.10g}; leave {option} out")
+            raise UsageError(msg)
+
+
+def _read_values(path: str, settings: TableSettings, fmt: str, layout: Layout,
+                 count_deg: float) -> np.ndarray:
+    """The signed values [LSB] of a table file, read by :func:`romformats.read_table`."""
+    target = romformats.Target(fmt, layout.width, settings.endian, count_deg=count_deg,
+                               name=settings.array_name)
+    return np.asarray(romformats.read_table(path, target), dtype=np.int64)
+
+
+def memory_table(path: str, data: bytes, settings: TableSettings, fmt: str) -> MemoryTable:
+    """A memory table (bin, ihex, mif, coe, mem, csv) and its layout, its size checked."""
+    layout = file_layout(data, settings, path)
+    if layout.code_bits is None:
+        msg = (f"{path}: a {fmt} table does not say the bits of its code; give --bits "
+               "(and --width, --lsb, --endian if make-rom was given them)")
+        raise UsageError(msg)
+    values = _read_values(path, settings, fmt, layout, 1.0)
+    return checked_memory(values, layout.code_bits, settings.address_bits, layout.lsb, path,
+                          fmt, layout.width)
+
+
+def checked_memory(values: np.ndarray, code_bits: int, address_bits: int | None, lsb: float,
+                   path: str, fmt: str, width: int | None = None) -> MemoryTable:
+    """A memory table once its size is 2**m entries, m <= n (and m = --address-bits)."""
+    n = values.size
+    m = n.bit_length() - 1
+    if n == 0 or n != 1 << m or m > code_bits:
+        msg = (f"{path}: {n} entries do not address a {code_bits}-bit code "
+               f"(a table holds 2^m entries, m <= {code_bits}); check --bits")
+        raise DataError(msg)
+    if address_bits is not None and address_bits != m:
+        msg = (f"{path}: {n} entries = 2^{m}, not the 2^{address_bits} of "
+               f"--address-bits {address_bits}")
+        raise DataError(msg)
+    return MemoryTable(values, code_bits, lsb, fmt, width)
+
+
+def controller_table(path: str, data: bytes, settings: TableSettings, fmt: str) -> PointTable:
+    """An acs or siemens table: points every 360/N deg from 0, values [deg] read back in
+    LSBs of --lsb counts of an n-bit code (from the comment, else the options)."""
+    layout = file_layout(data, settings, path)
+    if layout.code_bits is None:
+        msg = (f"{path}: the {fmt} table has no make-rom comment to give the LSB of its "
+               "values; give --bits and --lsb as make-rom was given them")
+        raise UsageError(msg)
+    count_deg = layout.lsb * 360.0 / 2.0 ** layout.code_bits
+    values = _read_values(path, settings, fmt, layout, count_deg)
+    position = np.arange(values.size) * (TWO_PI / values.size)
+    return PointTable(position, values * count_deg * DEG, None, fmt,
+                      {"lsb_arcsec": count_deg * factor("deg", "arcsec")})
+
+
+#: format -> reader of a controller's point table (path, its bytes, settings, format)
+POINT_READERS: dict[str, Callable[[str, bytes, TableSettings, str], PointTable]] = {
+    "acs": controller_table, "siemens": controller_table}
+
+
+def read_file(path: str, settings: TableSettings) -> Correction:
+    """The correction held by a table file of any format enc make-rom writes."""
+    fmt = romformats.format_for(path, settings.fmt)
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        msg = f"{path}: no such file"
+        raise DataError(msg) from None
+    except OSError as exc:
+        msg = f"{path}: cannot read: {exc.strerror}"
+        raise DataError(msg) from None
+    if fmt in POINT_READERS:
+        return POINT_READERS[fmt](path, data, settings, fmt)
+    if fmt not in MEMORY_FORMATS:
+        msg = f"{path}: {fmt} tables are written by enc make-rom but not applied here yet"
+        raise UsageError(msg)
+    return memory_table(path, data, settings, fmt)
+
+
+def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,
+               settings: TableSettings, source: str) -> MemoryTable:
+    """A memory table from a ``rom`` stream (enc make-rom without -o): its layout from the
+    stream's ``rom`` metadata, the options only where it names none."""
+    given = meta.get("rom")
+    rom: dict[str, Any] = given if isinstance(given, dict) else {}
+    bits = rom.get("code_bits", settings.code_bits)
+    lsb = rom.get("lsb_counts", settings.lsb or 1.0)
+    if not isinstance(bits, int) or isinstance(bits, bool) or not 1 <= bits <= MAX_CODE_BITS:
+        msg = f"{source}: the rom stream names no code_bits 1..{MAX_CODE_BITS}; give --bits"
+        raise DataError(msg)
+    if isinstance(lsb, bool) or not isinstance(lsb, (int, float)) or \
+            not LSB_COUNTS[0] <= lsb <= LSB_COUNTS[1]:
+        msg = f"{source}: the rom stream's lsb_counts {lsb!r} is not a valid LSB"
+        raise DataError(msg)
+    if not np.array_equal(address, np.arange(address.size)):
+        msg = f"{source}: addresses are not 0, 1, 2, ... without gaps"
+        raise DataError(msg)
+    check_given(settings, {"--bits": bits, "--lsb": lsb, "--width": rom.get("width_bits"),
+                           "--address-bits": rom.get("address_bits")}, source, "its metadata")
+    return checked_memory(np.asarray(values, dtype=np.int64), bits, settings.address_bits,
+                          float(lsb), source, "stream", rom.get("width_bits"))
+
+
+def is_stream(path: str) -> bool:
+    """Whether ``path`` holds an enctools stream (magic bytes, or a CSV table with its
+    sidecar) rather than a table file."""
+    import os
+
+    from enctools.data.csvio import sidecar_path
+    from enctools.data.streams import detect_format
+
+    if os.path.exists(sidecar_path(path)):
+        return True
+    try:
+        with open(path, "rb") as f:
+            return detect_format(f.read(8)) is not None
+    except OSError:
+        return False
+
+
+def load(path: str, settings: TableSettings, curve: str | None = None) -> Correction:
+    """The correction held by ``path``: a table file of any format enc make-rom writes,
+    a ``rom`` stream, a model stream (enc fit-rbf) or a deviations stream (``curve``)."""
+    if path == "-":
+        msg = "--table must name a file (the input is read from stdin)"
+        raise UsageError(msg)
+    if not is_stream(path):
+        if curve is not None:
+            msg = f"--curve chooses a curve of a deviations stream; {path} is a table file"
+            raise UsageError(msg)
+        return read_file(path, settings)
+    from enctools.data import streams
+    from enctools.models.curve_model import from_stream
+
+    src = streams.open_input(path, ("rom", "model", "deviations"))
+    table = src.read_all()
+    if src.header.kind != "rom" and (settings.given() or settings.fmt is not None):
+        option = next(iter(settings.given()), "--target")
+        msg = f"{option} describes a table; {src.source} is a {src.header.kind} stream"
+        raise UsageError(msg)
+    if src.header.kind == "rom":
+        if table.column("address").null_count or table.column("correction").null_count:
+            msg = f"{src.source}: the rom stream has empty addresses or corrections"
+            raise DataError(msg)
+        return rom_stream(src.header.meta, table.column("address").to_numpy(),
+                          table.column("correction").to_numpy(), settings, src.source)
+    return ModelCorrection(from_stream(src.header, table, src.source, curve), src.header.kind)

@@ -1,0 +1,383 @@
+"""enc correct: a correction table applied as the FPGA or the controller applies it.
+
+Every expected value here is computed in the test from the data and the table's words
+read by the test itself (an FPGA's look-up written again: code -> top bits -> word), never
+taken from enc correct's own library.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from conftest import DATA, ROOT, one_error_line, run, run_in_process
+
+from enctools.data import streams
+from enctools.data.curves import Column, deviations_table
+from enctools.data.header import Header
+from enctools.hw.truth import Motion
+
+TURN_ARCSEC = 1_296_000.0
+MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
+
+
+def rom_words(path: Path) -> np.ndarray:
+    """The words of a ``rom`` stream (enc make-rom without a table format), by pyarrow."""
+    return pq.read_table(path).column("correction").to_numpy()
+
+
+def fpga_lookup(words: np.ndarray, n: int, position_deg: np.ndarray) -> np.ndarray:
+    """The word an FPGA adds to the code nearest each angle: code >> (n - m)."""
+    m = words.size.bit_length() - 1
+    code = np.mod(np.rint(position_deg * 2.0 ** n / 360.0), 2.0 ** n).astype(np.int64)
+    return words[code >> (n - m)]
+
+
+def write_points(path: Path, position_deg: np.ndarray, deviation_arcsec: np.ndarray) -> None:
+    """A points table as enc-points(1) reads it: position = indicated angle."""
+    lines = ["position_deg,deviation_arcsec"]
+    lines += [f"{float(p)!r},{float(d)!r}" for p, d in zip(position_deg, deviation_arcsec,
+                                                            strict=True)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def summary(r) -> dict:
+    assert r.returncode == 0, r.stderr.decode()
+    return json.loads(r.stdout)
+
+
+# ------------------------------------------------------------ FPGA look-up, every format
+
+N_BITS, M_BITS, LSB, WIDTH = 20, 14, 2.0, 12
+MEMORY = {"bin": "bin", "ihex": "hex", "mif": "mif", "coe": "coe", "mem": "mem", "csv": "csv"}
+
+
+@pytest.fixture(scope="module")
+def tables(tmp_path_factory):
+    """A model of seed 001 table 1 as a 2^14-word table of a 20-bit code, 12-bit words of
+    2 counts: as a rom stream, a MIF and a raw image."""
+    d = tmp_path_factory.mktemp("tables")
+    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv -o {d}/m.parquet -q && "
+            + " && ".join(make_rom(d, ext) for ext in ("parquet", "mif", "bin")))
+    assert r.returncode == 0, r.stderr.decode()
+    return d
+
+
+def make_rom(d: Path, ext: str) -> str:
+    return (f"enc make-rom {d}/m.parquet --bits {N_BITS} --address-bits {M_BITS} --lsb {LSB} "
+            f"--width {WIDTH} -o {d}/rom.{ext} -q")
+
+
+@pytest.mark.parametrize("fmt", [pytest.param(f, marks=[] if f in ("mif", "stream") else
+                                              pytest.mark.slow) for f in [*MEMORY, "stream"]])
+def test_memory_tables_add_the_word_at_the_codes_top_bits(tables, tmp_path, fmt):
+    rng = np.random.default_rng(3)
+    pos = np.r_[rng.uniform(0, 360, 400), np.arange(8) * 360.0 / 2 ** M_BITS,  # address edges
+                (np.arange(1, 9) * 2 ** (N_BITS - M_BITS) - 0.5) * 360.0 / 2 ** N_BITS]
+    dev = rng.normal(0, 2.0, pos.size)
+    write_points(tmp_path / "p.csv", pos, dev)
+    table = tables / ("rom.parquet" if fmt == "stream" else f"rom.{MEMORY[fmt]}")
+    if not table.exists():
+        assert run(make_rom(tables, MEMORY[fmt])).returncode == 0
+    # bin, ihex and csv carry no comment: the layout is given as make-rom was given it
+    given = f"--bits {N_BITS} --width {WIDTH} --lsb {LSB}" if fmt in ("bin", "ihex", "csv") else ""
+    r = run(f"enc correct {tmp_path}/p.csv --table {table} {given} -o {tmp_path}/c.parquet --json")
+    s = summary(r)
+    assert s["table"]["family"] == "memory" and s["table"]["address_bits"] == M_BITS
+    out = pq.read_table(tmp_path / "c.parquet")
+    after = out.column("deviation").to_numpy()
+    word = fpga_lookup(rom_words(tables / "rom.parquet"), N_BITS, pos)
+    lsb_arcsec = LSB * TURN_ARCSEC / 2 ** N_BITS
+    assert np.abs(after - (dev + word * lsb_arcsec)).max() < 1e-9
+    assert np.array_equal(np.rint((after - dev) / lsb_arcsec), word)  # whole words, exactly
+    moved = out.column("position").to_numpy() - np.deg2rad(pos)
+    assert np.abs(moved - np.deg2rad(word * lsb_arcsec / 3600)).max() < 1e-12
+    assert (word != 0).sum() > 100  # a table that does something
+
+
+def test_a_comment_and_an_option_that_disagree_are_refused(tables, tmp_path):
+    write_points(tmp_path / "p.csv", np.array([0.0, 90.0]), np.zeros(2))
+    r = run(f"enc correct {tmp_path}/p.csv --table {tables}/rom.mif --bits 23")
+    assert "--bits" in one_error_line(r, 2, "enc correct")
+
+
+# ------------------------------------------------------------ controller point tables
+
+
+def curve_arcsec(x_rad: np.ndarray) -> np.ndarray:
+    """The known deviation curve [arcsec] the controller tables are built from."""
+    return 3.0 * np.sin(2 * x_rad + 0.3) + 1.5 * np.cos(5 * x_rad) - 0.7 * np.sin(11 * x_rad)
+
+
+@pytest.mark.parametrize("ext", ["spf", pytest.param("prg", marks=pytest.mark.slow)])
+def test_controller_table_gives_the_intended_correction(tmp_path, ext):
+    theta = np.arange(4096) * (2 * np.pi / 4096)
+    curve = deviations_table(theta, [Column("e", curve_arcsec(theta))])
+    streams.write_table(str(tmp_path / "dev.parquet"), Header("deviations", curve.schema, {}),
+                        curve)
+    bits, lsb = 23, 4.0
+    r = run(f"enc make-rom {tmp_path}/dev.parquet --curve e --bits {bits} --address-bits 8 "
+            f"--lsb {lsb} -o {tmp_path}/t.{ext} -q")
+    assert r.returncode == 0, r.stderr.decode()
+    k = np.arange(256)
+    at = k * 360.0 / 256  # the table's points
+    mid = at + 360.0 / 512  # half-way: the control interpolates linearly
+    write_points(tmp_path / "p.csv", np.r_[at, mid], np.zeros(512))
+    s = summary(run(f"enc correct {tmp_path}/p.csv --table {tmp_path}/t.{ext} "
+                    f"-o {tmp_path}/c.parquet --json"))
+    assert s["table"]["family"] == "points" and s["table"]["entries"] == 256
+    applied = pq.read_table(tmp_path / "c.parquet").column("deviation").to_numpy()
+    half_lsb = lsb * TURN_ARCSEC / 2 ** bits / 2
+    intended = -curve_arcsec(np.deg2rad(at))
+    assert np.abs(applied[:256] - intended).max() <= half_lsb + 1e-9
+    assert np.abs(applied[:256] - intended).max() > 0.1 * half_lsb  # rounded, not exact
+    assert np.allclose(applied[256:], (applied[:256] + np.roll(applied[:256], -1)) / 2,
+                       atol=1e-9)
+
+
+# ------------------------------------------------------------ models and curves as tables
+
+
+def test_a_model_undoes_the_points_it_was_fitted_to(tables, tmp_path):
+    # seed 001 eqs. 5-7: 24 units through the 24 points of table 1, goal 1e-4"
+    s = summary(run_in_process(f"enc correct {DATA}/seed001_table1.csv "
+                               f"--table {tables}/m.parquet --json"))
+    assert s["table"]["family"] == "model"
+    assert s["before"]["pp_arcsec"] == pytest.approx(5.46)  # seed 001 table 1
+    assert s["before"]["s_bessel_arcsec"] == pytest.approx(1.2674, abs=1e-4)
+    assert s["after"]["max_abs_arcsec"] < 1e-4
+
+
+def test_a_deviations_curve_is_interpolated_between_its_points(tmp_path):
+    theta = np.arange(64) * (2 * np.pi / 64)
+    curve = deviations_table(theta, [Column("e", curve_arcsec(theta))])
+    streams.write_table(str(tmp_path / "dev.parquet"), Header("deviations", curve.schema, {}),
+                        curve)
+    at = np.rad2deg(theta)
+    write_points(tmp_path / "p.csv", np.r_[at, at + 360 / 128], np.zeros(128))
+    r = run_in_process(f"enc correct {tmp_path}/p.csv --table {tmp_path}/dev.parquet --curve e "
+                       f"-o {tmp_path}/c.parquet")
+    assert r.returncode == 0, r.stderr.decode()
+    got = pq.read_table(tmp_path / "c.parquet").column("deviation").to_numpy()
+    want = -curve_arcsec(theta)
+    assert np.abs(got[:64] - want).max() < 1e-9
+    assert np.abs(got[64:] - (want + np.roll(want, -1)) / 2).max() < 1e-9
+
+
+@pytest.mark.parametrize("args,what", [("--bits 23", "--bits describes a table"),
+                                       ("--heads F1", "--heads applies to readings")])
+def test_options_that_do_not_apply_are_refused(tables, args, what):
+    r = run_in_process(f"enc correct {DATA}/seed001_table1.csv --table {tables}/m.parquet {args}")
+    assert what in one_error_line(r, 2, "enc correct")
+
+
+# ------------------------------------------------------------ seed 001's loop, end to end
+
+
+@pytest.mark.slow
+def test_seed001_loop_on_a_dense_run(tmp_path):
+    """24 polygon points -> RBF -> 23-bit ROM -> a dense run corrected: seed 001 gives
+    1.30" before, 0.50" after (tables 1 and 2: s, eq. 8), a factor 2.6."""
+    d = tmp_path
+    r = run(f"enc acquire --rig ciomp-23bit --mode steps | enc points | enc fit-rbf -q "
+            f"| enc make-rom -o {d}/rom.mif -q && "
+            f"enc acquire --rig ciomp-23bit --mode continuous --revolutions 1 --interval 0.002 "
+            f"--seed 11 --tee {d}/dense.parquet "
+            f"| enc correct --table {d}/rom.mif -o {d}/dev.parquet --json --max-std 0.65")
+    s = summary(r)
+    # the test's own FPGA: the heads' mean code, its word, against the true motion
+    header, table = streams.read_table(str(d / "dense.parquet"), "readings")
+    text = (d / "rom.mif").read_text()
+    words = np.array([int(v, 16) for v in re.findall(r"^\s*[0-9A-F]+ : ([0-9A-F]+);", text,
+                                                     re.MULTILINE)], dtype=np.int64)
+    words = np.where(words >= 1 << 15, words - (1 << 16), words)
+    assert words.size == 1 << 23
+    c1, c2 = (table.column(h).to_numpy() for h in ("F1", "F2"))
+    full = 1 << 23
+    c2 = c1 + (np.mod(c2 - c1 + full // 2, full) - full // 2)
+    code = np.mod((c1 + c2) // 2, full)
+    theta = Motion.from_dict(header.meta["truth"]["motion"])(table.column("t").to_numpy())
+    e = np.angle(np.exp(1j * (code * 2 * np.pi / full - theta)))
+    e = np.angle(np.exp(1j * (e - np.angle(np.mean(np.exp(1j * e)))))) * TURN_ARCSEC / (2 * np.pi)
+    after = e + words[code] * TURN_ARCSEC / full
+    before_s, after_s = np.std(e, ddof=1), np.std(after, ddof=1)
+    print(f"dense run: s {before_s:.3f} -> {after_s:.3f} arcsec (x{before_s / after_s:.2f}), "
+          f"p-p {np.ptp(e):.2f} -> {np.ptp(after):.2f} arcsec")
+    assert s["before"]["s_bessel_arcsec"] == pytest.approx(before_s, abs=1e-9)
+    assert s["after"]["s_bessel_arcsec"] == pytest.approx(after_s, abs=1e-9)
+    assert s["after"]["pp_arcsec"] == pytest.approx(np.ptp(after), abs=1e-9)
+    assert 1.1 < before_s < 1.7  # seed 001: 1.30"
+    assert after_s < 0.65  # seed 001: 0.50"
+    assert 2.2 < before_s / after_s < 3.2  # seed 001: 2.6
+    dev_header, dev = streams.read_table(str(d / "dev.parquet"), "deviations")
+    assert dev.column_names == ["theta", "before", "after"]
+    assert dev_header.meta["settings"]["table"]["format"] == "mif"
+    # seed 001 table 3: the polygon set 5 deg further on, positions the model never saw,
+    # measured with the ROM loaded (the paper: 0.53")
+    rig = (ROOT / "enctools/rigs/ciomp-23bit.toml").read_text()
+    (d / "shifted.toml").write_text(rig.replace("start_deg = 0.0", "start_deg = 5.0", 1))
+    s3 = summary(run(f"enc acquire --rig {d}/shifted.toml --mode steps --start 5 --seed 7 "
+                     f"| enc points | enc correct --table {d}/rom.mif --json"))
+    print(f"table 3 route: s {s3['before']['s_bessel_arcsec']:.3f} -> "
+          f"{s3['after']['s_bessel_arcsec']:.3f} arcsec")
+    assert s3["input"]["n_rows"] == 24
+    assert s3["after"]["s_bessel_arcsec"] < 0.6 * s3["before"]["s_bessel_arcsec"]
+    assert s3["after"]["s_bessel_arcsec"] < 0.8
+
+
+# ------------------------------------------------------------ real data: MagAlpha
+
+
+def magalpha_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Positions at the measured angle [deg] and deviations measured - reference [arcsec]
+    (enc-points(1): indicated minus true), less their circular mean (the sensor's zero)."""
+    ref, meas = np.loadtxt(path, delimiter=",", skiprows=1, unpack=True)
+    d = np.angle(np.exp(1j * np.deg2rad(meas - ref)))
+    d = np.angle(np.exp(1j * (d - np.angle(np.mean(np.exp(1j * d))))))
+    return np.mod(meas, 360.0), np.rad2deg(d) * 3600.0
+
+
+def fourier_residual(x_deg: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
+    """Residuals of a least-squares Fourier series of orders 0..order in x."""
+    x = np.deg2rad(x_deg)
+    a = np.column_stack([np.ones_like(x)] + [f(k * x) for k in range(1, order + 1)
+                                             for f in (np.cos, np.sin)])
+    return y - a @ np.linalg.lstsq(a, y, rcond=None)[0]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["calibration_data_input_example.csv",
+                                  "calibration_data_input_example_add_75.csv",
+                                  "calibration_data_input_example_add_260.csv"])
+def test_magalpha_table_at_the_measured_angle_reduces_the_error(tmp_path, name):
+    pos, dev = magalpha_points(MAGALPHA / name)
+    write_points(tmp_path / "p.csv", pos, dev)
+    r = run(f"enc fit-rbf {tmp_path}/p.csv --kernel fourier --band 4 -o {tmp_path}/m.parquet -q "
+            f"&& enc make-rom {tmp_path}/m.parquet --bits 16 -o {tmp_path}/rom.parquet -q "
+            f"&& enc make-rom {tmp_path}/m.parquet --bits 16 -o {tmp_path}/rom.mif -q")
+    assert r.returncode == 0, r.stderr.decode()
+    s = summary(run(f"enc correct {tmp_path}/p.csv --table {tmp_path}/rom.mif --json"))
+    lsb = TURN_ARCSEC / 2 ** 16
+    best = fourier_residual(pos, dev, 4)  # the best any 4-harmonic table could leave
+    before_pp, after_pp = s["before"]["pp_arcsec"] / 3600, s["after"]["pp_arcsec"] / 3600
+    print(f"{name}: p-p {before_pp:.3f} -> {after_pp:.3f} deg, s "
+          f"{s['before']['s_bessel_arcsec'] / 3600:.3f} -> "
+          f"{s['after']['s_bessel_arcsec'] / 3600:.3f} deg; least squares (4 harmonics) "
+          f"{np.ptp(best) / 3600:.3f} deg")
+    assert before_pp == pytest.approx(np.ptp(dev) / 3600, abs=1e-9)
+    assert before_pp == pytest.approx(10.55, abs=0.01)  # the issue's figure
+    assert after_pp < 0.3 * before_pp
+    assert after_pp <= (np.ptp(best) + 2 * lsb) / 3600 + 1e-9  # the table is the fit, rounded
+    after = dev + fpga_lookup(rom_words(tmp_path / "rom.parquet"), 16, pos) * lsb
+    assert s["after"]["pp_arcsec"] == pytest.approx(np.ptp(after), abs=1e-9)
+
+
+# ------------------------------------------------------------ thresholds and bad input
+
+
+def test_max_pp_fails_with_exit_1_and_keeps_the_output(tables, tmp_path):
+    write_points(tmp_path / "p.csv", np.linspace(0, 345, 24), np.full(24, 0.5) + np.arange(24))
+    r = run(f"enc correct {tmp_path}/p.csv --table {tables}/rom.parquet --max-pp 1 "
+            f"-o {tmp_path}/c.parquet -q")
+    line = one_error_line(r, 1, "enc correct")
+    assert "p-p of the corrected points" in line and "> --max-pp 1" in line
+    assert (tmp_path / "c.parquet").exists()  # the check failed; the output is good
+    r = run(f"enc correct {tmp_path}/p.csv --table {tables}/rom.parquet --max-pp 100 -q")
+    assert r.returncode == 0, r.stderr.decode()
+
+
+def bad_cases(tables: Path, tmp: Path) -> dict[str, tuple[str, str]]:
+    """name -> (arguments after `enc correct`, what the one error line must say)."""
+    write_points(tmp / "p.csv", np.array([0.0, 120.0, 240.0]), np.zeros(3))
+    (tmp / "nan.csv").write_text("position_deg,deviation_arcsec\n0,1\n90,nan\n")
+    (tmp / "short.bin").write_bytes(np.zeros(3000, "<i2").tobytes())
+    nan_curve = deviations_table(np.arange(8) * np.pi / 4, [Column("e", np.full(8, np.nan))])
+    streams.write_table(str(tmp / "nan.parquet"), Header("deviations", nan_curve.schema, {}),
+                        nan_curve)
+    p = f"{tmp}/p.csv"
+    return {
+        "wrong size for --bits": (f"{p} --table {tables}/rom.bin --bits 12 --width 12",
+                                  "entries do not address a 12-bit code"),
+        "not a power of two": (f"{p} --table {tmp}/short.bin --bits 16", "3000 entries"),
+        "address bits": (f"{p} --table {tables}/rom.bin --bits 20 --width 12 --address-bits 10",
+                         "2^10"),
+        "missing table": (f"{p} --table {tmp}/nope.mif", "nope.mif: no such file"),
+        "missing input": (f"{tmp}/nope.parquet --table {tables}/rom.mif", "no such file"),
+        "wrong input kind": (f"{tables}/m.parquet --table {tables}/rom.mif", "model"),
+        "wrong table kind": (f"{p} --table {tmp}/nan.csv", "table"),
+        "nan points": (f"{tmp}/nan.csv --table {tables}/rom.mif", "NaN"),
+        "nan curve": (f"{p} --table {tmp}/nan.parquet", "finite"),
+        "bits without a comment": (f"{p} --table {tables}/rom.bin", "give --bits"),
+    }
+
+
+@pytest.mark.parametrize("case", ["wrong size for --bits", "not a power of two", "address bits",
+                                  "missing table", "missing input", "wrong input kind",
+                                  "wrong table kind", "nan points", "nan curve",
+                                  "bits without a comment"])
+def test_bad_input_is_one_line_exit_2_and_no_output(tables, tmp_path, case):
+    args, what = bad_cases(tables, tmp_path)[case]
+    r = run_in_process(f"enc correct {args} -o {tmp_path}/out.parquet")
+    line = one_error_line(r, 2, "enc correct")
+    assert what in line, line
+    assert not (tmp_path / "out.parquet").exists()
+
+
+def test_a_steps_run_is_sent_to_enc_points(ciomp_steps, tables):
+    r = run(f"enc correct {ciomp_steps} --table {tables}/rom.parquet")
+    assert "enc points" in one_error_line(r, 2, "enc correct")
+
+
+@pytest.mark.slow
+def test_readings_against_a_reference_encoder(tmp_path):
+    """sjtu-dual: encoder I (P1, P2) against encoder II's four H heads; a zero curve
+    leaves the error as it was, and the error is the test's own P-mean minus H-mean."""
+    theta = np.arange(8) * (np.pi / 4)
+    zero = deviations_table(theta, [Column("e", np.zeros(8))])
+    streams.write_table(str(tmp_path / "zero.parquet"), Header("deviations", zero.schema, {}),
+                        zero)
+    s = summary(run(f"enc acquire --rig sjtu-dual --revolutions 1 --tee {tmp_path}/run.parquet "
+                    f"| enc correct --table {tmp_path}/zero.parquet --heads P1,P2 "
+                    f"--ref H1,H2,H3,H4 --json"))
+    assert s["input"]["reference"] == ["H1", "H2", "H3", "H4"]
+    assert s["after"] == s["before"]
+    header, table = streams.read_table(str(tmp_path / "run.parquet"), "readings")
+    from enctools.data.readings import head_info, mean_head_reading
+    infos = {h: head_info(header.schema, h) for h in ("P1", "P2", "H1", "H2", "H3", "H4")}
+    cpr = infos["P1"].counts_per_rev
+    p1, p2 = (table.column(h).to_numpy() for h in ("P1", "P2"))
+    p2 = p1 + (np.mod(p2 - p1 + cpr // 2, cpr) - cpr // 2)
+    code = np.mod((p1 + p2) // 2, cpr)
+    ref = mean_head_reading([table.column(h) for h in ("H1", "H2", "H3", "H4")],
+                            [infos[h] for h in ("H1", "H2", "H3", "H4")])
+    e = np.angle(np.exp(1j * (code * 2 * np.pi / cpr - ref)))
+    e = np.angle(np.exp(1j * (e - np.angle(np.mean(np.exp(1j * e)))))) * TURN_ARCSEC / (2 * np.pi)
+    assert s["before"]["s_bessel_arcsec"] == pytest.approx(np.std(e, ddof=1), abs=1e-9)
+    assert s["before"]["pp_arcsec"] == pytest.approx(np.ptp(e), abs=1e-9)
+
+
+@pytest.mark.slow
+def test_readings_of_another_code_are_refused(tables, tmp_path):
+    r = run(f"enc acquire --rig ciomp-23bit --mode continuous --revolutions 0.01 --interval 0.01 "
+            f"| enc correct --table {tables}/rom.parquet")
+    assert "20-bit code" in one_error_line(r, 2, "enc correct")
+
+
+def test_json_needs_a_file_when_the_stream_goes_to_stdout(tables):
+    r = run(f"enc correct {DATA}/seed001_table1.csv --table {tables}/rom.parquet -o - --json")
+    assert "--json" in one_error_line(r, 2, "enc correct")
+
+
+
+def test_a_bidirectional_point_table_corrects_each_direction_with_its_own_points():
+    from enctools.models.correction import PointTable
+
+    at = np.arange(4) * (np.pi / 2)
+    table = PointTable(at, np.array([1.0, 2.0, 3.0, 4.0]), np.array([-1.0, -2.0, -3.0, -4.0]))
+    x = np.array([0.0, np.pi / 4, 7 * np.pi / 4, 2 * np.pi + np.pi / 2, np.pi / 4])
+    got = table.correction_rad(x, np.array([1, 1, 1, -1, -1]))
+    assert np.allclose(got, [1.0, 1.5, 2.5, -2.0, -1.5])  # modulo 360, across 360 -> 0
