@@ -58,9 +58,9 @@ def write_readings(path: Path, grad: np.ndarray, offsets: np.ndarray, simulator:
                    angles: tuple[float, ...] = ANGLES, radial: tuple | None = None,
                    revolutions: int = 3) -> None:
     """A readings stream per enc-streams(5): heads H1.. at ``angles`` [deg], graduation
-    ``grad`` [arcsec], constant offsets ``offsets`` [rad] of the spindle readings, zero_count
-    0 or (``simulator``) as the simulator sets it; ``radial``: (x, y coefficients [nm],
-    radius [m])."""
+    ``grad`` [arcsec], constant offsets ``offsets`` [rad] of the spindle readings (rows of
+    per-sample values add noise), zero_count 0 or (``simulator``) as the simulator sets it;
+    ``radial``: (x, y coefficients [nm], radius [m])."""
     j = np.arange(revolutions * SAMPLES)
     theta = j * (2 * np.pi / SAMPLES)
     fields = [pa.field("t", pa.float64(), metadata={"unit": "s"})]
@@ -242,6 +242,30 @@ def test_exact_to_rounding_from_readings_in_rad() -> None:
             err = rms(got - shifted_truth(grad, offsets[0] + alphas[0]))
             assert err <= 1e-10 * 2.85, (offsets, coordinate, err / 2.85)
             assert res.iterations[0] >= 3 and res.last_change <= 1e-12
+
+
+def test_coordinate_error_too_steep_is_left_with_a_warning(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A solution whose coordinate error slopes by 0.8 rad/rad (noise through ill-conditioned
+    harmonics can make one; a coordinate that moves one way cannot) is not taken out: the
+    map stays as it was, once on the first revolution and once on the mean, each said."""
+    from enctools.methods.coordinate import refine, settle
+    from enctools.methods.revolutions import Revolution
+
+    def steep(g: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        error = np.zeros(g.shape[1], dtype=np.complex128)
+        error[4] = 0.2  # 0.2 cos(4 theta): slope 0.8
+        return error, {"graduation": g[1] - g[0]}
+
+    u = np.arange(SAMPLES + 1) * (2 * np.pi / SAMPLES)
+    values = np.stack([np.zeros_like(u), 1e-5 * np.sin(3 * u)])
+    with caplog.at_level("WARNING", logger="enctools"):
+        settled = settle(Revolution(0, 0.0, u, values), 10, steep)
+        assert settled.iterations == 1 and settled.angle.error is None
+        refined = refine(np.zeros((2, 11), dtype=np.complex128), np.zeros(11), steep)
+        assert refined.iterations == 0
+    said = [r.getMessage() for r in caplog.records if "slopes by up to 0.8" in r.getMessage()]
+    assert len(said) == 2 and all("left as it was" in m for m in said), said
 
 
 def _man_block(text: str, after: str) -> str:

@@ -33,6 +33,7 @@ of theta (the curve shifts along its angle by as much).
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -59,6 +60,25 @@ MAX_ITERATIONS = 50
 CONVERGED = 4 * np.finfo(np.float64).eps
 #: points of the grid the map from u to theta is found on, at least; and at most
 _MAP_POINTS = (1 << 10, 1 << 18)
+#: a coordinate error whose slope reaches this is not taken out: u would not be a
+#: monotonic function of theta, which the readings showed it is (noise amplified through
+#: ill-conditioned harmonics, not a property of the scale)
+MAX_SLOPE = 0.5
+
+log = logging.getLogger("enctools")
+
+
+def _steep(error: np.ndarray, where: str) -> bool:
+    """Whether ``error`` (coefficients [rad]) slopes by MAX_SLOPE or more; warns if so."""
+    points = 1 << max(6, math.ceil(math.log2(8 * error.size)))
+    slope = float(np.max(np.abs(synthesize(error * (1j * np.arange(error.size)), points))))
+    if np.isfinite(slope) and slope < MAX_SLOPE:
+        return False
+    log.warning("the angle coordinate's error as solved %s slopes by up to %.3g rad/rad "
+                "(at most %g is taken out): it is left as it was; noise amplified through "
+                "ill-conditioned harmonics? narrow --band or move heads", where, slope,
+                MAX_SLOPE)
+    return True
 
 
 def _rms(c: np.ndarray) -> float:
@@ -182,6 +202,8 @@ def settle(rev: Revolution, band: int, model: Model) -> Settled:
         g[:, 0] += offsets
         error, parts = coordinate_error(model, g)
         f = parts["graduation"]
+        if _steep(error, "on the first revolution"):
+            break
         angle = AngleMap(error)
         if previous is not None:
             change = _rms(f - previous)
@@ -236,6 +258,8 @@ def refine(spectra: np.ndarray, used: np.ndarray, model: Model) -> Refined:
     last = math.inf
     iterations = 0
     while iterations < MAX_ITERATIONS:
+        if _steep(error - used, "on the mean of the revolutions"):
+            break
         iterations += 1
         first, second = taylor_terms(spectra, error - used)
         corrected = spectra + first + second
