@@ -60,9 +60,9 @@ MAX_ITERATIONS = 50
 CONVERGED = 4 * np.finfo(np.float64).eps
 #: points of the grid the map from u to theta is found on, at least; and at most
 _MAP_POINTS = (1 << 10, 1 << 18)
-#: a coordinate error whose slope reaches this is not taken out: u would not be a
-#: monotonic function of theta, which the readings showed it is (noise amplified through
-#: ill-conditioned harmonics, not a property of the scale)
+#: a coordinate error whose slope reaches this [rad/rad] is not taken out: a coordinate
+#: that moves one way slopes by less than 1, and one this steep is noise amplified through
+#: ill-conditioned harmonics, not the scale (Newton's method needs the margin too)
 MAX_SLOPE = 0.5
 
 log = logging.getLogger("enctools")
