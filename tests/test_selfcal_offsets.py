@@ -268,6 +268,24 @@ def test_coordinate_error_too_steep_is_left_with_a_warning(
     assert len(said) == 2 and all("left as it was" in m for m in said), said
 
 
+@pytest.mark.parametrize("band", [1, 100, 800])
+def test_fourier_series_at_any_angle_exact_to_rounding(band: int) -> None:
+    """The curve of coefficients at unevenly spaced angles (what maps u to theta) against the
+    direct sum: to rounding, negative angles and many turns included."""
+    from enctools.methods.harmonics import FourierSeries
+
+    rng = np.random.default_rng(band)
+    n = np.arange(band + 1)
+    c = (rng.normal(size=band + 1) + 1j * rng.normal(size=band + 1)) * np.exp(-n / 40)
+    c[0] = 0.6
+    x = np.concatenate([rng.uniform(0, 2 * np.pi, 3000), [0.0, 2 * np.pi, -1e-17]])
+    want = series(c, x)  # rounds n x at its size: eps n x |c_n|
+    scale = float(np.sum((1 + n) * np.abs(c)))
+    assert np.max(np.abs(FourierSeries(c)(x) - want)) <= 1e-14 * scale
+    turns = FourierSeries(c)(x + 2 * np.pi * rng.integers(-50, 50, x.size))
+    assert np.max(np.abs(turns - want)) <= 1e-12 * scale  # x + 2 pi k rounds at its size
+
+
 def _man_block(text: str, after: str) -> str:
     """The first .EX/.EE block after the line holding ``after``, as the reader types it."""
     tail = text[text.index(after):]

@@ -217,8 +217,9 @@ def settle(rev: Revolution, band: int, model: Model) -> Settled:
 def taylor_terms(spectra: np.ndarray, shift: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """First- and second-order terms that move spectra from theta_hat to theta = theta_hat - d.
 
-    A curve g sampled against theta_hat = theta + d(theta) is g(theta_hat - d); its
-    spectrum against theta is that of ``g + g' d + g'' d^2 / 2`` to second order.
+    ``spectra`` are those of curves g of samples placed at theta_hat = theta + d(theta);
+    placed at theta, the same samples make the curves ``g(x + d) = g + g' d + g'' d^2 / 2``
+    to second order, whose spectra are ``spectra + first + second``.
     ``spectra`` (heads, K + 1) and ``shift`` (coefficients of d, K + 1) in rad; the
     products are formed on a grid fine enough that the band 0..K is free of aliasing.
     """
