@@ -313,7 +313,7 @@ class Result:
     offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
-#: per-unit scale of each solution array: graduation rad -> arcsec, x, y m -> nm
+#: the factor from each solution array's unit to the output's: rad -> arcsec, m -> nm
 SCALE = {"graduation": 1.0 / ARCSEC, "x": 1e9, "y": 1e9}
 
 
@@ -335,7 +335,8 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
     mean is the coordinate. The coordinate's own error and the heads' constant offsets
     are found on the first revolution and taken out of every one
     (:mod:`enctools.methods.coordinate`); what is left of it is corrected on the mean.
-    ``resolution``: the heads' count [rad]. Memory does not grow with the revolutions.
+    ``resolution``: one count of the heads [rad] (2 pi / counts_per_rev; the coarsest).
+    Memory does not grow with the revolutions.
     """
 
     def model(g: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
