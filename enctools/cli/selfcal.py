@@ -65,4 +65,6 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
                   "ill_conditioned": list(meta.get("ill_conditioned", [])),
                   "blind_radial": (list(meta["blind_radial"]) if "blind_radial" in meta
                                    else None),
+                  "n_iterations": sum(meta["iterations"][k] for k in ("first_revolution", "mean")),
+                  "last_change_arcsec": meta["iterations"]["last_change_arcsec"],
                   "curves": summary.curves(*deviations)}, as_json, unit)

@@ -24,8 +24,8 @@ import numpy as np
 
 from enctools.errors import UsageError
 from enctools.methods.heads import average_transfer, format_orders
-from enctools.methods.selfcal import (
-    MIN_TRANSFER,
+from enctools.methods.selfcal import MIN_TRANSFER
+from enctools.methods.transfer import (
     esa_noise_norm,
     esa_transfer,
     esa_weights,

@@ -250,6 +250,53 @@ def synthesize(coefficients: np.ndarray, points: int) -> np.ndarray:
     return np.fft.irfft(spec, points, axis=-1)
 
 
+class FourierSeries:
+    """A curve ``Re(sum_n c_n exp(i n x))`` evaluated at any angles x [rad], exact to rounding.
+
+    ``coefficients`` c_0..c_K in the curve's unit. The turn is cut into B equal bins
+    (half-width h = pi / B, centres x_b = (2 b + 1) h); in bin b the curve is the
+    polynomial ``sum_p Q_pb s^p`` in ``s = (x - x_b) / h``, with
+    ``Q_pb = Re sum_n c_n (i n h)^p / p! exp(i n x_b)``, made once by P inverse FFTs
+    (the transpose of :func:`_binned_sums`). P is the fewest terms whose first neglected
+    one, ``sum_n |c_n| (n h)^P / P!``, is below the unit roundoff of ``sum_n |c_n|``.
+    Each evaluation is then P gathers and multiply-adds per angle.
+    """
+
+    def __init__(self, coefficients: np.ndarray) -> None:
+        c = np.asarray(coefficients, dtype=np.complex128)
+        band = c.size - 1
+        self.bins = 1 << max(6, math.ceil(math.log2(64 * (band + 1))))
+        h = math.pi / self.bins
+        n = np.arange(band + 1)
+        size = np.abs(c)
+        total = float(size.sum()) or 1.0
+        term, terms = size.copy(), 1
+        while float(term.sum()) > _TAYLOR_EPS * total and terms < 40:
+            term = term * (n * h) / terms
+            terms += 1
+        shift = c * np.exp(1j * n * h)
+        table = np.empty((terms, self.bins))
+        for p in range(terms):
+            table[p] = synthesize(shift, self.bins)
+            shift = shift * (1j * n * h) / (p + 1)
+        self.table = table
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """The curve at angles ``x`` [rad] (any shape), in the coefficients' unit."""
+        pos = np.asarray(x, dtype=np.float64) * (self.bins / TWO_PI)
+        b = np.floor(pos)
+        s = pos - b
+        s *= 2.0
+        s -= 1.0
+        idx = b.astype(np.intp)
+        idx &= self.bins - 1  # the bin within the turn (bins is a power of 2)
+        out = np.take(self.table[-1], idx)
+        for row in self.table[-2::-1]:
+            out *= s
+            out += np.take(row, idx)
+        return out
+
+
 def analyse(curve: np.ndarray, band: int) -> np.ndarray:
     """Coefficients c_0..c_band (the curve's unit) of a curve on a uniform grid over 2 pi [rad]."""
     y = np.asarray(curve, dtype=np.float64)

@@ -389,15 +389,25 @@ def revolution_spectra(source: InputStream, spec: ChannelSpec, band: int,
     Yields ``(index, coefficients (C, band + 1), binned)``; ``binned`` is the
     (C, grid_points) bin average of the revolution when ``grid_points`` > 0.
     """
+    for rev in revolutions(source, spec, progress):
+        yield _analyse(rev, band, grid_points)
+
+
+def revolutions(source: InputStream, spec: ChannelSpec,
+                progress: Callable[[int], Any] | None = None) -> Iterator[Revolution]:
+    """The whole revolutions of the coordinate in ``source``, each with every channel's
+    error against it [rad] (see :func:`revolution_spectra`, which analyses them).
+
+    They are cut on the stream's reader thread; ``progress`` is called with the number
+    of revolutions done once the caller has taken each.
+    """
     cutter = RevolutionCutter(spec, source.source)
-    # revolutions are cut on the reader thread and analysed here
-    for revolutions in source.batches(prepare=cutter):
-        for rev in revolutions:
-            yield _analyse(rev, band, grid_points)
+    for cut in source.batches(prepare=cutter):
+        for rev in cut:
+            yield rev
             if progress is not None:
                 progress(rev.index + 1)
-    for rev in cutter.finish():
-        yield _analyse(rev, band, grid_points)
+    yield from cutter.finish()
 
 
 #: a sample step within this many signal periods of a whole number is "stroboscopic"

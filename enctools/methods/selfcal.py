@@ -35,16 +35,26 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from enctools.errors import DataError, UsageError
-from enctools.methods.harmonics import analyse, check_grid, grid, synthesize
+from enctools.methods.coordinate import Refined, Settled, refine, settle, spectra_against
+from enctools.methods.harmonics import check_grid, grid, synthesize
 from enctools.methods.heads import format_orders
 from enctools.methods.revolutions import (
     ChannelSpec,
+    Revolution,
     RunningMean,
-    Spectra,
     require_continuous,
-    revolution_spectra,
+    revolutions,
 )
-from enctools.units import ARCSEC, DEG
+from enctools.methods.transfer import (
+    BLIND,
+    check_equal_spacing,
+    esa_noise_norm,
+    esa_transfer,
+    esa_weights,
+    fourier_solve,
+    fourier_transfer,
+)
+from enctools.units import ARCSEC, TWO_PI
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -52,10 +62,14 @@ if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
     from enctools.data.streams import Header, InputStream
 
+#: the transfer functions are importable from here too, as before they had a module
+__all__ = ["METHODS", "MIN_TRANSFER", "Conditioning", "Method", "Result", "Settings", "Solution",
+           "calibrate", "check_equal_spacing", "check_method", "esa_noise_norm", "esa_transfer",
+           "esa_weights", "fourier_solve", "fourier_transfer", "plan", "run"]
+
 METHODS = ("fourier", "eda", "esa")
 #: default: a harmonic whose normalised transfer |W(n)| / |a| is below this is ill-conditioned
 MIN_TRANSFER = 0.1
-_BLIND = 1e-9
 
 log = logging.getLogger("enctools")
 
@@ -153,79 +167,6 @@ class Conditioning:
         return "; ".join(parts) or None
 
 
-def esa_weights(alpha_ref: float, alphas: np.ndarray) -> np.ndarray:
-    """Weights a1..a3 cancelling radial motion in sum_j a_j (H_j - H_ref) (seed 000 eq. (14)).
-
-    C = 1, as the seed.
-
-    They solve eq. (13) with the angles relative to the reference head: ``a = s x c`` with
-    ``s_j = sin(alpha_j) - sin(alpha_ref)``, ``c_j = cos(alpha_j) - cos(alpha_ref)``, which
-    is eq. (14) for alpha_ref = 0. Angles in rad.
-    """
-    al = np.asarray(alphas, dtype=np.float64)
-    if al.size != 3:
-        msg = f"esa needs exactly 3 heads besides the reference, not {al.size}"
-        raise UsageError(msg)
-    s = np.sin(al) - np.sin(alpha_ref)
-    c = np.cos(al) - np.cos(alpha_ref)
-    return np.cross(s, c)
-
-
-def esa_transfer(alpha_ref: float, alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """W(n) = sum_j a_j (exp(i n alpha_j) - exp(i n alpha_ref)) (seed 000 eq. (15)); rad."""
-    a = esa_weights(alpha_ref, alphas)
-    n = np.asarray(n, dtype=np.float64)
-    diff = np.exp(1j * np.outer(n, alphas)) - np.exp(1j * n * alpha_ref)[:, None]
-    return (a[None, :] * diff).sum(axis=1)
-
-
-def esa_noise_norm(alpha_ref: float, alphas: np.ndarray) -> float:
-    """sqrt(sum a_j^2 + (sum a_j)^2): the noise of E(n) per unit noise of one head."""
-    a = esa_weights(alpha_ref, alphas)
-    return float(np.sqrt(np.sum(a**2) + np.sum(a) ** 2))
-
-
-def fourier_transfer(alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Effective |W(n)| of the least-squares basic method over heads at ``alphas`` [rad].
-
-    ``sqrt(sum_k |exp(i n alpha_k) - mean_j exp(i n alpha_j)|^2)``: for two heads it is
-    |W_21(n)| / sqrt(2); the noise gain is its inverse.
-    """
-    w = np.exp(1j * np.outer(np.asarray(n, dtype=np.float64), alphas))
-    return np.sqrt(np.sum(np.abs(w - w.mean(axis=1, keepdims=True)) ** 2, axis=1))
-
-
-def fourier_solve(spectra: np.ndarray, alphas: np.ndarray) -> np.ndarray:
-    """Graduation coefficients F(n) [rad] by least squares across heads, radial motion ignored.
-
-    ``spectra``: (heads, K + 1) coefficients G_k(n) of each head's error relative to
-    any common coordinate. Blind harmonics come out 0.
-    """
-    n = np.arange(spectra.shape[1])
-    w = np.exp(1j * np.outer(alphas, n))  # (heads, K+1)
-    wc = w - w.mean(axis=0)
-    gc = spectra - spectra.mean(axis=0)
-    den = np.sum(np.abs(wc) ** 2, axis=0)
-    num = np.sum(np.conj(wc) * gc, axis=0)
-    out = np.zeros(spectra.shape[1], dtype=np.complex128)
-    ok = den > _BLIND * len(alphas)
-    out[ok] = num[ok] / den[ok]
-    out[0] = 0
-    return out
-
-
-def check_equal_spacing(alphas: np.ndarray, names: list[str], tol_deg: float = 0.05) -> None:
-    """UsageError unless the heads divide the circle equally (eda)."""
-    n = len(alphas)
-    a = np.sort(np.mod(alphas, 2 * np.pi))
-    gaps = np.diff(np.append(a, a[0] + 2 * np.pi))
-    if n < 2 or np.max(np.abs(gaps - 2 * np.pi / n)) > tol_deg * DEG:
-        msg = (f"eda needs equally spaced heads; {', '.join(names)} are at "
-               f"{'/'.join(f'{x / DEG:g}' for x in alphas)} deg "
-               "(use --method fourier or esa)")
-        raise UsageError(msg)
-
-
 class Method:
     """A self-calibration method bound to a head arrangement and a band.
 
@@ -255,6 +196,7 @@ class Method:
                 raise UsageError(msg)
             self.weights = a
         self.conditioning = self._conditioning()
+        self._tables: dict[int, dict[str, np.ndarray]] = {}
 
     def _conditioning(self) -> Conditioning:
         n = np.arange(self.band + 1)
@@ -269,41 +211,61 @@ class Method:
             transfer = basic
             normalised = basic
         with np.errstate(divide="ignore"):
-            gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
-        blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
-        ill = [int(k) for k in n[1:] if _BLIND < normalised[k] < self.min_transfer]
+            gain = np.where(normalised > BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
+        blind = [int(k) for k in n[1:] if normalised[k] <= BLIND]
+        ill = [int(k) for k in n[1:] if BLIND < normalised[k] < self.min_transfer]
         radial = [k for k in blind if k >= 2] if self.name == "esa" else []
         return Conditioning(transfer, gain, blind, ill, self.min_transfer, radial)
 
+    def _table(self, size: int) -> dict[str, np.ndarray]:
+        """What :meth:`solve` multiplies by at harmonics 0..size-1: made once, not per call.
+
+        ``basic``: conj(exp(i n alpha_k) - mean_j exp(i n alpha_j)) / |W(n)|^2 of the
+        least squares (0 where blind; eq. (15) of the basic model); esa: ``inverse``
+        1 / W(n) (0 where blind and at n < 2), ``pairs`` exp(i n alpha_j) -
+        exp(i n alpha_ref) and ``radial`` the least-squares inverse of eqs. (17), (18).
+        """
+        table = self._tables.get(size)
+        if table is not None:
+            return table
+        n = np.arange(size)
+        w = np.exp(1j * np.outer(self.all_alphas, n))  # (heads, size)
+        wc = w - w.mean(axis=0)
+        den = np.sum(np.abs(wc) ** 2, axis=0)
+        den = np.where(den > BLIND * len(self.all_alphas), den, np.inf)
+        table = {"basic": np.conj(wc) / den}
+        table["basic"][:, 0] = 0
+        if self.name == "esa":
+            transfer = esa_transfer(self.alpha_ref, self.alphas, n)
+            ok = np.abs(transfer) / esa_noise_norm(self.alpha_ref, self.alphas) > BLIND
+            ok[:2] = False
+            table["inverse"] = np.where(ok, 1.0 / np.where(ok, transfer, 1.0), 0)
+            table["pairs"] = w[1:] - w[0]
+            s = np.sin(self.alphas) - np.sin(self.alpha_ref)
+            c = -(np.cos(self.alphas) - np.cos(self.alpha_ref))
+            table["radial"] = np.linalg.pinv(np.stack([s, c], axis=1))  # resid = m @ [X, Y]
+        self._tables[size] = table
+        return table
+
     def solve(self, spectra: np.ndarray) -> Solution:
         """Solve one set of head spectra (heads: ref first, then ``alphas``; rad) for F, X, Y."""
-        bad = self.conditioning.blind
+        table = self._table(spectra.shape[1])
         if self.name in ("fourier", "eda"):
-            f = fourier_solve(spectra, self.all_alphas)
-            f[bad] = 0
+            f = np.einsum("kn,kn->n", table["basic"], spectra)  # fourier_solve's sum
+            f[self.conditioning.blind] = 0
             return Solution(f)
-        return self._esa(spectra)
+        return self._esa(spectra, table)
 
-    def _esa(self, spectra: np.ndarray) -> Solution:
+    def _esa(self, spectra: np.ndarray, table: dict[str, np.ndarray]) -> Solution:
         """Seed 000 eqs. (12)-(18) on spectra (ref first, then the three heads)."""
-        n = np.arange(spectra.shape[1])
         d = spectra[1:] - spectra[0]  # delta_j1(n), eq. (11)
-        e = (self.weights[:, None] * d).sum(axis=0)  # E(n), eqs. (12), (15)
-        w = esa_transfer(self.alpha_ref, self.alphas, n)
-        f = np.zeros_like(e)
-        ok = np.abs(w) / esa_noise_norm(self.alpha_ref, self.alphas) > _BLIND
-        ok[:2] = False
-        f[ok] = e[ok] / w[ok]  # eq. (16)
-        f[1] = fourier_solve(spectra[:, :2], self.all_alphas)[1]  # basic model
+        e = self.weights @ d  # E(n), eqs. (12), (15)
+        f = e * table["inverse"]  # eq. (16)
+        f[1] = np.dot(table["basic"][:, 1], spectra[:, 1])  # basic model
         # radial motion: what the differences leave once F is removed (eqs. (17), (18)),
         # least squares over the three differences
-        wj = np.exp(1j * np.outer(self.alphas, n)) - np.exp(1j * n * self.alpha_ref)
-        resid = (d - wj * f) * self.radius_m  # (3, K+1), [m]
-        s = np.sin(self.alphas) - np.sin(self.alpha_ref)
-        c = -(np.cos(self.alphas) - np.cos(self.alpha_ref))
-        m = np.stack([s, c], axis=1)  # resid = m @ [X, Y]
-        xy = np.linalg.lstsq(m, resid, rcond=None)[0]
-        x, y = xy[0], xy[1]
+        resid = (d - table["pairs"] * f) * self.radius_m  # (3, K+1), [m]
+        x, y = table["radial"] @ resid
         # DC: not observable; 1st harmonic: counted as eccentricity in F; where W(n) = 0
         # F(n) and X(n), Y(n) trade against each other: neither is determined
         for gone in (slice(0, 2), self.conditioning.blind_radial):
@@ -322,30 +284,18 @@ class Method:
         return c
 
 
-def coordinate_correction(spectra: np.ndarray, coordinate_error: np.ndarray) -> np.ndarray:
-    """Spectra of the head errors against the true angle, from those against the coordinate.
-
-    Samples taken against u = theta + e(theta) give g(u - e(u)) ~ g(u) - g'(u) e(u);
-    this adds g'(u) e(u) back (first order; ``spectra`` (heads, K+1) and
-    ``coordinate_error`` (K+1,) in rad). Products are formed on a grid fine enough
-    that the band 0..K is free of aliasing.
-    """
-    k = spectra.shape[1] - 1
-    points = 1 << max(6, int(np.ceil(np.log2(3 * k + 2))))
-    n = np.arange(k + 1)
-    dg = synthesize(spectra * (1j * n), points)
-    e = synthesize(coordinate_error, points)
-    return spectra + analyse(dg * e, k)
-
-
 @dataclass
 class Result:
     """What a self-calibration found, averaged over revolutions.
 
     Coefficients c_0..c_K of the graduation error [arcsec] (function of the scale
     angle) and of radial motion x, y [nm] (function of the spindle angle; esa only),
-    each with its standard uncertainty per harmonic [same unit] from the spread
-    between revolutions; curves on a ``points`` grid with pointwise uncertainties.
+    each with its standard uncertainty per harmonic [same unit]: the spread between
+    revolutions and the bound on the method's own error (:func:`systematic`); curves
+    on a ``points`` grid with pointwise uncertainties. ``iterations``: of the
+    coordinate on the first revolution and on the mean; ``last_change``: the RMS
+    change of the graduation error in the last [arcsec]; ``offsets``: each head's
+    constant offset against the reference [rad].
     """
 
     method: str
@@ -358,54 +308,93 @@ class Result:
     uncertainty: dict[str, np.ndarray]
     curves: dict[str, np.ndarray]
     curve_uncertainty: dict[str, np.ndarray]
+    iterations: tuple[int, int] = (0, 0)
+    last_change: float = 0.0
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
-def calibrate(revolutions: Iterator[Spectra], method: Method,
+#: the factor from each solution array's unit to the output's: rad -> arcsec, m -> nm
+SCALE = {"graduation": 1.0 / ARCSEC, "x": 1e9, "y": 1e9}
+
+
+def _parts(sol: Solution) -> dict[str, np.ndarray]:
+    """The solution's coefficient arrays by name [rad, m]: graduation, then x, y if solved."""
+    out = {"graduation": sol.graduation}
+    if sol.x is not None and sol.y is not None:
+        out |= {"x": sol.x, "y": sol.y}
+    return out
+
+
+def calibrate(revolutions: Iterator[Revolution], method: Method,
               coordinate_alphas: np.ndarray, points: int, coordinate: list[str],
-              iterations: int = 2) -> Result:
-    """Average per-revolution head spectra and solve them with ``method``.
+              resolution: float = 0.0) -> Result:
+    """Analyse revolutions against the spindle angle, average them and solve with ``method``.
 
-    ``revolutions``: (index, spectra (heads, K+1) [rad], _) per revolution, heads in
-    the method's order (reference first); ``coordinate_alphas`` [rad]: the heads whose
-    mean is the angle coordinate, whose own error is corrected for afterwards
-    (:func:`coordinate_correction`, ``iterations`` times). Uncertainties are the
-    standard deviations of the per-revolution solutions over sqrt(revolutions).
-    Memory does not grow with the number of revolutions.
+    ``revolutions``: the channels minus the angle coordinate [rad] per revolution, heads
+    in the method's order (reference first); ``coordinate_alphas`` [rad]: the heads whose
+    mean is the coordinate. The coordinate's own error and the heads' constant offsets
+    are found on the first revolution and taken out of every one
+    (:mod:`enctools.methods.coordinate`); what is left of it is corrected on the mean.
+    ``resolution``: one count of the heads [rad] (2 pi / counts_per_rev; the coarsest).
+    Memory does not grow with the revolutions.
     """
-    spectra = RunningMean()
-    coef = {"graduation": RunningMean(), "x": RunningMean(), "y": RunningMean()}
-    curves = {"graduation": RunningMean(), "x": RunningMean(), "y": RunningMean()}
-    scale = {"graduation": 1.0 / ARCSEC, "x": 1e9, "y": 1e9}
-    for _, g, _ in revolutions:
-        spectra.add(g)
+
+    def model(g: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         sol = method.solve(g)
-        for name, c in (("graduation", sol.graduation), ("x", sol.x), ("y", sol.y)):
-            if c is not None:
-                coef[name].add(c * scale[name])
-                curves[name].add(synthesize(c * scale[name], points))
-    if spectra.count < 2:
+        return method.coordinate_error(sol, coordinate_alphas), _parts(sol)
+
+    spectra, samples = RunningMean(), 0
+    coef = {name: RunningMean() for name in SCALE}
+    curves = {name: RunningMean() for name in SCALE}
+    settled: Settled | None = None
+    for rev in revolutions:
+        if settled is None:
+            settled = settle(rev, method.band, model)
+        rev.values -= settled.offsets[:, None]
+        g = spectra_against(rev, rev.values, settled.angle, method.band)
+        g[:, 0] += settled.offsets
+        spectra.add(g)
+        samples += rev.u.size - 1
+        for name, c in _parts(method.solve(g)).items():
+            coef[name].add(c * SCALE[name])
+            curves[name].add(synthesize(c * SCALE[name], points))
+    if spectra.mean is None or settled is None or spectra.count < 2:
         msg = (f"input: {spectra.count} complete revolution(s) of the angle coordinate; "
                "self-calibration needs at least 2 (record more: enc acquire --revolutions N)")
         raise DataError(msg)
-    assert spectra.mean is not None
-    g = spectra.mean
-    sol = method.solve(g)
-    for _ in range(iterations):
-        error = method.coordinate_error(sol, coordinate_alphas)
-        sol = method.solve(coordinate_correction(g, error))
-    out_c: dict[str, np.ndarray] = {}
-    out_u: dict[str, np.ndarray] = {}
-    out_curves: dict[str, np.ndarray] = {}
-    out_cu: dict[str, np.ndarray] = {}
-    for name, c in (("graduation", sol.graduation), ("x", sol.x), ("y", sol.y)):
-        if c is None:
-            continue
-        out_c[name] = c * scale[name]
-        out_u[name] = coef[name].sem()
-        out_curves[name] = synthesize(out_c[name], points)
-        out_cu[name] = curves[name].sem()
+    refined = refine(spectra.mean, settled.angle.error_coefficients(method.band), model)
+    noise = resolution / np.sqrt(12.0) * np.sqrt(2.0 / (samples / spectra.count))
+    bound = systematic(method, refined, noise)
+    out: dict[str, dict[str, np.ndarray]] = {"c": {}, "u": {}, "curves": {}, "cu": {}}
+    for name, c in refined.parts.items():
+        out["c"][name] = c * SCALE[name]
+        out["u"][name] = np.hypot(coef[name].sem(), bound[name])
+        out["curves"][name] = synthesize(out["c"][name], points)
+        out["cu"][name] = np.hypot(curves[name].sem(), np.sqrt(np.sum(bound[name] ** 2)))
+    change = refined.change["graduation"] * SCALE["graduation"]
     return Result(method.name, list(method.names), coordinate, method.band, spectra.count,
-                  method.conditioning, out_c, out_u, out_curves, out_cu)
+                  method.conditioning, out["c"], out["u"], out["curves"], out["cu"],
+                  (settled.iterations, refined.iterations),
+                  float(np.sqrt(np.sum(np.abs(change[1:]) ** 2) / 2)),
+                  spectra.mean[:, 0].real - spectra.mean[0, 0].real)
+
+
+def systematic(method: Method, refined: Refined, noise: float) -> dict[str, np.ndarray]:
+    """A bound per harmonic on what the method itself leaves in each solution array
+    [arcsec, nm]: the last iteration's change, the second-order term of the coordinate
+    correction, and the heads' rounding to whole counts, ``noise`` [rad] per harmonic
+    of one head (LSB / sqrt(12) * sqrt(2 / samples per revolution)) times the noise gain
+    of each harmonic, in full: a run that samples the same angles every revolution
+    repeats its rounding, which no averaging then reduces."""
+    heads = len(method.all_alphas)
+    gain = {name: np.zeros(method.band + 1) for name in refined.parts}
+    for k in range(heads):
+        unit = np.zeros((heads, method.band + 1), dtype=np.complex128)
+        unit[k] = 1.0
+        for name, c in _parts(method.solve(unit)).items():
+            gain[name] += np.abs(c) ** 2
+    return {name: (np.abs(refined.change[name]) + np.abs(refined.second[name])
+                   + noise * np.sqrt(gain[name])) * SCALE[name] for name in refined.parts}
 
 
 @dataclass
@@ -542,9 +531,10 @@ def run(source: InputStream, settings: Settings,
             progress(done, max(total, done))
 
     spec = ChannelSpec(tuple(p.heads), tuple(p.coordinate))
-    revs = revolution_spectra(source, spec, p.method.band, tick)
-    res = calibrate(revs, p.method, np.array([h.alpha for h in p.coordinate]),
-                    p.settings.points, [h.name for h in p.coordinate])
+    res = calibrate(revolutions(source, spec, tick), p.method,
+                    np.array([h.alpha for h in p.coordinate]), p.settings.points,
+                    [h.name for h in p.coordinate],
+                    max(TWO_PI / h.counts_per_rev for h in p.heads))
     log.info("%s: %d revolutions of %s, harmonics 1..%d", p.method.name, res.revolutions,
              "/".join(res.heads), res.band)
     return _outputs(source.header, p, res)
@@ -587,7 +577,10 @@ def _outputs(header: Header, p: Plan, res: Result
     cond = p.method.conditioning
     meta = {"settings": p.settings.to_dict() | {"encoder": p.encoder,
                                                 "revolutions": res.revolutions},
-            "blind": cond.blind, "ill_conditioned": cond.ill, "domain": "revolution"}
+            "blind": cond.blind, "ill_conditioned": cond.ill, "domain": "revolution",
+            "iterations": {"first_revolution": res.iterations[0], "mean": res.iterations[1],
+                           "last_change_arcsec": res.last_change},
+            "offsets_arcsec": {h: float(o / ARCSEC) for h, o in zip(res.heads, res.offsets)}}
     if "x" in res.curves:
         meta["blind_radial"] = cond.blind_radial
     dev_header = header.derive("deviations", table.schema, **meta)
