@@ -250,8 +250,9 @@ def values(raw: RawTable, k: int, role: str, mapping: Mapping) -> tuple[np.ndarr
     bad = np.flatnonzero(~(np.abs(out) <= bound))
     if bad.size:
         i = int(bad[0])
-        msg = (f"{raw.source}: {raw.where(i)}, column {printable(raw.titles[k])!r}: "
-               f"{raw_values[i]:g} {unit} is not a finite {role} within +-{bound:g} {to} "
+        where = f"{raw.source}: {raw.where(i)}, column {printable(raw.titles[k])!r}"
+        msg = (f"{where}: NaN or infinite" if not np.isfinite(raw_values[i]) else
+               f"{where}: {raw_values[i]:g} {unit} is beyond +-{bound:g} {to} "
                "(enc-streams(5), LIMITS)")
         raise DataError(msg)
     return out, unit
