@@ -41,6 +41,9 @@ ALIASES = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg",
            "urad": "urad", "µrad": "urad", "μrad": "urad", "microrad": "urad",
            "mrad": "mrad", "milliradian": "mrad", "milliradians": "mrad",
            "counts": "counts", "count": "counts", "cnt": "counts", "lsb": "counts"}
+#: characters of a title or cell read for a unit (longer: a name, or not a number); bounds
+#: the regular expressions' work on a hostile line
+_LONGEST = 200
 _NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?"
                      r"|nan|inf|infinity))\s*(.*?)\s*$", re.IGNORECASE)
 
@@ -73,6 +76,8 @@ def title_unit(title: str) -> tuple[str, str | None]:
     """A title's name and the unit it names, if any: ``Reference Angle [degree]`` ->
     (``reference angle``, ``deg``); ``position_deg`` -> (``position``, ``deg``)."""
     text = title.strip().lower()
+    if len(text) > _LONGEST:
+        return text, None
     m = re.fullmatch(r"(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]", text)
     if m and m.group(2) in ALIASES:
         return m.group(1).strip(), ALIASES[m.group(2)]
@@ -85,7 +90,7 @@ def title_unit(title: str) -> tuple[str, str | None]:
 def cell_unit(cell: str) -> tuple[float, str | None] | None:
     """A text cell's number and the unit written after it (None: no unit); None when
     the cell is not a number, with or without one of :data:`ALIASES` after it."""
-    m = _NUMBER.fullmatch(cell)
+    m = _NUMBER.fullmatch(cell) if len(cell) <= _LONGEST else None
     if m is None:
         return None
     unit = m.group(2).lower()
@@ -113,6 +118,9 @@ def read_text(path: str) -> RawTable:
                f"is at most {limits.MAX_CSV_FIELD_BYTES}")
         raise DataError(msg)
     rows = _split([ln for _, ln in numbered], path)
+    if len(rows) != len(numbered):
+        msg = f"{path}: a quoted field holds a line end (a table has one row a line)"
+        raise DataError(msg)
     has_header = any(cell_unit(c) is None for c in rows[0])
     titles = [c.strip() for c in rows[0]] if has_header else \
         [str(k + 1) for k in range(len(rows[0]))]
