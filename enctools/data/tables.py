@@ -152,7 +152,8 @@ def _text(path: str) -> str:
         msg = f"{path}: no such file"
         raise DataError(msg) from None
     except (OSError, UnicodeDecodeError) as exc:
-        msg = f"{path}: cannot read as text ({first_line(exc)})"
+        msg = (f"{path}: neither an Arrow, Parquet or HDF5 stream nor a text table "
+               f"({first_line(exc)})")
         raise DataError(msg) from None
 
 
