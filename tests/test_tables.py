@@ -221,3 +221,30 @@ def test_an_older_points_stream_without_reference_fits_the_same(tmp_path):
     assert read_table(str(tmp_path / "m2.parquet"))[1].equals(
         read_table(str(tmp_path / "m3.parquet"))[1])
     assert pa.types.is_floating(t.schema.field("reference").type)
+
+
+@needs_magalpha
+@pytest.mark.slow
+def test_a_table_indexed_by_the_measured_angle_corrects_the_sensor(tmp_path):
+    """points -> Fourier model -> 16-bit table, then the table added at each measured
+    angle's code as a controller would (computed here): 10.55 deg p-p falls to about
+    2.5 deg. Positioned at the reference angle, the same table made it worse (16-19 deg)."""
+    src = MAGALPHA / FILES[0]
+    r = run(f"enc points {src} {OPTS} -q | enc fit-rbf --kernel fourier --band 8 -q | "
+            "enc make-rom --bits 16 -q -o rom.csv", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    with open(tmp_path / "rom.csv", newline="") as f:
+        rom = [int(row[1]) for row in list(csv.reader(f))[1:]]
+    ref, meas = _columns(src)
+
+    def pp(indicated: list[float]) -> float:
+        d = [(i - f + 180) % 360 - 180 for f, i in zip(ref, indicated)]
+        mean = _circular_mean_deg(d)
+        d = [(x - mean + 180) % 360 - 180 for x in d]
+        return max(d) - min(d)
+
+    lsb_deg = 360 / 2**16
+    corrected = [m + rom[int(m % 360 / lsb_deg) % 2**16] * lsb_deg for m in meas]
+    before, after = pp(meas), pp(corrected)
+    assert before == pytest.approx(10.55, abs=0.01)
+    assert after < 2.6 and after < before / 4
