@@ -21,6 +21,7 @@ refused with one line naming the line (row) or column.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -190,9 +191,11 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
     if len(have & {"indicated", "reference", "deviation"}) != 2:
         raise _cannot_map(raw, "cannot tell two of indicated angle, reference and deviation")
     unused = [t for k, t in enumerate(raw.titles) if k not in cols.values()]
+    listed = ", ".join(repr(printable(t)) for t in unused)
     if unused and not mapping.names_columns():
-        listed = ", ".join(repr(printable(t)) for t in unused)
         raise _cannot_map(raw, f"unknown column(s) {listed}")
+    if unused:
+        logging.getLogger("enctools").info("%s: columns not used: %s", raw.source, listed)
     return cols
 
 
