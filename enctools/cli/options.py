@@ -266,7 +266,7 @@ _TABLE_ROLES = (("position", "the indicated angle (what the encoder reads)"),
 
 
 def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
-    """--position/--reference/--measured/--deviation/--direction/--run COL, a unit per
+    """--position/--ref (--reference)/--measured/--deviation/--direction/--run COL, a unit per
     angle column (--position-unit, ...), --counts-per-rev and --zero-offset: passed to
     the command as ``mapping`` (a ``Mapping``; its checks are one UsageError line)."""
     from enctools.units import COLUMN_UNITS
@@ -294,7 +294,8 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
                          default=None, help=f"Unit of that column (default: its title's, "
                          f"else {default}).")(g)
     for role, what in reversed(_TABLE_ROLES):
-        g = click.option(f"--{role}", role, default=None, metavar="COL",
+        flags = ["--ref", "--reference"] if role == "reference" else [f"--{role}"]
+        g = click.option(*flags, role, default=None, metavar="COL",
                          help=f"Table column of {what} (title or number; default: found by "
                               "its title).")(g)
     return g
