@@ -174,13 +174,16 @@ def test_fit_rbf_and_report_map_a_table_as_points_does(tmp_path):
     path, opts = _written(tmp_path, "tsv")
     r = run(f"enc points {path} {opts} -o p.parquet && "
             f"enc fit-rbf p.parquet --kernel fourier --band 3 -q -o a.parquet && "
-            f"enc fit-rbf {path} {opts} --kernel fourier --band 3 -q -o b.parquet && "
+            f"enc fit-rbf {path} {opts} --kernel fourier --band 3 --holdout {path} --json "
+            "-o b.parquet > fit.json && "
             f"enc report {path} {opts} --json > r1.json && enc report p.parquet --json > r2.json",
             cwd=tmp_path)
     assert r.returncode == 0, r.stderr.decode()
     _, a = read_table(str(tmp_path / "a.parquet"))
     _, b = read_table(str(tmp_path / "b.parquet"))
     assert a.equals(b)
+    fit = json.loads((tmp_path / "fit.json").read_text())
+    assert fit["holdout"]["n_points"] == POS_DEG.size  # the hold-out table mapped alike
     one, two = (json.loads((tmp_path / f).read_text()) for f in ("r1.json", "r2.json"))
     assert one["sections"][0]["curves"] == two["sections"][0]["curves"]
 
