@@ -181,15 +181,25 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
         if name is not None:
             cols[role] = _named(raw, name, role)
     for role in ROLES:
-        if role not in cols and (role != "position" or "measured" not in cols):
+        known = {"indicated" if r in ("position", "measured") else r for r in cols}
+        enough = role in (*ANGLES, "deviation") and len(
+            known & {"indicated", "reference", "deviation"}) >= 2
+        if role not in cols and not enough and (role != "position" or "measured" not in cols):
             k = _found(raw, role, set(cols.values()))
             if k is not None:
                 cols[role] = k
     if "measured" in cols and "position" in cols:
         raise _cannot_map(raw, "both a position and a measured column: name one")
     have = {"indicated" if r in ("position", "measured") else r for r in cols}
-    if len(have & {"indicated", "reference", "deviation"}) != 2:
-        raise _cannot_map(raw, "cannot tell two of indicated angle, reference and deviation")
+    angles = sorted(have & {"indicated", "reference", "deviation"})
+    if len(angles) != 2:
+        found = f" (found: {', '.join(angles)})" if angles else ""
+        raise _cannot_map(raw, "a table needs two of indicated angle, reference and "
+                          f"deviation{found}")
+    for role in (*ANGLES, "deviation"):
+        if getattr(mapping, f"{role}_unit") is not None and role not in cols:
+            msg = f"--{role}-unit: the table has no {role} column"
+            raise UsageError(msg)
     unused = [t for k, t in enumerate(raw.titles) if k not in cols.values()]
     listed = ", ".join(repr(printable(t)) for t in unused)
     if unused and not mapping.names_columns():

@@ -404,7 +404,8 @@ def make_points(path: str | None, settings: Settings, mapping: Mapping | None = 
                               src.source)
         header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")
     header.meta["settings"] = settings.to_meta()
-    header.meta["figures"] = figures_meta(figures_or_nan(distinct(points)[1]))
+    header.meta["figures"] = figures_meta(figures_or_nan(distinct(
+        points, source=header.meta.get("source", "input"))[1]))
     return header, points
 
 
