@@ -19,6 +19,9 @@ URAD = 1e-6
 #: the size of each angle unit in radians; every conversion goes through this table
 ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": URAD, "deg": DEG,
                "arcmin": DEG / 60.0, "arcsec": ARCSEC}
+#: the units a column of a user's table may be in (enc-points(1), TABLES): the angle
+#: units, and counts of an encoder (with its counts per revolution, :func:`counts_factor`)
+COLUMN_UNITS = ("deg", "rad", "arcsec", "arcmin", "urad", "mrad", "counts")
 #: the units a person may ask to read angles in (``--unit``), the default first
 DISPLAY_UNITS = ("arcsec", "urad", "mrad", "deg", "rad")
 _SYMBOLS = {"arcsec": '"', "arcmin": "'", "deg": "°", "urad": "µrad", "mrad": "mrad",
@@ -43,3 +46,12 @@ def factor(from_unit: str, to_unit: str) -> float:
 def symbol(unit: str) -> str:
     """How a value in ``unit`` is marked in text: ``"`` for arcsec, ``µrad``, ``°``."""
     return _SYMBOLS.get(unit, unit)
+
+
+def counts_factor(counts_per_rev: float, to_unit: str) -> float:
+    """The number that multiplies a value in counts (``counts_per_rev`` a revolution)
+    to give it in the angle unit ``to_unit``."""
+    if not counts_per_rev > 0:
+        msg = f"counts per revolution must be > 0, not {counts_per_rev}"
+        raise ValueError(msg)
+    return TWO_PI / counts_per_rev / ANGLE_UNITS[to_unit]

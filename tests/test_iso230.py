@@ -16,6 +16,7 @@ from enctools.data.streams import Header, write_table
 from enctools.errors import DataError
 from enctools.methods.points import points_schema
 from enctools.report.iso230 import iso230_2
+from enctools.units import ARCSEC
 
 POSITIONS = np.arange(0.0, 360.0, 30.0)          # 12 targets [deg]
 RUNS = 5
@@ -295,7 +296,8 @@ def test_iso230_points_stream_rotary_targets_and_approaches(tmp_path):
                     r.append(j)
     pos, dev, d, r = map(np.array, (pos, dev, d, r))
     table = pa.table([pa.array(pos), pa.array(dev), pa.array(d, pa.int8()),
-                      pa.array(r, pa.int32())], schema=points_schema())
+                      pa.array(r, pa.int32()), pa.array(pos - dev * ARCSEC)],
+                     schema=points_schema())
     path = tmp_path / "points.arrows"
     write_table(str(path), Header("points", points_schema(), {"history": []}), table)
     sec = _report_json(path)

@@ -39,7 +39,7 @@ UNITS = {
     ("spectrum", "re"): "arcsec", ("spectrum", "im"): "arcsec", ("spectrum", "transfer"): "",
     ("spectrum", "curve"): "",
     ("points", "position"): "rad", ("points", "deviation"): "arcsec",
-    ("points", "direction"): "", ("points", "run"): "",
+    ("points", "direction"): "", ("points", "run"): "", ("points", "reference"): "rad",
     ("model", "centre"): "rad", ("model", "n"): "", ("model", "weight"): "arcsec",
     ("model", "weight_sin"): "arcsec",
     ("rom", "address"): "", ("rom", "correction"): "count",

@@ -72,9 +72,9 @@ def test_csv_with_direction_and_run(tmp_path):
     ("# nothing but comments\n", "no points"),
     ("", "empty file"),
     ("position_deg,deviation_arcsec\n", "no points after the header"),
-    ("angle,error\n0,1\n", "header"),
-    ("position_deg,deviation_arcsec\n0,nan\n", "NaN"),
-    ("position_deg,deviation_arcsec\n0,abc\n", "not numbers"),
+    ("foo,bar\n0,1\n", "columns found: 'foo', 'bar'"),
+    ("position_deg,deviation_arcsec\n0,nan\n", "line 2, column 'deviation_arcsec': NaN"),
+    ("position_deg,deviation_arcsec\n0,abc\n", "'abc' is not a number"),
 ])
 def test_bad_csv_is_refused(tmp_path, content, what):
     f = tmp_path / "bad.csv"
@@ -94,7 +94,7 @@ def test_steps_run_options_on_a_csv_table_are_refused(tmp_path, opts):
     r = run(f"enc points {DATA}/seed001_table1.csv {opts} -o {out}")
     err = r.stderr.decode()
     assert r.returncode == 2 and err.startswith("enc points: error:") and err.count("\n") == 1
-    assert opts.split()[0] in err and "CSV" in err
+    assert opts.split()[0] in err and "is a table" in err
     assert not out.exists()
 
 
@@ -149,7 +149,7 @@ def test_points_settings_refuse_in_process(tmp_path):
     with pytest.raises(UsageError, match=r"^--faces must be > 0, not 0$"):
         Settings(faces=0)
     given = Settings(heads=("F1",), faces=3)
-    with pytest.raises(UsageError, match=r"^--heads, --faces: for a steps run; t.csv is a CSV"):
+    with pytest.raises(UsageError, match=r"^--heads, --faces: for a steps run; t.csv is a table"):
         given.check_table("t.csv")
     Settings().check_table("t.csv")
     with pytest.raises(UsageError, match="--autocollimator: for a steps run"):

@@ -457,9 +457,10 @@ def test_existing_html_needs_force(streams, tmp_path):
 
 def test_not_a_stream_exit2(tmp_path):
     junk = tmp_path / "junk.bin"
-    junk.write_bytes(b"hello world, not a stream")
+    junk.write_bytes(b"\xa4hello world, not a stream")
     r = run(["enc", "report", str(junk)])
-    assert r.returncode == 2 and "not an Arrow, Parquet or HDF5 stream" in r.stderr.decode()
+    assert r.returncode == 2 and "neither an Arrow, Parquet or HDF5 stream nor a text table" \
+        in r.stderr.decode()
 
 
 def test_stdin_and_closed_pipe(streams):

@@ -22,7 +22,9 @@ from enctools.cli import options, runner
 @options.band("fourier: highest harmonic order K (default: half the distinct positions).",
               default=None, dest="harmonics")
 @click.option("--holdout", "holdout_path", default=None, type=click.Path(dir_okay=False),
-              help="Points never used in the fit (a points stream or CSV): report their residuals.")
+              help="Points never used in the fit (a points stream or table, mapped alike): "
+                   "report their residuals.")
+@options.table_columns
 @options.threshold("--max-std", "Exit 1 when the hold-out (else leave-one-out) Bessel s "
                    "exceeds this [arcsec].", dest="check_arcsec")
 @options.json_summary
@@ -31,11 +33,12 @@ from enctools.cli import options, runner
 @options.verbosity
 def command(input: str | None, kernel: str, spread_deg: float | None, goal: float,
             harmonics: int | None, holdout_path: str | None, check_arcsec: float | None,
-            as_json: bool, unit: str, output: str | None, force: bool,
+            mapping: Any, as_json: bool, unit: str, output: str | None, force: bool,
             fmt: str | None) -> None:
     """Fit an error model to sparse calibration points and write it as a model stream.
 
-    INPUT is a points stream (`enc points`) or a CSV file position_deg,deviation_arcsec.
+    INPUT is a points stream (`enc points`) or a table, its columns mapped as by `enc
+    points` (a point's position is the indicated angle).
     Points at the same angle (0 and 360 deg, repeated runs) are averaged. The summary
     on stderr gives the Bessel s and p-p of the points (seed 001 eq. 8) and the
     training, leave-one-out and hold-out residuals.
@@ -51,14 +54,14 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     settings = fitting.Settings(kernel, spread_deg, goal, harmonics, holdout_path)
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
-    header, pts = read_points(input)
+    header, pts = read_points(input, mapping)
     x, y, closure = distinct(pts, source=header.meta.get("source", "input"))
     if closure > 0:
         runner.log.info("points at the same angle differ by up to %.4f arcsec; fitted their mean",
                         closure)
     hold = None
     if holdout_path is not None:
-        _, hp = read_points(holdout_path)
+        _, hp = read_points(holdout_path, mapping)
         hold = distinct(hp, source=holdout_path)[:2]
     fit = fitting.fit_points(x, y, settings, hold, runner.Progress("spread search", "spreads"))
     table, meta = model_table(fit.model)

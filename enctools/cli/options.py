@@ -253,3 +253,49 @@ as_json = click.option("--json", "as_json", is_flag=True, default=False,
 json_summary = click.option("--json", "as_json", is_flag=True, default=False,
                             help="Print the summary as JSON on stdout instead of text on "
                                  "stderr (needs -o FILE when the command writes a stream).")
+
+
+# A user's table (enc-points(1), TABLES): one set of column options for every command
+# that takes points, handed to the command as one ``mapping`` (data.tablemap.Mapping).
+_TABLE_ROLES = (("position", "the indicated angle (what the encoder reads)"),
+                ("reference", "the reference angle (stage, polygon)"),
+                ("measured", "the indicated angle beside --reference"),
+                ("deviation", "indicated minus reference angle"),
+                ("direction", "approach direction, +1 or -1"),
+                ("run", "run number"))
+
+
+def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
+    """--position/--ref (--reference)/--measured/--deviation/--direction/--run COL, a unit per
+    angle column (--position-unit, ...), --counts-per-rev and --zero-offset: passed to
+    the command as ``mapping`` (a ``Mapping``; its checks are one UsageError line)."""
+    from enctools.units import COLUMN_UNITS
+
+    names = [r for r, _ in _TABLE_ROLES]
+    units = [f"{r}_unit" for r in ("position", "reference", "measured", "deviation")]
+
+    @functools.wraps(f)
+    def with_mapping(*args: Any, **kwargs: Any) -> Any:
+        from enctools.data.tablemap import Mapping
+
+        given = {k: kwargs.pop(k) for k in [*names, *units, "counts_per_rev", "zero_offset"]}
+        return f(*args, mapping=Mapping(**given), **kwargs)
+
+    g: Callable[..., Any] = with_mapping
+    g = click.option("--zero-offset", type=click.Choice(["remove", "keep"]), default=None,
+                     help="Remove or keep the constant offset between indicated and reference "
+                          "angle (default: remove with --reference and --measured, keep a "
+                          "deviation column's).")(g)
+    g = click.option("--counts-per-rev", type=int, default=None, metavar="N",
+                     help="Counts a revolution, for a column in counts.")(g)
+    for u in reversed(units):
+        default = "arcsec" if u == "deviation_unit" else "deg"
+        g = click.option(f"--{u.replace('_', '-')}", u, type=click.Choice(COLUMN_UNITS),
+                         default=None, help=f"Unit of that column (default: its title's, "
+                         f"else {default}).")(g)
+    for role, what in reversed(_TABLE_ROLES):
+        flags = ["--ref", "--reference"] if role == "reference" else [f"--{role}"]
+        g = click.option(*flags, role, default=None, metavar="COL",
+                         help=f"Table column of {what} (title or number; default: found by "
+                              "its title).")(g)
+    return g

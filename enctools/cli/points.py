@@ -1,6 +1,8 @@
-"""enc points: a steps-mode readings stream (polygon + autocollimator) or a CSV file -> points."""
+"""enc points: a steps-mode readings stream (polygon + autocollimator) or a table -> points."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import click
 
@@ -14,19 +16,23 @@ from enctools.cli import options
               help="Autocollimator column (default: the only one).")
 @click.option("--faces", type=int, default=None, callback=options.positive,
               help="Faces of the polygon (default: the rig's).")
+@options.table_columns
 @options.json_summary
 @options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, heads: list[str] | None, autocollimator: str | None,
-            faces: int | None, as_json: bool, unit: str, output: str | None, force: bool,
-            fmt: str | None) -> None:
-    """Turn a polygon step run, or a CSV table, into a points stream.
+            faces: int | None, mapping: Any, as_json: bool, unit: str, output: str | None,
+            force: bool, fmt: str | None) -> None:
+    """Turn a polygon step run, or a table, into a points stream.
 
     INPUT is a readings stream from `enc acquire --mode steps` on a rig with a
     polygon and an autocollimator (one point per position: mean of the measuring
-    heads relative to the first position, against the polygon angle), or a CSV file
-    position_deg,deviation_arcsec[,direction,run] with # comment lines.
+    heads relative to the first position, against the polygon angle), or a table:
+    CSV, TSV or blank-separated text with # comment lines and any header, or Parquet,
+    Arrow or HDF5 without enctools metadata, its columns found by title or named with
+    --position/--reference/--measured/--deviation. A point's position is the indicated
+    angle (the encoder's reading); the zero offset to the reference is reported.
     """
     from enctools.cli.summary import check_json, emit
     from enctools.data import streams
@@ -37,7 +43,10 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
     settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces)
-    header, found = points.make_points(input, settings)
+    header, found = points.make_points(input, settings, mapping)
     streams.write_table(output, with_history(header), found.table(), force, fmt)
-    emit({"n_rows": len(found), "distinct_positions": from_meta(header.meta["figures"])},
-         as_json, unit)
+    summary: dict[str, Any] = {"n_rows": len(found)}
+    if "zero_offset_arcsec" in header.meta:
+        summary |= {"zero_offset_arcsec": header.meta["zero_offset_arcsec"],
+                    "zero_offset_removed": header.meta["zero_offset_removed"]}
+    emit(summary | {"distinct_positions": from_meta(header.meta["figures"])}, as_json, unit)

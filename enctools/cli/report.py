@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from enctools.cli import options, runner
@@ -32,6 +34,7 @@ from enctools.cli import options, runner
 @click.option("--history", "history_dir", default=None, metavar="DIR",
               type=click.Path(file_okay=False),
               help="Tabulate (and plot, with --html/--pdf) the nightly history in DIR.")
+@options.table_columns
 @options.unit
 @options.force
 @options.verbosity
@@ -39,11 +42,13 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
             pdf_path: str | None, title: str | None, top_harmonics: int, nmax: int,
             max_pp: float | None, max_std: float | None, max_abs: float | None,
             max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
-            max_iso: tuple[str, ...], history_dir: str | None, unit: str, force: bool) -> None:
+            max_iso: tuple[str, ...], history_dir: str | None, mapping: Any, unit: str,
+            force: bool) -> None:
     """Summarise enctools streams: figures, harmonics, U (k=2), ISO 230-2.
 
-    Reads every INPUT (any kind; stdin when none is given and no --history) and
-    prints a summary per input on stdout. Thresholds turn it into a check for cron:
+    Reads every INPUT (any kind, or a table read as points as by `enc points`, with
+    its column options; stdin when none is given and no --history) and prints a
+    summary per input on stdout. Thresholds turn it into a check for cron:
     exceeding any exits 1 and names it on stderr; the summary is still printed.
     Angle errors in the text, HTML and PDF are in --unit; --json and the thresholds
     keep arcsec.
@@ -62,4 +67,4 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     run_report(sources, Options(top_harmonics, nmax), limits, as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
                prog=runner.command_name(), unit=unit,
-               progress=runner.Progress("inputs and renderings"))
+               progress=runner.Progress("inputs and renderings"), mapping=mapping)

@@ -100,6 +100,7 @@ VALUE_RANGES: dict[str, dict[str, tuple[float, float, str]]] = {
     "points": {
         "position": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),
         "deviation": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
+        "reference": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),
     },
     "model": {
         "centre": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),

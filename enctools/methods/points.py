@@ -9,8 +9,10 @@ Two sources:
   position (the simulator's convention: autocollimator = (theta - theta0 - j *
   2pi/faces) [arcsec] + face error). The deviation is indicated minus true angle
   [arcsec]; it is 0 at the first position.
-- a CSV file ``position_deg,deviation_arcsec[,direction,run]`` with ``#`` comments
-  (seed 001 table 1 is such a file).
+- a user's table (text with ``#`` comments and any header, or Parquet/Arrow/HDF5
+  without enctools metadata) mapped by :mod:`enctools.data.tablemap`, e.g.
+  ``position_deg,deviation_arcsec[,direction,run]`` (seed 001 table 1) or a
+  comparator's reference and measured angle: positions at the indicated angle.
 
 The figures of a set of points (Bessel standard deviation, seed 001 eq. 8, and
 peak-to-peak) are those of :mod:`enctools.data.statistics`, named here for the
@@ -19,8 +21,6 @@ metadata of points and models.
 
 from __future__ import annotations
 
-import csv
-import io
 import itertools
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +35,8 @@ from enctools.data.readings import head_angle, head_info, measuring_heads
 from enctools.data.riglimits import RANGES
 from enctools.data.schemas import column_with_role, make_field
 from enctools.data.statistics import Figures, figures_or_nan
+from enctools.data.tablemap import Mapping, TablePoints
+from enctools.data.tables import is_plain
 from enctools.errors import DataError, UsageError
 from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
@@ -47,32 +49,45 @@ if TYPE_CHECKING:
 class Points:
     """Calibration points: positions [deg], deviations [arcsec], direction, run.
 
-    In memory positions are degrees, the argument of the error models; the ``points``
-    stream holds them in rad (:meth:`table`, :func:`from_table`).
+    The position is the indicated angle (what the encoder reads: the index of a
+    correction table); ``reference_deg`` the reference angle [deg] (None: position -
+    deviation). In memory angles are degrees, the argument of the error models; the
+    ``points`` stream holds them in rad (:meth:`table`, :func:`from_table`).
     """
 
     position_deg: np.ndarray
     deviation: np.ndarray
     direction: np.ndarray
     run: np.ndarray
+    reference_deg: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.position_deg.size)
 
+    def reference(self) -> np.ndarray:
+        """The reference angle of each point [deg]."""
+        if self.reference_deg is not None:
+            return self.reference_deg
+        return self.position_deg - self.deviation * factor("arcsec", "deg")
+
     def table(self) -> pa.Table:
-        """The rows of a ``points`` stream: position [rad], deviation [arcsec], direction, run."""
+        """The rows of a ``points`` stream: position [rad], deviation [arcsec], direction,
+        run, reference [rad]."""
         schema = points_schema()
-        return pa.table([pa.array(self.position_deg * factor("deg", "rad"), pa.float64()),
+        rad = factor("deg", "rad")
+        return pa.table([pa.array(self.position_deg * rad, pa.float64()),
                          pa.array(self.deviation, pa.float64()),
                          pa.array(self.direction, pa.int8()),
-                         pa.array(self.run, pa.int32())], schema=schema)
+                         pa.array(self.run, pa.int32()),
+                         pa.array(self.reference() * rad, pa.float64())], schema=schema)
 
 
 def points_schema() -> pa.Schema:
     return pa.schema([make_field("position", pa.float64(), "rad"),
                       make_field("deviation", pa.float64(), "arcsec"),
                       make_field("direction", pa.int8(), ""),
-                      make_field("run", pa.int32(), "")])
+                      make_field("run", pa.int32(), ""),
+                      make_field("reference", pa.float64(), "rad")])
 
 
 @dataclass(frozen=True)
@@ -104,9 +119,9 @@ class Settings:
                                ("--faces", self.faces)) if v is not None]
 
     def check_table(self, path: str) -> None:
-        """Refuse (UsageError) the step run's options for a CSV table."""
+        """Refuse (UsageError) the step run's options for a table."""
         if self.given():
-            msg = f"{', '.join(self.given())}: for a steps run; {path} is a CSV table"
+            msg = f"{', '.join(self.given())}: for a steps run; {path} is a table (CSV, ...)"
             raise UsageError(msg)
 
     def to_meta(self) -> dict[str, Any]:
@@ -238,71 +253,31 @@ def _polygon_deviation(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, faces
     return dev
 
 
-# --------------------------------------------------------------------- from CSV
+# --------------------------------------------------------------------- from a table
 
 
-def _is_comparator_header(head: list[str]) -> bool:
-    """A two-column table of a reference angle and the device's measured angle [deg]."""
-    return len(head) == 2 and "reference" in head[0] and "measured" in head[1]
+def points_from_table(path: str | Path, mapping: Mapping | None = None
+                      ) -> tuple[Points, TablePoints]:
+    """Points from a user's table (text, or Parquet/Arrow/HDF5 without enctools
+    metadata) mapped by ``mapping`` (:mod:`enctools.data.tablemap`): positions at the
+    indicated angle [deg], the reference angle beside them, deviations [arcsec]."""
+    from enctools.data.streams import detect_format
+    from enctools.data.tablemap import map_table
+    from enctools.data.tables import read_binary, read_text
+
+    source = str(path)
+    with open(source, "rb") as f:
+        fmt = detect_format(f.read(8))
+    raw = read_text(source) if fmt is None else read_binary(source, fmt)
+    tp = map_table(raw, mapping or Mapping())
+    return Points(tp.position_deg, tp.deviation, tp.direction, tp.run, tp.reference_deg), tp
 
 
-def _comparator_points(path: str | Path, rows: list[list[str]]) -> Points:
-    """Points from ``reference_deg,measured_deg`` rows (e.g. a precision stage and a sensor).
-
-    deviation [arcsec] = measured - reference, wrapped to +/-180 deg, less its circular
-    mean (the device's zero is arbitrary); position [deg] = reference mod 360.
-    """
-    try:
-        vals = np.array([[float(v) for v in r] for r in rows[1:]], dtype=np.float64)
-    except ValueError:
-        msg = f"{path}: a data line is not two numbers"
-        raise DataError(msg) from None
-    if vals.ndim != 2 or vals.shape[0] == 0 or vals.shape[1] != 2:
-        msg = f"{path}: expected lines of two numbers: reference, measured [deg]"
-        raise DataError(msg)
-    if not np.all(np.isfinite(vals)):
-        msg = f"{path}: the table holds NaN or infinity"
-        raise DataError(msg)
-    diff = (vals[:, 1] - vals[:, 0]) * DEG
-    offset = np.angle(np.mean(np.exp(1j * diff)))
-    dev = np.angle(np.exp(1j * (diff - offset))) / ARCSEC
-    n = len(dev)
-    return Points(np.mod(vals[:, 0], 360.0), dev, np.ones(n, np.int8), np.zeros(n, np.int32))
-
-
-def _csv_rows(path: str | Path) -> list[list[str]]:
-    """The rows of a CSV table without comments and blank lines, within the limits of
-    :mod:`~enctools.data.limits` (its bytes, one field's bytes, its rows)."""
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-        if size > limits.MAX_CSV_BYTES:
-            msg = f"{path}: a CSV table of {size} bytes; at most {limits.MAX_CSV_BYTES} are read"
-            raise DataError(msg)
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        msg = f"{path}: no such file"
-        raise DataError(msg) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        msg = f"{path}: cannot read as text ({exc})"
-        raise DataError(msg) from None
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
-        msg = f"{path}: no points (the file is empty or only comments)"
-        raise DataError(msg)
-    if len(lines) > limits.MAX_TABLE_ROWS:
-        msg = f"{path}: {len(lines)} lines; at most {limits.MAX_TABLE_ROWS} rows are read"
-        raise DataError(msg)
-    longest = max(range(len(lines)), key=lambda k: len(lines[k]))
-    if len(lines[longest]) > limits.MAX_CSV_FIELD_BYTES:
-        msg = (f"{path}: line {longest + 1} (without comments) has {len(lines[longest])} "
-               f"characters; a CSV line is at most {limits.MAX_CSV_FIELD_BYTES}")
-        raise DataError(msg)
-    try:
-        return list(csv.reader(io.StringIO("\n".join(lines))))
-    except csv.Error as exc:
-        msg = f"{path}: not a CSV table ({exc})"
-        raise DataError(msg) from None
+def points_from_csv(path: str | Path, mapping: Mapping | None = None) -> Points:
+    """Points from a text table (``#`` comments, any header: :func:`points_from_table`),
+    e.g. ``position_deg,deviation_arcsec[,direction,run]`` (seed 001 table 1) or a
+    comparator's ``Reference Angle [degree],Measured Angle [degree]``."""
+    return points_from_table(path, mapping)[0]
 
 
 def check_points(points: Points, source: str) -> Points:
@@ -317,50 +292,6 @@ def check_points(points: Points, source: str) -> Points:
                    f"+-{bound:g} {unit} (enc-streams(5), LIMITS)")
             raise DataError(msg)
     return points
-
-
-def points_from_csv(path: str | Path) -> Points:
-    """Points from a CSV table (``#`` comments), in one of two layouts.
-
-    ``position_deg,deviation_arcsec[,direction,run]``: calibration points as measured;
-    ``reference_deg,measured_deg`` (any header naming a reference then a measured angle,
-    e.g. ``Reference Angle [degree],Measured Angle [degree]``): a comparator's table,
-    see :func:`_comparator_points`.
-    """
-    rows = _csv_rows(path)
-    head = [c.strip().lower() for c in rows[0]]
-    if _is_comparator_header(head):
-        return _comparator_points(path, rows)
-    if head[:2] != ["position_deg", "deviation_arcsec"]:
-        msg = (f"{path}: the first line must be the header "
-               f"'position_deg,deviation_arcsec[,direction,run]', not {','.join(rows[0])!r}")
-        raise DataError(msg)
-    extra = head[2:]
-    if any(c not in ("direction", "run") for c in extra):
-        msg = f"{path}: unknown column(s) {', '.join(extra)} (allowed: direction, run)"
-        raise DataError(msg)
-    data = rows[1:]
-    if not data:
-        msg = f"{path}: no points after the header line"
-        raise DataError(msg)
-    vals = np.zeros((len(data), 4))
-    vals[:, 2] = 1
-    for k, row in enumerate(data):
-        if len(row) != len(head):
-            msg = f"{path}: data line {k + 1} has {len(row)} fields, the header {len(head)}"
-            raise DataError(msg)
-        try:
-            nums = [float(v) for v in row]
-        except ValueError:
-            msg = f"{path}: data line {k + 1} is not numbers: {','.join(row)!r}"
-            raise DataError(msg) from None
-        if not all(np.isfinite(nums)):
-            msg = f"{path}: data line {k + 1} holds NaN or infinity"
-            raise DataError(msg)
-        vals[k, :2] = nums[:2]
-        for name, v in zip(extra, nums[2:], strict=True):
-            vals[k, 2 if name == "direction" else 3] = v
-    return Points(vals[:, 0], vals[:, 1], vals[:, 2].astype(np.int8), vals[:, 3].astype(np.int32))
 
 
 def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | None = None
@@ -382,17 +313,21 @@ def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | No
     d = table.column("direction").to_numpy(zero_copy_only=False) if "direction" in names \
         else np.ones(n)
     r = table.column("run").to_numpy(zero_copy_only=False) if "run" in names else np.zeros(n)
-    return Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32))
+    ref = column(table, "reference", "deg", source) if "reference" in names else None
+    if ref is not None and not np.all(np.isfinite(ref)):
+        msg = f"{source}: reference holds NaN or infinite values"
+        raise DataError(msg)
+    return Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32), ref)
 
 
-def is_csv_file(path: str | None) -> bool:
-    """Whether ``path`` names a regular file of text without a sidecar (a CSV points
-    table), not a stream.
+def is_table_file(path: str | None) -> bool:
+    """Whether ``path`` names a user's table, not a stream: a regular file of text
+    without a sidecar, or a Parquet, Arrow or HDF5 table without enctools metadata.
 
-    A stream starts with its format's magic bytes, or is a CSV or TSV table with its
-    sidecar (read as a stream, see enc-streams(5)); stdin (None, "-") and pipes are
-    streams (a pipe can be read once only). An unreadable path is not CSV: opening it
-    as a stream then says what is wrong.
+    A stream starts with its format's magic bytes and carries enctools metadata, or is a
+    CSV or TSV table with its sidecar (read as a stream, see enc-streams(5)); stdin
+    (None, "-") and pipes are streams (a pipe can be read once only). An unreadable path
+    is not a table: opening it as a stream then says what is wrong.
     """
     import os
     import stat
@@ -409,41 +344,68 @@ def is_csv_file(path: str | None) -> bool:
             head = f.read(8)
     except OSError:
         return False
-    return bool(head) and detect_format(head) is None
+    if not head:
+        return False
+    fmt = detect_format(head)
+    return fmt is None or is_plain(path, fmt)
 
 
-def read_points(path: str | None) -> tuple[Header, Points]:
-    """Points from a CSV file (:func:`points_from_csv`) or a points stream (stdin: None)."""
+def _table_header(path: str, mapping: Mapping, tp: TablePoints) -> Header:
+    """The header of points from a user's table: its source, mapping and zero offset."""
     from enctools.data import streams
 
-    if path is not None and is_csv_file(path):
-        header = streams.Header("points", points_schema(), {"source": f"CSV {path}"})
-        return header, check_points(points_from_csv(path), path)
+    meta = {"source": f"table {path}", "history": [], "table": tp.meta() | {
+        "mapping": mapping.to_meta()}, "zero_offset_arcsec": tp.zero_offset_arcsec,
+        "zero_offset_removed": tp.offset_removed}
+    return streams.Header("points", points_schema(), meta)
+
+
+def read_points(path: str | None, mapping: Mapping | None = None) -> tuple[Header, Points]:
+    """Points from a user's table mapped by ``mapping`` (:func:`points_from_table`) or a
+    points stream (stdin: None; a mapping's options are then refused)."""
+    from enctools.data import streams
+
+    mapping = mapping or Mapping()
+    if path is not None and is_table_file(path):
+        points, tp = points_from_table(path, mapping)
+        return _table_header(path, mapping, tp), check_points(points, path)
+    _no_mapping(mapping, path)
     src = streams.open_input(path, "points")
     return src.header, check_points(from_table(src.read_all(), src.source, src.header.meta),
                                      src.source)
 
 
-def make_points(path: str | None, settings: Settings) -> tuple[Header, Points]:
+def _no_mapping(mapping: Mapping, path: str | None) -> None:
+    """Refuse (UsageError) a table's column options for a stream."""
+    if mapping.given():
+        msg = f"{', '.join(mapping.given())}: for a table; {path or 'stdin'} is a stream"
+        raise UsageError(msg)
+
+
+def make_points(path: str | None, settings: Settings, mapping: Mapping | None = None
+                ) -> tuple[Header, Points]:
     """The points of enc points and the header of their stream.
 
-    From a CSV file (:func:`points_from_csv`; the step run's settings are refused) or a
-    steps-mode readings stream (:func:`points_from_steps`; stdin: None). The header
-    carries the settings and the figures of the distinct positions [arcsec].
+    From a user's table (:func:`read_points`; the step run's settings are refused) or a
+    steps-mode readings stream (:func:`points_from_steps`; stdin: None; the table's
+    column options are refused). The header carries the settings and the figures of
+    the distinct positions [arcsec].
     """
     from enctools.data import streams
 
-    if path is not None and is_csv_file(path):
+    mapping = mapping or Mapping()
+    if path is not None and is_table_file(path):
         settings.check_table(path)
-        points = check_points(points_from_csv(path), path)
-        header = streams.Header("points", points_schema(), {"source": f"CSV {path}", "history": []})
+        header, points = read_points(path, mapping)
     else:
+        _no_mapping(mapping, path)
         src = streams.open_input(path, "readings")
         points = check_points(points_from_steps(src.header, src.read_all(), settings, src.source),
                               src.source)
         header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")
     header.meta["settings"] = settings.to_meta()
-    header.meta["figures"] = figures_meta(figures_or_nan(distinct(points)[1]))
+    header.meta["figures"] = figures_meta(figures_or_nan(distinct(
+        points, source=header.meta.get("source", "input"))[1]))
     return header, points
 
 

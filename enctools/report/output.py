@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from enctools.data.files import OutputGroup, check_new_file
 from enctools.errors import CheckFailed
@@ -24,13 +25,15 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
                prog: str = "enc report", unit: str = "arcsec",
-               progress: Callable[[int, int], object] | None = None) -> None:
+               progress: Callable[[int, int], object] | None = None,
+               mapping: Any = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
     and PDF show angle errors in ``unit`` (:func:`~enctools.report.display.in_unit`);
     the JSON summary and the thresholds keep arcsec. ``progress(done, total)`` counts
-    the inputs read and the HTML and PDF renderings.
+    the inputs read and the HTML and PDF renderings. ``mapping``: how a user's table
+    maps to points (``data.tablemap.Mapping``).
     """
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
@@ -38,7 +41,7 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         if progress is not None:
             progress(done, total)
 
-    report = build_report(sources, opts, step)
+    report = build_report(sources, opts, step, mapping)
     if history_dir is not None:
         from enctools.report.history import read_history
         report.history = read_history(history_dir)

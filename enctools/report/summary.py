@@ -6,7 +6,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from enctools.data.streams import open_input
+from enctools.data.streams import InputStream, open_input
 from enctools.report.sections import DEFAULT_OPTIONS, Options, Section, build_section
 
 
@@ -27,16 +27,28 @@ class Report:
 
 
 def build_report(inputs: Sequence[str | None], opts: Options = DEFAULT_OPTIONS,
-                 progress: Callable[[int], object] | None = None) -> Report:
+                 progress: Callable[[int], object] | None = None,
+                 mapping: Any = None) -> Report:
     """Read every input (a path, or None/'-' for stdin) into its section;
-    ``progress(done)`` is called with the inputs read.
+    ``progress(done)`` is called with the inputs read. A user's table is read as points
+    mapped by ``mapping`` (a ``data.tablemap.Mapping``; None: by its titles).
 
     Raises DataError (exit 2) naming the input when one cannot be read.
     """
     report = Report(settings={"top_harmonics": opts.top_harmonics, "nmax": opts.nmax})
     for k, path in enumerate(inputs):
-        with open_input(path) as stream:
+        with _open(path, mapping) as stream:
             report.sections.append(build_section(stream, opts))
         if progress is not None:
             progress(k + 1)
     return report
+
+
+def _open(path: str | None, mapping: Any) -> InputStream:
+    """A stream, or a user's table as a points stream (enc-points(1), TABLES)."""
+    from enctools.methods.points import is_table_file, read_points
+
+    if path is None or not is_table_file(path):
+        return open_input(path)
+    header, points = read_points(path, mapping)
+    return InputStream(header, iter(points.table().to_batches()), path, "table")

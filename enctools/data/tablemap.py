@@ -1,0 +1,359 @@
+"""Calibration points from a user's table: which column is what, in which unit.
+
+The options of enc-points(1), TABLES, as one :class:`Mapping`: the columns of the
+indicated angle (``--position``, or ``--measured`` beside a ``--reference``), the
+reference angle, the deviation, the direction and the run, each found by its title
+when no option names it, with a unit per column. :func:`map_table` turns a
+:class:`~enctools.data.tables.RawTable` into :class:`TablePoints`:
+
+- the position of a point is the indicated angle (what the encoder reads), the index
+  of a correction table; the reference angle is kept beside it;
+- reference + measured: deviation = measured - reference, wrapped to +-180 deg; their
+  constant zero offset (circular mean) is removed by default (``--zero-offset keep``
+  keeps it) and always reported; the positions are the measured angles mod 360 deg;
+- position + deviation, or reference + deviation: the deviations as given (the offset,
+  their mean, is reported and removed only with ``--zero-offset remove``).
+
+Bad rows (not a number, NaN, out of range, a unit other than the column's), two points
+at one position, and a reference that steps back where the indicated angle goes on are
+refused with one line naming the line (row) or column.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+
+from enctools.data import limits
+from enctools.data.tables import UNITS, RawTable, cell_unit, title_unit
+from enctools.data.text import printable
+from enctools.errors import DataError, UsageError
+from enctools.units import counts_factor, factor
+
+#: the columns a table maps to, in the order they are looked for
+ROLES = ("reference", "measured", "position", "deviation", "direction", "run")
+ANGLES = ("position", "reference", "measured")
+#: a column found by its title (without its unit): the whole name, or one of its words
+_NAMES = {"position": {"position", "pos", "angle", "theta"},
+          "deviation": {"deviation", "error", "err", "dev"},
+          "direction": {"direction", "dir"}, "run": {"run"}}
+_WORDS = {"reference": {"reference", "ref", "true", "stage", "nominal", "target"},
+          "measured": {"measured", "indicated", "reading", "encoder", "sensor"}}
+ZERO_OFFSET = ("remove", "keep")
+_ARCSEC_PER_DEG = factor("deg", "arcsec")
+
+
+@dataclass(frozen=True)
+class Mapping:
+    """How a table's columns map to points; None: found by title, or the default.
+
+    position, reference, measured, deviation, direction, run : column titles (or
+        1-based numbers); position is the indicated angle (measured is the same,
+        named beside a reference).
+    position_unit, reference_unit, measured_unit : deg (default), rad, arcsec, arcmin,
+        urad, mrad or counts; deviation_unit likewise, arcsec by default.
+    counts_per_rev : counts a revolution, for a column in counts.
+    zero_offset : remove or keep the constant offset between indicated and reference
+        angle (None: remove for reference + measured, keep for a deviation column).
+    """
+
+    position: str | None = None
+    reference: str | None = None
+    measured: str | None = None
+    deviation: str | None = None
+    direction: str | None = None
+    run: str | None = None
+    position_unit: str | None = None
+    reference_unit: str | None = None
+    measured_unit: str | None = None
+    deviation_unit: str | None = None
+    counts_per_rev: int | None = None
+    zero_offset: str | None = None
+
+    def __post_init__(self) -> None:
+        for role in (*ANGLES, "deviation"):
+            unit = getattr(self, f"{role}_unit")
+            if unit is not None and unit not in UNITS:
+                msg = f"--{role}-unit must be one of {', '.join(UNITS)}, not {unit!r}"
+                raise UsageError(msg)
+            if unit == "counts" and self.counts_per_rev is None:
+                msg = f"--{role}-unit counts needs --counts-per-rev"
+                raise UsageError(msg)
+        lo, hi = 1, 1 << 40
+        if self.counts_per_rev is not None and not lo <= self.counts_per_rev <= hi:
+            msg = f"--counts-per-rev must be in [{lo}, {hi}], not {self.counts_per_rev}"
+            raise UsageError(msg)
+        if self.position is not None and self.measured is not None:
+            msg = "--position and --measured both name the indicated angle: give one"
+            raise UsageError(msg)
+        if self.zero_offset is not None and self.zero_offset not in ZERO_OFFSET:
+            msg = f"--zero-offset must be remove or keep, not {self.zero_offset!r}"
+            raise UsageError(msg)
+
+    def given(self) -> list[str]:
+        """The options given, by name."""
+        return [f"--{f.name.replace('_', '-')}" for f in fields(self)
+                if getattr(self, f.name) is not None]
+
+    def names_columns(self) -> bool:
+        """Whether any column is named by an option (then other columns are ignored)."""
+        return any(getattr(self, r) is not None for r in ROLES)
+
+    def to_meta(self) -> dict[str, Any]:
+        """The mapping as given (None: found by title, or the default)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass
+class TablePoints:
+    """Points of a table: angles [deg], deviations [arcsec], direction, run.
+
+    position_deg : the indicated angle; reference_deg : the reference angle;
+    deviation : indicated - reference [arcsec], less the zero offset when removed;
+    zero_offset_arcsec : the constant offset between indicated and reference angle
+    (circular mean of indicated - reference) [arcsec]; columns : role -> title used.
+    """
+
+    position_deg: np.ndarray
+    reference_deg: np.ndarray
+    deviation: np.ndarray
+    direction: np.ndarray
+    run: np.ndarray
+    zero_offset_arcsec: float
+    offset_removed: bool
+    columns: dict[str, str]
+    units: dict[str, str]
+
+    def meta(self) -> dict[str, Any]:
+        """What the points stream's metadata says of the table (enc-streams(5), points)."""
+        return {"columns": dict(self.columns), "units": dict(self.units),
+                "zero_offset_arcsec": self.zero_offset_arcsec,
+                "zero_offset_removed": self.offset_removed}
+
+
+def _options_line() -> str:
+    return ("map them with --position COL --deviation COL, or --reference COL --measured "
+            "COL (or --reference COL --deviation COL), and --direction COL, --run COL; "
+            "units: --position-unit, --reference-unit, --measured-unit, --deviation-unit "
+            f"({', '.join(UNITS)}; counts with --counts-per-rev)")
+
+
+def _cannot_map(raw: RawTable, what: str) -> DataError:
+    found = ", ".join(repr(printable(t)) for t in raw.titles)
+    return DataError(f"{raw.source}: {what}; columns found: {found}; {_options_line()}")
+
+
+def _named(raw: RawTable, name: str, role: str) -> int:
+    """The column an option names: by title (any case), else by its 1-based number."""
+    exact = [k for k, t in enumerate(raw.titles) if t == name]
+    loose = [k for k, t in enumerate(raw.titles) if t.strip().lower() == name.strip().lower()]
+    if exact or len(loose) == 1:
+        return (exact or loose)[0]
+    if name.isdigit() and 1 <= int(name) <= len(raw.titles):
+        return int(name) - 1
+    raise _cannot_map(raw, f"--{role} {printable(name)!r}: no such column")
+
+
+def _found(raw: RawTable, role: str, taken: set[int]) -> int | None:
+    """The column found for ``role`` by its title (None: none; DataError: several)."""
+    hits = []
+    for k, t in enumerate(raw.titles):
+        name = title_unit(t)[0]
+        if k not in taken and (name in _NAMES.get(role, ()) or
+                               set(name.replace("_", " ").split()) & _WORDS.get(role, set())):
+            hits.append(k)
+    if len(hits) > 1:
+        titles = ", ".join(repr(printable(raw.titles[k])) for k in hits)
+        raise _cannot_map(raw, f"columns {titles} could each be the {role}: name one with "
+                          f"--{role}")
+    return hits[0] if hits else None
+
+
+def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
+    """Role -> column index: as the options name them, else found by title. DataError
+    naming the columns found and the options when the table does not map."""
+    cols: dict[str, int] = {}
+    for role in ROLES:
+        name = getattr(mapping, role)
+        if name is not None:
+            cols[role] = _named(raw, name, role)
+    for role in ROLES:
+        known = {"indicated" if r in ("position", "measured") else r for r in cols}
+        enough = role in (*ANGLES, "deviation") and len(
+            known & {"indicated", "reference", "deviation"}) >= 2
+        if role not in cols and not enough and (role != "position" or "measured" not in cols):
+            k = _found(raw, role, set(cols.values()))
+            if k is not None:
+                cols[role] = k
+    if "measured" in cols and "position" in cols:
+        raise _cannot_map(raw, "both a position and a measured column: name one")
+    have = {"indicated" if r in ("position", "measured") else r for r in cols}
+    angles = sorted(have & {"indicated", "reference", "deviation"})
+    if len(angles) != 2:
+        found = f" (found: {', '.join(angles)})" if angles else ""
+        raise _cannot_map(raw, "a table needs two of indicated angle, reference and "
+                          f"deviation{found}")
+    for role in (*ANGLES, "deviation"):
+        if getattr(mapping, f"{role}_unit") is not None and role not in cols:
+            msg = f"--{role}-unit: the table has no {role} column"
+            raise UsageError(msg)
+    unused = [t for k, t in enumerate(raw.titles) if k not in cols.values()]
+    listed = ", ".join(repr(printable(t)) for t in unused)
+    if unused and not mapping.names_columns():
+        raise _cannot_map(raw, f"unknown column(s) {listed}")
+    if unused:
+        logging.getLogger("enctools").info("%s: columns not used: %s", raw.source, listed)
+    return cols
+
+
+# ------------------------------------------------------------------------- values
+
+
+def _unit(raw: RawTable, k: int, role: str, mapping: Mapping) -> str | None:
+    """A column's unit: its option's and its title's, which must agree (None: neither)."""
+    given = getattr(mapping, f"{role}_unit")
+    said = title_unit(raw.titles[k])[1]
+    if given is not None and said is not None and given != said:
+        msg = (f"{raw.source}: column {printable(raw.titles[k])!r}: its title says {said}, "
+               f"--{role}-unit says {given} (mixed units)")
+        raise DataError(msg)
+    return given or said
+
+
+def _cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | None]:
+    """A column's numbers and unit: a text column's cells parsed, each unit written in a
+    cell the column's (DataError naming the line otherwise)."""
+    col = raw.columns[k]
+    name = printable(raw.titles[k])
+    if isinstance(col, np.ndarray):
+        if col.dtype.kind != "f":
+            msg = f"{raw.source}: column {name!r} is not numbers ({col.dtype})"
+            raise DataError(msg)
+        return col, unit
+    out = np.empty(len(col))
+    for i, cell in enumerate(col):
+        parsed = cell_unit(cell)
+        if parsed is None:
+            msg = (f"{raw.source}: {raw.where(i)}, column {name!r}: {printable(cell)!r} is not "
+                   "a number")
+            raise DataError(msg)
+        out[i], said = parsed
+        if said is not None and unit is not None and said != unit:
+            msg = (f"{raw.source}: {raw.where(i)}, column {name!r}: {printable(cell)!r} is in "
+                   f"{said}, the column in {unit} (mixed units)")
+            raise DataError(msg)
+        unit = unit or said
+    return out, unit
+
+
+def values(raw: RawTable, k: int, role: str, mapping: Mapping) -> tuple[np.ndarray, str]:
+    """Column ``k`` as ``role``: angles [deg], deviations [arcsec], checked finite and
+    within the limits of enc-streams(5); and the unit it was read in."""
+    to = "arcsec" if role == "deviation" else "deg"
+    raw_values, unit = _cells(raw, k, _unit(raw, k, role, mapping))
+    unit = unit or to
+    scale = (counts_factor(mapping.counts_per_rev or 0, to) if unit == "counts"
+             else factor(unit, to))
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = raw_values * scale
+    bound = limits.MAX_ABS_ARCSEC if role == "deviation" else limits.MAX_ABS_DEG
+    bad = np.flatnonzero(~(np.abs(out) <= bound))
+    if bad.size:
+        i = int(bad[0])
+        where = f"{raw.source}: {raw.where(i)}, column {printable(raw.titles[k])!r}"
+        msg = (f"{where}: NaN or infinite" if not np.isfinite(raw_values[i]) else
+               f"{where}: {raw_values[i]:g} {unit} is beyond +-{bound:g} {to} "
+               "(enc-streams(5), LIMITS)")
+        raise DataError(msg)
+    return out, unit
+
+
+def _whole(raw: RawTable, k: int, role: str, allowed: tuple[int, int]) -> np.ndarray:
+    """A direction or run column: whole numbers within ``allowed`` (directions: +-1)."""
+    v, _ = _cells(raw, k, None)
+    lo, hi = allowed
+    ok = np.isfinite(v) & (v == np.round(v)) & (v >= lo) & (v <= hi)
+    if role == "direction":
+        ok &= np.abs(v) == 1
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        i = int(bad[0])
+        what = "+1 or -1" if role == "direction" else f"a whole number {lo}..{hi}"
+        msg = (f"{raw.source}: {raw.where(i)}, column {printable(raw.titles[k])!r}: "
+               f"{v[i]:g} is not {what}")
+        raise DataError(msg)
+    return v
+
+
+# -------------------------------------------------------------------------- points
+
+
+def _wrap_deg(x: np.ndarray) -> np.ndarray:
+    """Angles [deg] wrapped to [-180, 180)."""
+    return np.mod(x + 180.0, 360.0) - 180.0
+
+
+def circular_mean_deg(x: np.ndarray) -> float:
+    """The circular mean of angles [deg], in [-180, 180]."""
+    rad = x * factor("deg", "rad")
+    return float(np.angle(np.mean(np.exp(1j * rad)))) * factor("rad", "deg")
+
+
+def map_table(raw: RawTable, mapping: Mapping) -> TablePoints:
+    """The points of a table (module docstring): positions at the indicated angle."""
+    cols = resolve(raw, mapping)
+    got = {r: values(raw, k, r, mapping) for r, k in cols.items() if r not in ("direction", "run")}
+    n = len(raw)
+    direction = (_whole(raw, cols["direction"], "direction", (-1, 1)) if "direction" in cols
+                 else np.ones(n))
+    run = (_whole(raw, cols["run"], "run", (0, 2**31 - 1)) if "run" in cols else np.zeros(n))
+    indicated = got.get("position", got.get("measured", (None, "")))[0]
+    reference = got["reference"][0] if "reference" in got else None
+    if indicated is not None and reference is not None:
+        diff = _wrap_deg(indicated - reference)
+        offset = circular_mean_deg(diff)
+        removed = mapping.zero_offset != "keep"
+        dev = (_wrap_deg(diff - offset) if removed else diff) * _ARCSEC_PER_DEG
+        indicated = np.mod(indicated, 360.0)
+    else:
+        dev = got["deviation"][0]
+        offset = float(np.mean(dev)) / _ARCSEC_PER_DEG
+        removed = mapping.zero_offset == "remove"
+        if indicated is None:
+            assert reference is not None  # resolve(): two of indicated, reference, deviation
+            indicated = reference + dev / _ARCSEC_PER_DEG
+        reference = indicated - dev / _ARCSEC_PER_DEG
+        if removed:
+            dev = dev - offset * _ARCSEC_PER_DEG
+    points = TablePoints(indicated, reference, dev, direction.astype(np.int8),
+                         run.astype(np.int32), offset * _ARCSEC_PER_DEG, removed,
+                         {r: raw.titles[k] for r, k in cols.items()},
+                         {r: u for r, (_, u) in got.items()})
+    check_rows(raw, points, "reference" in cols)
+    return points
+
+
+def check_rows(raw: RawTable, p: TablePoints, has_reference: bool) -> None:
+    """Two points at one position of one run and direction, and (with a reference column)
+    a reference that steps back where the indicated angle goes on, are refused
+    (DataError naming both lines)."""
+    order = np.lexsort((p.position_deg, p.direction, p.run))
+    a, b = order[:-1], order[1:]
+    same = (p.run[a] == p.run[b]) & (p.direction[a] == p.direction[b])
+    twice = np.flatnonzero(same & (p.position_deg[a] == p.position_deg[b]))
+    if twice.size:
+        i, j = int(a[twice[0]]), int(b[twice[0]])
+        msg = (f"{raw.source}: {raw.where(j)} repeats the position of {raw.where(i)} "
+               f"({p.position_deg[i]:.10g} deg, run {p.run[i]}, direction "
+               f"{p.direction[i]:+d}): duplicate positions")
+        raise DataError(msg)
+    back = np.flatnonzero(same & (_wrap_deg(p.reference_deg[b] - p.reference_deg[a]) < 0))
+    if has_reference and back.size:
+        i, j = int(a[back[0]]), int(b[back[0]])
+        msg = (f"{raw.source}: {raw.where(j)}: the reference angle jumps backwards "
+               f"({p.reference_deg[i]:.10g} deg at {raw.where(i)} -> "
+               f"{p.reference_deg[j]:.10g} deg) where the indicated angle goes on")
+        raise DataError(msg)
