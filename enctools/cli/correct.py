@@ -11,6 +11,7 @@ from enctools.cli import options
 
 if TYPE_CHECKING:
     from enctools.data.streams import Header
+    from enctools.data.tablemap import Mapping
     from enctools.models.corrected import Residuals
     from enctools.models.correction import Correction
 
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
              "encoder (default: truth).", dest="reference", metavar="truth|H1,...",
              callback=options.name_list)
 @options.points("Readings: bins of the output deviations curves.", 1024)
+@options.table_columns_spelt(("--reference-column",))
 @options.threshold("--max-pp", "Exit 1 when the corrected peak-to-peak exceeds this.")
 @options.threshold("--max-std", "Exit 1 when the corrected Bessel s exceeds this.")
 @options.threshold("--max-abs", "Exit 1 when the largest corrected |deviation| exceeds this.")
@@ -56,10 +58,11 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
             array_name: str, curve: str | None, heads: list[str] | None,
             reference: list[str] | None, points: int, max_pp: float | None,
             max_std: float | None, max_abs: float | None, as_json: bool, unit: str,
-            output: str | None, force: bool, fmt: str | None) -> None:
+            output: str | None, force: bool, fmt: str | None, mapping: Mapping) -> None:
     """Apply a correction table to points or readings as an FPGA or a controller would.
 
-    INPUT is a points stream or CSV table (position = the indicated angle), or a
+    INPUT is a points stream or a table (position = the indicated angle; column options
+    as enc points', the reference column spelt --reference-column), or a
     continuous readings stream with a reference angle (--ref). Memory tables are looked
     up by the code's top bits and their integer added in LSBs; controller tables are
     interpolated between their points, modulo 360 deg; a model is applied unquantised.
@@ -80,7 +83,7 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
     settings = correction.TableSettings(target, code_bits, address_bits, width, lsb, endian,
                                         array_name)
     table = correction.load(table_path, settings, curve)
-    header, out, res, extra = _apply(input, table, heads, reference, points)
+    header, out, res, extra = _apply(input, table, heads, reference, points, mapping)
     described = {"file": table_path} | table.describe()
     if output is not None:
         kind = "deviations" if header.kind == "readings" else "points"
@@ -96,20 +99,23 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
 
 
 def _apply(input: str | None, table: Correction, heads: list[str] | None,
-           reference: list[str] | None, points: int
+           reference: list[str] | None, points: int, mapping: Mapping
            ) -> tuple[Header, Any, Residuals, dict[str, Any]]:
     """The input's header, the corrected stream's rows, the residuals, and what the
     summary says of the input."""
     from enctools.data import streams
     from enctools.errors import UsageError
-    from enctools.methods.points import check_points, from_table, is_csv_file, read_points
+    from enctools.methods.points import check_points, from_table, is_table_file, read_points
     from enctools.models.corrected import correct_points
 
     given = [o for o, v in (("--heads", heads), ("--ref", reference)) if v is not None]
-    if input is not None and is_csv_file(input):
-        header, pts = read_points(input)
+    if input is not None and is_table_file(input):
+        header, pts = read_points(input, mapping)
         source = input
     else:
+        if mapping.given():
+            msg = f"{', '.join(mapping.given())}: for a table; {input or 'stdin'} is a stream"
+            raise UsageError(msg)
         src = streams.open_input(input, ("points", "readings"))
         header, source = src.header, src.source
         if header.kind == "readings":

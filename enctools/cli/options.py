@@ -269,6 +269,19 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
     """--position/--ref (--reference)/--measured/--deviation/--direction/--run COL, a unit per
     angle column (--position-unit, ...), --counts-per-rev and --zero-offset: passed to
     the command as ``mapping`` (a ``Mapping``; its checks are one UsageError line)."""
+    return table_columns_spelt(("--ref", "--reference"))(f)
+
+
+def table_columns_spelt(reference: tuple[str, ...]
+                        ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """:func:`table_columns` with the reference column's option spelt ``reference``: a
+    command whose ``--ref`` names a readings input's reference heads (enc correct) spells
+    it ``--reference-column``."""
+    return functools.partial(_table_columns, reference=reference)
+
+
+def _table_columns(f: Callable[..., Any], reference: tuple[str, ...]) -> Callable[..., Any]:
+    """The options of :func:`table_columns`, the reference column spelt ``reference``."""
     from enctools.units import COLUMN_UNITS
 
     names = [r for r, _ in _TABLE_ROLES]
@@ -278,7 +291,8 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
     def with_mapping(*args: Any, **kwargs: Any) -> Any:
         from enctools.data.tablemap import Mapping
 
-        given = {k: kwargs.pop(k) for k in [*names, *units, "counts_per_rev", "zero_offset"]}
+        given = {k: kwargs.pop(f"column_{k}") for k in names}
+        given |= {k: kwargs.pop(k) for k in [*units, "counts_per_rev", "zero_offset"]}
         return f(*args, mapping=Mapping(**given), **kwargs)
 
     g: Callable[..., Any] = with_mapping
@@ -294,8 +308,8 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
                          default=None, help=f"Unit of that column (default: its title's, "
                          f"else {default}).")(g)
     for role, what in reversed(_TABLE_ROLES):
-        flags = ["--ref", "--reference"] if role == "reference" else [f"--{role}"]
-        g = click.option(*flags, role, default=None, metavar="COL",
+        flags = list(reference) if role == "reference" else [f"--{role}"]
+        g = click.option(*flags, f"column_{role}", default=None, metavar="COL",
                          help=f"Table column of {what} (title or number; default: found by "
                               "its title).")(g)
     return g
