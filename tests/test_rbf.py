@@ -64,9 +64,13 @@ def test_fit_rbf_command_on_table1(tmp_path):
         assert np.abs(y - model(x)).max() < 1e-6  # evaluated from the stream
         res = header.meta["residuals"]
         assert res["training"]["max_abs_arcsec"] < 1e-6
-        assert res["leave_one_out"]["rms_arcsec"] > 0.1  # a real prediction, not the point
         if kernel == "rbf":
             assert header.meta["model"]["units"] == 24
+            assert res["leave_one_out"]["rms_arcsec"] > 0.1  # a real prediction, not the point
+        else:  # 23 terms and a12 fix the 24 points: nothing is left to predict one of them
+            assert np.isnan(res["leave_one_out"]["rms_arcsec"])
+            assert "no leave-one-out residuals: the 24 points each fix a term" in err
+            assert header.meta["model"]["undetermined"] == ["b12"]
 
 
 @pytest.fixture(scope="module")
@@ -179,7 +183,7 @@ def test_fit_points_in_process_matches_the_command(table1, tmp_path):
 
     x, y = table1
     settings = Settings("fourier", harmonics=12)
-    assert settings.to_meta() == {"kernel": "fourier", "spread_deg": None, "goal_arcsec": 1e-4,
+    assert settings.to_meta() == {"kernel": "fourier", "spread_deg": None, "goal_arcsec": None,
                                   "harmonics": 12, "holdout": None}
     fit = fit_points(x, y, settings)
     out = tmp_path / "f.parquet"
