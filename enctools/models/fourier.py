@@ -25,7 +25,7 @@ from enctools.units import DEG, TWO_PI
 GRID_ROW = 4096
 #: the largest condition number of the design a fit keeps (dimensionless): noise in the
 #: points reaches the coefficients amplified by up to this
-COND_LIMIT = 1e4
+COND_LIMIT = 100.0
 #: the highest order the default series tries (513 unknowns: one QR of N x 513)
 DEFAULT_MAX_ORDER = 256
 
