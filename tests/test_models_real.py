@@ -205,7 +205,7 @@ def test_fourier_default_on_uneven_points(tmp_path):
             assert named == {f"{p}{k}" for k in range(top + 1, 31) for p in "ab"}
         else:      # the default: order by leave-one-out, below the limit
             assert not named and 2 * top + 1 <= x.size
-            assert 2 <= top and _cond(x, top) <= 100
+            assert top >= 2 and _cond(x, top) <= 100
             assert header.meta["model"]["selection"]["highest_order_tried"] <= (x.size - 1) // 2
 
 

@@ -14,7 +14,13 @@ import numpy as np
 from enctools.data.statistics import figures_or_nan
 from enctools.errors import UsageError
 from enctools.methods.points import figures_meta
-from enctools.models.fourier import COND_LIMIT, DEFAULT_MAX_ORDER, FourierModel, choose_order, fit_with_loo
+from enctools.models.fourier import (
+    COND_LIMIT,
+    DEFAULT_MAX_ORDER,
+    FourierModel,
+    choose_order,
+    fit_with_loo,
+)
 from enctools.models.rbf import RBFModel, choose_network
 
 KERNELS = ("rbf", "fourier")

@@ -137,7 +137,7 @@ def determined_terms(x_rad: np.ndarray, harmonics: int) -> tuple[Terms, np.ndarr
     kept columns in order.
     """
     a = design_matrix(x_rad, harmonics)
-    q, r = np.linalg.qr(a)
+    _, r = np.linalg.qr(a)
     norms = np.linalg.norm(a, axis=0)
     diag = np.zeros(a.shape[1])
     diag[:min(r.shape)] = np.abs(np.diag(r))
