@@ -274,3 +274,24 @@ def test_report_harmonics_of_a_real_uneven_run(tmp_path):
     assert curve["pp_arcsec"] == pytest.approx(np.ptp(dev), rel=1e-9)
     top = curve["harmonics"][0]
     assert top["n"] == 2 and top["amplitude_arcsec"] < curve["pp_arcsec"] / 2
+
+
+@needs_magalpha
+def test_goal_unreachable_or_reached_by_the_noise_is_said(tmp_path):
+    """--goal on 200 noisy points: a goal no network reaches is said with what is left; a
+    goal reached by fitting the noise is said with its leave-one-out residual."""
+    x, y = measured_points(FILES[0])
+    pts = write_points(tmp_path / "p.csv", x, y)
+    for goal, said in (("0.0001", "--goal 0.0001 arcsec is not reached"),
+                       ("3000", "--goal 3000 arcsec is reached by fitting the noise")):
+        out = tmp_path / f"m{goal}.parquet"
+        r = run(f"enc fit-rbf {pts} --goal {goal} -o {out}")
+        assert r.returncode == 0, r.stderr.decode()
+        err = r.stderr.decode()
+        assert said in err and "WARNING" in err, err
+        header, table = streams.read_table(str(out), "model")
+        training = header.meta["residuals"]["training"]["max_abs_arcsec"]
+        assert (training <= float(goal)) == (goal == "3000")
+        assert header.meta["model"]["selection"]["goal_reached"] == (goal == "3000")
+        left = y - evaluate(out, x)
+        assert np.max(np.abs(left)) == pytest.approx(training, rel=1e-9)

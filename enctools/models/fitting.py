@@ -146,15 +146,17 @@ def _notes(fit: Fit, settings: Settings, n: int) -> list[str]:
     model, goal = fit.model, settings.goal_arcsec
     if isinstance(model, RBFModel) and goal is not None:
         worst = fit.training["max_abs_arcsec"]
+        loo, best = fit.loo["rms_arcsec"], fit.choice["best_leave_one_out_rms_arcsec"]
         if worst > goal:
             notes.append(f"--goal {goal:g} arcsec is not reached: no spread and smoothing of "
-                         f"{model.centres_deg.size} units gets every training residual within it; "
-                         f"the network that predicts best leaves {worst:.4g} arcsec")
-        elif fit.choice["effective_parameters"] > 0.9 * n and n > 2:
-            notes.append(f"--goal {goal:g} arcsec is reached only by passing through the {n} "
-                         f"points, noise included ({fit.choice['effective_parameters']:.4g} "
-                         f"effective parameters; leave-one-out rms "
-                         f"{fit.loo['rms_arcsec']:.4g} arcsec)")
+                         f"{model.centres_deg.size} units (with weights a model stream holds) "
+                         f"gets every training residual within it; the network that predicts "
+                         f"best leaves {worst:.4g} arcsec")
+        elif n > 2 and loo > 1.1 * best:
+            notes.append(f"--goal {goal:g} arcsec is reached by fitting the noise: "
+                         f"{fit.choice['effective_parameters']:.4g} effective parameters for "
+                         f"{n} points, leave-one-out rms {loo:.4g} arcsec against {best:.4g} "
+                         "for the network that predicts best (without --goal)")
     tried, ceiling = fit.choice.get("highest_order_tried"), fit.choice.get("order_ceiling")
     if tried is not None and ceiling is not None and tried < ceiling:
         notes.append(f"orders {tried + 1}..{ceiling} are past the condition limit of these "
@@ -189,7 +191,8 @@ def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
                "smoothing": choice.smoothing, "effective_parameters": choice.effective}
         if choice.reached is not None:
             how |= {"selection": "leave-one-out among those within --goal",
-                    "goal_reached": choice.reached}
+                    "goal_reached": choice.reached,
+                    "best_leave_one_out_rms_arcsec": choice.best_rms}
         return network, (choice.loo if n > 2 else np.full(n, np.nan)), how
     if settings.harmonics is None:
         model, loo = choose_order(x, y)

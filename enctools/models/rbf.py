@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from enctools.data.limits import MAX_ABS_ARCSEC
 from enctools.errors import DataError
 from enctools.units import DEG
 
@@ -198,6 +199,8 @@ SPREAD_STEPS = 2.0 ** np.arange(-1.0, 5.01, 0.5)
 #: smoothing the search tries: the ridge lambda as a fraction of the largest squared
 #: singular value of the centred design (1e-12: interpolation to rounding)
 SMOOTHING = 10.0 ** np.arange(-12.0, 0.01, 0.5)
+#: the largest |weight| [arcsec] a network may have: what a model stream holds
+MAX_WEIGHT = MAX_ABS_ARCSEC
 
 
 def default_centres(n_points: int) -> np.ndarray:
@@ -215,7 +218,9 @@ class Choice:
     squared singular value (dimensionless); loo : each point's residual [arcsec]
     against the network fitted without it; effective : trace of the hat matrix, the
     number of parameters the data effectively determine; tried : spreads x smoothings;
-    reached : whether the network reaches the training goal (None: no goal given).
+    reached : whether the network reaches the training goal (None: no goal given);
+    best_rms : the smallest RMS leave-one-out residual [arcsec] of any network tried,
+    goal or not.
     """
 
     spread_deg: float
@@ -224,6 +229,7 @@ class Choice:
     effective: float
     tried: int
     reached: bool | None = None
+    best_rms: float = float("nan")
 
 
 class _Ridge:
@@ -262,12 +268,16 @@ class _Ridge:
         h = 1.0 / self.y.size + self.u2 @ g
         return resid / (1.0 - h), float(1.0 + g.sum())
 
-    def model(self, smoothing: float) -> RBFModel:
-        """The network fitted to all points with this smoothing."""
+    def weights(self, smoothing: float) -> np.ndarray:
+        """The output weights [arcsec] fitted to all points with this smoothing."""
         g = self._gain(smoothing)
         positive = self.s > 0
         inverse = np.where(positive, g / np.where(positive, self.s, 1.0), 0.0)
-        weights = self.vt.T @ (inverse * self.uy)
+        return np.asarray(self.vt.T @ (inverse * self.uy))
+
+    def model(self, smoothing: float) -> RBFModel:
+        """The network fitted to all points with this smoothing."""
+        weights = self.weights(smoothing)
         bias = self.ybar - float(self.mu @ weights)
         resid = self.y - bias - design_matrix(self.x * DEG, self.centres * DEG,
                                               self.spread) @ weights
@@ -313,13 +323,18 @@ def choose_network(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     spreads = ([float(spread_deg)] if spread_deg is not None
                else sorted({min(float(f) * spacing, 180.0) for f in SPREAD_STEPS}))
     best: tuple[tuple[bool, float], _Ridge, float, np.ndarray, float] | None = None
+    best_rms = np.inf
     for k, spread in enumerate(spreads):
         ridge = _Ridge(x, y, centres, spread)
         for smoothing in SMOOTHING:
             loo, effective = ridge.loo(float(smoothing))
             rms = float(np.sqrt(np.mean(loo * loo)))
-            # networks that reach the goal first, then the smaller leave-one-out residual
+            # networks that reach the goal first, then the smaller leave-one-out residual;
+            # never one whose weights a model stream cannot hold (interpolated noise)
             key = (goal is not None and ridge.training_max(float(smoothing)) > goal, rms)
+            if not np.max(np.abs(ridge.weights(float(smoothing))), initial=0.0) <= MAX_WEIGHT:
+                continue
+            best_rms = min(best_rms, rms) if np.isfinite(rms) else best_rms
             if np.isfinite(rms) and (best is None or key[0] < best[0][0] or (
                     key[0] == best[0][0] and rms < best[0][1] * (1 - 1e-9))):
                 best = (key, ridge, float(smoothing), loo, effective)
@@ -331,4 +346,4 @@ def choose_network(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     key, ridge, smoothing, loo, effective = best
     return ridge.model(smoothing), Choice(ridge.spread, smoothing, loo, effective,
                                           len(spreads) * SMOOTHING.size,
-                                          None if goal is None else not key[0])
+                                          None if goal is None else not key[0], best_rms)
