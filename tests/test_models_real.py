@@ -289,7 +289,7 @@ def test_goal_unreachable_or_reached_by_the_noise_is_said(tmp_path):
         assert r.returncode == 0, r.stderr.decode()
         err = r.stderr.decode()
         assert said in err and "WARNING" in err, err
-        header, table = streams.read_table(str(out), "model")
+        header, _ = streams.read_table(str(out), "model")
         training = header.meta["residuals"]["training"]["max_abs_arcsec"]
         assert (training <= float(goal)) == (goal == "3000")
         assert header.meta["model"]["selection"]["goal_reached"] == (goal == "3000")

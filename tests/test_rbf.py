@@ -123,9 +123,11 @@ def test_correction_of_a_dense_run_against_truth(polygon_fit):
     print(f"std over the turn {before.std():.3f} -> {after.std():.3f} arcsec (x{factor:.2f}); "
           f"at the polygon points {before[at].std():.3f} -> {after[at].std():.3f}; "
           f"half-way between {before[mid].std():.3f} -> {after[mid].std():.3f}")
-    assert factor > 2.2  # seed 001: 2.6 (we measure 2.6)
-    assert after[at].std() < 0.15  # noise and interpolation error are left
-    assert after[mid].std() < 0.7 * before[mid].std()
+    assert factor > 2.2  # seed 001: 2.6 (we measure 2.8 with the default, smoothed network)
+    # the default does not pass through the polygon points (their noise): it leaves about
+    # as much at them as half-way between, a third of the error before
+    assert after[at].std() < 0.45 * before[at].std()
+    assert after[mid].std() < 0.45 * before[mid].std()
 
 
 @pytest.mark.slow
@@ -182,12 +184,12 @@ def test_fit_points_in_process_matches_the_command(table1, tmp_path):
     from enctools.models.fitting import Settings, fit_points
 
     x, y = table1
-    settings = Settings("fourier", harmonics=12)
+    settings = Settings("fourier", harmonics=11)
     assert settings.to_meta() == {"kernel": "fourier", "spread_deg": None, "goal_arcsec": None,
-                                  "harmonics": 12, "holdout": None}
+                                  "harmonics": 11, "holdout": None}
     fit = fit_points(x, y, settings)
     out = tmp_path / "f.parquet"
-    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --kernel fourier --band 12 -q -o {out}")
+    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --kernel fourier --band 11 -q -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     header, _ = streams.read_table(str(out), "model")
     assert header.meta["residuals"] == fit.residuals()

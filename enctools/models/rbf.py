@@ -240,6 +240,9 @@ class _Ridge:
     serves every lambda: the hat matrix is ``11^T/N + U diag(S^2/(S^2+lambda)) U^T``, a
     linear smoother, so the leave-one-out residual of point i is ``r_i / (1 - H_ii)``
     exactly (the network refitted without point i, the same units), no refit needed.
+    Both ``r`` and ``1 - H_ii`` are summed from their parts outside the design's span
+    and the shrunk ``lambda / (S^2 + lambda)`` parts, never as a difference from 1, so
+    a network that nearly interpolates keeps its leave-one-out residuals accurate.
     """
 
     def __init__(self, x_deg: np.ndarray, y: np.ndarray, centres_deg: np.ndarray,
@@ -247,26 +250,44 @@ class _Ridge:
         self.x, self.y, self.centres, self.spread = x_deg, y, centres_deg, spread_deg
         phi = design_matrix(x_deg * DEG, centres_deg * DEG, spread_deg)
         self.mu = phi.mean(axis=0)
-        self.u, self.s, self.vt = np.linalg.svd(phi - self.mu, full_matrices=False)
+        u, s, vt = np.linalg.svd(phi - self.mu, full_matrices=False)
+        n = y.size
+        rank = int(np.sum(s > (s[0] if s.size else 0.0) * max(phi.shape) * np.finfo(float).eps))
+        self.u, self.s, self.vt = u[:, :rank], s[:rank], vt[:rank]
         self.ybar = float(y.mean())
-        self.uy = self.u.T @ (y - self.ybar)
+        centred = y - self.ybar
+        self.uy = self.u.T @ centred
         self.u2 = self.u * self.u
+        if rank >= n - 1:   # the bias and the units span every point: nothing is outside
+            self.outside, self.leverage_out = np.zeros(n), np.zeros(n)
+        else:
+            self.outside = centred - self.u @ self.uy
+            self.leverage_out = np.maximum(1.0 - 1.0 / n - self.u2.sum(axis=1), 0.0)
+
+    def _shrink(self, smoothing: float) -> np.ndarray:
+        """lambda / (S^2 + lambda) per singular value (1 - the gain)."""
+        s2 = self.s * self.s
+        lam = smoothing * float(s2[0]) if s2.size else 0.0
+        return lam / (s2 + lam) if s2.size else s2
 
     def _gain(self, smoothing: float) -> np.ndarray:
         s2 = self.s * self.s
-        return s2 / (s2 + smoothing * float(s2[0]) if s2.size else 1.0)
+        lam = smoothing * float(s2[0]) if s2.size else 0.0
+        return s2 / (s2 + lam) if s2.size else s2
+
+    def _residuals(self, smoothing: float) -> np.ndarray:
+        return self.outside + self.u @ (self._shrink(smoothing) * self.uy)
 
     def training_max(self, smoothing: float) -> float:
         """The largest |training residual| [arcsec] with this smoothing."""
-        resid = self.y - self.ybar - self.u @ (self._gain(smoothing) * self.uy)
-        return float(np.max(np.abs(resid)))
+        return float(np.max(np.abs(self._residuals(smoothing))))
 
     def loo(self, smoothing: float) -> tuple[np.ndarray, float]:
         """Leave-one-out residuals [arcsec] and the trace of the hat matrix."""
-        g = self._gain(smoothing)
-        resid = self.y - self.ybar - self.u @ (g * self.uy)
-        h = 1.0 / self.y.size + self.u2 @ g
-        return resid / (1.0 - h), float(1.0 + g.sum())
+        one_minus_h = self.leverage_out + self.u2 @ self._shrink(smoothing)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            loo = self._residuals(smoothing) / one_minus_h
+        return loo, float(1.0 + self._gain(smoothing).sum())
 
     def weights(self, smoothing: float) -> np.ndarray:
         """The output weights [arcsec] fitted to all points with this smoothing."""
