@@ -137,6 +137,7 @@ def test_default_leave_one_out_equals_brute_force_refits(tmp_path):
 # ------------------------------------------------------------------------ hold-out
 
 
+@pytest.mark.slow
 @needs_magalpha
 @pytest.mark.parametrize("name", FILES)
 def test_holdout_even_odd_against_the_best_fourier_table(tmp_path, name):
@@ -229,6 +230,7 @@ def test_report_prints_no_harmonic_past_the_condition_limit(tmp_path):
 # -------------------------------------------------------------- one set of figures
 
 
+@pytest.mark.slow
 def test_seed001_table1_figures_agree_across_commands(tmp_path):
     """points -v, fit-rbf and report give seed 001 table 1 the same n, p-p, +/- and s:
     24 positions (360 deg is 0 deg), as numpy gives them."""
@@ -259,6 +261,7 @@ def test_seed001_table1_figures_agree_across_commands(tmp_path):
     assert 'n=24  p-p 5.460"  +/-2.730"  mean 0.439"  s 1.267"' in r.stdout.decode()
 
 
+@pytest.mark.slow
 @needs_magalpha
 def test_report_harmonics_of_a_real_uneven_run(tmp_path):
     """The MagAlpha run at the stage's reference angle (uneven, one jump backwards): the
@@ -276,6 +279,7 @@ def test_report_harmonics_of_a_real_uneven_run(tmp_path):
     assert top["n"] == 2 and top["amplitude_arcsec"] < curve["pp_arcsec"] / 2
 
 
+@pytest.mark.slow
 @needs_magalpha
 def test_goal_unreachable_or_reached_by_the_noise_is_said(tmp_path):
     """--goal on 200 noisy points: a goal no network reaches is said with what is left; a
