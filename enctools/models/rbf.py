@@ -6,26 +6,27 @@ at an angle. Unit i, centred at angle c_i, answers an input angle x with::
     R_i(x) = exp(-0.8326**2 * d(x, c_i)**2 / s**2)          (seed 001 eq. 6)
     y(x)   = sum_i w_i R_i(x)                                 (seed 001 eq. 7)
 
-(no output bias, as eq. 7: with N points the exact network has N units, the
-paper's 24-node result). The model is periodic in angle:
+(eq. 7 has no output bias; the networks enc fit-rbf fits add one, unpenalised). The
+model is periodic in angle:
 ``d`` is the chord between the two angles on the unit circle, ``2 sin(|x - c| / 2)``,
 so the network sees 359 deg and 1 deg as neighbours. The spread ``s`` is given as
 an arc [deg]: a unit's output falls to one half (``exp(-0.8326**2) = 0.5``) at that
 arc from its centre, the meaning of the spread constant c = 0.8326 / b of eq. (6).
 
-Training follows MATLAB ``newrb``: start with no unit, add the unit centred on the
-training point of largest residual, refit all output weights by least squares,
-and stop when every residual is within the goal (the paper's "training accuracy
-0.0001 arcsec") or every point is a centre (24 polygon points: 24 units, seed 001
-sec. 5.4): :func:`fit_rbf`, what ``enc fit-rbf --goal`` asks for.
+The paper's training follows MATLAB ``newrb`` (:func:`fit_rbf`, kept to reproduce
+seed 001 sec. 5.4): start with no unit, add the unit centred on the training point of
+largest residual, refit all output weights by least squares, and stop when every
+residual is within the goal ("training accuracy 0.0001 arcsec") or every point is a
+centre (24 polygon points: 24 units). On noisy points that passes through the noise,
+and its leave-one-out residuals need N trainings.
 
-On noisy points that training passes through the noise. The default network
-(:func:`choose_network`) is smoothed instead: min(N, 256) units on a uniform grid of
+enc fit-rbf fits :func:`choose_network` instead: min(N, 256) units on a uniform grid of
 centres, an unpenalised bias and ridge-penalised weights, with the spread and the
 smoothing chosen by the smallest leave-one-out residual, computed in closed form from
-one SVD a spread (a linear smoother: ``e_i = r_i / (1 - H_ii)``). With little noise the
-search keeps the smoothing at rounding level and the network interpolates, as the
-paper's does.
+one SVD a spread (a linear smoother: ``e_i = r_i / (1 - H_ii)``); ``--goal`` keeps only
+the networks within it. With little noise the search keeps the smoothing at rounding
+level and the network interpolates, as the paper's does (seed 001 table 1: 24 units
+through the 24 points).
 """
 
 from __future__ import annotations
