@@ -218,6 +218,58 @@ def make_rom_rows(out: Path, repeat: int, quick: bool) -> list[dict]:
     return rows
 
 
+#: fit-rbf's default search (spreads x smoothings, closed-form leave-one-out) against one
+#: plain fit (one spread and smoothing), in a child on one BLAS thread as enc runs; on the
+#: MagAlpha run at its measured angle (../shared/data/magalpha) and on 5000 noisy points
+FIT_RBF_TIMING = """
+import json, sys, time
+import numpy as np
+from enctools.models.rbf import choose_network, fit_smoothed
+sets = {}
+src = sys.argv[1]
+if src:
+    rows = np.loadtxt(src, delimiter=",", skiprows=1)
+    d = np.deg2rad(rows[:, 1] - rows[:, 0])
+    d = np.angle(np.exp(1j * (d - np.angle(np.mean(np.exp(1j * d))))))
+    sets["MagAlpha, 200 points"] = (np.mod(rows[:, 1], 360.0), np.rad2deg(d) * 3600.0)
+x = np.sort(np.random.default_rng(1).uniform(0.0, 360.0, 5000))
+sets["5000 noisy points"] = (x, 3600.0 * np.sin(np.deg2rad(2 * x)) + np.random.default_rng(2).normal(0, 100, x.size))
+out = {}
+for name, (x, y) in sets.items():
+    t0, c0 = time.perf_counter(), time.process_time()
+    model, choice = choose_network(x, y)
+    search, search_cpu = time.perf_counter() - t0, time.process_time() - c0
+    t0, c0 = time.perf_counter(), time.process_time()
+    fit_smoothed(x, y, choice.spread_deg, choice.smoothing)
+    plain, plain_cpu = time.perf_counter() - t0, time.process_time() - c0
+    out[name] = {"search_s": search, "plain_s": plain, "search_cpu_s": search_cpu,
+                 "plain_cpu_s": plain_cpu, "ratio": search_cpu / plain_cpu, "tried": choice.tried,
+                 "loo_rms_arcsec": float(np.sqrt(np.mean(choice.loo ** 2)))}
+print(json.dumps(out))
+"""
+
+
+def fit_rbf_rows() -> dict[str, dict]:
+    """fit-rbf's default spread search: seconds and the ratio to one plain fit."""
+    src = ROOT.parent / "shared" / "data" / "magalpha" / "calibration_data_input_example.csv"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    r = subprocess.run([sys.executable, "-c", FIT_RBF_TIMING, str(src) if src.exists() else ""],
+                       capture_output=True, env=env, check=True)
+    return json.loads(r.stdout)
+
+
+def _fit_rbf_table(res: dict) -> list[str]:
+    rows = res.get("fit_rbf") or {}
+    if not rows:
+        return []
+    lines = ["", "| fit-rbf default search | networks tried | search [s] | search [CPU s] "
+             "| one plain fit [CPU s] | ratio (CPU) |", "|---|---:|---:|---:|---:|---:|"]
+    for name, r in rows.items():
+        lines.append(f"| {name} | {r['tried']} | {r['search_s']:.3f} | {r['search_cpu_s']:.3f} "
+                     f"| {r['plain_cpu_s']:.4f} | {r['ratio']:.0f} |")
+    return lines
+
+
 def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
             tiny: dict[str, float]) -> dict[str, object]:
     """One input size: the simulator, the raw pipe (both buffers) and every filter."""
@@ -290,6 +342,7 @@ def main() -> None:
     }
     results["commands"] = command_startup(out, 5)
     results["make_rom"] = make_rom_rows(out, repeat, args.quick)
+    results["fit_rbf"] = fit_rbf_rows()
     print("bench: start-up and make-rom done", file=sys.stderr)
     filters = {k: v for k, v in FILTERS.items() if available(v[0])}
     tiny = out / "raw-tiny.arrows"
@@ -335,7 +388,7 @@ def markdown(res: dict) -> str:
     s = res["startup"]
     lines += ["", "| start-up | seconds |", "|---|---:|"]
     lines += [f"| {k} | {v:.3f} |" for k, v in s.items()]
-    lines += _startup_table(res) + _make_rom_table(res)
+    lines += _startup_table(res) + _make_rom_table(res) + _fit_rbf_table(res)
     return "\n".join(lines)
 
 

@@ -64,9 +64,13 @@ def test_fit_rbf_command_on_table1(tmp_path):
         assert np.abs(y - model(x)).max() < 1e-6  # evaluated from the stream
         res = header.meta["residuals"]
         assert res["training"]["max_abs_arcsec"] < 1e-6
-        assert res["leave_one_out"]["rms_arcsec"] > 0.1  # a real prediction, not the point
         if kernel == "rbf":
             assert header.meta["model"]["units"] == 24
+            assert res["leave_one_out"]["rms_arcsec"] > 0.1  # a real prediction, not the point
+        else:  # 23 terms and a12 fix the 24 points: nothing is left to predict one of them
+            assert np.isnan(res["leave_one_out"]["rms_arcsec"])
+            assert "no leave-one-out residuals: the 24 points each fix a term" in err
+            assert header.meta["model"]["undetermined"] == ["b12"]
 
 
 @pytest.fixture(scope="module")
@@ -119,9 +123,11 @@ def test_correction_of_a_dense_run_against_truth(polygon_fit):
     print(f"std over the turn {before.std():.3f} -> {after.std():.3f} arcsec (x{factor:.2f}); "
           f"at the polygon points {before[at].std():.3f} -> {after[at].std():.3f}; "
           f"half-way between {before[mid].std():.3f} -> {after[mid].std():.3f}")
-    assert factor > 2.2  # seed 001: 2.6 (we measure 2.6)
-    assert after[at].std() < 0.15  # noise and interpolation error are left
-    assert after[mid].std() < 0.7 * before[mid].std()
+    assert factor > 2.2  # seed 001: 2.6 (we measure 2.8 with the default, smoothed network)
+    # the default does not pass through the polygon points (their noise): it leaves about
+    # as much at them as half-way between, a third of the error before
+    assert after[at].std() < 0.45 * before[at].std()
+    assert after[mid].std() < 0.45 * before[mid].std()
 
 
 @pytest.mark.slow
@@ -178,12 +184,12 @@ def test_fit_points_in_process_matches_the_command(table1, tmp_path):
     from enctools.models.fitting import Settings, fit_points
 
     x, y = table1
-    settings = Settings("fourier", harmonics=12)
-    assert settings.to_meta() == {"kernel": "fourier", "spread_deg": None, "goal_arcsec": 1e-4,
-                                  "harmonics": 12, "holdout": None}
+    settings = Settings("fourier", harmonics=11)
+    assert settings.to_meta() == {"kernel": "fourier", "spread_deg": None, "goal_arcsec": None,
+                                  "harmonics": 11, "holdout": None}
     fit = fit_points(x, y, settings)
     out = tmp_path / "f.parquet"
-    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --kernel fourier --band 12 -q -o {out}")
+    r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --kernel fourier --band 11 -q -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     header, _ = streams.read_table(str(out), "model")
     assert header.meta["residuals"] == fit.residuals()

@@ -17,10 +17,12 @@ from enctools.cli import options, runner
 @click.option("--spread", "spread_deg", type=float, default=None, callback=options.positive,
               help="rbf: arc [deg] at which a unit's output falls to 1/2 (default: by "
                    "leave-one-out).")
-@click.option("--goal", type=float, default=1e-4, show_default=True,
-              help="rbf: training goal, largest |residual| [arcsec].")
-@options.band("fourier: highest harmonic order K (default: half the distinct positions).",
-              default=None, dest="harmonics")
+@click.option("--goal", type=float, default=None,
+              help="rbf: train seed 001's network (newrb) until every residual is within "
+                   "this [arcsec], e.g. 0.0001 (default: a smoothed network chosen by "
+                   "leave-one-out).")
+@options.band("fourier: highest harmonic order K (default: by leave-one-out, within the "
+              "orders the positions condition).", default=None, dest="harmonics")
 @click.option("--holdout", "holdout_path", default=None, type=click.Path(dir_okay=False),
               help="Points never used in the fit (a points stream or table, mapped alike): "
                    "report their residuals.")
@@ -31,7 +33,7 @@ from enctools.cli import options, runner
 @options.unit
 @options.outputs
 @options.verbosity
-def command(input: str | None, kernel: str, spread_deg: float | None, goal: float,
+def command(input: str | None, kernel: str, spread_deg: float | None, goal: float | None,
             harmonics: int | None, holdout_path: str | None, check_arcsec: float | None,
             mapping: Any, as_json: bool, unit: str, output: str | None, force: bool,
             fmt: str | None) -> None:
@@ -64,7 +66,10 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
         _, hp = read_points(holdout_path, mapping)
         hold = distinct(hp, source=holdout_path)[:2]
     fit = fitting.fit_points(x, y, settings, hold, runner.Progress("spread search", "spreads"))
+    for note in fit.notes:
+        runner.log.warning("%s", note)
     table, meta = model_table(fit.model)
+    meta["selection"] = fit.choice
     out = header.derive("model", table.schema, model=meta, residuals=fit.residuals(),
                         settings=settings.to_meta())
     streams.write_table(output, with_history(out), table, force, fmt)
@@ -86,6 +91,7 @@ def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
         model |= {"n_units": meta["units"], "spread_deg": meta["spread_deg"]}
     else:
         model["n_harmonics"] = meta["harmonics"]
+    model |= {k: v for k, v in fit.choice.items() if k != "tried"}
     out: dict[str, Any] = {"model": model, "points": from_meta(fit.points),
                            "training": from_meta(fit.training),
                            "leave_one_out": from_meta(fit.loo)}
@@ -93,6 +99,12 @@ def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
         h = from_meta(fit.holdout)
         h["before"] = {k[len("before_"):]: h.pop(k) for k in list(h) if k.startswith("before_")}
         out["holdout"] = h
-    if meta.get("undetermined"):
-        out["undetermined"] = list(meta["undetermined"])
+    # the residuals side by side: through the points, predicting each left out, and other points
+    out["rms"] = {"training_arcsec": fit.training["rms_arcsec"],
+                  "leave_one_out_arcsec": fit.loo["rms_arcsec"]}
+    if fit.holdout:
+        out["rms"]["holdout_arcsec"] = fit.holdout["rms_arcsec"]
+    for key in ("undetermined", "ill_conditioned"):
+        if meta.get(key):
+            out[key] = list(meta[key])
     return out

@@ -70,6 +70,7 @@ def to_json(summary: dict[str, Any], indent: int | None = 1) -> str:
 #: the names stream metadata gives some figures, and their summary keys
 META_NAMES = {"n": "n_points", "bessel_std_arcsec": "s_bessel_arcsec",
               "peak_to_peak_arcsec": "pp_arcsec", "plus_minus": "pm_arcsec",
+              "plus_minus_arcsec": "pm_arcsec",
               "pp": "pp_arcsec", "mean": "mean_arcsec", "rms": "rms_arcsec",
               "std": "s_bessel_arcsec", "max_abs": "max_abs_arcsec",
               "before_bessel_std_arcsec": "before_s_bessel_arcsec",

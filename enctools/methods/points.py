@@ -133,7 +133,8 @@ class Settings:
 def figures_meta(f: Figures) -> dict[str, float]:
     """The figures of points [arcsec] as the metadata of points and models name them."""
     return {"n": f.n, "mean_arcsec": f.mean, "bessel_std_arcsec": f.std,
-            "peak_to_peak_arcsec": f.pp, "max_abs_arcsec": f.max_abs}
+            "peak_to_peak_arcsec": f.pp, "plus_minus_arcsec": f.plus_minus,
+            "max_abs_arcsec": f.max_abs}
 
 
 # ------------------------------------------------------------------ from a steps run

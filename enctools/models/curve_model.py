@@ -24,7 +24,7 @@ from enctools.data.columns import column, declared_unit
 from enctools.data.limits import MAX_MODEL_TERMS
 from enctools.data.schemas import column_with_role, make_field
 from enctools.errors import DataError, UsageError
-from enctools.models.fourier import FourierModel
+from enctools.models.fourier import COND_LIMIT, FourierModel
 from enctools.models.rbf import SPREAD_FACTOR, RBFModel
 from enctools.units import TWO_PI, factor
 
@@ -66,6 +66,8 @@ def model_table(model: RBFModel | FourierModel) -> tuple[pa.Table, dict[str, Any
                           pa.array(model.b)], schema=schema)
         meta = {"kernel": "fourier", "harmonics": int(model.n.max()),
                 "undetermined": list(model.undetermined),
+                "ill_conditioned": list(model.ill_conditioned),
+                "condition_limit": COND_LIMIT, "condition_number": model.condition,
                 "equation": "y = sum_n weight cos(n x) + weight_sin sin(n x)"}
     meta |= {"argument": "indicated angle x [rad], periodic in 2 pi",
              "output": "deviation [arcsec] = indicated - true; correction = -deviation"}

@@ -6,7 +6,7 @@ hold-out residuals [arcsec].
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -14,8 +14,14 @@ import numpy as np
 from enctools.data.statistics import figures_or_nan
 from enctools.errors import UsageError
 from enctools.methods.points import figures_meta
-from enctools.models.fourier import FourierModel, fit_fourier
-from enctools.models.rbf import RBFModel, choose_spread, fit_rbf, loo_residuals
+from enctools.models.fourier import (
+    COND_LIMIT,
+    DEFAULT_MAX_ORDER,
+    FourierModel,
+    choose_order,
+    fit_with_loo,
+)
+from enctools.models.rbf import RBFModel, choose_network
 
 KERNELS = ("rbf", "fourier")
 #: the ranges of the options [deg], [arcsec], harmonic orders (bounds included): a
@@ -32,14 +38,15 @@ class Settings:
 
     kernel : ``rbf`` (seed 001 eqs. 5-7) or ``fourier``.
     spread_deg : rbf: spread [deg]; None chooses it by leave-one-out.
-    goal_arcsec : rbf: training goal, largest |residual| [arcsec].
-    harmonics : fourier: order K (None: N // 2 for N points, interpolating).
+    goal_arcsec : rbf: the training goal of seed 001's newrb, largest |residual|
+        [arcsec]; None: the smoothed network chosen by leave-one-out.
+    harmonics : fourier: order K (None: chosen by leave-one-out).
     holdout : the file of the points never used in the fit (None: none).
     """
 
     kernel: str = "rbf"
     spread_deg: float | None = None
-    goal_arcsec: float = 1e-4
+    goal_arcsec: float | None = None
     harmonics: int | None = None
     holdout: str | None = None
 
@@ -47,7 +54,8 @@ class Settings:
         if self.kernel not in KERNELS:
             msg = f"--kernel must be one of {', '.join(KERNELS)}, not {self.kernel!r}"
             raise UsageError(msg)
-        if not GOAL_ARCSEC[0] <= self.goal_arcsec <= GOAL_ARCSEC[1]:
+        if self.goal_arcsec is not None and not GOAL_ARCSEC[0] <= self.goal_arcsec <= \
+                GOAL_ARCSEC[1]:
             msg = f"--goal must be 0..3600 arcsec, not {self.goal_arcsec}"
             raise UsageError(msg)
         if self.spread_deg is not None and not SPREAD_DEG[0] <= self.spread_deg <= SPREAD_DEG[1]:
@@ -59,8 +67,9 @@ class Settings:
         if self.kernel == "rbf" and self.harmonics is not None:
             msg = "--band applies to --kernel fourier (the rbf kernel: --spread, --goal)"
             raise UsageError(msg)
-        if self.kernel == "fourier" and self.spread_deg is not None:
-            msg = "--spread applies to --kernel rbf (the fourier kernel: --band)"
+        if self.kernel == "fourier" and (self.spread_deg, self.goal_arcsec) != (None, None):
+            which = "--spread" if self.spread_deg is not None else "--goal"
+            msg = f"{which} applies to --kernel rbf (the fourier kernel: --band)"
             raise UsageError(msg)
 
     def to_meta(self) -> dict[str, Any]:
@@ -79,6 +88,8 @@ class Fit:
     training: dict[str, Any]
     loo: dict[str, Any]
     holdout: dict[str, Any] | None = None
+    notes: list[str] = field(default_factory=list)
+    choice: dict[str, Any] = field(default_factory=dict)
 
     def residuals(self) -> dict[str, Any]:
         """The ``residuals`` metadata of the model stream."""
@@ -110,12 +121,12 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
     """
     x = np.asarray(angle_deg, dtype=np.float64)
     y = np.asarray(error_arcsec, dtype=np.float64)
-    model, loo = _model_and_loo(x, y, settings, progress)
+    model, loo, choice = _model_and_loo(x, y, settings, progress)
     train, left_out = figures_or_nan(y - model(x)), figures_or_nan(loo)
     fit = Fit(model, figures_meta(figures_or_nan(y)),
               {"max_abs_arcsec": train.max_abs, "rms_arcsec": train.rms},
               {"max_abs_arcsec": left_out.max_abs, "rms_arcsec": left_out.rms,
-               "bessel_std_arcsec": left_out.std})
+               "bessel_std_arcsec": left_out.std}, choice=choice)
     if holdout is not None:
         hx, hy = (np.asarray(v, dtype=np.float64) for v in holdout)
         r = hy - model(hx)
@@ -123,30 +134,77 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
         fit.holdout = {"n": after.n, "before_bessel_std_arcsec": before.std,
                        "before_peak_to_peak_arcsec": before.pp,
                        "bessel_std_arcsec": after.std, "peak_to_peak_arcsec": after.pp,
-                       "max_abs_arcsec": after.max_abs}
+                       "max_abs_arcsec": after.max_abs, "rms_arcsec": after.rms}
+    fit.notes = _notes(fit, settings, x.size)
     return fit
+
+
+def _notes(fit: Fit, settings: Settings, n: int) -> list[str]:
+    """What the user must be told about the fit: an unreachable or noise-fitting goal,
+    terms left out, leave-one-out far above the training residual."""
+    notes = []
+    model, goal = fit.model, settings.goal_arcsec
+    if isinstance(model, RBFModel) and goal is not None:
+        worst = fit.training["max_abs_arcsec"]
+        loo, best = fit.loo["rms_arcsec"], fit.choice["best_leave_one_out_rms_arcsec"]
+        if worst > goal:
+            notes.append(f"--goal {goal:g} arcsec is not reached: no spread and smoothing of "
+                         f"{model.centres_deg.size} units (with weights a model stream holds) "
+                         f"gets every training residual within it; the network that predicts "
+                         f"best leaves {worst:.4g} arcsec")
+        elif n > 2 and loo > 1.1 * best:
+            notes.append(f"--goal {goal:g} arcsec is reached by fitting the noise: "
+                         f"{fit.choice['effective_parameters']:.4g} effective parameters for "
+                         f"{n} points, leave-one-out rms {loo:.4g} arcsec against {best:.4g} "
+                         "for the network that predicts best (without --goal)")
+    tried, ceiling = fit.choice.get("highest_order_tried"), fit.choice.get("order_ceiling")
+    if tried is not None and ceiling is not None and tried < ceiling:
+        notes.append(f"orders {tried + 1}..{ceiling} are past the condition limit of these "
+                     f"positions (condition number {COND_LIMIT:g}): not tried")
+    if n > 2 and not np.isfinite(fit.loo["rms_arcsec"]):
+        notes.append(f"no leave-one-out residuals: the {n} points each fix a term of the "
+                     "series (it interpolates them); a lower --band leaves some to check it")
+    if isinstance(model, FourierModel):
+        for what, names in (("undetermined by these positions", model.undetermined),
+                            (f"past the condition limit (order {model.limit}, condition "
+                             f"number {COND_LIMIT:g})", model.ill_conditioned)):
+            if names:
+                notes.append(f"terms {_names(names)} are {what}: left out (0)")
+    return notes
+
+
+def _names(names: list[str], most: int = 6) -> str:
+    shown = ", ".join(names[:most])
+    return shown + (f" ... {names[-1]} ({len(names)} terms)" if len(names) > most else "")
 
 
 def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
                    progress: Callable[[int, int], object] | None = None
-                   ) -> tuple[RBFModel | FourierModel, np.ndarray]:
-    """The model fitted to points [deg, arcsec] and its leave-one-out residuals [arcsec]
-    (NaN for fewer than 3 points)."""
+                   ) -> tuple[RBFModel | FourierModel, np.ndarray, dict[str, Any]]:
+    """The model fitted to points [deg, arcsec], its leave-one-out residuals [arcsec]
+    (NaN for fewer than 3 points) and how it was chosen."""
     n = x.size
-    model: RBFModel | FourierModel
     if settings.kernel == "rbf":
-        goal = settings.goal_arcsec
-        spread = (choose_spread(x, y, goal, progress=progress) if settings.spread_deg is None
-                  else settings.spread_deg)
-        model = fit_rbf(x, y, float(spread), goal)
-        loo = loo_residuals(x, y, float(spread), goal) if n > 2 else np.full(n, np.nan)
-        return model, loo
-    k = n // 2 if settings.harmonics is None else int(settings.harmonics)
-    if k > n:
-        msg = (f"--band {k}: more harmonics than the {n} distinct positions can determine "
-               f"(at most {n})")
-        raise UsageError(msg)
-    model = fit_fourier(x, y, k)
-    loo = np.array([y[i] - fit_fourier(np.delete(x, i), np.delete(y, i), k)(x[i:i + 1])[0]
-                    for i in range(n)]) if n > 2 else np.full(n, np.nan)
-    return model, loo
+        network, choice = choose_network(x, y, settings.spread_deg, progress,
+                                         settings.goal_arcsec)
+        how = {"selection": "leave-one-out, closed form", "tried": choice.tried,
+               "smoothing": choice.smoothing, "effective_parameters": choice.effective}
+        if choice.reached is not None:
+            how |= {"selection": "leave-one-out among those within --goal",
+                    "goal_reached": choice.reached,
+                    "best_leave_one_out_rms_arcsec": choice.best_rms}
+        return network, (choice.loo if n > 2 else np.full(n, np.nan)), how
+    if settings.harmonics is None:
+        model, loo = choose_order(x, y)
+        ceiling = min(DEFAULT_MAX_ORDER, (n - 1) // 2)
+        how = {"selection": "leave-one-out, closed form", "highest_order_tried": model.limit,
+               "order_ceiling": ceiling}
+    else:
+        k = int(settings.harmonics)
+        if k > n:
+            msg = (f"--band {k}: more harmonics than the {n} distinct positions can determine "
+                   f"(at most {n})")
+            raise UsageError(msg)
+        model, loo = fit_with_loo(x, y, k)
+        how = {"selection": "--band"}
+    return model, (loo if n > 2 else np.full(n, np.nan)), how

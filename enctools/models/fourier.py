@@ -4,8 +4,12 @@ The alternative to the RBF network of seed 001 sec. 4: the error [arcsec] at ang
 x as ``a_0 + sum_{n=1..K} a_n cos(n x) + b_n sin(n x)``, fitted by linear least
 squares to the calibration points. With N equally spaced points the terms above
 N/2 alias onto lower ones and ``sin(N/2 x)`` vanishes at every point: such terms
-are not determined by the data. The fit then returns the minimum-norm solution
-(those terms set to zero) and names them in ``undetermined``.
+are not determined by the data (``undetermined``). On uneven points the design
+grows ill-conditioned well before N/2: orders past the condition limit
+(:data:`COND_LIMIT`) are ``ill_conditioned``. Both kinds are left out of the fit
+(their coefficients are exactly 0) and named. The default order
+(:func:`choose_order`) is the one with the smallest leave-one-out residual, in
+closed form from one QR.
 """
 
 from __future__ import annotations
@@ -19,6 +23,11 @@ from enctools.units import DEG, TWO_PI
 
 #: points in a row of :meth:`FourierModel.on_grid` (one BLAS product a chunk of rows)
 GRID_ROW = 4096
+#: the largest condition number of the design a fit keeps (dimensionless): noise in the
+#: points reaches the coefficients amplified by up to this
+COND_LIMIT = 100.0
+#: the highest order the default series tries (513 unknowns: one QR of N x 513)
+DEFAULT_MAX_ORDER = 256
 
 
 @dataclass
@@ -29,6 +38,9 @@ class FourierModel:
     a: np.ndarray
     b: np.ndarray
     undetermined: list[str] = field(default_factory=list)
+    ill_conditioned: list[str] = field(default_factory=list)
+    limit: int | None = None        # highest order the points condition (None: not checked)
+    condition: float | None = None  # condition number of the fitted terms' design
 
     def __call__(self, angle_deg: np.ndarray | float, chunk: int = 1 << 21) -> np.ndarray:
         """The model's error [arcsec] at angles [deg]."""
@@ -87,21 +99,133 @@ def design_matrix(x_rad: np.ndarray, harmonics: int) -> np.ndarray:
     return np.hstack(cols)
 
 
-def fit_fourier(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int) -> FourierModel:
-    """Least-squares Fourier series with harmonics 0..K through points [deg, arcsec]."""
-    x = np.asarray(angle_deg, dtype=np.float64) * DEG
-    y = np.asarray(error_arcsec, dtype=np.float64)
-    a = design_matrix(x, harmonics)
-    u, s, vt = np.linalg.svd(a, full_matrices=True)
-    tol = s.max() * max(a.shape) * np.finfo(float).eps * 1e3
-    rank = int(np.sum(s > tol))
-    sol = vt[:rank].T @ ((u[:, :rank].T @ y) / s[:rank])
-    # A coefficient is undetermined when a null-space direction loads on it.
-    null = vt[rank:]
-    names = ["a0"] + [f"{p}{k}" for k in range(1, harmonics + 1) for p in ("a", "b")]
-    undetermined = [names[j] for j in range(len(names))
-                    if null.size and np.max(np.abs(null[:, j])) > 1e-6]
+@dataclass(frozen=True)
+class Terms:
+    """Which terms of a series of order K the points determine (column j of
+    :func:`design_matrix`: 0 is a0, 2k-1 is a_k, 2k is b_k).
+
+    kept : the columns fitted; undetermined : names of terms the points cannot tell
+    from lower ones (aliases, ``sin(N/2 x)`` on N even points); ill_conditioned :
+    names of the terms of the orders past the condition limit; limit : the highest
+    order kept (the condition limit for these points); condition : the condition
+    number of the kept columns (dimensionless).
+    """
+
+    kept: np.ndarray
+    undetermined: list[str]
+    ill_conditioned: list[str]
+    limit: int
+    condition: float
+
+
+def term_names(harmonics: int) -> list[str]:
+    """``a0, a1, b1, ..., aK, bK``: the columns of :func:`design_matrix`."""
+    return ["a0"] + [f"{p}{k}" for k in range(1, harmonics + 1) for p in ("a", "b")]
+
+
+def _orders(columns: np.ndarray) -> np.ndarray:
+    return (np.asarray(columns) + 1) // 2
+
+
+def determined_terms(x_rad: np.ndarray, harmonics: int) -> tuple[Terms, np.ndarray, np.ndarray]:
+    """The terms of orders 0..K that angles ``x_rad`` [rad] determine, and the QR of them.
+
+    A term whose column has less than 1e-9 of its norm outside the span of the lower
+    terms is undetermined (it aliases). Of the rest, orders are kept from 0 up while
+    the kept columns' condition number stays within :data:`COND_LIMIT`; the orders
+    above are ill-conditioned. Returns the :class:`Terms`, and Q (N x kept) and R of the
+    kept columns in order.
+    """
+    a = design_matrix(x_rad, harmonics)
+    _, r = np.linalg.qr(a)
+    norms = np.linalg.norm(a, axis=0)
+    diag = np.zeros(a.shape[1])
+    diag[:min(r.shape)] = np.abs(np.diag(r))
+    independent = np.flatnonzero(diag > 1e-9 * np.maximum(norms, 1e-300))
+    names = term_names(harmonics)
+
+    def cond(order: int) -> float:
+        cols = independent[_orders(independent) <= order]
+        sv = np.linalg.svd(r[:, cols], compute_uv=False)
+        return float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else np.inf
+
+    limit = harmonics
+    if cond(limit) > COND_LIMIT:   # cond grows with the order: bisect for the last one within
+        lo, hi = 0, harmonics
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (mid, hi) if cond(mid) <= COND_LIMIT else (lo, mid)
+        limit = lo
+    kept = independent[_orders(independent) <= limit]
+    dependent = np.setdiff1d(np.arange(a.shape[1]), independent)
+    ill = independent[_orders(independent) > limit]
+    qk, rk = np.linalg.qr(a[:, kept])
+    terms = Terms(kept, [names[j] for j in dependent], [names[j] for j in ill], limit,
+                  cond(limit))
+    return terms, qk, rk
+
+
+def fit_fourier(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int
+                ) -> FourierModel:
+    """Least-squares Fourier series of orders 0..K through points [deg, arcsec], on the
+    terms the points determine (:func:`determined_terms`); the others are exactly 0 and
+    named in ``undetermined`` and ``ill_conditioned``."""
+    model, _ = fit_with_loo(angle_deg, error_arcsec, harmonics)
+    return model
+
+
+def _model(harmonics: int, terms: Terms, coef: np.ndarray) -> FourierModel:
+    sol = np.zeros(2 * harmonics + 1)
+    sol[terms.kept] = coef
     n = np.arange(harmonics + 1)
     acoef = np.concatenate([[sol[0]], sol[1::2]])
     bcoef = np.concatenate([[0.0], sol[2::2]])
-    return FourierModel(n, acoef, bcoef, undetermined)
+    return FourierModel(n, acoef, bcoef, terms.undetermined, terms.ill_conditioned,
+                        terms.limit, terms.condition)
+
+
+def fit_with_loo(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int
+                 ) -> tuple[FourierModel, np.ndarray]:
+    """:func:`fit_fourier` and its leave-one-out residuals [arcsec], in closed form
+    (``r_i / (1 - H_ii)``, the same terms fitted without point i); NaN where a point
+    is interpolated (H_ii = 1: without it the terms are not determined)."""
+    x = np.asarray(angle_deg, dtype=np.float64) * DEG
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    terms, q, r = determined_terms(x, harmonics)
+    qy = q.T @ y
+    coef = np.linalg.solve(r, qy) if r.size else np.zeros(0)
+    resid = y - q @ qy
+    h = np.sum(q * q, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        loo = np.where(h < 1.0 - 1e-9, resid / (1.0 - h), np.nan)
+    return _model(harmonics, terms, coef), loo
+
+
+def choose_order(angle_deg: np.ndarray, error_arcsec: np.ndarray,
+                 most: int = DEFAULT_MAX_ORDER) -> tuple[FourierModel, np.ndarray]:
+    """The default series: the order with the smallest RMS leave-one-out residual.
+
+    Orders 0..min(most, (m-1)/2) for m distinct positions (never more unknowns than
+    points), within the condition limit (:func:`determined_terms`). One QR of the
+    highest order serves every order: the columns are nested, so order k's hat
+    matrix is the first columns of Q. Returns the model refitted at that order, its
+    ``limit`` the highest order tried (the condition limit when it is lower than the
+    ceiling), and its leave-one-out residuals [arcsec].
+    """
+    x = np.asarray(angle_deg, dtype=np.float64) * DEG
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    top = max(0, min(int(most), (x.size - 1) // 2))
+    terms, q, _ = determined_terms(x, top)
+    qy = q.T @ y
+    fitted = np.cumsum(q * qy, axis=1)
+    h = np.cumsum(q * q, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        press = np.sqrt(np.mean(((y[:, None] - fitted) / (1.0 - h)) ** 2, axis=0))
+    orders = _orders(terms.kept)
+    last = np.r_[orders[1:] != orders[:-1], True]   # the last column of each order
+    candidates = np.flatnonzero(last & np.isfinite(press))
+    best = candidates[np.argmin(press[candidates])] if candidates.size else 0
+    order = int(orders[best])
+    model, loo = fit_with_loo(angle_deg, y, order)
+    model.limit = terms.limit
+    return model, loo

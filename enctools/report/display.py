@@ -65,8 +65,6 @@ def _curve(c: Curve, unit: str, k: float) -> Curve:
     harmonics = None if c.harmonics is None else dataclasses.replace(
         c.harmonics, amplitude=c.harmonics.amplitude * k)
     extra = dict(c.extra)
-    if "std_distinct" in extra:
-        extra["std_distinct"] *= k
     return dataclasses.replace(c, unit=unit, values=c.values * k,
                                u=None if c.u is None else c.u * k, figures=figures,
                                harmonics=harmonics, extra=extra)

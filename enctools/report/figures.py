@@ -12,13 +12,14 @@ return the unit they are given). Angles are in rad.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from enctools.errors import DataError
 from enctools.methods.harmonics import analyse
-from enctools.units import TWO_PI
+from enctools.models.fourier import COND_LIMIT, fit_fourier
+from enctools.units import DEG, TWO_PI
 
 #: coverage factor of the expanded uncertainty
 K_COVERAGE = 2.0
@@ -35,6 +36,18 @@ class Harmonics:
     n: np.ndarray
     amplitude: np.ndarray
     phase: np.ndarray
+    limit: int | None = None        # uneven positions: the highest order they condition
+    left_out: list[int] = field(default_factory=list)  # orders asked for past that limit
+
+    def left_out_text(self) -> str:
+        """One line naming the orders left out, or "" when none was."""
+        if not self.left_out:
+            return ""
+        lo, hi = self.left_out[0], self.left_out[-1]
+        orders = f"n={lo}" if lo == hi else f"n={lo}..{hi}"
+        return (f"harmonics {orders} not determined by these positions (past the "
+                f"condition limit, condition number {COND_LIMIT:g}, at n={self.limit}): "
+                "left out")
 
     def largest(self, count: int, skip_zero: bool = True) -> Harmonics:
         """The ``count`` harmonics of largest amplitude, largest first."""
@@ -43,7 +56,8 @@ class Harmonics:
             keep &= self.amplitude > 1e-9 * float(np.max(self.amplitude))
         idx = np.flatnonzero(keep)
         order = idx[np.argsort(-self.amplitude[idx], kind="stable")][:count]
-        return Harmonics(self.n[order], self.amplitude[order], self.phase[order])
+        return Harmonics(self.n[order], self.amplitude[order], self.phase[order], self.limit,
+                         self.left_out)
 
     def amplitude_of(self, n: int) -> float:
         """Amplitude of harmonic n in the curve's unit (0 when it is not in the set)."""
@@ -68,10 +82,11 @@ def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
     """Harmonics of a periodic curve sampled at ``angle`` [rad] over ``period`` [rad].
 
     A uniform grid covering one period exactly (no repeated end point) uses the FFT;
-    anything else (sparse polygon points, a closing 360 deg row) a least-squares fit of
-    ``a_n cos(n x) + b_n sin(n x)``, n = 0..nmax with ``nmax < m/2`` for m distinct
-    positions, so the fit is never under-determined. Harmonic order n counts cycles
-    per ``period``.
+    anything else (sparse polygon points, a closing 360 deg row) the least-squares
+    Fourier fit of the models (:func:`enctools.models.fourier.fit_fourier`), n = 0..nmax
+    with ``nmax < m/2`` for m distinct positions, so it is never under-determined; on
+    uneven positions the orders past their condition limit are left out and listed in
+    ``left_out``. Harmonic order n counts cycles per ``period``.
     """
     x = np.asarray(angle, dtype=np.float64).ravel()
     y = np.asarray(values, dtype=np.float64).ravel()
@@ -93,23 +108,14 @@ def harmonics(angle: np.ndarray, values: np.ndarray, nmax: int | None = None,
     if uniform:  # the harmonic core's FFT, turned to the grid's first angle
         c = analyse(y[order], nmax) * np.exp(-1j * np.arange(nmax + 1) * phase_arg[order][0])
         a, b = c.real, -c.imag
-    else:
-        while True:   # lower nmax until the positions determine every harmonic well
-            n = np.arange(nmax + 1)
-            design = np.hstack([np.cos(np.outer(phase_arg, n)),
-                                np.sin(np.outer(phase_arg, n[1:]))])
-            if nmax <= 1 or np.linalg.cond(design) < 1e6:
-                break
-            nmax -= 1
-        coef, _, rank, _ = np.linalg.lstsq(design, y, rcond=1e-8)
-        if rank < design.shape[1]:
-            msg = (f"harmonics up to n={nmax} are not determined by these positions "
-                   f"(rank {rank} of {design.shape[1]}); lower --band")
-            raise DataError(msg)
-        a = coef[: nmax + 1]
-        b = np.concatenate([[0.0], coef[nmax + 1:]])
-    n = np.arange(nmax + 1)
-    return Harmonics(n, np.hypot(a, b), np.arctan2(-b, a))
+        n = np.arange(nmax + 1)
+        return Harmonics(n, np.hypot(a, b), np.arctan2(-b, a))
+    # the orders these positions determine, as a Fourier model is fitted to them
+    series = fit_fourier(phase_arg / DEG, y, nmax)
+    top = int(series.limit if series.limit is not None else nmax)
+    a, b = series.a[:top + 1], series.b[:top + 1]
+    return Harmonics(np.arange(top + 1), np.hypot(a, b), np.arctan2(-b, a), top,
+                     list(range(top + 1, nmax + 1)))
 
 
 def expanded_uncertainty(u: np.ndarray | float, k: float = K_COVERAGE) -> np.ndarray | float:

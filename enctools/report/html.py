@@ -179,10 +179,8 @@ def _section_html(s: Section, top: int) -> str:
         out.append(_img(fig, caption))
     out.append(_harmonics_table(s.curves, top))
     for c in s.curves:
-        if "std_distinct" in c.extra:
-            out.append(f"<p class='note'>{_e(c.name)}: s over the {c.figures.n} rows as given "
-                       f"{_f(c.figures.std)}; over distinct positions (closing row dropped) "
-                       f"{_f(c.extra['std_distinct'])}.</p>")
+        if c.harmonics is not None and c.harmonics.left_out:
+            out.append(f"<p class='note'>{_e(c.name)}: {_e(c.harmonics.left_out_text())}</p>")
     out.append(_iso_html(s))
     for n in s.notes:
         out.append(f"<p class='note'>Note: {_e(n)}</p>")

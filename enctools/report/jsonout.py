@@ -19,9 +19,10 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
     u = c.unit
     d: dict[str, Any] = {"name": c.name, "unit": u, "role": c.role}
     d |= figure_dict(c.figures, u)
-    d["std_convention"] = "Bessel, n-1, over the n values as given (seed 001 eq. 8)"
-    for k, v in c.extra.items():  # period_arcsec; std_distinct in the curve's unit
-        d[f"s_bessel_distinct_{u}" if k == "std_distinct" else k] = v
+    d["std_convention"] = ("Bessel, n-1, over the n values, one per position modulo "
+                           "360 deg (seed 001 eq. 8)")
+    for k, v in c.extra.items():  # period_arcsec
+        d[k] = v
     if c.head:
         d["head"] = c.head
     if c.u is not None:
@@ -31,6 +32,9 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
         h = c.harmonics.largest(top)
         d["harmonics"] = [{"n": int(n), f"amplitude_{u}": float(a), "phase_rad": float(p)}
                           for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
+        if c.harmonics.limit is not None:
+            d["harmonics_limit_n"] = c.harmonics.limit
+            d["harmonics_left_out"] = c.harmonics.left_out
     return d
 
 

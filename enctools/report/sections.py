@@ -245,23 +245,15 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
     if not np.all(np.isfinite(pos_deg)):
         msg = f"{s.source}: a position is NaN or infinite"
         raise DataError(msg)
-    unique, index, counts = target_positions(pos_deg, tol_deg)
-    key = np.round(pos_deg, 6)
-    if not np.all(counts == 1):
-        unique, index, counts = target_positions(pos_deg, tol_deg, circular=True)
-        order = np.argsort(unique)          # targets in increasing angle
-        rank = np.empty_like(order)
-        rank[order] = np.arange(order.size)
-        unique, index, counts = unique[order], rank[index], counts[order]
+    # positions modulo 360 deg are one target: a closing 360 deg row is the 0 deg target
+    # again (seed 001 tables 1 and 2), averaged with it as enc points and fit-rbf do
+    unique, index, counts = target_positions(pos_deg, tol_deg, circular=True)
+    order = np.argsort(unique)          # targets in increasing angle
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    unique, index, counts = unique[order], rank[index], counts[order]
     if np.all(counts == 1):
         curve = _curve(name, "arcsec", role, pos_deg * DEG, dev, opts, s.source)
-        closing = np.round(np.mod(key, 360.0), 6)
-        if np.unique(closing).size < closing.size:
-            # a closing 360 deg row repeating 0 deg (seed 001 tables 1 and 2)
-            keep = np.unique(closing, return_index=True)[1]
-            curve.extra["std_distinct"] = float(np.std(dev[np.sort(keep)], ddof=1))
-            s.notes.append("a position repeats modulo 360 deg (closing row): std counts "
-                           "every row as given; std_distinct drops the repeat")
     else:
         curve = _repeated(s, pos_deg, dev, direction, run, (unique, index), opts,
                           (name, role, tol_deg), no_iso)

@@ -26,9 +26,6 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
     lines = [f"  {c.name} [{u}]{' (head ' + c.head + ')' if c.head else ''}: n={f.n}  "
              f"p-p {_g(f.pp)}{sym}  +/-{_g(f.plus_minus)}{sym}  mean {_g(f.mean)}{sym}  "
              f"s {_g(f.std)}{sym} (Bessel n-1, seed 001 eq. 8)"]
-    if "std_distinct" in c.extra:
-        lines.append(f"    s over distinct positions (closing row dropped) "
-                     f"{_g(c.extra['std_distinct'])}{sym}")
     if c.u is not None:
         lines.append(f"    expanded uncertainty U (k=2): max {_g(c.U_max)}{sym}")
     h = c.harmonics.largest(top) if c.harmonics is not None else None
@@ -37,6 +34,8 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
         parts = [f"n={int(n)} {_g(a)}{sym} @ {p / DEG:.0f} deg"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
+    if c.harmonics is not None and c.harmonics.left_out:
+        lines.append(f"    {c.harmonics.left_out_text()}")
     return lines
 
 
