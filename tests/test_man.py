@@ -111,7 +111,8 @@ def test_every_key_the_rig_loaders_accept_is_in_enc_rig():
                                      riglimits.LEAST) for k in d}
     backends = {"dialogue": (dialogue.BACKEND_KEYS, dialogue.INSTRUMENT_KEYS,
                              dialogue.COUNTER_KEYS, dialogue.SENSOR_KEYS, dialogue.MOTION_KEYS),
-                "nidaq": (nidaq.COUNTER_KEYS, nidaq.HEAD_KEYS), "sim": ({"kind", "seed", "realtime"},)}
+                "nidaq": (nidaq.COUNTER_KEYS, nidaq.HEAD_KEYS),
+                "sim": ({"kind", "seed", "realtime"},)}
     for where, sets in backends.items():
         keys.update({f"backend.{k}": where for keyset in sets for k in keyset})
     described = [k for k in keys
