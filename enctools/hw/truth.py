@@ -13,9 +13,14 @@ Conventions (all angles in rad, errors in arcsec, radial motion in nm):
 - ``radial[encoder]``: ``{"x": Series, "y": Series}``, spindle radial error motion in
   the plane of that encoder, in nm, as a function of the *unwrapped* spindle angle
   theta (integer frequencies: synchronous part; the others: asynchronous).
-- ``signals[head]``: the head's signal faults (Heydemann model); the interpolation
-  error they cause is :func:`interpolation_error` of the scale angle under the head
-  (head reading + alpha).
+- ``signals[head]``: the head's signal faults (Heydemann model). The interpolation
+  error they cause, psi [arcsec], is :func:`interpolation_error` of the true scale
+  angle under the head, s = theta + alpha + eps(theta + alpha) + (x sin alpha -
+  y cos alpha) / R: the head's reading before psi and noise, plus alpha. The head
+  then reads r = s + psi (its signal phase is r times the periods per revolution),
+  so a method, which sees only r, finds psi as a function of the angle read:
+  psi(s) at the s with s + psi(s) = r, not interpolation_error at r itself (that
+  is off by about psi times its slope: up to 0.0115" on sjtu-dual's H heads).
 - ``motion``: theta(t) = theta0 + omega t + sum of speed-jitter sinusoids, t the
   stream's ``t`` [s] (continuous mode).
 - ``polygon``: face angle errors of the polygon, arcsec; the autocollimator reads
