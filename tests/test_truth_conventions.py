@@ -5,24 +5,26 @@ The text's interpolation-error convention is re-implemented here from the words 
 psi is interpolation_error of the true scale angle s under the head; the head reads
 r = s + psi; a method sees psi as a function of r. Each step is checked against the
 code that makes or evaluates it: the simulator's noise-free readings, and
-``read_phase_truth`` of test_interp.py, by which every interp-check test scores its
-result (its fixed-point iteration is one way to do what the text says; here the map
-s -> r is tabulated forward and inverted by interpolation, another).
+:func:`enctools.hw.truth.interpolation_error_read`, by which every interp-check test
+(``read_phase_truth``) and benchmarks/accuracy.py score a result (its fixed-point
+iteration is one way to do what the text says; here the map s -> r is tabulated
+forward and inverted by interpolation, another).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_interp import read_phase_truth
 
 import enctools.hw.truth as truth_module
 from enctools.data.rig import load_rig
 from enctools.hw.sim import VirtualRig
-from enctools.hw.truth import interpolation_error
+from enctools.hw.sim_truth import make_truth
+from enctools.hw.truth import interpolation_error, interpolation_error_read
 from enctools.units import ARCSEC, TWO_PI
 
 RIG = load_rig("sjtu-dual")
+TRUTH = make_truth(RIG)
 
 
 def test_the_text_says_what_is_checked_here() -> None:
@@ -45,7 +47,7 @@ def test_simulated_readings_are_the_scale_angle_plus_psi(head: str) -> None:
     enc = next(e for e, h in RIG.heads if h.name == head)
     k = [h.name for h in enc.heads].index(head)
     alpha = enc.heads[k].angle
-    theta = np.random.default_rng(4).uniform(0, TWO_PI, 5000)
+    theta = np.random.default_rng(4).uniform(0, TWO_PI, 1000)
     x, y = truth.radial[enc.name]["x"](theta), truth.radial[enc.name]["y"](theta)
     s = (theta + alpha + truth.graduation[enc.name](theta + alpha) * ARCSEC
          + (x * np.sin(alpha) - y * np.cos(alpha)) * 1e-9 / enc.radius_m)
@@ -58,18 +60,19 @@ def test_simulated_readings_are_the_scale_angle_plus_psi(head: str) -> None:
 @pytest.mark.parametrize("head", [h.name for _, h in RIG.heads])
 def test_interp_check_is_scored_as_the_text_says(head: str) -> None:
     """psi as a function of the read angle, following the text (tabulate s -> (s + psi,
-    psi) over a period and interpolate at r), equals ``read_phase_truth`` to 1e-9";
+    psi) over a period and interpolate at r), equals ``interpolation_error_read`` to 1e-9";
     interpolation_error at r itself does not (what the text once said: up to 0.0115")."""
     enc = next(e for e, h in RIG.heads if h.name == head)
     ppr = enc.periods_per_rev
-    faults = VirtualRig(RIG, seed=3)._truth.signals[head]
+    faults = TRUTH.signals[head]
     period = TWO_PI / ppr
-    s = np.linspace(-period, 2 * period, 300_001)  # the period, with a margin either side
-    r_of_s = s + interpolation_error(faults, s, ppr) * ARCSEC
+    s = np.linspace(-0.1 * period, 1.1 * period, 120_001)  # the period and a margin
+    psi = interpolation_error(faults, s, ppr)
+    r_of_s = s + psi * ARCSEC
     assert np.all(np.diff(r_of_s) > 0)  # one s for each r: "the s with s + psi(s) = r"
     r = np.linspace(0.0, period, 997, endpoint=False)
-    by_text = np.interp(r, r_of_s, interpolation_error(faults, s, ppr))
-    by_tests = read_phase_truth(faults, r * ppr, ppr)
+    by_text = np.interp(r, r_of_s, psi)
+    by_tests = interpolation_error_read(faults, r * ppr, ppr)
     assert np.abs(by_text - by_tests).max() < 1e-9
     at_r = interpolation_error(faults, r, ppr)
     assert np.abs(at_r - by_tests).max() > 2e-4  # the other reading is measurably wrong
