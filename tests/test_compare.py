@@ -2,14 +2,15 @@
 
 - eq. (10): H - P (H = mean(H1..H4), P = mean(P1, P2)), 100 harmonics, averaged over
   revolutions, equals the truth eps'_H - eps'_P within 0.01" everywhere (we reach
-  1.5e-3" to 2e-3" over 6 seeds in these 5 revolutions, 0.9e-3" to 1.1e-3" in the rig's
-  20). The run is sampled every 3.1 ms, 9.3 signal periods of the ERP 880 per sample
-  (the rig's 5.05 ms is 15.15). At the paper's 3 ms and 1 r/min a drive at exactly its
-  nominal speed samples P every 9 periods: its interpolation error is met at one phase
-  and aliases into low harmonics that no averaging removes (20 revolutions: 0.0062" from
-  the truth, 0.015" at 50 ppm speed error, against 0.0011" at 5.05 ms); enc compare
-  warns about it (tested below). The rig's 1000 ppm speed error moves the alias to
-  n = 180, and 3 ms then errs by 0.0010": no warning.
+  1.5e-3" to 2e-3" over 6 seeds in these 5 revolutions; in the rig's 20 revolutions
+  1.4e-3" at the worst of 20 seeds: make accuracy). The run is sampled every 3.1 ms,
+  9.3 signal periods of the ERP 880 per sample (the rig's 5.05 ms is 15.15). At the
+  paper's 3 ms and 1 r/min a drive at exactly its nominal speed samples P every 9
+  periods: its interpolation error is met at one phase and aliases into low harmonics
+  that no averaging removes (20 revolutions: 0.0062" from the truth, 0.015" at 50 ppm
+  speed error, against 0.0011" at 5.05 ms); enc compare warns about it (tested below).
+  The rig's 1000 ppm speed error moves the alias to n = 180, and 3 ms then errs by
+  0.0010": no warning.
 - reference correction: P's own combined error = (P - H) + H's error from enc selfcal's
   curve filtered by A(n) of H1..H4: within 0.01" of the truth.
 """
