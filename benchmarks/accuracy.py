@@ -363,25 +363,36 @@ def rows() -> list[Row]:
     ]
 
 
-def measure(seeds: list[int], jobs: int, sizes: dict[str, dict] | None = None,
+def over_seeds(measure: Callable[..., dict[str, float]], seeds: range | list[int],
+               **size: float) -> dict[str, np.ndarray]:
+    """{figure: its values over ``seeds``} of one measurement at ``size``, one seed after
+    the other in this thread (the tests' way)."""
+    out: dict[str, list[float]] = {}
+    for seed in seeds:
+        with tempfile.TemporaryDirectory(prefix="acc-") as d:
+            for k, v in measure(seed, Path(d), **size).items():
+                out.setdefault(k, []).append(v)
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def measure(seeds: list[int], jobs: int,
             progress: Callable[[str], None] | None = None) -> dict[str, dict[str, np.ndarray]]:
-    """{function name: {figure: array over seeds}} for every distinct measurement."""
-    sizes = sizes or {}
+    """{function name: {figure: array over seeds}} for every distinct measurement at the
+    README's sizes, ``jobs`` runs at once."""
     functions = {r.measure.__name__: r.measure for r in rows() if r.measure is not None}
 
-    def one(args: tuple[str, int]) -> tuple[str, int, dict[str, float]]:
+    def one(args: tuple[str, int]) -> tuple[str, dict[str, np.ndarray]]:
         name, seed = args
-        with tempfile.TemporaryDirectory(prefix=f"acc-{name}-") as d:
-            return name, seed, functions[name](seed, Path(d), **sizes.get(name, {}))
+        figures = over_seeds(functions[name], [seed])
+        if progress:
+            progress(f"{name} seed {seed}")
+        return name, figures
 
     out: dict[str, dict[str, list[float]]] = {name: {} for name in functions}
-    work = [(name, s) for name in functions for s in seeds]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        for name, seed, figs in pool.map(one, work):
-            for k, v in figs.items():
-                out[name].setdefault(k, []).append(v)
-            if progress:
-                progress(f"{name} seed {seed}")
+        for name, figures in pool.map(one, [(n, s) for n in functions for s in seeds]):
+            for k, v in figures.items():
+                out[name].setdefault(k, []).extend(v.tolist())
     return {n: {k: np.array(v) for k, v in f.items()} for n, f in out.items()}
 
 

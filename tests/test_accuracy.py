@@ -11,7 +11,8 @@ figure the README states for that size:
   error, which is noise);
 - the sweep checks: the README's own runs (20 readings per step), the same figures;
 - interp-check on a continuous run: 4 revolutions instead of 20;
-- the RBF correction of a dense 23-bit run: one sample every 0.02 s instead of 0.002 s.
+- the RBF correction of a dense 23-bit run (test_rbf.py): one sample every 0.02 s
+  instead of 0.002 s.
 
 Units: arcsec, radial motion nm.
 """
@@ -19,9 +20,7 @@ Units: arcsec, radial motion nm.
 from __future__ import annotations
 
 import sys
-import tempfile
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -41,12 +40,7 @@ def in_process(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def over_seeds(measure: Callable[..., dict[str, float]], **size: float) -> dict[str, np.ndarray]:
     """{figure: its values over the 20 seeds} of one measurement at ``size``."""
-    out: dict[str, list[float]] = {}
-    for seed in SEEDS:
-        with tempfile.TemporaryDirectory(prefix="acc-") as d:
-            for k, v in measure(seed, Path(d), **size).items():
-                out.setdefault(k, []).append(v)
-    return {k: np.array(v) for k, v in out.items()}
+    return accuracy.over_seeds(measure, SEEDS, **size)
 
 
 @pytest.mark.slow
@@ -89,9 +83,3 @@ def test_sweep_checks_over_20_seeds() -> None:
 def test_continuous_interp_over_20_seeds() -> None:
     f = over_seeds(accuracy.continuous_interp, revolutions=4)
     assert f["run_max"].max() <= 0.0006
-
-
-@pytest.mark.slow
-def test_rbf_correction_over_20_seeds() -> None:
-    f = over_seeds(accuracy.rbf_dense, interval=0.02)
-    assert f["factor"].min() >= 2.5
