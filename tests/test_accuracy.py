@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -83,3 +84,19 @@ def test_sweep_checks_over_20_seeds() -> None:
 def test_continuous_interp_over_20_seeds() -> None:
     f = over_seeds(accuracy.continuous_interp, revolutions=4)
     assert f["run_max"].max() <= 0.0006
+
+
+def test_readme_table_is_the_scripts(tmp_path: Path) -> None:
+    """The README's table has the script's rows in its order, with their targets; the
+    rows without a random input are measured here and read as the README says."""
+    text = (ROOT / "README.md").read_text()
+    head = "| method | result: worst of 20 seeds (median) | paper / target |"
+    assert head in text
+    lines = text[text.index(head):].split("\n\n")[0].splitlines()[2:]
+    cells = [[c.strip() for c in line.strip("|").split(" | ")] for line in lines]
+    rows = accuracy.rows()
+    assert [(c[0], c[2]) for c in cells] == [(r.method, r.target) for r in rows]
+    fixed = accuracy.fixed_rows(tmp_path)
+    for c, r in zip(cells, rows, strict=True):
+        if r.measure is None:
+            assert c[1] == fixed[r.key], r.key
