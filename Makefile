@@ -12,8 +12,8 @@ MIN_PINS := tests/min-versions.txt
 PYTEST   = -m pytest -q -n 2 --dist loadfile
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo screenshot nightly chromium test check test-min bench fuzz man lint \
-        typecheck clean
+.PHONY: help install demo screenshot nightly chromium test check test-min bench accuracy fuzz man \
+        lint typecheck clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 12
@@ -78,6 +78,10 @@ test-min: $(VENV_MIN)/.installed  ## the whole suite on the oldest declared vers
 
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out
+
+SEEDS ?= 20
+accuracy: $(VENV)/.installed  ## the README's accuracy table over SEEDS noise seeds (minutes)
+	$(BIN)/python benchmarks/accuracy.py --seeds $(SEEDS)
 
 FUZZ_SECONDS ?= 300
 # three fuzzers, a third of FUZZ_SECONDS each: streams, rig files, CSV and correction tables

@@ -11,8 +11,9 @@ all: $(OUT)/report.html $(OUT)/design.txt $(OUT)/p-error.parquet $(OUT)/signals.
 	@$(ENC) report -q $(OUT)/grad.parquet $(OUT)/h-p.parquet $(OUT)/interp.parquet
 
 # 1. Continuous run: 20 r at 1 r/min, all nine heads (seed 000 sec. 3.2) every 5.05 ms, the
-#    rig's interval: the paper's 3 ms is exactly 9 signal periods of encoder I per sample
-#    (stroboscopic; enc compare warns); add --interval 0.003 to record at it
+#    rig's interval: the paper's 3 ms is 9 signal periods of encoder I per sample at the
+#    nominal speed (stroboscopic unless the drive's speed error moves the alias out of the
+#    band, as the rig's does; enc compare warns otherwise); add --interval 0.003 for it
 $(OUT)/raw.parquet:
 	@mkdir -p $(OUT)
 	$(ENC) acquire --rig $(RIG) -o $@ --force

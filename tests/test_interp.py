@@ -20,7 +20,7 @@ from enctools.data.readings import head_info, signal_phase
 from enctools.data.schemas import make_field
 from enctools.data.streams import Header, read_table, write_table
 from enctools.errors import UsageError
-from enctools.hw.truth import SignalFaults, Truth, signal_phase_error
+from enctools.hw.truth import Truth, interpolation_error_read
 from enctools.methods.interp import Settings
 from enctools.methods.interp.curve import error_figures
 from enctools.methods.interp.fit import fit_interpolation_error
@@ -42,12 +42,8 @@ def sweep(tmp_path_factory: pytest.TempPathFactory):
     return out
 
 
-def read_phase_truth(faults: SignalFaults, phi_read: np.ndarray, periods: int) -> np.ndarray:
-    """Truth [arcsec] as a function of the phase the head reads (phi_read = phi + e(phi))."""
-    phi = np.array(phi_read, dtype=float)
-    for _ in range(50):
-        phi = phi_read - signal_phase_error(faults, phi)
-    return signal_phase_error(faults, phi) / periods / ARCSEC
+#: truth [arcsec] as a function of the phase the head reads (phi_read = phi + e(phi))
+read_phase_truth = interpolation_error_read
 
 
 def zero_mean(x: np.ndarray) -> np.ndarray:

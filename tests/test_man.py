@@ -93,3 +93,30 @@ def test_every_rig_key_is_described_in_enc_rig():
     missing = [f"{table}.{key}".lstrip(".") for table, keys in _SPEC.items() for key in keys
                if not re.search(rf"(?m)^\.(B|BR|BI|RB|IR|SH|SS)\b.*\b{re.escape(key)}\b", body)]
     assert not missing, f"enc-rig(5) does not describe {', '.join(missing)}"
+
+
+def test_every_key_the_rig_loaders_accept_is_in_enc_rig():
+    """What the loaders accept beyond the general tables: every key with a range, type or
+    choice in data/riglimits.py, and every key of the backends' own tables (the
+    simulator's, VISA and serial dialogues, NI-DAQmx), is described in enc-rig(5) above
+    LIMITS; a key with a range is also in its LIMITS table."""
+    import re
+
+    from enctools.data import riglimits
+    from enctools.hw import dialogue, nidaq
+
+    text = (MAN / "enc-rig.5").read_text().replace("\\-", "-").replace("\\&", "")
+    body, limits = text.split(".SH LIMITS")[0], text.split(".SH LIMITS")[1]
+    keys = {k: "riglimits" for d in (riglimits.RANGES, riglimits.ARRAYS, riglimits.CHOICES,
+                                     riglimits.LEAST) for k in d}
+    backends = {"dialogue": (dialogue.BACKEND_KEYS, dialogue.INSTRUMENT_KEYS,
+                             dialogue.COUNTER_KEYS, dialogue.SENSOR_KEYS, dialogue.MOTION_KEYS),
+                "nidaq": (nidaq.COUNTER_KEYS, nidaq.HEAD_KEYS),
+                "sim": ({"kind", "seed", "realtime"},)}
+    for where, sets in backends.items():
+        keys.update({f"backend.{k}": where for keyset in sets for k in keyset})
+    described = [k for k in keys
+                 if re.search(rf"(?m)^\.(B|BR|BI|RB|IR|SH|SS)\b.*\b{re.escape(k.split('.')[-1])}\b",
+                              body)]
+    assert sorted(set(keys) - set(described)) == []
+    assert [k for k in riglimits.RANGES if k not in limits] == []

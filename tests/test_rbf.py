@@ -196,3 +196,20 @@ def test_fit_points_in_process_matches_the_command(table1, tmp_path):
     assert header.meta["settings"] == settings.to_meta()
     few = fit_points(x[:2], y[:2], Settings())  # two points: no leave-one-out figures
     assert np.isnan(few.loo["rms_arcsec"]) and few.points["n"] == 2
+
+
+@pytest.mark.slow
+def test_rbf_correction_over_20_seeds(monkeypatch):
+    """The README's row over noise seeds 1..20 (make accuracy; test_accuracy.py), the dense
+    run sampled every 0.02 s instead of 0.002 s: the lowest factor is held (2.59 here,
+    2.58 at 0.002 s)."""
+    import sys
+
+    from conftest import run_in_process
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import accuracy
+
+    monkeypatch.setattr(accuracy, "RUN", lambda args, cwd: run_in_process(args, cwd=cwd))
+    f = accuracy.over_seeds(accuracy.rbf_dense, range(1, 21), interval=0.02)
+    assert f["factor"].min() >= 2.5

@@ -5,7 +5,8 @@ and run by bash (``set -e -o pipefail``) in a fresh folder with this environment
 on PATH; the campaign Makefiles are those the top Makefile's ``demo`` target runs. stderr
 may carry a command's summary lines, never a warning: the rigs' defaults are chosen so
 that the documented commands meet none (the sjtu-dual rig samples every 5.05 ms, clear
-of every head's signal period; the paper's 3 ms is warned about: test_compare.py).
+of every head's signal period; the paper's 3 ms is warned about only when the drive
+turns at exactly its nominal speed: test_compare.py).
 """
 
 from __future__ import annotations

@@ -13,9 +13,15 @@ Conventions (all angles in rad, errors in arcsec, radial motion in nm):
 - ``radial[encoder]``: ``{"x": Series, "y": Series}``, spindle radial error motion in
   the plane of that encoder, in nm, as a function of the *unwrapped* spindle angle
   theta (integer frequencies: synchronous part; the others: asynchronous).
-- ``signals[head]``: the head's signal faults (Heydemann model); the interpolation
-  error they cause is :func:`interpolation_error` of the scale angle under the head
-  (head reading + alpha).
+- ``signals[head]``: the head's signal faults (Heydemann model). The interpolation
+  error they cause, psi [arcsec], is :func:`interpolation_error` of the true scale
+  angle under the head, s = theta + alpha + eps(theta + alpha) + (x sin alpha -
+  y cos alpha) / R: the head's reading before psi and noise, plus alpha. The head
+  then reads r = s + psi (its signal phase is r times the periods per revolution),
+  so a method, which sees only r, finds psi as a function of the angle read:
+  psi(s) at the s with s + psi(s) = r, not interpolation_error at r itself (that
+  is off by about psi times its slope: up to 0.0115" on sjtu-dual's H heads);
+  :func:`interpolation_error_read` evaluates it at a signal phase read.
 - ``motion``: theta(t) = theta0 + omega t + sum of speed-jitter sinusoids, t the
   stream's ``t`` [s] (continuous mode).
 - ``polygon``: face angle errors of the polygon, arcsec; the autocollimator reads
@@ -165,6 +171,23 @@ def interpolation_error(faults: SignalFaults, scale_angle: np.ndarray,
     error divided by the number of signal periods per revolution.
     """
     phi = np.mod(np.asarray(scale_angle, dtype=np.float64), TWO_PI) * periods_per_rev
+    return signal_phase_error(faults, phi) / periods_per_rev / ARCSEC
+
+
+def interpolation_error_read(faults: SignalFaults, phase_read: np.ndarray,
+                             periods_per_rev: int) -> np.ndarray:
+    """Interpolation error psi [arcsec] at the signal phase a head reads [rad].
+
+    The head reads phase r = phi + e(phi), phi the true phase and e
+    :func:`signal_phase_error`; psi is e(phi) / periods_per_rev at the phi solving it,
+    found by fixed-point iteration phi <- r - e(phi) (e changes by far less than the
+    phase: it converges to rounding in a few dozen steps). What a method that sees only
+    the readings (enc interp-check) recovers, as the module's conventions say.
+    """
+    r = np.asarray(phase_read, dtype=np.float64)
+    phi = r.copy()
+    for _ in range(50):
+        phi = r - signal_phase_error(faults, phi)
     return signal_phase_error(faults, phi) / periods_per_rev / ARCSEC
 
 

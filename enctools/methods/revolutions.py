@@ -360,8 +360,6 @@ class RevolutionCutter:
                    "one direction")
             raise DataError(msg)
         _check_steps(u, first, self.spec, self.source)
-        if n > 1 and not np.isfinite(self._spacing):
-            _warn_stroboscopic(float(np.median(np.abs(np.diff(u[:4097])))), self.spec)
         if n > 1:  # the mean step over the batch
             self._spacing = abs(float(u[-1] - u[0])) / (n - 1)
         self._last_u = float(u[-1])
@@ -389,25 +387,35 @@ def revolution_spectra(source: InputStream, spec: ChannelSpec, band: int,
     Yields ``(index, coefficients (C, band + 1), binned)``; ``binned`` is the
     (C, grid_points) bin average of the revolution when ``grid_points`` > 0.
     """
-    for rev in revolutions(source, spec, progress):
+    # the harmonics the result resolves: the band, or half the bins of an unfiltered grid
+    resolved = band if band > 0 else max(1, grid_points // 2)
+    for rev in revolutions(source, spec, progress, resolved):
         yield _analyse(rev, band, grid_points)
 
 
 def revolutions(source: InputStream, spec: ChannelSpec,
-                progress: Callable[[int], Any] | None = None) -> Iterator[Revolution]:
+                progress: Callable[[int], Any] | None = None,
+                resolved: int = 0) -> Iterator[Revolution]:
     """The whole revolutions of the coordinate in ``source``, each with every channel's
     error against it [rad] (see :func:`revolution_spectra`, which analyses them).
 
     They are cut on the stream's reader thread; ``progress`` is called with the number
-    of revolutions done once the caller has taken each.
+    of revolutions done once the caller has taken each. With ``resolved`` > 0 (the
+    harmonics the result resolves) the first revolution is checked for synchronous
+    sampling (:func:`warn_stroboscopic`).
     """
     cutter = RevolutionCutter(spec, source.source)
     for cut in source.batches(prepare=cutter):
         for rev in cut:
+            if rev.index == 0 and resolved > 0:
+                warn_stroboscopic(rev, spec, resolved)
             yield rev
             if progress is not None:
                 progress(rev.index + 1)
-    yield from cutter.finish()
+    for rev in cutter.finish():
+        if rev.index == 0 and resolved > 0:
+            warn_stroboscopic(rev, spec, resolved)
+        yield rev
 
 
 #: a sample step within this many signal periods of a whole number is "stroboscopic"
@@ -419,9 +427,9 @@ def stroboscopic_heads(step: float, heads: tuple[HeadInfo, ...]) -> list[tuple[s
 
     ``step``: angle between samples [rad]. When it is within :data:`STROBOSCOPIC` of
     a whole number of signal periods, every sample meets the head's interpolation
-    error at nearly the same phase: speed jitter then turns it into low harmonics
-    that no averaging removes (seed 000 assumes them high-frequency). Returns
-    (head, periods per sample).
+    error at nearly the same phase, so a short stretch of samples (enc interp-check's
+    window) does not go through the period. Returns (head, periods per sample).
+    Whole revolutions are judged by :func:`aliased_interpolation` instead.
     """
     out = []
     for h in heads:
@@ -431,16 +439,65 @@ def stroboscopic_heads(step: float, heads: tuple[HeadInfo, ...]) -> list[tuple[s
     return out
 
 
-def _warn_stroboscopic(step: float, spec: ChannelSpec) -> None:
-    """Warn when the sample step ``step`` [rad] is stroboscopic for a head of ``spec``."""
-    seen = {h.name: h for h in spec.channels + spec.coordinate}
-    bad = stroboscopic_heads(step, tuple(seen.values()))
+#: a unit interpolation error that puts more than this fraction of its amplitude into one
+#: harmonic the result resolves is aliased (sampled synchronously) ...
+ALIASED = 0.05
+#: ... or more than this many times the 1/sqrt(samples) of an evenly spread phase
+ALIASED_OVER_SPREAD = 6.0
+
+
+def aliased_interpolation(rev: Revolution, periods_per_rev: int,
+                          band: int) -> tuple[float, int, int]:
+    """Where one revolution's sampling aliases a head's interpolation error.
+
+    The interpolation error of a head with ``periods_per_rev`` signal periods per
+    revolution repeats at its 1st and 2nd harmonics of the signal period. Sampled at
+    the angles ``rev.u`` [rad] the run actually reached (its measured speed, speed
+    error and jitter included), a unit phasor ``exp(i m periods_per_rev u)`` has
+    Fourier coefficients over the revolution; an evenly advancing phase leaves about
+    1/sqrt(samples) in each, a phase that barely moves from sample to sample (a whole
+    number of signal periods per sample) puts up to all of it into low harmonics,
+    which no averaging of revolutions removes. Returns (largest coefficient's
+    magnitude of harmonics 1..``band`` over m = 1, 2; that harmonic; m).
+    """
+    rows = []
+    for m in (1, 2):
+        phase = np.mod(rev.u * (m * periods_per_rev), TWO_PI)
+        rows += [np.cos(phase), np.sin(phase)]
+    c = revolution_coefficients(rev.u, np.array(rows), rev.start, band)[:, 1:]
+    best = (0.0, 0, 0)
+    for k, m in enumerate((1, 2)):
+        cos, sin = c[2 * k], c[2 * k + 1]
+        # the phasor's coefficients at +n and -n (f = Re(sum c_n exp(i n u)))
+        leak = np.maximum(np.abs(cos + 1j * sin), np.abs(np.conj(cos) + 1j * np.conj(sin))) / 2
+        n = int(np.argmax(leak))
+        if leak[n] > best[0]:
+            best = (float(leak[n]), n + 1, m)
+    return best
+
+
+def warn_stroboscopic(rev: Revolution, spec: ChannelSpec, band: int) -> None:
+    """Warn when the first revolution's sampling aliases a head's interpolation error into
+    the harmonics 1..``band`` the result resolves (:func:`aliased_interpolation`)."""
+    limit = max(ALIASED, ALIASED_OVER_SPREAD / np.sqrt(max(rev.u.size, 1)))
+    by_period: dict[int, list[str]] = {}
+    for h in spec.channels + spec.coordinate:
+        names = by_period.setdefault(h.periods_per_rev, [])
+        if h.name not in names:
+            names.append(h.name)
+    bad = []
+    for ppr, names in by_period.items():
+        leak, n, m = aliased_interpolation(rev, ppr, band)
+        if leak > limit:
+            periods = abs(float(np.median(np.diff(rev.u)))) * ppr / TWO_PI
+            bad.append(f"{', '.join(names)} ({periods:.4f} signal periods per sample: "
+                       f"harmonic {m} of the period lands at n = {n} with {leak:.2f} "
+                       f"of its amplitude)")
     if bad:
-        names = ", ".join(f"{n} ({p:.3f} signal periods per sample)" for n, p in bad)
         logging.getLogger("enctools").warning(
             "sampling is nearly synchronous with the signal period of %s: their "
             "interpolation error aliases into low harmonics; record with another "
-            "sample interval (enc acquire --interval)", names)
+            "sample interval (enc acquire --interval)", "; ".join(bad))
 
 
 def _analyse(rev: Revolution, band: int, grid_points: int) -> Spectra:

@@ -531,7 +531,7 @@ def run(source: InputStream, settings: Settings,
             progress(done, max(total, done))
 
     spec = ChannelSpec(tuple(p.heads), tuple(p.coordinate))
-    res = calibrate(revolutions(source, spec, tick), p.method,
+    res = calibrate(revolutions(source, spec, tick, p.method.band), p.method,
                     np.array([h.alpha for h in p.coordinate]), p.settings.points,
                     [h.name for h in p.coordinate],
                     max(TWO_PI / h.counts_per_rev for h in p.heads))
