@@ -6,7 +6,13 @@ import click
 
 from enctools.cli import options, runner
 
-TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream")
+TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcnc", "twincat",
+           "fanuc", "heidenhain", "stream")
+#: options of the memories' and the ROM path's tables, and of the controls' point tables:
+#: each is refused (when given) with a target of the other kind
+ROM_ONLY = ("code_bits", "address_bits", "width", "lsb", "sample", "endian", "zone",
+            "array_name")
+CONTROL_ONLY = ("table_kind", "sign", "comp_type", "points", "detection_unit", "ref_point")
 
 
 @click.command("make-rom")
@@ -37,6 +43,19 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
 @click.option("--max-entries", type=int, default=None, callback=options.positive,
               help="acs/siemens: table points the control is configured for "
                    "(defaults 100000/5000).")
+@click.option("--table", "table_kind", type=click.Choice(["unidirectional", "bidirectional"]),
+              default="unidirectional", show_default=True,
+              help="linuxcnc, twincat: one table for both directions or one per direction.")
+@click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
+              help="fanuc, heidenhain: whether the control stores the correction or the error.")
+@click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
+              help="linuxcnc: COMP_FILE_TYPE (0 positions, 1 trims).")
+@click.option("--points", type=int, default=None,
+              help="Controls: points of the table over the turn, both ends included.")
+@click.option("--detection-unit", type=float, default=1e-3, show_default=True,
+              help="fanuc: the axis's detection unit [deg].")
+@click.option("--ref-point", type=int, default=0, show_default=True,
+              help="fanuc: compensation point number of the reference position.")
 @click.option("--verify", is_flag=True, default=False,
               help="Read the written table back and check it equals the table built.")
 @options.output
@@ -48,9 +67,10 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
 @options.verbosity
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
-            axis: str | None, zone: int, array_name: str, max_entries: int | None, verify: bool,
-            output: str | None, force: bool, fmt: str | None, as_json: bool,
-            unit: str) -> None:
+            axis: str | None, zone: int, array_name: str, max_entries: int | None, table_kind: str,
+            sign: str | None, comp_type: int, points: int | None, detection_unit: float,
+            ref_point: int, verify: bool, output: str | None, force: bool, fmt: str | None,
+            as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -59,6 +79,10 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     MIF, Xilinx COE, Verilog $readmemh, CSV, an ACS SPiiPlus ERRORMAP1D program, a
     SINUMERIK $AA_ENC_COMP table. A summary (entries, range, largest quantisation
     error, CRC-32, size) goes to stderr. What a target cannot hold is refused.
+
+    The controls' tables (linuxcnc, twincat, fanuc, heidenhain) are also built from a
+    points stream (a step run, per target and direction): a grid over the turn at the
+    control's resolution, with the interpolation error it costs in the summary.
     """
     import time
     from pathlib import Path
@@ -71,6 +95,13 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
 
     target, path = _target(target, output, force, fmt)
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
+    _check_applies(target)
+    if target in romformats.CONTROLS:
+        from enctools.models.romformats.controls import ControlSettings
+        settings_c = ControlSettings(target, table_kind == "bidirectional", sign, comp_type, points,
+                                     max_entries, axis, detection_unit, ref_point)
+        _control(input, curve, settings_c, str(path), force, verify, as_json, unit)
+        return
     src = streams.open_input(input, ("model", "deviations"))
     evaluate = from_stream(src.header, src.read_all(), src.source, curve)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
@@ -95,6 +126,49 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             romformats.verify_table(path, table.values, settings.table)
     emit(_summary(summary, size, output, time.monotonic() - t0, verify and size is not None),
          as_json, unit)
+
+
+def _check_applies(target: str) -> None:
+    """Refuse (one line) an option given that the target does not take."""
+    import click
+
+    from enctools.errors import UsageError
+    from enctools.models import romformats
+
+    ctx = click.get_current_context()
+    control = target in romformats.CONTROLS
+    for name in CONTROL_ONLY if not control else ROM_ONLY:
+        if ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE:
+            opt = next(p for p in ctx.command.params if p.name == name).opts[0]
+            kind = "the controls' tables (linuxcnc, twincat, fanuc, heidenhain)" \
+                if not control else "the memories' tables and acs, siemens"
+            msg = f"{opt} applies to {kind}, not --target {target}"
+            raise UsageError(msg)
+
+
+def _control(input: str | None, curve: str | None, settings: object, path: str, force: bool,
+             verify: bool, as_json: bool, unit: str) -> None:
+    """Build a control's point table from a step run or a model, write it, verify it."""
+    import time
+
+    from enctools.cli.summary import emit
+    from enctools.data import streams
+    from enctools.data.header import history_line
+    from enctools.models import rom, romformats
+    from enctools.models.romformats import controls
+
+    assert isinstance(settings, controls.ControlSettings)
+    t0 = time.monotonic()
+    src = streams.open_input(input, ("points", "model", "deviations"))
+    source = rom.control_source(src.header, src.read_all(), src.source, curve)
+    table = controls.build(settings, source)
+    comment = [f"enctools make-rom: {table.grid_deg.size} points 0..360 deg, "
+               f"resolution {table.resolution_deg!r} deg; " + history_line()]
+    size = romformats.write_control_table(path, table, force, comment)
+    if verify:
+        romformats.verify_control_table(path, table)
+    emit(table.summary | {"output": path, "file_bytes": size, "verified": verify,
+                          "elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
 
 
 def _target(target: str | None, output: str | None, force: bool, fmt: str | None

@@ -383,3 +383,24 @@ def write_stream(output: str | None, header: Header, values: np.ndarray, force: 
             v = values[start:start + rows]
             out.write(pa.record_batch([pa.array(np.arange(start, start + v.size)),
                                        pa.array(v.astype(np.int64))], schema=schema))
+
+
+def control_source(header: Header, table: pa.Table, source: str, curve: str | None
+                   ) -> romformats.controls.Source:
+    """What a control's table is built from: a ``points`` stream (a step run: the means
+    per target and direction) or a model or deviations stream (one direction)."""
+    from enctools.data.columns import column, declared_unit
+    from enctools.models.curve_model import from_stream
+    from enctools.models.romformats import steprun
+
+    if header.kind != "points":
+        return steprun.from_model(from_stream(header, table, source, curve))
+    if curve is not None:
+        msg = f"--curve chooses a curve of a deviations stream; {source} is a points stream"
+        raise UsageError(msg)
+    position = column(table, "position", "deg", source,
+                      declared_unit("points", header.meta, "position"))
+    deviation = column(table, "deviation", "arcsec", source)
+    direction, run = (table.column(c).to_numpy(zero_copy_only=False)
+                      if c in table.schema.names else None for c in ("direction", "run"))
+    return steprun.from_points(position, deviation, direction, run)
