@@ -68,7 +68,7 @@ SPECS = {
     "twincat": Control("twincat", 1e-4, 1500, "correction", True, (-(1 << 31), (1 << 31) - 1)),
     "fanuc": Control("fanuc", 1e-3, FANUC_LAST_POINT + 1, None, False,
                      (-FANUC_MAX_STEP, FANUC_MAX_STEP)),
-    "heidenhain": Control("heidenhain", 1e-4, 256, None, False, (-99_999_999, 99_999_999)),
+    "heidenhain": Control("heidenhain", 1e-4, 256, None, False, None),
 }
 
 

@@ -5,7 +5,9 @@ A step run (a ``points`` stream: position [rad], deviation = indicated - true
 approaches: each run's readings at a target in a direction are averaged first, then
 the runs (ISO 230-2's mean unidirectional positioning deviation, in the deviation's
 sign). Between targets the deviation is interpolated linearly and periodically over
-the turn. The reversal value per target is B_i = mean up - mean down [arcsec].
+the turn. Targets within SPACED_DEG of m equal steps over the turn are taken at those
+steps (the commanded targets; measured positions scatter about them). The reversal
+value per target is B_i = mean up - mean down [arcsec].
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 
 from enctools.errors import DataError
-from enctools.models.romformats.controls import Source
+from enctools.models.romformats.controls import SPACED_DEG, Source
 
 #: measured positions closer than this [deg] are one target
 TARGET_TOLERANCE_DEG = 1e-3
@@ -45,6 +47,9 @@ def from_points(position_deg: np.ndarray, deviation: np.ndarray,
     if targets.size < 2:
         msg = "the step run visits fewer than 2 targets"
         raise DataError(msg)
+    nominal = np.arange(targets.size) * (360.0 / targets.size)
+    if np.all(np.abs(targets - nominal) < SPACED_DEG):
+        targets = nominal  # measured positions about m commanded steps over the turn
     means = {}
     for sign in (1, -1):
         sel = d == sign
