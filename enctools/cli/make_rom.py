@@ -11,8 +11,8 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcn
 #: options of the memories' and the ROM path's tables, and of the controls' point tables:
 #: each is refused (when given) with a target of the other kind
 ROM_ONLY = ("code_bits", "address_bits", "width", "lsb", "sample", "endian", "zone",
-            "array_name")
-CONTROL_ONLY = ("table_kind", "sign", "comp_type", "points", "detection_unit", "ref_point")
+            "array_name", "resolution_deg")
+CONTROL_ONLY = ("table_kind", "comp_type", "points", "detection_unit", "ref_point")
 
 
 @click.command("make-rom")
@@ -47,7 +47,10 @@ CONTROL_ONLY = ("table_kind", "sign", "comp_type", "points", "detection_unit", "
               default="unidirectional", show_default=True,
               help="linuxcnc, twincat: one table for both directions or one per direction.")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
-              help="fanuc, heidenhain: whether the control stores the correction or the error.")
+              help="acs, fanuc, heidenhain: whether the control stores the correction or "
+                   "the error.")
+@click.option("--resolution", "resolution_deg", type=float, default=None,
+              help="acs, siemens: the control's resolution [deg], a power of ten.")
 @click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
               help="linuxcnc: COMP_FILE_TYPE (0 positions, 1 trims).")
 @click.option("--points", type=int, default=None,
@@ -68,9 +71,9 @@ CONTROL_ONLY = ("table_kind", "sign", "comp_type", "points", "detection_unit", "
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
             axis: str | None, zone: int, array_name: str, max_entries: int | None, table_kind: str,
-            sign: str | None, comp_type: int, points: int | None, detection_unit: float,
-            ref_point: int, verify: bool, output: str | None, force: bool, fmt: str | None,
-            as_json: bool, unit: str) -> None:
+            sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
+            detection_unit: float, ref_point: int, verify: bool, output: str | None,
+            force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -106,7 +109,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     evaluate = from_stream(src.header, src.read_all(), src.source, curve)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
                             address_bits, width, lsb, sample, target, endian, axis, zone,
-                            array_name, max_entries)
+                            array_name, max_entries, resolution_deg, sign)
     if path is not None and not force and Path(path).exists():
         msg = f"output {path} exists; use --force to replace it"
         raise UsageError(msg)

@@ -464,7 +464,7 @@ def _from_closed(values_deg: np.ndarray, t: Target, src: str) -> np.ndarray:
     if not np.all(np.isfinite(values_deg)):
         msg = f"{src}: a table value is not a finite number"
         raise DataError(msg)
-    counts = values_deg / t.count_deg
+    counts = values_deg / t.count_deg * t.sign
     q = np.rint(counts)
     if np.max(np.abs(q)) >= 2.0 ** 62:
         msg = f"{src}: a table value is beyond any word width"
