@@ -94,6 +94,27 @@ def test_step_run_read_back_within_half_resolution(step_run, tmp_path, case):
         assert np.max(np.abs(got - want)) <= resolution / 2 * (1 + 1e-6), (s, got - want)
 
 
+@pytest.mark.parametrize("target, opts", [("siemens", ""), ("acs", "--sign error --axis 2")])
+def test_siemens_acs_from_step_run(step_run, tmp_path, target, opts):
+    """SINUMERIK and ACS tables of 2^3 points (45 deg, on the targets) at 0.0001 deg, read
+    back as point tables: the mean of both directions within half the resolution."""
+    points, intended = step_run
+    out = tmp_path / f"t.{target}"
+    r = run(f"enc make-rom {points} --target {target} --bits 23 --address-bits 3 "
+            f"--resolution 0.0001 {opts} --verify -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    table = rf.read_control_table(str(out), target, "error" if "error" in opts else None)
+    assert table.positions_rad.size == 9
+    want = ((intended[1] + intended[-1]) / 2.0)[::3]
+    got = table.correction(np.radians(np.arange(8) * 45.0)) / ARCSEC
+    assert np.max(np.abs(got - want)) <= 0.18 * (1 + 1e-6), got - want
+    # the file's own sign at 90 deg: SINUMERIK stores the correction; ACS as --sign says
+    corr90 = want[2] / 3600.0
+    line = r"^\$AA_ENC_COMP\[0,2,AX1\]=(\S+)" if target == "siemens" else r"^ENC_COMP\(2\)=(\S+)"
+    assert _row(out, line) == pytest.approx(corr90 if target == "siemens" else -corr90,
+                                            abs=5e-5)
+
+
 def _row(path, pattern: str) -> float:
     """The number the first line matching ``pattern`` (group 1) holds."""
     m = re.search(pattern, path.read_text(), re.MULTILINE)

@@ -94,7 +94,6 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     from enctools.data import streams
     from enctools.errors import UsageError
     from enctools.models import rom, romformats
-    from enctools.models.curve_model import from_stream
 
     target, path = _target(target, output, force, fmt)
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
@@ -105,8 +104,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
                                      max_entries, axis, detection_unit, ref_point)
         _control(input, curve, settings_c, str(path), force, verify, as_json, unit)
         return
-    src = streams.open_input(input, ("model", "deviations"))
-    evaluate = from_stream(src.header, src.read_all(), src.source, curve)
+    kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
+    src = streams.open_input(input, kinds)
+    evaluate = rom.deviation_model(src.header, src.read_all(), src.source, curve)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
                             address_bits, width, lsb, sample, target, endian, axis, zone,
                             array_name, max_entries, resolution_deg, sign)
@@ -116,7 +116,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
     summary = table.summary()
-    summary["model"] = src.header.meta.get("model", {"kind": "deviations", "curve": curve})
+    summary["model"] = src.header.meta.get("model", {"kind": src.header.kind, "curve": curve})
     size = None
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,

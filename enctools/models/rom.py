@@ -445,3 +445,19 @@ def control_source(header: Header, table: pa.Table, source: str, curve: str | No
     direction, run = (table.column(c).to_numpy(zero_copy_only=False)
                       if c in table.schema.names else None for c in ("direction", "run"))
     return steprun.from_points(position, deviation, direction, run)
+
+
+def deviation_model(header: Header, table: pa.Table, source: str, curve: str | None
+                    ) -> Callable[[np.ndarray], np.ndarray]:
+    """The deviation [arcsec] at angles [deg] a table is built from: a model or deviations
+    stream's (its evaluator, which may evaluate a uniform grid fast: ``on_grid``), or a
+    step run's (points stream) mean over both directions per target."""
+    from enctools.models.curve_model import from_stream
+
+    if header.kind != "points":
+        return from_stream(header, table, source, curve)
+    s = control_source(header, table, source, curve)
+    if s.backward is None:
+        return s.forward
+    forward, backward = s.forward, s.backward
+    return lambda a: (forward(a) + backward(a)) / 2.0

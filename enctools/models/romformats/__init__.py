@@ -200,18 +200,19 @@ def write_control_table(path: str, table: ControlTable, force: bool = False,
 
 
 def read_control_table(path: str, target: str, sign: str | None = None, comp_type: int = 0,
-                       axis: str | None = None) -> PointTable:
+                       axis: str | None = None, array_name: str = "ENC_COMP") -> PointTable:
     """A control's table file as its control reads it: the corrections [rad] to add to the
-    indicated angle (:class:`PointTable`). ``sign`` (fanuc, heidenhain: ``correction`` or
-    ``error``), ``comp_type`` (linuxcnc: COMP_FILE_TYPE 0 or 1) and ``axis`` (heidenhain:
-    the column) are what the file itself does not say. DataError (one line) when the
-    control would refuse or misread the file."""
+    indicated angle (:class:`PointTable`), for every controller target (linuxcnc,
+    twincat, fanuc, heidenhain, siemens, acs). ``sign`` (acs, fanuc, heidenhain:
+    ``correction`` or ``error``), ``comp_type`` (linuxcnc: COMP_FILE_TYPE 0 or 1),
+    ``axis`` (heidenhain: the column) and ``array_name`` (acs) are what the file itself
+    does not say. DataError (one line) when the control would refuse or misread it."""
     try:
         data = Path(path).read_bytes()
     except FileNotFoundError:
         msg = f"{path}: no such file"
         raise DataError(msg) from None
-    if target in ("fanuc", "heidenhain") and sign not in ("correction", "error"):
+    if target in ("acs", "fanuc", "heidenhain") and sign not in ("correction", "error"):
         msg = f"{target}: give the sign of the stored values (correction or error)"
         raise UsageError(msg)
     if target == "linuxcnc":
@@ -222,7 +223,11 @@ def read_control_table(path: str, target: str, sign: str | None = None, comp_typ
         return controlreaders.read_fanuc(data, path, str(sign))
     if target == "heidenhain":
         return controlreaders.read_heidenhain(data, path, str(sign), axis or "C")
-    msg = f"{target} is not a control's point table ({', '.join(CONTROLS)})"
+    if target == "siemens":
+        return controlreaders.read_siemens(data, path)
+    if target == "acs":
+        return controlreaders.read_acs(data, path, str(sign), array_name)
+    msg = f"{target} is not a control's table ({', '.join(CONTROLS + CONTROLLER)})"
     raise UsageError(msg)
 
 

@@ -201,3 +201,32 @@ def read_heidenhain(data: bytes, src: str, sign: str, axis: str = "C") -> PointT
     modulo = 360.0 * DEG if pos[0] == 0.0 and pos[-1] == 360.0 else None
     return PointTable(pos * DEG, (val if sign == "correction" else -val) * DEG,
                       modulo_rad=modulo)
+
+
+def read_siemens(data: bytes, src: str) -> PointTable:
+    """A SINUMERIK ``$AA_ENC_COMP`` table: the points MIN + i x STEP [deg], each value the
+    compensation added to the measuring system's actual value (K3, MSEC: a positive value
+    moves the axis in the negative direction), i.e. the correction; modulo MAX - MIN
+    when IS_MODULO is 1."""
+    from enctools.models.romformats.readers import siemens_table
+
+    step, lo, hi, modulo, vals = siemens_table(data, src)
+    if not (step > 0 and np.all(np.isfinite(vals))):
+        msg = f"{src}: STEP must be > 0 and every value a finite number"
+        raise DataError(msg)
+    positions = lo + step * np.arange(vals.size)
+    return PointTable(positions * DEG, vals * DEG,
+                      modulo_rad=(hi - lo) * DEG if modulo == 1 else None)
+
+
+def read_acs(data: bytes, src: str, sign: str, name: str = "ENC_COMP") -> PointTable:
+    """An ACS program's ERRORMAP1D map: points base + i x step [deg], values [deg];
+    ``sign`` says whether a value is the correction or the error. No wrap is assumed."""
+    from enctools.models.romformats.readers import acs_map
+
+    base, step, vals = acs_map(data, name, src)
+    if not (step > 0 and np.all(np.isfinite(vals))):
+        msg = f"{src}: the map's step must be > 0 and every value a finite number"
+        raise DataError(msg)
+    positions = base + step * np.arange(vals.size)
+    return PointTable(positions * DEG, (vals if sign == "correction" else -vals) * DEG)
