@@ -121,6 +121,9 @@ class ControlSettings:
         if not (0 < self.detection_unit_deg <= 1 and np.isfinite(self.detection_unit_deg)):
             msg = f"--detection-unit must be in (0, 1] deg, not {self.detection_unit_deg}"
             raise UsageError(msg)
+        if self.max_entries is not None and not 3 <= self.max_entries <= 1 << 28:
+            msg = f"--max-entries must be 3..{1 << 28}, not {self.max_entries}"
+            raise UsageError(msg)
         if not 0 <= self.ref_point < FANUC_LAST_POINT:
             msg = f"--ref-point must be 0..{FANUC_LAST_POINT - 1}, not {self.ref_point}"
             raise UsageError(msg)
