@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import click
 
 from enctools.cli import options, runner
+
+if TYPE_CHECKING:
+    from enctools.models.romformats.controls import ControlSettings
 
 TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcnc", "twincat",
            "fanuc", "heidenhain", "stream")
@@ -99,10 +104,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
     _check_applies(target)
     if target in romformats.CONTROLS:
-        from enctools.models.romformats.controls import ControlSettings
-        settings_c = ControlSettings(target, table_kind == "bidirectional", sign, comp_type, points,
-                                     max_entries, axis, detection_unit, ref_point)
-        _control(input, curve, settings_c, str(path), force, verify, as_json, unit)
+        _control(input, curve, romformats.controls.ControlSettings(
+            target, table_kind == "bidirectional", sign, comp_type, points, max_entries, axis,
+            detection_unit, ref_point), str(path), force, verify, as_json, unit)
         return
     kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
     src = streams.open_input(input, kinds)
@@ -149,8 +153,8 @@ def _check_applies(target: str) -> None:
             raise UsageError(msg)
 
 
-def _control(input: str | None, curve: str | None, settings: object, path: str, force: bool,
-             verify: bool, as_json: bool, unit: str) -> None:
+def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
+             force: bool, verify: bool, as_json: bool, unit: str) -> None:
     """Build a control's point table from a step run or a model, write it, verify it."""
     import time
 
@@ -160,7 +164,6 @@ def _control(input: str | None, curve: str | None, settings: object, path: str, 
     from enctools.models import rom, romformats
     from enctools.models.romformats import controls
 
-    assert isinstance(settings, controls.ControlSettings)
     t0 = time.monotonic()
     src = streams.open_input(input, ("points", "model", "deviations"))
     source = rom.control_source(src.header, src.read_all(), src.source, curve)
