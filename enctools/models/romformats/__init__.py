@@ -46,6 +46,7 @@ from enctools.models.romformats import controlreaders, controlwriters, readers, 
 from enctools.models.romformats.controls import CONTROLS, ControlTable
 from enctools.models.romformats.points import PointTable
 from enctools.models.romformats.words import Target
+from enctools.units import ARCSEC, DEG
 
 FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens")
 EXTENSIONS = {".bin": "bin", ".rom": "bin", ".hex": "ihex", ".ihex": "ihex", ".mif": "mif",
@@ -237,7 +238,7 @@ def verify_control_table(path: str, table: ControlTable) -> float:
     correction intended there. Returns the largest difference [rad]."""
     s = table.settings
     read = read_control_table(path, s.target, s.sign, s.comp_type, s.axis)
-    grid = table.grid_deg * (np.pi / 180.0)
+    grid = table.grid_deg * DEG
     worst = 0.0
     pairs = [(read.correction(grid, 1), table.intended_forward_rad)]
     if table.intended_backward_rad is not None:
@@ -247,9 +248,9 @@ def verify_control_table(path: str, table: ControlTable) -> float:
             msg = f"{path}: {got.size} points read back, {intended.size} written"
             raise CheckFailed(msg)
         worst = max(worst, float(np.max(np.abs(got - intended))))
-    half = table.resolution_deg * (np.pi / 180.0) / 2.0
+    half = table.resolution_deg * DEG / 2.0
     if worst > half * (1 + 1e-6):
         msg = (f"{path}: a correction read back differs from the intended by "
-               f"{worst / np.pi * 648000:.6g} arcsec, more than half the resolution")
+               f"{worst / ARCSEC:.6g} arcsec, more than half the resolution")
         raise CheckFailed(msg)
     return worst

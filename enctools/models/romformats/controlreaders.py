@@ -16,8 +16,8 @@ import numpy as np
 
 from enctools.errors import DataError
 from enctools.models.romformats.points import PointTable
+from enctools.units import DEG
 
-DEG = np.pi / 180.0
 #: LinuxCNC: EMCMOT_COMP_SIZE, the entries of a joint's compensation table
 LINUXCNC_ENTRIES = 256
 #: C's strtod as sscanf("%lf") reads it: blanks, then a decimal number (inf/nan refused later)
