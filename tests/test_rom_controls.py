@@ -213,3 +213,24 @@ def test_point_table_modulo_and_directions():
     assert t.correction(np.radians(-90.0), -1) == pytest.approx(2.0)
     held = PointTable(np.radians([0.0, 10.0]), np.array([1.0, 2.0]))
     assert held.correction(np.radians([-5.0, 20.0])).tolist() == [1.0, 2.0]
+
+
+@pytest.mark.parametrize("target, opts", [("linuxcnc", []), ("twincat", []),
+                                          ("fanuc", ["--sign", "error"]),
+                                          ("heidenhain", ["--sign", "error"])])
+def test_hostile_names_stay_in_comments(step_run, tmp_path, monkeypatch, target, opts):
+    """The command line (with the output's name) lands only in '# ' comment lines, which
+    the control's reader skips; the table reads back the same."""
+    points, _ = step_run
+    out = str(tmp_path / "o\n1.0 2.0 3.0\nkw.ssfk.unit 0\nPITCH 1 VALUE +7\n[END]\x1b[2J.txt")
+    args = ["make-rom", str(points), "--target", target, *opts, "-o", out, "--verify", "-q"]
+    monkeypatch.setattr("sys.argv", ["enc", *args])
+    r = run_in_process(args)
+    assert r.returncode == 0, r.stderr.decode()
+    text = open(out, encoding="ascii").read()
+    assert all(c.isprintable() or c == "\n" for c in text)
+    comments = [ln for ln in text.splitlines() if ln.startswith("#")]
+    assert all(ln.startswith("# ") for ln in comments)
+    assert target == "heidenhain" or any("\\n1.0 2.0 3.0\\n" in ln for ln in comments)
+    assert not any(ln.startswith(("1.0 2.0", "kw.ssfk.unit 0", "PITCH 1 VALUE +7"))
+                   for ln in text.splitlines())

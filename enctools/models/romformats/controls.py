@@ -128,6 +128,11 @@ class ControlSettings:
             msg = f"--ref-point must be 0..{FANUC_LAST_POINT - 1}, not {self.ref_point}"
             raise UsageError(msg)
         self.check_axis()
+        if self.points is not None:  # before any work
+            why = self.allows(self.points - 1) if self.points >= 3 else "fewer than 3"
+            if why:
+                msg = f"--points {self.points}: {self.target}: {why}"
+                raise UsageError(msg)
 
     def check_axis(self) -> None:
         """Refuse an axis the file cannot name: twincat and fanuc take a number 1..32
@@ -211,11 +216,7 @@ def choose_sections(settings: ControlSettings, source: Source) -> int:
     """The grid's sections over the turn: --points if given (refused if the control does
     not allow it), else the step run's targets if the control allows them (or the fewest
     multiple of them it does), else the most the control allows."""
-    if settings.points is not None:
-        why = settings.allows(settings.points - 1) if settings.points >= 3 else "fewer than 3"
-        if why:
-            msg = f"--points {settings.points}: {settings.target}: {why}"
-            raise UsageError(msg)
+    if settings.points is not None:  # checked when the settings were made
         return settings.points - 1
     targets = source.targets_deg
     if targets is not None and _equally_spaced(targets):
