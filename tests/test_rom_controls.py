@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
@@ -227,7 +228,7 @@ def test_hostile_names_stay_in_comments(step_run, tmp_path, monkeypatch, target,
     monkeypatch.setattr("sys.argv", ["enc", *args])
     r = run_in_process(args)
     assert r.returncode == 0, r.stderr.decode()
-    text = open(out, encoding="ascii").read()
+    text = Path(out).read_text(encoding="ascii")
     assert all(c.isprintable() or c == "\n" for c in text)
     comments = [ln for ln in text.splitlines() if ln.startswith("#")]
     assert all(ln.startswith("# ") for ln in comments)
