@@ -186,6 +186,11 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
     ("--target twincat --sign error", "--sign"),
     ("--target twincat --width 8", "--width"),
     ("--target mif --comp-type 1", "--comp-type"),
+    ("--target twincat --comp-type 1", "--comp-type applies to linuxcnc"),
+    ("--target linuxcnc --detection-unit 0.0001", "--detection-unit applies to fanuc"),
+    ("--target linuxcnc --axis 2", "names no joint"),
+    ("--target siemens --points 9 --bits 23 --address-bits 3 --resolution 0.0001",
+     "--points applies to linuxcnc"),
 ])
 def test_refusals_are_one_line(step_run, tmp_path, opts, says):
     points, _ = step_run
@@ -235,3 +240,10 @@ def test_hostile_names_stay_in_comments(step_run, tmp_path, monkeypatch, target,
     assert target == "heidenhain" or any("\\n1.0 2.0 3.0\\n" in ln for ln in comments)
     assert not any(ln.startswith(("1.0 2.0", "kw.ssfk.unit 0", "PITCH 1 VALUE +7"))
                    for ln in text.splitlines())
+
+
+def test_the_command_knows_the_controls():
+    """cli/make_rom.py names the controls without importing the library (start-up time)."""
+    from enctools.cli import make_rom
+    assert make_rom.CONTROLS == rf.CONTROLS
+    assert set(make_rom.TARGETS) == set(rf.FORMATS + rf.CONTROLS + ("stream",))

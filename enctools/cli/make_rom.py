@@ -13,12 +13,13 @@ if TYPE_CHECKING:
 
 TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcnc", "twincat",
            "fanuc", "heidenhain", "stream")
-#: options of the memories' and the ROM path's tables, and of the controls' point tables:
-#: each is refused (when given) with a target of the other kind
-ROM_ONLY = ("code_bits", "address_bits", "width", "lsb", "sample", "endian", "zone",
-            "array_name", "resolution_deg")
-CONTROL_ONLY = ("table_kind", "comp_type", "points", "detection_unit", "ref_point")
-
+#: the targets that take each option of one kind of table (given with another: refused)
+CONTROLS = ("linuxcnc", "twincat", "fanuc", "heidenhain")
+ROM_PATH = tuple(t for t in TARGETS if t not in CONTROLS)
+APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample", "endian",
+                            "zone", "array_name"), ROM_PATH),
+           "resolution_deg": ("acs", "siemens"), "table_kind": CONTROLS, "points": CONTROLS,
+           "comp_type": ("linuxcnc",), "detection_unit": ("fanuc",), "ref_point": ("fanuc",)}
 
 @click.command("make-rom")
 @options.input_arg
@@ -140,16 +141,15 @@ def _check_applies(target: str) -> None:
     import click
 
     from enctools.errors import UsageError
-    from enctools.models import romformats
 
     ctx = click.get_current_context()
-    control = target in romformats.CONTROLS
-    for name in CONTROL_ONLY if not control else ROM_ONLY:
-        if ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE:
+    for name, targets in APPLIES.items():
+        if (target not in targets
+                and ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE):
             opt = next(p for p in ctx.command.params if p.name == name).opts[0]
-            kind = "the controls' tables (linuxcnc, twincat, fanuc, heidenhain)" \
-                if not control else "the memories' tables and acs, siemens"
-            msg = f"{opt} applies to {kind}, not --target {target}"
+            some = "the memories' tables, acs and siemens" if targets == ROM_PATH else \
+                ", ".join(targets)
+            msg = f"{opt} applies to {some}, not --target {target}"
             raise UsageError(msg)
 
 

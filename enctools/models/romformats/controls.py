@@ -135,11 +135,15 @@ class ControlSettings:
                 raise UsageError(msg)
 
     def check_axis(self) -> None:
-        """Refuse an axis the file cannot name: twincat and fanuc take a number 1..32
-        (0..32 twincat), heidenhain a name of letters and digits (at most 8)."""
+        """Refuse an axis the file cannot name: twincat and fanuc take a number 0..32,
+        heidenhain a name of letters and digits (at most 8); linuxcnc names none (the
+        joint's INI section names the file)."""
         import re
-        if self.axis is None or self.target == "linuxcnc":
+        if self.axis is None:
             return
+        if self.target == "linuxcnc":
+            msg = "--axis: a LinuxCNC compensation file names no joint ([JOINT_n] COMP_FILE does)"
+            raise UsageError(msg)
         if self.target == "heidenhain":
             if not re.fullmatch(r"[A-Z][A-Z0-9]{0,7}", self.axis):
                 msg = (f"--axis must be a HEIDENHAIN axis name (an upper-case letter, then "
