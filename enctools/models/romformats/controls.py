@@ -228,8 +228,8 @@ def choose_sections(settings: ControlSettings, source: Source) -> int:
         for k in range(m, settings.limit, m):
             if settings.allows(k) is None:
                 return k
-    for k in range(min(settings.limit - 1, 3600), 2, -1):
-        if settings.allows(k) is None:
+    for k in range(min(settings.limit - 1, 3600), 2, -1):  # spacings of whole 0.0001 deg
+        if TURN_STEPS % k == 0 and settings.allows(k) is None:
             return k
     msg = f"{settings.target}: no grid over the turn fits the control's rules"
     raise UsageError(msg)
