@@ -59,7 +59,7 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
               help="acs, siemens: the control's resolution [deg], a power of ten.")
 @click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
               help="linuxcnc: COMP_FILE_TYPE (0 positions, 1 trims).")
-@click.option("--points", type=int, default=None,
+@click.option("--points", type=int, default=None, metavar="M",
               help="Controls: points of the table over the turn, both ends included.")
 @click.option("--detection-unit", type=float, default=1e-3, show_default=True,
               help="fanuc: the axis's detection unit [deg].")
