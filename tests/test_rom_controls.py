@@ -247,3 +247,22 @@ def test_the_command_knows_the_controls():
     from enctools.cli import make_rom
     assert make_rom.CONTROLS == rf.CONTROLS
     assert set(make_rom.TARGETS) == set(rf.FORMATS + rf.CONTROLS + ("stream",))
+
+
+@pytest.mark.parametrize("target", ["linuxcnc", "twincat", "fanuc", "heidenhain", "siemens",
+                                    "acs"])
+@pytest.mark.parametrize("data", [b"", b"\xff\xfe\x00garbage\n", b"1 2 3\n1 2 3\n",
+                                  b"DETECTION_UNIT_DEG x\nkw.ssfk.unit 1\n",
+                                  b"BEGIN C.COM\nNR AXISPOS C\n0 +1 +x\n1 +0 +0\n[END]\n",
+                                  b"kw.ssfk.unit 1\nkw.ssfk.kw_nr_max 99999999999999999999\n"])
+def test_readers_refuse_malformed_files_in_one_line(tmp_path, target, data):
+    """Whatever the file holds, a reader gives a table or one DataError line."""
+    from enctools.errors import DataError
+    f = tmp_path / "t.txt"
+    f.write_bytes(data)
+    try:
+        table = rf.read_control_table(str(f), target, "correction")
+    except DataError as exc:
+        assert "\n" not in str(exc)
+    else:
+        assert isinstance(table, PointTable)

@@ -216,6 +216,17 @@ def read_control_table(path: str, target: str, sign: str | None = None, comp_typ
     if target in ("acs", "fanuc", "heidenhain") and sign not in ("correction", "error"):
         msg = f"{target}: give the sign of the stored values (correction or error)"
         raise UsageError(msg)
+    try:
+        return _read_control(data, path, target, sign, comp_type, axis, array_name)
+    except (ValueError, OverflowError, IndexError, KeyError) as exc:
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        msg = f"{path}: not a readable {target} table ({why})"
+        raise DataError(msg) from None
+
+
+def _read_control(data: bytes, path: str, target: str, sign: str | None, comp_type: int,
+                  axis: str | None, array_name: str) -> PointTable:
+    """:func:`read_control_table` of the file's bytes, by the target's reader."""
     if target == "linuxcnc":
         return controlreaders.read_linuxcnc(data, path, comp_type)
     if target == "twincat":
