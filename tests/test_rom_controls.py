@@ -102,8 +102,10 @@ def test_siemens_acs_from_step_run(step_run, tmp_path, target, opts):
     points, intended = step_run
     out = tmp_path / f"t.{target}"
     r = run(f"enc make-rom {points} --target {target} --bits 23 --address-bits 3 "
-            f"--resolution 0.0001 {opts} --verify -o {out}")
+            f"--resolution 0.0001 {opts} --verify --json -o {out}")
     assert r.returncode == 0, r.stderr.decode()
+    # 45 deg between the table's points, 15 deg between the targets: the cost is reported
+    assert json.loads(r.stdout)["corrections"]["interpolation_error_arcsec"] > 1.0
     table = rf.read_control_table(str(out), target, "error" if "error" in opts else None)
     assert table.positions_rad.size == 9
     want = ((intended[1] + intended[-1]) / 2.0)[::3]

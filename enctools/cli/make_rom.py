@@ -122,6 +122,8 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
     summary = table.summary()
     summary["model"] = src.header.meta.get("model", {"kind": src.header.kind, "curve": curve})
+    if target in romformats.CONTROLLER:  # what the control's interpolation costs
+        summary["interpolation_error_arcsec"] = rom.interpolation_error(evaluate, settings.spec)
     size = None
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,
@@ -223,10 +225,12 @@ def _bits_from_rig(meta: dict) -> int:
 def _summary(s: dict, size: int | None, output: str | None, seconds: float,
              verified: bool) -> dict:
     """The table's layout, its corrections [LSB, arcsec], CRC-32 and file (enc-streams(5))."""
+    corrections = {k: s[k] for k in ("min_lsb", "max_lsb", "max_quantisation_error_lsb",
+                                     "max_quantisation_error_arcsec", "interpolation_error_arcsec")
+                   if k in s}
     out = {"table": {k: s[k] for k in ("entries", "code_bits", "address_bits", "width_bits",
                                        "lsb_arcsec")},
-           "corrections": {k: s[k] for k in ("min_lsb", "max_lsb", "max_quantisation_error_lsb",
-                                             "max_quantisation_error_arcsec")},
+           "corrections": corrections,
            "crc32": {"value": s["crc32"], "of": s["crc32_of"], "image_bytes": s["image_bytes"]},
            "output": output or "-", "elapsed_s": round(seconds, 3)}
     if size is not None:

@@ -461,3 +461,23 @@ def deviation_model(header: Header, table: pa.Table, source: str, curve: str | N
         return s.forward
     forward, backward = s.forward, s.backward
     return lambda a: (forward(a) + backward(a)) / 2.0
+
+
+#: angles over the turn at which a controller table's interpolation is checked
+INTERPOLATION_CHECKS = 14_400
+
+
+def interpolation_error(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec) -> float:
+    """The largest difference [arcsec] between a controller's linear interpolation of the
+    model's values at the table's points (before rounding) and the model, at
+    INTERPOLATION_CHECKS angles over the turn and the points' midpoints (tables up to
+    2^16 points; a finer table is checked at the INTERPOLATION_CHECKS angles only)."""
+    first, step = spec.grid_deg()
+    points = first + np.arange(spec.entries + 1) * step
+    values = np.asarray(deviation(points), dtype=np.float64)
+    check = np.arange(INTERPOLATION_CHECKS) * (360.0 / INTERPOLATION_CHECKS)
+    if spec.entries <= 1 << 16:
+        check = np.r_[check, points[:-1] + step / 2.0]
+    at = first + np.mod(check - first, 360.0)
+    return float(np.max(np.abs(np.interp(at, points, values)
+                               - np.asarray(deviation(at), dtype=np.float64))))
