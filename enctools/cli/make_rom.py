@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from enctools.cli import options, runner
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy as np
+
+    from enctools.data.header import Header
+    from enctools.models.rom import Rom, Settings
     from enctools.models.romformats.controls import ControlSettings
 
 TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcnc", "twincat",
@@ -120,10 +126,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         raise UsageError(msg)
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
-    summary = table.summary()
-    summary["model"] = src.header.meta.get("model", {"kind": src.header.kind, "curve": curve})
-    if target in romformats.CONTROLLER:  # what the control's interpolation costs
-        summary["interpolation_error_arcsec"] = rom.interpolation_error(evaluate, settings.spec)
+    summary = _rom_summary(table, src.header, curve, evaluate, settings)
     size = None
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,
@@ -136,6 +139,20 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             romformats.verify_table(path, table.values, settings.table)
     emit(_summary(summary, size, output, time.monotonic() - t0, verify and size is not None),
          as_json, unit)
+
+
+def _rom_summary(table: Rom, header: Header, curve: str | None,
+                 evaluate: Callable[[np.ndarray], np.ndarray], settings: Settings
+                 ) -> dict[str, Any]:
+    """The table's summary, the model it came from and, for a controller's table, what
+    the control's interpolation between its points costs [arcsec]."""
+    from enctools.models import rom, romformats
+
+    summary: dict[str, Any] = table.summary()
+    summary["model"] = header.meta.get("model", {"kind": header.kind, "curve": curve})
+    if settings.target in romformats.CONTROLLER:
+        summary["interpolation_error_arcsec"] = rom.interpolation_error(evaluate, settings.spec)
+    return summary
 
 
 def _check_applies(target: str) -> None:
