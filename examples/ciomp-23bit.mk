@@ -10,7 +10,7 @@ MAX_STD ?= 0.65
 
 .PHONY: all
 all: $(OUT)/report.html $(OUT)/correction.mif $(OUT)/correction.bin $(OUT)/ENC_COMP.SPF \
-     $(OUT)/latency.txt $(OUT)/residual.parquet
+     $(OUT)/joint.comp $(OUT)/latency.txt $(OUT)/residual.parquet
 	@$(ENC) report -q $(OUT)/points.parquet $(OUT)/model.parquet
 
 # 1. Readout latency: dynamic error and code-skip speed (eqs. 1-4) at 1 and 10 r/s
@@ -38,9 +38,14 @@ $(OUT)/correction.mif: $(OUT)/model.parquet
 $(OUT)/correction.bin: $(OUT)/model.parquet
 	$(ENC) make-rom $< --width 16 --verify -o $@ --force
 
-# 6. A 256-point table for a SINUMERIK rotary axis (0..360 deg, both ends present)
+# 6. A 256-point table for a SINUMERIK rotary axis (0..360 deg, both ends present) at the
+#    control's resolution (1 / MD10210 INT_INCR_PER_DEG), and a LinuxCNC joint
+#    compensation file from the points themselves (one point per polygon face)
 $(OUT)/ENC_COMP.SPF: $(OUT)/model.parquet
-	$(ENC) make-rom $< --address-bits 8 --axis C1 --verify -o $@ --force
+	$(ENC) make-rom $< --address-bits 8 --axis C1 --resolution 0.0001 --verify -o $@ --force
+
+$(OUT)/joint.comp: $(OUT)/points.parquet
+	$(ENC) make-rom $< --target linuxcnc --verify -o $@ --force
 
 # 6b. The ROM applied to a dense turn as the FPGA would (look-up by code, words added):
 #     the error before and after (seed 001 tables 1-2: s 1.30" -> 0.50"); exit 1 above MAX_STD

@@ -208,7 +208,7 @@ def test_fit_rbf_spreads_and_orders_are_bounded(opts: list[str], named: str,
      "--zone must be 0..2147483647"),
     (["--max-entries", "1000000000000", "--target", "acs", "-o", "{d}/r.prg"],
      "--max-entries must be 1..268435456"),
-    (["--axis", "3", "-o", "{d}/r.bin"], "--axis applies to the acs and siemens targets"),
+    (["--axis", "3", "-o", "{d}/r.bin"], "--axis applies to the controllers' targets"),
 ])
 def test_make_rom_refuses_contradictions_and_absurd_sizes(opts: list[str], named: str,
                                                            model: Path, tmp_path: Path) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import zlib
 
 import numpy as np
@@ -93,12 +94,16 @@ def test_make_rom_command_every_format(model_file, tmp_path):
     for _fmt, ext in (("bin", "bin"), ("ihex", "hex"), ("mif", "mif"), ("coe", "coe"),
                      ("mem", "mem"), ("csv", "csv"), ("acs", "prg"), ("siemens", "spf")):
         out = tmp_path / f"t.{ext}"
-        r = run(f"enc make-rom {model_file} --bits 23 --address-bits 12 --verify -o {out}")
+        control = {"acs": "--resolution 0.00001 --sign correction",
+                   "siemens": "--resolution 0.00001"}.get(_fmt, "")
+        r = run(f"enc make-rom {model_file} --bits 23 --address-bits 12 --verify {control} "
+                f"-o {out}")
         assert r.returncode == 0, r.stderr.decode()
         err = r.stderr.decode()
         assert "verified yes" in err and "max quantisation error" in err
         crcs.add(err.split("crc32: value ")[1].split(",")[0])
-    # controller tables sample the start of each address range, memories its centre
+    # controller tables sample the start of each address range at the control's resolution,
+    # memories the centre in LSBs of the code
     assert len(crcs) == 2
     data = (tmp_path / "t.bin").read_bytes()
     assert f"{zlib.crc32(data):08x}" in crcs and len(data) == 2 * 4096
@@ -107,24 +112,28 @@ def test_make_rom_command_every_format(model_file, tmp_path):
 @pytest.mark.slow
 def test_siemens_rotary_rules(model_file, tmp_path):
     out = tmp_path / "c.spf"
-    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 8 --axis C1 -o {out}")
+    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 8 --axis C1 "
+            f"--resolution 0.0001 -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     lines = out.read_text().splitlines()
     comp = [ln for ln in lines if ln.startswith("$AA_ENC_COMP[")]
     assert len(comp) == 257  # 0 deg .. 360 deg, no gaps
+    # printed at the control's resolution, 0.0001 deg: four digits after the point
+    assert all(re.fullmatch(r"\$AA_ENC_COMP\[0,\d+,C1\]=-?\d\.\d{4}", ln) for ln in comp)
+    assert len({ln.split("=")[1] for ln in comp}) > 3
     assert comp[0].startswith("$AA_ENC_COMP[0,0,C1]=")
     assert comp[-1].startswith("$AA_ENC_COMP[0,256,C1]=")
     assert comp[0].split("=")[1] == comp[-1].split("=")[1]  # 0 and 360 deg agree
     assert "$AA_ENC_COMP_STEP[0,C1]=1.40625" in lines and "$AA_ENC_COMP_MAX[0,C1]=360.0" in lines
     assert "$AA_ENC_COMP_IS_MODULO[0,C1]=1" in lines
-    target = rf.Target("siemens", count_deg=360 / 2 ** 23, axis="C1")
+    target = rf.Target("siemens", count_deg=1e-4, axis="C1", decimals=4)
     gap = tmp_path / "gap.spf"
     gap.write_text("\n".join(ln for ln in lines if not ln.startswith("$AA_ENC_COMP[0,7,")))
     with pytest.raises(Exception, match="gaps"):
         rf.read_table(str(gap), target)
     opened = tmp_path / "open.spf"
     opened.write_text("\n".join(ln if not ln.startswith("$AA_ENC_COMP[0,256,") else
-                                "$AA_ENC_COMP[0,256,C1]=0.004291534423828125" for ln in lines))
+                                "$AA_ENC_COMP[0,256,C1]=0.0043" for ln in lines))
     with pytest.raises(Exception, match="0 deg and 360 deg"):
         rf.read_table(str(opened), target)
 
@@ -171,10 +180,29 @@ def test_rom_stream_output(model_file):
     assert b"rom stream" in r.stdout and b"1024 rows" in r.stdout
 
 
+@pytest.mark.slow
+def test_acs_sign_as_given(model_file, tmp_path):
+    """ACS's sign is not confirmed: --sign error writes minus the correction."""
+    text = {}
+    for sign in ("correction", "error"):
+        r = run(f"enc make-rom {model_file} --bits 23 --address-bits 6 --resolution 0.0001 "
+                f"--sign {sign} --verify -o {tmp_path}/{sign}.prg")
+        assert r.returncode == 0, r.stderr.decode()
+        text[sign] = {int(i): float(v) for i, v in re.findall(
+            r"^ENC_COMP\((\d+)\)=(\S+)$", (tmp_path / f"{sign}.prg").read_text(), re.M)}
+    assert len(text["error"]) == 65 and any(v != 0 for v in text["error"].values())
+    assert all(text["error"][i] == -v for i, v in text["correction"].items())
+
+
 @pytest.mark.parametrize("args, what", [
     ("--bits 23 --width 4", "use --width"),               # corrections do not fit 4 bits
     ("--bits 32", "2^32 = 4294967296 entries"),   # 2^32 entries
-    ("--bits 23 --target siemens", "exceed the 5000"),
+    ("--bits 23 --target siemens --resolution 0.0001", "exceed the 5000"),
+    ("--bits 23 --address-bits 8 --target siemens", "give --resolution"),
+    ("--bits 23 --address-bits 8 --target siemens --resolution 0.0002", "power of ten"),
+    ("--bits 23 --address-bits 8 --target acs --resolution 0.0001", "--sign correction"),
+    ("--bits 23 --address-bits 8 --target siemens --resolution 0.0001 --sign error",
+     "not siemens"),
     ("--bits 23 --address-bits 24", "--address-bits"),
     ("--bits 23 --address-bits 10 --target acs --zone -3", "--zone"),
 ])
@@ -281,9 +309,10 @@ def test_text_readers_take_lines_by_columns_and_refuse_bad_digits(tmp_path):
     ({"code_bits": 23, "lsb": 0.0}, "--lsb must be a positive number of counts, not 0.0"),
     ({"code_bits": 23, "lsb": float("nan")}, "--lsb must be a positive number"),
     ({"code_bits": 23, "sample": "middle"}, "--sample must be centre or start, not 'middle'"),
-    ({"code_bits": 23, "target": "siemens"}, "siemens: 8388609 table points exceed the 5000"),
-    ({"code_bits": 23, "address_bits": 14, "target": "acs", "max_entries": 10000},
-     "acs: 16385 table points exceed the 10000"),
+    ({"code_bits": 23, "target": "siemens", "resolution_deg": 1e-4},
+     "siemens: 8388609 table points exceed the 5000"),
+    ({"code_bits": 23, "address_bits": 14, "target": "acs", "max_entries": 10000,
+      "resolution_deg": 1e-4, "sign": "correction"}, "acs: 16385 table points exceed the 10000"),
     ({"code_bits": 10, "target": "bin", "endian": "middle"}, "--endian must be little or big"),
     ({"code_bits": 10, "target": "xyz"}, "--target must be one of bin, ihex"),
 ])
@@ -299,10 +328,12 @@ def test_make_rom_settings_refuse(kw, what):
 def test_make_rom_settings_resolve_the_defaults():
     from enctools.models.rom import Settings
 
-    acs = Settings(23, address_bits=8, target="acs")
+    acs = Settings(23, address_bits=8, target="acs", resolution_deg=1e-4, sign="error")
     assert acs.spec.sample == "start" and acs.table.axis == "0" and acs.table.fmt == "acs"
-    assert acs.table.count_deg == acs.spec.lsb_arcsec / 3600.0
-    assert Settings(23, address_bits=8, target="siemens").table.axis == "AX1"
+    assert acs.table.count_deg == 1e-4 and acs.table.decimals == 4 and acs.table.sign == -1
+    assert acs.spec.lsb == pytest.approx(1e-4 / (360 / 2 ** 23))
+    assert Settings(23, address_bits=8, target="siemens",
+                    resolution_deg=1e-4).table.axis == "AX1"
     mif = Settings(23, address_bits=12, width=12, target="mif")
     assert mif.spec.sample == "centre" and mif.table.width == 12
     stream = Settings(23, address_bits=10)

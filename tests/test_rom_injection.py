@@ -52,6 +52,10 @@ HOSTILE_NAME = ("*m\nM30\r\nM30\x1b[2J\x1b]0;t\x07\t\x7f\x85\u2028\u2029\u202e%\
                 "\n$AA_ENC_COMP_STEP[0,AX1]=1.0\nERRORMAP1D AXIS_NO, 0, 0, 1, ENC_COMP"
                 "\nmemory_initialization_radix=2;\nCONTENT BEGIN\n.parquet")
 BASE = ["--bits", "23", "--address-bits", "5", "--width", "16"]
+#: what the controllers' tables need besides: the control's resolution, ACS's sign
+RESOLUTION = {"acs": 1e-4, "siemens": 1e-4}
+CONTROL = {"acs": ["--resolution", "0.0001", "--sign", "correction"],
+           "siemens": ["--resolution", "0.0001"]}
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +94,7 @@ def test_hostile_names_stay_in_comments(model, tmp_path, monkeypatch, fmt):
     src = os.path.join(str(folder), HOSTILE_NAME)
     shutil.copyfile(model, os.fsencode(src))
     out = str(tmp_path / f"o\nM30\x1b[31m.{EXT[fmt]}")
-    args = ["make-rom", src, *BASE, "-o", out, "--verify", "-q"]
+    args = ["make-rom", src, *BASE, *CONTROL.get(fmt, []), "-o", out, "--verify", "-q"]
     monkeypatch.setattr(sys, "argv", ["enc", *args])  # the history line is the command line
     r = run_in_process(args)
     assert r.returncode == 0, r.stderr.decode()
@@ -101,7 +105,8 @@ def test_hostile_names_stay_in_comments(model, tmp_path, monkeypatch, fmt):
     elif fmt != "ihex":
         assert any("\\nM30\\r\\nM30\\x1b[2J" in c for c in comments), comments
     # both readers of the format read the table the control would (the comments say nothing)
-    target = Settings(23, 5, 16, target=fmt).table
+    target = Settings(23, 5, 16, target=fmt, resolution_deg=RESOLUTION.get(fmt),
+                      sign="correction" if fmt == "acs" else None).table
     fast, general = rf.READERS[fmt]
     values = general(data, target, out)
     if fast is not None:  # the fast reader still takes the files written here
@@ -113,7 +118,8 @@ def test_hostile_names_stay_in_comments(model, tmp_path, monkeypatch, fmt):
 def test_sinumerik_repro_in_a_real_process(model, tmp_path):
     """The repro: a newline in the input's name put a bare M30 line into the SPF file."""
     shutil.copyfile(model, tmp_path / "m\nM30.parquet")
-    r = run(["enc", "make-rom", b"m\nM30.parquet", *BASE, "-o", "t.spf", "--verify", "-q"],
+    r = run(["enc", "make-rom", b"m\nM30.parquet", *BASE, *CONTROL["siemens"], "-o", "t.spf",
+             "--verify", "-q"],
             cwd=tmp_path)
     assert r.returncode == 0, r.stderr.decode()
     text = (tmp_path / "t.spf").read_text(encoding="ascii")
@@ -140,7 +146,8 @@ def test_sinumerik_repro_in_a_real_process(model, tmp_path):
 ])
 def test_names_in_program_text_are_checked(model, tmp_path, ext, args, option):
     out = tmp_path / f"t.{ext}"
-    r = run_in_process(["make-rom", str(model), *BASE, "-o", str(out), *args])
+    fmt = "acs" if ext == "prg" else "siemens"
+    r = run_in_process(["make-rom", str(model), *BASE, *CONTROL[fmt], "-o", str(out), *args])
     line = one_error_line(r, 2, "enc make-rom")
     assert option in line and repr(args[1]) in line
     assert list(tmp_path.iterdir()) == []  # no table, no temporary file
@@ -154,7 +161,9 @@ def test_names_in_program_text_are_checked(model, tmp_path, ext, args, option):
 ])
 def test_valid_names_are_written(model, tmp_path, ext, args, want):
     out = tmp_path / f"t.{ext}"
-    r = run_in_process(["make-rom", str(model), *BASE, "-o", str(out), "--verify", "-q", *args])
+    fmt = "acs" if ext == "prg" else "siemens"
+    r = run_in_process(["make-rom", str(model), *BASE, *CONTROL[fmt], "-o", str(out), "--verify",
+                        "-q", *args])
     assert r.returncode == 0, r.stderr.decode()
     assert want in out.read_text()
 

@@ -2,12 +2,30 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import click
 
 from enctools.cli import options, runner
 
-TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream")
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
+    import numpy as np
+
+    from enctools.data.header import Header
+    from enctools.models.rom import Rom, Settings
+    from enctools.models.romformats.controls import ControlSettings
+
+TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcnc", "twincat",
+           "fanuc", "heidenhain", "stream")
+#: the targets that take each option of one kind of table (given with another: refused)
+CONTROLS = ("linuxcnc", "twincat", "fanuc", "heidenhain")
+ROM_PATH = tuple(t for t in TARGETS if t not in CONTROLS)
+APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample", "endian",
+                            "zone", "array_name"), ROM_PATH),
+           "resolution_deg": ("acs", "siemens"), "table_kind": CONTROLS, "points": CONTROLS,
+           "comp_type": ("linuxcnc",), "detection_unit": ("fanuc",), "ref_point": ("fanuc",)}
 
 @click.command("make-rom")
 @options.input_arg
@@ -37,6 +55,22 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
 @click.option("--max-entries", type=int, default=None, callback=options.positive,
               help="acs/siemens: table points the control is configured for "
                    "(defaults 100000/5000).")
+@click.option("--table", "table_kind", type=click.Choice(["unidirectional", "bidirectional"]),
+              default="unidirectional", show_default=True,
+              help="linuxcnc, twincat: one table for both directions or one per direction.")
+@click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
+              help="acs, fanuc, heidenhain: whether the control stores the correction or "
+                   "the error.")
+@click.option("--resolution", "resolution_deg", type=float, default=None,
+              help="acs, siemens: the control's resolution [deg], a power of ten.")
+@click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
+              help="linuxcnc: COMP_FILE_TYPE (0 positions, 1 trims).")
+@click.option("--points", type=int, default=None, metavar="M",
+              help="Controls: points of the table over the turn, both ends included.")
+@click.option("--detection-unit", type=float, default=1e-3, show_default=True,
+              help="fanuc: the axis's detection unit [deg].")
+@click.option("--ref-point", type=int, default=0, show_default=True,
+              help="fanuc: compensation point number of the reference position.")
 @click.option("--verify", is_flag=True, default=False,
               help="Read the written table back and check it equals the table built.")
 @options.output
@@ -48,9 +82,10 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "stream"
 @options.verbosity
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
-            axis: str | None, zone: int, array_name: str, max_entries: int | None, verify: bool,
-            output: str | None, force: bool, fmt: str | None, as_json: bool,
-            unit: str) -> None:
+            axis: str | None, zone: int, array_name: str, max_entries: int | None, table_kind: str,
+            sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
+            detection_unit: float, ref_point: int, verify: bool, output: str | None,
+            force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -59,6 +94,10 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     MIF, Xilinx COE, Verilog $readmemh, CSV, an ACS SPiiPlus ERRORMAP1D program, a
     SINUMERIK $AA_ENC_COMP table. A summary (entries, range, largest quantisation
     error, CRC-32, size) goes to stderr. What a target cannot hold is refused.
+
+    The controls' tables (linuxcnc, twincat, fanuc, heidenhain) are also built from a
+    points stream (a step run, per target and direction): a grid over the turn at the
+    control's resolution, with the interpolation error it costs in the summary.
     """
     import time
     from pathlib import Path
@@ -67,22 +106,27 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     from enctools.data import streams
     from enctools.errors import UsageError
     from enctools.models import rom, romformats
-    from enctools.models.curve_model import from_stream
 
     target, path = _target(target, output, force, fmt)
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
-    src = streams.open_input(input, ("model", "deviations"))
-    evaluate = from_stream(src.header, src.read_all(), src.source, curve)
+    _check_applies(target)
+    if target in romformats.CONTROLS:
+        _control(input, curve, romformats.controls.ControlSettings(
+            target, table_kind == "bidirectional", sign, comp_type, points, max_entries, axis,
+            detection_unit, ref_point), str(path), force, verify, as_json, unit)
+        return
+    kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
+    src = streams.open_input(input, kinds)
+    evaluate = rom.deviation_model(src.header, src.read_all(), src.source, curve)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
                             address_bits, width, lsb, sample, target, endian, axis, zone,
-                            array_name, max_entries)
+                            array_name, max_entries, resolution_deg, sign)
     if path is not None and not force and Path(path).exists():
         msg = f"output {path} exists; use --force to replace it"
         raise UsageError(msg)
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
-    summary = table.summary()
-    summary["model"] = src.header.meta.get("model", {"kind": "deviations", "curve": curve})
+    summary = _rom_summary(table, src.header, curve, evaluate, settings)
     size = None
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,
@@ -95,6 +139,61 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             romformats.verify_table(path, table.values, settings.table)
     emit(_summary(summary, size, output, time.monotonic() - t0, verify and size is not None),
          as_json, unit)
+
+
+def _rom_summary(table: Rom, header: Header, curve: str | None,
+                 evaluate: Callable[[np.ndarray], np.ndarray], settings: Settings
+                 ) -> dict[str, Any]:
+    """The table's summary, the model it came from and, for a controller's table, what
+    the control's interpolation between its points costs [arcsec]."""
+    from enctools.models import rom, romformats
+
+    summary: dict[str, Any] = table.summary()
+    summary["model"] = header.meta.get("model", {"kind": header.kind, "curve": curve})
+    if settings.target in romformats.CONTROLLER:
+        summary["interpolation_error_arcsec"] = rom.interpolation_error(evaluate, settings.spec)
+    return summary
+
+
+def _check_applies(target: str) -> None:
+    """Refuse (one line) an option given that the target does not take."""
+    import click
+
+    from enctools.errors import UsageError
+
+    ctx = click.get_current_context()
+    for name, targets in APPLIES.items():
+        if (target not in targets
+                and ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE):
+            opt = next(p for p in ctx.command.params if p.name == name).opts[0]
+            some = "the memories' tables, acs and siemens" if targets == ROM_PATH else \
+                ", ".join(targets)
+            msg = f"{opt} applies to {some}, not --target {target}"
+            raise UsageError(msg)
+
+
+def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
+             force: bool, verify: bool, as_json: bool, unit: str) -> None:
+    """Build a control's point table from a step run or a model, write it, verify it."""
+    import time
+
+    from enctools.cli.summary import emit
+    from enctools.data import streams
+    from enctools.data.header import history_line
+    from enctools.models import rom, romformats
+    from enctools.models.romformats import controls
+
+    t0 = time.monotonic()
+    src = streams.open_input(input, ("points", "model", "deviations"))
+    source = rom.control_source(src.header, src.read_all(), src.source, curve)
+    table = controls.build(settings, source)
+    comment = [f"enctools make-rom: {table.grid_deg.size} points 0..360 deg, "
+               f"resolution {table.resolution_deg!r} deg; " + history_line()]
+    size = romformats.write_control_table(path, table, force, comment)
+    if verify:
+        romformats.verify_control_table(path, table)
+    emit(table.summary | {"output": path, "file_bytes": size, "verified": verify,
+                          "elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
 
 
 def _target(target: str | None, output: str | None, force: bool, fmt: str | None
@@ -143,10 +242,12 @@ def _bits_from_rig(meta: dict) -> int:
 def _summary(s: dict, size: int | None, output: str | None, seconds: float,
              verified: bool) -> dict:
     """The table's layout, its corrections [LSB, arcsec], CRC-32 and file (enc-streams(5))."""
+    corrections = {k: s[k] for k in ("min_lsb", "max_lsb", "max_quantisation_error_lsb",
+                                     "max_quantisation_error_arcsec", "interpolation_error_arcsec")
+                   if k in s}
     out = {"table": {k: s[k] for k in ("entries", "code_bits", "address_bits", "width_bits",
                                        "lsb_arcsec")},
-           "corrections": {k: s[k] for k in ("min_lsb", "max_lsb", "max_quantisation_error_lsb",
-                                             "max_quantisation_error_arcsec")},
+           "corrections": corrections,
            "crc32": {"value": s["crc32"], "of": s["crc32_of"], "image_bytes": s["image_bytes"]},
            "output": output or "-", "elapsed_s": round(seconds, 3)}
     if size is not None:

@@ -16,6 +16,7 @@ the signed range of the word width.
 
 from __future__ import annotations
 
+import math
 import os
 import zlib
 from collections.abc import Callable
@@ -41,6 +42,8 @@ LSB_COUNTS = (1e-6, float(1 << 40))
 #: --zone: a controller's zone or measuring-system index is a 32-bit integer
 MAX_ZONE = (1 << 31) - 1
 CHUNK = 1 << 20
+#: --resolution [deg]: the controllers' resolutions enctools writes (powers of ten)
+RESOLUTION_DEG = (1e-9, 0.1)
 #: threads quantising chunks at once (at most 2: the evaluation itself may use BLAS threads)
 THREADS = min(2, os.cpu_count() or 1)
 
@@ -144,6 +147,9 @@ class Settings:
     array_name : acs: the REAL array holding the map, an ACSPL+ name (a letter, then
         letters, digits or _, at most 32 characters).
     max_entries : acs, siemens: table points the control holds (None: the format's default).
+    resolution_deg : acs, siemens: the control's resolution [deg], a power of ten: the
+        table is quantised to it (the LSB is set from it) and printed at it.
+    sign : acs: ``correction`` or ``error`` (the control's convention is not confirmed).
     """
 
     code_bits: int
@@ -157,14 +163,16 @@ class Settings:
     zone: int = 0
     array_name: str = "ENC_COMP"
     max_entries: int | None = None
+    resolution_deg: float | None = None
+    sign: str | None = None
 
     def __post_init__(self) -> None:
         if self.target != "stream" and self.target not in romformats.FORMATS:
             msg = (f"--target must be one of {', '.join(romformats.FORMATS)} or stream, "
                    f"not {self.target!r}")
             raise UsageError(msg)
-        self.spec.check()
         self._check_controller_options()
+        self.spec.check()
         if self.target != "stream":
             romformats.check_capacity(self.table, self.spec.entries)
 
@@ -178,18 +186,32 @@ class Settings:
             msg = f"--max-entries must be 1..{1 << MAX_ADDRESS_BITS}, not {self.max_entries}"
             raise UsageError(msg)
         if self.target not in romformats.CONTROLLER:
-            given = [f for f, v in (("--axis", self.axis), ("--max-entries", self.max_entries))
+            given = [f for f, v in (("--axis", self.axis), ("--max-entries", self.max_entries),
+                                    ("--resolution", self.resolution_deg), ("--sign", self.sign))
                      if v is not None]
             if given:
-                msg = (f"{given[0]} applies to the acs and siemens targets, "
+                msg = (f"{given[0]} applies to the controllers' targets, "
                        f"not --target {self.target}")
                 raise UsageError(msg)
+            return
+        _check_resolution(self.target, self.resolution_deg)
+        if self.target == "acs" and self.sign not in ("correction", "error"):
+            msg = ("acs: the sign of an ERRORMAP1D value (correction added, or error measured) "
+                   "is not confirmed from ACS's documentation; give --sign correction or "
+                   "--sign error as your controller's manual says")
+            raise UsageError(msg)
+        if self.target == "siemens" and self.sign is not None:
+            msg = "--sign applies to acs, fanuc and heidenhain, not siemens (documented)"
+            raise UsageError(msg)
 
     @property
     def spec(self) -> RomSpec:
         """The table to build."""
         controller = self.target in romformats.CONTROLLER
-        return RomSpec(self.code_bits, self.address_bits, self.width, self.lsb,
+        lsb = self.lsb
+        if controller and self.resolution_deg is not None:  # the LSB is the control's step
+            lsb = self.resolution_deg / (360.0 / 2.0 ** self.code_bits)
+        return RomSpec(self.code_bits, self.address_bits, self.width, lsb,
                        self.sample or ("start" if controller else "centre"))
 
     @property
@@ -198,11 +220,15 @@ class Settings:
         if self.target == "stream":
             msg = "a rom stream is not a table file"
             raise ValueError(msg)
-        return romformats.Target(self.target, self.width, self.endian,
-                                 count_deg=self.spec.lsb_arcsec * factor("arcsec", "deg"),
-                                 axis=self._axis(),
-                                 zone=self.zone, name=self.array_name,
-                                 max_entries=self.max_entries)
+        count_deg = self.spec.lsb_arcsec * factor("arcsec", "deg")
+        decimals = None
+        if self.target in romformats.CONTROLLER and self.resolution_deg is not None:
+            count_deg = self.resolution_deg
+            decimals = round(-math.log10(self.resolution_deg))
+        return romformats.Target(self.target, self.width, self.endian, count_deg=count_deg,
+                                 axis=self._axis(), zone=self.zone, name=self.array_name,
+                                 max_entries=self.max_entries,
+                                 sign=-1 if self.sign == "error" else 1, decimals=decimals)
 
     def _axis(self) -> str:
         """The axis as the program names it: acs a number (leading zeros dropped), siemens a
@@ -219,6 +245,21 @@ class Settings:
         return {"code_bits": self.code_bits, "address_bits": spec.m, "width": self.width,
                 "lsb": self.lsb, "sample": spec.sample, "target": self.target,
                 "endian": self.endian}
+
+
+def _check_resolution(target: str, resolution_deg: float | None) -> None:
+    """Refuse (one line) a controller table without a resolution that is a power of ten
+    in RESOLUTION_DEG: the control's step, which is not in any file enctools reads."""
+    if resolution_deg is None:
+        msg = (f"{target}: give --resolution, the control's resolution [deg] (a power of ten; "
+               "SINUMERIK: 1 / MD10210 $MN_INT_INCR_PER_DEG)")
+        raise UsageError(msg)
+    d = round(-math.log10(resolution_deg)) if resolution_deg > 0 else 0
+    if not (RESOLUTION_DEG[0] <= resolution_deg <= RESOLUTION_DEG[1]
+            and abs(10.0 ** -d - resolution_deg) <= 1e-12 * resolution_deg):
+        msg = (f"--resolution must be a power of ten {RESOLUTION_DEG[0]!r}..{RESOLUTION_DEG[1]!r}"
+               f" deg, not {resolution_deg!r}")
+        raise UsageError(msg)
 
 
 @dataclass
@@ -383,3 +424,60 @@ def write_stream(output: str | None, header: Header, values: np.ndarray, force: 
             v = values[start:start + rows]
             out.write(pa.record_batch([pa.array(np.arange(start, start + v.size)),
                                        pa.array(v.astype(np.int64))], schema=schema))
+
+
+def control_source(header: Header, table: pa.Table, source: str, curve: str | None
+                   ) -> romformats.controls.Source:
+    """What a control's table is built from: a ``points`` stream (a step run: the means
+    per target and direction) or a model or deviations stream (one direction)."""
+    from enctools.data.columns import column, declared_unit
+    from enctools.models.curve_model import from_stream
+    from enctools.models.romformats import steprun
+
+    if header.kind != "points":
+        return steprun.from_model(from_stream(header, table, source, curve))
+    if curve is not None:
+        msg = f"--curve chooses a curve of a deviations stream; {source} is a points stream"
+        raise UsageError(msg)
+    position = column(table, "position", "deg", source,
+                      declared_unit("points", header.meta, "position"))
+    deviation = column(table, "deviation", "arcsec", source)
+    direction, run = (table.column(c).to_numpy(zero_copy_only=False)
+                      if c in table.schema.names else None for c in ("direction", "run"))
+    return steprun.from_points(position, deviation, direction, run)
+
+
+def deviation_model(header: Header, table: pa.Table, source: str, curve: str | None
+                    ) -> Callable[[np.ndarray], np.ndarray]:
+    """The deviation [arcsec] at angles [deg] a table is built from: a model or deviations
+    stream's (its evaluator, which may evaluate a uniform grid fast: ``on_grid``), or a
+    step run's (points stream) mean over both directions per target."""
+    from enctools.models.curve_model import from_stream
+
+    if header.kind != "points":
+        return from_stream(header, table, source, curve)
+    s = control_source(header, table, source, curve)
+    if s.backward is None:
+        return s.forward
+    forward, backward = s.forward, s.backward
+    return lambda a: (forward(a) + backward(a)) / 2.0
+
+
+#: angles over the turn at which a controller table's interpolation is checked
+INTERPOLATION_CHECKS = 14_400
+
+
+def interpolation_error(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec) -> float:
+    """The largest difference [arcsec] between a controller's linear interpolation of the
+    model's values at the table's points (before rounding) and the model, at
+    INTERPOLATION_CHECKS angles over the turn and the points' midpoints (tables up to
+    2^16 points; a finer table is checked at the INTERPOLATION_CHECKS angles only)."""
+    first, step = spec.grid_deg()
+    points = first + np.arange(spec.entries + 1) * step
+    values = np.asarray(deviation(points), dtype=np.float64)
+    check = np.arange(INTERPOLATION_CHECKS) * (360.0 / INTERPOLATION_CHECKS)
+    if spec.entries <= 1 << 16:
+        check = np.r_[check, points[:-1] + step / 2.0]
+    at = first + np.mod(check - first, 360.0)
+    return float(np.max(np.abs(np.interp(at, points, values)
+                               - np.asarray(deviation(at), dtype=np.float64))))

@@ -24,6 +24,11 @@ siemens   SINUMERIK interpolatory compensation (``$AA_ENC_COMP``) for a
 ========  ==================================================================
 
 Hex words are two's complement in ``width`` bits, ``ceil(width / 4)`` digits.
+
+The motion controls' compensation tables of :data:`CONTROLS` (LinuxCNC, TwinCAT CNC,
+Fanuc, HEIDENHAIN) are point tables over the turn at the control's resolution
+(:mod:`.controls` builds them, :mod:`.controlwriters` writes them,
+:mod:`.controlreaders` reads them back as a :class:`~.points.PointTable`).
 """
 
 from __future__ import annotations
@@ -37,13 +42,17 @@ import numpy as np
 
 from enctools.data.files import format_by_extension
 from enctools.errors import CheckFailed, DataError, UsageError
-from enctools.models.romformats import readers, writers
+from enctools.models.romformats import controlreaders, controlwriters, readers, writers
+from enctools.models.romformats.controls import CONTROLS, ControlTable
+from enctools.models.romformats.points import PointTable
 from enctools.models.romformats.words import Target
+from enctools.units import ARCSEC, DEG
 
 FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens")
 EXTENSIONS = {".bin": "bin", ".rom": "bin", ".hex": "ihex", ".ihex": "ihex", ".mif": "mif",
               ".coe": "coe", ".mem": "mem", ".csv": "csv", ".prg": "acs", ".acs": "acs",
-              ".spf": "siemens", ".mpf": "siemens", ".ini": "siemens"}
+              ".spf": "siemens", ".mpf": "siemens", ".ini": "siemens",
+              ".lis": "twincat", ".com": "heidenhain"}
 #: formats whose table is a controller's interpolation-point table (0 and 360 deg)
 CONTROLLER = ("acs", "siemens")
 #: entries a target accepts at most (None: only the 2^28 of enctools.models.rom).
@@ -73,8 +82,8 @@ READERS: dict[str, tuple[FastReader | None, Reader]] = {
 
 def format_for(path: str, fmt: str | None) -> str:
     """The table format: ``fmt`` if given, else from the file's extension."""
-    return format_by_extension(path, fmt, FORMATS, EXTENSIONS, "table format",
-                               f"use --target ({', '.join(FORMATS)})")
+    return format_by_extension(path, fmt, FORMATS + CONTROLS, EXTENSIONS, "table format",
+                               f"use --target ({', '.join(FORMATS + CONTROLS)})")
 
 
 def check_capacity(target: Target, entries: int) -> None:
@@ -178,3 +187,81 @@ def verify_table(path: str, values: np.ndarray, target: Target) -> None:
     if not np.array_equal(read_table(path, target), values):
         msg = f"{path}: the table read back differs from the table built"
         raise CheckFailed(msg)
+
+
+def write_control_table(path: str, table: ControlTable, force: bool = False,
+                        comment: list[str] | None = None) -> int:
+    """Write a control's table to ``path`` atomically; returns the file's size [byte]."""
+    from enctools.data.files import check_new_file, write_atomic
+
+    check_new_file(path, force)
+    writer = controlwriters.WRITERS[table.settings.target]
+    write_atomic(path, lambda f: writer(f, table, comment or []))
+    return Path(path).stat().st_size
+
+
+def read_control_table(path: str, target: str, sign: str | None = None, comp_type: int = 0,
+                       axis: str | None = None, array_name: str = "ENC_COMP") -> PointTable:
+    """A control's table file as its control reads it: the corrections [rad] to add to the
+    indicated angle (:class:`PointTable`), for every controller target (linuxcnc,
+    twincat, fanuc, heidenhain, siemens, acs). ``sign`` (acs, fanuc, heidenhain:
+    ``correction`` or ``error``), ``comp_type`` (linuxcnc: COMP_FILE_TYPE 0 or 1),
+    ``axis`` (heidenhain: the column) and ``array_name`` (acs) are what the file itself
+    does not say. DataError (one line) when the control would refuse or misread it."""
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        msg = f"{path}: no such file"
+        raise DataError(msg) from None
+    if target in ("acs", "fanuc", "heidenhain") and sign not in ("correction", "error"):
+        msg = f"{target}: give the sign of the stored values (correction or error)"
+        raise UsageError(msg)
+    try:
+        return _read_control(data, path, target, sign, comp_type, axis, array_name)
+    except (ValueError, OverflowError, IndexError, KeyError) as exc:
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        msg = f"{path}: not a readable {target} table ({why})"
+        raise DataError(msg) from None
+
+
+def _read_control(data: bytes, path: str, target: str, sign: str | None, comp_type: int,
+                  axis: str | None, array_name: str) -> PointTable:
+    """:func:`read_control_table` of the file's bytes, by the target's reader."""
+    if target == "linuxcnc":
+        return controlreaders.read_linuxcnc(data, path, comp_type)
+    if target == "twincat":
+        return controlreaders.read_twincat(data, path)
+    if target == "fanuc":
+        return controlreaders.read_fanuc(data, path, str(sign))
+    if target == "heidenhain":
+        return controlreaders.read_heidenhain(data, path, str(sign), axis or "C")
+    if target == "siemens":
+        return controlreaders.read_siemens(data, path)
+    if target == "acs":
+        return controlreaders.read_acs(data, path, str(sign), array_name)
+    msg = f"{target} is not a control's table ({', '.join(CONTROLS + CONTROLLER)})"
+    raise UsageError(msg)
+
+
+def verify_control_table(path: str, table: ControlTable) -> float:
+    """Read a written control table back with its control's reader: CheckFailed unless every
+    point's correction (each direction) is within half the control's resolution of the
+    correction intended there. Returns the largest difference [rad]."""
+    s = table.settings
+    read = read_control_table(path, s.target, s.sign, s.comp_type, s.axis)
+    grid = table.grid_deg * DEG
+    worst = 0.0
+    pairs = [(read.correction(grid, 1), table.intended_forward_rad)]
+    if table.intended_backward_rad is not None:
+        pairs.append((read.correction(grid, -1), table.intended_backward_rad))
+    for got, intended in pairs:
+        if got.shape != intended.shape:
+            msg = f"{path}: {got.size} points read back, {intended.size} written"
+            raise CheckFailed(msg)
+        worst = max(worst, float(np.max(np.abs(got - intended))))
+    half = table.resolution_deg * DEG / 2.0
+    if worst > half * (1 + 1e-6):
+        msg = (f"{path}: a correction read back differs from the intended by "
+               f"{worst / ARCSEC:.6g} arcsec, more than half the resolution")
+        raise CheckFailed(msg)
+    return worst

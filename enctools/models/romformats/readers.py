@@ -464,7 +464,7 @@ def _from_closed(values_deg: np.ndarray, t: Target, src: str) -> np.ndarray:
     if not np.all(np.isfinite(values_deg)):
         msg = f"{src}: a table value is not a finite number"
         raise DataError(msg)
-    counts = values_deg / t.count_deg
+    counts = values_deg / t.count_deg * t.sign
     q = np.rint(counts)
     if np.max(np.abs(q)) >= 2.0 ** 62:
         msg = f"{src}: a table value is beyond any word width"
@@ -481,25 +481,45 @@ def _from_closed(values_deg: np.ndarray, t: Target, src: str) -> np.ndarray:
 def read_acs(data: bytes, t: Target, src: str) -> np.ndarray:
     """An ACS SPiiPlus program: ``NAME(i)=value`` [deg] lines in any order and the
     ``ERRORMAP1D`` statement spanning 0..360 deg."""
-    number = r"[-+0-9.eE]+"
-    vals = _indexed(data, t.name.encode() + b"(",
-                    rf"^\s*{re.escape(t.name)}\((?P<i>\d+)\)\s*=\s*(?P<v>{number})\s*$", src)
-    code = re.sub(rb"![^\n]*", b"", data)  # what comments say is not read
-    m = re.search(rf"ERRORMAP1D\s+[^,]+,\s*[^,]+,\s*({number})\s*,\s*({number})\s*,\s*"
-                  rf"{re.escape(t.name)}".encode(), code)
-    if not m:
-        msg = f"{src}: no ERRORMAP1D statement for array {t.name}"
-        raise DataError(msg)
-    base, step = float(m.group(1)), float(m.group(2))
+    base, step, vals = acs_map(data, t.name, src)
     if base != 0.0 or abs(step * (vals.size - 1) - 360.0) > 1e-9:
         msg = f"{src}: the map does not span 0..360 deg"
         raise DataError(msg)
     return _from_closed(vals, t, src)
 
 
+def acs_map(data: bytes, name: str, src: str) -> tuple[float, float, np.ndarray]:
+    """An ACS program's error map: ERRORMAP1D's base and step [deg] and the ``NAME(i)=value``
+    values [deg], in index order."""
+    number = r"[-+0-9.eE]+"
+    vals = _indexed(data, name.encode() + b"(",
+                    rf"^\s*{re.escape(name)}\((?P<i>\d+)\)\s*=\s*(?P<v>{number})\s*$", src)
+    code = re.sub(rb"![^\n]*", b"", data)  # what comments say is not read
+    m = re.search(rf"ERRORMAP1D\s+[^,]+,\s*[^,]+,\s*({number})\s*,\s*({number})\s*,\s*"
+                  rf"{re.escape(name)}".encode(), code)
+    if not m:
+        msg = f"{src}: no ERRORMAP1D statement for array {name}"
+        raise DataError(msg)
+    try:
+        return float(m.group(1)), float(m.group(2)), vals
+    except ValueError:
+        msg = f"{src}: ERRORMAP1D's base or step is not a number"
+        raise DataError(msg) from None
+
+
 def read_siemens(data: bytes, t: Target, src: str) -> np.ndarray:
     """A SINUMERIK ``$AA_ENC_COMP`` table [deg] in any order, with STEP, MIN=0, MAX=360
     and IS_MODULO=1."""
+    _, lo, hi, modulo, vals = siemens_table(data, src)
+    if lo != 0.0 or hi != 360.0 or modulo != 1:
+        msg = f"{src}: a rotary table needs MIN=0, MAX=360 and IS_MODULO=1"
+        raise DataError(msg)
+    return _from_closed(vals, t, src)
+
+
+def siemens_table(data: bytes, src: str) -> tuple[float, float, float, float, np.ndarray]:
+    """A SINUMERIK table's STEP, MIN, MAX, IS_MODULO and values [deg] in index order, the
+    points spanning MIN..MAX at STEP."""
     vals = _indexed(data, b"$AA_ENC_COMP[",
                     r"^\s*\$AA_ENC_COMP\[\s*\d+\s*,\s*(?P<i>\d+)\s*,\s*\w+\s*\]\s*="
                     r"\s*(?P<v>[-+0-9.eE]+)\s*$", src)
@@ -514,10 +534,7 @@ def read_siemens(data: bytes, t: Target, src: str) -> np.ndarray:
         return float(m.group(1))
 
     step, lo, hi, modulo = key(b"STEP"), key(b"MIN"), key(b"MAX"), key(b"IS_MODULO")
-    if lo != 0.0 or hi != 360.0 or modulo != 1:
-        msg = f"{src}: a rotary table needs MIN=0, MAX=360 and IS_MODULO=1"
+    if abs(step * (vals.size - 1) - (hi - lo)) > 1e-9:
+        msg = f"{src}: {vals.size} points at STEP={step} do not span {lo}..{hi}"
         raise DataError(msg)
-    if abs(step * (vals.size - 1) - 360.0) > 1e-9:
-        msg = f"{src}: {vals.size} points at STEP={step} do not span 0..360 deg"
-        raise DataError(msg)
-    return _from_closed(vals, t, src)
+    return step, lo, hi, modulo, vals

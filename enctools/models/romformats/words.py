@@ -27,6 +27,8 @@ class Target:
     zone: int = 0  # ACS zone / SINUMERIK measuring system index
     name: str = "ENC_COMP"  # ACS array name
     max_entries: int | None = None
+    sign: int = 1  # acs: +1 a value is the correction, -1 the error (minus the correction)
+    decimals: int | None = None  # controllers: digits after the point (None: shortest)
 
     def __post_init__(self) -> None:
         if not self.axis:

@@ -199,14 +199,30 @@ def _closed(values: np.ndarray) -> np.ndarray:
     return np.append(values, values[:1])
 
 
-def _write_assignments(f: IO[bytes], values: np.ndarray, before: str, between: str) -> None:
-    """Lines ``<before><index><between><value>`` (shortest round-trip decimals), by Arrow."""
+def _decimal_text(steps: np.ndarray, decimals: int) -> object:
+    """Whole numbers of 10^-decimals as decimal text with exactly ``decimals`` digits after
+    the point (an Arrow string array), from the integers: no binary fraction is printed."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    mag = pc.utf8_lpad(pc.cast(pa.array(np.abs(steps)), pa.string()), decimals + 1, "0")
+    sign = pc.if_else(pa.array(steps < 0), "-", "")
+    return pc.binary_join_element_wise(sign, pc.utf8_slice_codeunits(mag, 0, -decimals), ".",
+                                       pc.utf8_slice_codeunits(mag, -decimals), "")
+
+
+def _write_assignments(f: IO[bytes], values: np.ndarray, before: str, between: str,
+                       t: Target) -> None:
+    """Lines ``<before><index><between><value>``, by Arrow: the values [LSB] at the
+    target's decimals (x its sign) when it has them, else in shortest round-trip decimals."""
     import pyarrow as pa
     import pyarrow.compute as pc
     for start in range(0, values.size, 1 << 20):
         chunk = values[start:start + (1 << 20)]
         idx = pc.cast(pa.array(np.arange(start, start + chunk.size)), pa.string())
-        val = pc.cast(pa.array(chunk), pa.string())
+        if t.decimals is not None and t.decimals > 0:
+            val = _decimal_text(chunk.astype(np.int64) * t.sign, t.decimals)
+        else:
+            val = pc.cast(pa.array(chunk * (t.count_deg * t.sign)), pa.string())
         lines = pc.binary_join_element_wise(before, idx, between, val, "\n", "")
         offsets = np.frombuffer(lines.buffers()[1], dtype=np.int32)[lines.offset:]
         data = lines.buffers()[2]
@@ -222,7 +238,7 @@ def write_acs(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
              f"lsb {t.count_deg!r} deg\n"
              f"GLOBAL REAL {t.name}({v.size})\nINT AXIS_NO\nAXIS_NO = {t.axis}\n")
     f.write(head.encode())
-    _write_assignments(f, v * t.count_deg, f"{t.name}(", ")=")
+    _write_assignments(f, v, f"{t.name}(", ")=", t)
     f.write((f"ERRORUNMAP AXIS_NO, {t.zone}\n"
              f"ERRORMAP1D AXIS_NO, {t.zone}, 0, {step!r}, {t.name}\n"
              f"ERRORMAPON AXIS_NO, {t.zone}\nSTOP\n").encode())
@@ -237,6 +253,6 @@ def write_siemens(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str
     head += (f"; enctools table: {v.size} points 0..360 deg, lsb {t.count_deg!r} deg\n"
              "%_N_AX_EEC_INI\nCHANDATA(1)\n")
     f.write(head.encode())
-    _write_assignments(f, v * t.count_deg, f"$AA_ENC_COMP[{e},", f",{ax}]=")
+    _write_assignments(f, v, f"$AA_ENC_COMP[{e},", f",{ax}]=", t)
     f.write((f"$AA_ENC_COMP_STEP[{e},{ax}]={step!r}\n$AA_ENC_COMP_MIN[{e},{ax}]=0.0\n"
              f"$AA_ENC_COMP_MAX[{e},{ax}]=360.0\n$AA_ENC_COMP_IS_MODULO[{e},{ax}]=1\nM17\n").encode())

@@ -1,0 +1,232 @@
+"""Readers of motion controls' compensation tables, each parsing the text as its control
+does and giving the table back as a :class:`~.points.PointTable` (corrections to add
+to the indicated angle [rad], the control's sign resolved).
+
+These readers share nothing with the writers (:mod:`.controlwriters`) or the table
+builder (:mod:`.controls`): a table read back equal to the one intended is evidence
+that the file says what was meant, as the control reads it. Each raises DataError
+(one line) on what its control would refuse or misread.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from enctools.errors import DataError
+from enctools.models.romformats.points import PointTable
+from enctools.units import DEG
+
+#: LinuxCNC: EMCMOT_COMP_SIZE, the entries of a joint's compensation table
+LINUXCNC_ENTRIES = 256
+#: C's strtod as sscanf("%lf") reads it: blanks, then a decimal number (inf/nan refused later)
+_STRTOD = r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[-+]?(?:inf(?:inity)?|nan))"
+_TRIPLET = re.compile(_STRTOD * 3, re.IGNORECASE)
+
+
+def read_linuxcnc(data: bytes, src: str, comp_type: int = 0) -> PointTable:
+    """A joint compensation file as ``usrmotLoadComp`` and ``EMCMOT_SET_JOINT_COMP`` read it:
+    lines of three numbers until the first line that is not; type 0 forward and reverse
+    are positions (trim = nominal - position), type 1 trims; trims are stored as float
+    (32-bit), nominals must increase, at most 256 entries. The trim is added to the
+    command, so the correction is minus the trim."""
+    rows = []
+    for line in data.decode("latin-1").splitlines():
+        m = _TRIPLET.match(line)
+        if m is None:
+            break
+        rows.append([float(g) for g in m.groups()])
+    if len(rows) < 2:
+        msg = f"{src}: fewer than 2 compensation triplets (nominal forward reverse)"
+        raise DataError(msg)
+    a = np.array(rows)
+    if not np.all(np.isfinite(a)):
+        msg = f"{src}: a compensation value is not a finite number"
+        raise DataError(msg)
+    if len(rows) > LINUXCNC_ENTRIES:
+        msg = f"{src}: {len(rows)} entries; LinuxCNC takes {LINUXCNC_ENTRIES} per joint"
+        raise DataError(msg)
+    if not np.all(np.diff(a[:, 0]) > 0):
+        msg = f"{src}: nominal positions must increase (LinuxCNC refuses the entry)"
+        raise DataError(msg)
+    nominal = a[:, 0]
+    trims = (nominal[:, None] - a[:, 1:]) if comp_type == 0 else a[:, 1:]
+    trims = trims.astype(np.float32).astype(np.float64)
+    forward, reverse = -trims[:, 0] * DEG, -trims[:, 1] * DEG
+    return PointTable(nominal * DEG, forward,
+                      None if np.array_equal(forward, reverse) else reverse)
+
+
+def _twincat_keys(data: bytes, src: str) -> dict[str, str]:
+    """The ``name value`` lines of a TwinCAT CNC list: ``# `` comment lines, blank lines
+    and a comment after the value (a blank, then anything) left out."""
+    keys: dict[str, str] = {}
+    for no, raw in enumerate(data.decode("latin-1").splitlines(), 1):
+        line = raw.strip()
+        if not line or line == "#" or line.startswith("# "):
+            continue
+        parts = line.split()
+        if len(parts) < 2:
+            msg = f"{src}: line {no}: {line[:40]!r} has no value"
+            raise DataError(msg)
+        if parts[0] in keys:
+            msg = f"{src}: line {no}: {parts[0]} is given twice"
+            raise DataError(msg)
+        keys[parts[0]] = parts[1]
+    return keys
+
+
+def _integer(keys: dict[str, str], name: str, src: str) -> int:
+    if name not in keys:
+        msg = f"{src}: no {name}"
+        raise DataError(msg)
+    try:
+        return int(keys[name])
+    except ValueError:
+        msg = f"{src}: {name} {keys[name]!r} is not a whole number"
+        raise DataError(msg) from None
+
+
+def read_twincat(data: bytes, src: str) -> PointTable:
+    """A TwinCAT CNC compensation value list's leadscrew error compensation (kw.ssfk.*):
+    unit 1 (rotary axis: 0.0001 deg), equidistant points (interval, kw_startpos) or
+    setpoints (interval 0), kw_nr_max entries of table[i].pos and, bilateral, .neg,
+    each the absolute position error (actual - programmed), i.e. the correction."""
+    keys = _twincat_keys(data, src)
+    if _integer(keys, "kw.ssfk.unit", src) != 1:
+        msg = f"{src}: kw.ssfk.unit 0 (encoder increments): their size is not in the file"
+        raise DataError(msg)
+    n = _integer(keys, "kw.ssfk.kw_nr_max", src)
+    if not 2 <= n <= 1 << 20:
+        msg = f"{src}: kw.ssfk.kw_nr_max {n} is not 2..{1 << 20}"
+        raise DataError(msg)
+    interval = _integer(keys, "kw.ssfk.interval", src)
+    if interval > 0:
+        start = _integer(keys, "kw.ssfk.kw_startpos", src)
+        setpoints = start + interval * np.arange(n)
+    else:
+        setpoints = np.array([_integer(keys, f"kw.ssfk.table[{i}].setpoint", src)
+                              for i in range(n)])
+    pos = np.array([_integer(keys, f"kw.ssfk.table[{i}].pos", src) for i in range(n)])
+    bilateral = _integer(keys, "kw.ssfk.bilateral", src) == 1
+    neg = (np.array([_integer(keys, f"kw.ssfk.table[{i}].neg", src) for i in range(n)])
+           if bilateral else None)
+    modulo = None
+    if _integer(keys, "kw.ssfk.modulo", src) == 1:
+        if pos[0] != pos[-1] or (neg is not None and neg[0] != neg[-1]):
+            msg = f"{src}: a modulo table's first and last entries differ"
+            raise DataError(msg)
+        modulo = float(setpoints[-1] - setpoints[0]) * 1e-4 * DEG
+    unit = 1e-4 * DEG
+    return PointTable(setpoints * unit, pos * unit, None if neg is None else neg * unit,
+                      modulo_rad=modulo)
+
+
+_FANUC_LINE = re.compile(r"(PARAMETER\s+(\d+)\s+AXIS\s+\d+|PITCH\s+(\d+))\s+VALUE\s+([-+]?\d+)")
+
+
+def read_fanuc(data: bytes, src: str, sign: str) -> PointTable:
+    """A Fanuc pitch error setting sheet of a rotary axis: parameters 3620 (reference
+    point), 3621 (= 3620 on a rotary axis), 3622, 3623 (magnification), 3624 (interval),
+    3625 (travel per rotation) [detection units], and per point the increment over the
+    section ending there (points 3621+1..3622, summing to 0; point 3620 repeats the last).
+    The compensation is the sum of the increments from the reference position (0 deg),
+    x magnification x detection unit; ``sign`` says whether it is the correction or the
+    error (minus the correction)."""
+    params: dict[int, int] = {}
+    pitch: dict[int, int] = {}
+    du = None
+    for raw in data.decode("latin-1").splitlines():
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        if line.startswith("DETECTION_UNIT_DEG"):
+            du = float(line.split()[1])
+            continue
+        m = _FANUC_LINE.fullmatch(line)
+        if m is None:
+            msg = f"{src}: cannot read {line[:40]!r}"
+            raise DataError(msg)
+        (params if m.group(2) else pitch)[int(m.group(2) or m.group(3))] = int(m.group(4))
+    missing = [n for n in range(3620, 3626) if n not in params]
+    if missing or du is None or not du > 0:
+        msg = f"{src}: parameters {missing} or the detection unit are missing"
+        raise DataError(msg)
+    ref, neg, far, mag, interval, turn = (params[n] for n in range(3620, 3626))
+    sections = far - ref
+    if neg != ref or sections < 2 or interval * sections != turn:
+        msg = (f"{src}: a rotary axis needs 3621 = 3620 and (3622 - 3620) x 3624 = 3625 "
+               f"(here {neg}, {ref}, {far}, {interval}, {turn})")
+        raise DataError(msg)
+    inc = np.array([pitch.get(p, 0) for p in range(ref + 1, far + 1)])
+    if inc.sum() != 0 or pitch.get(ref) != pitch.get(far) or np.abs(inc).max() > 7:
+        msg = (f"{src}: the increments must sum to 0 over the turn, point {ref} repeat "
+               f"point {far}, and each be within +-7")
+        raise DataError(msg)
+    absolute = np.r_[0, np.cumsum(inc)] * mag * du * DEG
+    positions = np.arange(sections + 1) * interval * du * DEG
+    return PointTable(positions, absolute if sign == "correction" else -absolute,
+                      modulo_rad=turn * du * DEG)
+
+
+def read_heidenhain(data: bytes, src: str, sign: str, axis: str = "C") -> PointTable:
+    """A HEIDENHAIN compensation value table (.COM): ``BEGIN`` line, a header naming the
+    columns (each field starts under its name), rows, ``[END]``; AXISPOS [deg] and the
+    axis's column [deg]; ``sign`` says whether the value is the correction or the error."""
+    lines = data.decode("latin-1").splitlines()
+    if len(lines) < 4 or not lines[0].startswith("BEGIN") or lines[-1].strip() != "[END]":
+        msg = f"{src}: not a HEIDENHAIN table (BEGIN line, header, rows, [END])"
+        raise DataError(msg)
+    header = lines[1]
+    starts = {m.group(): m.start() for m in re.finditer(r"\S+", header)}
+    if "AXISPOS" not in starts or axis not in starts:
+        msg = f"{src}: no AXISPOS or {axis} column"
+        raise DataError(msg)
+    bounds = sorted(starts.values()) + [1 << 30]
+
+    def field(line: str, name: str) -> float:
+        a = starts[name]
+        return float(line[a:bounds[bounds.index(a) + 1]])
+
+    try:
+        pos = np.array([field(line, "AXISPOS") for line in lines[2:-1]])
+        val = np.array([field(line, axis) for line in lines[2:-1]])
+    except ValueError:
+        msg = f"{src}: a table field is not a number"
+        raise DataError(msg) from None
+    if len(pos) > 256:
+        msg = f"{src}: {len(pos)} compensation points; a table holds 256"
+        raise DataError(msg)
+    modulo = 360.0 * DEG if pos[0] == 0.0 and pos[-1] == 360.0 else None
+    return PointTable(pos * DEG, (val if sign == "correction" else -val) * DEG,
+                      modulo_rad=modulo)
+
+
+def read_siemens(data: bytes, src: str) -> PointTable:
+    """A SINUMERIK ``$AA_ENC_COMP`` table: the points MIN + i x STEP [deg], each value the
+    compensation added to the measuring system's actual value (K3, MSEC: a positive value
+    moves the axis in the negative direction), i.e. the correction; modulo MAX - MIN
+    when IS_MODULO is 1."""
+    from enctools.models.romformats.readers import siemens_table
+
+    step, lo, hi, modulo, vals = siemens_table(data, src)
+    if not (step > 0 and np.all(np.isfinite(vals))):
+        msg = f"{src}: STEP must be > 0 and every value a finite number"
+        raise DataError(msg)
+    positions = lo + step * np.arange(vals.size)
+    return PointTable(positions * DEG, vals * DEG,
+                      modulo_rad=(hi - lo) * DEG if modulo == 1 else None)
+
+
+def read_acs(data: bytes, src: str, sign: str, name: str = "ENC_COMP") -> PointTable:
+    """An ACS program's ERRORMAP1D map: points base + i x step [deg], values [deg];
+    ``sign`` says whether a value is the correction or the error. No wrap is assumed."""
+    from enctools.models.romformats.readers import acs_map
+
+    base, step, vals = acs_map(data, name, src)
+    if not (step > 0 and np.all(np.isfinite(vals))):
+        msg = f"{src}: the map's step must be > 0 and every value a finite number"
+        raise DataError(msg)
+    positions = base + step * np.arange(vals.size)
+    return PointTable(positions * DEG, (vals if sign == "correction" else -vals) * DEG)

@@ -1,0 +1,117 @@
+"""Writers of motion controls' compensation tables: one function per control.
+
+Each takes an open binary file, a built :class:`~.controls.ControlTable` (stored
+values in steps of the control's resolution, in the control's sign) and the comment
+lines (written where the format has comments). Values are printed at the control's
+resolution from whole numbers of steps (integer arithmetic: no binary fraction ever
+reaches the text). The layouts and their sources are in enc-make-rom(1), CONTROLS.
+"""
+
+from __future__ import annotations
+
+from typing import IO
+
+import numpy as np
+
+from enctools.models.romformats.controls import ControlTable
+from enctools.models.romformats.words import comment_text
+
+
+def fixed(steps: int, decimals: int, plus: bool = False) -> str:
+    """``steps`` x 10^-decimals as a decimal number with exactly ``decimals`` digits."""
+    sign = "-" if steps < 0 else "+" if plus else ""
+    whole, frac = divmod(abs(int(steps)), 10 ** decimals)
+    return f"{sign}{whole}.{frac:0{decimals}d}" if decimals else f"{sign}{whole}"
+
+
+def _decimals(resolution_deg: float) -> int:
+    """Digits after the point of a resolution that is a power of ten [deg]."""
+    d = round(-np.log10(resolution_deg))
+    if abs(10.0 ** -d - resolution_deg) > 1e-15:
+        msg = f"resolution {resolution_deg!r} deg is not a power of ten"
+        raise ValueError(msg)
+    return int(d)
+
+
+def _grid_steps(t: ControlTable, decimals: int) -> np.ndarray:
+    """The grid's positions in steps of 10^-decimals deg."""
+    return np.rint(t.grid_deg * 10 ** decimals).astype(np.int64)
+
+
+def write_linuxcnc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
+    """A LinuxCNC joint compensation file: ``nominal forward reverse`` a line [deg].
+
+    COMP_FILE_TYPE 0: forward and reverse are the positions the joint reaches when
+    commanded to the nominal (nominal - trim); type 1: they are the trims added to the
+    command (minus the correction). The comment lines come after the data: the loader
+    stops at the first line that is not three numbers.
+    """
+    d = _decimals(t.resolution_deg)
+    nominal = _grid_steps(t, d)
+    trims = [t.forward, t.forward if t.backward is None else t.backward]
+    if t.settings.comp_type == 0:
+        trims = [nominal - v for v in trims]
+    lines = [f"{fixed(n, d)} {fixed(a, d)} {fixed(b, d)}\n"
+             for n, a, b in zip(nominal.tolist(), trims[0].tolist(), trims[1].tolist(),
+                                strict=True)]
+    lines += [f"# {comment_text(c, ascii_only=True)}\n" for c in comment]
+    f.write("".join(lines).encode("ascii"))
+
+
+def write_twincat(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
+    """A TwinCAT CNC compensation value list: leadscrew error compensation (kw.ssfk.*) of
+    a modulo axis, equidistant points from 0 deg, values in 0.0001 deg (unit 1)."""
+    steps = 10 ** _decimals(t.resolution_deg)
+    interval = round(t.spacing_deg * steps)
+    out = [f"# {comment_text(c, ascii_only=True)}\n" for c in comment]
+    rows = [("kopf.log_achs_nr", t.settings.axis or "1"), ("kw.ssfk.unit", 1),
+            ("kw.ssfk.interval", interval), ("kw.ssfk.kw_startpos", 0),
+            ("kw.ssfk.kw_nr_max", t.grid_deg.size),
+            ("kw.ssfk.bilateral", int(t.backward is not None)), ("kw.ssfk.modulo", 1)]
+    neg = t.forward if t.backward is None else t.backward  # unilateral: both the same
+    rows += [(f"kw.ssfk.table[{i}].pos", v) for i, v in enumerate(t.forward.tolist())]
+    rows += [(f"kw.ssfk.table[{i}].neg", v) for i, v in enumerate(neg.tolist())]
+    out += [f"{k:<32} {v}\n" for k, v in rows]
+    f.write("".join(out).encode("ascii"))
+
+
+def write_fanuc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
+    """A Fanuc pitch error compensation setting sheet for a rotary axis: parameters
+    3620-3625 of the axis and one incremental value per compensation point."""
+    s = t.settings
+    axis = s.axis or "1"
+    du = s.detection_unit_deg
+    sections = t.grid_deg.size - 1
+    per_turn = round(360.0 / du)
+    r = s.ref_point
+    params = [(3620, r, "compensation point of the reference position"),
+              (3621, r, "farthest point on the - side"),
+              (3622, r + sections, "farthest point on the + side"),
+              (3623, t.magnification, "magnification"),
+              (3624, per_turn // sections, "interval [detection units]"),
+              (3625, per_turn, "travel per rotation [detection units]")]
+    increments = np.diff(t.forward)
+    out = [f"# {comment_text(c, ascii_only=True)}\n" for c in comment]
+    out.append(f"DETECTION_UNIT_DEG {du!r}\n")
+    out += [f"PARAMETER {n} AXIS {axis} VALUE {v}  # {what}\n" for n, v, what in params]
+    out.append(f"PITCH {r} VALUE {increments[-1]:+d}  # the same as point {r + sections}\n")
+    out += [f"PITCH {r + 1 + i} VALUE {v:+d}\n" for i, v in enumerate(increments.tolist())]
+    f.write("".join(out).encode("ascii"))
+
+
+def write_heidenhain(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
+    """A HEIDENHAIN compensation value table (.COM) of one rotary axis: columns NR,
+    AXISPOS [deg] and the axis's own column [deg]. HEIDENHAIN tables have no comment
+    lines: ``comment`` is left out."""
+    d = _decimals(t.resolution_deg)
+    axis = t.settings.axis or "C"
+    out = [f"BEGIN {axis}.COM\n", f"{'NR':<8}{'AXISPOS':<16}{axis}\n"]
+    out += [f"{i:<8}{fixed(p, d, True):<16}{fixed(v, d, True)}\n"
+            for i, (p, v) in enumerate(zip(_grid_steps(t, d).tolist(), t.forward.tolist(),
+                                           strict=True))]
+    out.append("[END]\n")
+    f.write("".join(out).encode("ascii"))
+
+
+WRITERS = {"linuxcnc": write_linuxcnc, "twincat": write_twincat, "fanuc": write_fanuc,
+           "heidenhain": write_heidenhain}
