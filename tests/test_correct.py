@@ -119,19 +119,22 @@ def test_controller_table_gives_the_intended_correction(tmp_path, ext):
     curve = deviations_table(theta, [Column("e", curve_arcsec(theta))])
     streams.write_table(str(tmp_path / "dev.parquet"), Header("deviations", curve.schema, {}),
                         curve)
-    bits, lsb = 23, 4.0
+    bits, resolution_deg = 23, 1e-4  # the control's resolution, 0.36"
+    sign = " --sign correction" if ext == "prg" else ""
     r = run(f"enc make-rom {tmp_path}/dev.parquet --curve e --bits {bits} --address-bits 8 "
-            f"--lsb {lsb} -o {tmp_path}/t.{ext} -q")
+            f"--resolution {resolution_deg}{sign} -o {tmp_path}/t.{ext} -q")
     assert r.returncode == 0, r.stderr.decode()
     k = np.arange(256)
     at = k * 360.0 / 256  # the table's points
     mid = at + 360.0 / 512  # half-way: the control interpolates linearly
     write_points(tmp_path / "p.csv", np.r_[at, mid], np.zeros(512))
-    s = summary(run(f"enc correct {tmp_path}/p.csv --table {tmp_path}/t.{ext} "
+    s = summary(run(f"enc correct {tmp_path}/p.csv --table {tmp_path}/t.{ext}{sign} "
                     f"-o {tmp_path}/c.parquet --json"))
-    assert s["table"]["family"] == "points" and s["table"]["entries"] == 256
+    assert s["table"]["family"] == "points"
+    # the control's points: 0..360 deg both present (siemens) or 0 deg once (acs)
+    assert s["table"]["entries"] in (256, 257)
     applied = pq.read_table(tmp_path / "c.parquet").column("deviation").to_numpy()
-    half_lsb = lsb * TURN_ARCSEC / 2 ** bits / 2
+    half_lsb = resolution_deg * 3600.0 / 2
     intended = -curve_arcsec(np.deg2rad(at))
     assert np.abs(applied[:256] - intended).max() <= half_lsb + 1e-9
     assert np.abs(applied[:256] - intended).max() > 0.1 * half_lsb  # rounded, not exact
@@ -374,10 +377,13 @@ def test_json_needs_a_file_when_the_stream_goes_to_stdout(tables):
 
 
 def test_a_bidirectional_point_table_corrects_each_direction_with_its_own_points():
-    from enctools.models.correction import PointTable
+    from enctools.models.correction import ControlTable
+    from enctools.models.romformats.points import PointTable
 
-    at = np.arange(4) * (np.pi / 2)
-    table = PointTable(at, np.array([1.0, 2.0, 3.0, 4.0]), np.array([-1.0, -2.0, -3.0, -4.0]))
+    at = np.arange(5) * (np.pi / 2)  # 0..360 deg, the last point the first again
+    table = ControlTable(PointTable(at, np.array([1.0, 2.0, 3.0, 4.0, 1.0]),
+                                    np.array([-1.0, -2.0, -3.0, -4.0, -1.0]),
+                                    modulo_rad=2 * np.pi))
     x = np.array([0.0, np.pi / 4, 7 * np.pi / 4, 2 * np.pi + np.pi / 2, np.pi / 4])
     got = table.correction_rad(x, np.array([1, 1, 1, -1, -1]))
     assert np.allclose(got, [1.0, 1.5, 2.5, -2.0, -1.5])  # modulo 360, across 360 -> 0

@@ -9,6 +9,10 @@ import click
 
 from enctools.cli import options
 
+#: the formats of enc make-rom (enc-make-rom(1)): memories and motion controls
+TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcnc", "twincat",
+           "fanuc", "heidenhain")
+
 if TYPE_CHECKING:
     from enctools.data.streams import Header
     from enctools.data.tablemap import Mapping
@@ -22,8 +26,7 @@ if TYPE_CHECKING:
               type=click.Path(dir_okay=False),
               help="The correction: a table file (bin, ihex, mif, coe, mem, csv, acs, siemens), "
                    "a rom stream, a model stream or a deviations stream.")
-@click.option("--target", type=click.Choice(("bin", "ihex", "mif", "coe", "mem", "csv", "acs",
-                                             "siemens")), default=None,
+@click.option("--target", type=click.Choice(TARGETS), default=None,
               help="The table file's format (default: from its extension).")
 @click.option("--bits", "code_bits", type=int, default=None,
               help="Bits n of the code the table is for (default: from its comment).")
@@ -37,6 +40,13 @@ if TYPE_CHECKING:
               show_default=True, help="bin and ihex: byte order of the words.")
 @click.option("--array", "array_name", default="ENC_COMP", show_default=True,
               help="acs: name of the REAL array holding the map.")
+@click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
+              help="acs, fanuc, heidenhain: the file stores the correction or the error "
+                   "(as make-rom was given it).")
+@click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
+              help="linuxcnc: the file's COMP_FILE_TYPE.")
+@click.option("--axis", default=None, metavar="NAME",
+              help="heidenhain: the table's axis column.")
 @click.option("--curve", default=None, metavar="NAME",
               help="A deviations stream as the correction: the curve to use.")
 @options.heads("Readings: heads averaged into the encoder's code (default: the rig's "
@@ -55,7 +65,8 @@ if TYPE_CHECKING:
 @options.verbosity
 def command(input: str | None, table_path: str, target: str | None, code_bits: int | None,
             address_bits: int | None, width: int | None, lsb: float | None, endian: str,
-            array_name: str, curve: str | None, heads: list[str] | None,
+            array_name: str, sign: str | None, comp_type: int, axis: str | None,
+            curve: str | None, heads: list[str] | None,
             reference: list[str] | None, points: int, max_pp: float | None,
             max_std: float | None, max_abs: float | None, as_json: bool, unit: str,
             output: str | None, force: bool, fmt: str | None, mapping: Mapping) -> None:
@@ -81,7 +92,7 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
     if output is not None:
         streams.check_output(output, force, fmt)
     settings = correction.TableSettings(target, code_bits, address_bits, width, lsb, endian,
-                                        array_name)
+                                        array_name, sign, comp_type, axis)
     table = correction.load(table_path, settings, curve)
     header, out, res, extra = _apply(input, table, heads, reference, points, mapping)
     described = {"file": table_path} | table.describe()

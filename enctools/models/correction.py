@@ -9,22 +9,22 @@ family applies it its own way:
   the code c up by its top m bits, ``address = c >> (n - m)``, and adds the stored
   signed integer times ``lsb`` counts: ``c + table[address] * lsb`` (seed 001 sec. 4.2).
   No interpolation, no other rounding than the table's own.
-- :class:`PointTable` (acs, siemens, and any controller table: interpolation points):
-  the controller interpolates linearly between points at given positions of its axis,
-  modulo 360 deg; a bidirectional table holds one correction per direction.
+- :class:`ControlTable` (a motion control's table: linuxcnc, twincat, fanuc, heidenhain,
+  siemens, acs): the control interpolates linearly between points at given positions of
+  its axis, modulo 360 deg where it wraps; a bidirectional table holds one correction
+  per direction. Read by each control's own reader (:mod:`.romformats.controlreaders`).
 - :class:`ModelCorrection` (a model stream of enc fit-rbf, a deviations curve): minus
   the model at the indicated angle, unquantised: what a perfect table would add.
 
-A new controller format plugs in as another :class:`PointTable`: its reader returns the
-points' positions [rad] and corrections [rad] (one array per direction if it has two),
-registered in :data:`POINT_READERS`.
+A new control's format plugs in through :func:`romformats.read_control_table`: its
+reader returns a :class:`~enctools.models.romformats.points.PointTable`.
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -33,6 +33,7 @@ import numpy as np
 from enctools.errors import DataError, UsageError
 from enctools.models import romformats
 from enctools.models.rom import LSB_COUNTS, MAX_ADDRESS_BITS
+from enctools.models.romformats.points import PointTable
 from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
 #: the first comment line enc make-rom writes in a text table (mif, coe, mem, acs, siemens)
@@ -42,6 +43,8 @@ COMMENT = re.compile(r"enctools make-rom: (\d+) entries, (\d+)-bit signed correc
 MAX_CODE_BITS = 40
 #: the formats of an FPGA's memory: looked up by the code's top bits
 MEMORY_FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv")
+#: the formats of a motion control: interpolated between their points
+CONTROL_FORMATS = (*romformats.CONTROLS, *romformats.CONTROLLER)
 
 
 class Correction(Protocol):
@@ -104,36 +107,25 @@ class MemoryTable:
 
 
 @dataclass(frozen=True)
-class PointTable:
-    """A controller's table: corrections [rad] at positions [rad] of its axis, linear
-    interpolation between them, periodic in 2 pi.
-
-    position_rad : the points, ascending within [0, 2 pi) (a 360 deg point that repeats
-        0 deg is left out by the reader).
-    forward_rad : the correction at each point (the only one of a unidirectional table).
-    backward_rad : the correction for readings approached backwards (direction -1), or
-        None (the forward one serves both).
+class ControlTable:
+    """A motion control's table (:class:`~enctools.models.romformats.points.PointTable`,
+    read by the control's own reader: corrections [rad] at positions [rad], its sign
+    resolved, interpolated linearly, wrapped modulo its period) as a :class:`Correction`.
     """
 
-    position_rad: np.ndarray
-    forward_rad: np.ndarray
-    backward_rad: np.ndarray | None = None
+    table: PointTable
     fmt: str = "siemens"
-    extra: dict[str, Any] = field(default_factory=dict)
 
     def correction_rad(self, indicated_rad: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        x = np.mod(np.asarray(indicated_rad, dtype=np.float64), TWO_PI)
-        out = np.interp(x, self.position_rad, self.forward_rad, period=TWO_PI)
-        if self.backward_rad is not None:
-            back = np.asarray(direction) < 0
-            out[back] = np.interp(x[back], self.position_rad, self.backward_rad, period=TWO_PI)
-        return out
+        return np.asarray(self.table.correction(indicated_rad, direction), dtype=np.float64)
 
     def describe(self) -> dict[str, Any]:
-        step = np.diff(self.position_rad) / DEG
-        return {"family": "points", "format": self.fmt, "entries": int(self.position_rad.size),
-                "bidirectional": self.backward_rad is not None,
-                "step_deg": float(step.mean()) if step.size else 360.0} | self.extra
+        p = np.asarray(self.table.positions_rad)
+        step = np.diff(p) / DEG
+        bidirectional = self.table.backward_rad is not None or self.table.backlash_rad is not None
+        return {"family": "points", "format": self.fmt, "entries": int(p.size),
+                "bidirectional": bidirectional,
+                "step_deg": float(step.mean()) if step.size else 360.0}
 
 
 @dataclass(frozen=True)
@@ -164,6 +156,9 @@ class TableSettings:
     lsb : counts of the code per LSB (default 1).
     endian : bin and ihex byte order.
     array_name : acs: the REAL array holding the map.
+    sign : acs, fanuc, heidenhain: whether the file stores the correction or the error.
+    comp_type : linuxcnc: COMP_FILE_TYPE (0 or 1).
+    axis : heidenhain: the table's column.
     """
 
     fmt: str | None = None
@@ -173,6 +168,9 @@ class TableSettings:
     lsb: float | None = None
     endian: str = "little"
     array_name: str = "ENC_COMP"
+    sign: str | None = None
+    comp_type: int = 0
+    axis: str | None = None
 
     def __post_init__(self) -> None:
         if self.code_bits is not None and not 1 <= self.code_bits <= MAX_CODE_BITS:
@@ -263,24 +261,12 @@ def checked_memory(values: np.ndarray, code_bits: int, address_bits: int | None,
     return MemoryTable(values, code_bits, lsb, fmt, width)
 
 
-def controller_table(path: str, data: bytes, settings: TableSettings, fmt: str) -> PointTable:
-    """An acs or siemens table: points every 360/N deg from 0, values [deg] read back in
-    LSBs of --lsb counts of an n-bit code (from the comment, else the options)."""
-    layout = file_layout(data, settings, path)
-    if layout.code_bits is None:
-        msg = (f"{path}: the {fmt} table has no make-rom comment to give the LSB of its "
-               "values; give --bits and --lsb as make-rom was given them")
-        raise UsageError(msg)
-    count_deg = layout.lsb * 360.0 / 2.0 ** layout.code_bits
-    values = _read_values(path, settings, fmt, layout, count_deg)
-    position = np.arange(values.size) * (TWO_PI / values.size)
-    return PointTable(position, values * count_deg * DEG, None, fmt,
-                      {"lsb_arcsec": count_deg * factor("deg", "arcsec")})
-
-
-#: format -> reader of a controller's point table (path, its bytes, settings, format)
-POINT_READERS: dict[str, Callable[[str, bytes, TableSettings, str], PointTable]] = {
-    "acs": controller_table, "siemens": controller_table}
+def control_table(path: str, settings: TableSettings, fmt: str) -> ControlTable:
+    """A motion control's table file (enc-make-rom(1), CONTROLS), read as its control
+    reads it (:func:`~enctools.models.romformats.read_control_table`)."""
+    table = romformats.read_control_table(path, fmt, settings.sign, settings.comp_type,
+                                          settings.axis, settings.array_name)
+    return ControlTable(table, fmt)
 
 
 def read_file(path: str, settings: TableSettings) -> Correction:
@@ -294,11 +280,8 @@ def read_file(path: str, settings: TableSettings) -> Correction:
     except OSError as exc:
         msg = f"{path}: cannot read: {exc.strerror}"
         raise DataError(msg) from None
-    if fmt in POINT_READERS:
-        return POINT_READERS[fmt](path, data, settings, fmt)
-    if fmt not in MEMORY_FORMATS:
-        msg = f"{path}: {fmt} tables are written by enc make-rom but not applied here yet"
-        raise UsageError(msg)
+    if fmt in CONTROL_FORMATS:
+        return control_table(path, settings, fmt)
     return memory_table(path, data, settings, fmt)
 
 
