@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from enctools.data.files import OutputGroup, check_new_file
 from enctools.errors import CheckFailed
@@ -23,13 +24,15 @@ def check_paths(paths: Sequence[str | None], force: bool) -> None:
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
+               history_filter: dict[str, Any] | None = None,
                prog: str = "enc report", unit: str = "arcsec",
                progress: Callable[[int, int], object] | None = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
     and PDF show angle errors in ``unit`` (:func:`~enctools.report.display.in_unit`);
-    the JSON summary and the thresholds keep arcsec. ``progress(done, total)`` counts
+    the JSON summary and the thresholds keep arcsec. ``history_filter``: the ``rig`` and
+    ``since`` of the history's runs to read. ``progress(done, total)`` counts
     the inputs read and the HTML and PDF renderings.
     """
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
@@ -41,7 +44,7 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     report = build_report(sources, opts, step)
     if history_dir is not None:
         from enctools.report.history import read_history
-        report.history = read_history(history_dir)
+        report.history = read_history(history_dir, **(history_filter or {}))
     report.settings["thresholds"] = limits.to_dict()
     failures = check(report, limits)
     shown = in_unit(report, unit)
