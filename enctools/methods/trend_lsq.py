@@ -69,9 +69,9 @@ class TrendProjectedLSQ:
             scale: float, centre: np.ndarray | None = None,
             labels: np.ndarray | None = None, grouping: Grouping | None = None) -> None:
         """Add m samples: the columns X transposed, ``x_rows`` (p, m) or (p + 1, m) with a
-        free last row (then used for y, saving a copy); data ``y`` (m); trend abscissa
-        ``x`` (m); group ``keys`` (m); ``labels`` (m) integers in [0, n_labels) counted
-        per group, or None.
+        free last row (then used for y, saving a copy; ``y`` may be that row); data
+        ``y`` (m); trend abscissa ``x`` (m); group ``keys`` (m); ``labels`` (m)
+        integers in [0, n_labels) counted per group, or None.
 
         The trend coordinate is z = (x - centre) / scale, ``centre`` per sample, or
         (None) the first x of the sample's group. ``grouping``: :func:`group_batch` of

@@ -16,6 +16,7 @@ is the device part as a function of phase (:mod:`enctools.methods.interp.model`)
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -91,6 +92,14 @@ class _Samples:
 
     def finite(self) -> tuple[_Samples, int]:
         """The samples whose readings and phases are all finite, and how many were not."""
+        # first without a temporary: a sum is finite only when all its terms are (one
+        # that overflows falls through to the test of each sample)
+        total = float(np.sum(self.device_rad)) - float(np.sum(self.reference_rad)) \
+            + float(np.sum(self.device_phase))
+        if self.reference_phase is not None:
+            total += float(np.sum(self.reference_phase))
+        if math.isfinite(total):
+            return self, 0
         good = (np.isfinite(self.device_rad) & np.isfinite(self.reference_rad)
                 & np.isfinite(self.device_phase))
         if self.reference_phase is not None:
@@ -195,7 +204,8 @@ class InterpolationFit:
         harmonic_rows(s.device_phase, self.orders, x_rows[:n_dev], dev_step, dev_steps)
         if self.ref_orders.size and s.reference_phase is not None:
             harmonic_rows(s.reference_phase, self.ref_orders, x_rows[n_dev:], ref_step, ref_steps)
-        zeta = (s.device_rad - s.reference_rad) / ARCSEC
+        zeta = np.subtract(s.device_rad, s.reference_rad, out=x_rows[-1])  # the lsq's y row
+        zeta /= ARCSEC
         ref = s.reference_rad
         quarter = sectors(s.device_phase, dev_step, dev_steps)
         if self.window is None:

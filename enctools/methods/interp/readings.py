@@ -58,7 +58,10 @@ def device_reading(counts: Sequence[np.ndarray], infos: Sequence[HeadInfo]
     phase offsets); the step is that phase in counts
     (:func:`enctools.data.readings.signal_step`).
     """
-    angle = np.mean([head_angle(c, i) for c, i in zip(counts, infos, strict=True)], axis=0)
+    if len(counts) == 1:  # one head: its angle (the mean of one is itself, bit for bit)
+        angle = head_angle(counts[0], infos[0])
+    else:
+        angle = np.mean([head_angle(c, i) for c, i in zip(counts, infos, strict=True)], axis=0)
     return angle, signal_step(np.asarray(counts[0]), infos[0])
 
 
