@@ -232,6 +232,13 @@ def test_devices_sharing_the_windows_fit_as_alone():
         assert a.residual_rms == b.residual_rms and a.windows == b.windows
 
 
+@pytest.mark.parametrize("steps", [4096, 1000, 3])
+def test_sectors_looked_up_are_the_quarters(steps):
+    from enctools.methods.interp.coverage import SECTORS, sectors
+    step = np.arange(steps)[::-1]
+    assert np.array_equal(sectors(step * (TWO_PI / steps), step, steps), step * SECTORS // steps)
+
+
 def test_phase_coverage_bitmap_matches_sorted_gaps():
     rng = np.random.default_rng(2)
     phase = np.floor(rng.uniform(0, 4096, 300)) * (TWO_PI / 4096)
