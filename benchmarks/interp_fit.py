@@ -41,10 +41,11 @@ def cpu_children() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def timed(shell: str, env: dict[str, str]) -> tuple[float, float]:
-    """(CPU, wall) seconds of a shell pipeline."""
+def timed(shell: str, env: dict[str, str], cwd: Path) -> tuple[float, float]:
+    """(CPU, wall) seconds of a shell pipeline run in ``cwd`` (not this checkout: for
+    ``python -c`` the current folder comes before PYTHONPATH)."""
     c0, t0 = cpu_children(), time.perf_counter()
-    subprocess.run(["/bin/bash", "-o", "pipefail", "-c", shell], env=env, check=True)
+    subprocess.run(["/bin/bash", "-o", "pipefail", "-c", shell], env=env, check=True, cwd=cwd)
     return cpu_children() - c0, time.perf_counter() - t0
 
 
@@ -79,14 +80,15 @@ def main() -> None:
         subprocess.run(["tar", "-x", "-C", str(before)], input=archive, check=True)
         run = d / "run.arrows"
         subprocess.run([PY, "-c", ENC, *RUN, "--revolutions", str(a.revolutions), "-o",
-                        str(run)], check=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+                        str(run)], check=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                       cwd=d)
         best: dict[str, tuple[float, float]] = {}
         for _ in range(a.repeat):
             for name, code in (("after", ROOT), ("before", before)):
                 cmd, env = check_shell(code, run, d / f"{name}.parquet")
-                t = timed(cmd, env)
+                t = timed(cmd, env, d)
                 best[name] = min(best.get(name, t), t)
-                c = timed(f"cat {run} > /dev/null", dict(os.environ))
+                c = timed(f"cat {run} > /dev/null", dict(os.environ), d)
                 best["cat"] = min(best.get("cat", c), c)
         diff = float(np.max(np.abs(deviations(d / "after.parquet")
                                    - deviations(d / "before.parquet"))))
