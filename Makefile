@@ -78,6 +78,8 @@ test-min: $(VENV_MIN)/.installed  ## the whole suite on the oldest declared vers
 
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out
+	$(BIN)/python benchmarks/fleet.py --out bench-out
+	$(BIN)/python benchmarks/interp_fit.py --out bench-out
 
 SEEDS ?= 20
 accuracy: $(VENV)/.installed  ## the README's accuracy table over SEEDS noise seeds (minutes)

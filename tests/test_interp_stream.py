@@ -169,6 +169,76 @@ def test_trend_projection_is_the_joint_fit(degree, consecutive):
     assert np.array_equal(counts[:, 1:].sum(axis=1), counts[:, 0])
 
 
+def test_moments_are_the_per_sample_sums():
+    """The moments held per open group and the cross products, against the sums taken
+    sample by sample as the fit before the shared grouping took them (y less its
+    group's first value, T of z = (x - centre) / scale): equal to rounding."""
+    rng = np.random.default_rng(11)
+    n, degree = 3000, 2
+    x = np.sort(rng.uniform(0.0, 3.0, n))
+    keys = np.floor(x / 0.25).astype(np.int64)
+    centre = (keys + 0.5) * 0.25
+    cols = rng.normal(size=(3, n))
+    y = rng.normal(size=n) + 1e4 + x
+    labels = rng.integers(0, 4, n)
+    lsq = TrendProjectedLSQ(3, degree, consecutive=False, n_labels=4)
+    rows = np.vstack([cols, np.zeros(n)])            # with the free row for y
+    lsq.add(rows, y, x, keys, 0.125, centre=centre, labels=labels)
+    first = np.searchsorted(keys, keys)
+    yc = y - y[first]
+    assert np.allclose(lsq.xtx, cols @ cols.T, rtol=1e-13, atol=0)
+    assert np.allclose(lsq.xty, cols @ yc, rtol=1e-12, atol=1e-12)
+    assert lsq.yty == pytest.approx(yc @ yc, rel=1e-13)
+    z = (x - centre) / 0.125
+    t = np.polynomial.legendre.legvander(z, degree)               # (n, d)
+    d, p = degree + 1, 3
+    for g, k in enumerate(np.unique(keys)):
+        m = keys == k
+        want = np.concatenate([(t[m].T @ t[m]).ravel(), (t[m].T @ cols[:, m].T).ravel(),
+                               t[m].T @ yc[m], np.bincount(labels[m], minlength=4)])
+        assert np.allclose(lsq._mom[g], want, rtol=1e-12, atol=1e-9), g
+    assert lsq._mom.shape[1] == d * d + d * p + d + 4
+
+
+def test_devices_sharing_the_windows_fit_as_alone():
+    """Fits of several devices against one reference share each batch's windows
+    (SharedGrouping); each result is the one it gets alone, bit for bit, also when a
+    device's NaN reading leaves it other samples than the others in a batch."""
+    from enctools.methods.interp.fit import InterpolationFit, SharedGrouping
+
+    rng = np.random.default_rng(3)
+    n, ppr = 40_000, 4096
+    ref = np.cumsum(rng.uniform(0.0, 2e-4, n))
+    devices = []
+    for k in range(3):
+        phase = np.mod((ref + 0.1 * k) * ppr, TWO_PI)
+        dev = ref + 1e-6 * np.sin(phase + k) + 1e-7 * rng.normal(size=n) + 0.3 * k
+        devices.append((dev, phase))
+    devices[2][0][12_345] = np.nan
+
+    def fits(share: bool) -> list:
+        one = SharedGrouping()
+        out = [InterpolationFit(ppr, window=0.01, shared=one if share else None)
+               for _ in devices]
+        for a in range(0, n, 7_001):
+            r = ref[a:a + 7_001]
+            for f, (dev, phase) in zip(out, devices, strict=True):
+                f.add(dev[a:a + 7_001], phase[a:a + 7_001], r)
+        return [f.result() for f in out]
+
+    alone, together = fits(False), fits(True)
+    for a, b in zip(alone, together, strict=True):
+        assert np.array_equal(a.fitted.coef, b.fitted.coef) and a.fitted.coef.any()
+        assert a.residual_rms == b.residual_rms and a.windows == b.windows
+
+
+@pytest.mark.parametrize("steps", [4096, 1000, 3])
+def test_sectors_looked_up_are_the_quarters(steps):
+    from enctools.methods.interp.coverage import SECTORS, sectors
+    step = np.arange(steps)[::-1]
+    assert np.array_equal(sectors(step * (TWO_PI / steps), step, steps), step * SECTORS // steps)
+
+
 def test_phase_coverage_bitmap_matches_sorted_gaps():
     rng = np.random.default_rng(2)
     phase = np.floor(rng.uniform(0, 4096, 300)) * (TWO_PI / 4096)

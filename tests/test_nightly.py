@@ -15,7 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import DATA, ROOT, one_error_line, run
 
-from enctools.report.history import SCHEMA, append_run, read_history
+from enctools.report.history import FILE_SCHEMA, SCHEMA, append_run, read_history
 
 NIGHTLY = str(ROOT / "bin" / "enc-nightly")
 
@@ -157,14 +157,15 @@ def test_run_killed_mid_write_leaves_history_readable(tmp_path):
     append_run(hist, {"rig": "before", "status": "ok", "pp": 1.0})
     p = subprocess.run([sys.executable, "-c", _KILLED, str(hist)], capture_output=True)
     assert p.returncode == -signal.SIGKILL
-    leftovers = [f.name for f in hist.iterdir()]
+    leftovers = [f.name for f in hist.rglob("*")]
     assert any(n.startswith(".run-") for n in leftovers)           # the half-written file
     h = read_history(hist)
     assert h.runs == 1 and h.column("rig").tolist() == ["before"] and not h.skipped
     append_run(hist, {"rig": "after", "status": "ok"})
     assert read_history(hist).runs == 2
     import pyarrow.dataset as ds  # any Parquet reader
-    assert ds.dataset(str(hist), format="parquet").to_table().num_rows == 2
+    t = ds.dataset(str(hist), format="parquet", partitioning="hive").to_table()
+    assert sorted(t.column("rig").to_pylist()) == ["after", "before"]
     r = run(["enc", "report", "--history", str(hist)])
     assert r.returncode == 0 and "2 run(s)" in r.stdout.decode()
 
@@ -188,7 +189,7 @@ def test_killed_nightly_process_leaves_history_readable(tmp_path, enc):
 def test_a_damaged_history_file_is_skipped_with_a_warning(tmp_path):
     hist = tmp_path / "hist"
     append_run(hist, {"rig": "good", "status": "ok"})
-    (hist / "run-damaged.parquet").write_bytes(b"PAR1 not really")
+    (hist / "run-damaged.parquet").write_bytes(b"PAR1 not really")  # the layout before
     r = run(["enc", "report", "--history", str(hist), "--json"])
     assert r.returncode == 0
     assert "skipping unreadable run-damaged.parquet" in r.stderr.decode()
@@ -198,7 +199,9 @@ def test_a_damaged_history_file_is_skipped_with_a_warning(tmp_path):
 def test_history_files_have_the_schema(tmp_path):
     f = append_run(tmp_path, {"rig": "x", "status": "ok", "drift_max": 0.1})
     t = pq.read_table(f)
-    assert t.schema.remove_metadata() == SCHEMA.remove_metadata() and t.num_rows == 1
+    assert f.parent.parent == tmp_path / "rig=x" and f.parent.name.startswith("year=")
+    assert t.schema.remove_metadata() == FILE_SCHEMA.remove_metadata() and t.num_rows == 1
+    assert read_history(tmp_path).table.schema == SCHEMA
 
 
 @pytest.mark.slow
@@ -348,7 +351,7 @@ def test_sigterm_at_any_point_records_the_night_or_leaves_history_unchanged(tmp_
         p.terminate()
         out, err = p.communicate(timeout=60)
         h = read_history(hist)
-        assert not h.skipped and not [f.name for f in hist.iterdir() if f.name.startswith(".")]
+        assert not h.skipped and not [f.name for f in hist.rglob(".*")]
         assert list(tmp.iterdir()) == [], delay
         if p.returncode == 0:                      # done before the signal
             runs += 1
@@ -470,7 +473,7 @@ def test_full_disk_is_one_line_exit_2_and_no_ok(tmp_path, enc, monkeypatch, wher
     real = files.write_atomic
 
     def full(path, data, **kw):
-        if (where in ("history", "both") and Path(path).parent == hist) \
+        if (where in ("history", "both") and hist in Path(path).parents) \
                 or {"calibration": str(cal), "html": str(page),
                     "both": str(cal)}.get(where) == str(path):
             raise OSError(errno.ENOSPC, "No space left on device")
@@ -490,7 +493,7 @@ def test_full_disk_is_one_line_exit_2_and_no_ok(tmp_path, enc, monkeypatch, wher
         assert str(name) in lines[0], lines[0]
     assert b"ok" not in r.stdout
     if where == "both":
-        assert not hist.exists() or not list(hist.iterdir())
+        assert not hist.exists() or not [f for f in hist.rglob("*") if f.is_file()]
         return
     h = read_history(hist)
     assert not h.skipped and h.runs == {"history": 1, "html": 2, "calibration": 1}[where]
@@ -509,5 +512,5 @@ def test_full_history_disk_is_one_line_not_ok(tmp_path, full_tmpfs):
         assert "No space left on device" in line and str(page if hist.name == "h1" else hist) \
             in line, line
         assert b"ok" not in r.stdout
-        assert not [f.name for f in hist.iterdir() if f.name.startswith(".")]
+        assert not [f.name for f in hist.rglob(".*")]
     assert read_history(full_tmpfs / "h").runs == 0

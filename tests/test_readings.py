@@ -149,3 +149,16 @@ def test_rig_accessor_without_a_rig():
         ("E", 10, 0, ())
     with pytest.raises(DataError, match="malformed encoder"):
         rig_encoders({"rig": {"encoders": [{"name": "E", "periods_per_rev": "many"}]}})
+
+
+@pytest.mark.parametrize("interpolation", [4096, 1000, 1])
+def test_signal_step_is_the_floor_modulo(interpolation):
+    """The step within the period: a mask for a power of two, a modulo otherwise; the
+    floor modulo either way, for counts below zero too."""
+    from enctools.data.readings import signal_step
+    counts = np.array([-2**40 - 3, -4097, -1, 0, 1, 4095, 4096, 123_456_789, 2**50 + 7])
+    info = HeadInfo("H", "E", 0.0, interpolation * 100, 100, interpolation, 0.1, 77)
+    step = signal_step(counts, info)
+    assert np.array_equal(step, np.mod(counts + 77, interpolation))
+    assert step.min() >= 0 and step.max() < interpolation
+    assert np.array_equal(counts[:2], [-2**40 - 3, -4097])  # the input is left alone

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from datetime import datetime
 from typing import Any
 
 import click
@@ -35,6 +36,11 @@ from enctools.cli import options, runner
               type=click.Path(file_okay=False),
               help="Tabulate (and plot, with --html/--pdf) the nightly history in DIR.")
 @options.table_columns
+@click.option("--rig", "history_rig", default=None, metavar="NAME",
+              help="With --history: only this rig's runs (its partition alone is read).")
+@click.option("--since", default=None, metavar="DATE",
+              type=click.DateTime(["%Y-%m-%d", "%Y-%m-%dT%H:%M", "%Y-%m-%dT%H:%M:%S"]),
+              help="With --history: only runs at or after DATE (UTC; YYYY-MM-DD[THH:MM[:SS]]).")
 @options.unit
 @options.force
 @options.verbosity
@@ -42,8 +48,8 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
             pdf_path: str | None, title: str | None, top_harmonics: int, nmax: int,
             max_pp: float | None, max_std: float | None, max_abs: float | None,
             max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
-            max_iso: tuple[str, ...], history_dir: str | None, mapping: Any, unit: str,
-            force: bool) -> None:
+            max_iso: tuple[str, ...], history_dir: str | None, history_rig: str | None,
+            since: datetime | None, mapping: Any, unit: str, force: bool) -> None:
     """Summarise enctools streams: figures, harmonics, U (k=2), ISO 230-2.
 
     Reads every INPUT (any kind, or a table read as points as by `enc points`, with
@@ -53,6 +59,7 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     Angle errors in the text, HTML and PDF are in --unit; --json and the thresholds
     keep arcsec.
     """
+    from enctools.errors import UsageError
     from enctools.report.output import check_paths, run_report
     from enctools.report.sections import Options
     from enctools.report.thresholds import Thresholds, parse_pairs
@@ -61,10 +68,14 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
                         max_radial_pp=max_radial_pp,
                         max_harmonic=parse_pairs(max_harmonic, "--max-harmonic", int),
                         max_iso=parse_pairs(max_iso, "--max-iso", str))
+    if history_dir is None and (history_rig is not None or since is not None):
+        msg = "--rig and --since select runs of --history DIR; give --history"
+        raise UsageError(msg)
     options.distinct_outputs({"--html": html_path, "--pdf": pdf_path})
     check_paths([html_path, pdf_path], force)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
     run_report(sources, Options(top_harmonics, nmax), limits, as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
+               history_filter={"rig": history_rig, "since": since},
                prog=runner.command_name(), unit=unit,
                progress=runner.Progress("inputs and renderings"), mapping=mapping)

@@ -181,7 +181,10 @@ def mean_head_angle(columns: Sequence[Counts], infos: Sequence[HeadInfo]) -> np.
 def signal_step(counts: np.ndarray, info: HeadInfo) -> np.ndarray:
     """Interpolation step within the signal period [count], 0..interpolation - 1."""
     c = np.asarray(counts, dtype=np.int64) + info.zero_count
-    return np.mod(c, info.interpolation)
+    n = info.interpolation
+    if n > 0 and n & (n - 1) == 0:  # a power of two: the floor modulo, without a division
+        return np.bitwise_and(c, n - 1, out=c)
+    return np.mod(c, n, out=c)
 
 
 def signal_phase(counts: np.ndarray, info: HeadInfo) -> np.ndarray:

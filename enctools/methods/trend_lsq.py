@@ -11,6 +11,7 @@ Used by :mod:`enctools.methods.interp.fit` (seed 000 eqs. (19), (20)).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -64,21 +65,28 @@ class TrendProjectedLSQ:
         self._lo = np.zeros(0)
         self._hi = np.zeros(0)
 
-    def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray,
+    def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray | None,
             scale: float, centre: np.ndarray | None = None,
-            labels: np.ndarray | None = None) -> None:
-        """Add m samples: the columns X transposed, ``x_rows`` (p, m); data ``y`` (m);
-        trend abscissa ``x`` (m); group ``keys`` (m); ``labels`` (m) integers in
-        [0, n_labels) counted per group, or None.
+            labels: np.ndarray | None = None, grouping: Grouping | None = None) -> None:
+        """Add m samples: the columns X transposed, ``x_rows`` (p, m) or (p + 1, m) with a
+        free last row (then used for y, saving a copy; ``y`` may be that row); data
+        ``y`` (m); trend abscissa ``x`` (m); group ``keys`` (m); ``labels`` (m)
+        integers in [0, n_labels) counted per group, or None.
 
         The trend coordinate is z = (x - centre) / scale, ``centre`` per sample, or
-        (None) the first x of the sample's group.
+        (None) the first x of the sample's group. ``grouping``: :func:`group_batch` of
+        these keys, x, scale and centre, when several fits share them (the heads of a
+        run against one reference); computed here when None.
         """
         m = y.size
         if m == 0:
             return
-        uk, first, inv, lo, hi = _groups(keys, x)
-        y0, x0 = y[first].astype(np.float64), x[first].astype(np.float64)
+        if grouping is None:
+            assert keys is not None, "keys or their grouping"
+            grouping = group_batch(keys, x, self.d1 - 1, scale, centre)
+        g = grouping
+        uk, lo, hi = g.keys, g.lo.copy(), g.hi.copy()
+        y0, x0 = y[g.first].astype(np.float64), x[g.first].astype(np.float64)
         mom = np.zeros((uk.size, self._width))
         # groups still open from earlier batches keep their anchors and moments
         where = np.searchsorted(uk, self._keys)             # uk is sorted
@@ -88,55 +96,52 @@ class TrendProjectedLSQ:
         lo[where] = np.minimum(lo[where], self._lo[old])
         hi[where] = np.maximum(hi[where], self._hi[old])
         mom[where] = self._mom[old]
-        # y less its group's first value: a constant of the trend, kept out of the
-        # sums of squares so that they do not cancel
-        yc = y - y0[inv]
-        z = (x - (x0[inv] if centre is None else centre)) / scale
-        xt = np.ascontiguousarray(x_rows, dtype=np.float64)               # (p, m)
-        mom += self._moments(z, xt, yc, labels, inv, uk.size)
-        g = xt @ xt.T
-        self.xtx += g
-        self.raw_ss += np.diagonal(g)
-        self.xty += xt @ yc
-        self.yty += float(yc @ yc)
+        tz, gram = g.tz, g.gram
+        if g.z is None:  # centred on each group's first x: this fit's anchors
+            z = (x - x0[g.inv]) / scale
+            if g.order is not None:
+                z = z[g.order]
+            tz, gram = _trend_rows(z, self.d1), _gram(_trend_rows(z, self.d1), g)
+        # the rows X and y less its group's first value (a constant of the trend, kept
+        # out of the sums of squares so that they do not cancel), as one array
+        xy = x_rows if x_rows.shape[0] == self.p + 1 else np.empty((self.p + 1, m))
+        if xy is not x_rows:
+            xy[:self.p] = x_rows
+        np.subtract(y, y0[g.inv] if g.order is not None or not g.sorted
+                    else np.repeat(y0, g.counts), out=xy[self.p])
+        if g.order is not None:  # a sweep's runs interleaved: sorted by group once
+            xy = xy[:, g.order]
+            labels = None if labels is None else labels[g.order]
+        mom += self._moments(xy, tz, gram, labels, g)
+        cross = xy @ xy.T                                  # X^T X, X^T y, y^T y at once
+        p = self.p
+        self.xtx += cross[:p, :p]
+        self.raw_ss += np.diagonal(cross)[:p]
+        self.xty += cross[:p, p]
+        self.yty += float(cross[p, p])
         self.n += m
-        self._hold(old, uk, mom, y0, x0, lo, hi, keys[-1])
+        self._hold(old, uk, mom, y0, x0, lo, hi, g.last)
 
-    def _moments(self, z: np.ndarray, xt: np.ndarray, yc: np.ndarray, labels: np.ndarray | None,
-                 inv: np.ndarray, n_groups: int) -> np.ndarray:
+    def _moments(self, xy: np.ndarray, tz: list[np.ndarray], gram: np.ndarray,
+                 labels: np.ndarray | None, g: Grouping) -> np.ndarray:
         """The sums T^T T, T^T X, T^T y and the label counts of each group: (groups, width).
 
-        ``add.reduceat`` over the samples (columns) of each group, row by row: X is
-        summed without a copy for the constant polynomial (t_0 = 1, whose own sums are
-        the counts), and only the distinct products t_i t_j are formed.
+        ``add.reduceat`` over the samples (columns) of each group: the rows of X and y
+        together, summed without a copy for the constant polynomial (t_0 = 1, whose
+        own sums are the counts, in ``gram`` with the t_i t_j of the grouping).
         """
-        d1, p, m = self.d1, self.p, z.size
-        if not bool(np.all(inv[1:] >= inv[:-1])):  # a sweep's runs interleaved: sort once
-            order = np.argsort(inv, kind="stable")
-            inv, z, xt, yc = inv[order], z[order], xt[:, order], yc[order]
-            labels = None if labels is None else labels[order]
-        starts = np.searchsorted(inv, np.arange(n_groups))
-        # t_1 .. t_degree (t_0 = 1)
-        tz = list(np.polynomial.legendre.legvander(z, d1 - 1).T[1:]) if d1 > 2 else [z][:d1 - 1]
-
-        def sums(row: np.ndarray) -> np.ndarray:
-            return np.add.reduceat(row, starts, axis=-1)
-
+        d1, p, n_groups = self.d1, self.p, g.keys.size
         mom = np.zeros((n_groups, self._width))
-        gram = mom[:, :d1 * d1].reshape(n_groups, d1, d1)
-        gram[:, 0, 0] = np.diff(np.append(starts, m))
-        for i in range(1, d1):
-            gram[:, 0, i] = gram[:, i, 0] = sums(tz[i - 1])
-            for j in range(i, d1):
-                gram[:, i, j] = gram[:, j, i] = sums(tz[i - 1] * tz[j - 1])
+        mom[:, :d1 * d1] = gram.reshape(n_groups, d1 * d1)
         tx, ty = d1 * d1, d1 * (d1 + p)      # where T^T X and T^T y start in a row
-        mom[:, tx:tx + p] = sums(xt).T
-        mom[:, ty] = sums(yc)
-        for i in range(1, d1):
-            mom[:, tx + i * p:tx + (i + 1) * p] = sums(xt * tz[i - 1]).T
-            mom[:, ty + i] = sums(yc * tz[i - 1])
+        for i in range(d1):
+            s = np.add.reduceat(xy if i == 0 else xy * tz[i - 1], g.starts, axis=1).T
+            mom[:, tx + i * p:tx + (i + 1) * p] = s[:, :p]
+            mom[:, ty + i] = s[:, p]
         if self.n_labels and labels is not None:
-            counted = np.bincount(inv * self.n_labels + labels, minlength=n_groups * self.n_labels)
+            if g.labelled is None or g.labelled[0] != self.n_labels:  # once per batch
+                g.labelled = (self.n_labels, g.inv_sorted * self.n_labels)
+            counted = np.bincount(g.labelled[1] + labels, minlength=n_groups * self.n_labels)
             mom[:, ty + d1:] = counted.reshape(n_groups, self.n_labels)
         return mom
 
@@ -222,20 +227,82 @@ def _inverse_root(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return basis, ok
 
 
-def _groups(keys: np.ndarray, x: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The groups of a batch: keys, first sample, group of each sample, least and greatest x."""
+@dataclass
+class Grouping:
+    """The groups of one batch and the trend sums that depend on them alone, shared by
+    every fit over the same keys and abscissae (the heads of a run, one reference).
+
+    ``keys`` the distinct keys (sorted), ``last`` the batch's last key, ``first`` the
+    first sample of each, ``counts`` their samples, ``inv`` the group of each sample,
+    ``lo``/``hi`` the least/greatest x; ``sorted``: keys met in order (windows); else
+    ``order`` sorts the samples by group. ``starts``: where each group begins in that
+    order; ``inv_sorted``: the group of each sample in it. ``z``, ``tz`` (t_1 ..
+    t_degree) and ``gram`` (groups, d, d: the sums of t_i t_j, t_0 = 1) in that order,
+    when the centre is given (else None: each fit centres on its groups' first x).
+    """
+
+    keys: np.ndarray
+    last: np.integer
+    first: np.ndarray
+    counts: np.ndarray
+    inv: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    sorted: bool
+    order: np.ndarray | None
+    starts: np.ndarray
+    inv_sorted: np.ndarray
+    z: np.ndarray | None = None
+    tz: list[np.ndarray] = field(default_factory=list)
+    gram: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    labelled: tuple[int, np.ndarray] | None = None  # (n_labels, inv_sorted * n_labels)
+
+
+def group_batch(keys: np.ndarray, x: np.ndarray, degree: int, scale: float,
+                centre: np.ndarray | None = None) -> Grouping:
+    """The :class:`Grouping` of a batch: its groups by ``keys``, and with ``centre`` the
+    trend coordinate z = (x - centre) / scale [1] and its sums per group."""
     if bool(np.all(keys[1:] >= keys[:-1])):  # groups met in order (windows): no sort
         first = np.flatnonzero(keys[1:] != keys[:-1]) + 1
         first = np.concatenate([[0], first])
-        uk = keys[first]
-        inv = np.repeat(np.arange(uk.size), np.diff(np.append(first, keys.size)))
-        lo = np.minimum.reduceat(x, first).astype(np.float64)
-        hi = np.maximum.reduceat(x, first).astype(np.float64)
+        counts = np.diff(np.append(first, keys.size))
+        inv = np.repeat(np.arange(first.size), counts)
+        g = Grouping(keys[first], keys[-1], first, counts, inv,
+                     np.minimum.reduceat(x, first).astype(np.float64),
+                     np.maximum.reduceat(x, first).astype(np.float64),
+                     True, None, first, inv)
     else:
         uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
         lo = np.full(uk.size, np.inf)
         hi = np.full(uk.size, -np.inf)
         np.minimum.at(lo, inv, x)
         np.maximum.at(hi, inv, x)
-    return uk, first, inv, lo, hi
+        counts = np.bincount(inv, minlength=uk.size)
+        sort = bool(np.all(inv[1:] >= inv[:-1]))
+        order = None if sort else np.argsort(inv, kind="stable")
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        g = Grouping(uk, keys[-1], first, counts, inv, lo, hi, False, order, starts,
+                     inv if order is None else inv[order])
+    if centre is not None:
+        z = (x - centre) / scale
+        g.z = z if g.order is None else z[g.order]
+        g.tz = _trend_rows(g.z, degree + 1)
+        g.gram = _gram(g.tz, g)
+    return g
+
+
+def _trend_rows(z: np.ndarray, d1: int) -> list[np.ndarray]:
+    """t_1 .. t_{d1-1}: the Legendre polynomials of z after t_0 = 1."""
+    return list(np.polynomial.legendre.legvander(z, d1 - 1).T[1:]) if d1 > 2 else [z][:d1 - 1]
+
+
+def _gram(tz: list[np.ndarray], g: Grouping) -> np.ndarray:
+    """The sums of t_i t_j of each group (groups, d, d), t_0 = 1 (whose sums are counts)."""
+    d1 = len(tz) + 1
+    gram = np.zeros((g.keys.size, d1, d1))
+    gram[:, 0, 0] = g.counts
+    for i in range(1, d1):
+        gram[:, 0, i] = gram[:, i, 0] = np.add.reduceat(tz[i - 1], g.starts)
+        for j in range(i, d1):
+            gram[:, i, j] = gram[:, j, i] = np.add.reduceat(tz[i - 1] * tz[j - 1], g.starts)
+    return gram

@@ -7,5 +7,6 @@
 - :mod:`.summary`: the report of several inputs (sections + comparisons).
 - :mod:`.text`, :mod:`.jsonout`, :mod:`.html`, :mod:`.pdf`, :mod:`.plots`: renderings.
 - :mod:`.thresholds`: the cron contract (``--max-pp`` ...).
-- :mod:`.history`: the nightly history dataset (one Parquet file per run).
+- :mod:`.history`: the nightly history dataset (one Parquet file per run, in the Hive
+  partitions of :mod:`.partitions`).
 """

@@ -226,7 +226,7 @@ def _history_html(report: Report) -> str:
     h = report.history
     if h is None:
         return ""
-    out = [f"<h2>Nightly history — {_e(h.folder)}</h2>",
+    out = [f"<h2>Nightly history — {_e(h.folder + h.filters_text())}</h2>",
            f"<p>{h.runs} run(s)"
            + (f"; {len(h.skipped)} unreadable file(s) skipped" if h.skipped else "") + ".</p>"]
     if h.runs:

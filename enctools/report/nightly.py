@@ -11,7 +11,8 @@ append the run to the history dataset; the command is ``enc-nightly``
    current - stored at the current positions (the stored curve interpolated
    periodically), mean offset removed (an encoder's zero is arbitrary);
    ``drift_max`` = max |drift|, ``drift_pp`` = its peak-to-peak.
-4. Append one row to the history folder (:mod:`.history`), whatever happened.
+4. Append one row to the history dataset (:mod:`.history`), in the rig's partition
+   ``rig=NAME/year=YYYY``, whatever happened.
 5. The exit status: 0 (within tolerance), 1 (drift > tolerance), 2 (bad usage or
    input), 3 (the campaign reported a device fault) or the campaign's own failing
    status.
@@ -67,6 +68,13 @@ class Settings:
         if not (self.tolerance >= 0 and math.isfinite(self.tolerance)):
             msg = f"--max-drift must be >= 0, not {self.tolerance}"
             raise UsageError(msg)
+        from enctools.report.partitions import rig_folder
+
+        try:  # the rig names the history's partition folder
+            rig_folder(self.rig)
+        except ValueError as exc:
+            msg = f"--rig: {exc}"
+            raise UsageError(msg) from None
 
 
 @dataclass
@@ -385,7 +393,7 @@ def _write_html(path: str, s: Settings, rep: Report, d: Drift, status: str) -> N
     from enctools.report.history import read_history
     from enctools.report.html import to_html
 
-    rep.history = read_history(s.history_dir)
+    rep.history = read_history(s.history_dir, rig=s.rig)
     rep.settings["thresholds"] = {"drift tolerance": s.tolerance}
     fails = [] if status == "ok" else [f"drift {d.max_abs:.3f} arcsec > {s.tolerance:g}"]
     page = to_html(rep, fails, f"Nightly recheck — {s.rig}").encode()

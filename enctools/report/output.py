@@ -24,6 +24,7 @@ def check_paths(paths: Sequence[str | None], force: bool) -> None:
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
+               history_filter: dict[str, Any] | None = None,
                prog: str = "enc report", unit: str = "arcsec",
                progress: Callable[[int, int], object] | None = None,
                mapping: Any = None) -> None:
@@ -31,7 +32,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
 
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
     and PDF show angle errors in ``unit`` (:func:`~enctools.report.display.in_unit`);
-    the JSON summary and the thresholds keep arcsec. ``progress(done, total)`` counts
+    the JSON summary and the thresholds keep arcsec. ``history_filter``: the ``rig`` and
+    ``since`` of the history's runs to read. ``progress(done, total)`` counts
     the inputs read and the HTML and PDF renderings. ``mapping``: how a user's table
     maps to points (``data.tablemap.Mapping``).
     """
@@ -44,7 +46,7 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     report = build_report(sources, opts, step, mapping)
     if history_dir is not None:
         from enctools.report.history import read_history
-        report.history = read_history(history_dir)
+        report.history = read_history(history_dir, **(history_filter or {}))
     report.settings["thresholds"] = limits.to_dict()
     failures = check(report, limits)
     shown = in_unit(report, unit)

@@ -9,6 +9,8 @@ kept in constant memory: a bitmap of the period, sums per closed group.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from enctools.errors import DataError
@@ -81,6 +83,14 @@ class PhaseCoverage:
         return int(np.floor(np.pi / gap - 1e-9)) if gap > 0 else n
 
 
+@functools.lru_cache(maxsize=8)
+def _sector_table(steps: int) -> np.ndarray:
+    """The quarter of each step 0 .. steps - 1 of a period: step * SECTORS // steps."""
+    table = np.arange(steps, dtype=np.int64) * SECTORS // steps
+    table.flags.writeable = False
+    return table
+
+
 def sectors(phase: np.ndarray, step: np.ndarray | None = None, steps: int = 0) -> np.ndarray:
     """The quarter of the signal period (0 .. :data:`SECTORS` - 1) each sample's phase is in.
 
@@ -88,8 +98,8 @@ def sectors(phase: np.ndarray, step: np.ndarray | None = None, steps: int = 0) -
     The fit counts them per group (a window covers the period when every quarter has a
     sample).
     """
-    if step is not None:
-        return np.asarray(step, dtype=np.int64) * SECTORS // steps
+    if step is not None:  # looked up: a division per sample costs more
+        return _sector_table(steps).take(np.asarray(step, dtype=np.int64))
     return np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
                       SECTORS - 1)
 

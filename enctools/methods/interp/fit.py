@@ -16,7 +16,8 @@ is the device part as a function of phase (:mod:`enctools.methods.interp.model`)
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,7 +40,7 @@ from enctools.methods.interp.model import (
     scaled_normal_matrix,
     solve_scaled,
 )
-from enctools.methods.trend_lsq import TrendProjectedLSQ
+from enctools.methods.trend_lsq import Grouping, TrendProjectedLSQ, group_batch
 from enctools.units import ARCSEC, TWO_PI
 
 #: (device step [count], its steps per period, reference step [count] or None, its steps)
@@ -91,6 +92,14 @@ class _Samples:
 
     def finite(self) -> tuple[_Samples, int]:
         """The samples whose readings and phases are all finite, and how many were not."""
+        # first without a temporary: a sum is finite only when all its terms are (one
+        # that overflows falls through to the test of each sample)
+        total = float(np.sum(self.device_rad)) - float(np.sum(self.reference_rad)) \
+            + float(np.sum(self.device_phase))
+        if self.reference_phase is not None:
+            total += float(np.sum(self.reference_phase))
+        if math.isfinite(total):
+            return self, 0
         good = (np.isfinite(self.device_rad) & np.isfinite(self.reference_rad)
                 & np.isfinite(self.device_phase))
         if self.reference_phase is not None:
@@ -106,6 +115,26 @@ class _Samples:
             None if self.reference_phase is None else self.reference_phase[good],
             None if self.positions is None else np.asarray(self.positions)[good],
             steps), int(good.size - np.count_nonzero(good))
+
+
+class SharedGrouping:
+    """The trend windows of the last batch, made by the first of several fits against
+    one reference (the devices of a run) and used by the others: the same reference
+    array and groups, the same origin, window and trend degree."""
+
+    def __init__(self) -> None:
+        self._of: tuple[object, object, tuple[float, float, int]] | None = None
+        self._grouping: Grouping | None = None
+
+    def get(self, arrays: tuple[np.ndarray, np.ndarray | None], how: tuple[float, float, int],
+            make: Callable[[], Grouping]) -> Grouping:
+        """The grouping of ``arrays`` (reference, groups) made ``how``; ``make()`` when new."""
+        of = self._of
+        if of is None or of[0] is not arrays[0] or of[1] is not arrays[1] or of[2] != how \
+                or self._grouping is None:
+            self._grouping = make()
+            self._of = (arrays[0], arrays[1], how)  # held: their ids stay theirs
+        return self._grouping
 
 
 class InterpolationFit:
@@ -124,7 +153,7 @@ class InterpolationFit:
                  keep: Sequence[int] | None = None, trend_degree: int = 1,
                  reference_orders: Sequence[int] = (),
                  reference_periods_per_rev: int | None = None,
-                 window: float | None = None) -> None:
+                 window: float | None = None, shared: SharedGrouping | None = None) -> None:
         if harmonics < 1:
             msg = f"harmonics must be >= 1, not {harmonics}"
             raise DataError(msg)
@@ -150,6 +179,7 @@ class InterpolationFit:
         self.lsq = TrendProjectedLSQ(n_cols, trend_degree, consecutive=window is not None,
                                      on_close=self.runs.closed, n_labels=SECTORS)
         self._origin: float | None = None
+        self.shared = shared if shared is not None else SharedGrouping()
         self.skipped = 0  # samples with a NaN or infinite reading, probe or phase
 
     def add(self, device_rad: np.ndarray, device_phase: np.ndarray, reference_rad: np.ndarray,
@@ -169,25 +199,36 @@ class InterpolationFit:
         dev_step, dev_steps, ref_step, ref_steps = s.steps if s.steps is not None \
             else (None, 0, None, 0)
         self.cover.add(s.device_phase, s.positions, dev_step, dev_steps)
-        x_rows = np.empty((self.lsq.p, s.device_rad.size))
+        x_rows = np.empty((self.lsq.p + 1, s.device_rad.size))  # the last row: for zeta
         n_dev = 2 * self.orders.size
         harmonic_rows(s.device_phase, self.orders, x_rows[:n_dev], dev_step, dev_steps)
         if self.ref_orders.size and s.reference_phase is not None:
             harmonic_rows(s.reference_phase, self.ref_orders, x_rows[n_dev:], ref_step, ref_steps)
-        zeta = (s.device_rad - s.reference_rad) / ARCSEC
+        zeta = np.subtract(s.device_rad, s.reference_rad, out=x_rows[-1])  # the lsq's y row
+        zeta /= ARCSEC
         ref = s.reference_rad
-        keys = np.zeros(ref.size, np.int64) if s.groups is None \
-            else np.asarray(s.groups).astype(np.int64)
         quarter = sectors(s.device_phase, dev_step, dev_steps)
         if self.window is None:
+            keys = np.zeros(ref.size, np.int64) if s.groups is None \
+                else np.asarray(s.groups).astype(np.int64)
             self.lsq.add(x_rows, zeta, ref, keys, self.period, labels=quarter)
             return
         if self._origin is None:
             self._origin = float(ref[0])
+        grouping = self.shared.get((ref, s.groups), (self._origin, self.window, self.lsq.d1),
+                                   lambda: self._windows(ref, s.groups))
+        self.lsq.add(x_rows, zeta, ref, None, self.window / 2, labels=quarter,
+                     grouping=grouping)
+
+    def _windows(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
+        """The batch's trend windows: keys (group, window) and the centre of each window."""
+        assert self.window is not None and self._origin is not None
+        keys = np.zeros(ref.size, np.int64) if groups is None \
+            else np.asarray(groups).astype(np.int64)
         w = np.floor((ref - self._origin) / self.window)
         centre = self._origin + (w + 0.5) * self.window
         keys = (keys << 40) + w.astype(np.int64)
-        self.lsq.add(x_rows, zeta, ref, keys, self.window / 2, centre=centre, labels=quarter)
+        return group_batch(keys, ref, self.lsq.d1 - 1, self.window / 2, centre)
 
     def _checked(self, device_rad: np.ndarray, device_phase: np.ndarray,
                  reference_rad: np.ndarray, groups: np.ndarray | None,

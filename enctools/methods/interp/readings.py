@@ -26,7 +26,7 @@ from enctools.data.readings import HeadInfo, head_angle, head_info, signal_step
 from enctools.data.schemas import columns_with_role
 from enctools.errors import DataError
 from enctools.methods.interp.curve import Curve, harmonics_meta
-from enctools.methods.interp.fit import InterpolationFit
+from enctools.methods.interp.fit import InterpolationFit, SharedGrouping
 from enctools.methods.interp.reference import Reference, open_reference
 from enctools.methods.interp.settings import Settings
 from enctools.methods.interp.tables import chunks, column
@@ -58,7 +58,10 @@ def device_reading(counts: Sequence[np.ndarray], infos: Sequence[HeadInfo]
     phase offsets); the step is that phase in counts
     (:func:`enctools.data.readings.signal_step`).
     """
-    angle = np.mean([head_angle(c, i) for c, i in zip(counts, infos, strict=True)], axis=0)
+    if len(counts) == 1:  # one head: its angle (the mean of one is itself, bit for bit)
+        angle = head_angle(counts[0], infos[0])
+    else:
+        angle = np.mean([head_angle(c, i) for c, i in zip(counts, infos, strict=True)], axis=0)
     return angle, signal_step(np.asarray(counts[0]), infos[0])
 
 
@@ -130,6 +133,7 @@ def _plan(schema: pa.Schema, names: list[str], settings: Settings, reference: Re
           ) -> tuple[list[Device], list[str]]:
     """The devices to fit, and the warnings of heads left out (sampled synchronously)."""
     devices, skipped = [], []
+    shared = SharedGrouping()  # every device's trend windows are the reference's
     for heads in [names] if settings.average else [[n] for n in names]:
         infos = [head_info(schema, n) for n in heads]
         name = heads[0] if len(heads) == 1 else "mean(" + ",".join(heads) + ")"
@@ -152,7 +156,8 @@ def _plan(schema: pa.Schema, names: list[str], settings: Settings, reference: Re
             msg = (f"heads {', '.join(heads)} have different signal periods: "
                    "average heads of one encoder")
             raise DataError(msg)
-        devices.append(_device(heads, infos, name, settings, reference, strobe, window_arcsec))
+        devices.append(_device(heads, infos, name, settings, reference, strobe, window_arcsec,
+                               shared))
     if not devices:
         msg = skipped[0].replace(": not checked", "") if skipped else "input: no head to check"
         raise DataError(msg)
@@ -161,7 +166,7 @@ def _plan(schema: pa.Schema, names: list[str], settings: Settings, reference: Re
 
 def _device(heads: list[str], infos: list[HeadInfo], name: str, settings: Settings,
             reference: Reference, strobe: dict[str, float],
-            window_arcsec: float | None) -> Device:
+            window_arcsec: float | None, shared: SharedGrouping) -> Device:
     """The fit of one device: harmonics fitted and kept, the reference's own, the trends."""
     ppr = infos[0].periods_per_rev
     other_period = reference.other_period(ppr)
@@ -183,7 +188,8 @@ def _device(heads: list[str], infos: list[HeadInfo], name: str, settings: Settin
         ppr, harmonics=harmonics, keep=keep, trend_degree=settings.trend_degree,
         reference_orders=range(1, settings.reference_harmonics + 1) if fits_reference else (),
         reference_periods_per_rev=reference.periods_per_rev,
-        window=window_arcsec * ARCSEC if window_arcsec is not None else None)
+        window=window_arcsec * ARCSEC if window_arcsec is not None else None,
+        shared=shared)
     return Device(heads, infos, name, fits_reference, warnings, fit)
 
 

@@ -1,0 +1,113 @@
+#!/usr/bin/env python3
+"""interp-check on a continuous run, before and after the fit's speed-ups (issue 18, item 1).
+
+Records one continuous run of the sjtu-dual rig at the paper's 3 ms (as benchmarks/bench.py
+does), then runs ``enc interp-check -q --ref P1`` on it, read from a pipe, with this
+checkout's code and with the code of a git revision (default: the fit before its
+speed-ups), each in turn and the best of ``--repeat``; ``cat`` of the same bytes into
+/dev/null is timed between them. CPU seconds (user + system, the reading thread
+included) are the figures that hold on a shared machine; wall seconds are printed too.
+Both outputs must agree to rounding (1e-12 arcsec).
+
+Usage: interp_fit.py [--revolutions 200] [--before REV] [--repeat 3] [--out bench-out]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+
+ROOT = Path(__file__).resolve().parent.parent
+PY = sys.executable
+#: the fit before its speed-ups: the parent of the first of them (the 2026-11-26 code)
+BEFORE = "ec875cc~1"
+RUN = ["acquire", "--rig", "sjtu-dual", "--interval", "0.003", "-q"]
+CHECK = ["interp-check", "-q", "--ref", "P1", "--force"]
+ENC = "import sys; sys.argv[0] = 'enc'; from enctools.cli.main import main; main()"
+
+
+def cpu_children() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def timed(shell: str, env: dict[str, str], cwd: Path) -> tuple[float, float]:
+    """(CPU, wall) seconds of a shell pipeline run in ``cwd`` (not this checkout: for
+    ``python -c`` the current folder comes before PYTHONPATH)."""
+    c0, t0 = cpu_children(), time.perf_counter()
+    subprocess.run(["/bin/bash", "-o", "pipefail", "-c", shell], env=env, check=True, cwd=cwd)
+    return cpu_children() - c0, time.perf_counter() - t0
+
+
+def check_shell(code: Path, run: Path, out: Path) -> tuple[str, dict[str, str]]:
+    env = dict(os.environ, PYTHONPATH=str(code))
+    cmd = " ".join([f"cat {run} |", PY, "-c", f'"{ENC}"', *CHECK, "-o", str(out)])
+    return cmd, env
+
+
+def deviations(path: Path) -> np.ndarray:
+    """The checked curves and their u, whatever the columns' names."""
+    t = pq.read_table(path)
+    return np.column_stack([t.column(n).to_numpy() for n in t.column_names])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--revolutions", type=int, default=200)
+    ap.add_argument("--before", default=BEFORE)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--out", default=str(ROOT / "bench-out"))
+    a = ap.parse_args()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="interp-fit-") as tmp:
+        d = Path(tmp)
+        before = d / "before"
+        before.mkdir()
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", a.before, "enctools",
+                                  "schemas"], check=True, capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(before)], input=archive, check=True)
+        run = d / "run.arrows"
+        subprocess.run([PY, "-c", ENC, *RUN, "--revolutions", str(a.revolutions), "-o",
+                        str(run)], check=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                       cwd=d)
+        best: dict[str, tuple[float, float]] = {}
+        for _ in range(a.repeat):
+            for name, code in (("after", ROOT), ("before", before)):
+                cmd, env = check_shell(code, run, d / f"{name}.parquet")
+                t = timed(cmd, env, d)
+                best[name] = min(best.get(name, t), t)
+                c = timed(f"cat {run} > /dev/null", dict(os.environ), d)
+                best["cat"] = min(best.get("cat", c), c)
+        diff = float(np.max(np.abs(deviations(d / "after.parquet")
+                                   - deviations(d / "before.parquet"))))
+        size = run.stat().st_size
+    res = {"revolutions": a.revolutions, "bytes": size, "before": a.before,
+           "cpu_s": {k: v[0] for k, v in best.items()},
+           "wall_s": {k: v[1] for k, v in best.items()}, "max_abs_diff_arcsec": diff}
+    (out / "interp_fit.json").write_text(json.dumps(res, indent=1))
+    cpu, wall = res["cpu_s"], res["wall_s"]
+    print(f"| interp-check, continuous run, {a.revolutions} r | CPU s | wall s | "
+          "CPU vs before | wall vs `cat` |")
+    print("|---|---:|---:|---:|---:|")
+    for k in ("before", "after", "cat"):
+        print(f"| {k} | {cpu[k]:.2f} | {wall[k]:.2f} | {cpu[k] / cpu['before']:.2f} | "
+              f"{wall[k] / wall['cat']:.1f} |")
+    print(f"\nlargest difference of the curves and their u: {diff:.2g} arcsec")
+    if not diff < 1e-12:
+        sys.exit(f"interp_fit: the results differ by {diff:.3g} arcsec")
+
+
+if __name__ == "__main__":
+    main()
