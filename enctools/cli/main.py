@@ -111,6 +111,8 @@ def main(argv: list[str] | None = None) -> None:
 
     with without_pandas():
         status = runner.run(invoke, debug)
+    if argv is None:  # the enc process itself: its outputs are closed, nothing is left to do
+        runner.exit_now(status)
     sys.exit(status)
 
 
