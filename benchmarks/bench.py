@@ -289,6 +289,7 @@ def make_rom_rows(out: Path, repeat: int, quick: bool,
         if quick and bits > 23:
             continue
         target = d / f"table.{fmt}"
+        kept = d / f"before.{fmt}"  # the before code's table, compared with this tree's
         run = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {target} --force"
         m = timed(f"{gnu_time()} {run}", 1)
         size = target.stat().st_size
@@ -296,17 +297,17 @@ def make_rom_rows(out: Path, repeat: int, quick: bool,
                   "dd": f"dd if=/dev/zero of={d}/dd.out bs=1M count={max(size >> 20, 1)} "
                         "status=none"}
         if before is not None:
-            shells["before"] = with_env(before, run.replace(f"-o {target}", f"-o {target}.0"))
+            shells["before"] = with_env(before, run.replace(f"-o {target}", f"-o {kept}"))
         t = interleaved(shells, repeat if bits <= 23 else 2)
         row = {"entries": 1 << bits, "bits": bits, "format": fmt, "seconds": t["after"][0],
                "cpu_seconds": t["after"][1], "peak_mb": m["peak_mb"], "bytes": size,
                "entries_per_s": (1 << bits) / t["after"][0], "dd_seconds": t["dd"][0],
                "vs_dd": t["after"][0] / t["dd"][0]}
         if "before" in t:
-            same = subprocess.run(["cmp", "-s", str(target), f"{target}.0"]).returncode == 0
+            same = subprocess.run(["cmp", "-s", str(target), str(kept)]).returncode == 0
             row |= {"before_seconds": t["before"][0], "before_vs_dd": t["before"][0] / t["dd"][0],
                     "identical_to_before": same}
-            Path(f"{target}.0").unlink()
+            kept.unlink()
         rows.append(row)
         target.unlink()
         (d / "dd.out").unlink(missing_ok=True)
@@ -400,6 +401,12 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
     return row
 
 
+def done(results: dict, out: Path, part: str) -> None:
+    """Keep what is measured so far (bench.json), say so on stderr."""
+    (out / "bench.json").write_text(json.dumps(results, indent=2))
+    print(f"bench: {part} done", file=sys.stderr)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--revolutions", default="20,200,2000")
@@ -424,11 +431,11 @@ def main() -> None:
         "runs": [],
     }
     results["commands"] = command_startup(out, 5, before)
-    print("bench: start-up done", file=sys.stderr)
+    done(results, out, "start-up")
     results["report"] = report_rows(out, 1 if args.quick else 3, before)
-    print("bench: report done", file=sys.stderr)
+    done(results, out, "report")
     results["make_rom"] = make_rom_rows(out, repeat, args.quick, before)
-    print("bench: make-rom done", file=sys.stderr)
+    done(results, out, "make-rom")
     filters = {k: v for k, v in FILTERS.items() if available(v[0])}
     tiny = out / "raw-tiny.arrows"
     timed(f"{ENC} {RUN} --revolutions 2 -o {tiny} --force")
