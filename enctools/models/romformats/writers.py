@@ -186,8 +186,12 @@ def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
 def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """``address,correction`` in decimal, the header line first: no comment lines, which
     pandas, Miller and csvkit would take for the header (``comment`` is left out)."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
     f.write(b"address,correction\n")
-    _write_assignments(f, values.astype(np.int64, copy=False), "", ",")
+    table = pa.table({"address": pa.array(np.arange(values.size, dtype=np.int64)),
+                      "correction": pa.array(values.astype(np.int64))})
+    pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
 
 
 def _closed(values: np.ndarray) -> np.ndarray:
