@@ -23,7 +23,8 @@ def _text_pages(text: str, title: str, lines_per_page: int = 70) -> list[Figure]
         fig.text(0.05, 0.97, title if start == 0 else f"{title} (cont.)", fontsize=13,
                  va="top", weight="bold")
         chunk = "\n".join(line[:110] for line in lines[start:start + lines_per_page])
-        fig.text(0.05, 0.94, chunk, family="monospace", fontsize=6.3, va="top")
+        fig.text(0.05, 0.94, chunk, family="monospace", fontsize=6.3, va="top",
+                 weight="medium")  # the weight the PDF's own Courier has
         pages.append(fig)
     return pages
 
@@ -40,7 +41,7 @@ def _image_page(png: bytes, caption: str | None = None) -> Figure:
     fig.figimage(pixels, 0, round(below * DPI))
     if caption:
         fig.text(0.5, 0.5 * below / (high / DPI + below), caption, fontsize=9, ha="center",
-                 va="center")
+                 va="center", weight="medium")
     return fig
 
 
