@@ -8,7 +8,11 @@ throughput over the same bytes, a bare ``python -c pass``), each reference timed
 turn with what it is compared to and the best of three taken, so a busy or slow
 machine changes the absolute numbers more than the ratios.
 
-Usage: bench.py [--revolutions 20,200,2000] [--out bench-out] [--quick]
+"Before" figures come from the code of another commit (``--before``, main by default),
+unpacked into the output folder and run with the same Python and libraries, timed in
+turn with the code of this tree: the ratio after / before is of one run.
+
+Usage: bench.py [--revolutions 20,200,2000] [--out bench-out] [--quick] [--before REV]
 """
 
 from __future__ import annotations
@@ -85,6 +89,72 @@ def gnu_time() -> str:
     return "/usr/bin/time -f 'PEAK_KB %M'"
 
 
+def cpu_model() -> str:
+    """The CPU's model name as the kernel reports it (/proc/cpuinfo), else platform's."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def memory_gib() -> float:
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal:"):
+                return int(line.split()[1]) / (1 << 20)
+    except OSError:
+        pass
+    return float("nan")
+
+
+#: the libraries whose versions the figures depend on
+LIBRARIES = ("numpy", "pyarrow", "scipy", "matplotlib", "h5py", "click")
+
+
+def machine(bytecode_env: str | None) -> dict[str, object]:
+    """What the figures were measured on: CPU model, cores, memory, Python, libraries and
+    how compiled bytecode was handled (``bytecode_env``: the caller's
+    PYTHONDONTWRITEBYTECODE, which the bench unsets for its own runs)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    libs = {}
+    for name in LIBRARIES:
+        try:
+            libs[name] = version(name)
+        except PackageNotFoundError:
+            libs[name] = None
+    return {"cpu": cpu_model(), "cores": os.cpu_count(), "memory_gib": round(memory_gib(), 1),
+            "python": platform.python_version(), "libraries": libs,
+            "bytecode": ("cached (PYTHONPYCACHEPREFIX in the output folder); the caller had "
+                         f"PYTHONDONTWRITEBYTECODE={bytecode_env}" if bytecode_env else
+                         "cached (PYTHONPYCACHEPREFIX in the output folder)")}
+
+
+def before_tree(rev: str, out: Path) -> dict[str, str] | None:
+    """The code of commit ``rev`` unpacked into ``out/before`` (None when git cannot):
+    the environment that runs ``enc`` on it (PYTHONPATH ahead of this tree's install)."""
+    d = out / "before"
+    shutil.rmtree(d, ignore_errors=True)
+    d.mkdir(parents=True)
+    r = subprocess.run(f"git -C {ROOT} archive {rev} enctools schemas | tar -x -C {d}", shell=True,
+                       capture_output=True)
+    if r.returncode != 0:
+        print(f"bench: no before figures ({rev}: {r.stderr.decode().strip()[:200]})",
+              file=sys.stderr)
+        return None
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", rev],
+                            capture_output=True, text=True).stdout.strip()
+    return {"PYTHONPATH": str(d), "rev": rev, "commit": commit}
+
+
+def with_env(env: dict[str, str] | None, shell: str) -> str:
+    """``shell`` run with the before tree ahead on the path (as given when env is None)."""
+    return shell if env is None else f"PYTHONPATH={env['PYTHONPATH']} {shell}"
+
+
 def startup(repeat: int) -> dict[str, float]:
     """``enc --help`` against bare Python and ``import click`` (wall seconds; the ratio of CPU
     seconds, timed in turn: see :func:`interleaved`)."""
@@ -153,12 +223,14 @@ def interleaved(shells: dict[str, str], repeat: int) -> dict[str, tuple[float, f
     return best
 
 
-def command_startup(out: Path, repeat: int) -> dict[str, dict]:
+def command_startup(out: Path, repeat: int,
+                    before: dict[str, str] | None = None) -> dict[str, dict]:
     """Every command's fixed cost: ``enc CMD --help`` and a run on a tiny input.
 
     Ratios: --help to ``python -c pass`` and ``import click``; the run to ``import
-    numpy, pyarrow`` (what any command that reads a stream must load). Each command
-    is timed in turn with its references (:func:`interleaved`).
+    numpy, pyarrow`` (what any command that reads a stream must load), and the same
+    run of the ``before`` code. Each command is timed in turn with its references
+    (:func:`interleaved`).
     """
     from enctools.cli.main import COMMANDS
 
@@ -177,6 +249,8 @@ def command_startup(out: Path, repeat: int) -> dict[str, dict]:
         if name in TINY_RUNS:
             args = TINY_RUNS[name].format(d=d, table1=table1)
             shells["tiny"] = f"{ENC} {args} > /dev/null"  # timed as the references: no GNU time
+            if before is not None:
+                shells["tiny before"] = with_env(before, shells["tiny"])
         t = interleaved(shells, repeat)
         cpu = {k: v[1] for k, v in t.items()}
         row = {"help_seconds": t["help"][0], "help_cpu_seconds": cpu["help"],
@@ -188,17 +262,24 @@ def command_startup(out: Path, repeat: int) -> dict[str, dict]:
                     "tiny_seconds": t["tiny"][0], "tiny_cpu_seconds": cpu["tiny"],
                     "tiny_vs_numpy_pyarrow": cpu["tiny"] / cpu["numpy, pyarrow"],
                     "tiny_peak_mb": peak}
+            if "tiny before" in t:
+                row |= {"tiny_before_cpu_seconds": cpu["tiny before"],
+                        "tiny_before_vs_numpy_pyarrow": cpu["tiny before"] / cpu["numpy, pyarrow"]}
         rows[name] = row
     shutil.rmtree(d)
     return rows
 
 
 #: make-rom rows: (address bits, table format) from the RBF model of seed 001 table 1
-ROM_SIZES = ((23, "bin"), (23, "mif"), (26, "bin"), (26, "mif"))
+ROM_SIZES = ((23, "bin"), (23, "mif"), (26, "bin"), (26, "mif"), (26, "coe"), (26, "mem"),
+             (26, "hex"), (26, "csv"))
 
 
-def make_rom_rows(out: Path, repeat: int, quick: bool) -> list[dict]:
-    """make-rom of the table-1 RBF model into 2^23 and 2^26 entries, binary and MIF."""
+def make_rom_rows(out: Path, repeat: int, quick: bool,
+                  before: dict[str, str] | None = None) -> list[dict]:
+    """make-rom of the table-1 RBF model into 2^23 and 2^26 entries, binary and every text
+    table, each timed in turn with ``dd`` writing as many bytes into the same folder and
+    with the ``before`` code (wall seconds: the writing is the work)."""
     d = out / "rom"
     d.mkdir(exist_ok=True)
     table1 = ROOT / "tests" / "data" / "seed001_table1.csv"
@@ -208,12 +289,67 @@ def make_rom_rows(out: Path, repeat: int, quick: bool) -> list[dict]:
         if quick and bits > 23:
             continue
         target = d / f"table.{fmt}"
-        m = timed(f"{gnu_time()} {ENC} make-rom {d}/model.arrows --bits {bits} -q "
-                  f"-o {target} --force", repeat if bits <= 23 else 1)
-        rows.append({"entries": 1 << bits, "bits": bits, "format": fmt, "seconds": m["seconds"],
-                     "peak_mb": m["peak_mb"], "bytes": target.stat().st_size,
-                     "entries_per_s": (1 << bits) / m["seconds"]})
+        kept = d / f"before.{fmt}"  # the before code's table, compared with this tree's
+        run = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {target} --force"
+        m = timed(f"{gnu_time()} {run}", 1)
+        size = target.stat().st_size
+        shells = {"after": run,
+                  "dd": f"dd if=/dev/zero of={d}/dd.out bs=1M count={max(size >> 20, 1)} "
+                        "status=none"}
+        if before is not None:
+            shells["before"] = with_env(before, run.replace(f"-o {target}", f"-o {kept}"))
+        t = interleaved(shells, repeat if bits <= 23 else 2)
+        row = {"entries": 1 << bits, "bits": bits, "format": fmt, "seconds": t["after"][0],
+               "cpu_seconds": t["after"][1], "peak_mb": m["peak_mb"], "bytes": size,
+               "entries_per_s": (1 << bits) / t["after"][0], "dd_seconds": t["dd"][0],
+               "vs_dd": t["after"][0] / t["dd"][0]}
+        if "before" in t:
+            # the same table; the provenance comment (time, command line) aside
+            drop = r"grep -v -e '^-- ' -e '^; ' -e '^// '"
+            same = subprocess.run(["bash", "-c", f"cmp -s <({drop} {target}) <({drop} {kept})"]
+                                  ).returncode == 0
+            row |= {"before_seconds": t["before"][0], "before_vs_dd": t["before"][0] / t["dd"][0],
+                    "identical_to_before": same}
+            kept.unlink()
+        rows.append(row)
         target.unlink()
+        (d / "dd.out").unlink(missing_ok=True)
+    shutil.rmtree(d)
+    return rows
+
+
+#: the seed 000 campaign's report as `make demo` writes it (examples/sjtu-dual.mk, step 11)
+REPORT_INPUTS = ("grad.parquet", "grad-spectrum.parquet", "h-p.parquet", "interp.parquet",
+                 "interp-by-p1.parquet", "interp-run.parquet")
+
+
+def report_rows(out: Path, repeat: int, before: dict[str, str] | None) -> dict[str, dict]:
+    """``enc report`` of the seed 000 campaign: HTML + PDF, text only, JSON only; this
+    tree and the ``before`` code in turn (wall and CPU seconds, the best of ``repeat``)."""
+    d = out / "campaign"
+    r = subprocess.run(["make", "-s", "-f", str(ROOT / "examples" / "sjtu-dual.mk"),
+                        f"ENC={ENC}", f"OUT={d}", str(d / "report.html")],
+                       capture_output=True, cwd=ROOT)
+    if r.returncode != 0:
+        raise RuntimeError(f"campaign: {r.stderr.decode()[-500:]}")
+    inputs = " ".join(str(d / f) for f in REPORT_INPUTS)
+    runs = {"HTML + PDF": f"{ENC} report {inputs} --html {d}/r.html --pdf {d}/r.pdf --force",
+            "text": f"{ENC} report {inputs}", "JSON": f"{ENC} report {inputs} --json"}
+    rows: dict[str, dict] = {}
+    for label, run in runs.items():
+        shells = {"after": f"{run} > /dev/null"}
+        if before is not None:
+            shells["before"] = with_env(before, shells["after"])
+        t = interleaved(shells, repeat)
+        row = {"seconds": t["after"][0], "cpu_seconds": t["after"][1]}
+        if "before" in t:
+            row |= {"before_seconds": t["before"][0], "before_cpu_seconds": t["before"][1],
+                    "speed_up_cpu": t["before"][1] / t["after"][1]}
+        if before is not None:  # the same output from both
+            a = subprocess.run(["bash", "-c", run], capture_output=True).stdout
+            b = subprocess.run(["bash", "-c", with_env(before, run)], capture_output=True).stdout
+            row["stdout_identical_to_before"] = a == b
+        rows[label] = row
     shutil.rmtree(d)
     return rows
 
@@ -320,30 +456,43 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
     return row
 
 
+def done(results: dict, out: Path, part: str) -> None:
+    """Keep what is measured so far (bench.json), say so on stderr."""
+    (out / "bench.json").write_text(json.dumps(results, indent=2))
+    print(f"bench: {part} done", file=sys.stderr)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--revolutions", default="20,200,2000")
     ap.add_argument("--out", default=str(ROOT / "bench-out"))
     ap.add_argument("--quick", action="store_true", help="20 and 200 revolutions, one repeat")
+    ap.add_argument("--before", default="main",
+                    help="the commit whose code gives the before figures ('' for none)")
     args = ap.parse_args()
     revs = [20, 200] if args.quick else [int(r) for r in args.revolutions.split(",")]
     repeat = 1 if args.quick else 3
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     # as installed: compiled bytecode cached (here in bench-out, not in the source tree)
-    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    bytecode_env = os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     os.environ.setdefault("PYTHONPYCACHEPREFIX", str(out.resolve() / "pycache"))
+    before = before_tree(args.before, out) if args.before else None
     results: dict[str, object] = {
         "date": time.strftime("%Y-%m-%d"),
-        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-                   f"Python {platform.python_version()}",
+        "machine": machine(bytecode_env),
+        "before": None if before is None else {"rev": before["rev"], "commit": before["commit"]},
         "startup": startup(5),
         "runs": [],
     }
-    results["commands"] = command_startup(out, 5)
-    results["make_rom"] = make_rom_rows(out, repeat, args.quick)
+    results["commands"] = command_startup(out, 5, before)
+    done(results, out, "start-up")
+    results["report"] = report_rows(out, 1 if args.quick else 3, before)
+    done(results, out, "report")
+    results["make_rom"] = make_rom_rows(out, repeat, args.quick, before)
+    done(results, out, "make-rom")
     results["fit_rbf"] = fit_rbf_rows()
-    print("bench: start-up and make-rom done", file=sys.stderr)
+    done(results, out, "fit-rbf")
     filters = {k: v for k, v in FILTERS.items() if available(v[0])}
     tiny = out / "raw-tiny.arrows"
     timed(f"{ENC} {RUN} --revolutions 2 -o {tiny} --force")
@@ -359,8 +508,21 @@ def main() -> None:
     print(markdown(results))
 
 
+def machine_line(res: dict) -> str:
+    """One sentence: the date, the machine and what it ran (the before code's commit)."""
+    m = res["machine"]
+    if not isinstance(m, dict):  # an older bench.json: the machine as one string
+        return f"Measured {res['date']} on {m} (`make bench`)."
+    libs = ", ".join(f"{k} {v}" for k, v in m["libraries"].items() if v)
+    before = res.get("before")
+    then = f"; before: the code of {before['rev']} ({before['commit']})" if before else ""
+    return (f"Measured {res['date']} with `make bench` on {m['cores']} cores of an "
+            f"{m['cpu']}, {m['memory_gib']:g} GiB, Python {m['python']}, {libs}; bytecode "
+            f"{m['bytecode']}{then}.")
+
+
 def markdown(res: dict) -> str:
-    lines = [f"Measured {res['date']} on {res['machine']} (`make bench`).", ""]
+    lines = [machine_line(res), ""]
     lines += ["| command | revolutions | head-samples/s | vs `cat` | vs `cat`, after start-up "
               "| peak memory |",
               "|---|---:|---:|---:|---:|---:|"]
@@ -388,8 +550,30 @@ def markdown(res: dict) -> str:
     s = res["startup"]
     lines += ["", "| start-up | seconds |", "|---|---:|"]
     lines += [f"| {k} | {v:.3f} |" for k, v in s.items()]
-    lines += _startup_table(res) + _make_rom_table(res) + _fit_rbf_table(res)
+    lines += _startup_table(res) + _report_table(res) + _make_rom_table(res) + _fit_rbf_table(res)
     return "\n".join(lines)
+
+
+def _ratio(x: float | None) -> str:
+    return "" if x is None else f"{x:.2f}"
+
+
+def _same(x: bool | None) -> str:
+    return "" if x is None else "identical" if x else "DIFFERENT"
+
+
+def _report_table(res: dict) -> list[str]:
+    rows = res.get("report") or {}
+    if not rows:
+        return []
+    lines = ["", ("| `enc report`, seed 000 campaign (6 inputs) | seconds | CPU seconds "
+                  "| before: CPU seconds | before / after (CPU) | stdout as before |"),
+             "|---|---:|---:|---:|---:|---|"]
+    for label, r in rows.items():
+        lines.append(f"| {label} | {r['seconds']:.2f} | {r['cpu_seconds']:.2f} | "
+                     f"{_ratio(r.get('before_cpu_seconds'))} | {_ratio(r.get('speed_up_cpu'))} | "
+                     f"{_same(r.get('stdout_identical_to_before'))} |")
+    return lines
 
 
 def _startup_table(res: dict) -> list[str]:
@@ -399,12 +583,14 @@ def _startup_table(res: dict) -> list[str]:
     lines = ["", ("Start-up of every command; ratios of CPU seconds to references timed in turn "
                   "with it."), "",
              ("| command | `--help` [s] | vs `python -c pass` | vs `import click` "
-              "| tiny run [s] | vs `import numpy, pyarrow` | peak memory | tiny run |"),
-             "|---|---:|---:|---:|---:|---:|---:|---|"]
+              "| tiny run [s] | vs `import numpy, pyarrow` | before: vs `import numpy, pyarrow` "
+              "| peak memory | tiny run |"),
+             "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     for name, r in cmds.items():
         tiny = (f"{r['tiny_seconds']:.3f} | {r['tiny_vs_numpy_pyarrow']:.2f} | "
+                f"{_ratio(r.get('tiny_before_vs_numpy_pyarrow'))} | "
                 f"{r['tiny_peak_mb']:.0f} MB | `{r['tiny_run']}`") if "tiny_seconds" in r \
-            else "| | |"
+            else "| | | |"
         lines.append(f"| {name} | {r['help_seconds']:.3f} | {r['help_vs_pass']:.2f} | "
                      f"{r['help_vs_click']:.2f} | {tiny} |")
     return lines
@@ -415,10 +601,14 @@ def _make_rom_table(res: dict) -> list[str]:
     if not rows:
         return []
     lines = ["", ("| make-rom (RBF model, seed 001 table 1) | format | seconds | entries/s "
-                  "| file | peak memory |"), "|---|---|---:|---:|---:|---:|"]
+                  "| file | peak memory | vs `dd` of the same bytes | before: vs `dd` "
+                  "| file as before |"),
+             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
         lines.append(f"| 2^{r['bits']} entries | {r['format']} | {r['seconds']:.2f} | "
-                     f"{r['entries_per_s']:.3g} | {r['bytes'] / 1e6:.0f} MB | {r['peak_mb']:.0f} MB |")
+                     f"{r['entries_per_s']:.3g} | {r['bytes'] / 1e6:.0f} MB | "
+                     f"{r['peak_mb']:.0f} MB | {_ratio(r.get('vs_dd'))} | "
+                     f"{_ratio(r.get('before_vs_dd'))} | {_same(r.get('identical_to_before'))} |")
     return lines
 
 

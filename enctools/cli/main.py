@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> None:
     if "_ENC_COMPLETE" in os.environ:  # shell completion: click's own entry point
         cli.main(args=args, prog_name="enc", complete_var="_ENC_COMPLETE")
     debug = "--debug" in args or os.environ.get("ENC_DEBUG", "") not in ("", "0")
-    from enctools.cli.tuning import one_blas_thread
+    from enctools.cli.tuning import one_blas_thread, without_pandas
 
     one_blas_thread()  # before any command imports numpy
 
@@ -110,7 +110,10 @@ def main(argv: list[str] | None = None) -> None:
         with cli.make_context("enc", list(args)) as ctx:
             return cli.invoke(ctx)
 
-    status = runner.run(invoke, debug)
+    with without_pandas():
+        status = runner.run(invoke, debug)
+    if argv is None:  # the enc process itself: its outputs are closed, nothing is left to do
+        runner.exit_now(status)
     sys.exit(status)
 
 

@@ -192,6 +192,19 @@ def _quiet_stdout() -> None:
         pass
 
 
+def exit_now(status: int) -> NoReturn:
+    """End the process with ``status`` once stdout and stderr are flushed, without the
+    interpreter's teardown: every output is closed when a command returns, and tearing
+    down numpy, pyarrow and the rest module by module costs a short command a third of
+    its CPU."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe downstream: nothing more to say
+            pass
+    os._exit(status)
+
+
 def error(message: str) -> None:
     """Print one line: ``enc CMD: error: message``, its control characters escaped.
 

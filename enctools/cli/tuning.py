@@ -11,12 +11,18 @@
   to the kernel and faults them in again, which costs a fifth of selfcal's time. Peak
   memory does not grow with the input (the arrays are reused); an explicit
   ``MALLOC_TRIM_THRESHOLD_`` or ``MALLOC_MMAP_THRESHOLD_`` in the environment wins.
+- pandas kept out while a command runs (:func:`without_pandas`, used by the ``enc``
+  driver): pyarrow asks whether every array it builds from numpy is a pandas object,
+  and to answer it imports pandas when pandas is installed, which costs more CPU than
+  importing numpy and pyarrow together. enctools never hands pyarrow a pandas object.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 _M_TRIM_THRESHOLD = -1
 _M_MMAP_THRESHOLD = -3
@@ -42,3 +48,30 @@ def tune_for_streaming() -> None:
         libc.mallopt(_M_MMAP_THRESHOLD, 64 << 20)
     except (OSError, AttributeError):  # not glibc
         pass
+
+
+class _NoPandas:
+    """An import finder that refuses pandas (:func:`without_pandas`)."""
+
+    @staticmethod
+    def find_spec(name: str, path: object = None, target: object = None) -> None:
+        if name == "pandas":
+            msg = "pandas is not imported while an enc command runs"
+            raise ModuleNotFoundError(msg, name=name)
+
+
+@contextmanager
+def without_pandas() -> Iterator[None]:
+    """Make ``import pandas`` fail (ImportError) inside the block, unless pandas is
+    already imported; afterwards it imports as usual. pyarrow then takes pandas as
+    absent when it checks what it is given, and imports it again when a pandas
+    conversion (``to_pandas``) is asked for."""
+    if "pandas" in sys.modules:
+        yield
+        return
+    finder = _NoPandas()
+    sys.meta_path.insert(0, finder)
+    try:
+        yield
+    finally:
+        sys.meta_path.remove(finder)

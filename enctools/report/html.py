@@ -17,12 +17,11 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
 from enctools import __version__
 from enctools.data.readings import rig_encoders
 from enctools.report import plots
 from enctools.report.display import label
+from enctools.report.drawings import DPI, Drawings
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import DEG
@@ -58,8 +57,8 @@ def _f(x: float | None, digits: int = 3) -> str:
     return f"{x:.{digits}f}"
 
 
-def _img(fig: Any, caption: str) -> str:
-    data = base64.b64encode(plots.to_png(fig)).decode()
+def _img(png: bytes, caption: str) -> str:
+    data = base64.b64encode(png).decode()
     return (f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}">'
             f"<figcaption>{_e(caption)}</figcaption></figure>")
 
@@ -171,12 +170,12 @@ def _iso_html(s: Section) -> str:
     return "".join(out)
 
 
-def _section_html(s: Section, top: int) -> str:
+def _section_html(s: Section, top: int, drawings: Drawings) -> str:
     out = [f"<h2>{_e(s.source)} — {_e(s.kind)}</h2>"]
     if s.info:
         out.append(_table(["", ""], [[k, v] for k, v in s.info.items()]))
-    for caption, fig in plots.section_figures(s, top):
-        out.append(_img(fig, caption))
+    for caption, png in drawings.section(s):
+        out.append(_img(png, caption))
     out.append(_harmonics_table(s.curves, top))
     for c in s.curves:
         if c.harmonics is not None and c.harmonics.left_out:
@@ -215,27 +214,24 @@ def _compare_html(report: Report) -> str:
                         f"{first / c.figures.std:.2f}</li>"
                         for label, c in pairs[1:] if c.figures.std > 0)
         out.append(f"<h2>Comparison of the {_e(kind)} inputs (before / after compensation)</h2>"
-                   + _img(plots.compare_plot(pairs[:8], f"{kind}: every input"),
+                   + _img(plots.to_png(plots.compare_plot(pairs[:8], f"{kind}: every input"),
+                                       DPI),
                           "Deviation of every input on one plot (the first: before)")
                    + _table(["input", f"p-p [{label(unit)}]", f"s [{label(unit)}]"], rows)
                    + f"<ul class='note'>{ratio}</ul>")
     return "".join(out)
 
 
-def _history_html(report: Report) -> str:
+def _history_html(report: Report, drawings: Drawings) -> str:
     h = report.history
     if h is None:
         return ""
     out = [f"<h2>Nightly history — {_e(h.folder + h.filters_text())}</h2>",
            f"<p>{h.runs} run(s)"
            + (f"; {len(h.skipped)} unreadable file(s) skipped" if h.skipped else "") + ".</p>"]
-    if h.runs:
-        t = h.times()
-        series = {name: h.column(name).astype(float) for name in ("pp", "std", "drift_max")}
-        bad = np.array([s != "ok" for s in h.column("status")])
-        out.append(_img(plots.history_plot(t, series, "figures of each nightly run", bad,
-                                           h.unit),
-                        "p-p, s and drift of every run (× marks runs that failed)"))
+    png = drawings.history()
+    if png is not None:
+        out.append(_img(png, "p-p, s and drift of every run (× marks runs that failed)"))
         rows = [[r["time"], r["rig"] or "–", r["status"] or "–", _f(r["pp"]), _f(r["std"]),
                  _f(r["drift_max"]), _f(r["tolerance"])] for r in h.to_records()]
         u = f" [{label(h.unit)}]"
@@ -246,9 +242,11 @@ def _history_html(report: Report) -> str:
 
 
 def to_html(report: Report, failures: Sequence[str] | None = None,
-            title: str | None = None) -> str:
-    """The whole report as one HTML document (str)."""
-    top = int(report.settings.get("top_harmonics", 5))
+            title: str | None = None, drawings: Drawings | None = None) -> str:
+    """The whole report as one HTML document (str); its plots from ``drawings`` (drawn
+    here when not given)."""
+    drawings = drawings or Drawings(report)
+    top = drawings.top
     unit = str(report.settings.get("unit", "arcsec"))
     rigs = {s.rig_name: s.meta for s in report.sections if s.rig_name}
     title = title or ("Calibration report" + (f" — {', '.join(rigs)}" if rigs else ""))
@@ -275,8 +273,8 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
         parts.append(_table(["input", "kind", "made by", "settings"], _method_rows(report),
                             left=4))
     for s in report.sections:
-        parts.append(_section_html(s, top))
-    parts.append(_history_html(report))
+        parts.append(_section_html(s, top, drawings))
+    parts.append(_history_html(report, drawings))
     parts.append(
         "<h2>Conventions</h2><ul class='note'>"
         f"<li>Deviation = indicated − true angle [{_e(label(unit))}]; angles in degrees.</li>"

@@ -59,14 +59,17 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     sys.stdout.flush()
     with OutputGroup() as outputs:  # both reports, or neither
         done = len(sources)
+        if html_path is not None or pdf_path is not None:
+            from enctools.report.drawings import Drawings
+            drawings = Drawings(shown)  # each plot drawn once, for the HTML and the PDF
         if html_path is not None:
             from enctools.report.html import to_html
-            outputs.write(html_path, to_html(shown, failures, title).encode())
+            outputs.write(html_path, to_html(shown, failures, title, drawings).encode())
             done += 1
             step(done)
         if pdf_path is not None:
             from enctools.report.pdf import to_pdf
-            outputs.write(pdf_path, to_pdf(shown, failures, title))
+            outputs.write(pdf_path, to_pdf(shown, failures, title, drawings))
             step(done + 1)
     if failures:
         for line in failures:

@@ -97,15 +97,16 @@ def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") ->
     fig = Figure(figsize=SIZE)
     ax = fig.add_subplot()
     width = 0.8 / max(1, len(rows))
+    last = min(_last_significant(rows), max(int(sp.n.max()) for sp in rows))
     for i, sp in enumerate(rows):
-        keep = sp.n > 0
+        keep = (sp.n > 0) & (sp.n <= last)  # the orders beyond the axis are not drawn
         n = sp.n[keep] + (i - (len(rows) - 1) / 2) * width
         err = 2 * sp.u[keep] if sp.u is not None else None
         ax.bar(n, sp.amplitude[keep], width=width, color=COLORS[i % len(COLORS)],
                yerr=err, capsize=1.5, error_kw={"lw": 0.6}, label=sp.curve)
     ax.set_xlabel(f"harmonic order n [1/{per}]")
     ax.set_ylabel(f"amplitude [{label(rows[0].unit)}]")
-    ax.set_xlim(0, min(_last_significant(rows), max(int(sp.n.max()) for sp in rows)) + 0.6)
+    ax.set_xlim(0, last + 0.6)
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3, axis="y")
     if len(rows) > 1 or rows[0].u is not None:
