@@ -268,3 +268,32 @@ def test_readers_refuse_malformed_files_in_one_line(tmp_path, target, data):
         assert "\n" not in str(exc)
     else:
         assert isinstance(table, PointTable)
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_enc_correct_applies_each_controls_table(step_run, tmp_path, case):
+    """A control's table applied back to the step run it was made from by enc correct
+    (through the control's own reader): every target's mean corrected deviation, per
+    direction where the table has two, is within half the control's resolution of 0
+    (Fanuc: of one constant, its table being 0 at the reference point)."""
+    points, _ = step_run
+    target, opts, resolution, bidirectional = CASES[case]
+    out, fixed = tmp_path / f"{case}.txt", tmp_path / "corrected.parquet"
+    assert run(f"enc make-rom {points} --target {target} {opts} -q -o {out}").returncode == 0
+    read = " ".join(re.findall(r"--(?:sign|comp-type) \S+", opts))
+    if target == "heidenhain":
+        read += " --axis C"
+    r = run(f"enc correct {points} --table {out} --target {target} {read} --json -o {fixed}")
+    assert r.returncode == 0, r.stderr.decode()
+    assert json.loads(r.stdout)["table"]["bidirectional"] is bidirectional
+    t = pq.read_table(fixed)
+    deg = np.mod(np.degrees(t.column("position").to_numpy()), 360.0)
+    k = np.rint(deg / 15.0).astype(int) % TARGETS
+    direction = t.column("direction").to_numpy()
+    dev = t.column("deviation").to_numpy()
+    groups = [(1,), (-1,)] if bidirectional else [(1, -1)]
+    means = np.array([[dev[(k == j) & np.isin(direction, g)].mean() for j in range(TARGETS)]
+                      for g in groups])
+    if target == "fanuc":
+        means = means - means.mean()
+    assert np.max(np.abs(means)) <= resolution / 2 + 0.01, means
