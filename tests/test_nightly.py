@@ -67,21 +67,23 @@ def test_drift_beyond_tolerance_exits_1_and_is_recorded(tmp_path):
     r = nightly(hist, cal, "--max-drift", "0.5", campaign=csv_campaign(2))   # "compensated"
     assert r.returncode == 1
     err = r.stderr.decode().strip().splitlines()
-    assert err[-1].startswith("enc-nightly: error: drift 2.628 arcsec > --max-drift 0.5")
+    assert err[-1].startswith("enc-nightly: error: drift 2.645 arcsec > --max-drift 0.5")
     h = read_history(hist)
     assert list(h.column("status")) == ["ok", "drift"]
     assert list(h.column("exit_code")) == [0, 1]
-    # drift = table 2 - table 1 at the same positions, mean removed
+    # drift = table 2 - table 1 at the same positions, mean removed over the 24 distinct
+    # positions (0 and 360 deg are one target; both rows are 0 in these tables)
     import numpy as np
     t1 = np.loadtxt(DATA / "seed001_table1.csv", delimiter=",", comments="#", skiprows=3)
     t2 = np.loadtxt(DATA / "seed001_table2.csv", delimiter=",", comments="#", skiprows=3)
-    d = t2[:, 1] - t1[:, 1]
+    assert t1[0, 0] == 0 and t1[-1, 0] == 360 and t1[0, 1] == t1[-1, 1] == 0
+    d = t2[:-1, 1] - t1[:-1, 1]
     d -= d.mean()
     assert h.column("drift_max")[1] == pytest.approx(np.abs(d).max(), abs=1e-9)
     r = run(["enc", "report", "--history", str(hist)])
     assert r.returncode == 0
     out = r.stdout.decode()
-    assert "2 run(s)" in out and "drift" in out and "2.628" in out
+    assert "2 run(s)" in out and "drift" in out and "2.645" in out
 
 
 @pytest.mark.parametrize("case, campaign, code", [
