@@ -13,6 +13,7 @@ from conftest import one_error_line, run
 
 from enctools.errors import DataError
 from enctools.report.vdi3441 import vdi3441
+from enctools.units import ARCSEC
 
 TARGETS, RUNS = 8, 5
 
@@ -126,6 +127,11 @@ def test_text_html_pdf_and_thresholds_name_the_chosen_standard(points, tmp_path)
     assert over.returncode == 1
     assert "VDI/DGQ 3441 P" in over.stderr.decode() and "U_max" not in over.stderr.decode()
     assert run(f"enc report --standard vdi3441 --max-vdi P:{P * 2} {points}").returncode == 0
+    urad = run(f"enc report --standard vdi3441 --unit urad {points}").stdout.decode()
+    line = next(ln for ln in urad.splitlines() if "VDI/DGQ 3441 (" in ln)
+    assert "[urad]" in line
+    figures = line.split("]: ")[1].split()
+    assert float(figures[figures.index("P") + 1]) == pytest.approx(P * ARCSEC * 1e6, abs=1e-3)
 
 
 @pytest.mark.parametrize(("args", "message"), [
