@@ -181,11 +181,12 @@ def vdi_plot(vdi: Any, title: str) -> Figure:
     range is P, and the mean deviation of each direction."""
     fig = Figure(figsize=SIZE)
     ax = fig.add_subplot()
-    ax.errorbar(vdi.positions, vdi.mean, yerr=(vdi.U + vdi.Ps) / 2, fmt="o-", ms=3, lw=1,
-                capsize=2, color=COLORS[2], label="x_j ± (U_j + Ps_j)/2")
+    o = np.argsort(vdi.positions)        # the 0 deg target may stand at 360 - epsilon
+    ax.errorbar(vdi.positions[o], vdi.mean[o], yerr=((vdi.U + vdi.Ps) / 2)[o], fmt="o-", ms=3,
+                lw=1, capsize=2, color=COLORS[2], label="x_j ± (U_j + Ps_j)/2")
     for mean, name, color in ((vdi.mean_up, "up (+)", COLORS[0]),
                               (vdi.mean_down, "down (-)", COLORS[1])):
-        ax.plot(vdi.positions, mean, ".", ms=4, color=color, label=f"mean {name}")
+        ax.plot(vdi.positions, mean, ".", ms=4, color=color, label=f"mean {name}", zorder=3)
     ax.set_xlabel("target position [deg]")
     ax.set_ylabel(f"position deviation [{label(vdi.unit)}]")
     ax.set_title(title, fontsize=10)
@@ -202,8 +203,9 @@ def iso_plot(iso: Any, title: str) -> Figure:
                                   (iso.down, "down (-)", COLORS[1], 0.4)):
         if d is None:
             continue
-        x = iso.positions + (shift if iso.is_bidirectional else 0)
-        ax.errorbar(x, d.mean, yerr=2 * d.s, fmt="o-", ms=3, lw=1, capsize=2, color=color,
+        o = np.argsort(iso.positions)    # the 0 deg target may stand at 360 - epsilon
+        x = iso.positions[o] + (shift if iso.is_bidirectional else 0)
+        ax.errorbar(x, d.mean[o], yerr=2 * d.s[o], fmt="o-", ms=3, lw=1, capsize=2, color=color,
                     label=f"mean {name} ± 2s")
     ax.set_xlabel("target position [deg]")
     ax.set_ylabel(f"positioning deviation [{label(iso.unit)}]")
