@@ -32,6 +32,12 @@ from enctools.cli import options, runner
               help="Fail when harmonic N's amplitude exceeds ARCSEC (repeatable).")
 @click.option("--max-iso", multiple=True, metavar="FIG:ARCSEC",
               help="Fail when an ISO 230-2 figure (A, R, E, B, M, A_up, ...) exceeds ARCSEC.")
+@click.option("--standard", type=click.Choice(["iso230-2", "vdi3441"]), default="iso230-2",
+              show_default=True, help="The positioning figures of step runs: ISO 230-2:2014 "
+              "or VDI/DGQ 3441 (1977).")
+@click.option("--max-vdi", multiple=True, metavar="FIG:ARCSEC",
+              help="With --standard vdi3441: fail when a VDI/DGQ 3441 figure (P, Pa, Ps_max, "
+              "U_max, U_mean) exceeds ARCSEC.")
 @click.option("--history", "history_dir", default=None, metavar="DIR",
               type=click.Path(file_okay=False),
               help="Tabulate (and plot, with --html/--pdf) the nightly history in DIR.")
@@ -48,9 +54,10 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
             pdf_path: str | None, title: str | None, top_harmonics: int, nmax: int,
             max_pp: float | None, max_std: float | None, max_abs: float | None,
             max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
-            max_iso: tuple[str, ...], history_dir: str | None, history_rig: str | None,
+            max_iso: tuple[str, ...], standard: str, max_vdi: tuple[str, ...],
+            history_dir: str | None, history_rig: str | None,
             since: datetime | None, mapping: Any, unit: str, force: bool) -> None:
-    """Summarise enctools streams: figures, harmonics, U (k=2), ISO 230-2.
+    """Summarise enctools streams: figures, harmonics, U (k=2), ISO 230-2 or VDI/DGQ 3441.
 
     Reads every INPUT (any kind, or a table read as points as by `enc points`, with
     its column options; stdin when none is given and no --history) and prints a
@@ -67,14 +74,19 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     limits = Thresholds(max_pp=max_pp, max_std=max_std, max_abs=max_abs, max_u=max_u,
                         max_radial_pp=max_radial_pp,
                         max_harmonic=parse_pairs(max_harmonic, "--max-harmonic", int),
-                        max_iso=parse_pairs(max_iso, "--max-iso", str))
+                        max_iso=parse_pairs(max_iso, "--max-iso", str),
+                        max_vdi=parse_pairs(max_vdi, "--max-vdi", str))
+    wrong = {"iso230-2": "--max-vdi", "vdi3441": "--max-iso"}[standard]
+    if (max_vdi if standard == "iso230-2" else max_iso):
+        msg = f"{wrong} checks figures that --standard {standard} does not compute"
+        raise UsageError(msg)
     if history_dir is None and (history_rig is not None or since is not None):
         msg = "--rig and --since select runs of --history DIR; give --history"
         raise UsageError(msg)
     options.distinct_outputs({"--html": html_path, "--pdf": pdf_path})
     check_paths([html_path, pdf_path], force)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
-    run_report(sources, Options(top_harmonics, nmax), limits, as_json=as_json,
+    run_report(sources, Options(top_harmonics, nmax, standard), limits, as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
                history_filter={"rig": history_rig, "since": since},
                prog=runner.command_name(), unit=unit,

@@ -57,6 +57,7 @@ def _section(s: Section, unit: str, k: float) -> Section:
                                        u=None if sp.u is None else sp.u * k, unit=unit)
                    for sp in s.spectra]
     new.iso = None if s.iso is None else _iso(s.iso, unit, k)
+    new.vdi = None if s.vdi is None else s.vdi.scaled(k, unit)
     return new
 
 

@@ -170,6 +170,24 @@ def _iso_html(s: Section) -> str:
     return "".join(out)
 
 
+def _vdi_html(s: Section) -> str:
+    vdi = s.vdi
+    if vdi is None:
+        return ""
+    axis = vdi.axis()
+    out = ["<h3>VDI/DGQ 3441 (1977)</h3>",
+           _table(list(axis), [[_f(v) for v in axis.values()]], left=0),
+           f"<p class='note'>[{_e(label(vdi.unit))}]. x̄_j = (x̄↑ + x̄↓)/2; U_j = |x̄↑ − x̄↓|; "
+           "Ps_j = 6 (s↑ + s↓)/2 (±3 s); Pa = range of x̄_j; "
+           "P = max(x̄_j + (U_j + Ps_j)/2) − min(x̄_j − (U_j + Ps_j)/2).</p>"]
+    keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
+    rows = [[f"{r['position_deg']:.3f}"] + [_f(r[k]) for k in keys] + [r["n_up"], r["n_down"]]
+            for r in vdi.table()]
+    out.append(_table(["position [deg]", "x̄↑", "s↑", "x̄↓", "s↓", "x̄_j", "U_j", "Ps_j",
+                       "n↑", "n↓"], rows, left=0))
+    return "".join(out)
+
+
 def _section_html(s: Section, top: int, drawings: Drawings) -> str:
     out = [f"<h2>{_e(s.source)} — {_e(s.kind)}</h2>"]
     if s.info:
@@ -181,6 +199,7 @@ def _section_html(s: Section, top: int, drawings: Drawings) -> str:
         if c.harmonics is not None and c.harmonics.left_out:
             out.append(f"<p class='note'>{_e(c.name)}: {_e(c.harmonics.left_out_text())}</p>")
     out.append(_iso_html(s))
+    out.append(_vdi_html(s))
     for n in s.notes:
         out.append(f"<p class='note'>Note: {_e(n)}</p>")
     out.append("<p class='note'>How these data were made (history):</p><pre>"

@@ -13,6 +13,7 @@ from enctools.data import summaries
 from enctools.data.summaries import clean, figure_dict
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.report.summary import Report
+from enctools.report.vdi3441 import Vdi3441
 
 
 def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
@@ -51,6 +52,13 @@ def spectrum_dict(sp: SpectrumRows, top: int) -> dict[str, Any]:
     return {"curve": sp.curve, "harmonics": rows}
 
 
+def vdi_dict(vdi: Vdi3441) -> dict[str, Any]:
+    """VDI/DGQ 3441 in the summary vocabulary: every figure's key ends in its unit."""
+    rows = [{k if k == "position_deg" or k.startswith("n_") else f"{k}_{vdi.unit}": v
+             for k, v in row.items()} for row in vdi.table()]
+    return {"axis": {f"{k}_{vdi.unit}": v for k, v in vdi.axis().items()}, "positions": rows}
+
+
 def section_dict(s: Section, top: int) -> dict[str, Any]:
     d: dict[str, Any] = {"source": s.source, "kind": s.kind, "rig": s.rig_name,
                          "domain": s.domain, "info": s.info,
@@ -60,6 +68,8 @@ def section_dict(s: Section, top: int) -> dict[str, Any]:
     if s.iso is not None:
         d["iso230_2"] = {"axis": s.iso.axis(), "positions": s.iso.table(),
                          "warnings": s.iso.warnings}
+    if s.vdi is not None:
+        d["vdi3441"] = vdi_dict(s.vdi)
     if s.notes:
         d["notes"] = s.notes
     d["history"] = s.history

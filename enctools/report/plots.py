@@ -176,6 +176,25 @@ def lissajous_plot(signals: dict[str, tuple[np.ndarray, np.ndarray]], title: str
     return fig
 
 
+def vdi_plot(vdi: Any, title: str) -> Figure:
+    """VDI/DGQ 3441: mean position deviation x_j with the band +/-(U_j + Ps_j)/2 whose
+    range is P, and the mean deviation of each direction."""
+    fig = Figure(figsize=SIZE)
+    ax = fig.add_subplot()
+    o = np.argsort(vdi.positions)        # the 0 deg target may stand at 360 - epsilon
+    ax.errorbar(vdi.positions[o], vdi.mean[o], yerr=((vdi.U + vdi.Ps) / 2)[o], fmt="o-", ms=3,
+                lw=1, capsize=2, color=COLORS[2], label="x_j ± (U_j + Ps_j)/2")
+    for mean, name, color in ((vdi.mean_up, "up (+)", COLORS[0]),
+                              (vdi.mean_down, "down (-)", COLORS[1])):
+        ax.plot(vdi.positions, mean, ".", ms=4, color=color, label=f"mean {name}", zorder=3)
+    ax.set_xlabel("target position [deg]")
+    ax.set_ylabel(f"position deviation [{label(vdi.unit)}]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
 def iso_plot(iso: Any, title: str) -> Figure:
     """ISO 230-2: mean positioning deviation per direction with the +/-2 s bands."""
     fig = Figure(figsize=SIZE)
@@ -184,8 +203,9 @@ def iso_plot(iso: Any, title: str) -> Figure:
                                   (iso.down, "down (-)", COLORS[1], 0.4)):
         if d is None:
             continue
-        x = iso.positions + (shift if iso.is_bidirectional else 0)
-        ax.errorbar(x, d.mean, yerr=2 * d.s, fmt="o-", ms=3, lw=1, capsize=2, color=color,
+        o = np.argsort(iso.positions)    # the 0 deg target may stand at 360 - epsilon
+        x = iso.positions[o] + (shift if iso.is_bidirectional else 0)
+        ax.errorbar(x, d.mean[o], yerr=2 * d.s[o], fmt="o-", ms=3, lw=1, capsize=2, color=color,
                     label=f"mean {name} ± 2s")
     ax.set_xlabel("target position [deg]")
     ax.set_ylabel(f"positioning deviation [{label(iso.unit)}]")
@@ -268,6 +288,9 @@ def section_figures(s: Section, top: int = 5) -> list[tuple[str, Figure]]:
     if s.iso is not None:
         out.append(("ISO 230-2 mean positioning deviations with ±2s",
                     iso_plot(s.iso, f"ISO 230-2 — {name}")))
+    if s.vdi is not None:
+        out.append(("VDI/DGQ 3441 mean position deviations with ±(U_j + Ps_j)/2",
+                    vdi_plot(s.vdi, f"VDI/DGQ 3441 — {name}")))
     if s.signals:
         out.append(("Lissajous plot of the raw quadrature signals",
                     lissajous_plot(s.signals, f"signals — {name}")))

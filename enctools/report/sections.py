@@ -9,7 +9,8 @@ a :class:`Section` holding, for its kind:
 - spectrum: the largest harmonics of each curve with U = 2 u and |W(n)|, and the
   harmonics the method is blind to (metadata ``blind``);
 - points: the deviation per position (means when positions repeat), figures, the
-  harmonics by least squares and, for runs with repeats, ISO 230-2;
+  harmonics by least squares and, for runs with repeats, ISO 230-2 or VDI/DGQ 3441
+  (:attr:`Options.standard`);
 - model and rom: their metadata and the figures of weights / corrections;
 - readings: what was recorded (mode, heads, rows, duration, turns), for step runs the
   positioning deviation of the axis (encoder - target) with ISO 230-2, and the raw
@@ -34,6 +35,7 @@ from enctools.data.streams import InputStream
 from enctools.errors import DataError
 from enctools.report.figures import Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
+from enctools.report.vdi3441 import Vdi3441, from_iso
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 #: Lissajous plots keep at most this many samples per head
@@ -93,6 +95,7 @@ class Section:
     curves: list[Curve] = field(default_factory=list)
     spectra: list[SpectrumRows] = field(default_factory=list)
     iso: Iso230 | None = None
+    vdi: Vdi3441 | None = None
     info: dict[str, Any] = field(default_factory=dict)
     signals: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
@@ -109,10 +112,21 @@ class Section:
 
 @dataclass(frozen=True)
 class Options:
-    """Report settings: harmonics listed and the highest order considered."""
+    """Report settings: harmonics listed, the highest order considered and the
+    positioning standard of step runs (``iso230-2`` or ``vdi3441``)."""
 
     top_harmonics: int = 5
     nmax: int = 100
+    standard: str = "iso230-2"
+
+    @property
+    def standard_name(self) -> str:
+        """The standard as the report names it."""
+        return STANDARDS[self.standard]
+
+
+#: the positioning standards of enc report --standard, and their names
+STANDARDS = {"iso230-2": "ISO 230-2", "vdi3441": "VDI/DGQ 3441"}
 
 
 #: the report's default settings
@@ -277,21 +291,26 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
     curve = _curve(name, "arcsec", role, unique * DEG, means, opts, s.source)
     s.notes.append(f"{dev.size} readings at {unique.size} positions ({a_x.size} approaches): "
                    "the curve and its figures use the mean deviation per position")
+    none = f"no {opts.standard_name} figures"
     if n_min < 2:
-        s.notes.append("no ISO 230-2 figures: one run per target and direction (the run "
+        s.notes.append(f"{none}: one run per target and direction (the run "
                        "column numbers them; its readings are one approach); s needs 2 or more")
         return curve
     curve.u = u
     if no_iso is not None:
-        s.notes.append(f"no ISO 230-2 figures: {no_iso}")
+        s.notes.append(f"{none}: {no_iso}")
         return curve
     try:
-        s.iso = iso230_2(pos_deg, dev, direction, tol_deg, circular=True, run=run)
+        iso = iso230_2(pos_deg, dev, direction, tol_deg, circular=True, run=run)
+        if opts.standard == "vdi3441":
+            s.vdi = from_iso(iso)
+        else:
+            s.iso = iso
+            s.notes += iso.warnings
     except DataError as exc:
-        s.notes.append(f"no ISO 230-2 figures: {exc}")
+        s.notes.append(f"{none}: {str(exc).removeprefix('ISO 230-2: ')}")
     else:
-        s.notes += s.iso.warnings
-        if s.iso.is_bidirectional:
+        if iso.is_bidirectional:
             s.notes.append("with both directions the curve is the mean "
                            "bidirectional positioning deviation x_i")
     return curve
@@ -413,8 +432,8 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
     if stepped and infos and scan.rows:
         _positioning(s, scan, encoder, opts)
     elif scan.rows and not stepped:
-        s.notes.append("no ISO 230-2 figures: a continuous run has no target positions to "
-                       "approach (enc acquire --mode steps)")
+        s.notes.append(f"no {opts.standard_name} figures: a continuous run has no target "
+                       "positions to approach (enc acquire --mode steps)")
 
 
 def _signal_columns(schema: pa.Schema) -> dict[str, dict[str, str]]:
@@ -468,7 +487,7 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
     no_iso = None
     if s.info.get("mode") == "sweep":
         no_iso = ("a sweep steps over a small range, not targets over the axis's travel "
-                  "(a full turn) as ISO 230-2 asks")
+                  f"(a full turn) as {opts.standard_name} asks")
     enc = encoder[0].encoder
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "

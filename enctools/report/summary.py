@@ -35,7 +35,8 @@ def build_report(inputs: Sequence[str | None], opts: Options = DEFAULT_OPTIONS,
 
     Raises DataError (exit 2) naming the input when one cannot be read.
     """
-    report = Report(settings={"top_harmonics": opts.top_harmonics, "nmax": opts.nmax})
+    report = Report(settings={"top_harmonics": opts.top_harmonics, "nmax": opts.nmax,
+                             "standard": opts.standard})
     for k, path in enumerate(inputs):
         with _open(path, mapping) as stream:
             report.sections.append(build_section(stream, opts))

@@ -67,6 +67,20 @@ def iso_lines(s: Section) -> list[str]:
     return lines
 
 
+def vdi_lines(s: Section) -> list[str]:
+    vdi = s.vdi
+    if vdi is None:
+        return []
+    lines = [f"  VDI/DGQ 3441 (Ps = 6s, P with (U + Ps)/2) [{vdi.unit}]: "
+             + "  ".join(f"{k} {_g(v)}" for k, v in vdi.axis().items())]
+    keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
+    cols = ("mean up", "s up", "mean dn", "s dn", "mean", "U_j", "Ps_j")
+    lines.append("    pos [deg]" + "".join(f"{c:>9}" for c in cols))
+    for row in vdi.table():
+        lines.append(f"    {row['position_deg']:9.3f}" + "".join(f"{row[k]:9.3f}" for k in keys))
+    return lines
+
+
 def section_lines(s: Section, top: int) -> list[str]:
     rig = f", rig {s.rig_name}" if s.rig_name else ""
     lines = [f"{s.source}: {s.kind}{rig}"]
@@ -85,6 +99,7 @@ def section_lines(s: Section, top: int) -> list[str]:
             parts.append(p)
         lines.append(f"  spectrum {sp.curve}: largest " + "; ".join(parts))
     lines += iso_lines(s)
+    lines += vdi_lines(s)
     lines += [f"  note: {n}" for n in s.notes]
     return lines
 

@@ -17,8 +17,11 @@ import numpy as np
 from enctools.data.statistics import Figures
 from enctools.errors import UsageError
 from enctools.report.summary import Report
+from enctools.report.vdi3441 import AXIS_FIGURES
 
 ISO_FIGURES = ("A", "R", "E", "B", "M", "A_up", "A_down", "R_up", "R_down", "E_up", "E_down")
+#: the figures of each standard a threshold may name, by option
+FIGURES = {"--max-iso": ("ISO 230-2", ISO_FIGURES), "--max-vdi": ("VDI/DGQ 3441", AXIS_FIGURES)}
 
 
 @dataclass
@@ -32,12 +35,13 @@ class Thresholds:
     max_radial_pp: float | None = None
     max_harmonic: dict[int, float] = field(default_factory=dict)
     max_iso: dict[str, float] = field(default_factory=dict)
+    max_vdi: dict[str, float] = field(default_factory=dict)
 
     @property
     def any(self) -> bool:
         return any(v is not None for v in (self.max_pp, self.max_std, self.max_abs,
                                            self.max_u, self.max_radial_pp)) \
-            or bool(self.max_harmonic) or bool(self.max_iso)
+            or bool(self.max_harmonic) or bool(self.max_iso) or bool(self.max_vdi)
 
     def to_dict(self) -> dict[str, object]:
         return {k: v for k, v in self.__dict__.items() if v not in (None, {}, [])}
@@ -56,8 +60,9 @@ def parse_pairs(values: tuple[str, ...], option: str, key_type: type) -> dict:
         if not sep or k is None or not math.isfinite(lim) or lim < 0:
             msg = f"{option} wants KEY:VALUE with VALUE >= 0 (e.g. {option} 2:0.5), not {v!r}"
             raise UsageError(msg)
-        if key_type is str and k not in ISO_FIGURES:
-            msg = f"{option}: unknown ISO 230-2 figure {k!r} (figures: {', '.join(ISO_FIGURES)})"
+        if key_type is str and k not in FIGURES[option][1]:
+            name, known = FIGURES[option]
+            msg = f"{option}: unknown {name} figure {k!r} (figures: {', '.join(known)})"
             raise UsageError(msg)
         if key_type is int and k < 1:
             msg = f"{option}: harmonic order must be >= 1, not {k}"
@@ -125,4 +130,9 @@ def check(report: Report, limits: Thresholds) -> list[str]:
             axis = s.iso.axis()
             for key, lim in limits.max_iso.items():
                 over(axis.get(key), lim, f"ISO 230-2 {key}", s.source, f"--max-iso {key}:")
+    for s in report.sections:
+        if s.vdi is not None:
+            axis = s.vdi.axis()
+            for key, lim in limits.max_vdi.items():
+                over(axis[key], lim, f"VDI/DGQ 3441 {key}", s.source, f"--max-vdi {key}:")
     return bad
