@@ -30,6 +30,13 @@ def rom_words(path: Path) -> np.ndarray:
     return pq.read_table(path).column("correction").to_numpy()
 
 
+def mif_words(path: Path, width: int = 16) -> np.ndarray:
+    """The signed words of an Altera MIF, one ``ADDR : WORD;`` line each, by a regex."""
+    found = re.findall(r"^\s*[0-9A-F]+ : ([0-9A-F]+);", path.read_text(), re.MULTILINE)
+    words = np.array([int(v, 16) for v in found], dtype=np.int64)
+    return np.where(words >= 1 << (width - 1), words - (1 << width), words)
+
+
 def fpga_lookup(words: np.ndarray, n: int, position_deg: np.ndarray) -> np.ndarray:
     """The word an FPGA adds to the code nearest each angle: code >> (n - m)."""
     m = words.size.bit_length() - 1
@@ -194,10 +201,7 @@ def test_seed001_loop_on_a_dense_run(tmp_path):
     s = summary(r)
     # the test's own FPGA: the heads' mean code, its word, against the true motion
     header, table = streams.read_table(str(d / "dense.parquet"), "readings")
-    text = (d / "rom.mif").read_text()
-    words = np.array([int(v, 16) for v in re.findall(r"^\s*[0-9A-F]+ : ([0-9A-F]+);", text,
-                                                     re.MULTILINE)], dtype=np.int64)
-    words = np.where(words >= 1 << 15, words - (1 << 16), words)
+    words = mif_words(d / "rom.mif")
     assert words.size == 1 << 23
     c1, c2 = (table.column(h).to_numpy() for h in ("F1", "F2"))
     full = 1 << 23
