@@ -181,10 +181,19 @@ def _cond(x: np.ndarray, order: int) -> float:
     return float(np.linalg.cond(fourier_design(x, order)))
 
 
-def test_fourier_default_on_uneven_points(tmp_path):
+def magalpha_at_the_reference() -> tuple[np.ndarray, np.ndarray]:
+    """The first MagAlpha run positioned at the stage's reference angle (the issue's
+    uneven case: one jump backwards, uneven steps)."""
+    rows = np.loadtxt(MAGALPHA / FILES[0], delimiter=",", skiprows=1)
+    return np.mod(rows[:, 0], 360.0), measured_points(FILES[0])[1]
+
+
+@pytest.mark.parametrize("points", [uneven_points, pytest.param(
+    magalpha_at_the_reference, marks=needs_magalpha)])
+def test_fourier_default_on_uneven_points(tmp_path, points):
     """Never more unknowns than points; every term it names is exactly 0 in the stream;
     the terms kept are within the condition limit, the next order is not."""
-    x, y = uneven_points()
+    x, y = points()
     pts = write_points(tmp_path / "u.csv", x, y)
     for opts in ("", "--band 30"):
         out = tmp_path / "f.parquet"
@@ -201,7 +210,9 @@ def test_fourier_default_on_uneven_points(tmp_path):
             assert coef[int(term[1:])] == 0.0
         top = max(k for k in range(a.size) if a[k] != 0 or b[k] != 0)
         assert _cond(x, top) <= 100 and meta["condition_number"] <= 100
-        if opts:   # asked for 30 orders: those past the limit are named, not fitted
+        if opts and top == 30:   # all 30 orders asked for are conditioned: none named
+            assert not named
+        elif opts:   # asked for 30 orders: those past the limit are named, not fitted
             assert _cond(x, top + 1) > 100
             assert named == {f"{p}{k}" for k in range(top + 1, 31) for p in "ab"}
         else:      # the default: order by leave-one-out, below the limit
