@@ -8,6 +8,7 @@ through enctools' own readers.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import DATA, one_error_line, run
+from test_adversarial import CASES, base, run_case  # noqa: F401  (base: a fixture)
 
 from enctools.data.streams import read_table
 
@@ -251,3 +253,29 @@ def test_a_table_indexed_by_the_measured_angle_corrects_the_sensor(tmp_path):
     before, after = pp(meas), pp(corrected)
     assert before == pytest.approx(10.55, abs=0.01)
     assert after < 2.6 and after < before / 4
+
+
+# ------------------------------------------- a bad table, refused alike by every reader
+
+#: the catalogue's bad tables (tests/adversarial/cases/tables.toml), each written for one
+#: command; here each is given to every command that reads points
+BAD_TABLES = ["table-unknown-column", "table-mixed-units-title-and-option",
+              "table-mixed-units-cells", "table-nan-row", "table-1e308-row",
+              "table-duplicate-positions", "table-reference-jumps-backwards"]
+#: what each command needs besides the table (enc correct: a table to apply)
+READERS = {"points": [], "fit-rbf": [], "correct": ["--table", "rom.parquet"]}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", list(READERS))
+@pytest.mark.parametrize("case_id", BAD_TABLES)
+def test_a_bad_table_is_refused_alike_by_points_fit_rbf_and_correct(
+        base, tmp_path, record_property, case_id, command):  # noqa: F811
+    """The same one line naming the row or column, exit 2, no output file."""
+    case = next(c for c in CASES if c.id == case_id)
+    table, options = case.argv[2], case.argv[3:-2]   # the case's output option left out
+    assert case.stderr and ("line " in case.stderr or "column" in case.stderr)
+    argv = ["enc", command, table, *options, *READERS[command], "-o", "out.parquet"]
+    setup = case.setup + [{"use": "copy", "src": "rom.parquet"}] * (command == "correct")
+    run_case(dataclasses.replace(case, id=f"{case_id}-{command}", argv=argv, setup=setup,
+                                 absent=["out.parquet"]), base, tmp_path, record_property)

@@ -134,6 +134,8 @@ def _apply(input: str | None, table: Correction, heads: list[str] | None,
         pts = check_points(from_table(src.read_all(), source, header.meta), source)
     if given:
         msg = f"{given[0]} applies to readings; {source} holds points"
+        if given[0] == "--ref" and input is not None and is_table_file(input):
+            msg += " (a table's reference column is --reference-column)"
         raise UsageError(msg)
     fixed, res = correct_points(pts, table, source)
     return header, fixed.table(), res, {"input": {"kind": "points", "source": source,
