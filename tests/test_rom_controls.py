@@ -21,10 +21,10 @@ ARCSEC = np.pi / 648000.0
 TARGETS = 24  # every 15 deg
 #: each control, its options, its resolution [arcsec], bidirectional or not
 CASES = {
-    "linuxcnc-0": ("linuxcnc", "--comp-type 0 --table bidirectional", 0.0036, True),
-    "linuxcnc-1": ("linuxcnc", "--comp-type 1 --table bidirectional", 0.0036, True),
+    "linuxcnc-0": ("linuxcnc", "--comp-type 0 --bidirectional", 0.0036, True),
+    "linuxcnc-1": ("linuxcnc", "--comp-type 1 --bidirectional", 0.0036, True),
     "linuxcnc-uni": ("linuxcnc", "--comp-type 0", 0.0036, False),
-    "twincat": ("twincat", "--table bidirectional --axis 3", 0.36, True),
+    "twincat": ("twincat", "--bidirectional --axis 3", 0.36, True),
     "twincat-uni": ("twincat", "", 0.36, False),
     "fanuc": ("fanuc", "--sign error --axis 4", 3.6, False),
     "heidenhain": ("heidenhain", "--sign correction --axis C", 0.36, False),
@@ -181,8 +181,8 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
 
 @pytest.mark.parametrize("opts, says", [
     ("--target fanuc", "not confirmed"),
-    ("--target heidenhain --sign error --table bidirectional", "bidirectional"),
-    ("--target fanuc --sign error --table bidirectional", "bidirectional"),
+    ("--target heidenhain --sign error --bidirectional", "bidirectional"),
+    ("--target fanuc --sign error --bidirectional", "bidirectional"),
     ("--target twincat --points 8", "0.0001 deg"),
     ("--target linuxcnc --points 300", "256"),
     ("--target twincat --sign error", "--sign"),

@@ -24,7 +24,7 @@ CONTROLS = ("linuxcnc", "twincat", "fanuc", "heidenhain")
 ROM_PATH = tuple(t for t in TARGETS if t not in CONTROLS)
 APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample", "endian",
                             "zone", "array_name"), ROM_PATH),
-           "resolution_deg": ("acs", "siemens"), "table_kind": CONTROLS, "points": CONTROLS,
+           "resolution_deg": ("acs", "siemens"), "bidirectional": CONTROLS, "points": CONTROLS,
            "comp_type": ("linuxcnc",), "detection_unit": ("fanuc",), "ref_point": ("fanuc",)}
 
 @click.command("make-rom")
@@ -55,9 +55,9 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
 @click.option("--max-entries", type=int, default=None, callback=options.positive,
               help="acs/siemens: table points the control is configured for "
                    "(defaults 100000/5000).")
-@click.option("--table", "table_kind", type=click.Choice(["unidirectional", "bidirectional"]),
-              default="unidirectional", show_default=True,
-              help="linuxcnc, twincat: one table for both directions or one per direction.")
+@click.option("--bidirectional", is_flag=True, default=False,
+              help="linuxcnc, twincat: one table per direction (default: one table of the mean "
+                   "of both directions).")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
               help="acs, fanuc, heidenhain: whether the control stores the correction or "
                    "the error.")
@@ -82,7 +82,8 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
 @options.verbosity
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
-            axis: str | None, zone: int, array_name: str, max_entries: int | None, table_kind: str,
+            axis: str | None, zone: int, array_name: str, max_entries: int | None,
+            bidirectional: bool,
             sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
             detection_unit: float, ref_point: int, verify: bool, output: str | None,
             force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
@@ -112,7 +113,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     _check_applies(target)
     if target in romformats.CONTROLS:
         _control(input, curve, romformats.controls.ControlSettings(
-            target, table_kind == "bidirectional", sign, comp_type, points, max_entries, axis,
+            target, bidirectional, sign, comp_type, points, max_entries, axis,
             detection_unit, ref_point), str(path), force, verify, as_json, unit)
         return
     kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())

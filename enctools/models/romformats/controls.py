@@ -104,7 +104,7 @@ class ControlSettings:
         if self.bidirectional and not spec.bidirectional:
             msg = (f"{self.target}: a bidirectional table is not written: the control's "
                    "backward-direction table is not confirmed (enc-make-rom(1), CONTROLS); "
-                   "use --table unidirectional")
+                   "leave out --bidirectional")
             raise UsageError(msg)
         if spec.sign is None and self.sign is None:
             msg = (f"{self.target}: the sign of a stored value (correction added, or error "
@@ -249,7 +249,7 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
     lacks the backward direction a bidirectional table needs.
     """
     if settings.bidirectional and source.backward is None:
-        msg = ("--table bidirectional needs a step run with both directions "
+        msg = ("--bidirectional needs a step run with both directions "
                "(a points stream with direction +1 and -1)")
         raise DataError(msg)
     k = choose_sections(settings, source)
