@@ -305,7 +305,8 @@ def make_rom_rows(out: Path, repeat: int, quick: bool,
                "vs_dd": t["after"][0] / t["dd"][0]}
         if "before" in t:
             # the same table; the provenance comment (time, command line) aside
-            drop = r"grep -v -e '^-- ' -e '^; ' -e '^// '"
+            # (a binary image has none: compared byte for byte, never through grep)
+            drop = "cat" if fmt == "bin" else r"grep -a -v -e '^-- ' -e '^; ' -e '^// '"
             same = subprocess.run(["bash", "-c", f"cmp -s <({drop} {target}) <({drop} {kept})"]
                                   ).returncode == 0
             row |= {"before_seconds": t["before"][0], "before_vs_dd": t["before"][0] / t["dd"][0],
