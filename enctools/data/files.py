@@ -32,7 +32,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import BinaryIO
 
-from enctools.errors import UsageError
+from enctools.errors import DataError, UsageError
 
 STALE_AGE_S = 3600.0
 """A temporary of a dead writer is removed once its last write is this old [s]."""
@@ -41,6 +41,19 @@ LEGACY_AGE_S = 86400.0
 
 _KINDS = ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
           (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
+
+
+def read_bytes(path: str | Path) -> bytes:
+    """The whole of a small input file; DataError, one line naming the file, when it is
+    missing or cannot be read."""
+    try:
+        return Path(path).read_bytes()
+    except FileNotFoundError:
+        msg = f"{path}: no such file"
+        raise DataError(msg) from None
+    except OSError as exc:
+        msg = f"{path}: cannot read: {exc.strerror or exc}"
+        raise DataError(msg) from None
 
 
 def check_new_file(path: str, force: bool) -> None:

@@ -25,11 +25,11 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
+from enctools.data.files import read_bytes
 from enctools.errors import DataError, UsageError
 from enctools.models import romformats
 from enctools.models.rom import LSB_COUNTS, MAX_ADDRESS_BITS
@@ -272,17 +272,9 @@ def control_table(path: str, settings: TableSettings, fmt: str) -> ControlTable:
 def read_file(path: str, settings: TableSettings) -> Correction:
     """The correction held by a table file of any format enc make-rom writes."""
     fmt = romformats.format_for(path, settings.fmt)
-    try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
-        msg = f"{path}: no such file"
-        raise DataError(msg) from None
-    except OSError as exc:
-        msg = f"{path}: cannot read: {exc.strerror}"
-        raise DataError(msg) from None
-    if fmt in CONTROL_FORMATS:
+    if fmt in CONTROL_FORMATS:  # its reader reads the file
         return control_table(path, settings, fmt)
-    return memory_table(path, data, settings, fmt)
+    return memory_table(path, read_bytes(path), settings, fmt)
 
 
 def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,

@@ -40,7 +40,7 @@ from typing import IO
 
 import numpy as np
 
-from enctools.data.files import format_by_extension
+from enctools.data.files import format_by_extension, read_bytes
 from enctools.errors import CheckFailed, DataError, UsageError
 from enctools.models.romformats import controlreaders, controlwriters, readers, writers
 from enctools.models.romformats.controls import CONTROLS, ControlTable
@@ -166,11 +166,7 @@ def read_table(path: str, target: Target) -> np.ndarray:
     The format's fast reader is tried first; what it does not take, the general reader
     reads or refuses.
     """
-    try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
-        msg = f"{path}: no such file"
-        raise DataError(msg) from None
+    data = read_bytes(path)
     fast, general = READERS[target.fmt]
     try:
         values = fast(data, target, str(path)) if fast is not None else None
@@ -208,11 +204,7 @@ def read_control_table(path: str, target: str, sign: str | None = None, comp_typ
     ``correction`` or ``error``), ``comp_type`` (linuxcnc: COMP_FILE_TYPE 0 or 1),
     ``axis`` (heidenhain: the column) and ``array_name`` (acs) are what the file itself
     does not say. DataError (one line) when the control would refuse or misread it."""
-    try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
-        msg = f"{path}: no such file"
-        raise DataError(msg) from None
+    data = read_bytes(path)
     if target in ("acs", "fanuc", "heidenhain") and sign not in ("correction", "error"):
         msg = f"{target}: give the sign of the stored values (correction or error)"
         raise UsageError(msg)
