@@ -33,6 +33,17 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
     return buf.getvalue()
 
 
+def axes_text(fig: Figure) -> str:
+    """What a figure's axes show, with their units, for its caption: "deviation
+    [arcsec] against angle [deg]" (the plot is a picture; its caption is text)."""
+    parts = []
+    for ax in fig.axes:
+        x, y = ax.get_xlabel(), ax.get_ylabel()
+        if x or y:
+            parts.append(f"{y} against {x}" if x and y else x or y)
+    return "; ".join(parts)
+
+
 def _angle_deg(c: Curve) -> np.ndarray:
     return np.mod(np.asarray(c.angle), TWO_PI) / DEG if c.domain == "period" \
         else np.asarray(c.angle) / DEG

@@ -33,6 +33,7 @@ from enctools.data.schemas import columns_with_role, field_meta
 from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
 from enctools.errors import DataError
+from enctools.methods.budget import Budget
 from enctools.report.figures import Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
 from enctools.report.vdi3441 import Vdi3441, from_iso
@@ -99,6 +100,7 @@ class Section:
     info: dict[str, Any] = field(default_factory=dict)
     signals: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    budget: Budget | None = None    # the GUM budget of its results [arcsec], when declared
 
     @property
     def rig_name(self) -> str | None:
