@@ -335,8 +335,9 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         f" — {', '.join(dict.fromkeys(rigs))}" if rigs else "")
     if cert is not None and cert.get("certificate", "title"):
         default = cert.get("certificate", "title")
-    return {
-        "title": title or default, "number": cert.number if cert else "",
+    return {  # a certificate keeps its title; --title is then its subject line
+        "title": default if cert else title or default,
+        "subtitle": title if cert and title else "", "number": cert.number if cert else "",
         "made": f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
                 f"{len(report.sections)} input(s)",
         "laboratory": cert.table("laboratory") if cert else {},
