@@ -16,6 +16,7 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import re
+import struct
 from collections.abc import Sequence
 from typing import Any
 
@@ -55,9 +56,17 @@ def table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
             "caption": caption}
 
 
-def _figure(png: bytes, caption: str) -> dict[str, str]:
+#: the widest and the tallest a figure is laid out on an A4 page [pt]: the text's width
+#: (180 mm), and a square plot (polar, Lissajous) no taller than 105 mm
+FIGURE_WIDTH_PT, FIGURE_HEIGHT_PT = 510, 300
+
+
+def _figure(png: bytes, caption: str) -> dict[str, Any]:
+    """A plot for the template: its data URI, caption and laid-out width [pt]."""
+    wide, high = struct.unpack(">II", png[16:24])     # the PNG's IHDR: width, height [px]
+    width = min(FIGURE_WIDTH_PT, round(FIGURE_HEIGHT_PT * wide / max(high, 1)))
     return {"src": "data:image/png;base64," + base64.b64encode(png).decode(),
-            "caption": caption}
+            "caption": caption, "width": width, "percent": round(100 * width / FIGURE_WIDTH_PT)}
 
 
 # ------------------------------------------------------------------ the parts
@@ -189,13 +198,13 @@ def _rigs(report: Report) -> list[dict[str, Any]]:
         rows = []
         for enc in rig_encoders(meta):
             heads = ", ".join(f"{h.name} {h.angle / DEG:g}°" for h in enc.heads)
-            rows.append([enc.name, enc.model, enc.periods_per_rev, enc.interpolation,
-                         enc.diameter_mm, heads])
+            rows.append([enc.name, enc.model, heads, enc.periods_per_rev, enc.interpolation,
+                         enc.diameter_mm])
         extras = [k for k in ("polygon", "autocollimator", "probes") if rig.get(k)]
         out.append({"name": name, "description": customer_text(rig.get("description", "")),
-                    "encoders": table(["encoder", "model", "periods/rev", "interpolation",
-                                       "diameter [mm]", "heads (nominal angle)"], rows,
-                                      left=2) if rows else None,
+                    "encoders": table(["encoder", "model", "heads (nominal angle)",
+                                       "periods/rev", "interpolation", "diameter [mm]"], rows,
+                                      left=3) if rows else None,
                     "also": ", ".join(extras)})
     return out
 
@@ -208,10 +217,12 @@ def _harmonics(curves: Sequence[Curve], top: int) -> dict[str, Any] | None:
         h = c.harmonics.largest(top)
         cells = [f"n={int(n)}: {fmt(float(a), c.unit)} @ {float(p) / DEG:.0f}°"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
-        rows.append([c.name, label(c.unit)] + cells + [""] * (top - len(cells)))
+        rows.append([c.name, label(c.unit)] + cells)
     if not rows:
         return None
-    return table(["curve", "unit"] + [f"#{i + 1}" for i in range(top)], rows, left=2,
+    shown = max(len(r) for r in rows) - 2        # the columns of the most harmonics listed
+    rows = [r + [""] * (shown + 2 - len(r)) for r in rows]
+    return table(["curve", "unit"] + [f"#{i + 1}" for i in range(shown)], rows, left=2,
                  caption="Largest harmonics A cos(n x + p): order n, amplitude A, phase p.")
 
 
