@@ -3,7 +3,7 @@
 The same template as the HTML page (:mod:`enctools.report.document`) is laid out on A4
 pages (595.28 x 841.89 pt) with real tables and the plots drawn once for both
 documents, each as wide as the text (180 mm) with its caption below it. The fonts are
-the DejaVu TrueType fonts matplotlib ships (every glyph the document uses: ″ µ σ ± ↑ ↓),
+the DejaVu Sans TrueType fonts matplotlib ships (every glyph the document uses: ″ µ σ ± ↑ ↓),
 embedded as subsets. Every page carries the title, the certificate number and
 "Page n of m". Pure Python: no system package is needed.
 """
@@ -23,10 +23,10 @@ from enctools.report.summary import Report
 MARGIN_MM = 15.0
 #: the body text's size [pt]
 BODY_PT = 9.0
-#: the font family (DejaVu Sans, the mono face for the data's history)
+#: the font family: DejaVu Sans, regular, bold (headings, table heads) and oblique
+#: (captions); each face is parsed and embedded, so the document uses no other
 FAMILY = "dejavu"
-_FACES = {"": "DejaVuSans.ttf", "B": "DejaVuSans-Bold.ttf", "I": "DejaVuSans-Oblique.ttf",
-          "BI": "DejaVuSans-BoldOblique.ttf"}
+_FACES = {"": "DejaVuSans.ttf", "B": "DejaVuSans-Bold.ttf", "I": "DejaVuSans-Oblique.ttf"}
 
 
 def _fonts_folder() -> Path:
@@ -60,7 +60,6 @@ def _document(title: str, number: str) -> Any:
     folder = _fonts_folder()
     for style, name in _FACES.items():
         pdf.add_font(FAMILY, style, str(folder / name))
-    pdf.add_font(FAMILY + "mono", "", str(folder / "DejaVuSansMono.ttf"))
     pdf.set_title(title)
     pdf.set_creator("enctools")
     pdf.set_font(FAMILY, "", BODY_PT)
@@ -78,7 +77,7 @@ def _styles() -> dict[str, Any]:
                         t_margin=5, b_margin=1),
         "h3": TextStyle(font_family=FAMILY, font_style="B", font_size_pt=10, color="#222",
                         t_margin=3, b_margin=1),
-        "pre": TextStyle(font_family=FAMILY + "mono", font_size_pt=6.5, t_margin=1),
+        "pre": TextStyle(font_family=FAMILY, font_size_pt=6.5, t_margin=1),
     }
 
 
