@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import base64
 import datetime as _dt
+import functools
 import re
 import struct
 from collections.abc import Sequence
@@ -367,12 +368,17 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
     }
 
 
-def render(doc: dict[str, Any], page: bool) -> str:
-    """The template filled with ``doc``: the whole HTML page (``page``), or its body
-    alone for the PDF's renderer. Values are escaped as HTML."""
+@functools.cache
+def _template() -> Any:
+    """The template, compiled once for both documents."""
     import jinja2
 
     env = jinja2.Environment(loader=jinja2.PackageLoader("enctools.report", "templates"),
-                             autoescape=True, trim_blocks=False, lstrip_blocks=False,
-                             undefined=jinja2.StrictUndefined)
-    return env.get_template(TEMPLATE).render(doc, page=page)
+                             autoescape=True, undefined=jinja2.StrictUndefined)
+    return env.get_template(TEMPLATE)
+
+
+def render(doc: dict[str, Any], page: bool) -> str:
+    """The template filled with ``doc``: the whole HTML page (``page``), or its body
+    alone for the PDF's renderer. Values are escaped as HTML."""
+    return str(_template().render(doc, page=page))
