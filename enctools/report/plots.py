@@ -146,24 +146,33 @@ def _legend(ax: Any, count: int, markerscale: float = 1.0) -> None:
         ax.legend(fontsize=7, loc=_quiet_corner(ax), markerscale=markerscale)
 
 
-Corner = Literal["upper right", "upper left", "lower right", "lower left"]
+Corner = Literal["upper right", "upper left", "lower right", "lower left", "upper center",
+                 "lower center", "center right", "center left"]
 
 
-def _quiet_corner(ax: Any) -> Corner:
-    """The corner of the axes where the fewest plotted points and bar tops fall: a legend
-    there hides the least data. (matplotlib's "best" tests every vertex of every U band
-    at each of nine places, and took a fifth of a second on one plot.)"""
+def _quiet_corner(ax: Any, size_pt: float = 7.0) -> Corner:
+    """The corner or edge of the axes where a legend of its labels hides the fewest plotted
+    points and vertices of bars and bands. (matplotlib's "best" tests every vertex of
+    every U band at each of nine places, and took a fifth of a second on one plot.)"""
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-    parts = [np.asarray(line.get_xydata(), np.float64).reshape(-1, 2) for line in ax.lines]
-    parts += [np.array([[p.get_x() + p.get_width() / 2, p.get_y() + p.get_height()]])
-              for p in ax.patches if hasattr(p, "get_width")]
+    parts = [np.asarray(line.get_xydata(), np.float64).reshape(-1, 2) for line in ax.lines
+             if line.get_transform() is ax.transData]           # not the 0 line (axhline)
+    parts += [p.vertices for c in ax.collections for p in c.get_paths()]   # bars, bands
     xy = np.concatenate(parts) if parts else np.empty((0, 2))
     u = (xy[:, 0] - x0) / ((x1 - x0) or 1.0)
     v = (xy[:, 1] - y0) / ((y1 - y0) or 1.0)
-    right, top, left, low = u > 0.55, v > 0.7, u < 0.45, v < 0.3
-    corners: dict[Corner, np.ndarray] = {"upper right": right & top, "upper left": left & top,
-                                         "lower right": right & low, "lower left": left & low}
-    return min(corners, key=lambda k: int(np.count_nonzero(corners[k])))
+    # the legend's size [axes fraction] from its labels (as _legend_width_in measures)
+    labels = ax.get_legend_handles_labels()[1]
+    wide_in, high_in = (ax.figure.get_size_inches() * ax.get_position().size)
+    w = (0.6 * size_pt / 72.0 * max((len(t) for t in labels), default=0) + 0.6) / wide_in
+    h = (1.6 * size_pt / 72.0 * len(labels) + 0.15) / high_in
+    right, top, left, low = u > 1 - w, v > 1 - h, u < w, v < h
+    middle, centre = np.abs(u - 0.5) < w / 2, np.abs(v - 0.5) < h / 2
+    places: dict[Corner, np.ndarray] = {
+        "upper right": right & top, "upper left": left & top, "lower right": right & low,
+        "lower left": left & low, "upper center": middle & top, "lower center": middle & low,
+        "center right": right & centre, "center left": left & centre}
+    return min(places, key=lambda k: int(np.count_nonzero(places[k])))  # a corner on a tie
 
 
 def _last_significant(rows: Sequence[SpectrumRows]) -> int:
@@ -183,17 +192,33 @@ def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") ->
     for i, sp in enumerate(rows):
         keep = (sp.n > 0) & (sp.n <= last)  # the orders beyond the axis are not drawn
         n = sp.n[keep] + (i - (len(rows) - 1) / 2) * width
-        err = 2 * sp.u[keep] if sp.u is not None else None
-        ax.bar(n, sp.amplitude[keep], width=width, color=COLORS[i % len(COLORS)],
-               yerr=err, capsize=1.5, error_kw={"lw": 0.6}, label=sp.curve)
+        _bars(ax, n, sp.amplitude[keep], width, COLORS[i % len(COLORS)], sp.curve)
+        if sp.u is not None:
+            ax.errorbar(n, sp.amplitude[keep], yerr=2 * sp.u[keep], fmt="none", ecolor="k",
+                        elinewidth=0.6, capsize=1.5)
     ax.set_xlabel(f"harmonic order n [1/{per}]")
     ax.set_ylabel(f"amplitude [{label(rows[0].unit)}]")
+    ax.autoscale_view()
+    ax.set_ylim(bottom=0)
     ax.set_xlim(0, last + 0.6)
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3, axis="y")
     if len(rows) > 1 or rows[0].u is not None:
         _legend(ax, len(rows))
     return fig
+
+
+def _bars(ax: Any, x: np.ndarray, height: np.ndarray, width: float, color: str,
+          name: str) -> None:
+    """Bars of ``height`` centred on ``x`` as one collection (a hundred bars as one
+    artist, not a hundred rectangles each placed and drawn on its own)."""
+    from matplotlib.collections import PolyCollection
+
+    x0, x1, zero = x - width / 2, x + width / 2, np.zeros_like(height)
+    verts = np.stack([np.column_stack(c) for c in ((x0, zero), (x0, height), (x1, height),
+                                                   (x1, zero))], axis=1)
+    ax.add_collection(PolyCollection(list(verts), facecolors=color, edgecolors="none",
+                                     label=name))
 
 
 def harmonics_rows(curves: Sequence[Curve]) -> list[SpectrumRows]:
