@@ -203,6 +203,14 @@ def test_one_number_format_without_rounding_noise(value, unit, shown):
     assert fmt(value, unit) == shown
 
 
+@pytest.mark.parametrize("value, shown", [(0.05, "0.05000"), (1.0, "1.000"), (1234.4, "1234"),
+                                           (0.0, "0.000"), (2.5e-5, "0.00002500")])
+def test_declared_values_to_four_significant_digits(value, shown):
+    from enctools.report.display import significant
+
+    assert significant(value) == shown
+
+
 def test_text_report_prints_a_mean_removed_as_zero(tmp_path):
     """A positioning deviation has its mean removed: the text says 0.000, not -5.6e-17."""
     r = run(["enc", "report", str(make_points(tmp_path / "t1.parquet", 1))])

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from enctools.methods.budget import Budget
-from enctools.report.display import fmt, label
+from enctools.report.display import fmt, label, significant
 from enctools.units import factor
 
 #: what the results say of their uncertainty when no budget is declared
@@ -35,8 +35,9 @@ def budget_table(budget: Budget, unit: str, table: Callable[..., dict[str, Any]]
     shown = label(unit)
     rows = []
     for c in budget.contributions:
-        rows.append([c.name, c.source, c.kind, c.distribution, f"{fmt(c.value, c.unit)} {c.unit}",
-                     fmt(c.divisor), f"{fmt(c.sensitivity * k, decimals=4)} {shown}/{c.unit}",
+        rows.append([c.name, c.source, c.kind, c.distribution,
+                     f"{significant(c.value)} {c.unit}", fmt(c.divisor),
+                     f"{significant(c.sensitivity * k)} {shown}/{c.unit}",
                      fmt(c.u_arcsec * k, unit), _dof(c.dof)])
     return table(["quantity", "source", "type", "distribution", "value", "divisor", "c_i",
                   f"u_i [{shown}]", "ν_i"], rows, left=4)

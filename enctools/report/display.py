@@ -48,6 +48,14 @@ def fmt(x: float | None, unit: str = "arcsec", decimals: int | None = None,
     return text.lstrip("-") if float(text) == 0.0 else text
 
 
+def significant(x: float, digits: int = 4) -> str:
+    """A declared value (not a measured one) to ``digits`` significant digits, through
+    :func:`fmt`: 0.05 deg is ``0.05000``, 1 is ``1.000``."""
+    if not math.isfinite(x) or x == 0.0:
+        return fmt(x, decimals=digits - 1)
+    return fmt(x, decimals=max(0, digits - 1 - math.floor(math.log10(abs(x)))))
+
+
 def mark(unit: str) -> str:
     """How a value in ``unit`` is followed in plain text: ``"`` for arcsec, else a space
     and the unit's ASCII name (``0.12 urad``)."""

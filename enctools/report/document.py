@@ -48,7 +48,7 @@ def table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
     cells = [[customer_text(v) for v in r] for r in rows]
     head = [str(h) for h in header]
     cols = max([len(head)] + [len(r) for r in cells])
-    longest = [max([len(head[i]) if i < len(head) else 0]
+    longest = [max([round(1.2 * len(head[i])) if i < len(head) else 0]   # bold heads
                    + [len(r[i]) for r in cells if i < len(r)]) for i in range(cols)]
     weights = [min(n, 40) + 4 for n in longest]   # characters, and the cell's padding
     total = sum(weights) or 1
