@@ -155,7 +155,9 @@ def _conformity(report: Report, failures: Sequence[str] | None) -> dict[str, Any
     limits = report.settings.get("thresholds") or {}
     if not limits:
         return None
-    given = ", ".join(f"{k.replace('_', '-')} {v}" for k, v in limits.items())
+    given = ", ".join(f"{k.replace('_', '-')} " + (", ".join(f"{n}:{x:g}" for n, x in v.items())
+                                                  if isinstance(v, dict) else f"{v:g}")
+                      for k, v in limits.items())
     return {"limits": given, "failures": list(failures or []),
             "rule": ("Decision rule: simple acceptance (ILAC-G8:09/2019, 4.2.1; no guard "
                      "band): a figure conforms when its measured value does not exceed "

@@ -10,6 +10,7 @@ embedded as subsets. Every page carries the title, the certificate number and
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,10 @@ def _fonts_folder() -> Path:
     import matplotlib
 
     return Path(matplotlib.get_data_path()) / "fonts" / "ttf"
+
+
+#: a heading starts a new page when less than this is left below it [mm]
+KEEP_WITH_HEADING_MM = 45.0
 
 
 def _document(title: str, number: str) -> Any:
@@ -85,8 +90,13 @@ def document_pdf(doc: dict[str, Any]) -> bytes:
     """PDF bytes of the document's data (:func:`enctools.report.document.build`)."""
     pdf = _document(str(doc["title"]), str(doc["number"]))
     pdf.add_page()
-    pdf.write_html(render(doc, page=False), font_family=FAMILY, tag_styles=_styles(),
-                   table_line_separators=True, li_prefix_color=(60, 60, 60))
+    styles = _styles()
+    # laid out a heading at a time: a heading too near the foot of a page starts the next
+    for part in re.split(r"(?=<h[23]>)", render(doc, page=False)):
+        if part.startswith(("<h2>", "<h3>")) and pdf.will_page_break(KEEP_WITH_HEADING_MM):
+            pdf.add_page()
+        pdf.write_html(part, font_family=FAMILY, tag_styles=styles,
+                       table_line_separators=True, li_prefix_color=(60, 60, 60))
     return bytes(pdf.output())
 
 
