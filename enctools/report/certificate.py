@@ -27,6 +27,8 @@ MAX_BYTES = 65536
 MAX_TEXT = 2000
 #: the most reference standards listed
 MAX_REFERENCES = 50
+#: the longest certificate number [characters] (it heads every page)
+MAX_NUMBER = 64
 
 DATE = "date"
 TEXT = "text"
@@ -94,9 +96,9 @@ def load_certificate(path: str | None, number: str | None = None) -> Certificate
         _parse(raw, cert, f"certificate file {path}")
     if number is not None:
         cert.number = _value(number, TEXT, "--certificate-number", "number")
-    if not cert.number:
+    if not cert.number or len(cert.number) > MAX_NUMBER or "\n" in cert.number:
         msg = (f"{cert.source}: no certificate number ([certificate] number of the file, "
-               "or --certificate-number)")
+               f"or --certificate-number: one line of at most {MAX_NUMBER} characters)")
         raise DataError(msg)
     return cert
 

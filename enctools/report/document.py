@@ -42,10 +42,11 @@ def customer_text(text: Any) -> str:
 
 
 def table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
-          caption: str = "") -> dict[str, Any]:
+          caption: str = "", cite: bool = True) -> dict[str, Any]:
     """A table for the template: text cells, the first ``left`` columns left-aligned,
-    relative column widths [%] from the longest cell of each column."""
-    cells = [[customer_text(v) for v in r] for r in rows]
+    relative column widths [%] from the longest cell of each column. ``cite``: the
+    data's internal citations become reference numbers (not in the lab's own fields)."""
+    cells = [[customer_text(v) if cite else str(v) for v in r] for r in rows]
     head = [str(h) for h in header]
     cols = max([len(head)] + [len(r) for r in cells])
     longest = [max([round(1.2 * len(head[i])) if i < len(head) else 0]   # bold heads
@@ -129,7 +130,7 @@ def _references(cert: Certificate | None) -> dict[str, Any] | None:
     keys = ("name", "serial", "certificate", "due", "traceability")
     rows = [[_shown(r.get(k)) for k in keys] for r in cert.references]
     return table(["reference standard", "serial", "certificate", "due", "traceability"],
-                 rows, left=5)
+                 rows, left=5, cite=False)
 
 
 def _shown(value: Any) -> str:
@@ -356,7 +357,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
                 f"{len(report.sections)} input(s)",
         "laboratory": cert.table("laboratory") if cert else {},
         "statement": cert.get("certificate", "statement") if cert else None,
-        "identity": table(["", ""], _identity(cert, report, now), left=2),
+        "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
         "environment": _environment(cert), "references_std": _references(cert),
         "rigs": _rigs(report), "methods": citations.rows(report, table),
         "summary": _summary(report), "conformity": _conformity(report, failures),

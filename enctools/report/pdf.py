@@ -49,6 +49,9 @@ def _document(title: str, number: str) -> Any:
             self.set_font(FAMILY, "", 7.5)
             self.set_text_color(90)
             left = title if not number else f"{title} — No. {number}"
+            width = self.get_string_width(left)
+            if width > self.epw:            # a long title, cut to the line
+                left = left[:max(1, int(len(left) * self.epw / width) - 2)] + "…"
             self.cell(0, 4, left, align="L")
             self.ln(7)
 
