@@ -178,6 +178,10 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
     certificate, relative to the first position's face.
     """
     faces, (va, vac, vr, vd, _) = step_visits(header, table, settings, source)
+    if certificate is not None and header.meta.get("mode") == "closure":
+        msg = (f"{source}: a closure run, the polygon turned between its runs: "
+               "enc closure separates its face errors (--polygon-certificate is for step runs)")
+        raise DataError(msg)
     if certificate is not None and certificate.faces != faces:
         msg = (f"{certificate.source}: the certificate lists {certificate.faces} faces; the "
                f"polygon of {source} has {faces}")
