@@ -14,7 +14,11 @@ from conftest import ROOT, one_error_line, run, run_in_process
 from test_summaries import check_keys
 
 from enctools.data import streams
-from enctools.data.polygon import face_standard_uncertainty, read_certificate
+from enctools.data.polygon import (
+    face_standard_uncertainty,
+    points_face_uncertainty,
+    read_certificate,
+)
 from enctools.data.rig import load_rig
 from enctools.hw.truth import Truth, interpolation_error
 from enctools.methods.points import from_table
@@ -101,6 +105,8 @@ def test_certified_faces_bring_the_points_to_the_truth(tmp_path):
     meta = h.meta["polygon_certificate"]
     assert meta["certificate"] == "TEST-24" and meta["faces"] == 24 and meta["first_face"] == 1
     assert meta["u_arcsec"] == pytest.approx([u_cert] * 24)
+    assert points_face_uncertainty(h.meta) == pytest.approx(np.full(24, u_cert))
+    assert points_face_uncertainty(got["without"][0].meta) is None
     e = encoder_error(truth, rig, pts.position_deg)
     want = e - e[0]
     # noise of one point relative to the first: heads 0.05"/sqrt(2*5), autocollimator

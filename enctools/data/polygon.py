@@ -88,6 +88,20 @@ def face_standard_uncertainty(cert: Certificate) -> np.ndarray:
     return cert.u_arcsec.copy()
 
 
+def points_face_uncertainty(meta: dict[str, Any]) -> np.ndarray | None:
+    """The standard uncertainty of each face's angle error [arcsec] that a points stream's
+    metadata carries from the certificate it was corrected with (``polygon_certificate``,
+    first face first); None when its points were not corrected by one."""
+    cert = meta.get("polygon_certificate")
+    if not isinstance(cert, dict) or not isinstance(cert.get("u_arcsec"), list):
+        return None
+    u = np.asarray(cert["u_arcsec"], dtype=np.float64)
+    if u.ndim != 1 or u.size == 0 or not np.all(np.isfinite(u) & (u > 0)):
+        msg = "metadata polygon_certificate.u_arcsec must be positive numbers, one per face"
+        raise DataError(msg)
+    return u
+
+
 def read_certificate(path: str, faces: int | None = None, unit: str | None = None
                      ) -> Certificate:
     """A polygon's certificate from a text table (the module's format).
