@@ -195,3 +195,10 @@ def test_closure_mode_needs_a_polygon(tmp_path):
     r = run_in_process(f"enc acquire --rig sjtu-dual --mode closure -o {out}")
     assert "has no [polygon]" in one_error_line(r, 2)
     assert not out.exists()
+
+
+def test_faces_out_and_output_must_differ(tmp_path):
+    out = tmp_path / "same.csv"
+    r = run_in_process(f"enc closure x.parquet -o {out} --faces-out {out}")
+    assert "--faces-out and -o both name" in one_error_line(r, 2, "enc closure")
+    assert not out.exists()

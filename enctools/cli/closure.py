@@ -35,17 +35,23 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     with --faces-out the face angle errors with their standard uncertainty in the
     certificate format of enc-points(1).
     """
+    import os
+
     import numpy as np
 
     from enctools.cli.summary import check_json, emit
     from enctools.data import files, polygon, streams
     from enctools.data.streams import with_history
     from enctools.data.summaries import from_meta
+    from enctools.errors import UsageError
     from enctools.methods import closure, points
 
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
     if faces_out is not None:
+        if output is not None and os.path.abspath(faces_out) == os.path.abspath(output):
+            msg = f"--faces-out and -o both name {faces_out}"
+            raise UsageError(msg)
         files.check_new_file(faces_out, force)
     settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces)
     src = streams.open_input(input, "readings")
