@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from enctools.cli import options
+from enctools.units import ANGLE_UNITS
 
 
 @click.command("points")
@@ -20,7 +21,7 @@ from enctools.cli import options
               help="The polygon's certificate (CSV: face, error, U or u): its face errors "
                    "applied to the reference angle.")
 @click.option("--certificate-unit", default=None,
-              type=click.Choice(["arcsec", "arcmin", "urad", "mrad", "deg", "rad"]),
+              type=click.Choice(list(ANGLE_UNITS)),
               help="Unit of the certificate's values when it states none (default: arcsec).")
 @click.option("--first-face", type=int, default=None, metavar="N",
               help="The certificate's face at the run's first position (default: its first).")
