@@ -54,13 +54,16 @@ _SPEC: dict[str, dict[str, tuple[type, ...]]] = {
                "start_deg": (int, float), "feedback": (str,), "speed_error_ppm": (int, float),
                "position_noise_arcsec": (int, float), "backend": (dict,)},
     "acquire": {"mode": (str,), "revolutions": (int, float), "speed_rpm": (int, float),
-                "interval_s": (int, float), "steps": (dict,), "sweep": (dict,)},
+                "interval_s": (int, float), "steps": (dict,), "sweep": (dict,),
+                "closure": (dict,)},
     "acquire.steps": {"positions_deg": (list,), "count": (int,), "settle_s": (int, float),
                       "readings": (int,), "runs": (int,), "bidirectional": (bool,),
                       "overshoot_deg": (int, float)},
     "acquire.sweep": {"start_deg": (int, float), "range_arcsec": (int, float),
                       "step_arcsec": (int, float), "settle_s": (int, float),
                       "readings": (int,)},
+    "acquire.closure": {"settle_s": (int, float), "readings": (int,),
+                        "overshoot_deg": (int, float)},
     "backend": {"kind": (str,), "seed": (int,)},
 }
 # Tables whose contents belong to a backend and are checked by it, not here.

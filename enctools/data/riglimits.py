@@ -83,6 +83,9 @@ RANGES: dict[str, tuple[float, float]] = {
     "acquire.sweep.step_arcsec": (1e-6, 1_296_000.0),
     "acquire.sweep.settle_s": (0.0, 3600.0),
     "acquire.sweep.readings": (1, 10_000),
+    "acquire.closure.settle_s": (0.0, 3600.0),
+    "acquire.closure.readings": (1, 10_000),
+    "acquire.closure.overshoot_deg": (0.0, 360.0),
     "backend.seed": _SEED,
 }
 
@@ -99,7 +102,7 @@ ARRAYS: dict[str, tuple[tuple[type, ...], int]] = {
 
 #: "table.key" of a string -> the values it may take
 CHOICES: dict[str, tuple[str, ...]] = {
-    "acquire.mode": ("continuous", "steps", "sweep"),
+    "acquire.mode": ("continuous", "steps", "sweep", "closure"),
 }
 
 #: "table.key" of an array of tables or of a string array -> least number of items
