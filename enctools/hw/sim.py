@@ -173,7 +173,8 @@ class VirtualRig(Session):
             name = rig.autocollimator.get("name", "AC")
             self.sensors[name] = SimAutocollimator(
                 self, name, int(rig.polygon.get("faces", 24)),
-                float(rig.autocollimator.get("noise_arcsec", 0.0)), start)
+                float(rig.autocollimator.get("noise_arcsec", 0.0)), start,
+                float(rig.autocollimator.get("scale_error_ppm", 0.0)) * 1e-6)
 
     def _feedback_encoder(self) -> Encoder:
         name = self.rig.motion.get("feedback")
@@ -387,16 +388,21 @@ class SimProbe(Sensor):
 
 
 class SimAutocollimator(Sensor):
-    """An autocollimator looking at a polygon on the table [arcsec]; NaN off any face."""
+    """An autocollimator looking at a polygon on the table [arcsec]; NaN off any face.
+
+    It indicates the face's angle (table angle off the nominal face plus the face's
+    error) times 1 + ``scale_error`` (its calibration error, relative), plus noise.
+    """
 
     RANGE_ARCSEC = 1000.0
 
     def __init__(self, rig: VirtualRig, name: str, faces: int, noise_arcsec: float,
-                 theta0: float) -> None:
+                 theta0: float, scale_error: float = 0.0) -> None:
         self.sim = rig
         self.faces = faces
         self.noise = noise_arcsec
         self.theta0 = theta0
+        self.scale = 1.0 + scale_error
         self.channel = Channel(name, "arcsec", "autocollimator")
 
     def read(self) -> float:
@@ -409,7 +415,7 @@ class SimAutocollimator(Sensor):
             return float("nan")
         face = sim._truth.polygon[j % self.faces] if sim._truth.polygon is not None else 0.0
         noise = float(sim.rng.normal(0.0, self.noise)) if self.noise > 0 else 0.0
-        return dev + face + noise
+        return (dev + face) * self.scale + noise
 
 
 __all__ = ["VirtualRig", "interpolation_error", "zero_count"]

@@ -22,6 +22,7 @@ metadata of points and models.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -60,6 +61,7 @@ class Points:
     direction: np.ndarray
     run: np.ndarray
     reference_deg: np.ndarray | None = None
+    run_meta: dict[str, Any] | None = None  # a polygon step run's figures for its budget
 
     def __len__(self) -> int:
         return int(self.position_deg.size)
@@ -166,13 +168,46 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
         msg = f"{source}: the readings stream has no rows"
         raise DataError(msg)
     infos, autocollimator, faces = _steps_inputs(header, settings, source)
-    angle = np.mean([head_angle(table.column(i.name), i) for i in infos], axis=0)  # rad
+    heads = np.array([head_angle(table.column(i.name), i) for i in infos])  # rad
+    angle = heads.mean(axis=0)
     ac = table.column(autocollimator).to_numpy(zero_copy_only=False).astype(np.float64)
     run, direction, step = (table.column(c).to_numpy(zero_copy_only=False)
                             for c in ("run", "direction", "step"))
     va, vac, vr, vd = _visits(angle, ac, run, direction, step, source)
     dev = _polygon_deviation(va, vac, vr, faces, source)
-    return Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+    points = Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+    points.run_meta = _run_meta(heads, ac, (run, direction, step), (vac, vr),
+                                min(i.counts_per_rev for i in infos))
+    return points
+
+
+def _run_meta(heads: np.ndarray, ac: np.ndarray, keys: tuple[np.ndarray, ...],
+              visits: tuple[np.ndarray, np.ndarray], counts_per_rev: int) -> dict[str, Any]:
+    """What a polygon run tells its uncertainty budget (``polygon_run`` metadata, [arcsec]):
+    the pooled standard deviation of one reading's deviation (head mean minus
+    autocollimator) and of one head's reading about their position's mean, its degrees
+    of freedom, the fewest readings of a position, the largest |a_j - a_0| of a run's
+    autocollimator means, one count and the number of heads averaged."""
+    key = np.stack(keys).T
+    ok = np.isfinite(ac)
+    visit = np.r_[0, np.cumsum(np.any(key[1:] != key[:-1], axis=1))][ok]
+    n = np.bincount(visit)
+    used = n > 0
+    dof = int(np.sum(n[used] - 1))
+
+    def pooled(x: np.ndarray) -> float:
+        mean = np.bincount(visit, x, n.size)[visit] / n[visit]
+        return float(np.sum((x - mean) ** 2)) / dof
+
+    h = heads[:, ok] / ARCSEC
+    d = h.mean(axis=0) - ac[ok]
+    s = math.sqrt(pooled(d - d[0])) if dof > 0 else None
+    head_s = math.sqrt(np.mean([pooled(x - x[0]) for x in h])) if dof > 0 else None
+    vac, vr = visits
+    span = max(float(np.max(np.abs(vac[vr == r] - vac[vr == r][0]))) for r in np.unique(vr))
+    return {"s_arcsec": s, "dof": dof, "readings": int(n[used].min()),
+            "span_arcsec": span, "lsb_arcsec": 1296000.0 / counts_per_rev,
+            "heads": int(heads.shape[0]), "head_s_arcsec": head_s}
 
 
 def _steps_inputs(header: Header, settings: Settings, source: str
@@ -404,6 +439,7 @@ def make_points(path: str | None, settings: Settings, mapping: Mapping | None = 
         points = check_points(points_from_steps(src.header, src.read_all(), settings, src.source),
                               src.source)
         header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")
+        header.meta["polygon_run"] = points.run_meta
     header.meta["settings"] = settings.to_meta()
     header.meta["figures"] = figures_meta(figures_or_nan(distinct(
         points, source=header.meta.get("source", "input"))[1]))
