@@ -27,6 +27,7 @@ import math
 import sys
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -35,6 +36,7 @@ from enctools.data.rig import Rig, load_rig
 from enctools.data.uncertainty import Declaration, declaration
 from enctools.hw import acquire as acq
 from enctools.hw.sim import VirtualRig
+from enctools.methods.budget import Budget
 from enctools.methods.points import Settings, points_from_steps
 from enctools.report.budget import points_budget
 from enctools.units import ARCSEC
@@ -58,12 +60,12 @@ def draw(d: Declaration, rng: np.random.Generator) -> float:
 @dataclass
 class RunResult:
     """One simulated run: every point's error against the truth [arcsec] (the datum
-    left out), the budget's U and u_c [arcsec], and the error of one random point."""
+    left out), the error of one random point of it, and the metadata its points carry
+    for the budget (the drawn rig's, with its declarations, and ``polygon_run``)."""
 
     errors: np.ndarray
-    U: float
-    u_c: float
     picked: float
+    meta: dict[str, Any]
 
 
 def simulated_rig(rig: Rig, rng: np.random.Generator) -> Rig:
@@ -78,10 +80,9 @@ def simulated_rig(rig: Rig, rng: np.random.Generator) -> Rig:
     return dataclasses.replace(rig, polygon=polygon, autocollimator=autocollimator)
 
 
-def one_run(rig: Rig, seed: int, rng: np.random.Generator, leave_out: tuple[str, ...] = ()
-            ) -> RunResult:
-    """A polygon step run on a rig drawn from ``rig``'s declarations, its points, their
-    budget (without the declarations named in ``leave_out``) and errors."""
+def one_run(rig: Rig, seed: int, rng: np.random.Generator) -> RunResult:
+    """A polygon step run on a rig drawn from ``rig``'s declarations: its points as
+    enc points makes them, and their errors against the simulator's truth."""
     sim_rig = simulated_rig(rig, rng)
     sim = VirtualRig(sim_rig, seed=seed)
     header, batches = acq.acquire(sim_rig, sim, acq.resolve(sim_rig, {"mode": "steps",
@@ -93,29 +94,35 @@ def one_run(rig: Rig, seed: int, rng: np.random.Generator, leave_out: tuple[str,
     points = points_from_steps(header, pa.Table.from_batches(kept), Settings())
     own = np.array([sim.feedback_error(theta) for theta in held]) / ARCSEC
     errors = points.deviation - (own - own[0])
-    declared = {k: v for k, v in rig.uncertainty.items() if k not in leave_out}
-    meta = {"rig": dataclasses.replace(sim_rig, uncertainty=declared).to_dict(),
-            "polygon_run": points.run_meta}
-    budget, _ = points_budget(meta, "simulated run", one_approach=True)
-    assert budget is not None
     picked = errors[int(rng.integers(1, errors.size))]
-    return RunResult(errors[1:], budget.U, budget.u_c, float(picked))
+    return RunResult(errors[1:], float(picked),
+                     {"rig": sim_rig.to_dict(), "polygon_run": points.run_meta})
 
 
-def monte_carlo(runs: int, seed: int = 0, leave_out: tuple[str, ...] = (),
-                rig_name: str = "ciomp-23bit") -> list[RunResult]:
+def budget_of(result: RunResult, leave_out: tuple[str, ...] = ()) -> Budget:
+    """The run's budget as enc report builds it, without the declarations ``leave_out``."""
+    rig = result.meta["rig"]
+    declared = {k: v for k, v in rig["uncertainty"].items() if k not in leave_out}
+    budget, _ = points_budget(result.meta | {"rig": rig | {"uncertainty": declared}},
+                              "simulated run", one_approach=True)
+    assert budget is not None
+    return budget
+
+
+def monte_carlo(runs: int, seed: int = 0, rig_name: str = "ciomp-23bit") -> list[RunResult]:
     """``runs`` simulated runs, reproducible by ``seed``."""
     rig = load_rig(rig_name)
     rng = np.random.default_rng(seed)
-    return [one_run(rig, 1_000_000 * seed + i, rng, leave_out) for i in range(runs)]
+    return [one_run(rig, 1_000_000 * seed + i, rng) for i in range(runs)]
 
 
-def coverage(results: list[RunResult]) -> tuple[float, int, float]:
-    """The coverage over every point, the count of runs whose random point is covered,
-    and the standard deviation of error / u_c over every point."""
-    every = np.concatenate([np.abs(r.errors) <= r.U for r in results])
-    picked = sum(abs(r.picked) <= r.U for r in results)
-    z = np.concatenate([r.errors / r.u_c for r in results])
+def coverage(results: list[RunResult], budgets: list[Budget]) -> tuple[float, int, float]:
+    """The coverage of each run's U over every point, the count of runs whose random
+    point is covered, and the standard deviation of error / u_c over every point."""
+    every = np.concatenate([np.abs(r.errors) <= b.U for r, b in zip(results, budgets,
+                                                                     strict=True)])
+    picked = sum(abs(r.picked) <= b.U for r, b in zip(results, budgets, strict=True))
+    z = np.concatenate([r.errors / b.u_c for r, b in zip(results, budgets, strict=True)])
     return float(every.mean()), int(picked), float(np.std(z))
 
 
@@ -126,13 +133,14 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     results = monte_carlo(args.runs, args.seed)
+    budgets = [budget_of(r) for r in results]
     elapsed = time.perf_counter() - t0
-    every, picked, z = coverage(results)
+    every, picked, z = coverage(results, budgets)
     n_points = sum(r.errors.size for r in results)
     print(f"budget Monte Carlo: {args.runs} simulated seed 001 polygon runs ({n_points} points) "
           f"in {elapsed:.1f} s ({elapsed / args.runs * 1000:.0f} ms a run)")
-    print(f"  U (k {results[0].U / results[0].u_c:.3f}): median "
-          f"{np.median([r.U for r in results]):.4f}\"; std of error/u_c {z:.3f}")
+    print(f"  U (k {budgets[0].k:.3f}): median {np.median([b.U for b in budgets]):.4f}\"; "
+          f"std of error/u_c {z:.3f}")
     print(f"  coverage of U: {every:.2%} of every point; {picked}/{args.runs} "
           f"({picked / args.runs:.2%}) of one random point per run")
     ok = BAND[0] <= every <= BAND[1]

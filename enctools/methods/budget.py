@@ -164,7 +164,7 @@ def autocollimator_scale(scale: Declaration, span_arcsec: float) -> Contribution
     return _declared(scale, "autocollimator scale error", -span_arcsec)
 
 
-def dithered_quantisation(lsb_arcsec: float, noise_arcsec: float, terms: int = 50) -> float:
+def dithered_quantisation(lsb_arcsec: float, noise_arcsec: float, terms: int = 4000) -> float:
     """Standard uncertainty [arcsec] of the mean of many readings of one head quantised
     to ``lsb_arcsec`` (q) with Gaussian noise of ``noise_arcsec`` (sigma) before the
     quantiser: the mean's bias is b(x) = sum_m (-1)^(m+1) (q / (pi m))
@@ -178,6 +178,8 @@ def dithered_quantisation(lsb_arcsec: float, noise_arcsec: float, terms: int = 5
     q = lsb_arcsec
     if q <= 0.0:
         return 0.0
+    if noise_arcsec == 0.0:
+        return q / math.sqrt(12.0)
     m = np.arange(1, terms + 1, dtype=float)
     total = float(np.sum(np.exp(-4.0 * math.pi ** 2 * m ** 2 * noise_arcsec ** 2 / q ** 2)
                          / (2.0 * m ** 2)))
