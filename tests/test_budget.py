@@ -258,3 +258,40 @@ def test_draw_follows_each_distribution() -> None:
         d = Declaration("polygon", 0.3, "arcsec", dist, k=k)
         x = np.array([budget_mc.draw(d, rng) for _ in range(20000)])
         assert np.std(x) == pytest.approx(d.standard, rel=0.03), dist
+
+
+def test_the_simulated_autocollimators_scale_error_scales_its_indication() -> None:
+    """Two runs with the same seeds, one with a scale error kappa of 1 %: each point's
+    deviation moves by -kappa (a_j - a_0), a the indications of the run without. Those
+    hold the autocollimator's noise (0.03"/sqrt 5 a mean), which the scale does not act
+    on: kappa times it, below 0.0005", is the tolerance."""
+    import dataclasses
+
+    import pyarrow as pa
+
+    from enctools.data.rig import load_rig
+    from enctools.hw import acquire as acq
+    from enctools.hw.sim import VirtualRig
+    from enctools.methods.points import Settings, points_from_steps
+
+    rig = load_rig("ciomp-23bit")
+    out = []
+    for ppm in (0.0, 1e4):
+        r = dataclasses.replace(rig, autocollimator={**rig.autocollimator,
+                                                     "scale_error_ppm": ppm})
+        header, batches = acq.acquire(r, VirtualRig(r, seed=4),
+                                      acq.resolve(r, {"mode": "steps", "count": 8, "seed": 4}))
+        table = pa.Table.from_batches(list(batches))
+        ac = np.array([b.column("AC").to_numpy().mean() for b in table.to_batches()])
+        out.append((points_from_steps(header, table, Settings()).deviation, ac))
+    (d0, a0), (d1, _) = out
+    assert np.ptp(a0) > 1.0       # the indications span arcseconds: the test can see 1 %
+    assert d1 - d0 == pytest.approx(-0.01 * (a0 - a0[0]), abs=5e-4)
+
+
+def test_rig_check_lists_the_declarations() -> None:
+    r = run("enc rig check ciomp-23bit")
+    assert r.returncode == 0
+    text = r.stdout.decode()
+    assert "uncertainty polygon: 0.05 arcsec normal, u 0.05 arcsec" in text
+    assert "uncertainty autocollimator: 0.2 % normal (k=2), u 0.1 %" in text

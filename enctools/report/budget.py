@@ -57,8 +57,8 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
                   face: Declaration | None = None) -> tuple[Budget | None, list[str]]:
     """The budget of the points of a section and the notes saying what it holds.
 
-    ``one_approach``: each target was visited once (one run, one direction): the
-    model's datum is then the run's first position. ``face``: the polygon's face
+    ``one_approach``: the points are of one run in one direction (a closing 360 deg
+    is the 0 deg target again): the model's datum is then the run's first position. ``face``: the polygon's face
     uncertainty from a polygon certificate (None: the rig's declaration).
     """
     if "polygon_run" not in meta:

@@ -246,7 +246,8 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
     direction, run = (table.column(c).to_numpy(zero_copy_only=False)
                       if c in table.schema.names else None for c in ("direction", "run"))
     _points_into(s, pos, dev, direction, opts, "deviation", "points", run=run)
-    _budget_into(s, one_approach=s.info["positions"] == s.info["readings"])
+    _budget_into(s, one_approach=all(x is None or np.unique(x).size == 1
+                                     for x in (direction, run)))
 
 
 def _budget_into(s: Section, one_approach: bool) -> None:
