@@ -58,8 +58,9 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
     """The budget of the points of a section and the notes saying what it holds.
 
     ``one_approach``: the points are of one run in one direction (a closing 360 deg
-    is the 0 deg target again): the model's datum is then the run's first position. ``face``: the polygon's face
-    uncertainty from a polygon certificate (None: the rig's declaration).
+    is the 0 deg target again): the model's datum is then the run's first position.
+    ``face``: the polygon's face uncertainty from a polygon certificate (None: the
+    rig's declaration).
     """
     if "polygon_run" not in meta:
         return None, []
