@@ -295,3 +295,15 @@ def test_rig_check_lists_the_declarations() -> None:
     text = r.stdout.decode()
     assert "uncertainty polygon: 0.05 arcsec normal, u 0.05 arcsec" in text
     assert "uncertainty autocollimator: 0.2 % normal (k=2), u 0.1 %" in text
+
+
+@pytest.mark.parametrize("table, says", [
+    ({"value": 1, "unit": ["arcsec"]}, "is not a unit of angle"),
+    ({"value": 1, "unit": "arcsec", "distribution": {"a": 1}}, "distribution must be one of"),
+    ({"value": True, "unit": "arcsec"}, "value must be a number"),
+    ({"value": 1, "unit": "arcsec", "source": 5}, "source must be a string"),
+    ({"value": 1, "unit": "arcsec", "dof": float("inf")}, "dof must be finite and > 0"),
+    ([1, 2], "must be a table")])
+def test_declarations_of_any_shape_are_one_data_error(table: object, says: str) -> None:
+    with pytest.raises(DataError, match=says):
+        declaration("polygon", table, "uncertainty.polygon")

@@ -127,12 +127,12 @@ def declaration(quantity: str, table: Any, where: str) -> Declaration:
         msg = f"{where}.value must be finite and >= 0, not {value!r}"
         raise DataError(msg)
     unit = table["unit"]
-    if unit not in UNITS[dimension]:
+    if not isinstance(unit, str) or unit not in UNITS[dimension]:
         msg = (f"{where}.unit {unit!r} is not a unit of {dimension} "
                f"(one of {', '.join(UNITS[dimension])})")
         raise DataError(msg)
     distribution = table.get("distribution", "normal")
-    if distribution not in DIVISORS:
+    if not isinstance(distribution, str) or distribution not in DIVISORS:
         msg = (f"{where}.distribution must be one of {', '.join(DIVISORS)}, "
                f"not {distribution!r}")
         raise DataError(msg)
