@@ -39,7 +39,7 @@ from enctools.data.statistics import Figures, figures_or_nan
 from enctools.data.tablemap import Mapping, TablePoints
 from enctools.data.tables import is_plain
 from enctools.errors import DataError, UsageError
-from enctools.units import ARCSEC, DEG, TWO_PI, factor
+from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor
 
 if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
@@ -206,7 +206,7 @@ def _run_meta(heads: np.ndarray, ac: np.ndarray, keys: tuple[np.ndarray, ...],
     vac, vr = visits
     span = max(float(np.max(np.abs(vac[vr == r] - vac[vr == r][0]))) for r in np.unique(vr))
     return {"s_arcsec": s, "dof": dof, "readings": int(n[used].min()),
-            "span_arcsec": span, "lsb_arcsec": 1296000.0 / counts_per_rev,
+            "span_arcsec": span, "lsb_arcsec": counts_factor(counts_per_rev, "arcsec"),
             "heads": int(heads.shape[0]), "head_s_arcsec": head_s}
 
 
