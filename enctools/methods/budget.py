@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from enctools.data.uncertainty import DIVISORS as DIVISORS  # the GUM's divisors, here too
-from enctools.data.uncertainty import QUANTITIES, UNITS, Declaration
+from enctools.data.uncertainty import UNITS, Declaration
 from enctools.errors import DataError
 
 
@@ -154,8 +154,8 @@ def polygon_faces(face: Declaration) -> list[Contribution]:
     """The polygon's face angle deviations delta_j and delta_0: dD/d(delta_j) = -1,
     dD/d(delta_0) = +1, each face's u as ``face`` declares it (a polygon certificate's
     uncertainty of a certified face, or the face errors themselves when not applied)."""
-    return [_declared(face, "polygon face at the point", -1.0),
-            _declared(face, "polygon face at the datum", 1.0)]
+    return [_declared(face, "polygon face angle at the point", -1.0),
+            _declared(face, "polygon face angle at the datum", 1.0)]
 
 
 def autocollimator_scale(scale: Declaration, span_arcsec: float) -> Contribution:
@@ -224,8 +224,8 @@ def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
     """A Contribution of a declaration: its value and unit as declared, c [arcsec per
     declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""
     c = c_base * UNITS[d.dimension][d.unit]
-    return Contribution(f"{name} ({QUANTITIES[d.quantity][1]})", d.source, "B", d.distribution,
-                        d.value, d.unit, d.divisor, c, d.dof)
+    return Contribution(name, d.source, "B", d.distribution, d.value, d.unit, d.divisor, c,
+                        d.dof)
 
 
 # ------------------------------------------- the model of a probe-based angle (seed 000)
