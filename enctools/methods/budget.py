@@ -145,9 +145,9 @@ def repeatability(run: PolygonRun) -> Contribution:
     """Type A: the scatter of the n readings at a position. u(D_j) = s sqrt(1/n + 1/n):
     the point is the difference of two means of n readings (position j and the datum),
     as one row (one estimate s on its dof): value s, divisor sqrt(n), c = sqrt(2)."""
-    return Contribution("repeatability of the readings (n per position)", "this run", "A",
-                        "normal", run.s_arcsec, "arcsec", math.sqrt(run.readings),
-                        math.sqrt(2.0), run.dof)
+    return Contribution(f"repeatability of the readings ({run.readings} per position)",
+                        "this run", "A", "normal", run.s_arcsec, "arcsec",
+                        math.sqrt(run.readings), math.sqrt(2.0), run.dof)
 
 
 def polygon_faces(face: Declaration) -> list[Contribution]:
