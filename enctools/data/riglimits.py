@@ -63,6 +63,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "polygon.face_error_arcsec": _ARCSEC,
     "polygon.seed": _SEED,
     "autocollimator.noise_arcsec": _ARCSEC,
+    "autocollimator.scale_error_ppm": (-1e5, 1e5),
     "motion.speed_rpm": (-6000.0, 6000.0),
     "motion.jitter_arcsec": _ARCSEC,
     "motion.jitter_hz": (0.0, 10000.0),

@@ -175,7 +175,8 @@ class VirtualRig(Session):
             name = rig.autocollimator.get("name", "AC")
             self.sensors[name] = SimAutocollimator(
                 self, name, int(rig.polygon.get("faces", 24)),
-                float(rig.autocollimator.get("noise_arcsec", 0.0)), start)
+                float(rig.autocollimator.get("noise_arcsec", 0.0)), start,
+                float(rig.autocollimator.get("scale_error_ppm", 0.0)) * 1e-6)
 
     def turn_polygon(self, setting: int) -> None:
         """The polygon set on the table turned by ``setting`` faces: the autocollimator then
@@ -400,16 +401,21 @@ class SimProbe(Sensor):
 
 
 class SimAutocollimator(Sensor):
-    """An autocollimator looking at a polygon on the table [arcsec]; NaN off any face."""
+    """An autocollimator looking at a polygon on the table [arcsec]; NaN off any face.
+
+    It indicates the face's angle (table angle off the nominal face plus the face's
+    error) times 1 + ``scale_error`` (its calibration error, relative), plus noise.
+    """
 
     RANGE_ARCSEC = 1000.0
 
     def __init__(self, rig: VirtualRig, name: str, faces: int, noise_arcsec: float,
-                 theta0: float) -> None:
+                 theta0: float, scale_error: float = 0.0) -> None:
         self.sim = rig
         self.faces = faces
         self.noise = noise_arcsec
         self.theta0 = theta0
+        self.scale = 1.0 + scale_error
         self.setting = 0  # faces the polygon is turned by on the table (closure runs)
         self.offset = 0.0  # arcsec: that setting's offset
         self.channel = Channel(name, "arcsec", "autocollimator")
@@ -425,7 +431,7 @@ class SimAutocollimator(Sensor):
         face = sim._truth.polygon[(j + self.setting) % self.faces] \
             if sim._truth.polygon is not None else 0.0
         noise = float(sim.rng.normal(0.0, self.noise)) if self.noise > 0 else 0.0
-        return dev - face + self.offset + noise
+        return (dev - face + self.offset) * self.scale + noise
 
 
 __all__ = ["VirtualRig", "interpolation_error", "zero_count"]

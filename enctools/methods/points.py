@@ -22,6 +22,7 @@ metadata of points and models.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -39,7 +40,7 @@ from enctools.data.statistics import Figures, figures_or_nan
 from enctools.data.tablemap import Mapping, TablePoints
 from enctools.data.tables import is_plain
 from enctools.errors import DataError, UsageError
-from enctools.units import ARCSEC, DEG, TWO_PI, factor
+from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor
 
 if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
@@ -61,6 +62,7 @@ class Points:
     direction: np.ndarray
     run: np.ndarray
     reference_deg: np.ndarray | None = None
+    run_meta: dict[str, Any] | None = None  # a polygon step run's figures for its budget
 
     def __len__(self) -> int:
         return int(self.position_deg.size)
@@ -177,7 +179,8 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
     position [arcsec]; the true angle of face j is j * 360/faces plus its error from the
     certificate, relative to the first position's face.
     """
-    faces, (va, vac, vr, vd, _) = step_visits(header, table, settings, source)
+    faces, heads, ac, keys, lsb = _step_columns(header, table, settings, source)
+    va, vac, vr, vd, _ = visits(heads.mean(axis=0), ac, *keys, source)
     if certificate is not None and header.meta.get("mode") == "closure":
         msg = (f"{source}: a closure run, the polygon turned between its runs: "
                "enc closure separates its face errors (--polygon-certificate is for step runs)")
@@ -189,13 +192,24 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
     dev, j = _polygon_deviation(va, vac, vr, faces, source)
     if certificate is not None:
         dev -= face_correction(certificate, j, settings.first_face)
-    return Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+    points = Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+    points.run_meta = _run_meta(heads, ac, keys, (vac, vr), lsb)
+    return points
 
 
 def step_visits(header: Header, table: pa.Table, settings: Settings, source: str
                 ) -> tuple[int, tuple[np.ndarray, ...]]:
     """The polygon's faces and the :func:`visits` of a step run (mean of the heads [rad],
     autocollimator [arcsec], run, direction, step of each)."""
+    faces, heads, ac, keys, _ = _step_columns(header, table, settings, source)
+    return faces, visits(heads.mean(axis=0), ac, *keys, source)
+
+
+def _step_columns(header: Header, table: pa.Table, settings: Settings, source: str
+                  ) -> tuple[int, np.ndarray, np.ndarray,
+                             tuple[np.ndarray, np.ndarray, np.ndarray], float]:
+    """The polygon's faces, each measuring head's angle [rad] (one row a head), the
+    autocollimator [arcsec], the (run, direction, step) keys and one count [arcsec]."""
     for col in ("step", "run", "direction"):
         if col not in table.column_names:
             msg = (f"{source}: no {col!r} column: is this a steps-mode run "
@@ -205,11 +219,41 @@ def step_visits(header: Header, table: pa.Table, settings: Settings, source: str
         msg = f"{source}: the readings stream has no rows"
         raise DataError(msg)
     infos, autocollimator, faces = steps_inputs(header, settings, source)
-    angle = np.mean([head_angle(table.column(i.name), i) for i in infos], axis=0)  # rad
+    heads = np.array([head_angle(table.column(i.name), i) for i in infos])  # rad
     ac = table.column(autocollimator).to_numpy(zero_copy_only=False).astype(np.float64)
     run, direction, step = (table.column(c).to_numpy(zero_copy_only=False)
                             for c in ("run", "direction", "step"))
-    return faces, visits(angle, ac, run, direction, step, source)
+    return faces, heads, ac, (run, direction, step), counts_factor(
+        min(i.counts_per_rev for i in infos), "arcsec")
+
+
+def _run_meta(heads: np.ndarray, ac: np.ndarray, keys: tuple[np.ndarray, ...],
+              visits: tuple[np.ndarray, np.ndarray], lsb: float) -> dict[str, Any]:
+    """What a polygon run tells its uncertainty budget (``polygon_run`` metadata, [arcsec]):
+    the pooled standard deviation of one reading's deviation (head mean minus
+    autocollimator) and of one head's reading about their position's mean, its degrees
+    of freedom, the fewest readings of a position, the largest |a_j - a_0| of a run's
+    autocollimator means, one count ``lsb`` [arcsec] and the number of heads averaged."""
+    key = np.stack(keys).T
+    ok = np.isfinite(ac)
+    visit = np.r_[0, np.cumsum(np.any(key[1:] != key[:-1], axis=1))][ok]
+    n = np.bincount(visit)
+    used = n > 0
+    dof = int(np.sum(n[used] - 1))
+
+    def pooled(x: np.ndarray) -> float:
+        mean = np.bincount(visit, x, n.size)[visit] / n[visit]
+        return float(np.sum((x - mean) ** 2)) / dof
+
+    h = heads[:, ok] / ARCSEC
+    d = h.mean(axis=0) - ac[ok]
+    s = math.sqrt(pooled(d - d[0])) if dof > 0 else None
+    head_s = math.sqrt(np.mean([pooled(x - x[0]) for x in h])) if dof > 0 else None
+    vac, vr = visits
+    span = max(float(np.max(np.abs(vac[vr == r] - vac[vr == r][0]))) for r in np.unique(vr))
+    return {"s_arcsec": s, "dof": dof, "readings": int(n[used].min()),
+            "span_arcsec": span, "lsb_arcsec": lsb,
+            "heads": int(heads.shape[0]), "head_s_arcsec": head_s}
 
 
 def face_correction(cert: Certificate, j: np.ndarray, first_face: int | None) -> np.ndarray:
@@ -463,6 +507,7 @@ def make_points(path: str | None, settings: Settings, mapping: Mapping | None = 
         if cert is not None:
             header.meta["polygon_certificate"] = cert.meta() | {
                 "first_face": cert.first if settings.first_face is None else settings.first_face}
+        header.meta["polygon_run"] = points.run_meta
     header.meta["settings"] = settings.to_meta()
     header.meta["figures"] = figures_meta(figures_or_nan(distinct(
         points, source=header.meta.get("source", "input"))[1]))

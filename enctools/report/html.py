@@ -284,7 +284,7 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
                          f"({_e(', '.join(f'{k}={v}' for k, v in limits.items()))}).</div>")
     if report.sections:
         parts.append("<h2>Summary</h2>" + _table(
-            ["input", "curve", "unit", "n", "p-p", "±", "mean", "s (Bessel)", "U max (k=2)"],
+            ["input", "curve", "unit", "n", "p-p", "±", "mean", "s (Bessel)", "U max"],
             _summary_rows(report), left=3))
     parts.append(_compare_html(report))
     if report.sections:
@@ -300,7 +300,9 @@ def to_html(report: Report, failures: Sequence[str] | None = None,
         "<li>s: Bessel standard deviation √(Σ(x_i − x̄)²/(n − 1)) over the values as "
         "given (seed 001 eq. 8); ± is half the peak-to-peak.</li>"
         "<li>U: expanded uncertainty, U = k·u with k = 2, from the standard "
-        "uncertainties the input carries (or s/√n over the runs of repeated positions).</li>"
+        "uncertainties the input carries (or s/√n over the runs of repeated positions); "
+        "for a polygon run's points with an uncertainty budget, the budget's U = k·u_c, "
+        "k Student's at its effective degrees of freedom.</li>"
         "<li>Harmonics: A cos(n x + p), n per revolution (per signal period for "
         "interpolation errors).</li>"
         "<li>ISO 230-2:2014 definitions; repeatability uses ±2 s (R = 4 s); the readings "

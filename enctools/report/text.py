@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from enctools.data.text import printable_lines
+from enctools.report.budget import budget_lines
 from enctools.report.display import mark
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -27,7 +28,7 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
              f"p-p {_g(f.pp)}{sym}  +/-{_g(f.plus_minus)}{sym}  mean {_g(f.mean)}{sym}  "
              f"s {_g(f.std)}{sym} (Bessel n-1, seed 001 eq. 8)"]
     if c.u is not None:
-        lines.append(f"    expanded uncertainty U (k=2): max {_g(c.U_max)}{sym}")
+        lines.append(f"    expanded uncertainty U (k={c.k:.3g}): max {_g(c.U_max)}{sym}")
     h = c.harmonics.largest(top) if c.harmonics is not None else None
     if h is not None and h.n.size:
         per = "/period" if c.domain == "period" else "/rev"
@@ -98,6 +99,8 @@ def section_lines(s: Section, top: int) -> list[str]:
                 p += f" |W| {_g(float(sp.transfer[i]), 2)}"
             parts.append(p)
         lines.append(f"  spectrum {sp.curve}: largest " + "; ".join(parts))
+    if s.budget is not None:
+        lines += budget_lines(s.budget, s.unit)
     lines += iso_lines(s)
     lines += vdi_lines(s)
     lines += [f"  note: {n}" for n in s.notes]

@@ -51,7 +51,8 @@ BASE: list[dict[str, list[str]]] = [
      "dev.parquet": ["selfcal", "r2.parquet", "--spectrum", "spec.parquet"],
      "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--ref", "P1"],
      "dev.csv": ["selfcal", "r2.parquet", "--spectrum", "spec.tsv"]},
-    {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream"]},
+    {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream"],
+     "polypts.parquet": ["points", "steps.parquet"]},
 ]
 
 
