@@ -12,7 +12,7 @@ MAX_STD ?= 0.65
 
 .PHONY: all
 all: $(OUT)/report.html $(OUT)/correction.mif $(OUT)/correction.bin $(OUT)/ENC_COMP.SPF \
-     $(OUT)/joint.comp $(OUT)/latency.txt $(OUT)/residual.parquet
+     $(OUT)/joint.comp $(OUT)/latency.txt $(OUT)/residual.parquet $(OUT)/points-certified.parquet
 	@$(ENC) report -q $(OUT)/points.parquet $(OUT)/model.parquet
 
 # 1. Readout latency: dynamic error and code-skip speed (eqs. 1-4) at 1 and 10 r/s
@@ -28,6 +28,20 @@ $(OUT)/polygon.parquet:
 # 3. Calibration points (table 1)
 $(OUT)/points.parquet: $(OUT)/polygon.parquet
 	$(ENC) points $< -o $@ --force
+
+# 3b. No certified polygon: polygon and encoder calibrate each other by closure (the
+#     polygon turned by a face between 24 runs, 576 positions; enc-closure(1)); its face
+#     errors are the polygon's certificate from then on
+.PHONY: closure
+closure: $(OUT)/polygon-faces.csv
+
+$(OUT)/polygon-faces.csv:
+	@mkdir -p $(OUT)
+	$(ENC) acquire --rig $(RIG) --mode closure -o $(OUT)/closure.parquet --force
+	$(ENC) closure $(OUT)/closure.parquet -o $(OUT)/closure-points.parquet --faces-out $@ --force
+
+$(OUT)/points-certified.parquet: $(OUT)/polygon.parquet $(OUT)/polygon-faces.csv
+	$(ENC) points $< --polygon-certificate $(OUT)/polygon-faces.csv -o $@ --force
 
 # 4. RBF network through the points (eqs. 5-7), leave-one-out residuals (sec. 5.4)
 $(OUT)/model.parquet: $(OUT)/points.parquet

@@ -151,14 +151,15 @@ def test_steps_run_on_the_polygon(ciomp_steps):
     assert set(table.column("step").to_numpy()) == set(range(24))
     truth = Truth.from_dict(header.meta["truth"])
     # the table stops where the encoder (mean of F1, F2) reads the target, so the
-    # autocollimator sees minus the encoder's error there plus the face error
+    # autocollimator sees minus the encoder's error there minus the face angle error (the
+    # certificate's sign: face j is square j 15 deg + its error on from face 0)
     ac = table.column("AC").to_numpy()
     target = table.column("target").to_numpy()
     j = table.column("step").to_numpy()
     eps = truth.graduation["A"]
     enc_err = (eps(target) + eps(target + np.pi)) / 2
-    predicted = -(enc_err - enc_err[0]) + truth.polygon[j]
-    assert np.abs((ac - ac[0] + truth.polygon[0]) - predicted).max() < 0.25  # noise + servo
+    predicted = -(enc_err - enc_err[0]) - truth.polygon[j]
+    assert np.abs((ac - ac[0] - truth.polygon[0]) - predicted).max() < 0.25  # noise + servo
     assert np.std(enc_err[::5]) == pytest.approx(1.3, abs=0.25)  # seed 001: 1.30"
 
 

@@ -34,6 +34,8 @@ def test_each_shell_gets_a_script(shell):
 def test_commands_options_and_rigs_complete():
     assert ("plain", "acquire") in complete("enc acq", 1)
     assert {("plain", "interp-check")} <= set(complete("enc in", 1))
+    assert ("plain", "closure") in complete("enc clo", 1)
+    assert ("plain", "closure") in complete("enc acquire --mode c", 3)
     assert ("plain", "--method") in complete("enc selfcal --me", 2)
     offered = complete("enc acquire --rig ", 3)
     assert [v for t, v in offered if t == "plain"] == bundled_rigs()

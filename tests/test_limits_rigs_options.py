@@ -57,6 +57,8 @@ def acquire_line(rig: Path | str, tmp_path: Path, *opts: str) -> str:
     ("mode = \"steps\"", "mode = \"spin\"", "acquire.mode must be one of"),
     ("readings = 5", "readings = 100000000", "acquire.steps.readings must be 1..10000"),
     ("step_arcsec = 20.0", "step_arcsec = 1e-300", "acquire.sweep.step_arcsec must be"),
+    ("readings = 5\n\n[acquire.sweep]", "readings = 0\n\n[acquire.sweep]",
+     "acquire.closure.readings must be 1..10000, not 0"),
     ("name = \"ciomp-23bit\"", "name = 1979-05-27", "name must be string"),
     ("description = \"23-bit", "description = [1] #", "description must be string"),
     ("format = 1", "format = 0", "format must be 1..1000, not 0"),

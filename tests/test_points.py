@@ -53,7 +53,7 @@ def test_steps_run_gives_the_head_average_error(ciomp_steps, tmp_path):
     e = (eps(th) + eps(th + np.pi)) / 2 + psi
     j = np.round(pos / 15).astype(int) % 24
     face = truth.polygon[j]
-    want = (e - e[0]) - (face - face[0])
+    want = (e - e[0]) + (face - face[0])  # the true angle of face j: j 15 deg + its error
     # noise: heads 0.05"/sqrt(10), autocollimator 0.03"/sqrt(5), positioning
     assert np.abs(dev - want).max() < 0.1
     assert dev[0] == 0.0

@@ -21,7 +21,8 @@ from conftest import ROOT, enc_exe, run
 README = ROOT / "README.md"
 #: the README's sections whose commands a newcomer runs in turn, each in a fresh folder
 SECTIONS = ("A first pipeline", "A calibration campaign, step by step (seed 000)",
-            "Polygon, RBF model and correction ROM (seed 001)")
+            "Polygon, RBF model and correction ROM (seed 001)",
+            "The polygon's own errors: its certificate, or closure")
 WARNING = re.compile(r"warn", re.IGNORECASE)
 
 

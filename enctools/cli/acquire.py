@@ -1,4 +1,5 @@
-"""enc acquire: read a rig into a readings stream (continuous, steps or sweep; or replay)."""
+"""enc acquire: read a rig into a readings stream (continuous, steps, sweep or closure; or
+replay)."""
 
 from __future__ import annotations
 
@@ -15,8 +16,9 @@ from enctools.cli import options, runner
 
 @click.command("acquire")
 @options.rig
-@click.option("--mode", type=click.Choice(["continuous", "steps", "sweep"]), default=None,
-              help="continuous: turn and sample; steps: target positions; sweep: fine steps.")
+@click.option("--mode", type=click.Choice(["continuous", "steps", "sweep", "closure"]),
+              default=None, help="continuous: turn and sample; steps: target positions; "
+              "sweep: fine steps; closure: the polygon in every setting (simulator).")
 @click.option("--revolutions", type=float, default=None, callback=options.positive,
               help="continuous: revolutions to record.")
 @click.option("--speed", "speed_rpm", type=float, default=None, metavar="RPM",

@@ -30,6 +30,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "correct": ("correct", "Apply a correction table as the hardware would: error before, after."),
     "latency": ("latency", "Dynamic error and code-skip speed from readout latency."),
     "points": ("points", "Turn step-run readings into calibration points."),
+    "closure": ("closure", "Separate encoder and polygon errors of a closure run."),
     "report": ("report", "Figures, uncertainty, ISO 230-2, plots and thresholds."),
     "info": ("info", "Describe a stream: kind, columns, units, rows, history."),
     "rig": ("rig", "List the bundled rigs, print one to edit, check a rig file."),

@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from enctools.cli import options
+from enctools.units import ANGLE_UNITS
 
 
 @click.command("points")
@@ -16,13 +17,22 @@ from enctools.cli import options
               help="Autocollimator column (default: the only one).")
 @click.option("--faces", type=int, default=None, callback=options.positive,
               help="Faces of the polygon (default: the rig's).")
+@click.option("--polygon-certificate", "certificate", default=None, metavar="FILE",
+              help="The polygon's certificate (CSV: face, error, U or u): its face errors "
+                   "applied to the reference angle.")
+@click.option("--certificate-unit", default=None,
+              type=click.Choice(list(ANGLE_UNITS)),
+              help="Unit of the certificate's values when it states none (default: arcsec).")
+@click.option("--first-face", type=int, default=None, metavar="N",
+              help="The certificate's face at the run's first position (default: its first).")
 @options.table_columns
 @options.json_summary
 @options.unit
 @options.outputs
 @options.verbosity
 def command(input: str | None, heads: list[str] | None, autocollimator: str | None,
-            faces: int | None, mapping: Any, as_json: bool, unit: str, output: str | None,
+            faces: int | None, certificate: str | None, certificate_unit: str | None,
+            first_face: int | None, mapping: Any, as_json: bool, unit: str, output: str | None,
             force: bool, fmt: str | None) -> None:
     """Turn a polygon step run, or a table, into a points stream.
 
@@ -33,6 +43,8 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     Arrow or HDF5 without enctools metadata, its columns found by title or named with
     --position/--reference/--measured/--deviation. A point's position is the indicated
     angle (the encoder's reading); the zero offset to the reference is reported.
+    With --polygon-certificate the polygon's face angle errors correct the reference
+    angle of a step run, and the points carry the certificate's uncertainty.
     """
     from enctools.cli.summary import check_json, emit
     from enctools.data import streams
@@ -42,11 +54,14 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
 
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
-    settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces)
+    settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces,
+                               certificate, certificate_unit, first_face)
     header, found = points.make_points(input, settings, mapping)
     streams.write_table(output, with_history(header), found.table(), force, fmt)
     summary: dict[str, Any] = {"n_rows": len(found)}
     if "zero_offset_arcsec" in header.meta:
         summary |= {"zero_offset_arcsec": header.meta["zero_offset_arcsec"],
                     "zero_offset_removed": header.meta["zero_offset_removed"]}
+    if "polygon_certificate" in header.meta:
+        summary["polygon_face_u_max_arcsec"] = header.meta["polygon_certificate"]["u_max_arcsec"]
     emit(summary | {"distinct_positions": from_meta(header.meta["figures"])}, as_json, unit)

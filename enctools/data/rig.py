@@ -20,6 +20,7 @@ from typing import Any
 
 from enctools.data.files import read_small_text
 from enctools.data.riglimits import MAX_BYTES, MAX_DEPTH, check_value, depth
+from enctools.data.uncertainty import declarations
 from enctools.errors import DataError
 from enctools.units import DEG
 
@@ -29,7 +30,7 @@ FORMAT_VERSION = 1
 _SPEC: dict[str, dict[str, tuple[type, ...]]] = {
     "": {"format": (int,), "name": (str,), "description": (str,), "encoder": (list,),
          "probe": (list,), "polygon": (dict,), "motion": (dict,), "acquire": (dict,),
-         "backend": (dict,), "autocollimator": (dict,)},
+         "backend": (dict,), "autocollimator": (dict,), "uncertainty": (dict,)},
     "encoder": {"name": (str,), "model": (str,), "periods_per_rev": (int,),
                 "interpolation": (int,), "diameter_mm": (int, float), "counter_bits": (int,),
                 "latency_s": (int, float), "plane_mm": (int, float), "measure_heads": (list,),
@@ -48,18 +49,22 @@ _SPEC: dict[str, dict[str, tuple[type, ...]]] = {
     "probe": {"name": (str,), "arm_mm": (int, float), "side": (int,), "noise_nm": (int, float),
               "backend": (dict,)},
     "polygon": {"faces": (int,), "face_error_arcsec": (int, float), "seed": (int,)},
-    "autocollimator": {"name": (str,), "noise_arcsec": (int, float), "backend": (dict,)},
+    "autocollimator": {"name": (str,), "noise_arcsec": (int, float),
+                       "scale_error_ppm": (int, float), "backend": (dict,)},
     "motion": {"speed_rpm": (int, float), "jitter_arcsec": (list,), "jitter_hz": (list,),
                "start_deg": (int, float), "feedback": (str,), "speed_error_ppm": (int, float),
                "position_noise_arcsec": (int, float), "backend": (dict,)},
     "acquire": {"mode": (str,), "revolutions": (int, float), "speed_rpm": (int, float),
-                "interval_s": (int, float), "steps": (dict,), "sweep": (dict,)},
+                "interval_s": (int, float), "steps": (dict,), "sweep": (dict,),
+                "closure": (dict,)},
     "acquire.steps": {"positions_deg": (list,), "count": (int,), "settle_s": (int, float),
                       "readings": (int,), "runs": (int,), "bidirectional": (bool,),
                       "overshoot_deg": (int, float)},
     "acquire.sweep": {"start_deg": (int, float), "range_arcsec": (int, float),
                       "step_arcsec": (int, float), "settle_s": (int, float),
                       "readings": (int,)},
+    "acquire.closure": {"settle_s": (int, float), "readings": (int,),
+                        "overshoot_deg": (int, float)},
     "backend": {"kind": (str,), "seed": (int,)},
 }
 # Tables whose contents belong to a backend and are checked by it, not here.
@@ -131,6 +136,7 @@ class Rig:
     acquire: dict[str, Any] = field(default_factory=dict)
     backend: dict[str, Any] = field(default_factory=lambda: {"kind": "sim"})
     source: str = ""
+    uncertainty: dict[str, Any] = field(default_factory=dict)  # [uncertainty.NAME] tables
 
     @property
     def heads(self) -> list[tuple[Encoder, Head]]:
@@ -245,11 +251,13 @@ def parse_rig(raw: dict[str, Any], source: str = "<rig>") -> Rig:
     backend = dict(raw.get("backend", {"kind": "sim"}))
     backend.setdefault("kind", "sim")
     _check_open_keys(raw, backend, source)
+    declarations(raw.get("uncertainty"), f"rig file {source}: uncertainty")
     return Rig(name=name, encoders=encoders, description=raw.get("description", ""),
                probes=_parse_probes(raw, source), polygon=dict(raw.get("polygon", {})),
                autocollimator=dict(raw.get("autocollimator", {})),
                motion=dict(raw.get("motion", {})), acquire=dict(raw.get("acquire", {})),
-               backend=backend, source=source)
+               backend=backend, source=source,
+               uncertainty={k: dict(v) for k, v in raw.get("uncertainty", {}).items()})
 
 
 def _check_open_keys(raw: dict[str, Any], backend: dict[str, Any], source: str) -> None:

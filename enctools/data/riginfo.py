@@ -9,6 +9,7 @@ from typing import Any
 
 from enctools.data.rig import Rig, bundled_rigs, load_rig, rig_text
 from enctools.data.text import printable
+from enctools.data.uncertainty import BASE_UNIT, declarations
 from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
 
@@ -41,6 +42,11 @@ def summary(rig: Rig) -> list[str]:
         out.append(f"  probe {printable(p.name)}: arm {p.arm_mm:g} mm, side {p.side:+d}")
     if rig.polygon:
         out.append(f"  polygon: {rig.polygon.get('faces')} faces")
+    for d in declarations(rig.uncertainty, "uncertainty").values():
+        k = f" (k={d.k:g})" if d.k != 1.0 else ""
+        out.append(f"  uncertainty {d.quantity}: {d.value:g} {d.unit} {d.distribution}{k}, "
+                   f"u {d.value / d.divisor:.4g} {d.unit}"
+                   f"{'; ' + printable(d.source) if d.source else ''}")
     mode = rig.acquire.get("mode", "continuous")
     out.append(f"  acquire: {printable(str(mode))} by default")
     return out
@@ -60,4 +66,8 @@ def summary_dict(rig: Rig) -> dict[str, Any]:
                                 for h in e.heads]} for e in rig.encoders],
         "probes": [{"name": p.name, "arm_mm": p.arm_mm, "side": p.side} for p in rig.probes],
         "polygon_faces": rig.polygon.get("faces") if rig.polygon else None,
+        "uncertainty": {q: {"value": d.value, "unit": d.unit, "distribution": d.distribution,
+                            "k": d.k, "standard": d.standard,
+                            "standard_unit": BASE_UNIT[d.dimension], "source": d.source}
+                        for q, d in declarations(rig.uncertainty, "uncertainty").items()},
         "acquire_mode": str(rig.acquire.get("mode", "continuous"))}

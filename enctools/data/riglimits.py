@@ -63,6 +63,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "polygon.face_error_arcsec": _ARCSEC,
     "polygon.seed": _SEED,
     "autocollimator.noise_arcsec": _ARCSEC,
+    "autocollimator.scale_error_ppm": (-1e5, 1e5),
     "motion.speed_rpm": (-6000.0, 6000.0),
     "motion.jitter_arcsec": _ARCSEC,
     "motion.jitter_hz": (0.0, 10000.0),
@@ -83,6 +84,9 @@ RANGES: dict[str, tuple[float, float]] = {
     "acquire.sweep.step_arcsec": (1e-6, 1_296_000.0),
     "acquire.sweep.settle_s": (0.0, 3600.0),
     "acquire.sweep.readings": (1, 10_000),
+    "acquire.closure.settle_s": (0.0, 3600.0),
+    "acquire.closure.readings": (1, 10_000),
+    "acquire.closure.overshoot_deg": (0.0, 360.0),
     "backend.seed": _SEED,
 }
 
@@ -99,7 +103,7 @@ ARRAYS: dict[str, tuple[tuple[type, ...], int]] = {
 
 #: "table.key" of a string -> the values it may take
 CHOICES: dict[str, tuple[str, ...]] = {
-    "acquire.mode": ("continuous", "steps", "sweep"),
+    "acquire.mode": ("continuous", "steps", "sweep", "closure"),
 }
 
 #: "table.key" of an array of tables or of a string array -> least number of items

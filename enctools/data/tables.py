@@ -104,7 +104,12 @@ def cell_unit(cell: str) -> tuple[float, str | None] | None:
 
 def read_text(path: str) -> RawTable:
     """A text table (CSV, TSV or blank-separated; ``#`` comments) as cells by column."""
-    numbered = [(k + 1, ln) for k, ln in enumerate(_text(path).splitlines())
+    return parse_text(_text(path), path)
+
+
+def parse_text(text: str, path: str) -> RawTable:
+    """The table of a text already read from ``path`` (named in messages)."""
+    numbered = [(k + 1, ln) for k, ln in enumerate(text.splitlines())
                 if ln.strip() and not ln.lstrip().startswith("#")]
     if not numbered:
         msg = f"{path}: no points (the file is empty or only comments)"

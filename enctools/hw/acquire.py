@@ -6,6 +6,10 @@
   uni- or bidirectional runs (polygon work, ISO 230-2); seed 001's procedure.
 - ``sweep``: steps over a small range at a fine pitch (interpolation checks with
   probes; seed 000 table 1).
+- ``closure``: the polygon's closure (cross-calibration, enc-closure(1)): one run of the
+  polygon's faces positions every 360/faces per setting of the polygon on the table,
+  the polygon turned by one face between runs (run s: setting s), so that every face
+  meets every table position.
 
 Counter values arrive raw and wrapped; they leave as unwrapped int64 counts. Batches
 are yielded as they are read, so a caller can flush them at once and lose nothing if
@@ -31,7 +35,7 @@ from enctools.errors import DeviceError, UsageError
 from enctools.hw.base import Session, partial_block
 from enctools.units import ARCSEC, DEG, TWO_PI
 
-MODES = ("continuous", "steps", "sweep")
+MODES = ("continuous", "steps", "sweep", "closure")
 
 DEFAULTS: dict[str, Any] = {
     "mode": "continuous", "revolutions": 1.0, "speed_rpm": 1.0, "interval_s": 0.003,
@@ -74,7 +78,7 @@ def rig_defaults(rig: Rig, mode: str | None) -> dict[str, Any]:
     out: dict[str, Any] = {k: a[k] for k in ("mode", "revolutions", "speed_rpm", "interval_s")
                            if k in a}
     mode = mode or out.get("mode", "continuous")
-    if mode in ("steps", "sweep"):
+    if mode in ("steps", "sweep", "closure"):
         out.update(a.get(mode, {}))
     out["mode"] = mode
     return out
@@ -86,6 +90,8 @@ def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
     merged = dict(DEFAULTS)
     merged.update(rig_defaults(rig, mode))
     merged.update({k: v for k, v in given.items() if v is not None})
+    if merged["mode"] == "closure":
+        merged.update(_closure_plan(rig, given))
     s = Settings(**{k: merged[k] for k in Settings.__dataclass_fields__ if k in merged})
     check(s)
     if s.heads:
@@ -95,6 +101,23 @@ def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
                    f"(heads: {', '.join(rig.head_names)})")
             raise UsageError(msg)
     return s
+
+
+def _closure_plan(rig: Rig, given: dict[str, Any]) -> dict[str, Any]:
+    """A closure run's positions and runs: the polygon's faces each (its own options for
+    them are refused: the design is fixed by the polygon)."""
+    faces = rig.polygon.get("faces") if rig.polygon else None
+    if faces is None:
+        msg = f"--mode closure: rig {rig.name} has no [polygon]"
+        raise UsageError(msg)
+    for name, flag in (("count", "--count"), ("positions_deg", "--positions"),
+                       ("runs", "--runs"), ("bidirectional", "--bidirectional")):
+        if given.get(name) not in (None, False):
+            msg = (f"{flag}: not for --mode closure (one run of the {faces} faces' positions "
+                   "per setting of the polygon)")
+            raise UsageError(msg)
+    return {"count": int(faces), "runs": int(faces), "positions_deg": None,
+            "bidirectional": False}
 
 
 #: setting -> (option, the rig key whose range it shares: enc-rig(5) LIMITS)
@@ -256,6 +279,8 @@ def acquire(rig: Rig, session: Session, s: Settings,
     truth = session.truth()
     if truth is not None:
         meta["truth"] = truth
+    if s.mode == "closure":
+        session.turn_polygon(0)  # refused before any output by a rig that cannot
     header = Header("readings", schema, meta)
     run = _continuous if s.mode == "continuous" else _stepped
     return header, run(rig, session, s, schema, progress)
@@ -337,7 +362,9 @@ def _stepped(rig: Rig, session: Session, s: Settings, schema: pa.Schema,
     rows: dict[str, list[Any]] | None = None  # a position read, not yet yielded
     try:
         for i, (step, run, direction, target) in enumerate(plan):
-            if s.mode == "steps" and overshoot > 0:
+            if s.mode == "closure" and step == 0:
+                session.turn_polygon(run)
+            if s.mode in ("steps", "closure") and overshoot > 0:
                 session.axis.move_to(target - direction * overshoot)
             session.axis.move_to(target)
             session.clock.sleep(s.settle_s)

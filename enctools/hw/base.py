@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from enctools.errors import UsageError
+
 
 @dataclass(frozen=True)
 class Channel:
@@ -129,6 +131,13 @@ class Session(ABC):
     def describe(self) -> dict[str, Any]:
         """What the backend says of itself (goes into the settings metadata)."""
         return {}
+
+    def turn_polygon(self, setting: int) -> None:
+        """Set the polygon on the table turned by ``setting`` faces from its first setting
+        (enc acquire --mode closure); a rig that cannot refuses it before any output."""
+        msg = (f"--mode closure: the {self.describe().get('backend', 'rig')!s} backend cannot "
+               "turn the polygon on the table; closure runs are simulated (backend sim)")
+        raise UsageError(msg)
 
     def close(self) -> None:  # noqa: B027 - a session without devices has nothing to release
         """Release the devices."""

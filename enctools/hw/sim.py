@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from enctools.data.rig import Encoder, Rig
+from enctools.errors import UsageError
 from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session, carry_partial
 from enctools.hw.sim_truth import jitter_motion, make_truth
 from enctools.hw.truth import Motion, Series, interpolation_error
@@ -38,6 +39,7 @@ _GRID = 1 << 18  # points per turn of the tabulated periodic errors
 _READ_TIME = 0.001  # s taken by one software-timed reading
 _MOVE_RPM = 10.0  # r/min of positioning moves
 _REALTIME_BLOCK_S = 0.2  # real-time mode: a counter block at least this often
+_SETTING_ARCSEC = 3.0  # how far off a polygon set again on the table is turned (1 s.d.)
 
 
 class VirtualClock(Clock):
@@ -173,7 +175,19 @@ class VirtualRig(Session):
             name = rig.autocollimator.get("name", "AC")
             self.sensors[name] = SimAutocollimator(
                 self, name, int(rig.polygon.get("faces", 24)),
-                float(rig.autocollimator.get("noise_arcsec", 0.0)), start)
+                float(rig.autocollimator.get("noise_arcsec", 0.0)), start,
+                float(rig.autocollimator.get("scale_error_ppm", 0.0)) * 1e-6)
+
+    def turn_polygon(self, setting: int) -> None:
+        """The polygon set on the table turned by ``setting`` faces: the autocollimator then
+        sees face (j + setting) mod faces at table position j, with the setting's offset
+        (the polygon set again by hand: a few arcsec, the same for every face)."""
+        ac = next((s for s in self.sensors.values() if isinstance(s, SimAutocollimator)), None)
+        if ac is None:
+            msg = f"--mode closure: rig {self.rig.name} has no polygon and autocollimator"
+            raise UsageError(msg)
+        ac.setting = setting
+        ac.offset = float(self.rng.normal(0.0, _SETTING_ARCSEC)) if setting else 0.0
 
     def _feedback_encoder(self) -> Encoder:
         name = self.rig.motion.get("feedback")
@@ -387,16 +401,23 @@ class SimProbe(Sensor):
 
 
 class SimAutocollimator(Sensor):
-    """An autocollimator looking at a polygon on the table [arcsec]; NaN off any face."""
+    """An autocollimator looking at a polygon on the table [arcsec]; NaN off any face.
+
+    It indicates the face's angle (table angle off the nominal face plus the face's
+    error) times 1 + ``scale_error`` (its calibration error, relative), plus noise.
+    """
 
     RANGE_ARCSEC = 1000.0
 
     def __init__(self, rig: VirtualRig, name: str, faces: int, noise_arcsec: float,
-                 theta0: float) -> None:
+                 theta0: float, scale_error: float = 0.0) -> None:
         self.sim = rig
         self.faces = faces
         self.noise = noise_arcsec
         self.theta0 = theta0
+        self.scale = 1.0 + scale_error
+        self.setting = 0  # faces the polygon is turned by on the table (closure runs)
+        self.offset = 0.0  # arcsec: that setting's offset
         self.channel = Channel(name, "arcsec", "autocollimator")
 
     def read(self) -> float:
@@ -407,9 +428,10 @@ class SimAutocollimator(Sensor):
         dev = (theta - self.theta0 - j * step) / ARCSEC
         if abs(dev) > self.RANGE_ARCSEC:
             return float("nan")
-        face = sim._truth.polygon[j % self.faces] if sim._truth.polygon is not None else 0.0
+        face = sim._truth.polygon[(j + self.setting) % self.faces] \
+            if sim._truth.polygon is not None else 0.0
         noise = float(sim.rng.normal(0.0, self.noise)) if self.noise > 0 else 0.0
-        return dev + face + noise
+        return (dev - face + self.offset) * self.scale + noise
 
 
 __all__ = ["VirtualRig", "interpolation_error", "zero_count"]

@@ -112,13 +112,15 @@ def radial_truth(enc: Encoder) -> dict[str, Series]:
 
 
 def polygon_truth(rig: Rig) -> np.ndarray | None:
-    """Face angle errors [arcsec] of the rig's polygon (they sum to zero)."""
+    """Face angle errors [arcsec] of the rig's polygon, as a certificate gives them (they
+    sum to zero; enc-points(1), POLYGON CERTIFICATE): the table turns j * 360/faces + error
+    from face 0 square to the autocollimator to face j square."""
     p = rig.polygon
     if not p:
         return None
     rng = np.random.default_rng(p.get("seed", 0))
     e = rng.normal(size=int(p.get("faces", 24))) * float(p.get("face_error_arcsec", 0.0))
-    return e - e.mean()
+    return e.mean() - e  # drawn with the other sign before certificates were read
 
 
 def make_truth(rig: Rig) -> Truth:

@@ -24,8 +24,10 @@ Conventions (all angles in rad, errors in arcsec, radial motion in nm):
   :func:`interpolation_error_read` evaluates it at a signal phase read.
 - ``motion``: theta(t) = theta0 + omega t + sum of speed-jitter sinusoids, t the
   stream's ``t`` [s] (continuous mode).
-- ``polygon``: face angle errors of the polygon, arcsec; the autocollimator reads
-  (theta - theta0 - j 2 pi / faces) [arcsec] + face error + noise at face j.
+- ``polygon``: face angle errors of the polygon, arcsec, as its certificate gives them
+  (enc-points(1)); the autocollimator reads (theta - theta0 - j 2 pi / faces) [arcsec]
+  - face error + noise at face j (with the polygon turned on the table by s faces, enc
+  closure: face (j + s) mod faces, plus the setting's offset).
 """
 
 from __future__ import annotations

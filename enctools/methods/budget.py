@@ -23,15 +23,11 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from enctools.errors import DataError
+import numpy as np
 
-#: divisors of the GUM for a declared value of each distribution (GUM 4.3.7-4.3.9)
-DIVISORS: dict[str, float] = {
-    "normal": 1.0,           # a standard deviation (or an expanded U with divisor k)
-    "rectangular": math.sqrt(3.0),
-    "triangular": math.sqrt(6.0),
-    "u-shaped": math.sqrt(2.0),
-}
+from enctools.data.uncertainty import DIVISORS as DIVISORS  # the GUM's divisors, here too
+from enctools.data.uncertainty import UNITS, Declaration
+from enctools.errors import DataError
 
 
 @dataclass(frozen=True)
@@ -108,3 +104,146 @@ def combine(contributions: Iterable[Contribution], coverage: float = 0.95) -> Bu
     nu_eff = effective_dof(u, (row.dof for row in rows))
     k = coverage_factor(nu_eff, coverage)
     return Budget(rows, u_c, nu_eff, k, k * u_c, coverage)
+
+
+# ------------------------------------------------- the model of a polygon step run
+#
+# Seed 001 sec. 5.3: the polygon turns with the encoder; at position j the table stops
+# where the encoder reads about j * 360/faces, the N measuring heads are read n times
+# and the autocollimator looks at face j. The deviation of point j is relative to the
+# run's first position (the datum, j = 0):
+#
+#     D_j = (E_j - E_0) - j p - (a_j - a_0)(1 + kappa) - (delta_j - delta_0)
+#
+# E the mean of the N heads' quantised readings, a the autocollimator's indication,
+# kappa its scale error, delta the face angle deviations of the polygon, p its pitch.
+
+
+@dataclass(frozen=True)
+class PolygonRun:
+    """What a polygon step run tells its budget (from the points' metadata).
+
+    s_arcsec : pooled standard deviation of one reading's deviation (head mean minus
+        autocollimator) about its position's mean [arcsec], on ``dof`` degrees of freedom.
+    readings : readings per position (the fewest of the run).
+    span_arcsec : the largest |a_j - a_0| of the run's autocollimator indications [arcsec].
+    lsb_arcsec : one count of the encoder [arcsec]; heads : the N heads averaged.
+    head_s_arcsec : pooled standard deviation of one head's reading about its position's
+        mean [arcsec] (the noise that dithers the quantisation).
+    """
+
+    s_arcsec: float
+    dof: float
+    readings: int
+    span_arcsec: float
+    lsb_arcsec: float
+    heads: int
+    head_s_arcsec: float
+
+
+def repeatability(run: PolygonRun) -> Contribution:
+    """Type A: the scatter of the n readings at a position. u(D_j) = s sqrt(1/n + 1/n):
+    the point is the difference of two means of n readings (position j and the datum),
+    as one row (one estimate s on its dof): value s, divisor sqrt(n), c = sqrt(2)."""
+    return Contribution(f"repeatability of the readings ({run.readings} per position)",
+                        "this run", "A", "normal", run.s_arcsec, "arcsec",
+                        math.sqrt(run.readings), math.sqrt(2.0), run.dof)
+
+
+def polygon_faces(face: Declaration) -> list[Contribution]:
+    """The polygon's face angle deviations delta_j and delta_0: dD/d(delta_j) = -1,
+    dD/d(delta_0) = +1, each face's u as ``face`` declares it (a polygon certificate's
+    uncertainty of a certified face, or the face errors themselves when not applied)."""
+    return [_declared(face, "polygon face angle at the point", -1.0),
+            _declared(face, "polygon face angle at the datum", 1.0)]
+
+
+def autocollimator_scale(scale: Declaration, span_arcsec: float) -> Contribution:
+    """The autocollimator's scale error kappa: dD/d(kappa) = -(a_j - a_0) [arcsec], its
+    largest magnitude over the run (``span_arcsec``), so that the row holds every point."""
+    return _declared(scale, "autocollimator scale error", -span_arcsec)
+
+
+def dithered_quantisation(lsb_arcsec: float, noise_arcsec: float, terms: int = 4000) -> float:
+    """Standard uncertainty [arcsec] of the mean of many readings of one head quantised
+    to ``lsb_arcsec`` (q) with Gaussian noise of ``noise_arcsec`` (sigma) before the
+    quantiser: the mean's bias is b(x) = sum_m (-1)^(m+1) (q / (pi m))
+    exp(-2 pi^2 m^2 sigma^2 / q^2) sin(2 pi m x / q) for a true value x; over an unknown
+    x (uniform within a count) its rms is
+
+        u = (q / pi) sqrt( sum_m exp(-4 pi^2 m^2 sigma^2 / q^2) / (2 m^2) )
+
+    q / sqrt(12) without noise (the rectangular half-width q/2: sum 1/m^2 = pi^2/6),
+    vanishing when sigma is a fair part of q (the readings' scatter then holds it)."""
+    q = lsb_arcsec
+    if q <= 0.0:
+        return 0.0
+    if noise_arcsec == 0.0:
+        return q / math.sqrt(12.0)
+    m = np.arange(1, terms + 1, dtype=float)
+    total = float(np.sum(np.exp(-4.0 * math.pi ** 2 * m ** 2 * noise_arcsec ** 2 / q ** 2)
+                         / (2.0 * m ** 2)))
+    return q / math.pi * math.sqrt(total)
+
+
+def quantisation(run: PolygonRun) -> Contribution:
+    """The quantisation of the N heads at the point and the datum: dD/dQ_k = +-1/N for
+    each of 2N head readings, so u = u_q sqrt(2N) / N with u_q
+    (:func:`dithered_quantisation`) at the heads' noise, sigma^2 = s_head^2 - q^2/12
+    (the scatter of a head's readings holds the quantiser's own q^2/12, Sheppard)."""
+    q = run.lsb_arcsec
+    sigma = math.sqrt(max(run.head_s_arcsec ** 2 - q * q / 12.0, 0.0))
+    u_q = dithered_quantisation(q, sigma)
+    return Contribution(f"quantisation of {run.heads} head(s), 1 count = {q:.4g} arcsec",
+                        "encoder resolution", "B", "normal", u_q, "arcsec", 1.0,
+                        math.sqrt(2.0 * run.heads) / run.heads)
+
+
+def polygon_run_budget(declared: dict[str, Declaration], run: PolygonRun,
+                       face: Declaration | None = None, coverage: float = 0.95) -> Budget:
+    """The budget of a point of a polygon step run (any but the datum, whose D is 0).
+
+    ``declared``: the rig's declarations (polygon, autocollimator enter this model);
+    ``face``: the polygon's face uncertainty when it comes from elsewhere (a polygon
+    certificate), else ``declared["polygon"]``.
+    """
+    rows = [repeatability(run), quantisation(run)]
+    face = face if face is not None else declared.get("polygon")
+    if face is not None:
+        rows += polygon_faces(face)
+    if "autocollimator" in declared:
+        rows.append(autocollimator_scale(declared["autocollimator"], run.span_arcsec))
+    return combine(rows, coverage)
+
+
+#: the declared quantities the polygon step run's model uses
+POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator")
+
+
+def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
+    """A Contribution of a declaration: its value and unit as declared, c [arcsec per
+    declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""
+    c = c_base * UNITS[d.dimension][d.unit]
+    return Contribution(name, d.source, "B", d.distribution, d.value, d.unit, d.divisor, c,
+                        d.dof)
+
+
+# ------------------------------------------- the model of a probe-based angle (seed 000)
+#
+# An angle from a displacement probe on an arm (seed 000 sec. 4): psi = h / L, with the
+# arm at temperature 20 degC + dT: L = L20 (1 + alpha dT), the probe's reading h (1 + k_p).
+
+
+def probe_arm_sensitivity(psi_arcsec: float, arm_m: float) -> float:
+    """dpsi/dL = -h / L^2 = -psi / L [arcsec per m]."""
+    return -psi_arcsec / arm_m
+
+
+def probe_scale_sensitivity(psi_arcsec: float) -> float:
+    """dpsi/dk_p of psi = h (1 + k_p) / L at k_p = 0: psi [arcsec per unit scale error]."""
+    return psi_arcsec
+
+
+def temperature_sensitivity(psi_arcsec: float, expansion_per_k: float) -> float:
+    """dpsi/d(dT) of psi = h / (L20 (1 + alpha dT)) at dT = 0: -psi alpha [arcsec per K]."""
+    return -psi_arcsec * expansion_per_k

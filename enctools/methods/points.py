@@ -22,6 +22,7 @@ metadata of points and models.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -31,6 +32,7 @@ import pyarrow as pa
 
 from enctools.data import limits
 from enctools.data.columns import column, declared_unit
+from enctools.data.polygon import Certificate, read_certificate
 from enctools.data.readings import head_angle, head_info, measuring_heads
 from enctools.data.riglimits import RANGES
 from enctools.data.schemas import column_with_role, make_field
@@ -38,7 +40,7 @@ from enctools.data.statistics import Figures, figures_or_nan
 from enctools.data.tablemap import Mapping, TablePoints
 from enctools.data.tables import is_plain
 from enctools.errors import DataError, UsageError
-from enctools.units import ARCSEC, DEG, TWO_PI, factor
+from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor
 
 if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
@@ -60,6 +62,7 @@ class Points:
     direction: np.ndarray
     run: np.ndarray
     reference_deg: np.ndarray | None = None
+    run_meta: dict[str, Any] | None = None  # a polygon step run's figures for its budget
 
     def __len__(self) -> int:
         return int(self.position_deg.size)
@@ -98,11 +101,17 @@ class Settings:
         of the first head's encoder, else every head of it).
     autocollimator : the autocollimator column (None: the only one).
     faces : faces of the polygon (None: the rig's ``polygon.faces``).
+    certificate : the polygon's certificate, a file (None: the faces taken as perfect).
+    certificate_unit : the unit of its values when it states none (None: arcsec).
+    first_face : the certificate's face at the run's first position (None: its first).
     """
 
     heads: tuple[str, ...] | None = None
     autocollimator: str | None = None
     faces: int | None = None
+    certificate: str | None = None
+    certificate_unit: str | None = None
+    first_face: int | None = None
 
     def __post_init__(self) -> None:
         if self.faces is not None and self.faces < 1:
@@ -112,11 +121,18 @@ class Settings:
         if self.faces is not None and self.faces > most:
             msg = f"--faces must be at most {most} (a rig's polygon.faces), not {self.faces}"
             raise UsageError(msg)
+        if self.certificate is None and (self.first_face, self.certificate_unit) != (None, None):
+            msg = "--first-face and --certificate-unit need --polygon-certificate"
+            raise UsageError(msg)
+        if self.first_face is not None and not 0 <= self.first_face <= most:
+            msg = f"--first-face must be 0..{most}, not {self.first_face}"
+            raise UsageError(msg)
 
     def given(self) -> list[str]:
         """The options given, by name."""
         return [o for o, v in (("--heads", self.heads), ("--autocollimator", self.autocollimator),
-                               ("--faces", self.faces)) if v is not None]
+                               ("--faces", self.faces), ("--polygon-certificate", self.certificate),
+                               ("--first-face", self.first_face)) if v is not None]
 
     def check_table(self, path: str) -> None:
         """Refuse (UsageError) the step run's options for a table."""
@@ -126,8 +142,11 @@ class Settings:
 
     def to_meta(self) -> dict[str, Any]:
         """The ``settings`` metadata of the points stream (the options as given)."""
-        return {"heads": None if self.heads is None else list(self.heads),
-                "autocollimator": self.autocollimator, "faces": self.faces}
+        out = {"heads": None if self.heads is None else list(self.heads),
+               "autocollimator": self.autocollimator, "faces": self.faces}
+        if self.certificate is not None:
+            out |= {"polygon_certificate": self.certificate, "first_face": self.first_face}
+        return out
 
 
 def figures_meta(f: Figures) -> dict[str, float]:
@@ -141,7 +160,7 @@ def figures_meta(f: Figures) -> dict[str, float]:
 
 
 def points_from_steps(header: Header, table: pa.Table, settings: Settings,
-                      source: str = "input") -> Points:
+                      source: str = "input", certificate: Certificate | None = None) -> Points:
     """Calibration points from a steps-mode readings stream with an autocollimator.
 
     Parameters
@@ -149,14 +168,48 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
     header, table : the readings stream (columns ``step``, ``run``, ``direction``,
         head columns [count], an autocollimator column [arcsec]).
     settings : the heads, autocollimator column and polygon faces (None: from the
-        stream's rig and columns).
+        stream's rig and columns), the face at the first position.
+    certificate : the polygon's face angle errors, applied to the true angle (None: the
+        faces taken as perfect).
 
     Returns
     -------
     One point per (run, direction, step): position = mean encoder reading [deg,
     0..360), deviation = indicated - true angle relative to the run's first
-    position [arcsec].
+    position [arcsec]; the true angle of face j is j * 360/faces plus its error from the
+    certificate, relative to the first position's face.
     """
+    faces, heads, ac, keys, lsb = _step_columns(header, table, settings, source)
+    va, vac, vr, vd, _ = visits(heads.mean(axis=0), ac, *keys, source)
+    if certificate is not None and header.meta.get("mode") == "closure":
+        msg = (f"{source}: a closure run, the polygon turned between its runs: "
+               "enc closure separates its face errors (--polygon-certificate is for step runs)")
+        raise DataError(msg)
+    if certificate is not None and certificate.faces != faces:
+        msg = (f"{certificate.source}: the certificate lists {certificate.faces} faces; the "
+               f"polygon of {source} has {faces}")
+        raise DataError(msg)
+    dev, j = _polygon_deviation(va, vac, vr, faces, source)
+    if certificate is not None:
+        dev -= face_correction(certificate, j, settings.first_face)
+    points = Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+    points.run_meta = _run_meta(heads, ac, keys, (vac, vr), lsb)
+    return points
+
+
+def step_visits(header: Header, table: pa.Table, settings: Settings, source: str
+                ) -> tuple[int, tuple[np.ndarray, ...]]:
+    """The polygon's faces and the :func:`visits` of a step run (mean of the heads [rad],
+    autocollimator [arcsec], run, direction, step of each)."""
+    faces, heads, ac, keys, _ = _step_columns(header, table, settings, source)
+    return faces, visits(heads.mean(axis=0), ac, *keys, source)
+
+
+def _step_columns(header: Header, table: pa.Table, settings: Settings, source: str
+                  ) -> tuple[int, np.ndarray, np.ndarray,
+                             tuple[np.ndarray, np.ndarray, np.ndarray], float]:
+    """The polygon's faces, each measuring head's angle [rad] (one row a head), the
+    autocollimator [arcsec], the (run, direction, step) keys and one count [arcsec]."""
     for col in ("step", "run", "direction"):
         if col not in table.column_names:
             msg = (f"{source}: no {col!r} column: is this a steps-mode run "
@@ -165,17 +218,59 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
     if table.num_rows == 0:
         msg = f"{source}: the readings stream has no rows"
         raise DataError(msg)
-    infos, autocollimator, faces = _steps_inputs(header, settings, source)
-    angle = np.mean([head_angle(table.column(i.name), i) for i in infos], axis=0)  # rad
+    infos, autocollimator, faces = steps_inputs(header, settings, source)
+    heads = np.array([head_angle(table.column(i.name), i) for i in infos])  # rad
     ac = table.column(autocollimator).to_numpy(zero_copy_only=False).astype(np.float64)
     run, direction, step = (table.column(c).to_numpy(zero_copy_only=False)
                             for c in ("run", "direction", "step"))
-    va, vac, vr, vd = _visits(angle, ac, run, direction, step, source)
-    dev = _polygon_deviation(va, vac, vr, faces, source)
-    return Points(np.mod(va / DEG, 360.0), dev, vd, vr)
+    return faces, heads, ac, (run, direction, step), counts_factor(
+        min(i.counts_per_rev for i in infos), "arcsec")
 
 
-def _steps_inputs(header: Header, settings: Settings, source: str
+def _run_meta(heads: np.ndarray, ac: np.ndarray, keys: tuple[np.ndarray, ...],
+              visits: tuple[np.ndarray, np.ndarray], lsb: float) -> dict[str, Any]:
+    """What a polygon run tells its uncertainty budget (``polygon_run`` metadata, [arcsec]):
+    the pooled standard deviation of one reading's deviation (head mean minus
+    autocollimator) and of one head's reading about their position's mean, its degrees
+    of freedom, the fewest readings of a position, the largest |a_j - a_0| of a run's
+    autocollimator means, one count ``lsb`` [arcsec] and the number of heads averaged."""
+    key = np.stack(keys).T
+    ok = np.isfinite(ac)
+    visit = np.r_[0, np.cumsum(np.any(key[1:] != key[:-1], axis=1))][ok]
+    n = np.bincount(visit)
+    used = n > 0
+    dof = int(np.sum(n[used] - 1))
+
+    def pooled(x: np.ndarray) -> float:
+        mean = np.bincount(visit, x, n.size)[visit] / n[visit]
+        return float(np.sum((x - mean) ** 2)) / dof
+
+    h = heads[:, ok] / ARCSEC
+    d = h.mean(axis=0) - ac[ok]
+    s = math.sqrt(pooled(d - d[0])) if dof > 0 else None
+    head_s = math.sqrt(np.mean([pooled(x - x[0]) for x in h])) if dof > 0 else None
+    vac, vr = visits
+    span = max(float(np.max(np.abs(vac[vr == r] - vac[vr == r][0]))) for r in np.unique(vr))
+    return {"s_arcsec": s, "dof": dof, "readings": int(n[used].min()),
+            "span_arcsec": span, "lsb_arcsec": lsb,
+            "heads": int(heads.shape[0]), "head_s_arcsec": head_s}
+
+
+def face_correction(cert: Certificate, j: np.ndarray, first_face: int | None) -> np.ndarray:
+    """The certificate's face angle errors [arcsec] at faces ``j`` (counted from the run's
+    first position) relative to the first position's face: what the true angle gains,
+    so what the deviation loses. ``first_face``: the certificate's number of the face at
+    the first position (None: its first face)."""
+    start = 0 if first_face is None else first_face - cert.first
+    if not 0 <= start < cert.faces:
+        msg = (f"--first-face {first_face}: the certificate numbers its {cert.faces} faces "
+               f"{cert.first}..{cert.first + cert.faces - 1}")
+        raise UsageError(msg)
+    err = cert.error_arcsec
+    return err[(start + j) % cert.faces] - err[start]
+
+
+def steps_inputs(header: Header, settings: Settings, source: str
                   ) -> tuple[list[HeadInfo], str, int]:
     """The heads, the autocollimator column and the polygon's faces of a step run:
     as given in ``settings``, else from the stream's rig and columns."""
@@ -207,12 +302,12 @@ def _rig_faces(meta: dict[str, Any], source: str) -> int:
     return faces
 
 
-def _visits(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, direction: np.ndarray,
+def visits(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, direction: np.ndarray,
             step: np.ndarray, source: str) -> tuple[np.ndarray, ...]:
     """One row per visit of a position: consecutive rows of one (run, direction, step).
 
     Returns the mean encoder angle [rad] and autocollimator reading [arcsec] of each
-    visit (rows without an autocollimator reading left out), its run and direction.
+    visit (rows without an autocollimator reading left out), its run, direction and step.
     """
     key = np.stack([run, direction, step]).T
     starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
@@ -227,18 +322,20 @@ def _visits(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, direction: np.nd
         vis_angle.append(np.mean(angle[a:b][ok]))
         vis_ac.append(np.mean(ac[a:b][ok]))
     return (np.array(vis_angle), np.array(vis_ac), run[starts].astype(np.int32),
-            direction[starts].astype(np.int8))
+            direction[starts].astype(np.int8), step[starts].astype(np.int64))
 
 
 def _polygon_deviation(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, faces: int,
-                       source: str) -> np.ndarray:
-    """Indicated - true angle [arcsec] of each visit, relative to its run's first one.
+                       source: str) -> tuple[np.ndarray, np.ndarray]:
+    """Indicated - true angle [arcsec] of each visit, relative to its run's first one, and
+    the face j of each visit counted from the first (0..faces-1).
 
     The true angle is ``j * 360/faces`` (j the nearest face) plus the autocollimator's
     reading [arcsec] relative to the run's first position.
     """
     pitch = TWO_PI / faces
     dev = np.empty(angle.size)
+    face = np.empty(angle.size, np.int64)
     for r in np.unique(run):
         sel = np.flatnonzero(run == r)
         first = sel[0]
@@ -246,12 +343,13 @@ def _polygon_deviation(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, faces
         j = np.round(rel / pitch)
         true_rel = j * pitch + (ac[sel] - ac[first]) * ARCSEC
         dev[sel] = (rel - true_rel) / ARCSEC
+        face[sel] = np.mod(j, faces)
         off = np.abs(rel - j * pitch) / ARCSEC
         if off.max() > 1000.0:
             msg = (f"{source}: run {int(r)}: a position is {off.max():.0f} arcsec off the "
                    f"nearest of {faces} polygon faces; wrong --faces?")
             raise DataError(msg)
-    return dev
+    return dev, face
 
 
 # --------------------------------------------------------------------- from a table
@@ -400,10 +498,16 @@ def make_points(path: str | None, settings: Settings, mapping: Mapping | None = 
         header, points = read_points(path, mapping)
     else:
         _no_mapping(mapping, path)
+        cert = None if settings.certificate is None else read_certificate(
+            settings.certificate, None, settings.certificate_unit)
         src = streams.open_input(path, "readings")
-        points = check_points(points_from_steps(src.header, src.read_all(), settings, src.source),
-                              src.source)
+        points = check_points(points_from_steps(src.header, src.read_all(), settings, src.source,
+                                                cert), src.source)
         header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")
+        if cert is not None:
+            header.meta["polygon_certificate"] = cert.meta() | {
+                "first_face": cert.first if settings.first_face is None else settings.first_face}
+        header.meta["polygon_run"] = points.run_meta
     header.meta["settings"] = settings.to_meta()
     header.meta["figures"] = figures_meta(figures_or_nan(distinct(
         points, source=header.meta.get("source", "input"))[1]))

@@ -146,8 +146,9 @@ def _summary(report: Report) -> dict[str, Any] | None:
     for s, c in report.curves():
         f, u = c.figures, c.unit
         rows.append([_name(s.source), c.name, label(u), f.n, fmt(f.pp, u), fmt(f.plus_minus, u),
-                     fmt(f.mean, u), fmt(f.std, u), fmt(c.U_max, u)])
-    return table(["input", "curve", "unit", "n", "p-p", "±", "mean", "s", "U max (k = 2)"],
+                     fmt(f.mean, u), fmt(f.std, u), fmt(c.U_max, u),
+                     fmt(c.k, decimals=2) if c.u is not None else "–"])
+    return table(["input", "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"],
                  rows, left=3)
 
 

@@ -11,6 +11,7 @@ from typing import Any
 
 from enctools.data import summaries
 from enctools.data.summaries import clean, figure_dict
+from enctools.report.budget import budget_dict
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.report.summary import Report
 from enctools.report.vdi3441 import Vdi3441
@@ -28,7 +29,7 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
         d["head"] = c.head
     if c.u is not None:
         d[f"expanded_u_max_{u}"] = c.U_max
-        d["coverage_k"] = 2
+        d["coverage_k"] = c.k
     if c.harmonics is not None:
         h = c.harmonics.largest(top)
         d["harmonics"] = [{"n": int(n), f"amplitude_{u}": float(a), "phase_rad": float(p)}
@@ -70,6 +71,8 @@ def section_dict(s: Section, top: int) -> dict[str, Any]:
                          "warnings": s.iso.warnings}
     if s.vdi is not None:
         d["vdi3441"] = vdi_dict(s.vdi)
+    if s.budget is not None:
+        d["budget"] = budget_dict(s.budget)
     if s.notes:
         d["notes"] = s.notes
     d["history"] = s.history

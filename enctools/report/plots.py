@@ -111,7 +111,7 @@ def _unit_label(unit: str) -> str:
 
 
 def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
-    """Deviation curves against angle with the U (k = 2) band where known."""
+    """Deviation curves against angle with the U band (k = 2, or a budget's) where known."""
     fig = Figure(figsize=SIZE)
     ax = fig.add_subplot()
     for i, c in enumerate(curves):
@@ -123,9 +123,9 @@ def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
         ax.plot(x, y, "o-" if sparse else "-", ms=3.5, lw=1.2, color=color,
                 label=f"{c.name} (p-p {c.figures.pp:.3g}, s {c.figures.std:.3g})")
         if c.u is not None:
-            U = 2.0 * np.asarray(c.u)[order]
+            U = c.k * np.asarray(c.u)[order]
             ax.fill_between(x, y - U, y + U, color=color, alpha=0.2, lw=0,
-                            label=f"{c.name} ± U (k=2)")
+                            label=f"{c.name} ± U (k={c.k:.3g})")
     ax.axhline(0, color="0.6", lw=0.6)
     ax.set_xlabel(_angle_label(curves[0]))
     ax.set_ylabel(_unit_label(curves[0].unit))

@@ -34,7 +34,7 @@ from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
 from enctools.errors import DataError
 from enctools.methods.budget import Budget
-from enctools.report.figures import Harmonics, expanded_uncertainty, harmonics
+from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
 from enctools.report.vdi3441 import Vdi3441, from_iso
 from enctools.units import ARCSEC, DEG, TWO_PI
@@ -59,11 +59,12 @@ class Curve:
     domain: str = "revolution"      # or "period": angle is the phase in a signal period
     head: str | None = None
     extra: dict[str, float] = field(default_factory=dict)
+    k: float = K_COVERAGE           # coverage factor of U = k u (a budget's Student k)
 
     @property
     def U_max(self) -> float | None:
-        """Largest expanded uncertainty U (k = 2) along the curve, in its unit (arcsec, nm)."""
-        return None if self.u is None else float(np.max(expanded_uncertainty(self.u)))
+        """Largest expanded uncertainty U = k u along the curve, in its unit (arcsec, nm)."""
+        return None if self.u is None else float(np.max(expanded_uncertainty(self.u, self.k)))
 
 
 @dataclass
@@ -245,6 +246,22 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
     direction, run = (table.column(c).to_numpy(zero_copy_only=False)
                       if c in table.schema.names else None for c in ("direction", "run"))
     _points_into(s, pos, dev, direction, opts, "deviation", "points", run=run)
+    _budget_into(s, one_approach=all(x is None or np.unique(x).size == 1
+                                     for x in (direction, run)))
+
+
+def _budget_into(s: Section, one_approach: bool) -> None:
+    """The uncertainty budget of a polygon run's points (report/budget.py): every
+    point's u is then the budget's u_c, its U the budget's k u_c."""
+    from enctools.report.budget import points_budget
+
+    budget, notes = points_budget(s.meta, s.source, one_approach)
+    s.notes += notes
+    if budget is not None:
+        s.budget = budget
+        curve = s.curves[-1]
+        curve.u = np.full(curve.values.shape, budget.u_c)
+        curve.k = budget.k
 
 
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from enctools.data.text import printable_lines
+from enctools.report.budget import budget_lines
 from enctools.report.display import fmt, mark
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -21,7 +22,7 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
              f"p-p {g(f.pp)}{sym}  +/-{g(f.plus_minus)}{sym}  mean {g(f.mean)}{sym}  "
              f"s {g(f.std)}{sym} (Bessel n-1)"]
     if c.u is not None:
-        lines.append(f"    expanded uncertainty U (k=2): max {g(c.U_max)}{sym}")
+        lines.append(f"    expanded uncertainty U (k={c.k:.3g}): max {g(c.U_max)}{sym}")
     h = c.harmonics.largest(top) if c.harmonics is not None else None
     if h is not None and h.n.size:
         per = "/period" if c.domain == "period" else "/rev"
@@ -94,6 +95,8 @@ def section_lines(s: Section, top: int) -> list[str]:
                 p += f" |W| {fmt(float(sp.transfer[i]), decimals=2)}"
             parts.append(p)
         lines.append(f"  spectrum {sp.curve}: largest " + "; ".join(parts))
+    if s.budget is not None:
+        lines += budget_lines(s.budget, s.unit)
     lines += iso_lines(s)
     lines += vdi_lines(s)
     lines += [f"  note: {n}" for n in s.notes]

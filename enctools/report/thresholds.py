@@ -104,7 +104,7 @@ def check(report: Report, limits: Thresholds) -> list[str]:
     for s, c in _arcsec_curves(report):
         where = f"{c.name} in {s.source}"
         bad.extend(figure_limits(c.figures, limits, where))
-        over(c.U_max, limits.max_u, "U (k=2)", where, "--max-u")
+        over(c.U_max, limits.max_u, f"U (k={c.k:.3g})", where, "--max-u")
     for s, c in report.curves("nm"):
         over(c.figures.pp, limits.max_radial_pp, "p-p", f"{c.name} in {s.source}",
              "--max-radial-pp", "nm")

@@ -35,6 +35,8 @@ BASE: list[dict[str, list[str]]] = [
      "lat.parquet": ["acquire", "--rig", "ciomp-23bit", "--mode", "continuous",
                      "--revolutions", "0.05"],
      "steps.parquet": ["acquire", "--rig", "ciomp-23bit", "--mode", "steps"],
+     "closure.parquet": ["acquire", "--rig", "ciomp-23bit", "--mode", "closure", "--readings",
+                         "1", "--settle", "0"],
      "sweep.parquet": ["acquire", "--rig", "sjtu-dual", "--mode", "sweep"],
      "signals.parquet": ["acquire", "--rig", "sjtu-dual", "--mode", "sweep", "--readings", "1",
                          "--runs", "1", "--signals", "--heads", "P1,P2"],
@@ -49,7 +51,8 @@ BASE: list[dict[str, list[str]]] = [
      "dev.parquet": ["selfcal", "r2.parquet", "--spectrum", "spec.parquet"],
      "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--ref", "P1"],
      "dev.csv": ["selfcal", "r2.parquet", "--spectrum", "spec.tsv"]},
-    {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream"]},
+    {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream"],
+     "polypts.parquet": ["points", "steps.parquet"]},
 ]
 
 

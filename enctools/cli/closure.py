@@ -1,0 +1,73 @@
+"""enc closure: a closure run -> the encoder's points and the polygon's face errors."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+from enctools.cli import options
+
+
+@click.command("closure")
+@options.input_arg
+@options.heads("Heads averaged into the encoder reading (default: the rig's measuring heads).")
+@click.option("--autocollimator", default=None, metavar="COLUMN",
+              help="Autocollimator column (default: the only one).")
+@click.option("--faces", type=int, default=None, callback=options.positive,
+              help="Faces of the polygon (default: the rig's).")
+@click.option("--faces-out", default=None, metavar="FILE",
+              help="Write the polygon's face errors as a certificate (enc points "
+                   "--polygon-certificate reads it).")
+@options.json_summary
+@options.unit
+@options.outputs
+@options.verbosity
+def command(input: str | None, heads: list[str] | None, autocollimator: str | None,
+            faces: int | None, faces_out: str | None, as_json: bool, unit: str,
+            output: str | None, force: bool, fmt: str | None) -> None:
+    """Separate the encoder's and the polygon's errors of a closure run.
+
+    INPUT is a readings stream from `enc acquire --mode closure`: the polygon measured at
+    every table position in every setting on the table, turned by one face between
+    settings. Writes the encoder's deviations (one point per table position, relative
+    to the first, their standard uncertainty in the metadata) as a points stream, and
+    with --faces-out the face angle errors with their standard uncertainty in the
+    certificate format of enc-points(1).
+    """
+    import os
+
+    import numpy as np
+
+    from enctools.cli.summary import check_json, emit
+    from enctools.data import files, polygon, streams
+    from enctools.data.streams import with_history
+    from enctools.data.summaries import from_meta
+    from enctools.errors import UsageError
+    from enctools.methods import closure, points
+
+    check_json(as_json, output)
+    streams.check_output(output, force, fmt)
+    if faces_out is not None:
+        if output is not None and os.path.abspath(faces_out) == os.path.abspath(output):
+            msg = f"--faces-out and -o both name {faces_out}"
+            raise UsageError(msg)
+        files.check_new_file(faces_out, force)
+    settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces)
+    src = streams.open_input(input, "readings")
+    header, found, sep = closure.closure_points(src.header, src.read_all(), settings,
+                                                src.source)
+    header = with_history(header)
+    with files.OutputGroup() as group:
+        streams.write_table(output, header, found.table(), force, fmt, group=group)
+        if faces_out is not None:
+            text = polygon.certificate_text(
+                sep.face_error, np.full(sep.faces, sep.u_face), f"closure {src.source}",
+                "circle closure (cross-calibration) on the rig itself: no external standard",
+                (header.history[-1],))
+            group.write(faces_out, text.encode(), force=force)
+    summary: dict[str, Any] = {"n_positions": sep.faces, "s_arcsec": sep.s, "dof": sep.dof,
+                               "u_deviation_arcsec": sep.u_deviation,
+                               "u_face_arcsec": sep.u_face,
+                               "face_error_pp_arcsec": float(np.ptp(sep.face_error))}
+    emit(summary | {"deviation": from_meta(header.meta["figures"])}, as_json, unit)

@@ -1,0 +1,133 @@
+"""The uncertainty budget of a points section (GUM; enc-report(1), UNCERTAINTY BUDGET).
+
+Points from a polygon step run (``enc points``) carry what their run says about its
+own repeatability (metadata ``polygon_run``) and the rig's Type B declarations
+(``rig.uncertainty``, enc-rig(5)). From both this module builds the budget of a point
+(:func:`enctools.methods.budget.polygon_run_budget`): the repeatability of the
+readings (Type A), the quantisation of the heads, the polygon's face errors and the
+autocollimator's scale error, combined with Welch-Satterthwaite and expanded with
+Student's k. Values in arcsec.
+
+Metadata are data from elsewhere: every value is checked and a bad one is one
+DataError line naming it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from enctools.data.polygon import points_face_uncertainty
+from enctools.data.uncertainty import Declaration, declarations
+from enctools.errors import DataError
+from enctools.methods.budget import POLYGON_RUN_QUANTITIES, Budget, PolygonRun, polygon_run_budget
+from enctools.units import factor
+
+#: polygon_run metadata key -> (least, greatest, whole number, may be null)
+_RUN_KEYS: dict[str, tuple[float, float, bool, bool]] = {
+    "s_arcsec": (0.0, 3600.0, False, True), "dof": (0, 1e9, True, False),
+    "readings": (1, 1e9, True, False), "span_arcsec": (0.0, 3600.0, False, False),
+    "lsb_arcsec": (1e-9, 3600.0, False, False), "heads": (1, 64, True, False),
+    "head_s_arcsec": (0.0, 3600.0, False, True)}
+
+
+def polygon_run(meta: Any, source: str) -> PolygonRun | None:
+    """The checked ``polygon_run`` metadata of points (None: a Type A needs readings
+    repeated at a position: a run of one reading per position has none)."""
+    if not isinstance(meta, dict):
+        msg = f"{source}: polygon_run metadata must be a table, not {meta!r}"
+        raise DataError(msg)
+    values: dict[str, Any] = {}
+    for key, (lo, hi, whole, nullable) in _RUN_KEYS.items():
+        v = meta.get(key)
+        if v is None and nullable:
+            return None
+        if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                and lo <= v <= hi and (not whole or float(v).is_integer())):
+            msg = f"{source}: polygon_run.{key} must be a number {lo:g}..{hi:g}, not {v!r}"
+            raise DataError(msg)
+        values[key] = int(v) if whole else float(v)
+    if values["dof"] == 0:
+        return None
+    return PolygonRun(values["s_arcsec"], values["dof"], values["readings"],
+                      values["span_arcsec"], values["lsb_arcsec"], values["heads"],
+                      values["head_s_arcsec"])
+
+
+def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
+                  face: Declaration | None = None) -> tuple[Budget | None, list[str]]:
+    """The budget of the points of a section and the notes saying what it holds.
+
+    ``one_approach``: the points are of one run in one direction (a closing 360 deg
+    is the 0 deg target again): the model's datum is then the run's first position.
+    ``face``: the polygon's face uncertainty from elsewhere (None: from the polygon
+    certificate the points were corrected with, else the rig's declaration).
+    """
+    if "polygon_run" not in meta:
+        return None, []
+    rig = meta.get("rig")
+    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
+    if not tables:
+        return None, ["no uncertainty budget: the rig declares no [uncertainty] "
+                      "(enc-rig(5))"]
+    declared = declarations(tables, f"{source}: rig uncertainty")
+    run = polygon_run(meta["polygon_run"], source)
+    if run is None:
+        return None, ["no uncertainty budget: one reading per position gives no Type A"]
+    if not one_approach:
+        return None, ["no uncertainty budget: it is of a one-run polygon step run; "
+                      "several runs or directions have U from their scatter"]
+    notes = []
+    face = face if face is not None else certificate_face(meta)
+    if face is None and "polygon" not in declared:
+        notes.append("the rig declares no polygon face uncertainty: U leaves it out")
+    other = sorted(set(declared) - set(POLYGON_RUN_QUANTITIES))
+    if other:
+        notes.append(f"declared but not in a polygon run's model: {', '.join(other)}")
+    budget = polygon_run_budget(declared, run, face)
+    notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
+                 f"{_dof(budget.nu_eff)}), of each point against the run's first position")
+    return budget, notes
+
+
+def certificate_face(meta: dict[str, Any]) -> Declaration | None:
+    """The polygon's face uncertainty from the certificate the points were corrected with
+    (``enc points --polygon-certificate``): its largest standard uncertainty [arcsec]
+    (None: no certificate applied)."""
+    u = points_face_uncertainty(meta)
+    if u is None:
+        return None
+    cert = meta["polygon_certificate"]
+    number = cert.get("certificate") if isinstance(cert, dict) else None
+    source = f"polygon certificate {number}" if isinstance(number, str) and number else \
+        "polygon certificate"
+    return Declaration("polygon", float(u.max()), "arcsec", "normal", source=source)
+
+
+def _dof(nu: float) -> str:
+    return "inf" if math.isinf(nu) else f"{nu:.0f}"
+
+
+def budget_dict(budget: Budget) -> dict[str, Any]:
+    """The budget for JSON: each uncertainty's key ends in _arcsec; a value in its unit."""
+    rows = [{"name": c.name, "source": c.source, "type": c.kind, "distribution": c.distribution,
+             "value": c.value, "unit": c.unit, "divisor": c.divisor,
+             "sensitivity_arcsec_per_unit": c.sensitivity, "u_arcsec": c.u_arcsec,
+             "dof": None if math.isinf(c.dof) else c.dof} for c in budget.contributions]
+    return {"contributions": rows, "u_c_arcsec": budget.u_c,
+            "nu_eff": None if math.isinf(budget.nu_eff) else budget.nu_eff,
+            "k": budget.k, "U_arcsec": budget.U, "coverage": budget.coverage}
+
+
+def budget_lines(budget: Budget, unit: str = "arcsec") -> list[str]:
+    """The budget as text lines: u, u_c and U in ``unit`` (enc report --unit), each
+    declared value in its own unit."""
+    f = factor("arcsec", unit)
+    lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {budget.u_c * f:.4g}  nu_eff "
+             f"{_dof(budget.nu_eff)}  k {budget.k:.3f}  U {budget.U * f:.4g} "
+             f"({budget.coverage:.0%})"]
+    for c in budget.contributions:
+        lines.append(f"    {c.kind} {c.name}: {c.value:.4g} {c.unit} {c.distribution} "
+                     f"/{c.divisor:.4g} x c {c.sensitivity:.4g} -> u {c.u_arcsec * f:.4g}"
+                     f" (dof {_dof(c.dof)}){'; ' + c.source if c.source else ''}")
+    return lines
