@@ -49,9 +49,9 @@ def table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
     cells = [[customer_text(v) if cite else str(v) for v in r] for r in rows]
     head = [str(h) for h in header]
     cols = max([len(head)] + [len(r) for r in cells])
-    longest = [max([round(1.2 * len(head[i])) if i < len(head) else 0]   # bold heads
+    longest = [max([round(1.4 * len(head[i])) if i < len(head) else 0]   # bold heads
                    + [len(r[i]) for r in cells if i < len(r)]) for i in range(cols)]
-    weights = [min(n, 40) + 4 for n in longest]   # characters, and the cell's padding
+    weights = [min(n, 30) + 4 for n in longest]   # characters, and the cell's padding
     total = sum(weights) or 1
     widths = [max(1, round(100 * w / total)) for w in weights]
     return {"header": head, "rows": cells, "left": left, "widths": widths,
