@@ -137,7 +137,8 @@ def head_angle(counts: Counts, info: HeadInfo) -> np.ndarray:
     It differs from the head's spindle reading (:func:`head_reading`) by the head's
     offset (:func:`head_offset`), less than one signal period.
     """
-    return _as_numpy(counts).astype(np.float64) * (TWO_PI / info.counts_per_rev)
+    # one pass: the counts converted to float64 within the product (as astype would)
+    return np.multiply(_as_numpy(counts), TWO_PI / info.counts_per_rev, dtype=np.float64)
 
 
 def head_offset(counts_per_rev: int, zero_count: int, alpha: float) -> float:
