@@ -79,7 +79,8 @@ class TrendProjectedLSQ:
         these keys, x, scale and centre, when several fits share them (the heads of a
         run against one reference); computed here when None. ``xtx``: X^T X of these
         samples (p, p) when the caller has it for less than a product over the samples
-        (columns looked up in a table: from a histogram of the look-ups); None: here.
+        (columns looked up in a table: from a histogram of the look-ups), or zeros when
+        it adds it later (:meth:`add_gram`); None: here.
         """
         m = y.size
         if m == 0:
@@ -93,6 +94,12 @@ class TrendProjectedLSQ:
         if not np.may_share_memory(y, xy[self.p]):
             xy[self.p] = y
         self._open = add_batch([self], self._open, x, scale, grouping, [(xy, labels, xtx)])
+
+    def add_gram(self, xtx: np.ndarray) -> None:
+        """Add X^T X (p, p) of samples added with X^T X given as zeros (the caller sums it
+        its own way, e.g. from a histogram of looked-up columns over every batch)."""
+        self.xtx += xtx
+        self.raw_ss += np.diagonal(xtx)
 
     def close_all(self) -> None:
         """Close every open group (at the end of the input)."""
@@ -167,8 +174,8 @@ class OpenGroups:
                    np.zeros((members, 0), np.uint8), np.zeros((d1, d1, 0)),
                    np.zeros((d1, members, p1, 0)))
 
-    def select(self, which: np.ndarray) -> OpenGroups:
-        """The groups ``which`` (indices or a mask over the groups)."""
+    def select(self, which: np.ndarray | slice) -> OpenGroups:
+        """The groups ``which`` (indices, a mask or a slice over the groups: then views)."""
         return OpenGroups(self.keys[which], self.x0[which], self.lo[which], self.hi[which],
                           self.y0[:, which], self.seen[:, which], self.gram[..., which],
                           self.txy[..., which])
@@ -233,6 +240,13 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
     new.seen[:, where] |= state.seen[:, old]
     keep = np.ones(state.keys.size, dtype=bool)
     keep[old] = False
+    if members[0].consecutive and g.sorted:
+        # windows met in order: the batch's last stays open, every other closes (views)
+        closing = new.select(slice(0, k - 1))
+        if keep.any():
+            closing = OpenGroups.join(state.select(keep), closing)
+        close_groups(members, closing)
+        return new.select(slice(k - 1, k))
     both = OpenGroups.join(state.select(keep), new)
     if not members[0].consecutive:
         return both
@@ -281,13 +295,13 @@ def close_groups(members: list[TrendProjectedLSQ], state: OpenGroups) -> None:
     basis, ok = _inverse_root(state.gram)              # (T^T T)^+ = basis basis^T
     # [X y] projected on each basis vector j of each group, for each member: the Gram
     # matrix of those is what the trends take from X^T X, X^T y and y^T y
-    proj = np.empty((len(members), p + 1, d1, k))
+    taken = np.zeros((len(members), p + 1, p + 1))
+    proj = np.empty(state.txy.shape[1:])
     for j in range(d1):        # the closed-form basis (d <= 2) is upper triangular
-        np.multiply(basis[0, j], state.txy[0], out=proj[:, :, j])
+        np.multiply(state.txy[0], basis[0, j], out=proj)
         for i in range(1, j + 1 if d1 <= 2 else d1):
-            proj[:, :, j] += basis[i, j] * state.txy[i]
-    flat = proj.reshape(len(members), p + 1, d1 * k)
-    taken = flat @ flat.transpose(0, 2, 1)
+            proj += state.txy[i] * basis[i, j]
+        taken += proj @ proj.transpose(0, 2, 1)
     n_ok = int(np.count_nonzero(ok))
     counts = state.gram[0, 0]
     for q, member in enumerate(members):

@@ -197,6 +197,7 @@ class InterpolationFit:
         self.origin: float | None = None   # the reference angle [rad] windows count from
         self.shared = shared if shared is not None else SharedGrouping()
         self.skipped = 0  # samples with a NaN or infinite reading, probe or phase
+        self._per_step: np.ndarray | None = None  # samples per step of the period, not yet summed
 
     def add(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
             reference_rad: np.ndarray, groups: np.ndarray | None = None,
@@ -245,8 +246,9 @@ class InterpolationFit:
     def rows(self, s: Samples, xy: np.ndarray, bits: np.ndarray) -> np.ndarray | None:
         """Fill ``xy`` (p + 1, m) with the columns X of ``s`` and its zeta [arcsec] as the
         last row, ``bits`` (m) with the quarter of the period of each sample's phase
-        (1 << quarter); add the phases to the coverage. Returns X^T X when the columns
-        are all looked up by the device's step (from the samples per step), else None.
+        (1 << quarter); add the phases to the coverage. Returns None, or zeros when the
+        columns are all looked up by the device's step: X^T X and the coverage then come
+        from the samples counted per step, summed over the batches when the fit is solved.
         """
         dev_step, dev_steps, ref_step, ref_steps = s.steps if s.steps is not None \
             else (None, 0, None, 0)
@@ -258,13 +260,25 @@ class InterpolationFit:
         zeta /= ARCSEC
         sector_bits(s.device_phase, dev_step, dev_steps, out=bits)
         if dev_step is not None and s.positions is None and n_dev == self.lsq.p:
-            # every column looked up by the step: X^T X and the phases sampled from the
-            # count of samples at each step, not from a product over the samples
+            # every column looked up by the step: X^T X and the phases sampled come from
+            # the count of samples at each step, summed over the batches (_flush_steps)
             per_step = np.bincount(dev_step, minlength=dev_steps)
-            self.cover.add_steps(per_step)
-            return lookup_gram(dev_steps, self.orders, per_step)
+            if self._per_step is not None and self._per_step.size != per_step.size:
+                self._flush_steps()
+            if self._per_step is None:
+                self._per_step = per_step
+            else:
+                self._per_step += per_step
+            return np.zeros((self.lsq.p, self.lsq.p))
         self.cover.add(s.device_phase, s.positions, dev_step, dev_steps)
         return None
+
+    def _flush_steps(self) -> None:
+        """The samples counted per step so far into the coverage and X^T X."""
+        if self._per_step is not None:
+            self.cover.add_steps(self._per_step)
+            self.lsq.add_gram(lookup_gram(self._per_step.size, self.orders, self._per_step))
+            self._per_step = None
 
     def grouping(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
         """The trend windows of a batch (reference angles ``ref`` [rad], ``groups``), shared."""
@@ -315,6 +329,7 @@ class InterpolationFit:
         """The fit of every sample added. DataError as :func:`fit_interpolation_error` says."""
         lsq = self.lsq
         lsq.close_all()
+        self._flush_steps()
         if lsq.n == 0:
             msg = "no sample with finite device and reference readings"
             raise DataError(msg)
