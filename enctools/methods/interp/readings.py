@@ -1,8 +1,9 @@
 """The interpolation error of the heads of a readings stream against a reference.
 
 The readings are streamed through one :class:`~.fit.InterpolationFit` per device (a
-head, or heads of one encoder averaged) in batches, in constant memory; each
-device's fit then gives its :class:`~.curve.Curve`. The error is a function of
+head, or heads of one encoder averaged) in batches, in constant memory, the devices
+alike fed as one (:class:`~.bank.FitBank`); each device's fit then gives its
+:class:`~.curve.Curve`. The error is a function of
 the phase the head *reads* (its counts modulo the interpolation factor), which is
 what a correction table indexed by the counts needs. The grating's true phase
 differs from it by the error itself (periods_per_rev * psi), so the curve is
