@@ -104,7 +104,7 @@ def harmonic_rows(phase: np.ndarray | None, orders: np.ndarray, out: np.ndarray,
     exp(i phase) (one cos/sin pair).
     """
     if step is not None:
-        table = phase_table(steps, tuple(int(n) for n in orders))
+        table = phase_table(steps, tuple(np.asarray(orders).tolist()))
         for row, out_row in zip(table, out, strict=False):
             # mode "clip": written straight into ``out`` (the default checks in a buffer);
             # a step is within 0 .. steps - 1
@@ -138,7 +138,7 @@ def lookup_gram(steps: int, orders: np.ndarray, per_step: np.ndarray) -> np.ndar
     period; X^T X = sum over the steps of their count times the outer product of the
     table's column (rows 2k, 2k + 1: cos, sin of order k).
     """
-    table = phase_table(steps, tuple(int(n) for n in orders))
+    table = phase_table(steps, tuple(np.asarray(orders).tolist()))
     return (table * per_step) @ table.T
 
 
