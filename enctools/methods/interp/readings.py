@@ -204,11 +204,13 @@ def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema,
     """Feed every batch's readings of every device, with the reference, to the fits: the
     devices of a bank at once."""
     has_run, has_target = "run" in schema.names, "target" in schema.names
+    fits_reference = any(devices[0].fits_reference for _, devices in banks)
     for batch in batches:
         if batch.num_rows == 0:
             continue
         ref = reference.read(batch)
-        ref_rad, ref_phase, ref_step = ref.angle_rad, ref.phase_rad, ref.step
+        ref_rad, ref_step = ref.angle_rad, ref.step
+        ref_phase = ref.phase() if fits_reference else None
         groups = column(batch, "run") if has_run else None
         targets = column(batch, "target") if has_target else None
         sel = None if ref.rows is None else np.flatnonzero(ref.rows)
