@@ -181,11 +181,16 @@ def mean_head_angle(columns: Sequence[Counts], infos: Sequence[HeadInfo]) -> np.
 
 def signal_step(counts: np.ndarray, info: HeadInfo) -> np.ndarray:
     """Interpolation step within the signal period [count], 0..interpolation - 1."""
-    c = np.asarray(counts, dtype=np.int64) + info.zero_count
+    c = np.asarray(counts, dtype=np.int64)
     n = info.interpolation
+    # (c + zero_count) mod n = (c + zero_count mod n) mod n: no pass when it is 0
+    shift = info.zero_count % n if n > 0 else info.zero_count
+    out = None
+    if shift:
+        c = out = c + shift
     if n > 0 and n & (n - 1) == 0:  # a power of two: the floor modulo, without a division
-        return np.bitwise_and(c, n - 1, out=c)
-    return np.mod(c, n, out=c)
+        return np.bitwise_and(c, n - 1, out=out)
+    return np.mod(c, n, out=out)
 
 
 def signal_phase(counts: np.ndarray, info: HeadInfo) -> np.ndarray:
