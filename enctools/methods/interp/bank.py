@@ -39,14 +39,17 @@ class FitBank:
     def add(self, device_rad: Sequence[np.ndarray], reference_rad: np.ndarray,
             steps: Sequence[Steps], groups: np.ndarray | None = None,
             reference_phase: np.ndarray | None = None,
-            positions: np.ndarray | None = None) -> None:
+            positions: np.ndarray | None = None,
+            device_finite: Sequence[bool] | None = None) -> None:
         """One batch of every fit: ``device_rad`` [rad] and ``steps`` per fit (in order),
-        the rest shared (as :meth:`InterpolationFit.add`; the phases from the steps)."""
+        the rest shared (as :meth:`InterpolationFit.add`; the phases from the steps).
+        ``device_finite``: per fit, its angles are known finite (from integer counts)."""
+        known = device_finite if device_finite is not None else [False] * len(self.fits)
         if self.stack is not None:
             total = reference_sum(reference_rad, reference_phase)   # summed once for all
             samples = [f.samples(d, None, reference_rad, groups, reference_phase, positions, st,
-                                 total)
-                       for f, d, st in zip(self.fits, device_rad, steps, strict=True)]
+                                 total, ok)
+                       for f, d, st, ok in zip(self.fits, device_rad, steps, known, strict=True)]
             if all(s.device_rad.size == reference_rad.size for s in samples):
                 self._add_stacked(samples)
                 return

@@ -91,18 +91,21 @@ class Samples:
     positions: np.ndarray | None
     steps: Steps | None
 
-    def finite(self, reference_total: float | None = None) -> tuple[Samples, int]:
+    def finite(self, reference_total: float | None = None,
+               device_finite: bool = False) -> tuple[Samples, int]:
         """The samples whose readings and phases are all finite, and how many were not.
 
         ``reference_total``: the sum of the reference's angles and phase when already
-        taken (one reference for several devices).
+        taken (one reference for several devices); ``device_finite``: the device's
+        angles are known finite (made from integer counts).
         """
         # first without a temporary: a sum is finite only when all its terms are (one
         # that overflows falls through to the test of each sample); a phase from counts
         # is finite (None here: not summed)
         if reference_total is None:
             reference_total = reference_sum(self.reference_rad, self.reference_phase)
-        total = float(np.sum(self.device_rad)) + reference_total
+        total = reference_total if device_finite \
+            else float(np.sum(self.device_rad)) + reference_total
         if self.device_phase is not None:
             total += float(np.sum(self.device_phase))
         if math.isfinite(total):
@@ -235,11 +238,14 @@ class InterpolationFit:
     def samples(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
                 reference_rad: np.ndarray, groups: np.ndarray | None = None,
                 reference_phase: np.ndarray | None = None, positions: np.ndarray | None = None,
-                steps: Steps | None = None, reference_total: float | None = None) -> Samples:
+                steps: Steps | None = None, reference_total: float | None = None,
+                device_finite: bool = False) -> Samples:
         """The arrays of :meth:`add` checked, without the samples that are not finite
-        (counted in ``skipped``; ``reference_total`` as :meth:`Samples.finite`)."""
+        (counted in ``skipped``; ``reference_total``, ``device_finite`` as
+        :meth:`Samples.finite`)."""
         s, skipped = self._checked(device_rad, device_phase, reference_rad, groups,
-                                   reference_phase, positions, steps).finite(reference_total)
+                                   reference_phase, positions, steps
+                                   ).finite(reference_total, device_finite)
         self.skipped += skipped
         return s
 

@@ -221,9 +221,11 @@ def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema,
             groups = groups[sel] if groups is not None else None
             targets = targets[sel] if targets is not None else None
         for bank, devices in banks:
-            angles, steps = [], []
+            angles, steps, finite = [], [], []
             for d in devices:
-                dev_rad, dev_step = device_reading([column(batch, n) for n in d.heads], d.infos)
+                counts = [column(batch, n) for n in d.heads]
+                finite.append(all(c.dtype.kind in "iu" for c in counts))  # no null count
+                dev_rad, dev_step = device_reading(counts, d.infos)
                 if sel is not None:
                     dev_rad, dev_step = dev_rad[sel], dev_step[sel]
                 # the phase is 2 pi dev_step / interpolation: the fit takes it from the steps
@@ -231,7 +233,7 @@ def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema,
                 steps.append((dev_step, d.infos[0].interpolation, ref_step,
                               ref.steps if ref_step is not None else 0))
             bank.add(angles, ref_rad, steps, groups,
-                     ref_phase if devices[0].fits_reference else None, targets)
+                     ref_phase if devices[0].fits_reference else None, targets, finite)
 
 
 def _curve(device: Device, grid: np.ndarray, reference_meta: dict[str, Any],
