@@ -297,11 +297,11 @@ class InterpolationFit:
     def _windows(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
         """The batch's trend windows: keys (group, window) and the centre of each window."""
         assert self.window is not None and self.origin is not None
-        keys = np.zeros(ref.size, np.int64) if groups is None \
-            else np.asarray(groups).astype(np.int64)
         w = np.floor((ref - self.origin) / self.window)
         centre = self.origin + (w + 0.5) * self.window
-        keys = (keys << 40) + w.astype(np.int64)
+        keys = w.astype(np.int64)
+        if groups is not None:
+            keys += np.asarray(groups).astype(np.int64) << 40
         return group_batch(keys, ref, self.lsq.d1 - 1, self.window / 2, centre)
 
     def _checked(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
