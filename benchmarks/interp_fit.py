@@ -6,8 +6,9 @@ does), then runs ``enc interp-check -q --ref P1`` on it, read from a pipe, with 
 checkout's code and with the code of a git revision (default: the fit before its
 speed-ups), each in turn and the best of ``--repeat``; ``cat`` of the same bytes into
 /dev/null is timed between them. CPU seconds (user + system, the reading thread
-included) are the figures that hold on a shared machine; wall seconds are printed too.
-Both outputs must agree to rounding (1e-12 arcsec).
+included) are the figures that hold on a shared machine; wall seconds are printed too,
+with the CPU per sample (row) and the peak memory of the check (GNU time, where there
+is one). Both outputs must agree to rounding (1e-12 arcsec).
 
 Usage: interp_fit.py [--revolutions 200] [--before REV] [--repeat 3] [--out bench-out]
 """
@@ -25,6 +26,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.ipc
 import pyarrow.parquet as pq
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -49,10 +52,21 @@ def timed(shell: str, env: dict[str, str], cwd: Path) -> tuple[float, float]:
     return cpu_children() - c0, time.perf_counter() - t0
 
 
+#: GNU time, for the peak memory of the check (None: not measured)
+TIME = "/usr/bin/time" if Path("/usr/bin/time").exists() else None
+
+
 def check_shell(code: Path, run: Path, out: Path) -> tuple[str, dict[str, str]]:
     env = dict(os.environ, PYTHONPATH=str(code))
-    cmd = " ".join([f"cat {run} |", PY, "-c", f'"{ENC}"', *CHECK, "-o", str(out)])
+    peak = [TIME, "-f", "%M", "-o", f"{out}.peak"] if TIME else []
+    cmd = " ".join([f"cat {run} |", *peak, PY, "-c", f'"{ENC}"', *CHECK, "-o", str(out)])
     return cmd, env
+
+
+def peak_mb(out: Path) -> float | None:
+    """The check's peak memory [MB] (maximum resident set) as GNU time wrote it."""
+    f = Path(f"{out}.peak")
+    return int(f.read_text().split()[-1]) / 1024 if f.exists() else None
 
 
 def deviations(path: Path) -> np.ndarray:
@@ -83,27 +97,34 @@ def main() -> None:
                         str(run)], check=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
                        cwd=d)
         best: dict[str, tuple[float, float]] = {}
+        peaks: dict[str, float | None] = {}
         for _ in range(a.repeat):
             for name, code in (("after", ROOT), ("before", before)):
                 cmd, env = check_shell(code, run, d / f"{name}.parquet")
                 t = timed(cmd, env, d)
                 best[name] = min(best.get(name, t), t)
+                peaks[name] = peak_mb(d / f"{name}.parquet")
                 c = timed(f"cat {run} > /dev/null", dict(os.environ), d)
                 best["cat"] = min(best.get("cat", c), c)
         diff = float(np.max(np.abs(deviations(d / "after.parquet")
                                    - deviations(d / "before.parquet"))))
         size = run.stat().st_size
+        with pa.memory_map(str(run)) as f:     # the samples (rows), without reading them in
+            samples = sum(b.num_rows for b in pa.ipc.open_stream(f))
     res = {"revolutions": a.revolutions, "bytes": size, "before": a.before,
-           "cpu_s": {k: v[0] for k, v in best.items()},
-           "wall_s": {k: v[1] for k, v in best.items()}, "max_abs_diff_arcsec": diff}
+           "samples": samples, "cpu_s": {k: v[0] for k, v in best.items()},
+           "wall_s": {k: v[1] for k, v in best.items()}, "peak_mb": peaks,
+           "max_abs_diff_arcsec": diff}
     (out / "interp_fit.json").write_text(json.dumps(res, indent=1))
     cpu, wall = res["cpu_s"], res["wall_s"]
     print(f"| interp-check, continuous run, {a.revolutions} r | CPU s | wall s | "
-          "CPU vs before | wall vs `cat` |")
-    print("|---|---:|---:|---:|---:|")
+          "CPU vs before | wall vs `cat` | CPU per sample [us] | peak memory |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for k in ("before", "after", "cat"):
+        peak = peaks.get(k)
         print(f"| {k} | {cpu[k]:.2f} | {wall[k]:.2f} | {cpu[k] / cpu['before']:.2f} | "
-              f"{wall[k] / wall['cat']:.1f} |")
+              f"{wall[k] / wall['cat']:.1f} | {cpu[k] / samples * 1e6:.3f} | "
+              f"{'' if peak is None else f'{peak:.0f} MB'} |")
     print(f"\nlargest difference of the curves and their u: {diff:.2g} arcsec")
     if not diff < 1e-12:
         sys.exit(f"interp_fit: the results differ by {diff:.3g} arcsec")

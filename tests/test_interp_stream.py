@@ -25,7 +25,7 @@ from enctools.data.streams import read_table
 from enctools.hw.truth import Truth
 from enctools.methods.interp.coverage import PhaseCoverage
 from enctools.methods.interp.settings import DEFAULT_WINDOW_ARCSEC
-from enctools.methods.trend_lsq import TrendProjectedLSQ
+from enctools.methods.trend_lsq import StackedTrendLSQ, TrendProjectedLSQ, group_batch
 from enctools.units import TWO_PI
 
 ACQUIRE = "enc acquire --rig sjtu-dual --interval 0.00505 --heads H1,P1"
@@ -128,6 +128,8 @@ def test_trend_projection_is_the_joint_fit(degree, consecutive):
     Windows met in order (a continuous run) or groups interleaved (a sweep's runs),
     with groups of one sample and of one repeated abscissa among them: their trend
     fits them exactly and only as many trend terms as they determine are counted.
+    Three such problems fed as one (StackedTrendLSQ, the heads of a run) each give
+    the same sums as alone, to rounding.
     """
     rng = np.random.default_rng(5 + degree)
     n, width = 5000, 0.37
@@ -141,16 +143,18 @@ def test_trend_projection_is_the_joint_fit(degree, consecutive):
     cols = np.column_stack([np.cos(7.3 * x * 40), np.sin(7.3 * x * 40), np.cos(3.1 * x * 40)])
     y = cols @ [0.3, -0.2, 0.05] + np.sin(x) * 3 + x ** 2 + rng.normal(0, 0.01, n) + 100.0
     closed = []
-    lsq = TrendProjectedLSQ(3, degree, consecutive=consecutive, n_labels=3,
-                            on_close=lambda counts, lo, hi: closed.append(counts))
+    lsq = TrendProjectedLSQ(3, degree, consecutive=consecutive,
+                            on_close=lambda counts, seen, lo, hi: closed.append((counts, seen)))
     labels = rng.integers(0, 3, n)
+    bits = np.left_shift(1, labels).astype(np.uint8)
     groups = np.unique(keys)
     # off-centre (the group's least abscissa), so that the trend's terms are not orthogonal
     centre = np.array([x[keys == k].min() for k in groups])[np.searchsorted(groups, keys)]
     scale = width / 2 if consecutive else np.ptp(x) / 2    # z within about [-1, 1]
-    for a, b in [(0, 1), (1, 700), (700, 701), (701, 3333), (3333, n)]:
+    parts = [(0, 1), (1, 700), (700, 701), (701, 3333), (3333, n)]
+    for a, b in parts:
         lsq.add(cols[a:b].T, y[a:b], x[a:b], keys[a:b], scale, centre=centre[a:b],
-                labels=labels[a:b])
+                labels=bits[a:b])
     lsq.close_all()
     coef = np.linalg.solve(lsq.xtx, lsq.xty)
     trend = np.column_stack([np.where(keys == k, ((x - centre) / scale) ** d, 0.0)
@@ -160,13 +164,39 @@ def test_trend_projection_is_the_joint_fit(degree, consecutive):
     resid = y - np.column_stack([cols, trend]) @ full
     assert lsq.yty - coef @ lsq.xty == pytest.approx(resid @ resid, rel=1e-6)
     assert lsq.n_trend == rank - 3 and lsq.n == n and lsq.groups == groups.size
-    # per group: its samples, then those of each label
-    counts = np.concatenate(closed)
-    assert counts.shape == (groups.size, 4)
+    # per group: its samples, and the bits of the labels its samples carry
+    counts = np.concatenate([c for c, _ in closed])
+    seen = np.concatenate([s for _, s in closed])
+    assert counts.shape == seen.shape == (groups.size,)
     sizes = np.bincount(np.searchsorted(groups, keys))
-    assert np.array_equal(np.sort(counts[:, 0]), np.sort(sizes))
-    assert np.array_equal(counts[:, 1:].sum(axis=0), np.bincount(labels, minlength=3))
-    assert np.array_equal(counts[:, 1:].sum(axis=1), counts[:, 0])
+    want = np.zeros(groups.size, np.uint8)
+    np.bitwise_or.at(want, np.searchsorted(groups, keys), bits)
+    assert sorted(zip(counts.tolist(), seen.tolist(), strict=True)) \
+        == sorted(zip(sizes.tolist(), want.tolist(), strict=True))
+
+    # the same problem and two others (other columns, other y) stacked
+    others = [cols[:, ::-1] * [1.0, 2.0, 0.5], np.cos(cols * 3.0)]
+    ys = [y, y[::-1] * 0.5, rng.normal(size=n)]
+    alone = []
+    for c, yy in zip([cols, *others], ys, strict=True):
+        one = TrendProjectedLSQ(3, degree, consecutive=consecutive)
+        for a, b in parts:
+            one.add(c[a:b].T, yy[a:b], x[a:b], keys[a:b], scale, centre=centre[a:b])
+        one.close_all()
+        alone.append(one)
+    members = [TrendProjectedLSQ(3, degree, consecutive=consecutive) for _ in ys]
+    stack = StackedTrendLSQ(members)
+    for a, b in parts:
+        g = group_batch(keys[a:b], x[a:b], degree, scale, centre[a:b])
+        stack.add(x[a:b], scale, g, [(np.vstack([c[a:b].T, yy[a:b]]), None, None)
+                                     for c, yy in zip([cols, *others], ys, strict=True)])
+    stack.close_all()
+    for one, member in zip(alone, members, strict=True):
+        assert np.allclose(member.xtx, one.xtx, rtol=1e-12, atol=1e-12)
+        assert np.allclose(member.xty, one.xty, rtol=1e-12, atol=1e-12)
+        assert member.yty == pytest.approx(one.yty, rel=1e-12)
+        assert (member.n, member.n_trend, member.groups) == (one.n, one.n_trend, one.groups)
+    assert np.allclose(members[0].xtx, lsq.xtx, rtol=1e-12, atol=1e-12)
 
 
 def test_moments_are_the_per_sample_sums():
@@ -181,9 +211,10 @@ def test_moments_are_the_per_sample_sums():
     cols = rng.normal(size=(3, n))
     y = rng.normal(size=n) + 1e4 + x
     labels = rng.integers(0, 4, n)
-    lsq = TrendProjectedLSQ(3, degree, consecutive=False, n_labels=4)
+    lsq = TrendProjectedLSQ(3, degree, consecutive=False)
     rows = np.vstack([cols, np.zeros(n)])            # with the free row for y
-    lsq.add(rows, y, x, keys, 0.125, centre=centre, labels=labels)
+    lsq.add(rows, y, x, keys, 0.125, centre=centre,
+            labels=np.left_shift(1, labels).astype(np.uint8))
     first = np.searchsorted(keys, keys)
     yc = y - y[first]
     assert np.allclose(lsq.xtx, cols @ cols.T, rtol=1e-13, atol=0)
@@ -192,12 +223,15 @@ def test_moments_are_the_per_sample_sums():
     z = (x - centre) / 0.125
     t = np.polynomial.legendre.legvander(z, degree)               # (n, d)
     d, p = degree + 1, 3
+    held = lsq._open
+    assert held.txy.shape == (d, 1, p + 1, np.unique(keys).size)
     for g, k in enumerate(np.unique(keys)):
         m = keys == k
-        want = np.concatenate([(t[m].T @ t[m]).ravel(), (t[m].T @ cols[:, m].T).ravel(),
-                               t[m].T @ yc[m], np.bincount(labels[m], minlength=4)])
-        assert np.allclose(lsq._mom[g], want, rtol=1e-12, atol=1e-9), g
-    assert lsq._mom.shape[1] == d * d + d * p + d + 4
+        assert np.allclose(held.gram[..., g], t[m].T @ t[m], rtol=1e-12, atol=1e-9), g
+        want = t[m].T @ np.vstack([cols[:, m], yc[m]]).T              # (d, p + 1)
+        assert np.allclose(held.txy[:, 0, :, g], want, rtol=1e-12, atol=1e-9), g
+        assert held.seen[0, g] == np.bitwise_or.reduce(np.left_shift(1, labels[m]))
+        assert held.y0[0, g] == y[m][0]
 
 
 def test_devices_sharing_the_windows_fit_as_alone():
@@ -232,11 +266,62 @@ def test_devices_sharing_the_windows_fit_as_alone():
         assert a.residual_rms == b.residual_rms and a.windows == b.windows
 
 
+@pytest.mark.parametrize("nan_at", [None, 33_333])
+def test_devices_fed_as_one_fit_as_alone(nan_at):
+    """A FitBank of three devices against one reference (phases from counts, as in a run)
+    gives each device the result it gets alone, to rounding; a NaN reading of one device
+    mid-run parts the bank from that batch on, and the results still agree."""
+    from enctools.methods.interp.bank import FitBank
+    from enctools.methods.interp.fit import InterpolationFit, SharedGrouping
+
+    rng = np.random.default_rng(4)
+    n, ppr, steps = 60_000, 512, 1024
+    per_count = TWO_PI / (ppr * steps)
+    ref_counts = np.cumsum(rng.integers(0, 60, n))
+    ref = ref_counts * per_count
+    devices = []
+    for k in range(3):
+        true = ref + 4e-5 * np.sin(ref * ppr + k) + 1e-5 * np.cos(2 * ref * ppr) + 1e-3 * k
+        counts = np.rint((true + 3e-6 * rng.normal(size=n)) / per_count).astype(np.int64)
+        devices.append(counts)
+
+    def feed(as_one: bool) -> list:
+        shared = SharedGrouping()
+        fits = [InterpolationFit(ppr, harmonics=3, window=0.02, shared=shared) for _ in devices]
+        banks = FitBank.of(fits) if as_one else []
+        assert not as_one or len(banks) == 1
+        for a in range(0, n, 7_001):
+            r = ref[a:a + 7_001]
+            angles = [c[a:a + 7_001] * per_count for c in devices]
+            if nan_at is not None and a <= nan_at < a + 7_001:
+                angles[2][nan_at - a] = np.nan
+            st = [(c[a:a + 7_001] % steps, steps, None, 0) for c in devices]
+            if as_one:
+                banks[0].add(angles, r, st)
+            else:
+                for f, d, s in zip(fits, angles, st, strict=True):
+                    f.add(d, None, r, steps=s)
+        for b in banks:
+            b.close()
+        return [f.result() for f in fits]
+
+    alone, together = feed(False), feed(True)
+    for a, b in zip(alone, together, strict=True):
+        assert np.allclose(a.fitted.coef, b.fitted.coef, rtol=1e-11, atol=1e-15)
+        assert np.all(np.abs(a.fitted.coef[:2]) > 1.0)
+        assert np.allclose(a.fitted.cov, b.fitted.cov, rtol=1e-9, atol=0)
+        assert a.residual_rms == pytest.approx(b.residual_rms, rel=1e-11)
+        assert (a.samples, a.windows) == (b.samples, b.windows)
+    assert together[2].samples == n - (nan_at is not None)
+
+
 @pytest.mark.parametrize("steps", [4096, 1000, 3])
 def test_sectors_looked_up_are_the_quarters(steps):
-    from enctools.methods.interp.coverage import SECTORS, sectors
+    from enctools.methods.interp.coverage import SECTORS, sector_bits
     step = np.arange(steps)[::-1]
-    assert np.array_equal(sectors(step * (TWO_PI / steps), step, steps), step * SECTORS // steps)
+    want = np.left_shift(1, step * SECTORS // steps)
+    assert np.array_equal(sector_bits(step * (TWO_PI / steps), step, steps), want)
+    assert np.array_equal(sector_bits(step * (TWO_PI / steps)), want)  # from the phase
 
 
 def test_phase_coverage_bitmap_matches_sorted_gaps():

@@ -137,7 +137,8 @@ def head_angle(counts: Counts, info: HeadInfo) -> np.ndarray:
     It differs from the head's spindle reading (:func:`head_reading`) by the head's
     offset (:func:`head_offset`), less than one signal period.
     """
-    return _as_numpy(counts).astype(np.float64) * (TWO_PI / info.counts_per_rev)
+    # one pass: the counts converted to float64 within the product (as astype would)
+    return np.multiply(_as_numpy(counts), TWO_PI / info.counts_per_rev, dtype=np.float64)
 
 
 def head_offset(counts_per_rev: int, zero_count: int, alpha: float) -> float:
@@ -180,11 +181,16 @@ def mean_head_angle(columns: Sequence[Counts], infos: Sequence[HeadInfo]) -> np.
 
 def signal_step(counts: np.ndarray, info: HeadInfo) -> np.ndarray:
     """Interpolation step within the signal period [count], 0..interpolation - 1."""
-    c = np.asarray(counts, dtype=np.int64) + info.zero_count
+    c = np.asarray(counts, dtype=np.int64)
     n = info.interpolation
+    # (c + zero_count) mod n = (c + zero_count mod n) mod n: no pass when it is 0
+    shift = info.zero_count % n if n > 0 else info.zero_count
+    out = None
+    if shift:
+        c = out = c + shift
     if n > 0 and n & (n - 1) == 0:  # a power of two: the floor modulo, without a division
-        return np.bitwise_and(c, n - 1, out=c)
-    return np.mod(c, n, out=c)
+        return np.bitwise_and(c, n - 1, out=out)
+    return np.mod(c, n, out=out)
 
 
 def signal_phase(counts: np.ndarray, info: HeadInfo) -> np.ndarray:

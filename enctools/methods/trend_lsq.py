@@ -5,15 +5,25 @@ harmonics of an interpolation error), and per group g (a run of a sweep, a windo
 a continuous run) a nuisance trend T_g, Legendre polynomials of a coordinate. The
 trends are projected out group by group (Frisch-Waugh), so only the moments of the
 open groups and the normal equations of X are held, whatever the input's length.
+Several such problems over the same samples and groups (the heads of a run against one
+reference) are fed as one (:class:`StackedTrendLSQ`): each batch's grouping, every
+group's trend basis and the bookkeeping of the open groups are done once for all.
 Used by :mod:`enctools.methods.interp.fit` (seed 000 eqs. (19), (20)).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
+
+#: ``on_close(counts, seen, lo, hi)``: of each group that closes, its samples, the bitmask
+#: of the labels its samples carried (bits OR-ed), its least and greatest abscissa
+OnClose = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None]
+#: one member's batch: its columns X transposed with y as the last row (p + 1, m; y is
+#: changed in place), its label bits (m) or None, and X^T X when known (else None)
+MemberRows = tuple[np.ndarray, "np.ndarray | None", "np.ndarray | None"]
 
 
 class TrendProjectedLSQ:
@@ -35,20 +45,17 @@ class TrendProjectedLSQ:
     ``consecutive``: groups are windows met in order; a group closes as soon as a
     batch ends past it (memory does not grow with the length of the input).
     Otherwise (a sweep's runs, few) every group stays open until :meth:`close_all`.
-    ``on_close(counts, lo, hi)`` receives, for the groups that close, their counts
-    (groups, 1 + n_labels): the samples, then the samples of each label given to
-    :meth:`add` (e.g. the quarter of the signal period a sample's phase lies in), and
-    the least/greatest ``x``.
+    ``on_close`` (:data:`OnClose`) receives, for the groups that close, their sample
+    counts, the bits OR-ed of the ``labels`` given to :meth:`add` (e.g. 1 << the
+    quarter of the signal period a sample's phase lies in), and the least/greatest ``x``.
     """
 
     def __init__(self, n_cols: int, degree: int, consecutive: bool,
-                 on_close: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
-                 n_labels: int = 0) -> None:
+                 on_close: OnClose | None = None) -> None:
         self.p = n_cols
         self.d1 = degree + 1
         self.consecutive = consecutive
         self.on_close = on_close
-        self.n_labels = n_labels
         self.xtx = np.zeros((n_cols, n_cols))
         self.xty = np.zeros(n_cols)
         self.yty = 0.0
@@ -56,27 +63,24 @@ class TrendProjectedLSQ:
         self.n = 0
         self.n_trend = 0
         self.groups = 0
-        d1 = self.d1
-        self._width = d1 * d1 + d1 * n_cols + d1 + n_labels
-        self._keys = np.zeros(0, dtype=np.int64)
-        self._mom = np.zeros((0, self._width))
-        self._y0 = np.zeros(0)
-        self._x0 = np.zeros(0)
-        self._lo = np.zeros(0)
-        self._hi = np.zeros(0)
+        self._open = OpenGroups.empty(1, n_cols + 1, self.d1)
 
     def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray | None,
             scale: float, centre: np.ndarray | None = None,
-            labels: np.ndarray | None = None, grouping: Grouping | None = None) -> None:
+            labels: np.ndarray | None = None, grouping: Grouping | None = None,
+            xtx: np.ndarray | None = None) -> None:
         """Add m samples: the columns X transposed, ``x_rows`` (p, m) or (p + 1, m) with a
         free last row (then used for y, saving a copy; ``y`` may be that row); data
-        ``y`` (m); trend abscissa ``x`` (m); group ``keys`` (m); ``labels`` (m)
-        integers in [0, n_labels) counted per group, or None.
+        ``y`` (m); trend abscissa ``x`` (m); group ``keys`` (m); ``labels`` (m) uint8
+        bits of labels (up to 8) that each group's samples OR, or None.
 
         The trend coordinate is z = (x - centre) / scale, ``centre`` per sample, or
         (None) the first x of the sample's group. ``grouping``: :func:`group_batch` of
         these keys, x, scale and centre, when several fits share them (the heads of a
-        run against one reference); computed here when None.
+        run against one reference); computed here when None. ``xtx``: X^T X of these
+        samples (p, p) when the caller has it for less than a product over the samples
+        (columns looked up in a table: from a histogram of the look-ups), or zeros when
+        it adds it later (:meth:`add_gram`); None: here.
         """
         m = y.size
         if m == 0:
@@ -84,146 +88,261 @@ class TrendProjectedLSQ:
         if grouping is None:
             assert keys is not None, "keys or their grouping"
             grouping = group_batch(keys, x, self.d1 - 1, scale, centre)
-        g = grouping
-        uk, lo, hi = g.keys, g.lo.copy(), g.hi.copy()
-        y0, x0 = y[g.first].astype(np.float64), x[g.first].astype(np.float64)
-        mom = np.zeros((uk.size, self._width))
-        # groups still open from earlier batches keep their anchors and moments
-        where = np.searchsorted(uk, self._keys)             # uk is sorted
-        old = np.flatnonzero(uk[np.minimum(where, uk.size - 1)] == self._keys)
-        where = where[old]
-        y0[where], x0[where] = self._y0[old], self._x0[old]
-        lo[where] = np.minimum(lo[where], self._lo[old])
-        hi[where] = np.maximum(hi[where], self._hi[old])
-        mom[where] = self._mom[old]
-        tz, gram = g.tz, g.gram
-        if g.z is None:  # centred on each group's first x: this fit's anchors
-            z = (x - x0[g.inv]) / scale
-            if g.order is not None:
-                z = z[g.order]
-            tz, gram = _trend_rows(z, self.d1), _gram(_trend_rows(z, self.d1), g)
-        # the rows X and y less its group's first value (a constant of the trend, kept
-        # out of the sums of squares so that they do not cancel), as one array
         xy = x_rows if x_rows.shape[0] == self.p + 1 else np.empty((self.p + 1, m))
         if xy is not x_rows:
             xy[:self.p] = x_rows
-        np.subtract(y, y0[g.inv] if g.order is not None or not g.sorted
-                    else np.repeat(y0, g.counts), out=xy[self.p])
-        if g.order is not None:  # a sweep's runs interleaved: sorted by group once
-            xy = xy[:, g.order]
-            labels = None if labels is None else labels[g.order]
-        mom += self._moments(xy, tz, gram, labels, g)
-        cross = xy @ xy.T                                  # X^T X, X^T y, y^T y at once
-        p = self.p
-        self.xtx += cross[:p, :p]
-        self.raw_ss += np.diagonal(cross)[:p]
-        self.xty += cross[:p, p]
-        self.yty += float(cross[p, p])
-        self.n += m
-        self._hold(old, uk, mom, y0, x0, lo, hi, g.last)
+        if not np.may_share_memory(y, xy[self.p]):
+            xy[self.p] = y
+        self._open = add_batch([self], self._open, x, scale, grouping, [(xy, labels, xtx)])
 
-    def _moments(self, xy: np.ndarray, tz: list[np.ndarray], gram: np.ndarray,
-                 labels: np.ndarray | None, g: Grouping) -> np.ndarray:
-        """The sums T^T T, T^T X, T^T y and the label counts of each group: (groups, width).
-
-        ``add.reduceat`` over the samples (columns) of each group: the rows of X and y
-        together, summed without a copy for the constant polynomial (t_0 = 1, whose
-        own sums are the counts, in ``gram`` with the t_i t_j of the grouping).
-        """
-        d1, p, n_groups = self.d1, self.p, g.keys.size
-        mom = np.zeros((n_groups, self._width))
-        mom[:, :d1 * d1] = gram.reshape(n_groups, d1 * d1)
-        tx, ty = d1 * d1, d1 * (d1 + p)      # where T^T X and T^T y start in a row
-        for i in range(d1):
-            s = np.add.reduceat(xy if i == 0 else xy * tz[i - 1], g.starts, axis=1).T
-            mom[:, tx + i * p:tx + (i + 1) * p] = s[:, :p]
-            mom[:, ty + i] = s[:, p]
-        if self.n_labels and labels is not None:
-            if g.labelled is None or g.labelled[0] != self.n_labels:  # once per batch
-                g.labelled = (self.n_labels, g.inv_sorted * self.n_labels)
-            counted = np.bincount(g.labelled[1] + labels, minlength=n_groups * self.n_labels)
-            mom[:, ty + d1:] = counted.reshape(n_groups, self.n_labels)
-        return mom
-
-    def _hold(self, old: np.ndarray, uk: np.ndarray, mom: np.ndarray, y0: np.ndarray,
-              x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, last_key: np.integer) -> None:
-        """Keep the batch's groups open with those not met (``old``: open groups met again).
-
-        ``consecutive``: every group but the one of ``last_key`` closes now.
-        """
-        keep_old = np.ones(self._keys.size, dtype=bool)
-        keep_old[old] = False
-        keys_all = np.concatenate([self._keys[keep_old], uk])
-        parts = [(self._mom[keep_old], mom), (self._y0[keep_old], y0), (self._x0[keep_old], x0),
-                 (self._lo[keep_old], lo), (self._hi[keep_old], hi)]
-        mom_all, y0_all, x0_all, lo_all, hi_all = (np.concatenate(p) for p in parts)
-        if self.consecutive:
-            last = keys_all == last_key
-            self._close(mom_all[~last], lo_all[~last], hi_all[~last])
-            keys_all, mom_all, y0_all, x0_all, lo_all, hi_all = (
-                a[last] for a in (keys_all, mom_all, y0_all, x0_all, lo_all, hi_all))
-        self._keys, self._mom, self._y0, self._x0 = keys_all, mom_all, y0_all, x0_all
-        self._lo, self._hi = lo_all, hi_all
+    def add_gram(self, xtx: np.ndarray) -> None:
+        """Add X^T X (p, p) of samples added with X^T X given as zeros (the caller sums it
+        its own way, e.g. from a histogram of looked-up columns over every batch)."""
+        self.xtx += xtx
+        self.raw_ss += np.diagonal(xtx)
 
     def close_all(self) -> None:
         """Close every open group (at the end of the input)."""
-        self._close(self._mom, self._lo, self._hi)
-        self._keys = np.zeros(0, dtype=np.int64)
-        self._mom = np.zeros((0, self._width))
-        self._y0 = self._x0 = self._lo = self._hi = np.zeros(0)
+        close_groups([self], self._open)
+        self._open = OpenGroups.empty(1, self.p + 1, self.d1)
 
-    def _close(self, mom: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-        k = mom.shape[0]
-        if k == 0:
+
+class StackedTrendLSQ:
+    """Several :class:`TrendProjectedLSQ` (``members``, alike in columns, degree and
+    groups) fed as one: the same samples, abscissae and groups, each its own X and y.
+
+    Each member keeps its sums; the open groups of all are held here, and the work of a
+    batch that depends on the groups alone (grouping, anchors, trend basis, which groups
+    close) is done once. :meth:`release` hands every member its own open groups, after
+    which each is fed alone (when a batch leaves the members different samples).
+    """
+
+    def __init__(self, members: list[TrendProjectedLSQ]) -> None:
+        first = members[0]
+        if any((m.p, m.d1, m.consecutive) != (first.p, first.d1, first.consecutive)
+               for m in members):
+            msg = "stacked least squares need members alike in columns, degree and groups"
+            raise ValueError(msg)
+        self.members = members
+        self._open = OpenGroups.empty(len(members), first.p + 1, first.d1)
+
+    def add(self, x: np.ndarray, scale: float, grouping: Grouping,
+            rows: Iterable[MemberRows]) -> None:
+        """Add m samples: ``x``, ``scale`` and ``grouping`` as :meth:`TrendProjectedLSQ.add`
+        (the grouping is required); ``rows`` each member's in turn (:data:`MemberRows`),
+        which may be made as they are asked for in one buffer (each is used before the next
+        is asked for)."""
+        if x.size == 0:
             return
-        d1, p = self.d1, self.p
-        gram = mom[:, :d1 * d1].reshape(k, d1, d1)
-        tx = mom[:, d1 * d1:d1 * d1 + d1 * p].reshape(k, d1, p)
-        ty = mom[:, d1 * d1 + d1 * p:d1 * d1 + d1 * p + d1]
-        basis, ok = _inverse_root(gram)                    # (T^T T)^+ = basis basis^T
-        # per basis vector j: a_j = tx projected on it (k, p), b_j likewise; their
-        # products summed over the groups are one matrix product each
-        for j in range(d1):
-            a = sum(basis[:, i, j, None] * tx[:, i] for i in range(j + 1 if d1 <= 2 else d1))
-            b = sum(basis[:, i, j] * ty[:, i] for i in range(j + 1 if d1 <= 2 else d1))
-            self.xtx -= a.T @ a
-            self.xty -= a.T @ b
-            self.yty -= float(b @ b)
-        self.n_trend += int(ok.sum())
-        self.groups += k
-        if self.on_close is not None:
-            counts = np.column_stack([gram[:, 0, 0], mom[:, self._width - self.n_labels:]])
-            self.on_close(counts, lo, hi)
+        self._open = add_batch(self.members, self._open, x, scale, grouping, rows)
+
+    def release(self) -> None:
+        """Give every member its own open groups; the stack holds none after."""
+        for q, member in enumerate(self.members):
+            member._open = self._open.member(q)
+        self._open = OpenGroups.empty(len(self.members), self.members[0].p + 1,
+                                      self.members[0].d1)
+
+    def close_all(self) -> None:
+        """Close every open group (at the end of the input)."""
+        close_groups(self.members, self._open)
+        self._open = OpenGroups.empty(len(self.members), self.members[0].p + 1,
+                                      self.members[0].d1)
+
+
+@dataclass
+class OpenGroups:
+    """The groups still open, with the last axis over the groups: ``keys``, the trend's
+    anchor ``x0``, least/greatest abscissa ``lo``/``hi`` (groups); per member the first
+    value of y ``y0`` and the label bits ``seen`` (members, groups); the sums T^T T
+    ``gram`` (d, d, groups) and T^T [X y] ``txy`` (d, members, p + 1, groups)."""
+
+    keys: np.ndarray
+    x0: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    y0: np.ndarray
+    seen: np.ndarray
+    gram: np.ndarray
+    txy: np.ndarray
+
+    @classmethod
+    def empty(cls, members: int, p1: int, d1: int) -> OpenGroups:
+        """No group open: ``members`` problems of ``p1`` rows (X and y), trends of d1 terms."""
+        z = np.zeros(0)
+        return cls(np.zeros(0, np.int64), z, z, z, np.zeros((members, 0)),
+                   np.zeros((members, 0), np.uint8), np.zeros((d1, d1, 0)),
+                   np.zeros((d1, members, p1, 0)))
+
+    def select(self, which: np.ndarray | slice) -> OpenGroups:
+        """The groups ``which`` (indices, a mask or a slice over the groups: then views)."""
+        return OpenGroups(self.keys[which], self.x0[which], self.lo[which], self.hi[which],
+                          self.y0[:, which], self.seen[:, which], self.gram[..., which],
+                          self.txy[..., which])
+
+    def member(self, q: int) -> OpenGroups:
+        """Member ``q``'s open groups alone (one member)."""
+        return OpenGroups(self.keys, self.x0, self.lo, self.hi, self.y0[q:q + 1],
+                          self.seen[q:q + 1], self.gram, self.txy[:, q:q + 1])
+
+    @staticmethod
+    def join(a: OpenGroups, b: OpenGroups) -> OpenGroups:
+        """The groups of ``a`` then those of ``b``."""
+        return OpenGroups(*(np.concatenate([u, v], axis=-1) for u, v in (
+            (a.keys, b.keys), (a.x0, b.x0), (a.lo, b.lo), (a.hi, b.hi), (a.y0, b.y0),
+            (a.seen, b.seen), (a.gram, b.gram), (a.txy, b.txy))))
+
+
+def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray,
+              scale: float, g: Grouping, rows: Iterable[MemberRows]) -> OpenGroups:
+    """One batch of every member (``rows``, in the members' order: :data:`MemberRows`)
+    into their sums; the groups left open.
+
+    Groups met before (in ``state``) keep their anchors and add their moments; y less
+    its group's first value (a constant of the trend, kept out of the sums of squares
+    so that they do not cancel) is summed with X. Each member's rows are summed as they
+    come (while in the cache); what depends on the groups alone is done once.
+    """
+    n_members, p, d1, k = len(members), members[0].p, members[0].d1, g.keys.size
+    x0, lo, hi = x[g.first].astype(np.float64), g.lo.copy(), g.hi.copy()
+    where = np.searchsorted(g.keys, state.keys)          # g.keys is sorted
+    old = np.flatnonzero(g.keys[np.minimum(where, k - 1)] == state.keys)
+    where = where[old]
+    x0[where] = state.x0[old]
+    lo[where] = np.minimum(lo[where], state.lo[old])
+    hi[where] = np.maximum(hi[where], state.hi[old])
+    tz, gram = g.tz, g.gram
+    if g.z is None:  # centred on each group's first x: these anchors
+        z = (x - x0[g.inv]) / scale
+        tz = _trend_rows(z if g.order is None else z[g.order], d1)
+        gram = _gram(tz, g)
+    new = OpenGroups(g.keys, x0, lo, hi, np.empty((n_members, k)),
+                     np.zeros((n_members, k), np.uint8), gram.copy(),
+                     np.empty((d1, n_members, p + 1, k)))
+    count = 0
+    for q, (xy, labels, xtx) in enumerate(rows):
+        y0 = new.y0[q]
+        y0[:] = xy[p, g.first]
+        y0[where] = state.y0[q, old]
+        np.subtract(xy[p], y0[g.inv] if g.order is not None or not g.sorted
+                    else np.repeat(y0, g.counts), out=xy[p])
+        if g.order is not None:  # a sweep's runs interleaved: sorted by group once
+            xy = xy[:, g.order]
+            labels = None if labels is None else labels[g.order]
+        _moments(xy, tz, g, new.txy[:, q])
+        if labels is not None:
+            np.bitwise_or.reduceat(labels, g.starts, out=new.seen[q])
+        _cross(members[q], xy, xtx)
+        count += 1
+    assert count == n_members, "rows for every member"
+    new.gram[..., where] += state.gram[..., old]
+    new.txy[..., where] += state.txy[..., old]
+    new.seen[:, where] |= state.seen[:, old]
+    keep = np.ones(state.keys.size, dtype=bool)
+    keep[old] = False
+    if members[0].consecutive and g.sorted:
+        # windows met in order: the batch's last stays open, every other closes (views)
+        closing = new.select(slice(0, k - 1))
+        if keep.any():
+            closing = OpenGroups.join(state.select(keep), closing)
+        close_groups(members, closing)
+        return new.select(slice(k - 1, k))
+    both = OpenGroups.join(state.select(keep), new)
+    if not members[0].consecutive:
+        return both
+    last = both.keys == g.last
+    close_groups(members, both.select(~last))
+    return both.select(last)
+
+
+def _cross(member: TrendProjectedLSQ, xy: np.ndarray, xtx: np.ndarray | None) -> None:
+    """Add X^T X (``xtx`` when given), X^T y, y^T y of one member's batch ``xy`` (p + 1, m)."""
+    p = member.p
+    if xtx is None:
+        cross = xy @ xy.T                              # X^T X, X^T y, y^T y at once
+        xtx, xty, yty = cross[:p, :p], cross[:p, p], cross[p, p]
+    else:
+        xty = xy @ xy[p]                               # X^T y and y^T y: one pass
+        xty, yty = xty[:p], xty[p]
+    member.xtx += xtx
+    member.raw_ss += np.diagonal(xtx)
+    member.xty += xty
+    member.yty += float(yty)
+    member.n += xy.shape[1]
+
+
+def _moments(xy: np.ndarray, tz: list[np.ndarray], g: Grouping, out: np.ndarray) -> None:
+    """The sums T^T [X y] of each group into ``out`` (d, p + 1, groups).
+
+    ``add.reduceat`` over the samples (the last axis) of each group: the rows of X and y
+    together, summed without a copy for the constant polynomial (t_0 = 1), the others
+    from one product into the grouping's buffer (one for every fit sharing it).
+    """
+    np.add.reduceat(xy, g.starts, axis=1, out=out[0])
+    if tz:
+        scratch = g.scratch_for(xy.shape)
+        for i, t in enumerate(tz, start=1):
+            np.multiply(xy, t, out=scratch)
+            np.add.reduceat(scratch, g.starts, axis=1, out=out[i])
+
+
+def close_groups(members: list[TrendProjectedLSQ], state: OpenGroups) -> None:
+    """Fold the groups of ``state`` into every member's sums, and tell its ``on_close``."""
+    k = state.keys.size
+    if k == 0:
+        return
+    d1, p = members[0].d1, members[0].p
+    basis, ok = _inverse_root(state.gram)              # (T^T T)^+ = basis basis^T
+    # [X y] projected on each basis vector j of each group, for each member: the Gram
+    # matrix of those is what the trends take from X^T X, X^T y and y^T y
+    taken = np.zeros((len(members), p + 1, p + 1))
+    proj = np.empty(state.txy.shape[1:])
+    for j in range(d1):        # the closed-form basis (d <= 2) is upper triangular
+        np.multiply(state.txy[0], basis[0, j], out=proj)
+        for i in range(1, j + 1 if d1 <= 2 else d1):
+            proj += state.txy[i] * basis[i, j]
+        taken += proj @ proj.transpose(0, 2, 1)
+    n_ok = int(np.count_nonzero(ok))
+    counts = state.gram[0, 0]
+    for q, member in enumerate(members):
+        member.xtx -= taken[q, :p, :p]
+        member.xty -= taken[q, :p, p]
+        member.yty -= float(taken[q, p, p])
+        member.n_trend += n_ok
+        member.groups += k
+        if member.on_close is not None:
+            member.on_close(counts, state.seen[q], state.lo, state.hi)
 
 
 def _inverse_root(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """B with B B^T the pseudo-inverse of each Gram matrix (k, d, d), and which columns count.
+    """B with B B^T the pseudo-inverse of each Gram matrix (d, d, k), and which columns
+    count (d, k): B as (d, d, k), the groups on the last axis.
 
     A group with fewer distinct abscissae than the degree + 1 is fitted exactly by its
     trend: directions with an eigenvalue below 1e-10 of the largest add nothing. For
     d <= 2 (a trend of degree 0 or 1, the usual) the basis is written in closed form,
     centred: 1/sqrt(n) and (z - mean z)/sqrt(S_zz), with S_zz = sum (z - mean z)^2.
     """
-    k, d, _ = gram.shape
+    d, _, k = gram.shape
     if d > 2:
-        w, v = np.linalg.eigh(gram)
+        w, v = np.linalg.eigh(gram.transpose(2, 0, 1))
         ok = w > np.maximum(w[:, -1:], 0.0) * 1e-10
         s = np.where(ok, 1.0 / np.sqrt(np.where(ok, w, 1.0)), 0.0)
-        return v * s[:, None, :], ok
-    n = gram[:, 0, 0]
-    basis = np.zeros((k, d, d))
-    ok = np.zeros((k, d), dtype=bool)
-    ok[:, 0] = n > 0
-    basis[:, 0, 0] = np.where(ok[:, 0], 1.0 / np.sqrt(np.where(ok[:, 0], n, 1.0)), 0.0)
+        return (v * s[:, None, :]).transpose(1, 2, 0), ok.T
+    n = gram[0, 0]
+    basis = np.zeros((d, d, k))
+    ok = np.zeros((d, k), dtype=bool)
+    ok[0] = n > 0
+    basis[0, 0] = np.where(ok[0], 1.0 / np.sqrt(np.where(ok[0], n, 1.0)), 0.0)
     if d == 2:
-        mean = gram[:, 0, 1] / np.where(ok[:, 0], n, 1.0)
-        szz = gram[:, 1, 1] - mean * gram[:, 0, 1]
+        mean = gram[0, 1] / np.where(ok[0], n, 1.0)
+        szz = gram[1, 1] - mean * gram[0, 1]
         # the smaller eigenvalue is det / larger >= det / trace; det = n S_zz
-        trace = n + gram[:, 1, 1]
-        ok[:, 1] = n * szz > 1e-10 * trace * trace
-        root = np.where(ok[:, 1], 1.0 / np.sqrt(np.where(ok[:, 1], szz, 1.0)), 0.0)
-        basis[:, 1, 1] = root
-        basis[:, 0, 1] = -mean * root
+        trace = n + gram[1, 1]
+        ok[1] = n * szz > 1e-10 * trace * trace
+        root = np.where(ok[1], 1.0 / np.sqrt(np.where(ok[1], szz, 1.0)), 0.0)
+        basis[1, 1] = root
+        basis[0, 1] = -mean * root
     return basis, ok
 
 
@@ -236,9 +355,10 @@ class Grouping:
     first sample of each, ``counts`` their samples, ``inv`` the group of each sample,
     ``lo``/``hi`` the least/greatest x; ``sorted``: keys met in order (windows); else
     ``order`` sorts the samples by group. ``starts``: where each group begins in that
-    order; ``inv_sorted``: the group of each sample in it. ``z``, ``tz`` (t_1 ..
-    t_degree) and ``gram`` (groups, d, d: the sums of t_i t_j, t_0 = 1) in that order,
-    when the centre is given (else None: each fit centres on its groups' first x).
+    order. ``z``, ``tz`` (t_1 .. t_degree) and ``gram`` (d, d, groups: the sums of
+    t_i t_j, t_0 = 1) in that order, when the centre is given (else None: each fit
+    centres on its groups' first x); ``scratch``: a buffer for products over the batch
+    (:meth:`scratch_for`).
     """
 
     keys: np.ndarray
@@ -251,11 +371,18 @@ class Grouping:
     sorted: bool
     order: np.ndarray | None
     starts: np.ndarray
-    inv_sorted: np.ndarray
     z: np.ndarray | None = None
     tz: list[np.ndarray] = field(default_factory=list)
     gram: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    labelled: tuple[int, np.ndarray] | None = None  # (n_labels, inv_sorted * n_labels)
+    scratch: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def scratch_for(self, shape: tuple[int, int]) -> np.ndarray:
+        """A buffer of ``shape`` for products over the batch, one for every fit sharing
+        the grouping (fewer allocations of a batch's size); grown when too small."""
+        size = shape[0] * shape[1]
+        if self.scratch.size < size:
+            self.scratch = np.empty(size)
+        return self.scratch[:size].reshape(shape)
 
 
 def group_batch(keys: np.ndarray, x: np.ndarray, degree: int, scale: float,
@@ -270,7 +397,7 @@ def group_batch(keys: np.ndarray, x: np.ndarray, degree: int, scale: float,
         g = Grouping(keys[first], keys[-1], first, counts, inv,
                      np.minimum.reduceat(x, first).astype(np.float64),
                      np.maximum.reduceat(x, first).astype(np.float64),
-                     True, None, first, inv)
+                     True, None, first)
     else:
         uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
         lo = np.full(uk.size, np.inf)
@@ -281,8 +408,7 @@ def group_batch(keys: np.ndarray, x: np.ndarray, degree: int, scale: float,
         sort = bool(np.all(inv[1:] >= inv[:-1]))
         order = None if sort else np.argsort(inv, kind="stable")
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        g = Grouping(uk, keys[-1], first, counts, inv, lo, hi, False, order, starts,
-                     inv if order is None else inv[order])
+        g = Grouping(uk, keys[-1], first, counts, inv, lo, hi, False, order, starts)
     if centre is not None:
         z = (x - centre) / scale
         g.z = z if g.order is None else z[g.order]
@@ -297,12 +423,12 @@ def _trend_rows(z: np.ndarray, d1: int) -> list[np.ndarray]:
 
 
 def _gram(tz: list[np.ndarray], g: Grouping) -> np.ndarray:
-    """The sums of t_i t_j of each group (groups, d, d), t_0 = 1 (whose sums are counts)."""
+    """The sums of t_i t_j of each group (d, d, groups), t_0 = 1 (whose sums are counts)."""
     d1 = len(tz) + 1
-    gram = np.zeros((g.keys.size, d1, d1))
-    gram[:, 0, 0] = g.counts
+    gram = np.zeros((d1, d1, g.keys.size))
+    gram[0, 0] = g.counts
     for i in range(1, d1):
-        gram[:, 0, i] = gram[:, i, 0] = np.add.reduceat(tz[i - 1], g.starts)
+        gram[0, i] = gram[i, 0] = np.add.reduceat(tz[i - 1], g.starts)
         for j in range(i, d1):
-            gram[:, i, j] = gram[:, j, i] = np.add.reduceat(tz[i - 1] * tz[j - 1], g.starts)
+            gram[i, j] = gram[j, i] = np.add.reduceat(tz[i - 1] * tz[j - 1], g.starts)
     return gram

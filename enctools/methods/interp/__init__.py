@@ -8,6 +8,7 @@ the device's error is fitted as harmonics of its signal phase. One module per jo
 - :mod:`.model`: the harmonics of a period, their design columns and least squares;
 - :mod:`.coverage`: how well the samples cover the signal period;
 - :mod:`.fit`: the fit against a reference, fed batch by batch;
+- :mod:`.bank`: the fits of the heads of a run against one reference, fed as one;
 - :mod:`.reference`: the references (probes, another head, a time-matched file);
 - :mod:`.readings`: a readings stream's heads checked against a reference;
 - :mod:`.signals`: the error from the heads' raw signals (Heydemann);

@@ -45,15 +45,17 @@ class PhaseCoverage:
         self._pos: dict[float, complex] = {}
         self.samples = 0
 
-    def add(self, phase: np.ndarray, positions: np.ndarray | None = None,
+    def add(self, phase: np.ndarray | None, positions: np.ndarray | None = None,
             step: np.ndarray | None = None, steps: int = 0) -> None:
-        """Add phases [rad] (with ``step`` [count]: phase = 2 pi step / steps, from counts)."""
-        phase = np.asarray(phase, dtype=np.float64)
+        """Add phases [rad] (with ``step`` [count]: phase = 2 pi step / steps, from counts,
+        and ``phase`` may be None)."""
+        if positions is None and step is not None and self.BINS % steps == 0:
+            self.samples += step.size
+            self._mask[step * (self.BINS // steps)] = True
+            return
+        phase = np.asarray(phase_of(phase, step, steps), dtype=np.float64)
         self.samples += phase.size
         if positions is None:
-            if step is not None and self.BINS % steps == 0:
-                self._mask[step * (self.BINS // steps)] = True
-                return
             k = np.rint(np.mod(phase, TWO_PI) * (self.BINS / TWO_PI)).astype(np.int64)
             self._mask[np.mod(k, self.BINS)] = True
             return
@@ -62,6 +64,18 @@ class PhaseCoverage:
                                                                          keys.size)
         for key, v in zip(keys.tolist(), z.tolist(), strict=True):
             self._pos[key] = self._pos.get(key, 0j) + v
+
+    def add_steps(self, per_step: np.ndarray) -> None:
+        """Add samples by their count at each step of the period (phase 2 pi j / steps [rad]
+        at step j of ``per_step``'s length): as :meth:`add` of their phases."""
+        steps = per_step.size
+        self.samples += int(per_step.sum())
+        seen = np.flatnonzero(per_step)
+        if self.BINS % steps == 0:
+            self._mask[seen * (self.BINS // steps)] = True
+        else:
+            self.add(seen * (TWO_PI / steps))
+            self.samples -= seen.size
 
     def gap(self) -> float:
         """Largest gap [rad] between the sampled phases (2 pi when fewer than 2)."""
@@ -84,40 +98,57 @@ class PhaseCoverage:
 
 
 @functools.lru_cache(maxsize=8)
-def _sector_table(steps: int) -> np.ndarray:
-    """The quarter of each step 0 .. steps - 1 of a period: step * SECTORS // steps."""
-    table = np.arange(steps, dtype=np.int64) * SECTORS // steps
+def _sector_bits_table(steps: int) -> np.ndarray:
+    """1 << the quarter of each step 0 .. steps - 1 of a period (step * SECTORS // steps)."""
+    table = np.left_shift(1, np.arange(steps, dtype=np.int64) * SECTORS // steps).astype(np.uint8)
     table.flags.writeable = False
     return table
 
 
-def sectors(phase: np.ndarray, step: np.ndarray | None = None, steps: int = 0) -> np.ndarray:
-    """The quarter of the signal period (0 .. :data:`SECTORS` - 1) each sample's phase is in.
+def phase_of(phase: np.ndarray | None, step: np.ndarray | None, steps: int) -> np.ndarray:
+    """``phase`` [rad], or when None 2 pi ``step`` / ``steps`` (a phase from counts)."""
+    if phase is not None:
+        return phase
+    assert step is not None, "a phase or its step"
+    return step * (TWO_PI / steps)
+
+
+def sector_bits(phase: np.ndarray | None, step: np.ndarray | None = None, steps: int = 0,
+                out: np.ndarray | None = None) -> np.ndarray:
+    """1 << the quarter of the signal period (0 .. :data:`SECTORS` - 1) each sample's
+    phase is in, as uint8 (into ``out`` when given).
 
     ``phase`` [rad], or with ``step`` [count] its count within ``steps`` per period.
-    The fit counts them per group (a window covers the period when every quarter has a
-    sample).
+    The fit ORs them per group (a window covers the period when every quarter has a
+    sample: all :data:`SECTORS` bits).
     """
     if step is not None:  # looked up: a division per sample costs more
-        return _sector_table(steps).take(np.asarray(step, dtype=np.int64))
-    return np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
-                      SECTORS - 1)
+        return np.take(_sector_bits_table(steps), step, out=out, mode="clip")
+    assert phase is not None, "a phase or its step"
+    quarter = np.minimum((np.mod(phase, TWO_PI) * (SECTORS / TWO_PI)).astype(np.int64),
+                         SECTORS - 1)
+    bits = np.left_shift(1, quarter).astype(np.uint8)
+    if out is None:
+        return bits
+    out[...] = bits
+    return out
 
 
 class RunCoverage:
     """The runs of a sweep: each must span one signal period (to within a step).
 
-    :meth:`closed` receives per closed run its samples and those of each quarter of the
-    period (:func:`sectors`), and its least and greatest reference angle [rad].
+    :meth:`closed` receives per closed run its samples, the quarters of the period its
+    phases visited (:func:`sector_bits` OR-ed), and its least and greatest reference
+    angle [rad].
     """
 
     def __init__(self) -> None:
         self._short: tuple[float, float] | None = None   # (span + step, span) of the worst run
         self._min_span = np.inf
 
-    def closed(self, counts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-        """Runs that closed: ``counts`` (runs, 1 + SECTORS), ``lo``, ``hi`` [rad]."""
-        count = counts[:, 0]
+    def closed(self, count: np.ndarray, seen: np.ndarray, lo: np.ndarray,
+               hi: np.ndarray) -> None:
+        """Runs that closed: their samples ``count``, quarters ``seen``, ``lo``, ``hi`` [rad]."""
         span = hi - lo
         step = np.where(count > 1, span / np.maximum(count - 1, 1), 0.0)
         worst = int(np.argmin(span + step))
@@ -137,9 +168,9 @@ class RunCoverage:
 class WindowCoverage:
     """The windows of a continuous run: which carry the phase through a whole period.
 
-    ``window`` [rad]. :meth:`closed` receives per closed window its samples and those
-    of each quarter of the period (:func:`sectors`), and its least and greatest
-    reference angle [rad].
+    ``window`` [rad]. :meth:`closed` receives per closed window its samples, the
+    quarters of the period its phases visited (:func:`sector_bits` OR-ed), and its
+    least and greatest reference angle [rad].
     """
 
     def __init__(self, window: float) -> None:
@@ -149,12 +180,13 @@ class WindowCoverage:
         self.covered = 0      # the samples of those
         self._lo, self._hi = np.inf, -np.inf
 
-    def closed(self, counts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-        """Windows that closed: ``counts`` (windows, 1 + SECTORS), ``lo``, ``hi`` [rad]."""
-        full = np.all(counts[:, 1:] > 0, axis=1)
-        self.windows += counts.shape[0]
-        self.covering += int(full.sum())
-        self.covered += int(counts[full, 0].sum())
+    def closed(self, count: np.ndarray, seen: np.ndarray, lo: np.ndarray,
+               hi: np.ndarray) -> None:
+        """Windows that closed: their samples ``count``, quarters ``seen``, ``lo``, ``hi`` [rad]."""
+        full = seen == (1 << SECTORS) - 1
+        self.windows += count.size
+        self.covering += int(np.count_nonzero(full))
+        self.covered += int(count[full].sum())
         self._lo, self._hi = min(self._lo, float(lo.min())), max(self._hi, float(hi.max()))
 
     def periods_swept(self, period: float) -> float:

@@ -24,11 +24,10 @@ import numpy as np
 
 from enctools.errors import DataError
 from enctools.methods.interp.coverage import (
-    SECTORS,
     PhaseCoverage,
     RunCoverage,
     WindowCoverage,
-    sectors,
+    sector_bits,
 )
 from enctools.methods.interp.curve import error_figures
 from enctools.methods.interp.model import (
@@ -36,6 +35,7 @@ from enctools.methods.interp.model import (
     condition_number,
     harmonic_rows,
     landing_harmonics,
+    lookup_gram,
     period_ratio,
     scaled_normal_matrix,
     solve_scaled,
@@ -79,42 +79,61 @@ class InterpResult:
 
 
 @dataclass
-class _Samples:
-    """One batch of samples for :meth:`InterpolationFit.add` (angles and phases in rad)."""
+class Samples:
+    """One batch of samples for :meth:`InterpolationFit.add` (angles and phases in rad;
+    ``device_phase`` None when ``steps`` give it)."""
 
     device_rad: np.ndarray
-    device_phase: np.ndarray
+    device_phase: np.ndarray | None
     reference_rad: np.ndarray
     groups: np.ndarray | None
     reference_phase: np.ndarray | None
     positions: np.ndarray | None
     steps: Steps | None
 
-    def finite(self) -> tuple[_Samples, int]:
-        """The samples whose readings and phases are all finite, and how many were not."""
+    def finite(self, reference_total: float | None = None,
+               device_finite: bool = False) -> tuple[Samples, int]:
+        """The samples whose readings and phases are all finite, and how many were not.
+
+        ``reference_total``: the sum of the reference's angles and phase when already
+        taken (one reference for several devices); ``device_finite``: the device's
+        angles are known finite (made from integer counts).
+        """
         # first without a temporary: a sum is finite only when all its terms are (one
-        # that overflows falls through to the test of each sample)
-        total = float(np.sum(self.device_rad)) - float(np.sum(self.reference_rad)) \
-            + float(np.sum(self.device_phase))
-        if self.reference_phase is not None:
-            total += float(np.sum(self.reference_phase))
+        # that overflows falls through to the test of each sample); a phase from counts
+        # is finite (None here: not summed)
+        if reference_total is None:
+            reference_total = reference_sum(self.reference_rad, self.reference_phase)
+        total = reference_total if device_finite \
+            else float(np.sum(self.device_rad)) + reference_total
+        if self.device_phase is not None:
+            total += float(np.sum(self.device_phase))
         if math.isfinite(total):
             return self, 0
-        good = (np.isfinite(self.device_rad) & np.isfinite(self.reference_rad)
-                & np.isfinite(self.device_phase))
-        if self.reference_phase is not None:
-            good &= np.isfinite(self.reference_phase)
+        good = np.isfinite(self.device_rad) & np.isfinite(self.reference_rad)
+        for a in (self.device_phase, self.reference_phase):
+            if a is not None:
+                good &= np.isfinite(a)
         if good.all():
             return self, 0
         st = self.steps
         steps = None if st is None else (
             st[0][good], st[1], None if st[2] is None else st[2][good], st[3])
-        return _Samples(
-            self.device_rad[good], self.device_phase[good], self.reference_rad[good],
+        return Samples(
+            self.device_rad[good],
+            None if self.device_phase is None else self.device_phase[good],
+            self.reference_rad[good],
             None if self.groups is None else np.asarray(self.groups)[good],
             None if self.reference_phase is None else self.reference_phase[good],
             None if self.positions is None else np.asarray(self.positions)[good],
             steps), int(good.size - np.count_nonzero(good))
+
+
+def reference_sum(reference_rad: np.ndarray, reference_phase: np.ndarray | None) -> float:
+    """The sum of a reference's angles [rad] and phases [rad]: finite when all are
+    (:meth:`Samples.finite`)."""
+    total = float(np.sum(reference_rad))
+    return total if reference_phase is None else total + float(np.sum(reference_phase))
 
 
 class SharedGrouping:
@@ -177,71 +196,130 @@ class InterpolationFit:
             RunCoverage() if window is None else WindowCoverage(window)
         n_cols = 2 * self.orders.size + 2 * self.ref_orders.size
         self.lsq = TrendProjectedLSQ(n_cols, trend_degree, consecutive=window is not None,
-                                     on_close=self.runs.closed, n_labels=SECTORS)
-        self._origin: float | None = None
+                                     on_close=self.runs.closed)
+        self.origin: float | None = None   # the reference angle [rad] windows count from
         self.shared = shared if shared is not None else SharedGrouping()
         self.skipped = 0  # samples with a NaN or infinite reading, probe or phase
+        self._per_step: np.ndarray | None = None  # samples per step of the period, not yet summed
 
-    def add(self, device_rad: np.ndarray, device_phase: np.ndarray, reference_rad: np.ndarray,
-            groups: np.ndarray | None = None, reference_phase: np.ndarray | None = None,
-            positions: np.ndarray | None = None, steps: Steps | None = None) -> None:
+    def add(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
+            reference_rad: np.ndarray, groups: np.ndarray | None = None,
+            reference_phase: np.ndarray | None = None, positions: np.ndarray | None = None,
+            steps: Steps | None = None) -> None:
         """Add samples (arrays as in :func:`fit_interpolation_error`); non-finite rows are skipped.
 
         ``steps``: (device step, its steps per period, reference step or None, its steps)
         [count] when the phases come from counts (:func:`enctools.data.readings.signal_step`):
-        the harmonic columns are then looked up rather than computed.
+        the harmonic columns are then looked up rather than computed, and
+        ``device_phase`` may be None (it is 2 pi step / steps).
         """
-        s, skipped = self._checked(device_rad, device_phase, reference_rad, groups,
-                                   reference_phase, positions, steps).finite()
-        self.skipped += skipped
+        s = self.samples(device_rad, device_phase, reference_rad, groups, reference_phase,
+                         positions, steps)
         if s.device_rad.size == 0:
             return
-        dev_step, dev_steps, ref_step, ref_steps = s.steps if s.steps is not None \
-            else (None, 0, None, 0)
-        self.cover.add(s.device_phase, s.positions, dev_step, dev_steps)
-        x_rows = np.empty((self.lsq.p + 1, s.device_rad.size))  # the last row: for zeta
-        n_dev = 2 * self.orders.size
-        harmonic_rows(s.device_phase, self.orders, x_rows[:n_dev], dev_step, dev_steps)
-        if self.ref_orders.size and s.reference_phase is not None:
-            harmonic_rows(s.reference_phase, self.ref_orders, x_rows[n_dev:], ref_step, ref_steps)
-        zeta = np.subtract(s.device_rad, s.reference_rad, out=x_rows[-1])  # the lsq's y row
-        zeta /= ARCSEC
+        xy = np.empty((self.lsq.p + 1, s.device_rad.size))  # the last row: for zeta
+        bits = np.empty(s.device_rad.size, np.uint8)
+        xtx = self.rows(s, xy, bits)
         ref = s.reference_rad
-        quarter = sectors(s.device_phase, dev_step, dev_steps)
         if self.window is None:
             keys = np.zeros(ref.size, np.int64) if s.groups is None \
                 else np.asarray(s.groups).astype(np.int64)
-            self.lsq.add(x_rows, zeta, ref, keys, self.period, labels=quarter)
+            self.lsq.add(xy, xy[-1], ref, keys, self.period, labels=bits, xtx=xtx)
             return
-        if self._origin is None:
-            self._origin = float(ref[0])
-        grouping = self.shared.get((ref, s.groups), (self._origin, self.window, self.lsq.d1),
-                                   lambda: self._windows(ref, s.groups))
-        self.lsq.add(x_rows, zeta, ref, None, self.window / 2, labels=quarter,
-                     grouping=grouping)
+        self.lsq.add(xy, xy[-1], ref, None, self.window / 2, labels=bits,
+                     grouping=self.grouping(ref, s.groups), xtx=xtx)
+
+    def model_key(self) -> tuple[object, ...]:
+        """What fits fed as one (:class:`~.bank.FitBank`) share: the period, the harmonics
+        fitted (the device's and the reference's), the trend and the window."""
+        return (self.periods_per_rev, tuple(self.orders.tolist()),
+                tuple(self.ref_orders.tolist()), self.lsq.d1, self.window)
+
+    def samples(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
+                reference_rad: np.ndarray, groups: np.ndarray | None = None,
+                reference_phase: np.ndarray | None = None, positions: np.ndarray | None = None,
+                steps: Steps | None = None, reference_total: float | None = None,
+                device_finite: bool = False) -> Samples:
+        """The arrays of :meth:`add` checked, without the samples that are not finite
+        (counted in ``skipped``; ``reference_total``, ``device_finite`` as
+        :meth:`Samples.finite`)."""
+        s, skipped = self._checked(device_rad, device_phase, reference_rad, groups,
+                                   reference_phase, positions, steps
+                                   ).finite(reference_total, device_finite)
+        self.skipped += skipped
+        return s
+
+    def rows(self, s: Samples, xy: np.ndarray, bits: np.ndarray) -> np.ndarray | None:
+        """Fill ``xy`` (p + 1, m) with the columns X of ``s`` and its zeta [arcsec] as the
+        last row, ``bits`` (m) with the quarter of the period of each sample's phase
+        (1 << quarter); add the phases to the coverage. Returns None, or zeros when the
+        columns are all looked up by the device's step: X^T X and the coverage then come
+        from the samples counted per step, summed over the batches when the fit is solved.
+        """
+        dev_step, dev_steps, ref_step, ref_steps = s.steps if s.steps is not None \
+            else (None, 0, None, 0)
+        n_dev = 2 * self.orders.size
+        harmonic_rows(s.device_phase, self.orders, xy[:n_dev], dev_step, dev_steps)
+        if self.ref_orders.size and s.reference_phase is not None:
+            harmonic_rows(s.reference_phase, self.ref_orders, xy[n_dev:-1], ref_step, ref_steps)
+        zeta = np.subtract(s.device_rad, s.reference_rad, out=xy[-1])
+        zeta /= ARCSEC
+        sector_bits(s.device_phase, dev_step, dev_steps, out=bits)
+        if dev_step is not None and s.positions is None and n_dev == self.lsq.p:
+            # every column looked up by the step: X^T X and the phases sampled come from
+            # the count of samples at each step, summed over the batches (_flush_steps)
+            per_step = np.bincount(dev_step, minlength=dev_steps)
+            if self._per_step is not None and self._per_step.size != per_step.size:
+                self._flush_steps()
+            if self._per_step is None:
+                self._per_step = per_step
+            else:
+                self._per_step += per_step
+            return np.zeros((self.lsq.p, self.lsq.p))
+        self.cover.add(s.device_phase, s.positions, dev_step, dev_steps)
+        return None
+
+    def _flush_steps(self) -> None:
+        """The samples counted per step so far into the coverage and X^T X."""
+        if self._per_step is not None:
+            self.cover.add_steps(self._per_step)
+            self.lsq.add_gram(lookup_gram(self._per_step.size, self.orders, self._per_step))
+            self._per_step = None
+
+    def grouping(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
+        """The trend windows of a batch (reference angles ``ref`` [rad], ``groups``), shared."""
+        assert self.window is not None, "windows of a continuous run"
+        if self.origin is None:
+            self.origin = float(ref[0])
+        return self.shared.get((ref, groups), (self.origin, self.window, self.lsq.d1),
+                               lambda: self._windows(ref, groups))
 
     def _windows(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
         """The batch's trend windows: keys (group, window) and the centre of each window."""
-        assert self.window is not None and self._origin is not None
-        keys = np.zeros(ref.size, np.int64) if groups is None \
-            else np.asarray(groups).astype(np.int64)
-        w = np.floor((ref - self._origin) / self.window)
-        centre = self._origin + (w + 0.5) * self.window
-        keys = (keys << 40) + w.astype(np.int64)
+        assert self.window is not None and self.origin is not None
+        w = np.floor((ref - self.origin) / self.window)
+        centre = self.origin + (w + 0.5) * self.window
+        keys = w.astype(np.int64)
+        if groups is not None:
+            keys += np.asarray(groups).astype(np.int64) << 40
         return group_batch(keys, ref, self.lsq.d1 - 1, self.window / 2, centre)
 
-    def _checked(self, device_rad: np.ndarray, device_phase: np.ndarray,
+    def _checked(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
                  reference_rad: np.ndarray, groups: np.ndarray | None,
                  reference_phase: np.ndarray | None, positions: np.ndarray | None,
-                 steps: Steps | None) -> _Samples:
+                 steps: Steps | None) -> Samples:
         """The arrays as float64, DataError when they differ in length or a phase is missing.
 
         The reference's phase is kept only when its harmonics are fitted.
         """
         dev = np.asarray(device_rad, dtype=np.float64)
         ref = np.asarray(reference_rad, dtype=np.float64)
-        phase = np.asarray(device_phase, dtype=np.float64)
-        if not (ref.size == dev.size and phase.size == dev.size):
+        phase = None if device_phase is None else np.asarray(device_phase, dtype=np.float64)
+        if phase is None and steps is None:
+            msg = "the device's phase: give it or its steps"
+            raise DataError(msg)
+        n_phase = phase.size if phase is not None else np.asarray(steps[0]).size  # type: ignore[index]
+        if not (ref.size == dev.size and n_phase == dev.size):
             msg = "device, phase and reference differ in length"
             raise DataError(msg)
         if self.ref_orders.size:
@@ -251,12 +329,13 @@ class InterpolationFit:
             reference_phase = np.asarray(reference_phase, dtype=np.float64)
         else:
             reference_phase = None
-        return _Samples(dev, phase, ref, groups, reference_phase, positions, steps)
+        return Samples(dev, phase, ref, groups, reference_phase, positions, steps)
 
     def result(self) -> InterpResult:
         """The fit of every sample added. DataError as :func:`fit_interpolation_error` says."""
         lsq = self.lsq
         lsq.close_all()
+        self._flush_steps()
         if lsq.n == 0:
             msg = "no sample with finite device and reference readings"
             raise DataError(msg)

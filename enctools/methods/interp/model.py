@@ -94,20 +94,23 @@ class PeriodHarmonics:
                                self.cov[np.ix_(cov_idx, cov_idx)])
 
 
-def harmonic_rows(phase: np.ndarray, orders: np.ndarray, out: np.ndarray,
+def harmonic_rows(phase: np.ndarray | None, orders: np.ndarray, out: np.ndarray,
                   step: np.ndarray | None = None, steps: int = 0) -> None:
     """cos(n phase), sin(n phase) for each order n into rows 2k, 2k + 1 of ``out``.
 
     ``phase`` [rad]. With ``step`` [count] (phase = 2 pi step / steps, from the
-    counts) they are looked up in a table of the ``steps`` phases; otherwise
-    consecutive orders by complex products from exp(i phase) (one cos/sin pair).
+    counts; ``phase`` may then be None) they are looked up in a table of the
+    ``steps`` phases; otherwise consecutive orders by complex products from
+    exp(i phase) (one cos/sin pair).
     """
     if step is not None:
-        table = phase_table(steps, tuple(int(n) for n in orders))
-        for k in range(len(orders)):
-            np.take(table[2 * k], step, out=out[2 * k])
-            np.take(table[2 * k + 1], step, out=out[2 * k + 1])
+        table = phase_table(steps, tuple(np.asarray(orders).tolist()))
+        for row, out_row in zip(table, out, strict=False):
+            # mode "clip": written straight into ``out`` (the default checks in a buffer);
+            # a step is within 0 .. steps - 1
+            np.take(row, step, out=out_row, mode="clip")
         return
+    assert phase is not None, "a phase or its step"
     e1 = np.exp(1j * phase)
     e = np.ones_like(e1)
     n = 0
@@ -126,6 +129,17 @@ def phase_table(steps: int, orders: tuple[int, ...]) -> np.ndarray:
         out[2 * k], out[2 * k + 1] = np.cos(n * phi), np.sin(n * phi)
     out.flags.writeable = False
     return out
+
+
+def lookup_gram(steps: int, orders: np.ndarray, per_step: np.ndarray) -> np.ndarray:
+    """X^T X of the columns :func:`harmonic_rows` looks up, from the samples per step.
+
+    ``per_step`` [1]: how many samples were at each step 0 .. ``steps`` - 1 of the
+    period; X^T X = sum over the steps of their count times the outer product of the
+    table's column (rows 2k, 2k + 1: cos, sin of order k).
+    """
+    table = phase_table(steps, tuple(np.asarray(orders).tolist()))
+    return (table * per_step) @ table.T
 
 
 def scaled_normal_matrix(xtx: np.ndarray, raw_ss: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,8 +1,9 @@
 """The interpolation error of the heads of a readings stream against a reference.
 
 The readings are streamed through one :class:`~.fit.InterpolationFit` per device (a
-head, or heads of one encoder averaged) in batches, in constant memory; each
-device's fit then gives its :class:`~.curve.Curve`. The error is a function of
+head, or heads of one encoder averaged) in batches, in constant memory, the devices
+alike fed as one (:class:`~.bank.FitBank`); each device's fit then gives its
+:class:`~.curve.Curve`. The error is a function of
 the phase the head *reads* (its counts modulo the interpolation factor), which is
 what a correction table indexed by the counts needs. The grating's true phase
 differs from it by the error itself (periods_per_rev * psi), so the curve is
@@ -25,6 +26,7 @@ import pyarrow as pa
 from enctools.data.readings import HeadInfo, head_angle, head_info, signal_step
 from enctools.data.schemas import columns_with_role
 from enctools.errors import DataError
+from enctools.methods.interp.bank import FitBank
 from enctools.methods.interp.curve import Curve, harmonics_meta
 from enctools.methods.interp.fit import InterpolationFit, SharedGrouping
 from enctools.methods.interp.reference import Reference, open_reference
@@ -85,8 +87,12 @@ def check_readings(source: Any, settings: Settings, reference_table: pa.Table | 
     strobe = _stroboscopic(first, schema, names, reference) \
         if window_arcsec is not None and first is not None and reference.in_stream else {}
     devices, skipped = _plan(schema, names, settings, reference, strobe, window_arcsec)
-    _stream(itertools.chain([first] if first is not None else [], batches), schema, devices,
+    banks = FitBank.of([d.fit for d in devices])
+    _stream(itertools.chain([first] if first is not None else [], batches), schema,
+            [(b, [next(d for d in devices if d.fit is f) for f in b.fits]) for b in banks],
             reference)
+    for b in banks:
+        b.close()
     reference.finish()
     grid = np.linspace(0.0, TWO_PI, settings.points, endpoint=False)
     curves = [_curve(d, grid, reference.meta, window_arcsec) for d in devices]
@@ -193,15 +199,18 @@ def _device(heads: list[str], infos: list[HeadInfo], name: str, settings: Settin
     return Device(heads, infos, name, fits_reference, warnings, fit)
 
 
-def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema, devices: list[Device],
-            reference: Reference) -> None:
-    """Feed every batch's readings of every device, with the reference, to the fits."""
+def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema,
+            banks: list[tuple[FitBank, list[Device]]], reference: Reference) -> None:
+    """Feed every batch's readings of every device, with the reference, to the fits: the
+    devices of a bank at once."""
     has_run, has_target = "run" in schema.names, "target" in schema.names
+    fits_reference = any(devices[0].fits_reference for _, devices in banks)
     for batch in batches:
         if batch.num_rows == 0:
             continue
         ref = reference.read(batch)
-        ref_rad, ref_phase, ref_step = ref.angle_rad, ref.phase_rad, ref.step
+        ref_rad, ref_step = ref.angle_rad, ref.step
+        ref_phase = ref.phase() if fits_reference else None
         groups = column(batch, "run") if has_run else None
         targets = column(batch, "target") if has_target else None
         sel = None if ref.rows is None else np.flatnonzero(ref.rows)
@@ -211,15 +220,20 @@ def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema, devices: list[
             ref_step = ref_step[sel] if ref_step is not None else None
             groups = groups[sel] if groups is not None else None
             targets = targets[sel] if targets is not None else None
-        for d in devices:
-            dev_rad, dev_step = device_reading([column(batch, n) for n in d.heads], d.infos)
-            dev_phase = dev_step * (TWO_PI / d.infos[0].interpolation)
-            if sel is not None:
-                dev_rad, dev_phase, dev_step = dev_rad[sel], dev_phase[sel], dev_step[sel]
-            d.fit.add(dev_rad, dev_phase, ref_rad, groups,
-                      ref_phase if d.fits_reference else None, targets,
-                      (dev_step, d.infos[0].interpolation, ref_step,
-                       ref.steps if ref_step is not None else 0))
+        for bank, devices in banks:
+            angles, steps, finite = [], [], []
+            for d in devices:
+                counts = [column(batch, n) for n in d.heads]
+                finite.append(all(c.dtype.kind in "iu" for c in counts))  # no null count
+                dev_rad, dev_step = device_reading(counts, d.infos)
+                if sel is not None:
+                    dev_rad, dev_step = dev_rad[sel], dev_step[sel]
+                # the phase is 2 pi dev_step / interpolation: the fit takes it from the steps
+                angles.append(dev_rad)
+                steps.append((dev_step, d.infos[0].interpolation, ref_step,
+                              ref.steps if ref_step is not None else 0))
+            bank.add(angles, ref_rad, steps, groups,
+                     ref_phase if devices[0].fits_reference else None, targets, finite)
 
 
 def _curve(device: Device, grid: np.ndarray, reference_meta: dict[str, Any],

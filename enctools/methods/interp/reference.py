@@ -36,9 +36,10 @@ from enctools.units import TWO_PI
 class ReferenceReading:
     """The reference over one batch of readings.
 
-    ``angle_rad`` [rad] per row; ``phase_rad`` [rad] its signal phase (a head), with
+    ``angle_rad`` [rad] per row; ``phase_rad`` [rad] its signal phase (a head), or
     ``step`` [count] that phase in counts of ``steps`` per period when read from the
-    counts (else None and 0); ``rows`` the rows of the batch it covers (None: all).
+    counts (else None and 0; :meth:`phase` gives it either way); ``rows`` the rows of
+    the batch it covers (None: all).
     """
 
     angle_rad: np.ndarray
@@ -46,6 +47,12 @@ class ReferenceReading:
     step: np.ndarray | None = None
     steps: int = 0
     rows: np.ndarray | None = None
+
+    def phase(self) -> np.ndarray | None:
+        """The signal phase [rad] (None: probes), from the step when not given."""
+        if self.phase_rad is None and self.step is not None:
+            return self.step * (TWO_PI / self.steps)
+        return self.phase_rad
 
 
 class Reference(ABC):
@@ -154,9 +161,9 @@ class HeadReference(Reference):
     def read(self, batch: pa.RecordBatch) -> ReferenceReading:
         info = self.info
         counts = column(batch, self.name)
-        step = signal_step(counts, info)
-        return ReferenceReading(head_angle(counts, info), step * (TWO_PI / info.interpolation),
-                                step, info.interpolation)
+        # the phase from the step only when asked for (ReferenceReading.phase)
+        return ReferenceReading(head_angle(counts, info), None, signal_step(counts, info),
+                                info.interpolation)
 
 
 class TimeMatchedReference(Reference):

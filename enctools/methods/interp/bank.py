@@ -1,0 +1,94 @@
+"""Several devices' fits against one reference, fed as one (seed 000 eqs. (19), (20)).
+
+The heads of a run are each fitted against the same reference over the same samples:
+their trend windows are the reference's, and so is every window's trend basis. A
+:class:`FitBank` holds the fits of devices alike (the same harmonics, trend and
+windows) and feeds each batch of all of them at once: one array of their columns, one
+pass of the group sums over it, one trend basis per window
+(:class:`~enctools.methods.trend_lsq.StackedTrendLSQ`). Each fit keeps its own sums
+and gives the result it gets alone, to rounding. A batch in which a device has a
+reading that is not finite (its samples then differ from the others') ends the
+stacking: from it on, each fit is fed alone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+
+import numpy as np
+
+from enctools.methods.interp.fit import InterpolationFit, Samples, Steps, reference_sum
+from enctools.methods.trend_lsq import MemberRows, StackedTrendLSQ, group_batch
+
+
+class FitBank:
+    """The fits ``fits`` (alike: see :meth:`of`) fed batch by batch as one."""
+
+    def __init__(self, fits: Sequence[InterpolationFit]) -> None:
+        self.fits = list(fits)
+        self.stack = StackedTrendLSQ([f.lsq for f in fits]) if len(fits) > 1 else None
+
+    @staticmethod
+    def of(fits: Sequence[InterpolationFit]) -> list[FitBank]:
+        """The fits in banks of those alike, in the order of their first member."""
+        banks: dict[tuple[object, ...], list[InterpolationFit]] = {}
+        for f in fits:
+            banks.setdefault(f.model_key(), []).append(f)
+        return [FitBank(b) for b in banks.values()]
+
+    def add(self, device_rad: Sequence[np.ndarray], reference_rad: np.ndarray,
+            steps: Sequence[Steps], groups: np.ndarray | None = None,
+            reference_phase: np.ndarray | None = None,
+            positions: np.ndarray | None = None,
+            device_finite: Sequence[bool] | None = None) -> None:
+        """One batch of every fit: ``device_rad`` [rad] and ``steps`` per fit (in order),
+        the rest shared (as :meth:`InterpolationFit.add`; the phases from the steps).
+        ``device_finite``: per fit, its angles are known finite (from integer counts)."""
+        known = device_finite if device_finite is not None else [False] * len(self.fits)
+        if self.stack is not None:
+            total = reference_sum(reference_rad, reference_phase)   # summed once for all
+            samples = [f.samples(d, None, reference_rad, groups, reference_phase, positions, st,
+                                 total, ok)
+                       for f, d, st, ok in zip(self.fits, device_rad, steps, known, strict=True)]
+            if all(s.device_rad.size == reference_rad.size for s in samples):
+                self._add_stacked(samples)
+                return
+            self.stack.release()          # samples differ from here on: each fit alone
+            self.stack = None
+            for f, s in zip(self.fits, samples, strict=True):
+                f.add(s.device_rad, s.device_phase, s.reference_rad, s.groups,
+                      s.reference_phase, s.positions, s.steps)
+            return
+        for f, d, st in zip(self.fits, device_rad, steps, strict=True):
+            f.add(d, None, reference_rad, groups, reference_phase, positions, st)
+
+    def _add_stacked(self, samples: list[Samples]) -> None:
+        """Every fit's samples (all finite, the same rows) into the stack."""
+        assert self.stack is not None
+        first, ref = self.fits[0], samples[0].reference_rad
+        m = ref.size
+        if m == 0:
+            return
+        if first.window is None:
+            groups = samples[0].groups
+            keys = np.zeros(m, np.int64) if groups is None \
+                else np.asarray(groups).astype(np.int64)
+            grouping, scale = group_batch(keys, ref, first.lsq.d1 - 1, first.period), first.period
+        else:
+            grouping, scale = first.grouping(ref, samples[0].groups), first.window / 2
+            for f in self.fits[1:]:
+                f.origin = first.origin       # the same windows if the bank parts later
+        xy = np.empty((first.lsq.p + 1, m))   # one buffer: each fit's rows summed in turn
+        bits = np.empty(m, np.uint8)
+
+        def rows() -> Iterator[MemberRows]:
+            for f, s in zip(self.fits, samples, strict=True):
+                xtx = f.rows(s, xy, bits)
+                yield xy, bits, xtx
+
+        self.stack.add(ref, scale, grouping, rows())
+
+    def close(self) -> None:
+        """Close the groups still open (at the end of the input), before the results."""
+        if self.stack is not None:
+            self.stack.close_all()
