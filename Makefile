@@ -12,7 +12,7 @@ MIN_PINS := tests/min-versions.txt
 PYTEST   = -m pytest -q -n 2 --dist loadfile
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo screenshot nightly chromium test check test-min bench accuracy fuzz man \
+.PHONY: help install demo screenshot nightly chromium poppler test check test-min bench accuracy fuzz man \
         lint typecheck clean
 
 help:  ## list the targets
@@ -67,7 +67,13 @@ chromium:
 	  && (apt-get update -qq && apt-get install -y -qq chromium) >/dev/null 2>&1; } \
 	  || echo "make: chromium is not installed; the report screenshot test will be skipped"
 
-test: $(VENV)/.installed-test chromium  ## install what the tests need and run them all
+# pdfinfo and pdftotext (poppler-utils) read the PDF report in one test; installed when we may
+poppler:
+	@command -v pdfinfo >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+	  && (apt-get update -qq && apt-get install -y -qq poppler-utils) >/dev/null 2>&1; } \
+	  || echo "make: poppler-utils is not installed; the PDF report's poppler checks will be skipped"
+
+test: $(VENV)/.installed-test chromium poppler  ## install what the tests need and run them all
 	$(BIN)/python $(PYTEST)
 
 check: $(VENV)/.installed-test  ## the fast tier: every test not marked slow (under 30 s)

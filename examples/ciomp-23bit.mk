@@ -3,6 +3,8 @@
 ENC ?= enc
 RIG ?= ciomp-23bit
 OUT ?= out
+# the laboratory's certificate fields (enc-certificate(5)); copy it beside this file
+CERT ?= $(dir $(lastword $(MAKEFILE_LIST)))ciomp-23bit-certificate.toml
 # the reference a dense run is checked against (truth: the simulator's motion; a real
 # rig: the heads of a reference encoder, e.g. R1,R2) and the s it must reach [arcsec]
 REF ?= truth
@@ -67,7 +69,8 @@ $(OUT)/residual.parquet: $(OUT)/correction.mif
 	$(ENC) acquire --rig $(RIG) --mode continuous --revolutions 1 -o $(OUT)/dense.parquet --force
 	$(ENC) correct $(OUT)/dense.parquet --table $< --ref $(REF) --max-std $(MAX_STD) -o $@ --force
 
-# 7. The calibration report
-$(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet
-	$(ENC) report $^ --title "Encoder $(RIG): polygon calibration and RBF model" \
+# 7. The calibration certificate: text on stdout, HTML and A4 PDF for the customer
+$(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet $(CERT)
+	$(ENC) report $(OUT)/points.parquet $(OUT)/model.parquet --certificate $(CERT) \
+	    --title "Encoder $(RIG): polygon calibration and RBF model" \
 	    --html $@ --pdf $(OUT)/report.pdf --force > $(OUT)/report.txt

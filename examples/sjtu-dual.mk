@@ -5,6 +5,8 @@
 ENC ?= enc
 RIG ?= sjtu-dual
 OUT ?= out
+# the laboratory's certificate fields (enc-certificate(5)); copy it beside this file
+CERT ?= $(dir $(lastword $(MAKEFILE_LIST)))sjtu-dual-certificate.toml
 
 .PHONY: all
 all: $(OUT)/report.html $(OUT)/design.txt $(OUT)/p-error.parquet $(OUT)/signals.parquet
@@ -69,10 +71,10 @@ $(OUT)/signals.parquet: $(OUT)/sweep-signals.parquet
 	$(ENC) interp-check $< --signals --corrected $(OUT)/sweep-corrected.parquet \
 	    -o $@ --force
 
-# 11. The calibration report: text on stdout, HTML and PDF for the customer
+# 11. The calibration certificate: text on stdout, HTML and A4 PDF for the customer
 $(OUT)/report.html: $(OUT)/grad.parquet $(OUT)/h-p.parquet $(OUT)/interp.parquet \
-                    $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet
+                    $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet $(CERT)
 	$(ENC) report $(OUT)/grad.parquet $(OUT)/grad-spectrum.parquet $(OUT)/h-p.parquet \
 	    $(OUT)/interp.parquet $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet \
 	    --title "Rotary table $(RIG): graduation, radial motion, interpolation" \
-	    --html $@ --pdf $(OUT)/report.pdf --force > $(OUT)/report.txt
+	    --certificate $(CERT) --html $@ --pdf $(OUT)/report.pdf --force > $(OUT)/report.txt

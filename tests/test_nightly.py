@@ -57,7 +57,7 @@ def test_first_night_stores_calibration_then_rechecks(tmp_path):
     summary = json.loads(h.column("summary_json")[1])
     assert summary["drift"]["tolerance_arcsec"] == 0.2
     html = (tmp_path / "n.html").read_text()
-    assert "Nightly history" in html and "Within every threshold" in html
+    assert "Nightly history" in html and "<b>Conforms</b> to every limit given" in html
 
 
 @pytest.mark.slow

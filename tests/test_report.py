@@ -370,7 +370,8 @@ def test_html_report_stands_alone(demo_html):
     assert "src=\"http" not in text and "<script" not in text       # nothing fetched
     for part in ("Rig and method", "(before / after compensation)", "ISO 230-2 (2014)",
                  "Lissajous", "Interpolation error per head", "radial error motion",
-                 "with U band (k=2)", "How these data were made", "Within every threshold"):
+                 "with U band (k=2)", "How these data were made",
+                 "<b>Conforms</b> to every limit given"):
         assert part in text, part
     assert text.count("data:image/png;base64,") >= 10
 

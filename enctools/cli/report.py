@@ -19,6 +19,12 @@ from enctools.cli import options, runner
 @click.option("--pdf", "pdf_path", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Write the plots and tables as a PDF.")
 @click.option("--title", default=None, help="Title of the HTML/PDF report.")
+@click.option("--certificate", "certificate_path", default=None, metavar="FILE",
+              type=click.Path(dir_okay=False),
+              help="Make the HTML/PDF a calibration certificate with the laboratory's "
+              "fields of FILE (TOML; enc-certificate(5)).")
+@click.option("--certificate-number", default=None, metavar="TEXT",
+              help="The certificate's number (replaces the file's [certificate] number).")
 @click.option("--top", "top_harmonics", type=click.IntRange(1, 10000), default=5,
               show_default=True, metavar="N", help="List the N largest harmonics per curve.")
 @options.band("Highest harmonic order K considered.", dest="nmax")
@@ -51,7 +57,8 @@ from enctools.cli import options, runner
 @options.force
 @options.verbosity
 def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
-            pdf_path: str | None, title: str | None, top_harmonics: int, nmax: int,
+            pdf_path: str | None, title: str | None, certificate_path: str | None,
+            certificate_number: str | None, top_harmonics: int, nmax: int,
             max_pp: float | None, max_std: float | None, max_abs: float | None,
             max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
             max_iso: tuple[str, ...], standard: str, max_vdi: tuple[str, ...],
@@ -64,7 +71,8 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     summary per input on stdout. Thresholds turn it into a check for cron:
     exceeding any exits 1 and names it on stderr; the summary is still printed.
     Angle errors in the text, HTML and PDF are in --unit; --json and the thresholds
-    keep arcsec.
+    keep arcsec. With --certificate the HTML and the A4 PDF are a calibration
+    certificate.
     """
     from enctools.errors import UsageError
     from enctools.report.output import check_paths, run_report
@@ -85,9 +93,14 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
         raise UsageError(msg)
     options.distinct_outputs({"--html": html_path, "--pdf": pdf_path})
     check_paths([html_path, pdf_path], force)
+    if (certificate_path or certificate_number is not None) and not (html_path or pdf_path):
+        msg = "--certificate and --certificate-number make the --html or --pdf document"
+        raise UsageError(msg)
+    from enctools.report.certificate import load_certificate
+    cert = load_certificate(certificate_path, certificate_number)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
     run_report(sources, Options(top_harmonics, nmax, standard), limits, as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
                history_filter={"rig": history_rig, "since": since},
                prog=runner.command_name(), unit=unit,
-               progress=runner.Progress("inputs and renderings"), mapping=mapping)
+               progress=runner.Progress("inputs and renderings"), mapping=mapping, cert=cert)

@@ -56,6 +56,39 @@ def read_bytes(path: str | Path) -> bytes:
         raise DataError(msg) from None
 
 
+def read_small_text(path: str | Path, what: str, max_bytes: int, noun: str) -> str:
+    """The UTF-8 text of a small input file (a rig file, a certificate file): a regular
+    file of at most ``max_bytes``, checked before reading (a FIFO or a device is refused,
+    never waited on). DataError, one line headed by ``what``, otherwise; ``noun`` names
+    the kind of file in the size refusal ("a rig file")."""
+    p = Path(path)
+    try:  # O_NONBLOCK: opening a FIFO must not wait for a writer before it is refused
+        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NONBLOCK), "rb") as f:
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode):
+                msg = f"{what}: not a regular file"
+                raise DataError(msg)
+            if st.st_size > max_bytes:
+                msg = (f"{what}: {st.st_size} bytes, more than {noun} may have "
+                       f"({max_bytes})")
+                raise DataError(msg)
+            data = f.read(max_bytes + 1)
+    except FileNotFoundError:
+        msg = f"{what}: no such file"
+        raise DataError(msg) from None
+    except OSError as exc:
+        msg = f"{what}: cannot read: {exc.strerror or exc}"
+        raise DataError(msg) from None
+    if len(data) > max_bytes:
+        msg = f"{what}: more than {max_bytes} bytes, more than {noun} may have"
+        raise DataError(msg)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        msg = f"{what}: cannot read: {exc}"
+        raise DataError(msg) from None
+
+
 def check_new_file(path: str, force: bool) -> None:
     """UsageError unless ``path`` can be written: not a folder nor any other non-regular
     file, absent or ``force``, in a folder that exists and is writable."""

@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import difflib
 import math
-import os
-import stat
 import tomllib
 from dataclasses import asdict, dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from enctools.data.files import read_small_text
 from enctools.data.riglimits import MAX_BYTES, MAX_DEPTH, check_value, depth
 from enctools.data.uncertainty import declarations
 from enctools.errors import DataError
@@ -178,31 +177,7 @@ def load_rig(name_or_path: str) -> Rig:
 
 def _read_rig_file(p: Path, name: str) -> str:
     """The text of a rig file: a regular file of at most MAX_BYTES, checked before reading."""
-    try:  # O_NONBLOCK: opening a FIFO must not wait for a writer before it is refused
-        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NONBLOCK), "rb") as f:
-            st = os.fstat(f.fileno())
-            if not stat.S_ISREG(st.st_mode):
-                msg = f"rig file {name}: not a regular file"
-                raise DataError(msg)
-            if st.st_size > MAX_BYTES:
-                msg = (f"rig file {name}: {st.st_size} bytes, more than a rig file may have "
-                       f"({MAX_BYTES})")
-                raise DataError(msg)
-            data = f.read(MAX_BYTES + 1)
-    except FileNotFoundError:
-        msg = f"rig file {name}: no such file"
-        raise DataError(msg) from None
-    except OSError as exc:
-        msg = f"rig file {name}: cannot read: {exc.strerror or exc}"
-        raise DataError(msg) from None
-    if len(data) > MAX_BYTES:
-        msg = f"rig file {name}: more than {MAX_BYTES} bytes, more than a rig file may have"
-        raise DataError(msg)
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        msg = f"rig file {name}: cannot read: {exc}"
-        raise DataError(msg) from None
+    return read_small_text(p, f"rig file {name}", MAX_BYTES, "a rig file")
 
 
 def rig_text(name_or_path: str) -> tuple[str, str]:

@@ -15,10 +15,15 @@ import numpy as np
 from enctools.report.summary import Report
 
 if TYPE_CHECKING:
-    from enctools.report.sections import Section
+    from enctools.report.sections import Curve, Section
 
 #: resolution of every drawn plot [dots per inch]
 DPI = 110
+
+
+def _caption(caption: str, axes: str) -> str:
+    """A plot's caption followed by what its axes show (with their units)."""
+    return f"{caption}: {axes}" if axes else caption
 
 
 class Drawings:
@@ -33,6 +38,7 @@ class Drawings:
         self.top = int(report.settings.get("top_harmonics", 5))
         self._sections: dict[int, list[tuple[str, bytes]]] = {}
         self._history: bytes | None = None
+        self._comparisons: dict[str, bytes] = {}
 
     def section(self, s: Section) -> list[tuple[str, bytes]]:
         """(caption, PNG) of every plot of section ``s`` of the report."""
@@ -40,7 +46,8 @@ class Drawings:
         if key not in self._sections:
             from enctools.report import plots
 
-            self._sections[key] = [(caption, plots.to_png(fig, DPI))
+            self._sections[key] = [(_caption(caption, plots.axes_text(fig)),
+                                    plots.to_png(fig, DPI))
                                    for caption, fig in plots.section_figures(s, self.top)]
         return self._sections[key]
 
@@ -57,3 +64,32 @@ class Drawings:
             self._history = plots.to_png(plots.history_plot(
                 h.times(), series, "figures of each nightly run", bad, h.unit), DPI)
         return self._history
+
+    def comparisons(self) -> list[tuple[str, list[tuple[str, Curve]]]]:
+        """(kind, [(name, curve), ...]) of every kind of which several inputs carry the same
+        curve over a turn in the report's unit: a before / after comparison.
+
+        Only curves of one name are compared (two polygon runs, two self-calibrations):
+        a graduation error and an H - P difference are different measurands.
+        """
+        groups: dict[str, list[tuple[str, Curve]]] = {}
+        unit = str(self.report.settings.get("unit", "arcsec"))
+        for s, c in self.report.curves(unit):
+            if c.domain == "revolution" and c.role in ("deviation", "points", "positioning"):
+                name = s.source.rsplit("/", 1)[-1]
+                if len([x for x in s.curves if x.unit == unit]) > 1:
+                    name += f":{c.name}"
+                groups.setdefault(s.kind, []).append((name, c))
+        return [(kind, pairs[:8]) for kind, pairs in groups.items()
+                if len({n.split(":")[0] for n, _ in pairs}) >= 2
+                and len({c.name for _, c in pairs}) == 1]
+
+    def comparison(self, kind: str) -> bytes:
+        """PNG of the comparison plot of ``kind`` (:meth:`comparisons`)."""
+        if kind not in self._comparisons:
+            from enctools.report import plots
+
+            pairs = dict(self.comparisons())[kind]
+            self._comparisons[kind] = plots.to_png(
+                plots.compare_plot(pairs, f"{kind}: every input"), DPI)
+        return self._comparisons[kind]

@@ -22,7 +22,7 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
     d: dict[str, Any] = {"name": c.name, "unit": u, "role": c.role}
     d |= figure_dict(c.figures, u)
     d["std_convention"] = ("Bessel, n-1, over the n values, one per position modulo "
-                           "360 deg (seed 001 eq. 8)")
+                           "360 deg")
     for k, v in c.extra.items():  # period_arcsec
         d[k] = v
     if c.head:

@@ -27,7 +27,7 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
                history_filter: dict[str, Any] | None = None,
                prog: str = "enc report", unit: str = "arcsec",
                progress: Callable[[int, int], object] | None = None,
-               mapping: Any = None) -> None:
+               mapping: Any = None, cert: Any = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
@@ -35,7 +35,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     the JSON summary and the thresholds keep arcsec. ``history_filter``: the ``rig`` and
     ``since`` of the history's runs to read. ``progress(done, total)`` counts
     the inputs read and the HTML and PDF renderings. ``mapping``: how a user's table
-    maps to points (``data.tablemap.Mapping``).
+    maps to points (``data.tablemap.Mapping``). ``cert``: the laboratory's fields
+    (``certificate.Certificate``; None: the HTML and PDF are a calibration report).
     """
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
@@ -60,16 +61,17 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     with OutputGroup() as outputs:  # both reports, or neither
         done = len(sources)
         if html_path is not None or pdf_path is not None:
+            from enctools.report.document import build, render
             from enctools.report.drawings import Drawings
-            drawings = Drawings(shown)  # each plot drawn once, for the HTML and the PDF
+            # each plot drawn once, the document's data built once, for the HTML and the PDF
+            doc = build(shown, failures, title, Drawings(shown), cert)
         if html_path is not None:
-            from enctools.report.html import to_html
-            outputs.write(html_path, to_html(shown, failures, title, drawings).encode())
+            outputs.write(html_path, render(doc, page=True).encode())
             done += 1
             step(done)
         if pdf_path is not None:
-            from enctools.report.pdf import to_pdf
-            outputs.write(pdf_path, to_pdf(shown, failures, title, drawings))
+            from enctools.report.pdf import document_pdf
+            outputs.write(pdf_path, document_pdf(doc))
             step(done + 1)
     if failures:
         for line in failures:

@@ -1,72 +1,111 @@
-"""The report as a PDF through matplotlib's PDF backend (no system packages needed):
-the text pages, then the plots as drawn for the HTML, one per page."""
+"""The report as an A4 PDF: the certificate template's body typeset by fpdf2.
+
+The same template as the HTML page (:mod:`enctools.report.document`) is laid out on A4
+pages (595.28 x 841.89 pt) with real tables and the plots drawn once for both
+documents, each as wide as the text (180 mm) with its caption below it. The fonts are
+the DejaVu Sans TrueType fonts matplotlib ships (every glyph the document uses: ″ µ σ ± ↑ ↓),
+embedded as subsets. Every page carries the title, the certificate number and
+"Page n of m". Pure Python: no system package is needed.
+"""
 
 from __future__ import annotations
 
-import io
+import re
 from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
-from matplotlib import rc_context
-from matplotlib.backends.backend_pdf import PdfPages
-from matplotlib.figure import Figure
-
-from enctools.report.drawings import DPI, Drawings
+from enctools.report.certificate import Certificate
+from enctools.report.document import build, render
+from enctools.report.drawings import Drawings
 from enctools.report.summary import Report
-from enctools.report.text import to_text
+
+#: page margins [mm]
+MARGIN_MM = 15.0
+#: the body text's size [pt]
+BODY_PT = 9.0
+#: the font family: DejaVu Sans, regular, bold (headings, table heads) and oblique
+#: (captions); each face is parsed and embedded, so the document uses no other
+FAMILY = "dejavu"
+_FACES = {"": "DejaVuSans.ttf", "B": "DejaVuSans-Bold.ttf", "I": "DejaVuSans-Oblique.ttf"}
 
 
-def _text_pages(text: str, title: str, lines_per_page: int = 70) -> list[Figure]:
-    lines = text.splitlines() or [""]
-    pages = []
-    for start in range(0, len(lines), lines_per_page):
-        fig = Figure(figsize=(8.27, 11.69))
-        fig.text(0.05, 0.97, title if start == 0 else f"{title} (cont.)", fontsize=13,
-                 va="top", weight="bold")
-        chunk = "\n".join(line[:110] for line in lines[start:start + lines_per_page])
-        fig.text(0.05, 0.94, chunk, family="monospace", fontsize=6.3, va="top",
-                 weight="medium")  # the weight the PDF's own Courier has
-        pages.append(fig)
-    return pages
+def _fonts_folder() -> Path:
+    import matplotlib
+
+    return Path(matplotlib.get_data_path()) / "fonts" / "ttf"
 
 
-def _image_page(png: bytes, caption: str | None = None) -> Figure:
-    """A page holding a drawn plot as it is (its pixels at :data:`DPI`), the caption
-    below it."""
-    from matplotlib.image import imread
+#: a heading starts a new page when less than this is left below it [mm]
+KEEP_WITH_HEADING_MM = 45.0
 
-    pixels = imread(io.BytesIO(png), format="png")[..., :3]
-    high, wide = pixels.shape[:2]
-    below = 0.3 if caption else 0.0  # inch of caption under the plot
-    fig = Figure(figsize=(wide / DPI, high / DPI + below), dpi=DPI)
-    fig.figimage(pixels, 0, round(below * DPI))
-    if caption:
-        fig.text(0.5, 0.5 * below / (high / DPI + below), caption, fontsize=9, ha="center",
-                 va="center", weight="medium")
-    return fig
+
+def _document(title: str, number: str) -> Any:
+    """An empty A4 document whose pages carry ``title``, ``number`` and "Page n of m"."""
+    from fpdf import FPDF
+
+    class Pages(FPDF):
+        def header(self) -> None:
+            self.set_font(FAMILY, "", 7.5)
+            self.set_text_color(90)
+            left = title if not number else f"{title} — No. {number}"
+            width = self.get_string_width(left)
+            if width > self.epw:            # a long title, cut to the line
+                left = left[:max(1, int(len(left) * self.epw / width) - 2)] + "…"
+            self.cell(0, 4, left, align="L")
+            self.ln(7)
+
+        def footer(self) -> None:
+            self.set_y(-12)
+            self.set_font(FAMILY, "", 7.5)
+            self.set_text_color(90)
+            self.cell(0, 4, (f"Certificate {number} — " if number else "")
+                      + f"Page {self.page_no()} of {{nb}}", align="R")
+
+    pdf = Pages(orientation="portrait", unit="mm", format="A4")
+    pdf.set_margins(MARGIN_MM, MARGIN_MM, MARGIN_MM)
+    pdf.set_auto_page_break(auto=True, margin=MARGIN_MM + 3)
+    folder = _fonts_folder()
+    for style, name in _FACES.items():
+        pdf.add_font(FAMILY, style, str(folder / name))
+    pdf.set_title(title)
+    pdf.set_creator("enctools")
+    pdf.set_font(FAMILY, "", BODY_PT)
+    return pdf
+
+
+def _styles() -> dict[str, Any]:
+    from fpdf.fonts import TextStyle
+
+    blue = "#1f4e79"
+    return {
+        "h1": TextStyle(font_family=FAMILY, font_style="B", font_size_pt=16, color=blue,
+                        t_margin=2, b_margin=2),
+        "h2": TextStyle(font_family=FAMILY, font_style="B", font_size_pt=12, color=blue,
+                        t_margin=5, b_margin=1),
+        "h3": TextStyle(font_family=FAMILY, font_style="B", font_size_pt=10, color="#222",
+                        t_margin=3, b_margin=1),
+        "pre": TextStyle(font_family=FAMILY, font_size_pt=6.5, t_margin=1),
+    }
+
+
+def document_pdf(doc: dict[str, Any]) -> bytes:
+    """PDF bytes of the document's data (:func:`enctools.report.document.build`)."""
+    pdf = _document(str(doc["title"]), str(doc["number"]))
+    pdf.add_page()
+    styles = _styles()
+    # laid out a heading at a time: a heading too near the foot of a page starts the next
+    for part in re.split(r"(?=<h[23]>)", render(doc, page=False)):
+        if part.startswith(("<h2>", "<h3>")) and pdf.will_page_break(KEEP_WITH_HEADING_MM):
+            pdf.add_page()
+        pdf.write_html(part, font_family=FAMILY, tag_styles=styles,
+                       table_line_separators=True, li_prefix_color=(60, 60, 60))
+    return bytes(pdf.output())
 
 
 def to_pdf(report: Report, failures: Sequence[str] | None = None,
-           title: str | None = None, drawings: Drawings | None = None) -> bytes:
-    """PDF bytes: the text summary (and failed checks), then every plot, one per page.
-
-    The plots are the ones drawn for the HTML (``drawings``; drawn here when not
-    given), each placed on its page as drawn.
-    """
-    drawings = drawings or Drawings(report)
-    title = title or "Calibration report"
-    text = to_text(report)
-    if failures:
-        text = "CHECK FAILED:\n" + "\n".join(f"  {f}" for f in failures) + "\n\n" + text
-    buf = io.BytesIO()
-    # the PDF's own fonts (Courier for the text pages): nothing to lay out and embed
-    with rc_context({"pdf.use14corefonts": True}), \
-            PdfPages(buf, metadata={"Title": title, "Creator": "enctools"}) as pdf:
-        for page in _text_pages(text, title):
-            pdf.savefig(page)
-        for s in report.sections:
-            for caption, png in drawings.section(s):
-                pdf.savefig(_image_page(png, caption), dpi=DPI)
-        history = drawings.history()
-        if history is not None:
-            pdf.savefig(_image_page(history), dpi=DPI)
-    return buf.getvalue()
+           title: str | None = None, drawings: Drawings | None = None,
+           cert: Certificate | None = None) -> bytes:
+    """PDF bytes of the report; its plots from ``drawings`` (drawn here when not given),
+    the laboratory's fields from ``cert`` (None: a calibration report)."""
+    return document_pdf(build(report, failures, title, drawings or Drawings(report), cert))

@@ -101,7 +101,7 @@ class Section:
     info: dict[str, Any] = field(default_factory=dict)
     signals: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    budget: Budget | None = None
+    budget: Budget | None = None    # the GUM budget of its results [arcsec], when declared
 
     @property
     def rig_name(self) -> str | None:

@@ -2,37 +2,31 @@
 
 from __future__ import annotations
 
-import math
-
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
-from enctools.report.display import mark
+from enctools.report.display import fmt, mark
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import DEG
-
-
-def _g(x: float | None, digits: int = 3) -> str:
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "-"
-    if x != 0 and abs(x) < 0.5 * 10 ** -digits:   # tiny: significant digits, not 0.000
-        return f"{x:.2g}"
-    return f"{x:.{digits}f}"
 
 
 def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
     f = c.figures
     u = c.unit
     sym = mark(u)
+
+    def g(x: float | None) -> str:
+        return fmt(x, u, missing="-")
+
     lines = [f"  {c.name} [{u}]{' (head ' + c.head + ')' if c.head else ''}: n={f.n}  "
-             f"p-p {_g(f.pp)}{sym}  +/-{_g(f.plus_minus)}{sym}  mean {_g(f.mean)}{sym}  "
-             f"s {_g(f.std)}{sym} (Bessel n-1, seed 001 eq. 8)"]
+             f"p-p {g(f.pp)}{sym}  +/-{g(f.plus_minus)}{sym}  mean {g(f.mean)}{sym}  "
+             f"s {g(f.std)}{sym} (Bessel n-1)"]
     if c.u is not None:
-        lines.append(f"    expanded uncertainty U (k={c.k:.3g}): max {_g(c.U_max)}{sym}")
+        lines.append(f"    expanded uncertainty U (k={c.k:.3g}): max {g(c.U_max)}{sym}")
     h = c.harmonics.largest(top) if c.harmonics is not None else None
     if h is not None and h.n.size:
         per = "/period" if c.domain == "period" else "/rev"
-        parts = [f"n={int(n)} {_g(a)}{sym} @ {p / DEG:.0f} deg"
+        parts = [f"n={int(n)} {g(a)}{sym} @ {p / DEG:.0f} deg"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
     if c.harmonics is not None and c.harmonics.left_out:
@@ -46,7 +40,7 @@ def iso_lines(s: Section) -> list[str]:
         return []
     axis = iso.axis()
     lines = [f"  ISO 230-2 (R = 4s, A with +/-2s) [{iso.unit}]: "
-             + "  ".join(f"{k} {_g(v)}" for k, v in axis.items())]
+             + "  ".join(f"{k} {fmt(v, iso.unit, missing='-')}" for k, v in axis.items())]
     head = "    pos [deg]"
     cols = []
     if iso.up is not None:
@@ -64,7 +58,8 @@ def iso_lines(s: Section) -> list[str]:
             vals += [row["mean_down"], row["s_down"]]
         if iso.is_bidirectional:
             vals += [row["B"], row["R"]]
-        lines.append(f"    {row['position_deg']:9.3f}" + "".join(f"{v:9.3f}" for v in vals))
+        lines.append(f"    {row['position_deg']:9.3f}"
+                     + "".join(f"{fmt(v, iso.unit, missing='-'):>9}" for v in vals))
     return lines
 
 
@@ -73,12 +68,13 @@ def vdi_lines(s: Section) -> list[str]:
     if vdi is None:
         return []
     lines = [f"  VDI/DGQ 3441 (Ps = 6s, P with (U + Ps)/2) [{vdi.unit}]: "
-             + "  ".join(f"{k} {_g(v)}" for k, v in vdi.axis().items())]
+             + "  ".join(f"{k} {fmt(v, vdi.unit, missing='-')}" for k, v in vdi.axis().items())]
     keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
     cols = ("mean up", "s up", "mean dn", "s dn", "mean", "U_j", "Ps_j")
     lines.append("    pos [deg]" + "".join(f"{c:>9}" for c in cols))
     for row in vdi.table():
-        lines.append(f"    {row['position_deg']:9.3f}" + "".join(f"{row[k]:9.3f}" for k in keys))
+        lines.append(f"    {row['position_deg']:9.3f}"
+                     + "".join(f"{fmt(row[k], vdi.unit, missing='-'):>9}" for k in keys))
     return lines
 
 
@@ -92,11 +88,11 @@ def section_lines(s: Section, top: int) -> list[str]:
     for sp in s.spectra:
         parts = []
         for i in sp.largest(top):
-            p = f"n={int(sp.n[i])} {_g(float(sp.amplitude[i]))}{mark(sp.unit)}"
+            p = f"n={int(sp.n[i])} {fmt(float(sp.amplitude[i]), sp.unit)}{mark(sp.unit)}"
             if sp.u is not None:
-                p += f" (U {_g(2 * float(sp.u[i]))}{mark(sp.unit)})"
+                p += f" (U {fmt(2 * float(sp.u[i]), sp.unit)}{mark(sp.unit)})"
             if sp.transfer is not None:
-                p += f" |W| {_g(float(sp.transfer[i]), 2)}"
+                p += f" |W| {fmt(float(sp.transfer[i]), decimals=2)}"
             parts.append(p)
         lines.append(f"  spectrum {sp.curve}: largest " + "; ".join(parts))
     if s.budget is not None:

@@ -1,0 +1,388 @@
+"""What the HTML and the PDF report say, as plain data for the one template.
+
+:func:`build` turns a report (its angle errors already in the unit a person reads),
+the failed checks, the drawn plots and the laboratory's certificate fields into the
+dict the template ``templates/certificate.html.j2`` renders: text, tables (a header
+and rows of text), figures (PNG bytes and a caption). Both documents are rendered
+from it (:func:`render`), so they say the same thing.
+
+Every number passes through :func:`enctools.report.display.fmt` (the unit's
+resolution; no rounding noise); internal citations of the two papers ("seed 001") are
+replaced by their reference numbers.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import functools
+import re
+import struct
+from collections.abc import Sequence
+from typing import Any
+
+from enctools import __version__
+from enctools.data.readings import rig_encoders
+from enctools.report import budgettable, citations
+from enctools.report.certificate import Certificate
+from enctools.report.display import fmt, label
+from enctools.report.drawings import Drawings
+from enctools.report.sections import Curve, Section
+from enctools.report.summary import Report
+from enctools.units import DEG
+
+#: the template of both documents (package data of enctools.report)
+TEMPLATE = "certificate.html.j2"
+_SEED = re.compile(r"\bseeds? (00[01])\b")
+
+
+def customer_text(text: Any) -> str:
+    """``text`` with the papers' internal names ("seed 001") as reference numbers."""
+    return _SEED.sub(lambda m: citations.cite(m.group(1)), str(text))
+
+
+def table(header: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1,
+          caption: str = "", cite: bool = True) -> dict[str, Any]:
+    """A table for the template: text cells, the first ``left`` columns left-aligned,
+    relative column widths [%] from the longest cell of each column. ``cite``: the
+    data's internal citations become reference numbers (not in the lab's own fields)."""
+    cells = [[customer_text(v) if cite else str(v) for v in r] for r in rows]
+    head = [str(h) for h in header]
+    cols = max([len(head)] + [len(r) for r in cells])
+    longest = [max([round(1.4 * len(head[i])) if i < len(head) else 0]   # bold heads
+                   + [len(r[i]) for r in cells if i < len(r)]) for i in range(cols)]
+    weights = [min(n, 30) + 4 for n in longest]   # characters, and the cell's padding
+    total = sum(weights) or 1
+    widths = [max(1, round(100 * w / total)) for w in weights]
+    return {"header": head, "rows": cells, "left": left, "widths": widths,
+            "caption": caption}
+
+
+#: the widest and the tallest a figure is laid out on an A4 page [pt]: the text's width
+#: (180 mm), and a square plot (polar, Lissajous) no taller than 105 mm
+FIGURE_WIDTH_PT, FIGURE_HEIGHT_PT = 510, 300
+
+
+def _figure(png: bytes, caption: str) -> dict[str, Any]:
+    """A plot for the template: its data URI, caption and laid-out width [pt]."""
+    wide, high = struct.unpack(">II", png[16:24])     # the PNG's IHDR: width, height [px]
+    width = min(FIGURE_WIDTH_PT, round(FIGURE_HEIGHT_PT * wide / max(high, 1)))
+    return {"src": "data:image/png;base64," + base64.b64encode(png).decode(),
+            "caption": caption, "width": width, "percent": round(100 * width / FIGURE_WIDTH_PT)}
+
+
+# ------------------------------------------------------------------ the parts
+
+
+def _identity(cert: Certificate | None, report: Report, now: _dt.datetime
+              ) -> list[list[str]]:
+    """Rows (label, value) of who and what: only what the certificate file gives."""
+    rows: list[list[str]] = []
+    if cert is not None:
+        for key, name in (("name", "Customer"), ("address", "Customer address"),
+                          ("order", "Order")):
+            _add(rows, name, cert.get("customer", key))
+        item = cert.table("item")
+        _add(rows, "Item", item.get("description"))
+        maker = " / ".join(str(item[k]) for k in ("manufacturer", "model") if item.get(k))
+        _add(rows, "Manufacturer / model", maker)
+        _add(rows, "Serial number", item.get("serial"))
+        _add(rows, "Condition on receipt", item.get("condition"))
+        _add(rows, "Date received", item.get("received"))
+    calibrated = (cert.get("calibration", "date") if cert else None) or _data_date(report)
+    _add(rows, "Date of calibration", calibrated)
+    issued = (cert.get("certificate", "issued") if cert else None) or now.date()
+    _add(rows, "Date of issue", issued)
+    if cert is not None:
+        _add(rows, "Location", cert.get("calibration", "location"))
+        _add(rows, "Operator", cert.get("calibration", "operator"))
+    return rows
+
+
+def _add(rows: list[list[str]], name: str, value: Any) -> None:
+    if value not in (None, ""):
+        rows.append([name, value.isoformat() if isinstance(value, _dt.date) else str(value)])
+
+
+def _data_date(report: Report) -> str | None:
+    """The day of the earliest recording the inputs' history names (UTC), or None."""
+    days = sorted(line[:10] for s in report.sections for line in s.history[:1]
+                  if re.match(r"\d{4}-\d\d-\d\d", line))
+    return f"{days[0]} (as recorded in the data)" if days else None
+
+
+def _environment(cert: Certificate | None) -> list[list[str]]:
+    env = cert.table("environment") if cert else {}
+    rows = []
+    for key, name, unit in (("air_temperature_c", "Air temperature", "°C"),
+                            ("material_temperature_c", "Temperature of the item", "°C"),
+                            ("humidity_percent", "Relative humidity", "%")):
+        if key in env:
+            rows.append([name, f"{fmt(env[key], decimals=1)} {unit}", "as entered"])
+    if env.get("remarks"):
+        rows.append(["Remarks", env["remarks"], ""])
+    return rows
+
+
+def _references(cert: Certificate | None) -> dict[str, Any] | None:
+    if cert is None or not cert.references:
+        return None
+    keys = ("name", "serial", "certificate", "due", "traceability")
+    rows = [[_shown(r.get(k)) for k in keys] for r in cert.references]
+    return table(["reference standard", "serial", "certificate", "due", "traceability"],
+                 rows, left=5, cite=False)
+
+
+def _shown(value: Any) -> str:
+    if value is None:
+        return "–"
+    return value.isoformat() if isinstance(value, _dt.date) else str(value)
+
+
+def _summary(report: Report) -> dict[str, Any] | None:
+    if not report.sections:
+        return None
+    rows = []
+    for s, c in report.curves():
+        f, u = c.figures, c.unit
+        rows.append([_name(s.source), c.name, label(u), f.n, fmt(f.pp, u), fmt(f.plus_minus, u),
+                     fmt(f.mean, u), fmt(f.std, u), fmt(c.U_max, u),
+                     fmt(c.k, decimals=2) if c.u is not None else "–"])
+    return table(["input", "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"],
+                 rows, left=3)
+
+
+def _conformity(report: Report, failures: Sequence[str] | None) -> dict[str, Any] | None:
+    """The conformity statement and its decision rule, when limits were given."""
+    limits = report.settings.get("thresholds") or {}
+    if not limits:
+        return None
+    given = ", ".join(f"{k.replace('_', '-')} " + (", ".join(f"{n}:{x:g}" for n, x in v.items())
+                                                  if isinstance(v, dict) else f"{v:g}")
+                      for k, v in limits.items())
+    return {"limits": given, "failures": list(failures or []),
+            "rule": ("Decision rule: simple acceptance (ILAC-G8:09/2019, 4.2.1; no guard "
+                     "band): a figure conforms when its measured value does not exceed "
+                     "its limit. The expanded uncertainty stated in this document is not "
+                     "added to the measured value, so a value closer to a limit than its "
+                     "uncertainty may conform or not (shared risk). Limits in arcsec "
+                     "(radial motion in nm).")}
+
+
+def _uncertainty(report: Report) -> dict[str, Any] | None:
+    """The budget of every input that has one (a table each), and the inputs whose
+    results carry a Type A uncertainty, named once under one statement."""
+    budgets, type_a = [], []
+    for s in report.sections:
+        if s.budget is not None:
+            budgets.append({"source": s.source,
+                            "table": budgettable.budget_table(s.budget, s.unit, table),
+                            "totals": table(["", ""], budgettable.totals(s.budget, s.unit))})
+        elif any(c.u is not None for c in s.curves) or any(sp.u is not None
+                                                           for sp in s.spectra):
+            type_a.append(_name(s.source))
+    none = [_name(s.source) for s in report.sections if s.budget is None
+            and _name(s.source) not in type_a and s.kind in ("deviations", "points", "readings")]
+    if not budgets and not type_a and not none:
+        return None
+    return {"budgets": budgets, "type_a": ", ".join(type_a),
+            "statement": budgettable.TYPE_A if type_a else "",
+            "none": ", ".join(none)}
+
+
+def _name(source: str) -> str:
+    """An input as a table names it: its file name (stdin as "-")."""
+    return source.rsplit("/", 1)[-1] or source
+
+
+def _rigs(report: Report) -> list[dict[str, Any]]:
+    rigs = {s.rig_name: s.meta for s in report.sections if s.rig_name}
+    out = []
+    for name, meta in rigs.items():
+        rig = meta["rig"]
+        rows = []
+        for enc in rig_encoders(meta):
+            heads = ", ".join(f"{h.name} {h.angle / DEG:g}°" for h in enc.heads)
+            rows.append([enc.name, enc.model, heads, enc.periods_per_rev, enc.interpolation,
+                         enc.diameter_mm])
+        extras = [k for k in ("polygon", "autocollimator", "probes") if rig.get(k)]
+        out.append({"name": name, "description": customer_text(rig.get("description", "")),
+                    "encoders": table(["encoder", "model", "heads (nominal angle)",
+                                       "periods/rev", "interpolation", "diameter [mm]"], rows,
+                                      left=3) if rows else None,
+                    "also": ", ".join(extras)})
+    return out
+
+
+def _harmonics(curves: Sequence[Curve], top: int) -> dict[str, Any] | None:
+    rows = []
+    for c in curves:
+        if c.harmonics is None:
+            continue
+        h = c.harmonics.largest(top)
+        cells = [f"n={int(n)}: {fmt(float(a), c.unit)} @ {float(p) / DEG:.0f}°"
+                 for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
+        rows.append([c.name, label(c.unit)] + cells)
+    if not rows:
+        return None
+    shown = max(len(r) for r in rows) - 2        # the columns of the most harmonics listed
+    rows = [r + [""] * (shown + 2 - len(r)) for r in rows]
+    return table(["curve", "unit"] + [f"#{i + 1}" for i in range(shown)], rows, left=2,
+                 caption="Largest harmonics A cos(n x + p): order n, amplitude A, phase p.")
+
+
+def _iso(s: Section) -> dict[str, Any] | None:
+    iso = s.iso
+    if iso is None:
+        return None
+    u = iso.unit
+    axis = iso.axis()
+    cols, keys = ["position [deg]"], []
+    for d, arrow, name in ((iso.up, "↑", "up"), (iso.down, "↓", "down")):
+        if d is not None:
+            cols += [f"mean {arrow}", f"s {arrow}", f"R {arrow}", f"n {arrow}"]
+            keys += [f"mean_{name}", f"s_{name}", f"R_{name}", f"n_{name}"]
+    if iso.is_bidirectional:
+        cols += ["mean", "B_i", "R_i"]
+        keys += ["mean", "B", "R"]
+    rows = [[f"{r['position_deg']:.3f}"] + [str(r[k]) if k.startswith("n_") else fmt(r[k], u)
+                                             for k in keys] for r in iso.table()]
+    return {"title": "ISO 230-2 (2014)",
+            "axis": table(list(axis), [[fmt(v, u) for v in axis.values()]], left=0),
+            "note": (f"[{label(u)}] R_i = 4 s_i (±2 s); bidirectional R = max R_i with "
+                     "R_i = max(2 s_i↑ + 2 s_i↓ + |B_i|, R_i↑, R_i↓); E over both "
+                     "directions' mean deviations; M = range of the mean deviations; "
+                     "A = max(mean + 2s) − min(mean − 2s) over both directions; "
+                     "B = max |B_i|."),
+            "table": table(cols, rows, left=0), "warnings": list(iso.warnings)}
+
+
+def _vdi(s: Section) -> dict[str, Any] | None:
+    vdi = s.vdi
+    if vdi is None:
+        return None
+    u = vdi.unit
+    axis = vdi.axis()
+    keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
+    rows = [[f"{r['position_deg']:.3f}"] + [fmt(r[k], u) for k in keys]
+            + [r["n_up"], r["n_down"]] for r in vdi.table()]
+    return {"title": "VDI/DGQ 3441 (1977)",
+            "axis": table(list(axis), [[fmt(v, u) for v in axis.values()]], left=0),
+            "note": (f"[{label(u)}] x_j = (x↑ + x↓)/2; U_j = |x↑ − x↓|; Ps_j = 6 (s↑ + s↓)/2 "
+                     "(±3 s); Pa = range of x_j; "
+                     "P = max(x_j + (U_j + Ps_j)/2) − min(x_j − (U_j + Ps_j)/2)."),
+            "table": table(["position [deg]", "x↑", "s↑", "x↓", "s↓", "x_j", "U_j", "Ps_j",
+                            "n↑", "n↓"], rows, left=0),
+            "warnings": []}
+
+
+def _value(v: Any) -> str:
+    """A value of a section's facts: a float to 4 decimals, anything else as it is."""
+    return fmt(v, decimals=4) if isinstance(v, float) else str(v)
+
+
+def _section(s: Section, top: int, drawings: Drawings) -> dict[str, Any]:
+    notes = [customer_text(n) for n in s.notes]
+    notes += [f"{c.name}: {c.harmonics.left_out_text()}" for c in s.curves
+              if c.harmonics is not None and c.harmonics.left_out]
+    return {"heading": f"{s.source} — {citations.kind_name(s.kind)}",
+            "info": table(["", ""], [[k, _value(v)] for k, v in s.info.items()], left=2)
+            if s.info else None,
+            "figures": [_figure(png, caption) for caption, png in drawings.section(s)],
+            "harmonics": _harmonics(s.curves, top),
+            "standard": _iso(s) or _vdi(s), "notes": notes}
+
+
+def _comparison(report: Report, drawings: Drawings) -> list[dict[str, Any]]:
+    """Inputs of one kind carrying the same curve over a turn (before / after)."""
+    out = []
+    for kind, pairs in drawings.comparisons():
+        unit = pairs[0][1].unit
+        rows = [[name, fmt(c.figures.pp, unit), fmt(c.figures.std, unit)] for name, c in pairs]
+        first = pairs[0][1].figures.std
+        ratios = [f"{name}: s of the first / s of this = {fmt(first / c.figures.std, decimals=2)}"
+                  for name, c in pairs[1:] if c.figures.std > 0]
+        out.append({"heading": f"Comparison of the {citations.kind_name(kind)} inputs "
+                               "(before / after compensation)",
+                    "figure": _figure(drawings.comparison(kind),
+                                      "Deviation of every input on one plot (the first: before)"),
+                    "table": table(["input", f"p-p [{label(unit)}]", f"s [{label(unit)}]"],
+                                   rows),
+                    "ratios": ratios})
+    return out
+
+
+def _history(report: Report, drawings: Drawings) -> dict[str, Any] | None:
+    h = report.history
+    if h is None:
+        return None
+    out: dict[str, Any] = {"heading": f"Nightly history — {h.folder + h.filters_text()}",
+                           "text": f"{h.runs} run(s)" + (
+                               f"; {len(h.skipped)} unreadable file(s) skipped"
+                               if h.skipped else "") + ".",
+                           "figure": None, "table": None}
+    png = drawings.history()
+    if png is not None:
+        u = h.unit
+        out["figure"] = _figure(png, "p-p, s and drift of every run (× marks runs that failed)")
+        rows = [[r["time"], r["rig"] or "–", r["status"] or "–", fmt(r["pp"], u),
+                 fmt(r["std"], u), fmt(r["drift_max"], u), fmt(r["tolerance"], u)]
+                for r in h.to_records()]
+        b = f" [{label(u)}]"
+        out["table"] = table(["time (UTC)", "rig", "status", "p-p" + b, "s" + b, "drift" + b,
+                              "tolerance" + b], rows, left=3)
+    return out
+
+
+def _approval(cert: Certificate | None) -> dict[str, str] | None:
+    if cert is None:
+        return None
+    given = cert.table("approval")
+    return {"name": given.get("name", ""), "function": given.get("function", "")}
+
+
+def build(report: Report, failures: Sequence[str] | None, title: str | None,
+          drawings: Drawings, cert: Certificate | None = None) -> dict[str, Any]:
+    """The template's data of the whole document (see the module's docstring)."""
+    now = _dt.datetime.now(_dt.UTC)
+    unit = str(report.settings.get("unit", "arcsec"))
+    rigs = [s.rig_name for s in report.sections if s.rig_name]
+    default = ("Calibration certificate" if cert else "Calibration report") + (
+        f" — {', '.join(dict.fromkeys(rigs))}" if rigs else "")
+    if cert is not None and cert.get("certificate", "title"):
+        default = cert.get("certificate", "title")
+    return {  # a certificate keeps its title; --title is then its subject line
+        "title": default if cert else title or default,
+        "subtitle": title if cert and title else "", "number": cert.number if cert else "",
+        "made": f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
+                f"{len(report.sections)} input(s)",
+        "laboratory": cert.table("laboratory") if cert else {},
+        "statement": cert.get("certificate", "statement") if cert else None,
+        "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
+        "environment": _environment(cert), "references_std": _references(cert),
+        "rigs": _rigs(report), "methods": citations.rows(report, table),
+        "summary": _summary(report), "conformity": _conformity(report, failures),
+        "uncertainty": _uncertainty(report),
+        "sections": [_section(s, drawings.top, drawings) for s in report.sections],
+        "comparisons": _comparison(report, drawings), "history": _history(report, drawings),
+        "record": [{"source": s.source, "lines": s.history or ["(none)"]}
+                   for s in report.sections],
+        "unit": label(unit), "papers": citations.papers(),
+        "approval": _approval(cert),
+    }
+
+
+@functools.cache
+def _template() -> Any:
+    """The template, compiled once for both documents."""
+    import jinja2
+
+    env = jinja2.Environment(loader=jinja2.PackageLoader("enctools.report", "templates"),
+                             autoescape=True, undefined=jinja2.StrictUndefined)
+    return env.get_template(TEMPLATE)
+
+
+def render(doc: dict[str, Any], page: bool) -> str:
+    """The template filled with ``doc``: the whole HTML page (``page``), or its body
+    alone for the PDF's renderer. Values are escaped as HTML."""
+    return str(_template().render(doc, page=page))
