@@ -374,7 +374,8 @@ def section_figures(s: Section, top: int = 5) -> list[tuple[str, Figure]]:
             out.append(("Interpolation error per head within one signal period",
                         deviation_plot(dev, f"interpolation error — {name}")))
         else:
-            label = "with U band (k=2)" if any(c.u is not None for c in dev) else ""
+            ks = sorted({c.k for c in dev if c.u is not None})
+            label = f"with U band (k={'/'.join(f'{k:.3g}' for k in ks)})" if ks else ""
             out.append((f"Deviation curve {label}".strip(),
                         deviation_plot(dev, f"deviation — {name}")))
         rows = harmonics_rows(dev)
