@@ -1,0 +1,113 @@
+"""The table writers' bytes, line for line against a plain formatter of each format.
+
+The writers build their text with numpy, block by block; the formatter here writes one
+line at a time with Python's own formatting, as each format's documentation describes
+it. Sizes cross the writers' blocks and Intel HEX's 64 KiB segments and end in a
+partial line or record; widths include odd ones; values cover each width's extremes.
+"""
+
+from __future__ import annotations
+
+import tempfile
+
+import numpy as np
+import pytest
+
+from enctools.models import romformats as rf
+from enctools.models.romformats import writers
+
+COMMENT = ["enctools make-rom: a test table", "CRC-32 0badf00d; a second line"]
+#: sizes [entries]: tiny, around a hex digit of the address, around the writers' blocks
+SIZES = (1, 2, 3, 15, 16, 17, 255, 257, 4095, 4097, 65535, 65536, 65537,
+         3 * 65536 + 5, 5 * 65536 - 3)
+WIDTHS = (2, 3, 5, 8, 9, 13, 16, 17, 23, 24, 31, 32)
+
+
+def _values(n: int, width: int, seed: int) -> np.ndarray:
+    """n signed values of a ``width``-bit word in its smallest dtype, extremes included."""
+    lo, hi = -(1 << (width - 1)), (1 << (width - 1)) - 1
+    dtype = np.int8 if width <= 8 else np.int16 if width <= 16 else np.int32
+    v = np.random.default_rng(seed).integers(lo, hi + 1, n, dtype=np.int64)
+    v[: min(n, 4)] = [lo, hi, 0, -1][: min(n, 4)]
+    return v.astype(dtype)
+
+
+def _plain(fmt: str, values: np.ndarray, t: rf.Target, comment: list[str]) -> bytes:
+    """The file, one line at a time."""
+    n, hd = values.size, (t.width + 3) // 4
+    words = [f"{int(v) & ((1 << t.width) - 1):0{hd}X}" for v in values]
+    if fmt == "mif":
+        adig = max(1, -(-(n - 1).bit_length() // 4))
+        text = "".join(f"-- {c}\n" for c in comment)
+        text += (f"WIDTH={t.width};\nDEPTH={n};\n\nADDRESS_RADIX=HEX;\nDATA_RADIX=HEX;\n\n"
+                 "CONTENT BEGIN\n")
+        text += "".join(f"\t{k:0{adig}X} : {w};\n" for k, w in enumerate(words)) + "END;\n"
+    elif fmt == "coe":
+        text = "".join(f"; {c}\n" for c in comment)
+        text += "memory_initialization_radix=16;\nmemory_initialization_vector=\n"
+        text += ",\n".join(words) + ";\n"
+    elif fmt == "mem":
+        text = "".join(f"// {c}\n" for c in comment) + "@0\n" + "".join(w + "\n" for w in words)
+    elif fmt == "csv":
+        text = "address,correction\n" + "".join(f"{k},{int(v)}\n" for k, v in enumerate(values))
+    elif fmt == "ihex":
+        return _plain_ihex(values.astype(t.image_dtype).tobytes())
+    else:
+        return values.astype(t.image_dtype).tobytes()
+    return text.encode()
+
+
+def _plain_ihex(image: bytes) -> bytes:
+    """Intel HEX: a type 04 record at each 64 KiB, 16 data bytes a record, then EOF."""
+    def record(rtype: int, addr: int, data: bytes) -> str:
+        body = bytes([len(data), addr >> 8, addr & 255, rtype]) + data
+        return ":" + (body + bytes([-sum(body) & 255])).hex().upper() + "\n"
+
+    lines = []
+    for base in range(0, len(image), 1 << 16):
+        lines.append(record(4, 0, (base >> 16).to_bytes(2, "big")))
+        seg = image[base:base + (1 << 16)]
+        lines += [record(0, a, seg[a:a + 16]) for a in range(0, len(seg), 16)]
+    return ("".join(lines) + ":00000001FF\n").encode()
+
+
+def _written(fmt: str, values: np.ndarray, t: rf.Target) -> bytes:
+    with tempfile.TemporaryFile() as f:  # a real file: the binary writer writes to its fd
+        rf.WRITERS[fmt](f, values, t, COMMENT)
+        f.seek(0)
+        return f.read()
+
+
+def _check(fmt: str, values: np.ndarray, t: rf.Target) -> None:
+    got, want = _written(fmt, values, t), _plain(fmt, values, t, COMMENT)
+    if got != want:
+        at = next((i for i, (a, b) in enumerate(zip(got, want, strict=False)) if a != b),
+                  min(len(got), len(want)))
+        line = want[:at].count(b"\n")
+        pytest.fail(f"{fmt} of {values.size} {t.width}-bit values differs at byte {at} "
+                    f"(line {line + 1}): {got[at - 20:at + 20]!r} != {want[at - 20:at + 20]!r}")
+
+
+@pytest.mark.parametrize("fmt", ("mif", "coe", "mem", "csv", "bin"))
+@pytest.mark.parametrize("n", SIZES)
+def test_text_tables_line_for_line(fmt, n):
+    for i, width in enumerate(WIDTHS):
+        if n > 4097 and i % 3:  # the big sizes at a third of the widths each
+            continue
+        _check(fmt, _values(n, width, seed=n + width), rf.Target(fmt, width))
+
+
+@pytest.mark.parametrize("n", SIZES + (8 * 65536 + 1, 32768 + 3))
+@pytest.mark.parametrize("endian", ("little", "big"))
+def test_intel_hex_record_for_record(n, endian):
+    """Segments whole, partial, and cut inside a record, for words of 1, 2 and 4 bytes."""
+    widths = (3, 8, 12, 16, 20, 32)
+    if n > 65537:  # the big sizes: one- and four-byte words little-endian, two- and four- big
+        widths = (8, 32) if endian == "little" else (12, 20)
+    for width in widths:
+        _check("ihex", _values(n, width, seed=n * width), rf.Target("ihex", width, endian))
+
+
+def test_the_block_boundary_is_where_the_writers_change_block():
+    """The sizes above cross the writers' blocks: keep them so if the block size changes."""
+    assert max(SIZES) > 2 * writers.LINES
