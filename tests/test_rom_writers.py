@@ -83,9 +83,9 @@ def _check(fmt: str, values: np.ndarray, t: rf.Target) -> None:
     if got != want:
         at = next((i for i, (a, b) in enumerate(zip(got, want, strict=False)) if a != b),
                   min(len(got), len(want)))
-        line = want[:at].count(b"\n")
+        line, near = want[:at].count(b"\n"), slice(max(0, at - 20), at + 20)
         pytest.fail(f"{fmt} of {values.size} {t.width}-bit values differs at byte {at} "
-                    f"(line {line + 1}): {got[at - 20:at + 20]!r} != {want[at - 20:at + 20]!r}")
+                    f"(line {line + 1}): {got[near]!r} != {want[near]!r}")
 
 
 @pytest.mark.parametrize("fmt", ("mif", "coe", "mem", "csv", "bin"))

@@ -1,15 +1,18 @@
 """Writers of correction tables: one function per format, each writing a whole file.
 
-Big tables are formatted with numpy (fixed-width lines built as byte arrays, a
-block of :data:`LINES` lines at a time) or Arrow's CSV and string kernels, never a
-Python loop per line. Every writer takes an open binary file, the signed values [LSB]
-(one per address), the :class:`~enctools.models.romformats.words.Target` and the
-comment lines to put at the top where the format has comments.
+The fixed-width text tables (MIF, COE, MEM, Intel HEX) are written a block of lines at
+a time from one buffer whose constant bytes (separators, the line ends, the address
+digits that repeat every block) are set once: each block then costs one table look-up
+of hex digits per 16 bits of its words, stored straight into the lines, and one write.
+Nothing grows with the table but the table itself. CSV and the controllers' tables are
+formatted by Arrow's string kernels, a block at a time. Every writer takes an open binary
+file, the signed values [LSB] (one per address), the
+:class:`~enctools.models.romformats.words.Target` and the comment lines to put at the
+top where the format has comments.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import IO
 
 import numpy as np
@@ -33,73 +36,42 @@ def _hex_tables() -> dict[int, np.ndarray]:
     return _HEX_TABLES
 
 
-def _hex_columns(u: np.ndarray, digits: int) -> list[np.ndarray]:
-    """ASCII hex of non-negative integers, ``digits`` wide, as pieces for :func:`_lines`.
-
-    The pieces are words of 4, 2 and 1 characters (uint32, uint16, uint8), left to
-    right: one table look-up per 16 bits, and :func:`_lines` places each with one
-    strided word copy rather than a byte loop.
-    """
-    tables = _hex_tables()
-    u = u.astype(np.int64, copy=False)
-    pieces = []
-    left = digits
-    while left:
-        width = 4 if left >= 4 else 2 if left >= 2 else 1
-        left -= width
-        mask = (1 << (4 * width)) - 1
-        pieces.append(tables[width][(u >> (4 * left)) & mask if left else u & mask])
-    return pieces
-
-
-def _hex_bytes(b: np.ndarray) -> np.ndarray:
-    """ASCII hex (two digits a byte) of a uint8 array, as uint16 words of the same shape."""
-    return _hex_tables()[2][b]
-
-
-def _lines(parts: list[np.ndarray | bytes | list[np.ndarray]], n: int) -> np.ndarray:
-    """Fixed-width lines (n, W) uint8 from parts placed left to right.
-
-    A part is constant bytes, an array of n words (any unsigned dtype: its bytes in
-    memory order) or of shape (n, k) (k words a line), or a list of such arrays.
-    Every part is written with one strided copy of whole words.
-    """
-    flat: list[np.ndarray | bytes] = []
-    for p in parts:
-        if isinstance(p, list):
-            flat.extend(p)
-        else:
-            flat.append(p)
-    widths = [p.itemsize * (p.shape[1] if p.ndim == 2 else 1) if isinstance(p, np.ndarray)
-              else len(p) for p in flat]
-    w = sum(widths)
-    buf = np.empty(n * w, dtype=np.uint8)
-    col = 0
-    for p, width in zip(flat, widths, strict=True):
-        if isinstance(p, np.ndarray):
-            strides = (w,) if p.ndim == 1 else (w, p.itemsize)
-            np.ndarray(p.shape, p.dtype, buffer=buf, offset=col, strides=strides)[...] = p
-        else:
-            at = col
-            while p:
-                size = 4 if len(p) >= 4 else 2 if len(p) >= 2 else 1
-                dt = np.dtype(f"u{size}")
-                view = np.ndarray((n,), dt, buffer=buf, offset=at, strides=(w,))
-                view[...] = np.frombuffer(p[:size], dt)[0]
-                p, at = p[size:], at + size
-        col += width
-    return buf.reshape(n, w)
-
-
-#: lines formatted at once: about 1 MB of text, which stays in the CPU's cache until written
+#: lines a block: 16^4, so that the low four hex digits of an address repeat every block
+#: (about 1 MB of MIF text, which stays in the CPU's cache until written)
 LINES = 1 << 16
 
 
-def _write_chunked(f: IO[bytes], values: np.ndarray,
-                   make: Callable[[np.ndarray, int], np.ndarray], chunk: int = LINES) -> None:
-    """Write the lines ``make(values[start:stop], start)`` block by block."""
-    for start in range(0, values.size, chunk):
-        f.write(make(values[start:start + chunk], start).reshape(-1).data)
+def _column(lines: np.ndarray, col: int, dtype: type | np.dtype, shape: tuple[int, ...] = (),
+            strides: tuple[int, ...] = ()) -> np.ndarray:
+    """A word of ``dtype`` at byte ``col`` of every line of ``lines`` (m, w) uint8 (a view;
+    ``shape``/``strides`` add axes after the line's, e.g. 16 words 2 bytes apart)."""
+    m, w = lines.shape
+    return np.ndarray((m, *shape), dtype, buffer=lines, offset=col, strides=(w, *strides))
+
+
+def _put_bytes(lines: np.ndarray, col: int, text: bytes) -> None:
+    """The same bytes at ``col`` in every line: whole words copied from a contiguous column
+    (numpy's strided fill of an unaligned scalar is several times slower)."""
+    m = lines.shape[0]
+    while text:
+        size = 4 if len(text) >= 4 else 2 if len(text) >= 2 else 1
+        dt = np.dtype(f"u{size}")
+        np.copyto(_column(lines, col, dt), np.full(m, np.frombuffer(text[:size], dt)[0]))
+        text, col = text[size:], col + size
+
+
+def _put_hex(lines: np.ndarray, col: int, u: np.ndarray, digits: int) -> None:
+    """Upper-case hex of the unsigned words ``u`` (each < 16^digits), ``digits`` wide, at
+    ``col`` of every line: 4, 2 or 1 digits a look-up, stored into the lines directly."""
+    tables = _hex_tables()
+    left = digits
+    while left:
+        size = 4 if left >= 4 else 2 if left >= 2 else 1
+        piece = u >> (4 * (left - size)) if left > size else u
+        if left < digits:  # the digits above this piece are in the pieces before
+            piece = piece & ((1 << (4 * size)) - 1)
+        np.take(tables[size], piece, out=_column(lines, col, tables[size].dtype), mode="clip")
+        left, col = left - size, col + size
 
 
 def _comments(comment: list[str], prefix: str, ascii_only: bool = False,
@@ -114,34 +86,78 @@ def write_bin(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     values.astype(t.image_dtype, copy=False).tofile(f)
 
 
+#: Intel HEX: data bytes a record, a segment (the 64 KiB a type 04 record addresses), the
+#: text of a full data record (":10AAAA00" 32 digits of data, 2 of checksum, newline), of
+#: a type 04 record, and the segments a block
+IHEX_DATA, IHEX_SEGMENT, IHEX_LINE, IHEX_EXT, IHEX_SEGMENTS = 16, 1 << 16, 44, 16, 8
+
+
 def write_ihex(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Intel HEX of the raw image: 16 data bytes a record, a type 04 record every 64 KiB."""
     image = np.ascontiguousarray(values.astype(t.image_dtype, copy=False)).view(np.uint8)
-    seg = 1 << 16
-    for base in range(0, image.size, seg):
+    full = image.size // IHEX_SEGMENT
+    if full:
+        _ihex_segments(f, image[:full * IHEX_SEGMENT])
+    base = full * IHEX_SEGMENT
+    if base < image.size:  # the last segment, in part: its records one by one
         f.write(_ihex_record(4, 0, [(base >> 24) & 0xFF, (base >> 16) & 0xFF]))
-        data = image[base:base + seg]
-        full = data.size // 16
-        if full:
-            rec = np.empty((full, 21), dtype=np.uint8)
-            rec[:, 0] = 16
-            off = np.arange(full, dtype=np.int64) * 16
-            rec[:, 1] = off >> 8
-            rec[:, 2] = off & 0xFF
-            rec[:, 3] = 0
-            rec[:, 4:20] = data[:full * 16].reshape(full, 16)
-            rec[:, 20] = (-rec[:, :20].astype(np.int64).sum(axis=1)) & 0xFF
-            f.write(_lines([b":", _hex_bytes(rec), b"\n"], full).reshape(-1).data)
-        rest = data[full * 16:]
-        if rest.size:
-            f.write(_ihex_record(0, full * 16, rest.tolist()))
+        rest = image[base:]
+        f.write(b"".join(_ihex_record(0, a, rest[a:a + IHEX_DATA].tolist())
+                         for a in range(0, rest.size, IHEX_DATA)))
     f.write(b":00000001FF\n")
+
+
+def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
+    """Whole 64 KiB segments of the image (uint8), IHEX_SEGMENTS a block: the records'
+    lengths, addresses, types and newlines are the same in every segment and set once."""
+    records = IHEX_SEGMENT // IHEX_DATA
+    seg_text = IHEX_EXT + records * IHEX_LINE
+    block = np.empty((min(IHEX_SEGMENTS, image.size // IHEX_SEGMENT), seg_text), np.uint8)
+    addr = np.arange(0, IHEX_SEGMENT, IHEX_DATA, dtype=np.uint32)
+    for segment in block:
+        lines = segment[IHEX_EXT:].reshape(-1, IHEX_LINE)  # a view: the row is contiguous
+        _put_bytes(lines, 0, b":10")
+        _put_hex(lines, 3, addr, 4)
+        _put_bytes(lines, 7, b"00")
+        _put_bytes(lines, IHEX_LINE - 1, b"\n")
+    head = (IHEX_DATA + (addr >> 8) + (addr & 0xFF)).astype(np.uint32)  # in every checksum
+    pairs = _hex_tables()[2]
+    for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
+        data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
+        segs = data.shape[0]
+        for j in range(segs):
+            at = base + j * IHEX_SEGMENT
+            block[j, :IHEX_EXT] = np.frombuffer(
+                _ihex_record(4, 0, [(at >> 24) & 0xFF, (at >> 16) & 0xFF]), np.uint8)
+        text = block[:segs]
+        np.take(pairs, data, mode="clip", out=np.ndarray(
+            data.shape, np.uint16, buffer=text, offset=IHEX_EXT + 9,
+            strides=(seg_text, IHEX_LINE, 2)))
+        check = (-(data.sum(axis=2, dtype=np.uint32) + head)) & 0xFF
+        np.take(pairs, check, mode="clip", out=np.ndarray(
+            check.shape, np.uint16, buffer=text, offset=IHEX_EXT + 9 + 2 * IHEX_DATA,
+            strides=(seg_text, IHEX_LINE)))
+        f.write(text.reshape(-1).data)
 
 
 def _ihex_record(rtype: int, addr: int, data: list[int]) -> bytes:
     body = [len(data), (addr >> 8) & 0xFF, addr & 0xFF, rtype, *data]
     body.append((-sum(body)) & 0xFF)
     return b":" + bytes(body).hex().upper().encode() + b"\n"
+
+
+def _write_words(f: IO[bytes], values: np.ndarray, t: Target, lines: np.ndarray, col: int,
+                 last: bytes = b"") -> None:
+    """The table's words in hex at ``col`` of the lines, a block of ``lines`` at a time;
+    ``last``: the bytes that end the last line in place of the others' ending."""
+    m = lines.shape[0]
+    for start in range(0, values.size, m):
+        u = twos(values[start:start + m], t.width)
+        block = lines[:u.size]
+        _put_hex(block, col, u, t.hex_digits)
+        if last and start + u.size == values.size:
+            block[-1, -len(last):] = np.frombuffer(last, np.uint8)
+        f.write(block.reshape(-1).data)
 
 
 def write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
@@ -151,13 +167,15 @@ def write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     head += (f"WIDTH={t.width};\nDEPTH={values.size};\n\nADDRESS_RADIX=HEX;\nDATA_RADIX=HEX;\n\n"
              "CONTENT BEGIN\n")
     f.write(head.encode())
-
-    def make(v: np.ndarray, start: int) -> np.ndarray:
-        addr = _hex_columns(np.arange(start, start + v.size, dtype=np.int64), adig)
-        return _lines([b"\t", addr, b" : ", _hex_columns(twos(v, t.width), t.hex_digits),
-                       b";\n"], v.size)
-
-    _write_chunked(f, values, make)
+    low = min(adig, 4)  # the address digits that repeat every block of LINES
+    lines = np.empty((min(values.size, LINES), 1 + adig + 3 + t.hex_digits + 2), np.uint8)
+    _put_hex(lines, 1 + adig - low, np.arange(lines.shape[0], dtype=np.uint32), low)
+    _put_bytes(lines, 1 + adig, b" : ")
+    _put_bytes(lines, lines.shape[1] - 2, b";\n")
+    for start in range(0, values.size, LINES):
+        top = f"{start // LINES:0{adig - 4}X}" if adig > 4 else ""
+        _put_bytes(lines, 0, b"\t" + top.encode())
+        _write_words(f, values[start:start + LINES], t, lines, 1 + adig + 3)
     f.write(b"END;\n")
 
 
@@ -165,22 +183,18 @@ def write_coe(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     """Xilinx COE, radix 16: one ``value,`` a line, the last ``value;``."""
     head = _comments(comment, "; ")
     f.write((head + "memory_initialization_radix=16;\nmemory_initialization_vector=\n").encode())
-
-    def make(v: np.ndarray, start: int) -> np.ndarray:
-        lines = _lines([_hex_columns(twos(v, t.width), t.hex_digits), b",\n"], v.size)
-        if start + v.size == values.size:
-            lines[-1, -2] = ord(";")
-        return lines
-
-    _write_chunked(f, values, make)
+    lines = np.empty((min(values.size, LINES), t.hex_digits + 2), np.uint8)
+    _put_bytes(lines, t.hex_digits, b",\n")
+    _write_words(f, values, t, lines, 0, last=b";\n")
 
 
 def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Verilog ``$readmemh`` text: ``//`` comments, ``@0``, one hex word a line."""
     f.write(_comments(comment, "// ", reserved="*").encode())  # no /* or */
     f.write(b"@0\n")
-    _write_chunked(f, values, lambda v, s: _lines([_hex_columns(twos(v, t.width),
-                                                                t.hex_digits), b"\n"], v.size))
+    lines = np.empty((min(values.size, LINES), t.hex_digits + 1), np.uint8)
+    _put_bytes(lines, t.hex_digits, b"\n")
+    _write_words(f, values, t, lines, 0)
 
 
 def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
