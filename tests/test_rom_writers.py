@@ -20,6 +20,13 @@ COMMENT = ["enctools make-rom: a test table", "CRC-32 0badf00d; a second line"]
 #: sizes [entries]: tiny, around a hex digit of the address, around the writers' blocks
 SIZES = (1, 2, 3, 15, 16, 17, 255, 257, 4095, 4097, 65535, 65536, 65537,
          3 * 65536 + 5, 5 * 65536 - 3)
+#: sizes of a whole block or more but one line past one block: in the slow tier
+MANY_BLOCKS = (65535, 65536, 3 * 65536 + 5, 5 * 65536 - 3, 8 * 65536 + 1)
+
+
+def _sizes(*extra: int) -> list:
+    return [pytest.param(n, marks=pytest.mark.slow) if n in MANY_BLOCKS else n
+            for n in SIZES + extra]
 WIDTHS = (2, 3, 5, 8, 9, 13, 16, 17, 23, 24, 31, 32)
 
 
@@ -89,7 +96,7 @@ def _check(fmt: str, values: np.ndarray, t: rf.Target) -> None:
 
 
 @pytest.mark.parametrize("fmt", ("mif", "coe", "mem", "csv", "bin"))
-@pytest.mark.parametrize("n", SIZES)
+@pytest.mark.parametrize("n", _sizes())
 def test_text_tables_line_for_line(fmt, n):
     for i, width in enumerate(WIDTHS):
         if n > 4097 and i % 3:  # the big sizes at a third of the widths each
@@ -97,7 +104,7 @@ def test_text_tables_line_for_line(fmt, n):
         _check(fmt, _values(n, width, seed=n + width), rf.Target(fmt, width))
 
 
-@pytest.mark.parametrize("n", SIZES + (8 * 65536 + 1, 32768 + 3))
+@pytest.mark.parametrize("n", _sizes(8 * 65536 + 1, 32768 + 3))
 @pytest.mark.parametrize("endian", ("little", "big"))
 def test_intel_hex_record_for_record(n, endian):
     """Segments whole, partial, and cut inside a record, for words of 1, 2 and 4 bytes."""
@@ -111,3 +118,20 @@ def test_intel_hex_record_for_record(n, endian):
 def test_the_block_boundary_is_where_the_writers_change_block():
     """The sizes above cross the writers' blocks: keep them so if the block size changes."""
     assert max(SIZES) > 2 * writers.LINES
+
+
+@pytest.mark.parametrize("d", (5, 6, 7, 8, 9))
+def test_csv_lines_of_every_address_length(d):
+    """Addresses of 5 to 9 digits (2^28 entries reach 9), in blocks of few runs of one line
+    length (a table's slowly changing values) and of many (random values), each block
+    starting on and off the 10 000 lines whose address digits above the last four agree."""
+    rng = np.random.default_rng(d)
+    smooth = np.repeat(rng.integers(-32768, 32768, 40), rng.integers(1, 1500, 40))
+    lines = writers._CsvLines(d)
+    for start in (10 ** (d - 1), 10 ** (d - 1) + 12_345, 10 ** d - smooth.size):
+        for v in (smooth, rng.integers(-32768, 32768, min(writers.LINES, 10 ** d - start)),
+                  np.array([-32768, 7])):
+            v = v.astype(np.int16)
+            want = "".join(f"{start + k},{x}\n" for k, x in enumerate(v.tolist())).encode()
+            assert bytes(lines.text(start, v)) == want, (d, start, v.size)
+    assert smooth.size <= writers.LINES and 10 ** d - smooth.size > 10 ** (d - 1)

@@ -200,12 +200,129 @@ def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
 def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """``address,correction`` in decimal, the header line first: no comment lines, which
     pandas, Miller and csvkit would take for the header (``comment`` is left out)."""
-    import pyarrow as pa
-    import pyarrow.csv as pcsv
     f.write(b"address,correction\n")
-    table = pa.table({"address": pa.array(np.arange(values.size, dtype=np.int64)),
-                      "correction": pa.array(values.astype(np.int64))})
-    pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
+    short = min(values.size, CSV_SHORT)  # addresses of 1..4 digits: a few lines, one by one
+    f.write("".join(f"{k},{v}\n" for k, v in enumerate(values[:short].tolist())).encode())
+    if values.size == short:
+        return
+    if t.width > 16:  # no table of every value's text: Arrow's CSV writer, a block at a time
+        import pyarrow as pa
+        import pyarrow.csv as pcsv
+        for start in range(short, values.size, LINES):
+            v = values[start:start + LINES]
+            pcsv.write_csv(pa.table({"address": pa.array(np.arange(start, start + v.size)),
+                                     "correction": pa.array(v.astype(np.int64))}),
+                           f, pcsv.WriteOptions(include_header=False))
+        return
+    for d in range(5, len(str(values.size - 1)) + 1):  # the addresses of d digits, by blocks
+        lines = _CsvLines(d)
+        for start in range(max(short, 10 ** (d - 1)), min(values.size, 10 ** d), LINES):
+            f.write(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
+
+
+#: CSV lines whose address has fewer than 5 digits are formatted one by one
+CSV_SHORT = 10_000
+#: runs of lines of one length in a block above which its lines are placed one by one
+CSV_RUNS = 64
+
+
+class _CsvLines:
+    """CSV lines ``address,value`` of one block, addresses of ``d`` digits (5..9) and values
+    of 16-bit words, whose text and newline come from a table of every 16-bit value.
+
+    A table's values change slowly (a few hundred times in 2^26 addresses), so a block is
+    a few runs of lines of one length, at most 10 000 addresses each: a run is a
+    fixed-width table written in place like MIF's, its columns stored whole. A block of
+    more runs than :data:`CSV_RUNS` builds each line in a row of :data:`ROW` bytes (4
+    spare, the address, the comma, the value's text) and copies the rows of each length,
+    as items of that many bytes, to where their lines start. Nothing depends on the order
+    of the copies within one numpy call."""
+
+    ROW = 24
+
+    def __init__(self, d: int) -> None:
+        self.d = d
+        self.words, sizes = _decimal_table()
+        self.sizes = sizes + (d + 1)  # a line's length [byte]
+        self.out = np.empty(LINES * (d + 8) + self.ROW, np.uint8)
+        self.rows: np.ndarray | None = None
+
+    def text(self, start: int, values: np.ndarray) -> memoryview:
+        """The block's lines, addresses from ``start``, as one buffer."""
+        u = twos(values, 16)
+        size = self.sizes[u]
+        first = -start % 10_000  # the address digits above the last four change there
+        cuts = np.union1d(np.flatnonzero(size[1:] != size[:-1]) + 1,
+                          np.arange(first if first else 10_000, u.size, 10_000))
+        if cuts.size > CSV_RUNS:
+            return self._rows(start, u, size)
+        dec, d, at = _decimal_digits(), self.d, 0
+        for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
+            n, width = k1 - k0, int(size[k0])
+            lines = self.out[at:at + n * width].reshape(n, width)
+
+            def column(col: int, dtype: type, lines_at: int = at, w: int = width,
+                       count: int = n) -> np.ndarray:
+                return np.ndarray((count,), dtype, buffer=self.out, offset=lines_at + col,
+                                  strides=(w,))
+
+            # the value's 8 bytes reach into the next line: stored first, overwritten after
+            np.take(self.words, u[k0:k1], out=column(d + 1, np.uint64), mode="clip")
+            q, r = divmod(start + k0, 10_000)
+            _put_bytes(lines, 0, str(q).encode())
+            np.copyto(column(d - 4, np.uint32), dec[r:r + n])
+            _put_bytes(lines, d, b",")
+            at += n * width
+        return self.out[:at].data
+
+    def _rows(self, start: int, u: np.ndarray, size: np.ndarray) -> memoryview:
+        """:meth:`text` of a block of many runs, line by line (as rows)."""
+        if self.rows is None:
+            self.rows = np.zeros((LINES, self.ROW), np.uint8)
+            _put_bytes(self.rows, 4 + self.d, b",")
+        m, d = u.size, self.d
+        rows = self.rows[:m]
+        q, r = np.divmod(np.arange(start, start + m, dtype=np.uint32), 10_000)
+        dec = _decimal_digits()
+        if d == 9:  # q has 5 digits: its first, then its last four
+            np.take(dec, q // 10_000, out=_column(rows, 1, np.uint32), mode="clip")
+            q = q % 10_000
+        np.take(dec, q, out=_column(rows, d - 4, np.uint32), mode="clip")  # left zeros: spare
+        np.take(dec, r, out=_column(rows, d, np.uint32), mode="clip")
+        np.take(self.words, u, out=_column(rows, 5 + d, np.uint64), mode="clip")
+        end = np.cumsum(size, dtype=np.int64)
+        first = end - size
+        for n in np.flatnonzero(np.bincount(size)):
+            at = np.flatnonzero(size == n)
+            item = np.dtype(f"V{n}")
+            np.ndarray((self.out.size - n + 1,), item, buffer=self.out, strides=(1,))[
+                first[at]] = np.ndarray((m,), item, buffer=rows, offset=4, strides=(self.ROW,))[at]
+        return self.out[:int(end[-1])].data
+
+
+_DECIMAL_TABLE: list[np.ndarray] = []
+
+
+def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
+    """The text of every 16-bit two's complement word's value and a newline, zero-padded to
+    8 bytes (uint64, indexed by the word), and its length [byte] (uint8)."""
+    if not _DECIMAL_TABLE:
+        text = [f"{k - (k >> 15 << 16)}\n".encode() for k in range(1 << 16)]
+        _DECIMAL_TABLE.append(np.frombuffer(b"".join(x.ljust(8, b"\0") for x in text),
+                                            np.uint64))
+        _DECIMAL_TABLE.append(np.array([len(x) for x in text], dtype=np.uint8))
+    return _DECIMAL_TABLE[0], _DECIMAL_TABLE[1]
+
+
+_DECIMAL: list[np.ndarray] = []
+
+
+def _decimal_digits() -> np.ndarray:
+    """The four decimal digits of 0..9999, with leading zeros, as uint32 words."""
+    if not _DECIMAL:
+        _DECIMAL.append(np.frombuffer("".join(f"{k:04d}" for k in range(10_000)).encode(),
+                                      np.uint32))
+    return _DECIMAL[0]
 
 
 def _closed(values: np.ndarray) -> np.ndarray:
