@@ -320,10 +320,19 @@ def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
     """The text of every 16-bit two's complement word's value and a newline, zero-padded to
     8 bytes (uint64, indexed by the word), and its length [byte] (uint8)."""
     if not _DECIMAL_TABLE:
-        text = [f"{k - (k >> 15 << 16)}\n".encode() for k in range(1 << 16)]
-        _DECIMAL_TABLE.append(np.frombuffer(b"".join(x.ljust(8, b"\0") for x in text),
-                                            np.uint64))
-        _DECIMAL_TABLE.append(np.array([len(x) for x in text], dtype=np.uint8))
+        value = np.arange(1 << 16, dtype=np.int32)
+        value[1 << 15:] -= 1 << 16
+        mag = np.abs(value)
+        digits = 1 + sum((mag >= 10 ** p).astype(np.int32) for p in range(1, 5))
+        size = digits + (value < 0) + 1  # the sign, the digits, the newline
+        text = np.zeros((1 << 16, 8), np.uint8)
+        rows = np.arange(1 << 16)
+        text[rows, size - 1] = ord("\n")
+        for p in range(5):  # the p-th digit from the right, where the number has one
+            has = digits > p
+            text[rows[has], (size - 2 - p)[has]] = ord("0") + (mag[has] // 10 ** p) % 10
+        text[rows[value < 0], 0] = ord("-")
+        _DECIMAL_TABLE.extend([text.view(np.uint64).reshape(-1), size.astype(np.uint8)])
     return _DECIMAL_TABLE[0], _DECIMAL_TABLE[1]
 
 
