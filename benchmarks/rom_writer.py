@@ -19,7 +19,7 @@ import resource
 import sys
 
 import numpy as np
-import pyarrow.compute  # noqa: F401
+import pyarrow.compute
 import pyarrow.csv  # noqa: F401  (imported before the clock starts)
 
 from enctools.models import romformats
