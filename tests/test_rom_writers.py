@@ -30,11 +30,15 @@ def _sizes(*extra: int) -> list:
 WIDTHS = (2, 3, 5, 8, 9, 13, 16, 17, 23, 24, 31, 32)
 
 
-def _values(n: int, width: int, seed: int) -> np.ndarray:
-    """n signed values of a ``width``-bit word in its smallest dtype, extremes included."""
+def _values(n: int, width: int, seed: int, runs: bool = False) -> np.ndarray:
+    """n signed values of a ``width``-bit word in its smallest dtype, extremes included;
+    ``runs``: in runs of equal values (as a table's, whose values change slowly)."""
     lo, hi = -(1 << (width - 1)), (1 << (width - 1)) - 1
     dtype = np.int8 if width <= 8 else np.int16 if width <= 16 else np.int32
-    v = np.random.default_rng(seed).integers(lo, hi + 1, n, dtype=np.int64)
+    rng = np.random.default_rng(seed)
+    v = rng.integers(lo, hi + 1, n, dtype=np.int64)
+    if runs:  # the value changes some 20 times in each block of the writers
+        v = v[np.cumsum(rng.random(n) < 20 / writers.LINES)]
     v[: min(n, 4)] = [lo, hi, 0, -1][: min(n, 4)]
     return v.astype(dtype)
 
@@ -101,7 +105,8 @@ def test_text_tables_line_for_line(fmt, n):
     for i, width in enumerate(WIDTHS):
         if n > 4097 and i % 3:  # the big sizes at a third of the widths each
             continue
-        _check(fmt, _values(n, width, seed=n + width), rf.Target(fmt, width))
+        for runs in (False, True):
+            _check(fmt, _values(n, width, n + width, runs), rf.Target(fmt, width))
 
 
 @pytest.mark.parametrize("n", _sizes(8 * 65536 + 1, 32768 + 3))
@@ -112,7 +117,7 @@ def test_intel_hex_record_for_record(n, endian):
     if n > 65537:  # the big sizes: one- and four-byte words little-endian, two- and four- big
         widths = (8, 32) if endian == "little" else (12, 20)
     for width in widths:
-        _check("ihex", _values(n, width, seed=n * width), rf.Target("ihex", width, endian))
+        _check("ihex", _values(n, width, n * width), rf.Target("ihex", width, endian))
 
 
 def test_the_block_boundary_is_where_the_writers_change_block():

@@ -42,6 +42,10 @@ def _hex_tables() -> dict[int, np.ndarray]:
 #: lines a block: 16^4, so that the low four hex digits of an address repeat every block
 #: (about 1 MB of MIF text, which stays in the CPU's cache until written)
 LINES = 1 << 16
+#: runs of equal words (or, in CSV, of lines of one length) in a block below which each run
+#: is written whole rather than line by line (a correction table's values change a few
+#: hundred times in 2^26 addresses: runs of thousands of lines)
+RUNS = 64
 
 
 def _column(lines: np.ndarray, col: int, dtype: type | np.dtype, shape: tuple[int, ...] = (),
@@ -167,7 +171,12 @@ def _write_words(f: IO[bytes], values: np.ndarray, t: Target, lines: np.ndarray,
     for start in range(0, values.size, m):
         u = twos(values[start:start + m], t.width)
         block = lines[:u.size]
-        _put_hex(block, col, u, t.hex_digits)
+        cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
+        if cuts.size < RUNS:  # a table's values change slowly: each run's word stored whole
+            for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
+                _put_bytes(block[k0:k1], col, f"{int(u[k0]):0{t.hex_digits}X}".encode())
+        else:
+            _put_hex(block, col, u, t.hex_digits)
         if last and start + u.size == values.size:
             block[-1, -len(last):] = np.frombuffer(last, np.uint8)
         f.write(block.reshape(-1).data)
@@ -235,8 +244,6 @@ def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
 
 #: CSV lines whose address has fewer than 5 digits are formatted one by one
 CSV_SHORT = 10_000
-#: runs of lines of one length in a block above which its lines are placed one by one
-CSV_RUNS = 64
 
 
 class _CsvLines:
@@ -246,7 +253,7 @@ class _CsvLines:
     A table's values change slowly (a few hundred times in 2^26 addresses), so a block is
     a few runs of lines of one length, at most 10 000 addresses each: a run is a
     fixed-width table written in place like MIF's, its columns stored whole. A block of
-    more runs than :data:`CSV_RUNS` builds each line in a row of :data:`ROW` bytes (4
+    more runs than :data:`RUNS` builds each line in a row of :data:`ROW` bytes (4
     spare, the address, the comma, the value's text) and copies the rows of each length,
     as items of that many bytes, to where their lines start. Nothing depends on the order
     of the copies within one numpy call."""
@@ -267,7 +274,7 @@ class _CsvLines:
         first = -start % 10_000  # the address digits above the last four change there
         cuts = np.union1d(np.flatnonzero(size[1:] != size[:-1]) + 1,
                           np.arange(first if first else 10_000, u.size, 10_000))
-        if cuts.size > CSV_RUNS:
+        if cuts.size >= RUNS:
             return self._rows(start, u, size)
         dec, d, at = _decimal_digits(), self.d, 0
         for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
