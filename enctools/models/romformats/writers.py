@@ -61,7 +61,7 @@ def _put_bytes(lines: np.ndarray, col: int, text: bytes) -> None:
     (numpy's strided fill of an unaligned scalar is several times slower)."""
     m = lines.shape[0]
     while text:
-        size = 4 if len(text) >= 4 else 2 if len(text) >= 2 else 1
+        size = 8 if len(text) >= 8 else 4 if len(text) >= 4 else 2 if len(text) >= 2 else 1
         dt = np.dtype(f"u{size}")
         np.copyto(_column(lines, col, dt), np.full(m, np.frombuffer(text[:size], dt)[0]))
         text, col = text[size:], col + size
@@ -128,23 +128,45 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
         _put_bytes(lines, 7, b"00")
         _put_bytes(lines, IHEX_LINE - 1, b"\n")
     head = (IHEX_DATA + (addr >> 8) + (addr & 0xFF)).astype(np.uint32)  # in every checksum
-    tables = _hex_tables()
+    # the checksums' digits of a segment whose records' data bytes sum to s (mod 256)
+    checks = _hex_tables()[2][(-(head + np.arange(256, dtype=np.uint32)[:, None])) & 0xFF]
     for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
         data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
-        segs = data.shape[0]
-        for j in range(segs):
+        for j in range(data.shape[0]):
             at = base + j * IHEX_SEGMENT
             block[j, :IHEX_EXT] = np.frombuffer(
                 _ihex_record(4, 0, [(at >> 24) & 0xFF, (at >> 16) & 0xFF]), np.uint8)
-        text = block[:segs]
-        np.take(tables[0], data.view("<u2"), mode="clip", out=np.ndarray(
+        text = block[:data.shape[0]]
+        _ihex_data(text, data, checks)
+        f.write(text.reshape(-1).data)
+
+
+def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
+    """The data digits and checksums of the records of whole segments ``data`` (segments,
+    records, 16) uint8 into their text (segments, its bytes): each run of equal records
+    whole, as a table's slowly changing values give, or every record's at once."""
+    segs, records, _ = data.shape
+    words = data.reshape(-1, IHEX_DATA).view(np.uint64)
+    cuts = np.union1d(np.flatnonzero((words[1:, 0] != words[:-1, 0])
+                                     | (words[1:, 1] != words[:-1, 1])) + 1,
+                      np.arange(records, segs * records, records))  # and at each segment
+    if cuts.size >= RUNS * segs:
+        seg_text = text.shape[1]
+        np.take(_hex_tables()[0], data.view("<u2"), mode="clip", out=np.ndarray(
             (segs, records, IHEX_DATA // 2), np.uint32, buffer=text, offset=IHEX_EXT + 9,
             strides=(seg_text, IHEX_LINE, 4)))
-        check = (-(_byte_sums(data) + head)) & 0xFF
-        np.take(tables[2], check, mode="clip", out=np.ndarray(
-            check.shape, np.uint16, buffer=text, offset=IHEX_EXT + 9 + 2 * IHEX_DATA,
-            strides=(seg_text, IHEX_LINE)))
-        f.write(text.reshape(-1).data)
+        np.take(checks, (_byte_sums(data) & 0xFF) * records + np.arange(records), mode="clip",
+                out=np.ndarray((segs, records), np.uint16, buffer=text,
+                               offset=IHEX_EXT + 9 + 2 * IHEX_DATA, strides=(seg_text, IHEX_LINE)))
+        return
+    flat = data.reshape(-1, IHEX_DATA)
+    for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), segs * records], strict=True):
+        j, r0 = divmod(k0, records)
+        lines = text[j, IHEX_EXT:].reshape(records, IHEX_LINE)[r0:k1 - j * records]
+        digits = np.frombuffer(flat[k0].tobytes().hex().upper().encode(), np.uint64)
+        np.copyto(_column(lines, 9, np.uint64, (4,), (8,)), digits)  # 32 digits, 8 at a time
+        np.copyto(_column(lines, 9 + 2 * IHEX_DATA, np.uint16),
+                  checks[int(flat[k0].sum()) & 0xFF, r0:k1 - j * records])
 
 
 def _byte_sums(data: np.ndarray) -> np.ndarray:
