@@ -1,14 +1,16 @@
 """Writers of correction tables: one function per format, each writing a whole file.
 
-The fixed-width text tables (MIF, COE, MEM, Intel HEX) are written a block of lines at
-a time from one buffer whose constant bytes (separators, the line ends, the address
-digits that repeat every block) are set once: each block then costs one table look-up
-of hex digits per 16 bits of its words, stored straight into the lines, and one write.
-Nothing grows with the table but the table itself. CSV and the controllers' tables are
-formatted by Arrow's string kernels, a block at a time. Every writer takes an open binary
-file, the signed values [LSB] (one per address), the
-:class:`~enctools.models.romformats.words.Target` and the comment lines to put at the
-top where the format has comments.
+The text tables (MIF, COE, MEM, Intel HEX, CSV) are written a block of lines at a time
+from one buffer whose constant bytes (separators, line ends, the address digits that
+repeat every block) are set once: a block then costs a table look-up of digits per 16
+bits of its words, stored straight into the lines, and one write. A correction table's
+values change slowly, so most blocks are a few runs of equal words (in CSV, of lines of
+one length), each stored whole; a block of many runs is written line by line, with the
+same bytes. Nothing grows with the table but the table itself. CSV of words over 16 bits
+and the controllers' tables are formatted by Arrow's CSV writer and string kernels, a
+block at a time. Every writer takes an open binary file, the signed values [LSB] (one
+per address), the :class:`~enctools.models.romformats.words.Target` and the comment
+lines to put at the top where the format has comments.
 """
 
 from __future__ import annotations
@@ -43,8 +45,8 @@ def _hex_tables() -> dict[int, np.ndarray]:
 #: (about 1 MB of MIF text, which stays in the CPU's cache until written)
 LINES = 1 << 16
 #: runs of equal words (or, in CSV, of lines of one length) in a block below which each run
-#: is written whole rather than line by line (a correction table's values change a few
-#: hundred times in 2^26 addresses: runs of thousands of lines)
+#: is written whole rather than line by line (a correction table's values change slowly:
+#: the table-1 model's 1680 times in 2^26 addresses, runs of some 40 000 lines)
 RUNS = 64
 
 
@@ -272,13 +274,13 @@ class _CsvLines:
     """CSV lines ``address,value`` of one block, addresses of ``d`` digits (5..9) and values
     of 16-bit words, whose text and newline come from a table of every 16-bit value.
 
-    A table's values change slowly (a few hundred times in 2^26 addresses), so a block is
-    a few runs of lines of one length, at most 10 000 addresses each: a run is a
-    fixed-width table written in place like MIF's, its columns stored whole. A block of
-    more runs than :data:`RUNS` builds each line in a row of :data:`ROW` bytes (4
-    spare, the address, the comma, the value's text) and copies the rows of each length,
-    as items of that many bytes, to where their lines start. Nothing depends on the order
-    of the copies within one numpy call."""
+    A table's values change slowly (the table-1 model's 1680 times in 2^26 addresses, their
+    lengths 32 times), so a block is a few runs of lines of one length, at most 10 000
+    addresses each: a run is a fixed-width table written in place like MIF's, its columns
+    stored whole. A block of more runs than :data:`RUNS` builds each line in a row of
+    :data:`ROW` bytes (4 spare, the address, the comma, the value's text) and copies the
+    rows of each length, as items of that many bytes, to where their lines start. Nothing
+    depends on the order of the copies within one numpy call."""
 
     ROW = 24
 
@@ -302,20 +304,20 @@ class _CsvLines:
         for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
             n, width = k1 - k0, int(size[k0])
             lines = self.out[at:at + n * width].reshape(n, width)
-
-            def column(col: int, dtype: type, lines_at: int = at, w: int = width,
-                       count: int = n) -> np.ndarray:
-                return np.ndarray((count,), dtype, buffer=self.out, offset=lines_at + col,
-                                  strides=(w,))
-
             # the value's 8 bytes reach into the next line: stored first, overwritten after
-            np.take(self.words, u[k0:k1], out=column(d + 1, np.uint64), mode="clip")
+            np.take(self.words, u[k0:k1], out=self._words_at(at + d + 1, np.uint64, n, width),
+                    mode="clip")
             q, r = divmod(start + k0, 10_000)
             _put_bytes(lines, 0, str(q).encode())
-            np.copyto(column(d - 4, np.uint32), dec[r:r + n])
+            np.copyto(self._words_at(at + d - 4, np.uint32, n, width), dec[r:r + n])
             _put_bytes(lines, d, b",")
             at += n * width
         return self.out[:at].data
+
+    def _words_at(self, offset: int, dtype: type, count: int, stride: int) -> np.ndarray:
+        """``count`` words of ``dtype`` in the block's text from byte ``offset``, ``stride``
+        bytes apart (the last may reach past the lines: the text has room)."""
+        return np.ndarray((count,), dtype, buffer=self.out, offset=offset, strides=(stride,))
 
     def _rows(self, start: int, u: np.ndarray, size: np.ndarray) -> memoryview:
         """:meth:`text` of a block of many runs, line by line (as rows)."""
