@@ -129,9 +129,8 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
         _put_hex(lines, 3, addr, 4)
         _put_bytes(lines, 7, b"00")
         _put_bytes(lines, IHEX_LINE - 1, b"\n")
-    head = (IHEX_DATA + (addr >> 8) + (addr & 0xFF)).astype(np.uint32)  # in every checksum
-    # the checksums' digits of a segment whose records' data bytes sum to s (mod 256)
-    checks = _hex_tables()[2][(-(head + np.arange(256, dtype=np.uint32)[:, None])) & 0xFF]
+    # a record's checksum is this, less its data bytes' sum (mod 256)
+    checks = ((-(IHEX_DATA + (addr >> 8) + (addr & 0xFF))) & 0xFF).astype(np.uint8)
     for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
         data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
         for j in range(data.shape[0]):
@@ -146,7 +145,8 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
 def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
     """The data digits and checksums of the records of whole segments ``data`` (segments,
     records, 16) uint8 into their text (segments, its bytes): each run of equal records
-    whole, as a table's slowly changing values give, or every record's at once."""
+    whole, as a table's slowly changing values give, or every record's at once.
+    ``checks``: each record's checksum were its data bytes all 0 (uint8)."""
     segs, records, _ = data.shape
     words = data.reshape(-1, IHEX_DATA).view(np.uint64)
     cuts = np.union1d(np.flatnonzero((words[1:, 0] != words[:-1, 0])
@@ -157,7 +157,7 @@ def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
         np.take(_hex_tables()[0], data.view("<u2"), mode="clip", out=np.ndarray(
             (segs, records, IHEX_DATA // 2), np.uint32, buffer=text, offset=IHEX_EXT + 9,
             strides=(seg_text, IHEX_LINE, 4)))
-        np.take(checks, (_byte_sums(data) & 0xFF) * records + np.arange(records), mode="clip",
+        np.take(_hex_tables()[2], checks - _byte_sums(data).astype(np.uint8), mode="clip",
                 out=np.ndarray((segs, records), np.uint16, buffer=text,
                                offset=IHEX_EXT + 9 + 2 * IHEX_DATA, strides=(seg_text, IHEX_LINE)))
         return
@@ -167,8 +167,8 @@ def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
         lines = text[j, IHEX_EXT:].reshape(records, IHEX_LINE)[r0:k1 - j * records]
         digits = np.frombuffer(flat[k0].tobytes().hex().upper().encode(), np.uint64)
         np.copyto(_column(lines, 9, np.uint64, (4,), (8,)), digits)  # 32 digits, 8 at a time
-        np.copyto(_column(lines, 9 + 2 * IHEX_DATA, np.uint16),
-                  checks[int(flat[k0].sum()) & 0xFF, r0:k1 - j * records])
+        np.take(_hex_tables()[2], checks[r0:k1 - j * records] - np.uint8(flat[k0].sum() & 0xFF),
+                out=_column(lines, 9 + 2 * IHEX_DATA, np.uint16), mode="clip")
 
 
 def _byte_sums(data: np.ndarray) -> np.ndarray:
