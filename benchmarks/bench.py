@@ -278,14 +278,16 @@ ROM_BITS = (20, 26)
 
 
 def fresh_cpu(shells: dict[str, str], outputs: dict[str, Path], repeat: int,
-              printed: tuple[str, ...] = ()) -> dict[str, tuple[float, ...]]:
+              printed: tuple[str, ...] = (), times: dict[str, int] | None = None
+              ) -> dict[str, tuple[float, ...]]:
     """As :func:`interleaved` (the fastest of ``repeat`` runs in turn, wall and CPU seconds),
     each command's output file removed before it runs: replacing a file frees its pages in
     the kernel, work that neither a table's writing nor ``dd``'s is. A command in ``printed``
-    prints its own CPU seconds, one figure a line; they follow its wall and CPU seconds."""
+    prints its own CPU seconds, one figure a line; they follow its wall and CPU seconds.
+    ``times``: runs of a command in each turn (default 1)."""
     best: dict[str, list[float]] = {}
     for _ in range(repeat):
-        for k, shell in shells.items():
+        for k, shell in [(k, v) for k, v in shells.items() for _ in range((times or {}).get(k, 1))]:
             for f in outputs.values():
                 f.unlink(missing_ok=True)
             if k in printed:
@@ -319,8 +321,7 @@ def make_rom_rows(out: Path, repeat: int, quick: bool,
         image = d / f"image{bits}.bin"
         timed(f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {image} --force")
         for fmt, ext in ROM_FORMATS:
-            rows.append(_make_rom_row(d, bits, fmt, ext, image, repeat if bits <= 20 else 2,
-                                      before))
+            rows.append(_make_rom_row(d, bits, fmt, ext, image, repeat, before))
     shutil.rmtree(d)
     return rows
 
@@ -338,8 +339,10 @@ def _make_rom_row(d: Path, bits: int, fmt: str, ext: str, image: Path, repeat: i
     if before is not None:
         shells |= {"before": with_env(before, run.replace(f"-o {target}", f"-o {kept}")),
                    "writer before": with_env(before, writer + str(kept))}
+    # dd three times a turn: on a shared machine its CPU seconds for the same bytes vary
+    # most (the kernel's reclaim of cached pages falls on whoever asks for them)
     t = fresh_cpu(shells, {"after": target, "before": kept, "dd": dd_out}, repeat,
-                  printed=("writer", "writer before"))
+                  printed=("writer", "writer before"), times={"dd": 3})
     cpu_dd = t["dd"][1]
     row = {"entries": 1 << bits, "bits": bits, "format": ext, "bytes": size, "peak_mb": peak,
            "seconds": t["after"][0], "cpu_seconds": t["after"][1],
