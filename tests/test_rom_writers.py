@@ -128,15 +128,18 @@ def test_the_block_boundary_is_where_the_writers_change_block():
 
 @pytest.mark.parametrize("d", (5, 6, 7, 8, 9))
 def test_csv_lines_of_every_address_length(d):
-    """Addresses of 5 to 9 digits (2^28 entries reach 9), in blocks of few runs of one line
-    length (a table's slowly changing values) and of many (random values), each block
-    starting on and off the 10 000 lines whose address digits above the last four agree."""
+    """Addresses of 5 to 9 digits (2^28 entries reach 9), in blocks of few runs of one value
+    (a table's slowly changing values), of few runs of one line length (values changing
+    every line, their lengths seldom) and of many (random values), each block starting on
+    and off the 100 000 lines whose address digits above the last five agree."""
     rng = np.random.default_rng(d)
     smooth = np.repeat(rng.integers(-32768, 32768, 40), rng.integers(1, 1500, 40))
+    lengths = np.where(np.arange(smooth.size) // 5000 % 2, rng.integers(100, 999, smooth.size),
+                       rng.integers(-32768, -10000, smooth.size))
     lines = writers._CsvLines(d)
     for start in (10 ** (d - 1), 10 ** (d - 1) + 12_345, 10 ** d - smooth.size):
-        for v in (smooth, rng.integers(-32768, 32768, min(writers.LINES, 10 ** d - start)),
-                  np.array([-32768, 7])):
+        for v in (smooth, lengths, np.array([-32768, 7]),
+                  rng.integers(-32768, 32768, min(writers.LINES, 10 ** d - start))):
             v = v.astype(np.int16)
             want = "".join(f"{start + k},{x}\n" for k, x in enumerate(v.tolist())).encode()
             assert bytes(lines.text(start, v)) == want, (d, start, v.size)

@@ -275,12 +275,13 @@ class _CsvLines:
     of 16-bit words, whose text and newline come from a table of every 16-bit value.
 
     A table's values change slowly (the table-1 model's 1680 times in 2^26 addresses, their
-    lengths 32 times), so a block is a few runs of lines of one length, at most 10 000
-    addresses each: a run is a fixed-width table written in place like MIF's, its columns
-    stored whole. A block of more runs than :data:`RUNS` builds each line in a row of
-    :data:`ROW` bytes (4 spare, the address, the comma, the value's text) and copies the
-    rows of each length, as items of that many bytes, to where their lines start. Nothing
-    depends on the order of the copies within one numpy call."""
+    lengths 32 times), so a block is a few runs of one value, at most 100 000 addresses
+    each: a run is a fixed-width table written in place like MIF's, its columns stored
+    whole. A block of many values but few runs of lines of one length is written so too,
+    each line's value looked up. A block of more runs than :data:`RUNS` builds each line
+    in a row of :data:`ROW` bytes (4 spare, the address, the comma, the value's text) and
+    copies the rows of each length, as items of that many bytes, to where their lines
+    start. Nothing depends on the order of the copies within one numpy call."""
 
     ROW = 24
 
@@ -294,22 +295,37 @@ class _CsvLines:
     def text(self, start: int, values: np.ndarray) -> memoryview:
         """The block's lines, addresses from ``start``, as one buffer."""
         u = twos(values, 16)
+        first = -start % 100_000  # the address digits above the last five change there
+        fives = np.arange(first if first else 100_000, u.size, 100_000)
+        cuts = np.union1d(np.flatnonzero(u[1:] != u[:-1]) + 1, fives)
+        if cuts.size < RUNS:  # runs of one value
+            return self._runs(start, u, cuts, self.sizes[u[np.r_[0, cuts]]], same=True)
         size = self.sizes[u]
-        first = -start % 10_000  # the address digits above the last four change there
-        cuts = np.union1d(np.flatnonzero(size[1:] != size[:-1]) + 1,
-                          np.arange(first if first else 10_000, u.size, 10_000))
-        if cuts.size >= RUNS:
-            return self._rows(start, u, size)
-        dec, d, at = _decimal_digits(), self.d, 0
-        for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
-            n, width = k1 - k0, int(size[k0])
+        cuts = np.union1d(np.flatnonzero(size[1:] != size[:-1]) + 1, fives)
+        if cuts.size < RUNS:  # runs of lines of one length
+            return self._runs(start, u, cuts, size[np.r_[0, cuts]], same=False)
+        return self._rows(start, u, size)
+
+    def _runs(self, start: int, u: np.ndarray, cuts: np.ndarray, sizes: np.ndarray,
+              same: bool) -> memoryview:
+        """:meth:`text` of a block of few runs: each of lines of one length (``sizes``), of
+        one value if ``same``."""
+        four, one = _last_five()
+        d, at = self.d, 0
+        for k0, k1, width in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], sizes.tolist(),
+                                 strict=True):
+            n = k1 - k0
             lines = self.out[at:at + n * width].reshape(n, width)
             # the value's 8 bytes reach into the next line: stored first, overwritten after
-            np.take(self.words, u[k0:k1], out=self._words_at(at + d + 1, np.uint64, n, width),
-                    mode="clip")
-            q, r = divmod(start + k0, 10_000)
-            _put_bytes(lines, 0, str(q).encode())
-            np.copyto(self._words_at(at + d - 4, np.uint32, n, width), dec[r:r + n])
+            value = self._words_at(at + d + 1, np.uint64, n, width)
+            if same:
+                np.copyto(value, np.full(n, self.words[u[k0]]))
+            else:
+                np.take(self.words, u[k0:k1], out=value, mode="clip")
+            q, r = divmod(start + k0, 100_000)
+            _put_bytes(lines, 0, str(q).encode() if q else b"")
+            np.copyto(self._words_at(at + d - 5, np.uint32, n, width), four[r:r + n])
+            np.copyto(self._words_at(at + d - 1, np.uint8, n, width), one[r:r + n])
             _put_bytes(lines, d, b",")
             at += n * width
         return self.out[:at].data
@@ -368,6 +384,18 @@ def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
 
 
 _DECIMAL: list[np.ndarray] = []
+
+
+_LAST_FIVE: list[np.ndarray] = []
+
+
+def _last_five() -> tuple[np.ndarray, np.ndarray]:
+    """The five decimal digits of 0..99 999, with leading zeros: the first four as uint32
+    words, the last as uint8."""
+    if not _LAST_FIVE:
+        k = np.arange(100_000)
+        _LAST_FIVE.extend([_decimal_digits()[k // 10], (ord("0") + k % 10).astype(np.uint8)])
+    return _LAST_FIVE[0], _LAST_FIVE[1]
 
 
 def _decimal_digits() -> np.ndarray:
