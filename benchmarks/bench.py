@@ -286,8 +286,9 @@ def fresh_cpu(shells: dict[str, str], outputs: dict[str, Path], repeat: int,
     prints its own CPU seconds, one figure a line; they follow its wall and CPU seconds.
     ``times``: runs of a command in each turn (default 1)."""
     best: dict[str, list[float]] = {}
+    turn = [(name, cmd) for name, cmd in shells.items() for _ in range((times or {}).get(name, 1))]
     for _ in range(repeat):
-        for k, shell in [(k, v) for k, v in shells.items() for _ in range((times or {}).get(k, 1))]:
+        for k, shell in turn:
             for f in outputs.values():
                 f.unlink(missing_ok=True)
             if k in printed:
