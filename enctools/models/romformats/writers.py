@@ -251,7 +251,7 @@ def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     f.write("".join(f"{k},{v}\n" for k, v in enumerate(values[:short].tolist())).encode())
     if values.size == short:
         return
-    if t.width > 16:  # no table of every value's text: Arrow's CSV writer, a block at a time
+    if not _fit_16_bits(values):  # no table of every value's text: Arrow's, a block at a time
         import pyarrow as pa
         import pyarrow.csv as pcsv
         for start in range(short, values.size, LINES):
@@ -264,6 +264,13 @@ def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
         lines = _CsvLines(d)
         for start in range(max(short, 10 ** (d - 1)), min(values.size, 10 ** d), LINES):
             f.write(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
+
+
+def _fit_16_bits(values: np.ndarray) -> bool:
+    """Whether every value is a signed 16-bit word's (a table's up to 16 bits wide)."""
+    if values.dtype.itemsize <= 2:
+        return True
+    return bool(values.min() >= -(1 << 15) and values.max() < 1 << 15)
 
 
 #: CSV lines whose address has fewer than 5 digits are formatted one by one
