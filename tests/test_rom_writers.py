@@ -144,3 +144,11 @@ def test_csv_lines_of_every_address_length(d):
             want = "".join(f"{start + k},{x}\n" for k, x in enumerate(v.tolist())).encode()
             assert bytes(lines.text(start, v)) == want, (d, start, v.size)
     assert smooth.size <= writers.LINES and 10 ** d - smooth.size > 10 ** (d - 1)
+
+
+def test_csv_of_wide_words_holding_small_values():
+    """A 24-bit table whose values fit 16 bits is written from the table of 16-bit values'
+    text, one whose values do not by Arrow's writer: the same lines either way."""
+    small = _values(70_000, 16, 1, runs=True).astype(np.int32)
+    for v in (small, small * 300):
+        _check("csv", v, rf.Target("csv", 24))
