@@ -4,9 +4,10 @@ The text tables (MIF, COE, MEM, Intel HEX, CSV) are written a block of lines at 
 from one buffer whose constant bytes (separators, line ends, the address digits that
 repeat every block) are set once: a block then costs a table look-up of digits per 16
 bits of its words, stored straight into the lines, and one write. A correction table's
-values change slowly, so most blocks are a few runs of equal words (in CSV, of lines of
-one length), each stored whole; a block of many runs is written line by line, with the
-same bytes. Nothing grows with the table but the table itself. CSV of words over 16 bits
+values change slowly, so most blocks are a few runs of equal words (in CSV also: of lines
+of one length), each stored whole; a block of many runs is written line by line, with
+the same bytes. Nothing grows with the table but the table (and a binary image or Intel HEX
+in the other byte order than the table's: its image). CSV of values over 16 bits
 and the controllers' tables are formatted by Arrow's CSV writer and string kernels, a
 block at a time. Every writer takes an open binary file, the signed values [LSB] (one
 per address), the :class:`~enctools.models.romformats.words.Target` and the comment
