@@ -270,53 +270,125 @@ def command_startup(out: Path, repeat: int,
     return rows
 
 
-#: make-rom rows: (address bits, table format) from the RBF model of seed 001 table 1
-ROM_SIZES = ((23, "bin"), (23, "mif"), (26, "bin"), (26, "mif"), (26, "coe"), (26, "mem"),
-             (26, "hex"), (26, "csv"))
+#: make-rom rows: every memory table format (its file's extension), at 2^20 and 2^26 entries,
+#: from the RBF model of seed 001 table 1
+ROM_FORMATS = (("bin", "bin"), ("mif", "mif"), ("coe", "coe"), ("mem", "mem"), ("ihex", "hex"),
+               ("csv", "csv"))
+ROM_BITS = (20, 26)
+
+
+def fresh_cpu(shells: dict[str, str], outputs: dict[str, Path], repeat: int,
+              printed: tuple[str, ...] = (), times: dict[str, int] | None = None
+              ) -> dict[str, tuple[float, ...]]:
+    """As :func:`interleaved` (the fastest of ``repeat`` runs in turn, wall and CPU seconds),
+    each command's output file removed before it runs: replacing a file frees its pages in
+    the kernel, work that neither a table's writing nor ``dd``'s is. A command in ``printed``
+    prints its own CPU seconds, one figure a line; they follow its wall and CPU seconds.
+    ``times``: runs of a command in each turn (default 1)."""
+    best: dict[str, list[float]] = {}
+    turn = [(name, cmd) for name, cmd in shells.items() for _ in range((times or {}).get(name, 1))]
+    for _ in range(repeat):
+        for k, shell in turn:
+            for f in outputs.values():
+                f.unlink(missing_ok=True)
+            if k in printed:
+                t0 = time.perf_counter()
+                r = subprocess.run(["bash", "-c", shell], capture_output=True, text=True)
+                if r.returncode != 0:
+                    raise RuntimeError(f"{shell}: {r.stderr[-500:]}")
+                got = [time.perf_counter() - t0, float("nan"),
+                       *(float(x) for x in r.stdout.split())]
+            else:
+                got = list(cpu_timed(shell))
+            best[k] = [min(a, b) for a, b in zip(best.get(k, got), got, strict=True)]
+    return {k: tuple(v) for k, v in best.items()}
 
 
 def make_rom_rows(out: Path, repeat: int, quick: bool,
                   before: dict[str, str] | None = None) -> list[dict]:
-    """make-rom of the table-1 RBF model into 2^23 and 2^26 entries, binary and every text
-    table, each timed in turn with ``dd`` writing as many bytes into the same folder and
-    with the ``before`` code (wall seconds: the writing is the work)."""
+    """make-rom of the table-1 RBF model into 2^20 and 2^26 entries in every memory table
+    format: the whole command and the table's writer alone (benchmarks/rom_writer.py, from
+    the binary table), each timed in turn with ``dd`` writing as many bytes into the same
+    folder and with the ``before`` code; ratios of CPU seconds. Peak memory of both codes;
+    the writer's ``--verify`` (reading back) once."""
     d = out / "rom"
     d.mkdir(exist_ok=True)
     table1 = ROOT / "tests" / "data" / "seed001_table1.csv"
     timed(f"{ENC} fit-rbf {table1} -q -o {d}/model.arrows --force")
     rows = []
-    for bits, fmt in ROM_SIZES:
-        if quick and bits > 23:
+    for bits in ROM_BITS:
+        if quick and bits > 20:
             continue
-        target = d / f"table.{fmt}"
-        kept = d / f"before.{fmt}"  # the before code's table, compared with this tree's
-        run = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {target} --force"
-        m = timed(f"{gnu_time()} {run}", 1)
-        size = target.stat().st_size
-        shells = {"after": run,
-                  "dd": f"dd if=/dev/zero of={d}/dd.out bs=1M count={max(size >> 20, 1)} "
-                        "status=none"}
-        if before is not None:
-            shells["before"] = with_env(before, run.replace(f"-o {target}", f"-o {kept}"))
-        t = interleaved(shells, repeat if bits <= 23 else 2)
-        row = {"entries": 1 << bits, "bits": bits, "format": fmt, "seconds": t["after"][0],
-               "cpu_seconds": t["after"][1], "peak_mb": m["peak_mb"], "bytes": size,
-               "entries_per_s": (1 << bits) / t["after"][0], "dd_seconds": t["dd"][0],
-               "vs_dd": t["after"][0] / t["dd"][0]}
-        if "before" in t:
-            # the same table; the provenance comment (time, command line) aside
-            # (a binary image has none: compared byte for byte, never through grep)
-            drop = "cat" if fmt == "bin" else r"grep -a -v -e '^-- ' -e '^; ' -e '^// '"
-            same = subprocess.run(["bash", "-c", f"cmp -s <({drop} {target}) <({drop} {kept})"]
-                                  ).returncode == 0
-            row |= {"before_seconds": t["before"][0], "before_vs_dd": t["before"][0] / t["dd"][0],
-                    "identical_to_before": same}
-            kept.unlink()
-        rows.append(row)
-        target.unlink()
-        (d / "dd.out").unlink(missing_ok=True)
+        image = d / f"image{bits}.bin"
+        timed(f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {image} --force")
+        for fmt, ext in ROM_FORMATS:
+            rows.append(_make_rom_row(d, bits, fmt, ext, image, repeat, before))
     shutil.rmtree(d)
     return rows
+
+
+def _make_rom_row(d: Path, bits: int, fmt: str, ext: str, image: Path, repeat: int,
+                  before: dict[str, str] | None) -> dict:
+    """One format at one size: the whole command, the writer alone, --verify, peak memory."""
+    target, kept, dd_out = d / f"table.{ext}", d / f"before.{ext}", d / "dd.out"
+    run = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {target}"
+    peak = timed(f"{gnu_time()} {run} --force")["peak_mb"]
+    size = target.stat().st_size
+    dd = f"dd if=/dev/zero of={dd_out} bs=1M count={max(size >> 20, 1)} status=none"
+    writer = f"{sys.executable} {ROOT}/benchmarks/rom_writer.py {image} {fmt} "
+    shells = {"after": run, "dd": dd, "writer": writer + str(target)}
+    if before is not None:
+        shells |= {"before": with_env(before, run.replace(f"-o {target}", f"-o {kept}")),
+                   "writer before": with_env(before, writer + str(kept))}
+    # dd three times a turn: on a shared machine its CPU seconds for the same bytes vary
+    # most (the kernel's reclaim of cached pages falls on whoever asks for them)
+    t = fresh_cpu(shells, {"after": target, "before": kept, "dd": dd_out}, repeat,
+                  printed=("writer", "writer before"), times={"dd": 3})
+    cpu_dd = t["dd"][1]
+    row = {"entries": 1 << bits, "bits": bits, "format": ext, "bytes": size, "peak_mb": peak,
+           "seconds": t["after"][0], "cpu_seconds": t["after"][1],
+           "entries_per_s": (1 << bits) / t["after"][0], "dd_seconds": t["dd"][0],
+           "dd_cpu_seconds": cpu_dd, "vs_dd": t["after"][1] / cpu_dd,
+           "writer_cpu_seconds": t["writer"][2], "writer_vs_dd": t["writer"][2] / cpu_dd,
+           "verify_cpu_seconds": _verify(shells["writer"])}
+    if before is not None:
+        row |= {"before_seconds": t["before"][0], "before_cpu_seconds": t["before"][1],
+                "before_vs_dd": t["before"][1] / cpu_dd,
+                "writer_before_cpu_seconds": t["writer before"][2],
+                "writer_before_vs_dd": t["writer before"][2] / cpu_dd,
+                "verify_before_cpu_seconds": _verify(shells["writer before"]),
+                # the two writers' files, comment and all: byte for byte
+                "writer_identical_to_before": _same_bytes(target, kept, "cat")}
+        timed(f"{run} --force")
+        row["before_peak_mb"] = timed(with_env(before, f"{gnu_time()} {run} --force").replace(
+            f"-o {target}", f"-o {kept}"))["peak_mb"]
+        # the command's tables; the provenance comment (time, command line) aside
+        # (a binary image has none: compared byte for byte, never through grep)
+        row["identical_to_before"] = _same_bytes(target, kept, "cat" if fmt == "bin" else
+                                                 r"grep -a -v -e '^-- ' -e '^; ' -e '^// '")
+    for f in (target, kept, dd_out):
+        f.unlink(missing_ok=True)
+    return row
+
+
+def _verify(writer: str) -> float:
+    """The CPU seconds of reading a table back (``--verify``), the fastest of two runs (the
+    reading allocates the file's bytes and the values afresh: page faults vary most)."""
+    return min(_printed(f"{writer} --verify")[1] for _ in range(2))
+
+
+def _printed(shell: str) -> list[float]:
+    """The figures a command prints on stdout, one a line."""
+    r = subprocess.run(["bash", "-c", shell], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"{shell}: {r.stderr[-500:]}")
+    return [float(x) for x in r.stdout.split()]
+
+
+def _same_bytes(a: Path, b: Path, through: str) -> bool:
+    """Whether two files are the same bytes once passed through the ``through`` filter."""
+    return subprocess.run(["bash", "-c", f"cmp -s <({through} {a}) <({through} {b})"]
+                          ).returncode == 0
 
 
 #: the seed 000 campaign's report as `make demo` writes it (examples/sjtu-dual.mk, step 11)
@@ -601,16 +673,36 @@ def _make_rom_table(res: dict) -> list[str]:
     rows = res.get("make_rom") or []
     if not rows:
         return []
-    lines = ["", ("| make-rom (RBF model, seed 001 table 1) | format | seconds | entries/s "
-                  "| file | peak memory | vs `dd` of the same bytes | before: vs `dd` "
-                  "| file as before |"),
-             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+    lines = ["", ("| make-rom (RBF model, seed 001 table 1) | format | file | seconds | CPU s "
+                  "| vs `dd` (CPU) | before: vs `dd` | peak memory | before: peak | file as "
+                  "before |"),
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
-        lines.append(f"| 2^{r['bits']} entries | {r['format']} | {r['seconds']:.2f} | "
-                     f"{r['entries_per_s']:.3g} | {r['bytes'] / 1e6:.0f} MB | "
-                     f"{r['peak_mb']:.0f} MB | {_ratio(r.get('vs_dd'))} | "
-                     f"{_ratio(r.get('before_vs_dd'))} | {_same(r.get('identical_to_before'))} |")
+        lines.append(f"| 2^{r['bits']} entries | {r['format']} | {r['bytes'] / 1e6:.0f} MB | "
+                     f"{r['seconds']:.2f} | {r['cpu_seconds']:.2f} | {_ratio(r.get('vs_dd'))} | "
+                     f"{_ratio(r.get('before_vs_dd'))} | {r['peak_mb']:.0f} MB | "
+                     f"{_mb(r.get('before_peak_mb'))} | {_same(r.get('identical_to_before'))} |")
+    lines += ["", ("| the table's writer alone | format | `dd` CPU s | writer CPU s | vs `dd` "
+                   "(CPU) | before: CPU s | before: vs `dd` | `--verify` CPU s | before: "
+                   "`--verify` | file as before |"),
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for r in rows:
+        lines.append(f"| 2^{r['bits']} entries | {r['format']} | {r['dd_cpu_seconds']:.3f} | "
+                     f"{r['writer_cpu_seconds']:.3f} | {_ratio(r.get('writer_vs_dd'))} | "
+                     f"{_secs(r.get('writer_before_cpu_seconds'))} | "
+                     f"{_ratio(r.get('writer_before_vs_dd'))} | "
+                     f"{_secs(r.get('verify_cpu_seconds'))} | "
+                     f"{_secs(r.get('verify_before_cpu_seconds'))} | "
+                     f"{_same(r.get('writer_identical_to_before'))} |")
     return lines
+
+
+def _mb(x: float | None) -> str:
+    return "" if x is None else f"{x:.0f} MB"
+
+
+def _secs(x: float | None) -> str:
+    return "" if x is None else f"{x:.3f}"
 
 
 def _memory_growth(res: dict) -> dict[str, float]:

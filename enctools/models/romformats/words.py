@@ -76,8 +76,11 @@ def comment_text(text: str, ascii_only: bool = False, reserved: str = "") -> str
 
 
 def twos(values: np.ndarray, width: int) -> np.ndarray:
-    """Two's complement of signed values in ``width`` bits, as non-negative int64."""
-    return values.astype(np.int64) & ((1 << width) - 1)
+    """Two's complement of signed values in ``width`` bits, as unsigned words of 1, 2 or 4
+    bytes (the size of a binary image's words)."""
+    size = 1 if width <= 8 else 2 if width <= 16 else 4
+    u = values.astype(f"i{size}", copy=False).view(f"u{size}")
+    return u & ((1 << width) - 1) if width < 8 * size else u
 
 
 def signed(u: np.ndarray, width: int) -> np.ndarray:

@@ -1,15 +1,21 @@
 """Writers of correction tables: one function per format, each writing a whole file.
 
-Big tables are formatted with numpy (fixed-width lines built as byte arrays, a
-block of :data:`LINES` lines at a time) or Arrow's CSV and string kernels, never a
-Python loop per line. Every writer takes an open binary file, the signed values [LSB]
-(one per address), the :class:`~enctools.models.romformats.words.Target` and the
-comment lines to put at the top where the format has comments.
+The text tables (MIF, COE, MEM, Intel HEX, CSV) are written a block of lines at a time
+from one buffer whose constant bytes (separators, line ends, the address digits that
+repeat every block) are set once: a block then costs a table look-up of digits per 16
+bits of its words, stored straight into the lines, and one write. A correction table's
+values change slowly, so most blocks are a few runs of equal words (in CSV also: of lines
+of one length), each stored whole; a block of many runs is written line by line, with
+the same bytes. Nothing grows with the table but the table (and a binary image or Intel HEX
+in the other byte order than the table's: its image). CSV of values over 16 bits
+and the controllers' tables are formatted by Arrow's CSV writer and string kernels, a
+block at a time. Every writer takes an open binary file, the signed values [LSB] (one
+per address), the :class:`~enctools.models.romformats.words.Target` and the comment
+lines to put at the top where the format has comments.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import IO
 
 import numpy as np
@@ -23,83 +29,59 @@ _HEX_TABLES: dict[int, np.ndarray] = {}
 
 
 def _hex_tables() -> dict[int, np.ndarray]:
-    """ASCII upper-case hex of every 4-, 8- and 16-bit value: {digits: uint8/16/32 words}."""
+    """ASCII upper-case hex of every 4-, 8- and 16-bit value: {digits: uint8/16/32 words}
+    (and, at 0, of every two bytes)."""
     if not _HEX_TABLES:
         k = np.arange(1 << 16)
         digits = np.ascontiguousarray(np.stack([_HEX[(k >> s) & 15] for s in (12, 8, 4, 0)], 1))
         _HEX_TABLES[4] = digits.view(np.uint32).reshape(-1)
         _HEX_TABLES[2] = np.ascontiguousarray(digits[:256, 2:]).view(np.uint16).reshape(-1)
         _HEX_TABLES[1] = _HEX.copy()
+        # 0: the four digits of two bytes in memory order, by the bytes read as '<u2'
+        _HEX_TABLES[0] = _HEX_TABLES[4][((k & 0xFF) << 8) | (k >> 8)]
     return _HEX_TABLES
 
 
-def _hex_columns(u: np.ndarray, digits: int) -> list[np.ndarray]:
-    """ASCII hex of non-negative integers, ``digits`` wide, as pieces for :func:`_lines`.
+#: lines a block: 16^4, so that the low four hex digits of an address repeat every block
+#: (about 1 MB of MIF text, which stays in the CPU's cache until written)
+LINES = 1 << 16
+#: runs of equal words (or, in CSV, of lines of one length) in a block below which each run
+#: is written whole rather than line by line (a correction table's values change slowly:
+#: the table-1 model's 1680 times in 2^26 addresses, runs of some 40 000 lines)
+RUNS = 64
 
-    The pieces are words of 4, 2 and 1 characters (uint32, uint16, uint8), left to
-    right: one table look-up per 16 bits, and :func:`_lines` places each with one
-    strided word copy rather than a byte loop.
-    """
+
+def _column(lines: np.ndarray, col: int, dtype: type | np.dtype, shape: tuple[int, ...] = (),
+            strides: tuple[int, ...] = ()) -> np.ndarray:
+    """A word of ``dtype`` at byte ``col`` of every line of ``lines`` (m, w) uint8 (a view;
+    ``shape``/``strides`` add axes after the line's, e.g. 16 words 2 bytes apart)."""
+    m, w = lines.shape
+    return np.ndarray((m, *shape), dtype, buffer=lines, offset=col, strides=(w, *strides))
+
+
+def _put_bytes(lines: np.ndarray, col: int, text: bytes) -> None:
+    """The same bytes at ``col`` in every line: whole words copied from a contiguous column
+    (numpy's strided fill of an unaligned scalar is several times slower)."""
+    m = lines.shape[0]
+    while text:
+        size = 8 if len(text) >= 8 else 4 if len(text) >= 4 else 2 if len(text) >= 2 else 1
+        dt = np.dtype(f"u{size}")
+        np.copyto(_column(lines, col, dt), np.full(m, np.frombuffer(text[:size], dt)[0]))
+        text, col = text[size:], col + size
+
+
+def _put_hex(lines: np.ndarray, col: int, u: np.ndarray, digits: int) -> None:
+    """Upper-case hex of the unsigned words ``u`` (each < 16^digits), ``digits`` wide, at
+    ``col`` of every line: 4, 2 or 1 digits a look-up, stored into the lines directly."""
     tables = _hex_tables()
-    u = u.astype(np.int64, copy=False)
-    pieces = []
     left = digits
     while left:
-        width = 4 if left >= 4 else 2 if left >= 2 else 1
-        left -= width
-        mask = (1 << (4 * width)) - 1
-        pieces.append(tables[width][(u >> (4 * left)) & mask if left else u & mask])
-    return pieces
-
-
-def _hex_bytes(b: np.ndarray) -> np.ndarray:
-    """ASCII hex (two digits a byte) of a uint8 array, as uint16 words of the same shape."""
-    return _hex_tables()[2][b]
-
-
-def _lines(parts: list[np.ndarray | bytes | list[np.ndarray]], n: int) -> np.ndarray:
-    """Fixed-width lines (n, W) uint8 from parts placed left to right.
-
-    A part is constant bytes, an array of n words (any unsigned dtype: its bytes in
-    memory order) or of shape (n, k) (k words a line), or a list of such arrays.
-    Every part is written with one strided copy of whole words.
-    """
-    flat: list[np.ndarray | bytes] = []
-    for p in parts:
-        if isinstance(p, list):
-            flat.extend(p)
-        else:
-            flat.append(p)
-    widths = [p.itemsize * (p.shape[1] if p.ndim == 2 else 1) if isinstance(p, np.ndarray)
-              else len(p) for p in flat]
-    w = sum(widths)
-    buf = np.empty(n * w, dtype=np.uint8)
-    col = 0
-    for p, width in zip(flat, widths, strict=True):
-        if isinstance(p, np.ndarray):
-            strides = (w,) if p.ndim == 1 else (w, p.itemsize)
-            np.ndarray(p.shape, p.dtype, buffer=buf, offset=col, strides=strides)[...] = p
-        else:
-            at = col
-            while p:
-                size = 4 if len(p) >= 4 else 2 if len(p) >= 2 else 1
-                dt = np.dtype(f"u{size}")
-                view = np.ndarray((n,), dt, buffer=buf, offset=at, strides=(w,))
-                view[...] = np.frombuffer(p[:size], dt)[0]
-                p, at = p[size:], at + size
-        col += width
-    return buf.reshape(n, w)
-
-
-#: lines formatted at once: about 1 MB of text, which stays in the CPU's cache until written
-LINES = 1 << 16
-
-
-def _write_chunked(f: IO[bytes], values: np.ndarray,
-                   make: Callable[[np.ndarray, int], np.ndarray], chunk: int = LINES) -> None:
-    """Write the lines ``make(values[start:stop], start)`` block by block."""
-    for start in range(0, values.size, chunk):
-        f.write(make(values[start:start + chunk], start).reshape(-1).data)
+        size = 4 if left >= 4 else 2 if left >= 2 else 1
+        piece = u >> (4 * (left - size)) if left > size else u
+        if left < digits:  # the digits above this piece are in the pieces before
+            piece = piece & ((1 << (4 * size)) - 1)
+        np.take(tables[size], piece, out=_column(lines, col, tables[size].dtype), mode="clip")
+        left, col = left - size, col + size
 
 
 def _comments(comment: list[str], prefix: str, ascii_only: bool = False,
@@ -114,34 +96,115 @@ def write_bin(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     values.astype(t.image_dtype, copy=False).tofile(f)
 
 
+#: Intel HEX: data bytes a record, a segment (the 64 KiB a type 04 record addresses), the
+#: text of a full data record (":10AAAA00" 32 digits of data, 2 of checksum, newline), of
+#: a type 04 record, and the segments a block
+IHEX_DATA, IHEX_SEGMENT, IHEX_LINE, IHEX_EXT, IHEX_SEGMENTS = 16, 1 << 16, 44, 16, 8
+
+
 def write_ihex(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Intel HEX of the raw image: 16 data bytes a record, a type 04 record every 64 KiB."""
     image = np.ascontiguousarray(values.astype(t.image_dtype, copy=False)).view(np.uint8)
-    seg = 1 << 16
-    for base in range(0, image.size, seg):
+    full = image.size // IHEX_SEGMENT
+    if full:
+        _ihex_segments(f, image[:full * IHEX_SEGMENT])
+    base = full * IHEX_SEGMENT
+    if base < image.size:  # the last segment, in part: its records one by one
         f.write(_ihex_record(4, 0, [(base >> 24) & 0xFF, (base >> 16) & 0xFF]))
-        data = image[base:base + seg]
-        full = data.size // 16
-        if full:
-            rec = np.empty((full, 21), dtype=np.uint8)
-            rec[:, 0] = 16
-            off = np.arange(full, dtype=np.int64) * 16
-            rec[:, 1] = off >> 8
-            rec[:, 2] = off & 0xFF
-            rec[:, 3] = 0
-            rec[:, 4:20] = data[:full * 16].reshape(full, 16)
-            rec[:, 20] = (-rec[:, :20].astype(np.int64).sum(axis=1)) & 0xFF
-            f.write(_lines([b":", _hex_bytes(rec), b"\n"], full).reshape(-1).data)
-        rest = data[full * 16:]
-        if rest.size:
-            f.write(_ihex_record(0, full * 16, rest.tolist()))
+        rest = image[base:]
+        f.write(b"".join(_ihex_record(0, a, rest[a:a + IHEX_DATA].tolist())
+                         for a in range(0, rest.size, IHEX_DATA)))
     f.write(b":00000001FF\n")
+
+
+def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
+    """Whole 64 KiB segments of the image (uint8), IHEX_SEGMENTS a block: the records'
+    lengths, addresses, types and newlines are the same in every segment and set once."""
+    records = IHEX_SEGMENT // IHEX_DATA
+    seg_text = IHEX_EXT + records * IHEX_LINE
+    block = np.empty((min(IHEX_SEGMENTS, image.size // IHEX_SEGMENT), seg_text), np.uint8)
+    addr = np.arange(0, IHEX_SEGMENT, IHEX_DATA, dtype=np.uint32)
+    for segment in block:
+        lines = segment[IHEX_EXT:].reshape(-1, IHEX_LINE)  # a view: the row is contiguous
+        _put_bytes(lines, 0, b":10")
+        _put_hex(lines, 3, addr, 4)
+        _put_bytes(lines, 7, b"00")
+        _put_bytes(lines, IHEX_LINE - 1, b"\n")
+    # a record's checksum is this, less its data bytes' sum (mod 256)
+    checks = ((-(IHEX_DATA + (addr >> 8) + (addr & 0xFF))) & 0xFF).astype(np.uint8)
+    for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
+        data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
+        for j in range(data.shape[0]):
+            at = base + j * IHEX_SEGMENT
+            block[j, :IHEX_EXT] = np.frombuffer(
+                _ihex_record(4, 0, [(at >> 24) & 0xFF, (at >> 16) & 0xFF]), np.uint8)
+        text = block[:data.shape[0]]
+        _ihex_data(text, data, checks)
+        f.write(text.reshape(-1).data)
+
+
+def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
+    """The data digits and checksums of the records of whole segments ``data`` (segments,
+    records, 16) uint8 into their text (segments, its bytes): each run of equal records
+    whole, as a table's slowly changing values give, or every record's at once.
+    ``checks``: each record's checksum were its data bytes all 0 (uint8)."""
+    segs, records, _ = data.shape
+    words = data.reshape(-1, IHEX_DATA).view(np.uint64)
+    cuts = np.union1d(np.flatnonzero((words[1:, 0] != words[:-1, 0])
+                                     | (words[1:, 1] != words[:-1, 1])) + 1,
+                      np.arange(records, segs * records, records))  # and at each segment
+    if cuts.size >= RUNS * segs:
+        seg_text = text.shape[1]
+        np.take(_hex_tables()[0], data.view("<u2"), mode="clip", out=np.ndarray(
+            (segs, records, IHEX_DATA // 2), np.uint32, buffer=text, offset=IHEX_EXT + 9,
+            strides=(seg_text, IHEX_LINE, 4)))
+        np.take(_hex_tables()[2], checks - _byte_sums(data).astype(np.uint8), mode="clip",
+                out=np.ndarray((segs, records), np.uint16, buffer=text,
+                               offset=IHEX_EXT + 9 + 2 * IHEX_DATA, strides=(seg_text, IHEX_LINE)))
+        return
+    flat = data.reshape(-1, IHEX_DATA)
+    for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), segs * records], strict=True):
+        j, r0 = divmod(k0, records)
+        lines = text[j, IHEX_EXT:].reshape(records, IHEX_LINE)[r0:k1 - j * records]
+        digits = np.frombuffer(flat[k0].tobytes().hex().upper().encode(), np.uint64)
+        np.copyto(_column(lines, 9, np.uint64, (4,), (8,)), digits)  # 32 digits, 8 at a time
+        np.take(_hex_tables()[2], checks[r0:k1 - j * records] - np.uint8(flat[k0].sum() & 0xFF),
+                out=_column(lines, 9 + 2 * IHEX_DATA, np.uint16), mode="clip")
+
+
+def _byte_sums(data: np.ndarray) -> np.ndarray:
+    """The sum of each record's 16 bytes (..., 16) uint8, as uint32 (..., ): eight bytes at
+    a time in 16-bit lanes of a 64-bit word (4x numpy's sum over the last axis)."""
+    x = data.view(np.uint64)
+    lanes = np.uint64(0x00FF00FF00FF00FF)
+    pairs = (x & lanes) + ((x >> np.uint64(8)) & lanes)  # 4 lanes of 2 bytes' sums
+    total = pairs[..., 0] + pairs[..., 1]  # each lane <= 1020
+    return ((total * np.uint64(0x0001000100010001)) >> np.uint64(48)).astype(np.uint32)
 
 
 def _ihex_record(rtype: int, addr: int, data: list[int]) -> bytes:
     body = [len(data), (addr >> 8) & 0xFF, addr & 0xFF, rtype, *data]
     body.append((-sum(body)) & 0xFF)
     return b":" + bytes(body).hex().upper().encode() + b"\n"
+
+
+def _write_words(f: IO[bytes], values: np.ndarray, t: Target, lines: np.ndarray, col: int,
+                 last: bytes = b"") -> None:
+    """The table's words in hex at ``col`` of the lines, a block of ``lines`` at a time;
+    ``last``: the bytes that end the last line in place of the others' ending."""
+    m = lines.shape[0]
+    for start in range(0, values.size, m):
+        u = twos(values[start:start + m], t.width)
+        block = lines[:u.size]
+        cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
+        if cuts.size < RUNS:  # a table's values change slowly: each run's word stored whole
+            for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
+                _put_bytes(block[k0:k1], col, f"{int(u[k0]):0{t.hex_digits}X}".encode())
+        else:
+            _put_hex(block, col, u, t.hex_digits)
+        if last and start + u.size == values.size:
+            block[-1, -len(last):] = np.frombuffer(last, np.uint8)
+        f.write(block.reshape(-1).data)
 
 
 def write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
@@ -151,13 +214,15 @@ def write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     head += (f"WIDTH={t.width};\nDEPTH={values.size};\n\nADDRESS_RADIX=HEX;\nDATA_RADIX=HEX;\n\n"
              "CONTENT BEGIN\n")
     f.write(head.encode())
-
-    def make(v: np.ndarray, start: int) -> np.ndarray:
-        addr = _hex_columns(np.arange(start, start + v.size, dtype=np.int64), adig)
-        return _lines([b"\t", addr, b" : ", _hex_columns(twos(v, t.width), t.hex_digits),
-                       b";\n"], v.size)
-
-    _write_chunked(f, values, make)
+    low = min(adig, 4)  # the address digits that repeat every block of LINES
+    lines = np.empty((min(values.size, LINES), 1 + adig + 3 + t.hex_digits + 2), np.uint8)
+    _put_hex(lines, 1 + adig - low, np.arange(lines.shape[0], dtype=np.uint32), low)
+    _put_bytes(lines, 1 + adig, b" : ")
+    _put_bytes(lines, lines.shape[1] - 2, b";\n")
+    for start in range(0, values.size, LINES):
+        top = f"{start // LINES:0{adig - 4}X}" if adig > 4 else ""
+        _put_bytes(lines, 0, b"\t" + top.encode())
+        _write_words(f, values[start:start + LINES], t, lines, 1 + adig + 3)
     f.write(b"END;\n")
 
 
@@ -165,33 +230,188 @@ def write_coe(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     """Xilinx COE, radix 16: one ``value,`` a line, the last ``value;``."""
     head = _comments(comment, "; ")
     f.write((head + "memory_initialization_radix=16;\nmemory_initialization_vector=\n").encode())
-
-    def make(v: np.ndarray, start: int) -> np.ndarray:
-        lines = _lines([_hex_columns(twos(v, t.width), t.hex_digits), b",\n"], v.size)
-        if start + v.size == values.size:
-            lines[-1, -2] = ord(";")
-        return lines
-
-    _write_chunked(f, values, make)
+    lines = np.empty((min(values.size, LINES), t.hex_digits + 2), np.uint8)
+    _put_bytes(lines, t.hex_digits, b",\n")
+    _write_words(f, values, t, lines, 0, last=b";\n")
 
 
 def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Verilog ``$readmemh`` text: ``//`` comments, ``@0``, one hex word a line."""
     f.write(_comments(comment, "// ", reserved="*").encode())  # no /* or */
     f.write(b"@0\n")
-    _write_chunked(f, values, lambda v, s: _lines([_hex_columns(twos(v, t.width),
-                                                                t.hex_digits), b"\n"], v.size))
+    lines = np.empty((min(values.size, LINES), t.hex_digits + 1), np.uint8)
+    _put_bytes(lines, t.hex_digits, b"\n")
+    _write_words(f, values, t, lines, 0)
 
 
 def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """``address,correction`` in decimal, the header line first: no comment lines, which
     pandas, Miller and csvkit would take for the header (``comment`` is left out)."""
-    import pyarrow as pa
-    import pyarrow.csv as pcsv
     f.write(b"address,correction\n")
-    table = pa.table({"address": pa.array(np.arange(values.size, dtype=np.int64)),
-                      "correction": pa.array(values.astype(np.int64))})
-    pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
+    short = min(values.size, CSV_SHORT)  # addresses of 1..4 digits: a few lines, one by one
+    f.write("".join(f"{k},{v}\n" for k, v in enumerate(values[:short].tolist())).encode())
+    if values.size == short:
+        return
+    if not _fit_16_bits(values):  # no table of every value's text: Arrow's, a block at a time
+        import pyarrow as pa
+        import pyarrow.csv as pcsv
+        for start in range(short, values.size, LINES):
+            v = values[start:start + LINES]
+            pcsv.write_csv(pa.table({"address": pa.array(np.arange(start, start + v.size)),
+                                     "correction": pa.array(v.astype(np.int64))}),
+                           f, pcsv.WriteOptions(include_header=False))
+        return
+    for d in range(5, len(str(values.size - 1)) + 1):  # the addresses of d digits, by blocks
+        lines = _CsvLines(d)
+        for start in range(max(short, 10 ** (d - 1)), min(values.size, 10 ** d), LINES):
+            f.write(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
+
+
+def _fit_16_bits(values: np.ndarray) -> bool:
+    """Whether every value is a signed 16-bit word's (a table's up to 16 bits wide)."""
+    if values.dtype.itemsize <= 2:
+        return True
+    return bool(values.min() >= -(1 << 15) and values.max() < 1 << 15)
+
+
+#: CSV lines whose address has fewer than 5 digits are formatted one by one
+CSV_SHORT = 10_000
+
+
+class _CsvLines:
+    """CSV lines ``address,value`` of one block, addresses of ``d`` digits (5..9) and values
+    of 16-bit words, whose text and newline come from a table of every 16-bit value.
+
+    A table's values change slowly (the table-1 model's 1680 times in 2^26 addresses, their
+    lengths 32 times), so a block is a few runs of one value, at most 100 000 addresses
+    each: a run is a fixed-width table written in place like MIF's, its columns stored
+    whole. A block of many values but few runs of lines of one length is written so too,
+    each line's value looked up. A block of more runs than :data:`RUNS` builds each line
+    in a row of :data:`ROW` bytes (4 spare, the address, the comma, the value's text) and
+    copies the rows of each length, as items of that many bytes, to where their lines
+    start. Nothing depends on the order of the copies within one numpy call."""
+
+    ROW = 24
+
+    def __init__(self, d: int) -> None:
+        self.d = d
+        self.words, sizes = _decimal_table()
+        self.sizes = sizes + (d + 1)  # a line's length [byte]
+        self.out = np.empty(LINES * (d + 8) + self.ROW, np.uint8)
+        self.rows: np.ndarray | None = None
+
+    def text(self, start: int, values: np.ndarray) -> memoryview:
+        """The block's lines, addresses from ``start``, as one buffer."""
+        u = twos(values, 16)
+        first = -start % 100_000  # the address digits above the last five change there
+        fives = np.arange(first if first else 100_000, u.size, 100_000)
+        cuts = np.union1d(np.flatnonzero(u[1:] != u[:-1]) + 1, fives)
+        if cuts.size < RUNS:  # runs of one value
+            return self._runs(start, u, cuts, self.sizes[u[np.r_[0, cuts]]], same=True)
+        size = self.sizes[u]
+        cuts = np.union1d(np.flatnonzero(size[1:] != size[:-1]) + 1, fives)
+        if cuts.size < RUNS:  # runs of lines of one length
+            return self._runs(start, u, cuts, size[np.r_[0, cuts]], same=False)
+        return self._rows(start, u, size)
+
+    def _runs(self, start: int, u: np.ndarray, cuts: np.ndarray, sizes: np.ndarray,
+              same: bool) -> memoryview:
+        """:meth:`text` of a block of few runs: each of lines of one length (``sizes``), of
+        one value if ``same``."""
+        four, one = _last_five()
+        d, at = self.d, 0
+        for k0, k1, width in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], sizes.tolist(),
+                                 strict=True):
+            n = k1 - k0
+            lines = self.out[at:at + n * width].reshape(n, width)
+            # the value's 8 bytes reach into the next line: stored first, overwritten after
+            value = self._words_at(at + d + 1, np.uint64, n, width)
+            if same:
+                np.copyto(value, np.full(n, self.words[u[k0]]))
+            else:
+                np.take(self.words, u[k0:k1], out=value, mode="clip")
+            q, r = divmod(start + k0, 100_000)
+            _put_bytes(lines, 0, str(q).encode() if q else b"")
+            np.copyto(self._words_at(at + d - 5, np.uint32, n, width), four[r:r + n])
+            np.copyto(self._words_at(at + d - 1, np.uint8, n, width), one[r:r + n])
+            _put_bytes(lines, d, b",")
+            at += n * width
+        return self.out[:at].data
+
+    def _words_at(self, offset: int, dtype: type, count: int, stride: int) -> np.ndarray:
+        """``count`` words of ``dtype`` in the block's text from byte ``offset``, ``stride``
+        bytes apart (the last may reach past the lines: the text has room)."""
+        return np.ndarray((count,), dtype, buffer=self.out, offset=offset, strides=(stride,))
+
+    def _rows(self, start: int, u: np.ndarray, size: np.ndarray) -> memoryview:
+        """:meth:`text` of a block of many runs, line by line (as rows)."""
+        if self.rows is None:
+            self.rows = np.zeros((LINES, self.ROW), np.uint8)
+            _put_bytes(self.rows, 4 + self.d, b",")
+        m, d = u.size, self.d
+        rows = self.rows[:m]
+        q, r = np.divmod(np.arange(start, start + m, dtype=np.uint32), 10_000)
+        dec = _decimal_digits()
+        if d == 9:  # q has 5 digits: its first, then its last four
+            np.take(dec, q // 10_000, out=_column(rows, 1, np.uint32), mode="clip")
+            q = q % 10_000
+        np.take(dec, q, out=_column(rows, d - 4, np.uint32), mode="clip")  # left zeros: spare
+        np.take(dec, r, out=_column(rows, d, np.uint32), mode="clip")
+        np.take(self.words, u, out=_column(rows, 5 + d, np.uint64), mode="clip")
+        end = np.cumsum(size, dtype=np.int64)
+        first = end - size
+        for n in np.flatnonzero(np.bincount(size)):
+            at = np.flatnonzero(size == n)
+            item = np.dtype(f"V{n}")
+            np.ndarray((self.out.size - n + 1,), item, buffer=self.out, strides=(1,))[
+                first[at]] = np.ndarray((m,), item, buffer=rows, offset=4, strides=(self.ROW,))[at]
+        return self.out[:int(end[-1])].data
+
+
+_DECIMAL_TABLE: list[np.ndarray] = []
+
+
+def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
+    """The text of every 16-bit two's complement word's value and a newline, zero-padded to
+    8 bytes (uint64, indexed by the word), and its length [byte] (uint8)."""
+    if not _DECIMAL_TABLE:
+        value = np.arange(1 << 16, dtype=np.int32)
+        value[1 << 15:] -= 1 << 16
+        mag = np.abs(value)
+        digits = 1 + sum((mag >= 10 ** p).astype(np.int32) for p in range(1, 5))
+        size = digits + (value < 0) + 1  # the sign, the digits, the newline
+        text = np.zeros((1 << 16, 8), np.uint8)
+        rows = np.arange(1 << 16)
+        text[rows, size - 1] = ord("\n")
+        for p in range(5):  # the p-th digit from the right, where the number has one
+            has = digits > p
+            text[rows[has], (size - 2 - p)[has]] = ord("0") + (mag[has] // 10 ** p) % 10
+        text[rows[value < 0], 0] = ord("-")
+        _DECIMAL_TABLE.extend([text.view(np.uint64).reshape(-1), size.astype(np.uint8)])
+    return _DECIMAL_TABLE[0], _DECIMAL_TABLE[1]
+
+
+_DECIMAL: list[np.ndarray] = []
+
+
+_LAST_FIVE: list[np.ndarray] = []
+
+
+def _last_five() -> tuple[np.ndarray, np.ndarray]:
+    """The five decimal digits of 0..99 999, with leading zeros: the first four as uint32
+    words, the last as uint8."""
+    if not _LAST_FIVE:
+        k = np.arange(100_000)
+        _LAST_FIVE.extend([_decimal_digits()[k // 10], (ord("0") + k % 10).astype(np.uint8)])
+    return _LAST_FIVE[0], _LAST_FIVE[1]
+
+
+def _decimal_digits() -> np.ndarray:
+    """The four decimal digits of 0..9999, with leading zeros, as uint32 words."""
+    if not _DECIMAL:
+        _DECIMAL.append(np.frombuffer("".join(f"{k:04d}" for k in range(10_000)).encode(),
+                                      np.uint32))
+    return _DECIMAL[0]
 
 
 def _closed(values: np.ndarray) -> np.ndarray:
