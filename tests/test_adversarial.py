@@ -11,6 +11,7 @@ the checks of the catalogue itself.
 from __future__ import annotations
 
 import shutil
+import sys
 from pathlib import Path
 
 import pytest
@@ -88,3 +89,25 @@ def test_every_command_is_in_the_catalogue() -> None:
     missing = set(COMMANDS) - argv0
     assert not missing, f"commands without an adversarial case: {sorted(missing)}"
     assert any(c.argv and c.argv[0] == "enc-nightly" for c in CASES)
+
+
+def test_peak_memory_is_the_commands_own_not_the_test_processs(tmp_path: Path) -> None:
+    """A command's peak is measured in a small process (adversarial/peak.py): a test
+    process grown to 300 MB does not show in it, and 300 MB the command allocates
+    does; the command's exit status and a signal's death come back as they were."""
+    ballast = bytearray(300 << 20)  # the test process's own memory, touched
+    ballast[::4096] = b"x" * len(ballast[::4096])
+
+    def case(script: str) -> catalogue.Case:
+        return catalogue.Case(id="peak", category="outputs", argv=[sys.executable, "-c", script],
+                              source="test", why="the runner's own measurement")
+
+    small = runner.run(case("pass"), tmp_path, tmp_path)
+    big = runner.run(case("b = bytearray(300 << 20); b[::4096] = b'x' * len(b[::4096])\n"
+                          "raise SystemExit(3)"), tmp_path, tmp_path)
+    killed = runner.run(case("import os, signal; os.kill(os.getpid(), signal.SIGTERM)"),
+                        tmp_path, tmp_path)
+    del ballast
+    assert small.peak_mb < 100 and small.code == 0
+    assert big.peak_mb > 300 and big.code == 3
+    assert killed.code == -15

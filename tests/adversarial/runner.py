@@ -1,11 +1,13 @@
 """Run one catalogue case in a child process and check what it promised.
 
-Peak memory: the child is waited for with ``os.wait4``, whose ``ru_maxrss`` (KiB on
-Linux) is the high-water resident set of that child *and of every descendant it waited
-for* (the kernel folds a reaped child's peak into its parent's). So for a ``shell`` case,
-``bash -c 'enc a | enc b'`` reports the largest of bash, enc a and enc b: the largest
-single process of the pipeline, not their sum. A descendant that is not waited for
-(``cmd &`` left to init) is not counted. The child also runs under an address-space
+Peak memory: the command is started by ``peak.py``, a small process that waits for it
+with ``os.wait4``, whose ``ru_maxrss`` (KiB on Linux) is the high-water resident set of
+that child *and of every descendant it waited for* (the kernel folds a reaped child's
+peak into its parent's). A command forked straight from the test process would carry
+that process's size in its ``ru_maxrss`` (the high-water mark survives exec). So for a
+``shell`` case, ``bash -c 'enc a | enc b'`` reports the largest of bash, enc a and
+enc b: the largest single process of the pipeline, not their sum. A descendant that is
+not waited for (``cmd &`` left to init) is not counted. The child also runs under an address-space
 limit of 2 GiB, so that a runaway allocation fails in the child (a MemoryError: an
 "internal error" line, a failed case) instead of starving the machine.
 """
@@ -35,6 +37,8 @@ from adversarial.catalogue import Case
 MAX_MB = 500.0
 #: the address-space limit of a case's process [bytes]
 ADDRESS_LIMIT = 2 << 30
+#: the small process that starts a case's command and reports its peak memory
+PEAK = Path(__file__).with_name("peak.py")
 ERROR_LINE = re.compile(r"^(enc [a-z-]+|enc-nightly): error: ")
 
 
@@ -95,11 +99,15 @@ def _send_signal(case: Case, proc: subprocess.Popen, folder: Path) -> None:
 def run(case: Case, folder: Path, base: Path) -> Result:
     """Run the case's command in ``folder`` and wait for it (killed at its timeout)."""
     stdin = open(folder / case.stdin, "rb") if case.stdin else subprocess.DEVNULL  # noqa: SIM115
+    report, write_end = os.pipe()
     with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
         start = time.monotonic()
-        proc = subprocess.Popen(command_line(case, folder, base), cwd=folder, env=_env(case),
-                                stdin=stdin, stdout=out, stderr=err, preexec_fn=_limits,
-                                start_new_session=True)
+        proc = subprocess.Popen([sys.executable, "-I", "-S", str(PEAK), str(write_end),
+                                 *command_line(case, folder, base)], cwd=folder,
+                                env=_env(case), stdin=stdin, stdout=out, stderr=err,
+                                preexec_fn=_limits, start_new_session=True,
+                                pass_fds=(write_end,))
+        os.close(write_end)
         timed_out = threading.Event()
 
         def kill() -> None:
@@ -112,7 +120,9 @@ def run(case: Case, folder: Path, base: Path) -> Result:
         try:
             if case.signal:
                 _send_signal(case, proc, folder)
-            _, status, usage = os.wait4(proc.pid, 0)
+            _, status, _ = os.wait4(proc.pid, 0)
+            with os.fdopen(report, "rb") as f:
+                peak_kib, cpu_s = (float(x) for x in (f.read().split() or [0, 0]))
         finally:
             timer.cancel()
             if not isinstance(stdin, int):
@@ -123,8 +133,8 @@ def run(case: Case, folder: Path, base: Path) -> Result:
         seconds = time.monotonic() - start
         out.seek(0)
         err.seek(0)
-        return Result(proc.returncode, out.read(), err.read(), usage.ru_maxrss / 1024, seconds,
-                      timed_out.is_set(), usage.ru_utime + usage.ru_stime)
+        return Result(proc.returncode, out.read(), err.read(), peak_kib / 1024, seconds,
+                      timed_out.is_set(), cpu_s)
 
 
 # ------------------------------------------------------------------ the folder
