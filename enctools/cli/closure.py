@@ -11,11 +11,7 @@ from enctools.cli import options
 
 @click.command("closure")
 @options.input_arg
-@options.heads("Heads averaged into the encoder reading (default: the rig's measuring heads).")
-@click.option("--autocollimator", default=None, metavar="COLUMN",
-              help="Autocollimator column (default: the only one).")
-@click.option("--faces", type=int, default=None, callback=options.positive,
-              help="Faces of the polygon (default: the rig's).")
+@options.polygon_run
 @click.option("--faces-out", default=None, metavar="FILE",
               help="Write the polygon's face errors as a certificate (enc points "
                    "--polygon-certificate reads it).")

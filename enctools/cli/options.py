@@ -187,6 +187,17 @@ def heads(help: str, flag: str = "--heads", dest: str | None = None) -> Callable
                         shell_complete=complete_heads, help=help)
 
 
+def polygon_run(f: Callable[..., Any]) -> Callable[..., Any]:
+    """--heads, --autocollimator and --faces: what a polygon step run is read with (enc
+    points, enc closure)."""
+    f = click.option("--faces", type=int, default=None, callback=positive,
+                     help="Faces of the polygon (default: the rig's).")(f)
+    f = click.option("--autocollimator", default=None, metavar="COLUMN",
+                     help="Autocollimator column (default: the only one).")(f)
+    return heads("Heads averaged into the encoder reading (default: the rig's measuring "
+                 "heads).")(f)
+
+
 def ref(help: str, dest: str = "ref", metavar: str = "HEAD", **kw: Any) -> Callable[..., Any]:
     """--ref (also --reference): the reference a command measures against."""
     if not kw.get("required"):  # a default, even None, would satisfy a required option

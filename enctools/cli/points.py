@@ -12,11 +12,7 @@ from enctools.units import ANGLE_UNITS
 
 @click.command("points")
 @options.input_arg
-@options.heads("Heads averaged into the encoder reading (default: the rig's measuring heads).")
-@click.option("--autocollimator", default=None, metavar="COLUMN",
-              help="Autocollimator column (default: the only one).")
-@click.option("--faces", type=int, default=None, callback=options.positive,
-              help="Faces of the polygon (default: the rig's).")
+@options.polygon_run
 @click.option("--polygon-certificate", "certificate", default=None, metavar="FILE",
               help="The polygon's certificate (CSV: face, error, U or u): its face errors "
                    "applied to the reference angle.")
