@@ -168,7 +168,8 @@ def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
         lines = text[j, IHEX_EXT:].reshape(records, IHEX_LINE)[r0:k1 - j * records]
         digits = np.frombuffer(flat[k0].tobytes().hex().upper().encode(), np.uint64)
         np.copyto(_column(lines, 9, np.uint64, (4,), (8,)), digits)  # 32 digits, 8 at a time
-        np.take(_hex_tables()[2], checks[r0:k1 - j * records] - np.uint8(flat[k0].sum() & 0xFF),
+        total = int(flat[k0].sum()) & 0xFF  # a Python int: numpy 1.x makes uint64 & int float
+        np.take(_hex_tables()[2], checks[r0:k1 - j * records] - np.uint8(total),
                 out=_column(lines, 9 + 2 * IHEX_DATA, np.uint16), mode="clip")
 
 
