@@ -402,6 +402,66 @@ def test_every_plot_has_axes_with_units(streams, iso_run):
             assert any(u in label for u in ("arcsec", "nm", "deg", "V", "rev", "period"))
 
 
+def _titled_plot(values, title: str):
+    from matplotlib.figure import Figure
+
+    from enctools.report import plots
+    fig = Figure(figsize=plots.SIZE)
+    ax = fig.add_subplot()
+    x = np.linspace(0.0, 360.0, 50)
+    ax.plot(x, values(np.radians(x)))
+    ax.set_title(title, fontsize=10)
+    ax.set_xlabel("angle [deg]")
+    ax.set_ylabel("deviation [rad]")
+    return fig
+
+
+@pytest.mark.parametrize("values", [np.sin, lambda x: 1000 + np.sin(x),
+                                    lambda x: 1e-9 * np.sin(x), lambda x: 1e-6 + 1e-9 * np.sin(x)],
+                         ids=["plain", "offset", "power of ten", "both"])
+def test_plot_title_where_matplotlib_would_put_it(values, monkeypatch):
+    """A title placed at once (not measured against every tick label) is drawn where
+    matplotlib's own placement draws it, also when the y axis writes an offset or a power
+    of ten above its ticks, which a long title must clear."""
+    from enctools.report import plots
+    long = "deviation — " + "a-long-file-name-" * 5 + ".parquet"
+    ours = [plots.to_png(_titled_plot(values, t)) for t in ("short", long)]
+    monkeypatch.setattr(plots, "_title_in_place", lambda ax: None)
+    assert ours == [plots.to_png(_titled_plot(values, t)) for t in ("short", long)]
+
+
+def test_plot_title_clears_the_power_of_ten(monkeypatch):
+    """The case above can fail: at the top edge, a long title would cover the y axis's
+    power of ten."""
+    from enctools.report import plots
+    long = "deviation — " + "a-long-file-name-" * 5 + ".parquet"
+    placed = plots.to_png(_titled_plot(lambda x: 1e-9 * np.sin(x), long))
+    monkeypatch.setattr(plots, "_title_in_place", lambda ax: ax.set_title(
+        ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0))
+    assert placed != plots.to_png(_titled_plot(lambda x: 1e-9 * np.sin(x), long))
+
+
+def test_report_collects_less_then_as_before(streams, monkeypatch):
+    """enc report runs with a young generation of YOUNG_OBJECTS and gives the
+    collector's thresholds back when it ends (an in-process run keeps them)."""
+    import gc
+
+    from conftest import run_in_process
+
+    from enctools.cli import tuning
+    from enctools.report import output
+    seen = []
+    monkeypatch.setattr(output, "run_report", lambda *a, **k: seen.append(gc.get_threshold()))
+    before = gc.get_threshold()
+    r = run_in_process(["report", str(streams["table1"])])
+    assert r.returncode == 0, r.stderr
+    assert seen == [(tuning.YOUNG_OBJECTS, *before[1:])]
+    assert gc.get_threshold() == before
+    with tuning.collect_less(1234):
+        assert gc.get_threshold() == (1234, *before[1:])
+    assert gc.get_threshold() == before
+
+
 @pytest.mark.skipif(not Path("/usr/bin/chromium").exists(), reason="chromium not installed")
 @pytest.mark.slow
 def test_html_report_renders_in_headless_chromium(demo_html, tmp_path):

@@ -74,7 +74,10 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     keep arcsec. With --certificate the HTML and the A4 PDF are a calibration
     certificate.
     """
+    from enctools.cli.tuning import collect_less
     from enctools.errors import UsageError
+
+    click.get_current_context().with_resource(collect_less())  # until the command ends
     from enctools.report.output import check_paths, run_report
     from enctools.report.sections import Options
     from enctools.report.thresholds import Thresholds, parse_pairs

@@ -42,6 +42,8 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
 
     _fit_margins(fig)
     fig.set_dpi(dpi)
+    for ax in fig.axes:
+        _title_in_place(ax)
     canvas = FigureCanvasAgg(fig)
     canvas.draw()
     rgba = canvas.buffer_rgba()
@@ -75,13 +77,27 @@ def _fit_margins(fig: Figure) -> None:
     polar = any(ax.name == "polar" for ax in fig.axes)
     if polar:
         m = {"left": 0.45, "right": 0.45, "top": 0.7, "bottom": 0.75}
-    if any(t.get_rotation() for ax in fig.axes for t in ax.get_xticklabels()):
+    if any(t.label1.get_rotation() for ax in fig.axes for t in ax.xaxis.majorTicks):
         m["bottom"] = 0.95                             # dates written at a slant
     if any(ax.get_title() and "\n" in ax.get_title() for ax in fig.axes) and not polar:
         m["top"] += 0.15
     m["right"] += max((_legend_width_in(ax) for ax in fig.axes), default=0.0)
     fig.subplots_adjust(left=m["left"] / wide, right=1 - m["right"] / wide,
                         bottom=m["bottom"] / high, top=1 - m["top"] / high)
+
+
+def _title_in_place(ax: Any) -> None:
+    """Put the title of axes ``ax`` at their top edge now, where matplotlib would put it
+    after measuring every tick label of both axes for one that could be in its way (a
+    tenth of a plot's drawing). Only a polar plot's angle labels and the offset or power
+    of ten that a y axis may write above its ticks ever are; such axes keep matplotlib's
+    placement."""
+    if ax.name == "polar" or not ax.get_title():
+        return
+    formatter = ax.yaxis.get_major_formatter()
+    formatter.format_ticks(ax.yaxis.get_majorticklocs())   # sets the offset, if any
+    if not formatter.get_offset():
+        ax.set_title(ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0)
 
 
 def axes_text(fig: Figure) -> str:
