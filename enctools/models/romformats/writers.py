@@ -146,31 +146,33 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
 
 def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
     """The data digits and checksums of the records of whole segments ``data`` (segments,
-    records, 16) uint8 into their text (segments, its bytes): each run of equal records
-    whole, as a table's slowly changing values give, or every record's at once.
-    ``checks``: each record's checksum were its data bytes all 0 (uint8)."""
+    records, 16) uint8 into their text (segments, its bytes): the 32 digits of each run of
+    equal records, as a table's slowly changing values give, formatted once and repeated
+    as one 32-byte item, or every record's looked up 16 bits at a time; the checksums
+    looked up for every record at once. ``checks``: each record's checksum were its data
+    bytes all 0 (uint8)."""
     segs, records, _ = data.shape
-    words = data.reshape(-1, IHEX_DATA).view(np.uint64)
-    cuts = np.union1d(np.flatnonzero((words[1:, 0] != words[:-1, 0])
-                                     | (words[1:, 1] != words[:-1, 1])) + 1,
-                      np.arange(records, segs * records, records))  # and at each segment
-    if cuts.size >= RUNS * segs:
-        seg_text = text.shape[1]
-        np.take(_hex_tables()[0], data.view("<u2"), mode="clip", out=np.ndarray(
-            (segs, records, IHEX_DATA // 2), np.uint32, buffer=text, offset=IHEX_EXT + 9,
-            strides=(seg_text, IHEX_LINE, 4)))
-        np.take(_hex_tables()[2], checks - _byte_sums(data).astype(np.uint8), mode="clip",
-                out=np.ndarray((segs, records), np.uint16, buffer=text,
-                               offset=IHEX_EXT + 9 + 2 * IHEX_DATA, strides=(seg_text, IHEX_LINE)))
-        return
     flat = data.reshape(-1, IHEX_DATA)
-    for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), segs * records], strict=True):
-        j, r0 = divmod(k0, records)
-        lines = text[j, IHEX_EXT:].reshape(records, IHEX_LINE)[r0:k1 - j * records]
-        digits = np.frombuffer(flat[k0].tobytes().hex().upper().encode(), np.uint64)
-        np.copyto(_column(lines, 9, np.uint64, (4,), (8,)), digits)  # 32 digits, 8 at a time
-        np.take(_hex_tables()[2], checks[r0:k1 - j * records] - np.uint8(flat[k0].sum() & 0xFF),
-                out=_column(lines, 9 + 2 * IHEX_DATA, np.uint16), mode="clip")
+    words = flat.view(np.uint64)
+    new = np.ones(words.shape[0], bool)  # where a run of equal records starts
+    np.not_equal(words[1:, 0], words[:-1, 0], out=new[1:])
+    new[1:] |= words[1:, 1] != words[:-1, 1]
+    heads = np.flatnonzero(new)
+    if heads.size >= RUNS * segs:
+        np.take(_hex_tables()[0], data.view("<u2"), mode="clip",
+                out=_column(text, IHEX_EXT + 9, np.uint32, (records, IHEX_DATA // 2),
+                            (IHEX_LINE, 4)))
+        sums = _byte_sums(flat)
+    else:
+        item = np.dtype(f"V{2 * IHEX_DATA}")
+        lengths = np.diff(heads, append=flat.shape[0])
+        digits = np.frombuffer(flat[heads].tobytes().hex().upper().encode(), item)
+        np.copyto(_column(text, IHEX_EXT + 9, item, (records,), (IHEX_LINE,)),
+                  np.repeat(digits, lengths).reshape(segs, records))
+        sums = np.repeat(_byte_sums(flat[heads]), lengths)
+    # looked up into a contiguous array, then stored (4x a look-up into the lines)
+    np.copyto(_column(text, IHEX_EXT + 9 + 2 * IHEX_DATA, np.uint16, (records,), (IHEX_LINE,)),
+              _hex_tables()[2][checks - sums.astype(np.uint8).reshape(segs, records)])
 
 
 def _byte_sums(data: np.ndarray) -> np.ndarray:
