@@ -17,6 +17,7 @@ lines to put at the top where the format has comments.
 from __future__ import annotations
 
 import os
+import sys
 from typing import IO
 
 import numpy as np
@@ -350,7 +351,9 @@ class _CsvLines:
     def __init__(self, d: int) -> None:
         self.d = d
         self.words, sizes = _decimal_table()
-        self.sizes = sizes + (d + 1)  # a line's length [byte]
+        self.sizes = sizes + d  # a line's length [byte]
+        self.fill = np.empty(LINES, np.uint64)  # a run's values, for a contiguous copy
+        self.word = np.empty(LINES, np.uint64)  # and its addresses
         self.out = np.empty(LINES * (d + 8) + self.ROW, np.uint8)
         self.rows: np.ndarray | None = None
 
@@ -372,25 +375,42 @@ class _CsvLines:
               same: bool) -> memoryview:
         """:meth:`text` of a block of few runs: each of lines of one length (``sizes``), of
         one value if ``same``."""
-        four, one = _last_five()
         d, at = self.d, 0
         for k0, k1, width in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], sizes.tolist(),
                                  strict=True):
             n = k1 - k0
-            lines = self.out[at:at + n * width].reshape(n, width)
-            # the value's 8 bytes reach into the next line: stored first, overwritten after
-            value = self._words_at(at + d + 1, np.uint64, n, width)
+            # the comma and value's 8 bytes reach into the next line: stored first,
+            # overwritten after
+            cv = self.fill[:n]
             if same:
-                np.copyto(value, np.full(n, self.words[u[k0]]))
+                cv[...] = self.words[u[k0]]
             else:
-                np.take(self.words, u[k0:k1], out=value, mode="clip")
-            q, r = divmod(start + k0, 100_000)
-            _put_bytes(lines, 0, str(q).encode() if q else b"")
-            np.copyto(self._words_at(at + d - 5, np.uint32, n, width), four[r:r + n])
-            np.copyto(self._words_at(at + d - 1, np.uint8, n, width), one[r:r + n])
-            _put_bytes(lines, d, b",")
+                np.take(self.words, u[k0:k1], out=cv, mode="clip")
+            np.copyto(self._words_at(at + d, np.uint64, n, width), cv)
+            self._addresses(at, n, width, start + k0, cv)
             at += n * width
         return self.out[:at].data
+
+    def _addresses(self, at: int, n: int, width: int, first: int, cv: np.ndarray) -> None:
+        """The addresses from ``first`` of ``n`` lines of ``width`` bytes from byte ``at``
+        of the text, in the 100 000 of one prefix; ``cv``: the lines' comma and value
+        words. Of up to 8 digits: one word a line, the address and (after it, to 8 bytes)
+        the line's next bytes (words read little-endian); of 9, or on a big-endian machine:
+        the prefix, the first four digits and the last."""
+        d = self.d
+        q, r = divmod(first, 100_000)
+        four, one, five = _last_five()
+        if d <= 8 and sys.byteorder == "little":
+            word = np.left_shift(five[r:r + n], np.uint64(8 * (d - 5)), out=self.word[:n])
+            if q:
+                word |= np.uint64(int.from_bytes(str(q).encode(), "little"))
+            if d < 8:
+                word |= cv << np.uint64(8 * d)
+            np.copyto(self._words_at(at, np.uint64, n, width), word)
+            return
+        _put_bytes(self.out[at:at + n * width].reshape(n, width), 0, str(q).encode())
+        np.copyto(self._words_at(at + d - 5, np.uint32, n, width), four[r:r + n])
+        np.copyto(self._words_at(at + d - 1, np.uint8, n, width), one[r:r + n])
 
     def _words_at(self, offset: int, dtype: type, count: int, stride: int) -> np.ndarray:
         """``count`` words of ``dtype`` in the block's text from byte ``offset``, ``stride``
@@ -401,7 +421,6 @@ class _CsvLines:
         """:meth:`text` of a block of many runs, line by line (as rows)."""
         if self.rows is None:
             self.rows = np.zeros((LINES, self.ROW), np.uint8)
-            _put_bytes(self.rows, 4 + self.d, b",")
         m, d = u.size, self.d
         rows = self.rows[:m]
         q, r = np.divmod(np.arange(start, start + m, dtype=np.uint32), 10_000)
@@ -411,7 +430,7 @@ class _CsvLines:
             q = q % 10_000
         np.take(dec, q, out=_column(rows, d - 4, np.uint32), mode="clip")  # left zeros: spare
         np.take(dec, r, out=_column(rows, d, np.uint32), mode="clip")
-        np.take(self.words, u, out=_column(rows, 5 + d, np.uint64), mode="clip")
+        np.take(self.words, u, out=_column(rows, 4 + d, np.uint64), mode="clip")
         end = np.cumsum(size, dtype=np.int64)
         first = end - size
         for n in np.flatnonzero(np.bincount(size)):
@@ -426,21 +445,22 @@ _DECIMAL_TABLE: list[np.ndarray] = []
 
 
 def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
-    """The text of every 16-bit two's complement word's value and a newline, zero-padded to
-    8 bytes (uint64, indexed by the word), and its length [byte] (uint8)."""
+    """A comma, the text of every 16-bit two's complement word's value and a newline,
+    zero-padded to 8 bytes (uint64, indexed by the word), and its length [byte] (uint8)."""
     if not _DECIMAL_TABLE:
         value = np.arange(1 << 16, dtype=np.int32)
         value[1 << 15:] -= 1 << 16
         mag = np.abs(value)
         digits = 1 + sum((mag >= 10 ** p).astype(np.int32) for p in range(1, 5))
-        size = digits + (value < 0) + 1  # the sign, the digits, the newline
+        size = 1 + digits + (value < 0) + 1  # the comma, the sign, the digits, the newline
         text = np.zeros((1 << 16, 8), np.uint8)
+        text[:, 0] = ord(",")
         rows = np.arange(1 << 16)
         text[rows, size - 1] = ord("\n")
         for p in range(5):  # the p-th digit from the right, where the number has one
             has = digits > p
             text[rows[has], (size - 2 - p)[has]] = ord("0") + (mag[has] // 10 ** p) % 10
-        text[rows[value < 0], 0] = ord("-")
+        text[rows[value < 0], 1] = ord("-")
         _DECIMAL_TABLE.extend([text.view(np.uint64).reshape(-1), size.astype(np.uint8)])
     return _DECIMAL_TABLE[0], _DECIMAL_TABLE[1]
 
@@ -451,13 +471,15 @@ _DECIMAL: list[np.ndarray] = []
 _LAST_FIVE: list[np.ndarray] = []
 
 
-def _last_five() -> tuple[np.ndarray, np.ndarray]:
+def _last_five() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The five decimal digits of 0..99 999, with leading zeros: the first four as uint32
-    words, the last as uint8."""
+    words, the last as uint8, and all five in the low bytes of uint64 words."""
     if not _LAST_FIVE:
         k = np.arange(100_000)
-        _LAST_FIVE.extend([_decimal_digits()[k // 10], (ord("0") + k % 10).astype(np.uint8)])
-    return _LAST_FIVE[0], _LAST_FIVE[1]
+        four, one = _decimal_digits()[k // 10], (ord("0") + k % 10).astype(np.uint8)
+        five = four.astype(np.uint64) | (one.astype(np.uint64) << np.uint64(32))
+        _LAST_FIVE.extend([four, one, five])
+    return _LAST_FIVE[0], _LAST_FIVE[1], _LAST_FIVE[2]
 
 
 def _decimal_digits() -> np.ndarray:
