@@ -167,17 +167,18 @@ def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
         np.take(_hex_tables()[0], data.view("<u2"), mode="clip",
                 out=_column(text, IHEX_EXT + 9, np.uint32, (records, IHEX_DATA // 2),
                             (IHEX_LINE, 4)))
-        sums = _byte_sums(flat)
+        sums = _byte_sums(flat).astype(np.uint8)
     else:
         item = np.dtype(f"V{2 * IHEX_DATA}")
         lengths = np.diff(heads, append=flat.shape[0])
         digits = np.frombuffer(flat[heads].tobytes().hex().upper().encode(), item)
         np.copyto(_column(text, IHEX_EXT + 9, item, (records,), (IHEX_LINE,)),
                   np.repeat(digits, lengths).reshape(segs, records))
-        sums = np.repeat(_byte_sums(flat[heads]), lengths)
+        sums = np.repeat(_byte_sums(flat[heads]).astype(np.uint8), lengths)
     # looked up into a contiguous array, then stored (4x a look-up into the lines)
+    index = np.subtract(checks, sums.reshape(segs, records), dtype=np.uint8)
     np.copyto(_column(text, IHEX_EXT + 9 + 2 * IHEX_DATA, np.uint16, (records,), (IHEX_LINE,)),
-              _hex_tables()[2][checks - sums.astype(np.uint8).reshape(segs, records)])
+              np.take(_hex_tables()[2], index))
 
 
 def _byte_sums(data: np.ndarray) -> np.ndarray:
