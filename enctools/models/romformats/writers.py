@@ -473,22 +473,25 @@ _DECIMAL_TABLE: list[np.ndarray] = []
 
 def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
     """A comma, the text of every 16-bit two's complement word's value and a newline,
-    zero-padded to 8 bytes (uint64, indexed by the word), and its length [byte] (uint8)."""
+    zero-padded to 8 bytes (uint64, indexed by the word), and its length [byte] (uint8).
+
+    Built as little-endian numbers, whose first byte is the lowest: the five digits with
+    leading zeros shifted down past the zeros, the newline put after them, shifted up
+    past the comma and the sign."""
     if not _DECIMAL_TABLE:
         value = np.arange(1 << 16, dtype=np.int32)
         value[1 << 15:] -= 1 << 16
         mag = np.abs(value)
         digits = 1 + sum((mag >= 10 ** p).astype(np.int32) for p in range(1, 5))
+        neg = (value < 0).astype(np.uint64)
+        five = sum((ord("0") + (mag // 10 ** (4 - k)) % 10).astype(np.uint64) << np.uint64(8 * k)
+                   for k in range(5))
+        nd = digits.astype(np.uint64)
+        word = (five >> (np.uint64(8) * (np.uint64(5) - nd))) | (np.uint64(10) << np.uint64(8) * nd)
+        word = (word << (np.uint64(8) * (np.uint64(1) + neg))) | np.uint64(ord(",")) \
+            | (neg * np.uint64(ord("-") << 8))
         size = 1 + digits + (value < 0) + 1  # the comma, the sign, the digits, the newline
-        text = np.zeros((1 << 16, 8), np.uint8)
-        text[:, 0] = ord(",")
-        rows = np.arange(1 << 16)
-        text[rows, size - 1] = ord("\n")
-        for p in range(5):  # the p-th digit from the right, where the number has one
-            has = digits > p
-            text[rows[has], (size - 2 - p)[has]] = ord("0") + (mag[has] // 10 ** p) % 10
-        text[rows[value < 0], 1] = ord("-")
-        _DECIMAL_TABLE.extend([text.view(np.uint64).reshape(-1), size.astype(np.uint8)])
+        _DECIMAL_TABLE.extend([word.astype("<u8").view(np.uint64), size.astype(np.uint8)])
     return _DECIMAL_TABLE[0], _DECIMAL_TABLE[1]
 
 
@@ -512,8 +515,8 @@ def _last_five() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _decimal_digits() -> np.ndarray:
     """The four decimal digits of 0..9999, with leading zeros, as uint32 words."""
     if not _DECIMAL:
-        _DECIMAL.append(np.frombuffer("".join(f"{k:04d}" for k in range(10_000)).encode(),
-                                      np.uint32))
+        k = np.arange(10_000)[:, None] // np.array([1000, 100, 10, 1]) % 10
+        _DECIMAL.append((ord("0") + k).astype(np.uint8).view(np.uint32).reshape(-1))
     return _DECIMAL[0]
 
 
