@@ -6,11 +6,15 @@ repeat every block) are set once: a block then costs a table look-up of digits p
 bits of its words, stored straight into the lines, and one write. A correction table's
 values change slowly, so most blocks are a few runs of equal words (in CSV also: of lines
 of one length), each stored whole; a block of many runs is written line by line, with
-the same bytes. Nothing grows with the table but the table (and a binary image or Intel HEX
-in the other byte order than the table's: its image). CSV of values over 16 bits
-and the controllers' tables are formatted by Arrow's CSV writer and string kernels, a
-block at a time. Every writer takes an open binary file, the signed values [LSB] (one
-per address), the :class:`~enctools.models.romformats.words.Target` and the comment
+the same bytes. COE and MEM, whose lines hold no address, write a run as one buffer of a
+few thousand of its lines listed as often as the run needs in one ``os.writev``; Intel HEX
+repeats a run of equal records' digits as one 32-byte item. Every write but a file's last
+ends at a whole page of the file (:class:`_Gather`). Nothing grows with the table but the
+table (and a binary image or Intel HEX in the other byte order than the table's: its
+image). CSV of values over 16 bits and the controllers' tables are formatted by Arrow's
+CSV writer and string kernels, a block at a time. Every writer takes an open binary file
+(a real one: most write to its descriptor), the signed values [LSB] (one per address), the
+:class:`~enctools.models.romformats.words.Target` and the comment
 lines to put at the top where the format has comments.
 """
 
