@@ -334,7 +334,8 @@ def _make_rom_row(d: Path, bits: int, fmt: str, ext: str, image: Path, repeat: i
     run = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {target}"
     peak = timed(f"{gnu_time()} {run} --force")["peak_mb"]
     size = target.stat().st_size
-    dd = f"dd if=/dev/zero of={dd_out} bs=1M count={max(size >> 20, 1)} status=none"
+    # the file's bytes exactly, in 1 MiB writes (the last shorter): not rounded to whole MiB
+    dd = f"dd if=/dev/zero of={dd_out} bs=1M count={size} iflag=count_bytes status=none"
     writer = f"{sys.executable} {ROOT}/benchmarks/rom_writer.py {image} {fmt} "
     shells = {"after": run, "dd": dd, "writer": writer + str(target)}
     if before is not None:

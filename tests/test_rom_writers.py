@@ -152,3 +152,24 @@ def test_csv_of_wide_words_holding_small_values():
     small = _values(70_000, 16, 1, runs=True).astype(np.int32)
     for v in (small, small * 300):
         _check("csv", v, rf.Target("csv", 24))
+
+
+@pytest.mark.parametrize("fmt", ("coe", "mem", "ihex", "csv"))
+def test_writes_that_take_fewer_bytes_than_asked(fmt, monkeypatch):
+    """The writers gather their buffers into ``os.writev`` calls of at most a few buffers,
+    each ending at a whole page of the file: with every call taking at most 5000 bytes of
+    at most 3 buffers, the file is still every byte, in order. The values hold runs longer
+    than a run's buffer of lines, exactly as long, and a page's worth of lines."""
+    real = writers.os.writev
+    calls = []
+
+    def short(fd, parts):
+        calls.append(len(parts))
+        return real(fd, [memoryview(p)[:5000] for p in parts[:1]])
+
+    monkeypatch.setattr(writers.os, "writev", short)
+    monkeypatch.setattr(writers.os, "sysconf", lambda name: 3)
+    lengths = (10_000, writers.RUN_LINES, 4096 // 6, 1, writers.RUN_LINES + 1, 70_000)
+    values = np.repeat(np.arange(len(lengths)) * 999 - 2000, lengths).astype(np.int16)
+    _check(fmt, values, rf.Target(fmt, 16))
+    assert max(calls) <= 3 and len(calls) > 10

@@ -6,16 +6,23 @@ repeat every block) are set once: a block then costs a table look-up of digits p
 bits of its words, stored straight into the lines, and one write. A correction table's
 values change slowly, so most blocks are a few runs of equal words (in CSV also: of lines
 of one length), each stored whole; a block of many runs is written line by line, with
-the same bytes. Nothing grows with the table but the table (and a binary image or Intel HEX
-in the other byte order than the table's: its image). CSV of values over 16 bits
-and the controllers' tables are formatted by Arrow's CSV writer and string kernels, a
-block at a time. Every writer takes an open binary file, the signed values [LSB] (one
-per address), the :class:`~enctools.models.romformats.words.Target` and the comment
+the same bytes. COE and MEM, whose lines hold no address, write a run as one buffer of a
+few thousand of its lines listed as often as the run needs in one ``os.writev``; Intel HEX
+repeats a run of equal records' digits as one 32-byte item. Every write but a file's last
+ends at a whole page of the file (:class:`_Gather`). Nothing grows with the table but the
+table (and a binary image or Intel HEX in the other byte order than the table's: its
+image). CSV of values over 16 bits and the controllers' tables are formatted by Arrow's
+CSV writer and string kernels, a block at a time. Every writer takes an open binary file
+(a real one: most write to its descriptor), the signed values [LSB] (one per address), the
+:class:`~enctools.models.romformats.words.Target` and the comment
 lines to put at the top where the format has comments.
 """
 
 from __future__ import annotations
 
+import mmap
+import os
+import sys
 from typing import IO
 
 import numpy as np
@@ -132,6 +139,7 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
         _put_bytes(lines, IHEX_LINE - 1, b"\n")
     # a record's checksum is this, less its data bytes' sum (mod 256)
     checks = ((-(IHEX_DATA + (addr >> 8) + (addr & 0xFF))) & 0xFF).astype(np.uint8)
+    out = _Gather(f)
     for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
         data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
         for j in range(data.shape[0]):
@@ -140,37 +148,41 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
                 _ihex_record(4, 0, [(at >> 24) & 0xFF, (at >> 16) & 0xFF]), np.uint8)
         text = block[:data.shape[0]]
         _ihex_data(text, data, checks)
-        f.write(text.reshape(-1).data)
+        out.add(text.reshape(-1).data)
+        out.flush()  # before the block is used again
+    out.flush(whole=True)
 
 
 def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
     """The data digits and checksums of the records of whole segments ``data`` (segments,
-    records, 16) uint8 into their text (segments, its bytes): each run of equal records
-    whole, as a table's slowly changing values give, or every record's at once.
-    ``checks``: each record's checksum were its data bytes all 0 (uint8)."""
+    records, 16) uint8 into their text (segments, its bytes): the 32 digits of each run of
+    equal records, as a table's slowly changing values give, formatted once and repeated
+    as one 32-byte item, or every record's looked up 16 bits at a time; the checksums
+    looked up for every record at once. ``checks``: each record's checksum were its data
+    bytes all 0 (uint8)."""
     segs, records, _ = data.shape
-    words = data.reshape(-1, IHEX_DATA).view(np.uint64)
-    cuts = np.union1d(np.flatnonzero((words[1:, 0] != words[:-1, 0])
-                                     | (words[1:, 1] != words[:-1, 1])) + 1,
-                      np.arange(records, segs * records, records))  # and at each segment
-    if cuts.size >= RUNS * segs:
-        seg_text = text.shape[1]
-        np.take(_hex_tables()[0], data.view("<u2"), mode="clip", out=np.ndarray(
-            (segs, records, IHEX_DATA // 2), np.uint32, buffer=text, offset=IHEX_EXT + 9,
-            strides=(seg_text, IHEX_LINE, 4)))
-        np.take(_hex_tables()[2], checks - _byte_sums(data).astype(np.uint8), mode="clip",
-                out=np.ndarray((segs, records), np.uint16, buffer=text,
-                               offset=IHEX_EXT + 9 + 2 * IHEX_DATA, strides=(seg_text, IHEX_LINE)))
-        return
     flat = data.reshape(-1, IHEX_DATA)
-    for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), segs * records], strict=True):
-        j, r0 = divmod(k0, records)
-        lines = text[j, IHEX_EXT:].reshape(records, IHEX_LINE)[r0:k1 - j * records]
-        digits = np.frombuffer(flat[k0].tobytes().hex().upper().encode(), np.uint64)
-        np.copyto(_column(lines, 9, np.uint64, (4,), (8,)), digits)  # 32 digits, 8 at a time
-        total = int(flat[k0].sum()) & 0xFF  # a Python int: numpy 1.x makes uint64 & int float
-        np.take(_hex_tables()[2], checks[r0:k1 - j * records] - np.uint8(total),
-                out=_column(lines, 9 + 2 * IHEX_DATA, np.uint16), mode="clip")
+    words = flat.view(np.uint64)
+    new = np.ones(words.shape[0], bool)  # where a run of equal records starts
+    np.not_equal(words[1:, 0], words[:-1, 0], out=new[1:])
+    new[1:] |= words[1:, 1] != words[:-1, 1]
+    heads = np.flatnonzero(new)
+    if heads.size >= RUNS * segs:
+        np.take(_hex_tables()[0], data.view("<u2"), mode="clip",
+                out=_column(text, IHEX_EXT + 9, np.uint32, (records, IHEX_DATA // 2),
+                            (IHEX_LINE, 4)))
+        sums = _byte_sums(flat).astype(np.uint8)
+    else:
+        item = np.dtype(f"V{2 * IHEX_DATA}")
+        lengths = np.diff(heads, append=flat.shape[0])
+        digits = np.frombuffer(flat[heads].tobytes().hex().upper().encode(), item)
+        np.copyto(_column(text, IHEX_EXT + 9, item, (records,), (IHEX_LINE,)),
+                  np.repeat(digits, lengths).reshape(segs, records))
+        sums = np.repeat(_byte_sums(flat[heads]).astype(np.uint8), lengths)
+    # looked up into a contiguous array, then stored (4x a look-up into the lines)
+    index = np.subtract(checks, sums.reshape(segs, records), dtype=np.uint8)
+    np.copyto(_column(text, IHEX_EXT + 9 + 2 * IHEX_DATA, np.uint16, (records,), (IHEX_LINE,)),
+              np.take(_hex_tables()[2], index))
 
 
 def _byte_sums(data: np.ndarray) -> np.ndarray:
@@ -189,10 +201,8 @@ def _ihex_record(rtype: int, addr: int, data: list[int]) -> bytes:
     return b":" + bytes(body).hex().upper().encode() + b"\n"
 
 
-def _write_words(f: IO[bytes], values: np.ndarray, t: Target, lines: np.ndarray, col: int,
-                 last: bytes = b"") -> None:
-    """The table's words in hex at ``col`` of the lines, a block of ``lines`` at a time;
-    ``last``: the bytes that end the last line in place of the others' ending."""
+def _write_words(f: IO[bytes], values: np.ndarray, t: Target, lines: np.ndarray, col: int) -> None:
+    """The table's words in hex at ``col`` of the lines, a block of ``lines`` at a time."""
     m = lines.shape[0]
     for start in range(0, values.size, m):
         u = twos(values[start:start + m], t.width)
@@ -203,8 +213,6 @@ def _write_words(f: IO[bytes], values: np.ndarray, t: Target, lines: np.ndarray,
                 _put_bytes(block[k0:k1], col, f"{int(u[k0]):0{t.hex_digits}X}".encode())
         else:
             _put_hex(block, col, u, t.hex_digits)
-        if last and start + u.size == values.size:
-            block[-1, -len(last):] = np.frombuffer(last, np.uint8)
         f.write(block.reshape(-1).data)
 
 
@@ -231,18 +239,92 @@ def write_coe(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     """Xilinx COE, radix 16: one ``value,`` a line, the last ``value;``."""
     head = _comments(comment, "; ")
     f.write((head + "memory_initialization_radix=16;\nmemory_initialization_vector=\n").encode())
-    lines = np.empty((min(values.size, LINES), t.hex_digits + 2), np.uint8)
-    _put_bytes(lines, t.hex_digits, b",\n")
-    _write_words(f, values, t, lines, 0, last=b";\n")
+    _write_word_lines(f, values[:-1], t, b",\n")
+    f.write(f"{int(twos(values[-1:], t.width)[0]):0{t.hex_digits}X};\n".encode())
 
 
 def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Verilog ``$readmemh`` text: ``//`` comments, ``@0``, one hex word a line."""
     f.write(_comments(comment, "// ", reserved="*").encode())  # no /* or */
     f.write(b"@0\n")
-    lines = np.empty((min(values.size, LINES), t.hex_digits + 1), np.uint8)
-    _put_bytes(lines, t.hex_digits, b"\n")
-    _write_words(f, values, t, lines, 0)
+    _write_word_lines(f, values, t, b"\n")
+
+
+#: lines of one word's text that a run of that word is written from, the same buffer again
+#: and again in one system call (24 KiB of COE's 16-bit words: stays in the CPU's cache)
+RUN_LINES = 4096
+
+
+def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes) -> None:
+    """The table's words in hex, each followed by ``end``, a block of :data:`LINES` at a
+    time: a block of few runs of equal words as each run's text, :data:`RUN_LINES` lines of
+    it formatted once and written as often as the run needs (``os.writev``); a block of
+    many runs formatted line by line into one buffer."""
+    if not values.size:
+        return
+    width = t.hex_digits + len(end)
+    lines = np.empty((min(values.size, LINES), width), np.uint8)
+    _put_bytes(lines, t.hex_digits, end)
+    out = _Gather(f)
+    for start in range(0, values.size, LINES):
+        u = twos(values[start:start + LINES], t.width)
+        cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
+        if cuts.size < RUNS:  # a table's values change slowly
+            for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
+                line = f"{int(u[k0]):0{t.hex_digits}X}".encode() + end
+                text = line * min(k1 - k0, RUN_LINES)
+                whole, part = divmod(k1 - k0, RUN_LINES)
+                out.add(*[text] * whole, memoryview(text)[:part * width])
+        else:
+            block = lines[:u.size]
+            _put_hex(block, 0, u, t.hex_digits)
+            out.add(block.reshape(-1).data)
+        out.flush()  # before the block's buffer is used again
+    out.flush(whole=True)
+
+
+class _Gather:
+    """Buffers written to a file in order, in as few system calls as ``os.writev`` allows:
+    the same bytes written several times are one buffer listed several times. Every write
+    but the last ends at a whole page of the file (the kernel copies a page-aligned write
+    some 15 % faster): the bytes past it, less than a page, are kept (copied) for the next.
+    ``flush(whole=True)`` writes what is left."""
+
+    def __init__(self, f: IO[bytes]) -> None:
+        f.flush()  # what the file object holds goes first
+        self.fd = f.fileno()
+        self.at = f.tell()  # the file's size [byte]
+        self.parts: list[memoryview] = []
+        self.most = os.sysconf("SC_IOV_MAX")
+
+    def add(self, *parts: bytes | memoryview) -> None:
+        """Buffers to write after those added before (none is changed until flushed)."""
+        self.parts += [memoryview(p).cast("B") for p in parts if len(p)]
+
+    def flush(self, whole: bool = False) -> None:
+        """Write the buffers added, to the last whole page of the file (``whole``: every
+        byte)."""
+        size = sum(p.nbytes for p in self.parts)
+        cut = size if whole else size - (self.at + size) % mmap.PAGESIZE
+        head: list[memoryview] = []
+        for k, p in enumerate(self.parts):
+            if cut - p.nbytes < 0:  # the bytes from ``cut`` on are kept
+                head.append(p[:cut])
+                self.parts = [memoryview(b"".join([p[cut:], *self.parts[k + 1:]]))]
+                break
+            head.append(p)
+            cut -= p.nbytes
+        else:
+            self.parts = []
+        i = 0
+        while i < len(head):  # a write may take fewer bytes than asked
+            done = os.writev(self.fd, head[i:i + self.most])
+            self.at += done
+            while i < len(head) and done >= head[i].nbytes:
+                done -= head[i].nbytes
+                i += 1
+            if done:
+                head[i] = head[i][done:]
 
 
 def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
@@ -262,10 +344,13 @@ def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
                                      "correction": pa.array(v.astype(np.int64))}),
                            f, pcsv.WriteOptions(include_header=False))
         return
+    out = _Gather(f)
     for d in range(5, len(str(values.size - 1)) + 1):  # the addresses of d digits, by blocks
         lines = _CsvLines(d)
         for start in range(max(short, 10 ** (d - 1)), min(values.size, 10 ** d), LINES):
-            f.write(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
+            out.add(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
+            out.flush()  # before the block's buffer is used again
+    out.flush(whole=True)
 
 
 def _fit_16_bits(values: np.ndarray) -> bool:
@@ -297,7 +382,9 @@ class _CsvLines:
     def __init__(self, d: int) -> None:
         self.d = d
         self.words, sizes = _decimal_table()
-        self.sizes = sizes + (d + 1)  # a line's length [byte]
+        self.sizes = sizes + d  # a line's length [byte]
+        self.fill = np.empty(LINES, np.uint64)  # a run's values, for a contiguous copy
+        self.word = np.empty(LINES, np.uint64)  # and its addresses
         self.out = np.empty(LINES * (d + 8) + self.ROW, np.uint8)
         self.rows: np.ndarray | None = None
 
@@ -319,25 +406,42 @@ class _CsvLines:
               same: bool) -> memoryview:
         """:meth:`text` of a block of few runs: each of lines of one length (``sizes``), of
         one value if ``same``."""
-        four, one = _last_five()
         d, at = self.d, 0
         for k0, k1, width in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], sizes.tolist(),
                                  strict=True):
             n = k1 - k0
-            lines = self.out[at:at + n * width].reshape(n, width)
-            # the value's 8 bytes reach into the next line: stored first, overwritten after
-            value = self._words_at(at + d + 1, np.uint64, n, width)
+            # the comma and value's 8 bytes reach into the next line: stored first,
+            # overwritten after
+            cv = self.fill[:n]
             if same:
-                np.copyto(value, np.full(n, self.words[u[k0]]))
+                cv[...] = self.words[u[k0]]
             else:
-                np.take(self.words, u[k0:k1], out=value, mode="clip")
-            q, r = divmod(start + k0, 100_000)
-            _put_bytes(lines, 0, str(q).encode() if q else b"")
-            np.copyto(self._words_at(at + d - 5, np.uint32, n, width), four[r:r + n])
-            np.copyto(self._words_at(at + d - 1, np.uint8, n, width), one[r:r + n])
-            _put_bytes(lines, d, b",")
+                np.take(self.words, u[k0:k1], out=cv, mode="clip")
+            np.copyto(self._words_at(at + d, np.uint64, n, width), cv)
+            self._addresses(at, n, width, start + k0, cv)
             at += n * width
         return self.out[:at].data
+
+    def _addresses(self, at: int, n: int, width: int, first: int, cv: np.ndarray) -> None:
+        """The addresses from ``first`` of ``n`` lines of ``width`` bytes from byte ``at``
+        of the text, in the 100 000 of one prefix; ``cv``: the lines' comma and value
+        words. Of up to 8 digits: one word a line, the address and (after it, to 8 bytes)
+        the line's next bytes (words read little-endian); of 9, or on a big-endian machine:
+        the prefix, the first four digits and the last."""
+        d = self.d
+        q, r = divmod(first, 100_000)
+        four, one, five = _last_five()
+        if d <= 8 and sys.byteorder == "little":
+            word = np.left_shift(five[r:r + n], np.uint64(8 * (d - 5)), out=self.word[:n])
+            if q:
+                word |= np.uint64(int.from_bytes(str(q).encode(), "little"))
+            if d < 8:
+                word |= cv << np.uint64(8 * d)
+            np.copyto(self._words_at(at, np.uint64, n, width), word)
+            return
+        _put_bytes(self.out[at:at + n * width].reshape(n, width), 0, str(q).encode())
+        np.copyto(self._words_at(at + d - 5, np.uint32, n, width), four[r:r + n])
+        np.copyto(self._words_at(at + d - 1, np.uint8, n, width), one[r:r + n])
 
     def _words_at(self, offset: int, dtype: type, count: int, stride: int) -> np.ndarray:
         """``count`` words of ``dtype`` in the block's text from byte ``offset``, ``stride``
@@ -348,7 +452,6 @@ class _CsvLines:
         """:meth:`text` of a block of many runs, line by line (as rows)."""
         if self.rows is None:
             self.rows = np.zeros((LINES, self.ROW), np.uint8)
-            _put_bytes(self.rows, 4 + self.d, b",")
         m, d = u.size, self.d
         rows = self.rows[:m]
         q, r = np.divmod(np.arange(start, start + m, dtype=np.uint32), 10_000)
@@ -358,7 +461,7 @@ class _CsvLines:
             q = q % 10_000
         np.take(dec, q, out=_column(rows, d - 4, np.uint32), mode="clip")  # left zeros: spare
         np.take(dec, r, out=_column(rows, d, np.uint32), mode="clip")
-        np.take(self.words, u, out=_column(rows, 5 + d, np.uint64), mode="clip")
+        np.take(self.words, u, out=_column(rows, 4 + d, np.uint64), mode="clip")
         end = np.cumsum(size, dtype=np.int64)
         first = end - size
         for n in np.flatnonzero(np.bincount(size)):
@@ -373,22 +476,26 @@ _DECIMAL_TABLE: list[np.ndarray] = []
 
 
 def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
-    """The text of every 16-bit two's complement word's value and a newline, zero-padded to
-    8 bytes (uint64, indexed by the word), and its length [byte] (uint8)."""
+    """A comma, the text of every 16-bit two's complement word's value and a newline,
+    zero-padded to 8 bytes (uint64, indexed by the word), and its length [byte] (uint8).
+
+    Built as little-endian numbers, whose first byte is the lowest: the five digits with
+    leading zeros shifted down past the zeros, the newline put after them, shifted up
+    past the comma and the sign."""
     if not _DECIMAL_TABLE:
         value = np.arange(1 << 16, dtype=np.int32)
         value[1 << 15:] -= 1 << 16
         mag = np.abs(value)
         digits = 1 + sum((mag >= 10 ** p).astype(np.int32) for p in range(1, 5))
-        size = digits + (value < 0) + 1  # the sign, the digits, the newline
-        text = np.zeros((1 << 16, 8), np.uint8)
-        rows = np.arange(1 << 16)
-        text[rows, size - 1] = ord("\n")
-        for p in range(5):  # the p-th digit from the right, where the number has one
-            has = digits > p
-            text[rows[has], (size - 2 - p)[has]] = ord("0") + (mag[has] // 10 ** p) % 10
-        text[rows[value < 0], 0] = ord("-")
-        _DECIMAL_TABLE.extend([text.view(np.uint64).reshape(-1), size.astype(np.uint8)])
+        neg = (value < 0).astype(np.uint64)
+        five = sum((ord("0") + (mag // 10 ** (4 - k)) % 10).astype(np.uint64) << np.uint64(8 * k)
+                   for k in range(5))
+        nd = digits.astype(np.uint64)
+        word = (five >> (np.uint64(8) * (np.uint64(5) - nd))) | (np.uint64(10) << np.uint64(8) * nd)
+        word = (word << (np.uint64(8) * (np.uint64(1) + neg))) | np.uint64(ord(",")) \
+            | (neg * np.uint64(ord("-") << 8))
+        size = 1 + digits + (value < 0) + 1  # the comma, the sign, the digits, the newline
+        _DECIMAL_TABLE.extend([word.astype("<u8").view(np.uint64), size.astype(np.uint8)])
     return _DECIMAL_TABLE[0], _DECIMAL_TABLE[1]
 
 
@@ -398,20 +505,22 @@ _DECIMAL: list[np.ndarray] = []
 _LAST_FIVE: list[np.ndarray] = []
 
 
-def _last_five() -> tuple[np.ndarray, np.ndarray]:
+def _last_five() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The five decimal digits of 0..99 999, with leading zeros: the first four as uint32
-    words, the last as uint8."""
+    words, the last as uint8, and all five in the low bytes of uint64 words."""
     if not _LAST_FIVE:
         k = np.arange(100_000)
-        _LAST_FIVE.extend([_decimal_digits()[k // 10], (ord("0") + k % 10).astype(np.uint8)])
-    return _LAST_FIVE[0], _LAST_FIVE[1]
+        four, one = _decimal_digits()[k // 10], (ord("0") + k % 10).astype(np.uint8)
+        five = four.astype(np.uint64) | (one.astype(np.uint64) << np.uint64(32))
+        _LAST_FIVE.extend([four, one, five])
+    return _LAST_FIVE[0], _LAST_FIVE[1], _LAST_FIVE[2]
 
 
 def _decimal_digits() -> np.ndarray:
     """The four decimal digits of 0..9999, with leading zeros, as uint32 words."""
     if not _DECIMAL:
-        _DECIMAL.append(np.frombuffer("".join(f"{k:04d}" for k in range(10_000)).encode(),
-                                      np.uint32))
+        k = np.arange(10_000)[:, None] // np.array([1000, 100, 10, 1]) % 10
+        _DECIMAL.append((ord("0") + k).astype(np.uint8).view(np.uint32).reshape(-1))
     return _DECIMAL[0]
 
 
