@@ -299,6 +299,16 @@ def lissajous_plot(signals: dict[str, tuple[np.ndarray, np.ndarray]], title: str
     return fig
 
 
+def _finish(ax: Any, xlabel: str, ylabel: str, title: str) -> None:
+    """The closing of a plot of one axes: both axes' labels (with their units), the
+    title, a light grid and the legend in the corner its data leave free."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc=_quiet_corner(ax))
+
+
 def vdi_plot(vdi: Any, title: str) -> Figure:
     """VDI/DGQ 3441: mean position deviation x_j with the band +/-(U_j + Ps_j)/2 whose
     range is P, and the mean deviation of each direction."""
@@ -310,11 +320,7 @@ def vdi_plot(vdi: Any, title: str) -> Figure:
     for mean, name, color in ((vdi.mean_up, "up (+)", COLORS[0]),
                               (vdi.mean_down, "down (-)", COLORS[1])):
         ax.plot(vdi.positions, mean, ".", ms=4, color=color, label=f"mean {name}", zorder=3)
-    ax.set_xlabel("target position [deg]")
-    ax.set_ylabel(f"position deviation [{label(vdi.unit)}]")
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc=_quiet_corner(ax))
+    _finish(ax, "target position [deg]", f"position deviation [{label(vdi.unit)}]", title)
     return fig
 
 
@@ -330,11 +336,7 @@ def iso_plot(iso: Any, title: str) -> Figure:
         x = iso.positions[o] + (shift if iso.is_bidirectional else 0)
         ax.errorbar(x, d.mean[o], yerr=2 * d.s[o], fmt="o-", ms=3, lw=1, capsize=2, color=color,
                     label=f"mean {name} ± 2s")
-    ax.set_xlabel("target position [deg]")
-    ax.set_ylabel(f"positioning deviation [{label(iso.unit)}]")
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc=_quiet_corner(ax))
+    _finish(ax, "target position [deg]", f"positioning deviation [{label(iso.unit)}]", title)
     return fig
 
 
@@ -350,13 +352,9 @@ def compare_plot(pairs: Sequence[tuple[str, Curve]], title: str) -> Figure:
                 color=COLORS[i % len(COLORS)],
                 label=f"{name} (p-p {c.figures.pp:.3g} {unit}, s {c.figures.std:.3g} {unit})")
     ax.axhline(0, color="0.6", lw=0.6)
-    ax.set_xlabel("angle [deg]")
-    ax.set_ylabel(f"deviation [{unit}]")
     ax.set_xlim(0, 360)
     ax.set_xticks(np.arange(0, 361, 45))
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc=_quiet_corner(ax))
+    _finish(ax, "angle [deg]", f"deviation [{unit}]", title)
     return fig
 
 
@@ -369,11 +367,7 @@ def history_plot(times: np.ndarray, series: dict[str, np.ndarray], title: str,
         ax.plot(times, y, "o-", ms=3, lw=1, color=COLORS[i % len(COLORS)], label=name)
         if bad is not None and np.any(bad):
             ax.plot(times[bad], y[bad], "x", ms=8, color="k")
-    ax.set_xlabel("run time [UTC]")
-    ax.set_ylabel(f"figure [{label(unit)}]")
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc=_quiet_corner(ax))
+    _finish(ax, "run time [UTC]", f"figure [{label(unit)}]", title)
     fig.autofmt_xdate()
     return fig
 
