@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from enctools.models import romformats as rf
-from enctools.models.romformats import writers
+from enctools.models.romformats import blocks, csvtext, writers
 
 COMMENT = ["enctools make-rom: a test table", "CRC-32 0badf00d; a second line"]
 #: sizes [entries]: tiny, around a hex digit of the address, around the writers' blocks
@@ -136,7 +136,7 @@ def test_csv_lines_of_every_address_length(d):
     smooth = np.repeat(rng.integers(-32768, 32768, 40), rng.integers(1, 1500, 40))
     lengths = np.where(np.arange(smooth.size) // 5000 % 2, rng.integers(100, 999, smooth.size),
                        rng.integers(-32768, -10000, smooth.size))
-    lines = writers._CsvLines(d)
+    lines = csvtext.CsvLines(d)
     for start in (10 ** (d - 1), 10 ** (d - 1) + 12_345, 10 ** d - smooth.size):
         for v in (smooth, lengths, np.array([-32768, 7]),
                   rng.integers(-32768, 32768, min(writers.LINES, 10 ** d - start))):
@@ -144,6 +144,48 @@ def test_csv_lines_of_every_address_length(d):
             want = "".join(f"{start + k},{x}\n" for k, x in enumerate(v.tolist())).encode()
             assert bytes(lines.text(start, v)) == want, (d, start, v.size)
     assert smooth.size <= writers.LINES and 10 ** d - smooth.size > 10 ** (d - 1)
+
+
+@pytest.mark.parametrize("d", (5, 6, 7, 8, 9))
+def test_csv_runs_of_every_address_length(d):
+    """Run by run (a table's seldom changing values): runs longer than a buffer of lines,
+    runs crossing the 100 000 lines whose address digits above the last five agree, runs
+    of one line, values of every length, starting on and off those 100 000 lines and
+    ending at the last address of d digits."""
+    rng = np.random.default_rng(d)
+    lengths = [1, 70_000, 3, 31_000, 1, 2, 40_000] if d > 5 else [1, 30_000, 3, 21_000, 1, 2, 9]
+    words = [-32768, 7, -5, 32767, 0, -1, 123]
+    v = np.repeat(np.array(words, np.int16), lengths)
+    lines = csvtext.CsvLines(d)
+    room = 9 * 10 ** (d - 1) - v.size  # the addresses of d digits
+    for start in (10 ** (d - 1), 10 ** (d - 1) + int(rng.integers(1, room)), 10 ** d - v.size):
+        u = v.view(np.uint16)
+        change = np.flatnonzero(u[1:] != u[:-1]) + 1
+        got = b"".join(bytes(p) for p in lines.runs(start, u, change))
+        want = "".join(f"{start + k},{x}\n" for k, x in enumerate(v.tolist())).encode()
+        assert got == want, (d, start)
+
+
+def test_csv_spans_run_by_run_and_block_by_block(monkeypatch):
+    """A table whose stretches alternate between seldom and often changing values is written
+    a span at a time, each span by the way its values suit: the same lines either way."""
+    monkeypatch.setattr(csvtext, "SPAN", 50_000)
+    rng = np.random.default_rng(5)
+    smooth = np.repeat(rng.integers(-32768, 32768, 12), 50_000 // 12 + 1)[:50_000]
+    rough = rng.integers(-32768, 32768, 50_000)
+    # spans from 10 000 (5 digits) and from 100 000 (6), 50 000 lines each
+    values = np.concatenate([np.zeros(csvtext.CSV_SHORT), smooth, rough[:40_000], smooth,
+                             rough[:777]])
+    runs = []
+    real = csvtext.CsvLines.runs
+
+    def counted(self, *args):
+        runs.append(args[0])
+        return real(self, *args)
+
+    monkeypatch.setattr(csvtext.CsvLines, "runs", counted)
+    _check("csv", values.astype(np.int16), rf.Target("csv", 16))
+    assert runs == [10_000, 100_000]
 
 
 def test_csv_of_wide_words_holding_small_values():
@@ -160,15 +202,15 @@ def test_writes_that_take_fewer_bytes_than_asked(fmt, monkeypatch):
     each ending at a whole page of the file: with every call taking at most 5000 bytes of
     at most 3 buffers, the file is still every byte, in order. The values hold runs longer
     than a run's buffer of lines, exactly as long, and a page's worth of lines."""
-    real = writers.os.writev
+    real = blocks.os.writev
     calls = []
 
     def short(fd, parts):
         calls.append(len(parts))
         return real(fd, [memoryview(p)[:5000] for p in parts[:1]])
 
-    monkeypatch.setattr(writers.os, "writev", short)
-    monkeypatch.setattr(writers.os, "sysconf", lambda name: 3)
+    monkeypatch.setattr(blocks.os, "writev", short)
+    monkeypatch.setattr(blocks.os, "sysconf", lambda name: 3)
     lengths = (10_000, writers.RUN_LINES, 4096 // 6, 1, writers.RUN_LINES + 1, 70_000)
     values = np.repeat(np.arange(len(lengths)) * 999 - 2000, lengths).astype(np.int16)
     _check(fmt, values, rf.Target(fmt, 16))

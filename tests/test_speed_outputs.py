@@ -114,7 +114,7 @@ def test_make_rom_csv_is_the_bytes_arrow_csv_wrote(width):
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
-    from enctools.models.romformats.writers import write_csv
+    from enctools.models.romformats.csvtext import write_csv
 
     lo, hi = -(1 << (width - 1)), (1 << (width - 1)) - 1
     rng = np.random.default_rng(width)

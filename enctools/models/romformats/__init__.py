@@ -42,7 +42,7 @@ import numpy as np
 
 from enctools.data.files import format_by_extension, read_bytes
 from enctools.errors import CheckFailed, DataError, UsageError
-from enctools.models.romformats import controlreaders, controlwriters, readers, writers
+from enctools.models.romformats import controlreaders, controlwriters, csvtext, readers, writers
 from enctools.models.romformats.controls import CONTROLS, ControlTable
 from enctools.models.romformats.points import PointTable
 from enctools.models.romformats.words import Target
@@ -70,7 +70,7 @@ FastReader = Callable[[bytes, Target, str], np.ndarray | None]
 
 WRITERS: dict[str, Writer] = {
     "bin": writers.write_bin, "ihex": writers.write_ihex, "mif": writers.write_mif,
-    "coe": writers.write_coe, "mem": writers.write_mem, "csv": writers.write_csv,
+    "coe": writers.write_coe, "mem": writers.write_mem, "csv": csvtext.write_csv,
     "acs": writers.write_acs, "siemens": writers.write_siemens}
 #: format -> (fast reader of the files written here or None, general reader)
 READERS: dict[str, tuple[FastReader | None, Reader]] = {

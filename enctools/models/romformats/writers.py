@@ -1,32 +1,30 @@
 """Writers of correction tables: one function per format, each writing a whole file.
 
-The text tables (MIF, COE, MEM, Intel HEX, CSV) are written a block of lines at a time
-from one buffer whose constant bytes (separators, line ends, the address digits that
-repeat every block) are set once: a block then costs a table look-up of digits per 16
-bits of its words, stored straight into the lines, and one write. A correction table's
-values change slowly, so most blocks are a few runs of equal words (in CSV also: of lines
-of one length), each stored whole; a block of many runs is written line by line, with
-the same bytes. COE and MEM, whose lines hold no address, write a run as one buffer of a
-few thousand of its lines listed as often as the run needs in one ``os.writev``; Intel HEX
-repeats a run of equal records' digits as one 32-byte item. Every write but a file's last
-ends at a whole page of the file (:class:`_Gather`). Nothing grows with the table but the
-table (and a binary image or Intel HEX in the other byte order than the table's: its
-image). CSV of values over 16 bits and the controllers' tables are formatted by Arrow's
-CSV writer and string kernels, a block at a time. Every writer takes an open binary file
-(a real one: most write to its descriptor), the signed values [LSB] (one per address), the
-:class:`~enctools.models.romformats.words.Target` and the comment
-lines to put at the top where the format has comments.
+The text tables (MIF, COE, MEM, Intel HEX) are written a block of lines at a time from
+one buffer whose constant bytes (separators, line ends, the address digits that repeat
+every block) are set once: a block then costs a table look-up of digits per 16 bits of
+its words, stored straight into the lines, and one write. A correction table's values
+change slowly, so most blocks are a few runs of equal words, each stored whole; a block
+of many runs is written line by line, with the same bytes. COE and MEM, whose lines hold
+no address, write a run as one buffer of a few thousand of its lines listed as often as
+the run needs in one ``os.writev``; Intel HEX repeats a run of equal records' digits as
+one 32-byte item. Every write but a file's last ends at a whole page of the file
+(:class:`~.blocks.Gather`). Nothing grows with the table but the table (and a binary
+image or Intel HEX in the other byte order than the table's: its image). CSV is written
+by :mod:`.csvtext`; the controllers' tables are formatted by Arrow's string kernels, a
+block at a time. Every writer takes an open binary file (a real one: most write to its
+descriptor), the signed values [LSB] (one per address), the
+:class:`~enctools.models.romformats.words.Target` and the comment lines to put at the top
+where the format has comments.
 """
 
 from __future__ import annotations
 
-import mmap
-import os
-import sys
 from typing import IO
 
 import numpy as np
 
+from enctools.models.romformats.blocks import LINES, RUNS, Gather, column, put_bytes
 from enctools.models.romformats.words import Target, comment_text, twos
 
 _HEX = np.frombuffer(b"0123456789ABCDEF", dtype=np.uint8)
@@ -49,34 +47,6 @@ def _hex_tables() -> dict[int, np.ndarray]:
     return _HEX_TABLES
 
 
-#: lines a block: 16^4, so that the low four hex digits of an address repeat every block
-#: (about 1 MB of MIF text, which stays in the CPU's cache until written)
-LINES = 1 << 16
-#: runs of equal words (or, in CSV, of lines of one length) in a block below which each run
-#: is written whole rather than line by line (a correction table's values change slowly:
-#: the table-1 model's 1680 times in 2^26 addresses, runs of some 40 000 lines)
-RUNS = 64
-
-
-def _column(lines: np.ndarray, col: int, dtype: type | np.dtype, shape: tuple[int, ...] = (),
-            strides: tuple[int, ...] = ()) -> np.ndarray:
-    """A word of ``dtype`` at byte ``col`` of every line of ``lines`` (m, w) uint8 (a view;
-    ``shape``/``strides`` add axes after the line's, e.g. 16 words 2 bytes apart)."""
-    m, w = lines.shape
-    return np.ndarray((m, *shape), dtype, buffer=lines, offset=col, strides=(w, *strides))
-
-
-def _put_bytes(lines: np.ndarray, col: int, text: bytes) -> None:
-    """The same bytes at ``col`` in every line: whole words copied from a contiguous column
-    (numpy's strided fill of an unaligned scalar is several times slower)."""
-    m = lines.shape[0]
-    while text:
-        size = 8 if len(text) >= 8 else 4 if len(text) >= 4 else 2 if len(text) >= 2 else 1
-        dt = np.dtype(f"u{size}")
-        np.copyto(_column(lines, col, dt), np.full(m, np.frombuffer(text[:size], dt)[0]))
-        text, col = text[size:], col + size
-
-
 def _put_hex(lines: np.ndarray, col: int, u: np.ndarray, digits: int) -> None:
     """Upper-case hex of the unsigned words ``u`` (each < 16^digits), ``digits`` wide, at
     ``col`` of every line: 4, 2 or 1 digits a look-up, stored into the lines directly."""
@@ -87,7 +57,7 @@ def _put_hex(lines: np.ndarray, col: int, u: np.ndarray, digits: int) -> None:
         piece = u >> (4 * (left - size)) if left > size else u
         if left < digits:  # the digits above this piece are in the pieces before
             piece = piece & ((1 << (4 * size)) - 1)
-        np.take(tables[size], piece, out=_column(lines, col, tables[size].dtype), mode="clip")
+        np.take(tables[size], piece, out=column(lines, col, tables[size].dtype), mode="clip")
         left, col = left - size, col + size
 
 
@@ -133,13 +103,13 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
     addr = np.arange(0, IHEX_SEGMENT, IHEX_DATA, dtype=np.uint32)
     for segment in block:
         lines = segment[IHEX_EXT:].reshape(-1, IHEX_LINE)  # a view: the row is contiguous
-        _put_bytes(lines, 0, b":10")
+        put_bytes(lines, 0, b":10")
         _put_hex(lines, 3, addr, 4)
-        _put_bytes(lines, 7, b"00")
-        _put_bytes(lines, IHEX_LINE - 1, b"\n")
+        put_bytes(lines, 7, b"00")
+        put_bytes(lines, IHEX_LINE - 1, b"\n")
     # a record's checksum is this, less its data bytes' sum (mod 256)
     checks = ((-(IHEX_DATA + (addr >> 8) + (addr & 0xFF))) & 0xFF).astype(np.uint8)
-    out = _Gather(f)
+    out = Gather(f)
     for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
         data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
         for j in range(data.shape[0]):
@@ -169,19 +139,19 @@ def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
     heads = np.flatnonzero(new)
     if heads.size >= RUNS * segs:
         np.take(_hex_tables()[0], data.view("<u2"), mode="clip",
-                out=_column(text, IHEX_EXT + 9, np.uint32, (records, IHEX_DATA // 2),
+                out=column(text, IHEX_EXT + 9, np.uint32, (records, IHEX_DATA // 2),
                             (IHEX_LINE, 4)))
         sums = _byte_sums(flat).astype(np.uint8)
     else:
         item = np.dtype(f"V{2 * IHEX_DATA}")
         lengths = np.diff(heads, append=flat.shape[0])
         digits = np.frombuffer(flat[heads].tobytes().hex().upper().encode(), item)
-        np.copyto(_column(text, IHEX_EXT + 9, item, (records,), (IHEX_LINE,)),
+        np.copyto(column(text, IHEX_EXT + 9, item, (records,), (IHEX_LINE,)),
                   np.repeat(digits, lengths).reshape(segs, records))
         sums = np.repeat(_byte_sums(flat[heads]).astype(np.uint8), lengths)
     # looked up into a contiguous array, then stored (4x a look-up into the lines)
     index = np.subtract(checks, sums.reshape(segs, records), dtype=np.uint8)
-    np.copyto(_column(text, IHEX_EXT + 9 + 2 * IHEX_DATA, np.uint16, (records,), (IHEX_LINE,)),
+    np.copyto(column(text, IHEX_EXT + 9 + 2 * IHEX_DATA, np.uint16, (records,), (IHEX_LINE,)),
               np.take(_hex_tables()[2], index))
 
 
@@ -210,7 +180,7 @@ def _write_words(f: IO[bytes], values: np.ndarray, t: Target, lines: np.ndarray,
         cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
         if cuts.size < RUNS:  # a table's values change slowly: each run's word stored whole
             for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
-                _put_bytes(block[k0:k1], col, f"{int(u[k0]):0{t.hex_digits}X}".encode())
+                put_bytes(block[k0:k1], col, f"{int(u[k0]):0{t.hex_digits}X}".encode())
         else:
             _put_hex(block, col, u, t.hex_digits)
         f.write(block.reshape(-1).data)
@@ -226,11 +196,11 @@ def write_mif(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     low = min(adig, 4)  # the address digits that repeat every block of LINES
     lines = np.empty((min(values.size, LINES), 1 + adig + 3 + t.hex_digits + 2), np.uint8)
     _put_hex(lines, 1 + adig - low, np.arange(lines.shape[0], dtype=np.uint32), low)
-    _put_bytes(lines, 1 + adig, b" : ")
-    _put_bytes(lines, lines.shape[1] - 2, b";\n")
+    put_bytes(lines, 1 + adig, b" : ")
+    put_bytes(lines, lines.shape[1] - 2, b";\n")
     for start in range(0, values.size, LINES):
         top = f"{start // LINES:0{adig - 4}X}" if adig > 4 else ""
-        _put_bytes(lines, 0, b"\t" + top.encode())
+        put_bytes(lines, 0, b"\t" + top.encode())
         _write_words(f, values[start:start + LINES], t, lines, 1 + adig + 3)
     f.write(b"END;\n")
 
@@ -264,8 +234,8 @@ def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes) -
         return
     width = t.hex_digits + len(end)
     lines = np.empty((min(values.size, LINES), width), np.uint8)
-    _put_bytes(lines, t.hex_digits, end)
-    out = _Gather(f)
+    put_bytes(lines, t.hex_digits, end)
+    out = Gather(f)
     for start in range(0, values.size, LINES):
         u = twos(values[start:start + LINES], t.width)
         cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
@@ -281,247 +251,6 @@ def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes) -
             out.add(block.reshape(-1).data)
         out.flush()  # before the block's buffer is used again
     out.flush(whole=True)
-
-
-class _Gather:
-    """Buffers written to a file in order, in as few system calls as ``os.writev`` allows:
-    the same bytes written several times are one buffer listed several times. Every write
-    but the last ends at a whole page of the file (the kernel copies a page-aligned write
-    some 15 % faster): the bytes past it, less than a page, are kept (copied) for the next.
-    ``flush(whole=True)`` writes what is left."""
-
-    def __init__(self, f: IO[bytes]) -> None:
-        f.flush()  # what the file object holds goes first
-        self.fd = f.fileno()
-        self.at = f.tell()  # the file's size [byte]
-        self.parts: list[memoryview] = []
-        self.most = os.sysconf("SC_IOV_MAX")
-
-    def add(self, *parts: bytes | memoryview) -> None:
-        """Buffers to write after those added before (none is changed until flushed)."""
-        self.parts += [memoryview(p).cast("B") for p in parts if len(p)]
-
-    def flush(self, whole: bool = False) -> None:
-        """Write the buffers added, to the last whole page of the file (``whole``: every
-        byte)."""
-        size = sum(p.nbytes for p in self.parts)
-        cut = size if whole else size - (self.at + size) % mmap.PAGESIZE
-        head: list[memoryview] = []
-        for k, p in enumerate(self.parts):
-            if cut - p.nbytes < 0:  # the bytes from ``cut`` on are kept
-                head.append(p[:cut])
-                self.parts = [memoryview(b"".join([p[cut:], *self.parts[k + 1:]]))]
-                break
-            head.append(p)
-            cut -= p.nbytes
-        else:
-            self.parts = []
-        i = 0
-        while i < len(head):  # a write may take fewer bytes than asked
-            done = os.writev(self.fd, head[i:i + self.most])
-            self.at += done
-            while i < len(head) and done >= head[i].nbytes:
-                done -= head[i].nbytes
-                i += 1
-            if done:
-                head[i] = head[i][done:]
-
-
-def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
-    """``address,correction`` in decimal, the header line first: no comment lines, which
-    pandas, Miller and csvkit would take for the header (``comment`` is left out)."""
-    f.write(b"address,correction\n")
-    short = min(values.size, CSV_SHORT)  # addresses of 1..4 digits: a few lines, one by one
-    f.write("".join(f"{k},{v}\n" for k, v in enumerate(values[:short].tolist())).encode())
-    if values.size == short:
-        return
-    if not _fit_16_bits(values):  # no table of every value's text: Arrow's, a block at a time
-        import pyarrow as pa
-        import pyarrow.csv as pcsv
-        for start in range(short, values.size, LINES):
-            v = values[start:start + LINES]
-            pcsv.write_csv(pa.table({"address": pa.array(np.arange(start, start + v.size)),
-                                     "correction": pa.array(v.astype(np.int64))}),
-                           f, pcsv.WriteOptions(include_header=False))
-        return
-    out = _Gather(f)
-    for d in range(5, len(str(values.size - 1)) + 1):  # the addresses of d digits, by blocks
-        lines = _CsvLines(d)
-        for start in range(max(short, 10 ** (d - 1)), min(values.size, 10 ** d), LINES):
-            out.add(lines.text(start, values[start:min(start + LINES, 10 ** d)]))
-            out.flush()  # before the block's buffer is used again
-    out.flush(whole=True)
-
-
-def _fit_16_bits(values: np.ndarray) -> bool:
-    """Whether every value is a signed 16-bit word's (a table's up to 16 bits wide)."""
-    if values.dtype.itemsize <= 2:
-        return True
-    return bool(values.min() >= -(1 << 15) and values.max() < 1 << 15)
-
-
-#: CSV lines whose address has fewer than 5 digits are formatted one by one
-CSV_SHORT = 10_000
-
-
-class _CsvLines:
-    """CSV lines ``address,value`` of one block, addresses of ``d`` digits (5..9) and values
-    of 16-bit words, whose text and newline come from a table of every 16-bit value.
-
-    A table's values change slowly (the table-1 model's 1680 times in 2^26 addresses, their
-    lengths 32 times), so a block is a few runs of one value, at most 100 000 addresses
-    each: a run is a fixed-width table written in place like MIF's, its columns stored
-    whole. A block of many values but few runs of lines of one length is written so too,
-    each line's value looked up. A block of more runs than :data:`RUNS` builds each line
-    in a row of :data:`ROW` bytes (4 spare, the address, the comma, the value's text) and
-    copies the rows of each length, as items of that many bytes, to where their lines
-    start. Nothing depends on the order of the copies within one numpy call."""
-
-    ROW = 24
-
-    def __init__(self, d: int) -> None:
-        self.d = d
-        self.words, sizes = _decimal_table()
-        self.sizes = sizes + d  # a line's length [byte]
-        self.fill = np.empty(LINES, np.uint64)  # a run's values, for a contiguous copy
-        self.word = np.empty(LINES, np.uint64)  # and its addresses
-        self.out = np.empty(LINES * (d + 8) + self.ROW, np.uint8)
-        self.rows: np.ndarray | None = None
-
-    def text(self, start: int, values: np.ndarray) -> memoryview:
-        """The block's lines, addresses from ``start``, as one buffer."""
-        u = twos(values, 16)
-        first = -start % 100_000  # the address digits above the last five change there
-        fives = np.arange(first if first else 100_000, u.size, 100_000)
-        cuts = np.union1d(np.flatnonzero(u[1:] != u[:-1]) + 1, fives)
-        if cuts.size < RUNS:  # runs of one value
-            return self._runs(start, u, cuts, self.sizes[u[np.r_[0, cuts]]], same=True)
-        size = self.sizes[u]
-        cuts = np.union1d(np.flatnonzero(size[1:] != size[:-1]) + 1, fives)
-        if cuts.size < RUNS:  # runs of lines of one length
-            return self._runs(start, u, cuts, size[np.r_[0, cuts]], same=False)
-        return self._rows(start, u, size)
-
-    def _runs(self, start: int, u: np.ndarray, cuts: np.ndarray, sizes: np.ndarray,
-              same: bool) -> memoryview:
-        """:meth:`text` of a block of few runs: each of lines of one length (``sizes``), of
-        one value if ``same``."""
-        d, at = self.d, 0
-        for k0, k1, width in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], sizes.tolist(),
-                                 strict=True):
-            n = k1 - k0
-            # the comma and value's 8 bytes reach into the next line: stored first,
-            # overwritten after
-            cv = self.fill[:n]
-            if same:
-                cv[...] = self.words[u[k0]]
-            else:
-                np.take(self.words, u[k0:k1], out=cv, mode="clip")
-            np.copyto(self._words_at(at + d, np.uint64, n, width), cv)
-            self._addresses(at, n, width, start + k0, cv)
-            at += n * width
-        return self.out[:at].data
-
-    def _addresses(self, at: int, n: int, width: int, first: int, cv: np.ndarray) -> None:
-        """The addresses from ``first`` of ``n`` lines of ``width`` bytes from byte ``at``
-        of the text, in the 100 000 of one prefix; ``cv``: the lines' comma and value
-        words. Of up to 8 digits: one word a line, the address and (after it, to 8 bytes)
-        the line's next bytes (words read little-endian); of 9, or on a big-endian machine:
-        the prefix, the first four digits and the last."""
-        d = self.d
-        q, r = divmod(first, 100_000)
-        four, one, five = _last_five()
-        if d <= 8 and sys.byteorder == "little":
-            word = np.left_shift(five[r:r + n], np.uint64(8 * (d - 5)), out=self.word[:n])
-            if q:
-                word |= np.uint64(int.from_bytes(str(q).encode(), "little"))
-            if d < 8:
-                word |= cv << np.uint64(8 * d)
-            np.copyto(self._words_at(at, np.uint64, n, width), word)
-            return
-        _put_bytes(self.out[at:at + n * width].reshape(n, width), 0, str(q).encode())
-        np.copyto(self._words_at(at + d - 5, np.uint32, n, width), four[r:r + n])
-        np.copyto(self._words_at(at + d - 1, np.uint8, n, width), one[r:r + n])
-
-    def _words_at(self, offset: int, dtype: type, count: int, stride: int) -> np.ndarray:
-        """``count`` words of ``dtype`` in the block's text from byte ``offset``, ``stride``
-        bytes apart (the last may reach past the lines: the text has room)."""
-        return np.ndarray((count,), dtype, buffer=self.out, offset=offset, strides=(stride,))
-
-    def _rows(self, start: int, u: np.ndarray, size: np.ndarray) -> memoryview:
-        """:meth:`text` of a block of many runs, line by line (as rows)."""
-        if self.rows is None:
-            self.rows = np.zeros((LINES, self.ROW), np.uint8)
-        m, d = u.size, self.d
-        rows = self.rows[:m]
-        q, r = np.divmod(np.arange(start, start + m, dtype=np.uint32), 10_000)
-        dec = _decimal_digits()
-        if d == 9:  # q has 5 digits: its first, then its last four
-            np.take(dec, q // 10_000, out=_column(rows, 1, np.uint32), mode="clip")
-            q = q % 10_000
-        np.take(dec, q, out=_column(rows, d - 4, np.uint32), mode="clip")  # left zeros: spare
-        np.take(dec, r, out=_column(rows, d, np.uint32), mode="clip")
-        np.take(self.words, u, out=_column(rows, 4 + d, np.uint64), mode="clip")
-        end = np.cumsum(size, dtype=np.int64)
-        first = end - size
-        for n in np.flatnonzero(np.bincount(size)):
-            at = np.flatnonzero(size == n)
-            item = np.dtype(f"V{n}")
-            np.ndarray((self.out.size - n + 1,), item, buffer=self.out, strides=(1,))[
-                first[at]] = np.ndarray((m,), item, buffer=rows, offset=4, strides=(self.ROW,))[at]
-        return self.out[:int(end[-1])].data
-
-
-_DECIMAL_TABLE: list[np.ndarray] = []
-
-
-def _decimal_table() -> tuple[np.ndarray, np.ndarray]:
-    """A comma, the text of every 16-bit two's complement word's value and a newline,
-    zero-padded to 8 bytes (uint64, indexed by the word), and its length [byte] (uint8).
-
-    Built as little-endian numbers, whose first byte is the lowest: the five digits with
-    leading zeros shifted down past the zeros, the newline put after them, shifted up
-    past the comma and the sign."""
-    if not _DECIMAL_TABLE:
-        value = np.arange(1 << 16, dtype=np.int32)
-        value[1 << 15:] -= 1 << 16
-        mag = np.abs(value)
-        digits = 1 + sum((mag >= 10 ** p).astype(np.int32) for p in range(1, 5))
-        neg = (value < 0).astype(np.uint64)
-        five = sum((ord("0") + (mag // 10 ** (4 - k)) % 10).astype(np.uint64) << np.uint64(8 * k)
-                   for k in range(5))
-        nd = digits.astype(np.uint64)
-        word = (five >> (np.uint64(8) * (np.uint64(5) - nd))) | (np.uint64(10) << np.uint64(8) * nd)
-        word = (word << (np.uint64(8) * (np.uint64(1) + neg))) | np.uint64(ord(",")) \
-            | (neg * np.uint64(ord("-") << 8))
-        size = 1 + digits + (value < 0) + 1  # the comma, the sign, the digits, the newline
-        _DECIMAL_TABLE.extend([word.astype("<u8").view(np.uint64), size.astype(np.uint8)])
-    return _DECIMAL_TABLE[0], _DECIMAL_TABLE[1]
-
-
-_DECIMAL: list[np.ndarray] = []
-
-
-_LAST_FIVE: list[np.ndarray] = []
-
-
-def _last_five() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The five decimal digits of 0..99 999, with leading zeros: the first four as uint32
-    words, the last as uint8, and all five in the low bytes of uint64 words."""
-    if not _LAST_FIVE:
-        k = np.arange(100_000)
-        four, one = _decimal_digits()[k // 10], (ord("0") + k % 10).astype(np.uint8)
-        five = four.astype(np.uint64) | (one.astype(np.uint64) << np.uint64(32))
-        _LAST_FIVE.extend([four, one, five])
-    return _LAST_FIVE[0], _LAST_FIVE[1], _LAST_FIVE[2]
-
-
-def _decimal_digits() -> np.ndarray:
-    """The four decimal digits of 0..9999, with leading zeros, as uint32 words."""
-    if not _DECIMAL:
-        k = np.arange(10_000)[:, None] // np.array([1000, 100, 10, 1]) % 10
-        _DECIMAL.append((ord("0") + k).astype(np.uint8).view(np.uint32).reshape(-1))
-    return _DECIMAL[0]
 
 
 def _closed(values: np.ndarray) -> np.ndarray:
