@@ -116,6 +116,13 @@ class _Tabulated:
             out = self.slope[i]
             out *= u
             out += self.table[i]
+        if x.size * self._amp.size <= self._DIRECT_TERMS // 8:  # a few angles: no loop
+            terms = np.multiply.outer(x, self.rest.freq)
+            terms -= self._phase
+            np.cos(terms, out=terms)
+            terms *= self._amp
+            # added one term after another, as the loop below: the same sums to the bit
+            return np.cumsum(np.concatenate([out[..., None], terms], axis=-1), axis=-1)[..., -1]
         for f, a, p in zip(self.rest.freq, self._amp, self._phase, strict=True):
             arg = f * x
             arg -= p
@@ -257,7 +264,8 @@ class VirtualRig(Session):
         enc = self.feedback
         idx = [k for k, h in enumerate(enc.heads) if h.name in enc.measure_heads]
         th = np.array([theta])
-        return float(np.mean([self.head_reading(enc, k, th, noise=False)[0][0] - theta
+        xy = self.radial_motion(enc, th)  # the same for every head
+        return float(np.mean([self.head_reading(enc, k, th, noise=False, xy=xy)[0][0] - theta
                                for k in idx]))
 
     # -- session ---------------------------------------------------------------

@@ -54,10 +54,19 @@ class Series:
     freq: np.ndarray
     a: np.ndarray
     b: np.ndarray
+    #: which terms are integer harmonics, and whether some are and some not: a steps run
+    #: evaluates a series at one angle thousands of times, so these are worked out once
+    _integer: np.ndarray = field(init=False, repr=False, compare=False)
+    _any: bool = field(init=False, repr=False, compare=False)
+    _mixed: bool = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("freq", "a", "b"):
             object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
+        integer = self.freq == np.round(self.freq)
+        object.__setattr__(self, "_integer", integer)
+        object.__setattr__(self, "_any", bool(np.any(integer)))
+        object.__setattr__(self, "_mixed", self._any and not bool(np.all(integer)))
 
     @property
     def periodic(self) -> bool:
@@ -71,10 +80,12 @@ class Series:
         the terms; many, term by term, in memory of the size of ``x``.
         """
         x = np.asarray(x, dtype=np.float64)
-        integer = self.freq == np.round(self.freq)
-        xr = np.mod(x, TWO_PI) if np.any(integer) else x
+        integer = self._integer
+        xr = np.mod(x, TWO_PI) if self._any else x
         if x.size * self.freq.size <= _OUTER_TERMS:
-            arg = np.where(integer, xr.reshape(-1, 1) * self.freq, x.reshape(-1, 1) * self.freq)
+            arg = xr.reshape(-1, 1) * self.freq
+            if self._mixed:
+                arg = np.where(integer, arg, x.reshape(-1, 1) * self.freq)
             return (np.cos(arg) @ self.a + np.sin(arg) @ self.b).reshape(x.shape)
         out = np.zeros_like(x)
         for f, a, b, is_int in zip(self.freq, self.a, self.b, integer, strict=True):
