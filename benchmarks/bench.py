@@ -180,19 +180,25 @@ TINY_RUNS: dict[str, str] = {
     "make-rom": "make-rom {d}/model.arrows --bits 10 -q",
     "latency": "latency --bits 23 --delay 1e-6",
     "points": "points {table1}",
+    "closure": "closure {d}/closure.arrows -q",
+    "correct": "correct {d}/points.arrows --table {d}/table.mif -q",
     "report": "report {d}/points.arrows",
     "info": "info {d}/tiny.arrows",
+    "rig": "rig check sjtu-dual",
 }
 
 
 def tiny_inputs(d: Path) -> None:
-    """The small inputs of TINY_RUNS: 10 rows, 0.01 and 2.2 revolutions, table 1 points, a model."""
+    """The small inputs of TINY_RUNS: 10 rows, 0.01 and 2.2 revolutions, table 1 points, a
+    model and its 1024-entry table, a closure run (the smallest: 24 settings of 24 faces)."""
     table1 = ROOT / "tests" / "data" / "seed001_table1.csv"
     for cmd in (f"acquire --rig sjtu-dual --revolutions 0.0005 -o {d}/tiny.arrows",
                 f"acquire --rig sjtu-dual --revolutions 0.01 -o {d}/r001.arrows",
                 f"acquire --rig sjtu-dual --revolutions 2.2 --interval 0.01 -o {d}/r2.arrows",
                 f"points {table1} -o {d}/points.arrows",
-                f"fit-rbf {d}/points.arrows -q -o {d}/model.arrows"):
+                f"fit-rbf {d}/points.arrows -q -o {d}/model.arrows",
+                f"make-rom {d}/model.arrows --bits 10 -q -o {d}/table.mif",
+                f"acquire --rig ciomp-23bit --mode closure -q -o {d}/closure.arrows"):
         timed(f"{ENC} {cmd} --force")
 
 

@@ -187,8 +187,8 @@ def value_checks(kind: str, schema: Any) -> list[tuple[str, float, float, str, b
 
 def check_batch(batch: Any, checks: list[tuple[str, float, float, str, bool]],
                 source: str) -> None:
-    """Every bounded column of a record batch finite and in its range (DataError naming the
-    column, the value and the range)."""
+    """Every bounded column of a record batch (or a table) finite and in its range
+    (DataError naming the column, the value and the range)."""
     import numpy as np
 
     from enctools.errors import DataError
@@ -197,7 +197,9 @@ def check_batch(batch: Any, checks: list[tuple[str, float, float, str, bool]],
         col = batch.column(name)
         if col.null_count or len(col) == 0:
             continue
-        a = col.to_numpy(zero_copy_only=False)
+        chunks = getattr(col, "chunks", [col])  # a table's column: its batches' arrays
+        a = (chunks[0].to_numpy(zero_copy_only=False) if len(chunks) == 1 else
+             np.concatenate([c.to_numpy(zero_copy_only=False) for c in chunks]))
         if a.dtype.kind not in "iuf":
             continue
         if nan_ok and a.dtype.kind == "f":

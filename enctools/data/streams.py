@@ -119,7 +119,8 @@ class InputStream:
         return self.header.meta
 
     def batches(self, read_ahead: int = READ_AHEAD,
-                prepare: Callable[[pa.RecordBatch], Any] | None = None) -> Iterator[Any]:
+                prepare: Callable[[pa.RecordBatch], Any] | None = None,
+                checked: bool = True) -> Iterator[Any]:
         """The record batches, in order (a truncated stream raises DataError).
 
         ``read_ahead`` batches are read on a thread while the caller works on the
@@ -128,8 +129,9 @@ class InputStream:
         0 reads in the caller's thread. ``prepare``: a function of a batch run on
         that thread too (per-batch numpy work, which also releases the GIL); its
         results are yielded instead of the batches, its exceptions raised here.
+        ``checked=False``: the values are left unchecked (:meth:`read_all` checks the table).
         """
-        checks = limits.value_checks(self.kind, self.schema)
+        checks = limits.value_checks(self.kind, self.schema) if checked else []
         items: Iterator[Any] = (self._checked(_clean(b), checks) for b in self._batches)
         if prepare is not None:
             items = map(prepare, items)
@@ -146,8 +148,9 @@ class InputStream:
                 self._closer = None  # the reader is still in a read: leave the file to it
             self.close()
 
-    def _checked(self, batch: pa.RecordBatch, checks: list) -> pa.RecordBatch:
-        """The batch, once its values are within :data:`~enctools.data.limits.VALUE_RANGES`."""
+    def _checked(self, batch: Any, checks: list) -> Any:
+        """The batch (or table), once its values are within
+        :data:`~enctools.data.limits.VALUE_RANGES`."""
         if checks:
             limits.check_batch(batch, checks, self.source)
         return batch
@@ -164,12 +167,14 @@ class InputStream:
             self.close()
             raise self._too_many(self.claimed_rows, limit)
         batches, rows = [], 0
-        for b in self.batches():
+        # no read-ahead, values checked once: a step run has hundreds of one-position batches
+        for b in self.batches(read_ahead=0, checked=False):
             rows += b.num_rows
             if rows > limit:
                 raise self._too_many(rows, limit, "over ")
             batches.append(b)
-        return pa.Table.from_batches(batches, schema=self.schema)
+        table = pa.Table.from_batches(batches, schema=self.schema)
+        return self._checked(table, limits.value_checks(self.kind, self.schema))
 
     def _too_many(self, rows: int, limit: int, over: str = "") -> DataError:
         return DataError(f"{self.source}: {over}{rows} rows; this command holds at most "

@@ -199,9 +199,10 @@ def is_plain(path: str, fmt: str) -> bool:
 
 def _arrow_schema(path: str, fmt: str) -> Any:
     import pyarrow as pa
-    import pyarrow.parquet as pq
 
-    if fmt == "parquet":
+    if fmt == "parquet":  # pyarrow.parquet only then: it imports the file systems and ssl
+        import pyarrow.parquet as pq
+
         return pq.read_schema(path)
     with pa.OSFile(path) as f:
         reader = pa.ipc.open_file(f) if fmt == "arrow" else pa.ipc.open_stream(f)
@@ -239,9 +240,10 @@ def _check_rows(path: str, rows: int) -> None:
 
 def _arrow_columns(path: str, fmt: str) -> dict[str, np.ndarray]:
     import pyarrow as pa
-    import pyarrow.parquet as pq
 
     if fmt == "parquet":
+        import pyarrow.parquet as pq
+
         _check_rows(path, pq.ParquetFile(path).metadata.num_rows)
         table = pq.read_table(path, use_threads=False)
     else:

@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from enctools.data.statistics import Figures
 from enctools.errors import UsageError
-from enctools.report.summary import Report
 from enctools.report.vdi3441 import AXIS_FIGURES
+
+if TYPE_CHECKING:  # a report's sections load its inputs' rigs: not needed by enc correct
+    from enctools.report.summary import Report
 
 ISO_FIGURES = ("A", "R", "E", "B", "M", "A_up", "A_down", "R_up", "R_down", "E_up", "E_down")
 #: the figures of each standard a threshold may name, by option
