@@ -255,7 +255,7 @@ def command_startup(out: Path, repeat: int,
         if name in TINY_RUNS:
             args = TINY_RUNS[name].format(d=d, table1=table1)
             shells["tiny"] = f"{ENC} {args} > /dev/null"  # timed as the references: no GNU time
-            if before is not None:
+            if before is not None and _has_command(before, name):
                 shells["tiny before"] = with_env(before, shells["tiny"])
         t = interleaved(shells, repeat)
         cpu = {k: v[1] for k, v in t.items()}
@@ -274,6 +274,12 @@ def command_startup(out: Path, repeat: int,
         rows[name] = row
     shutil.rmtree(d)
     return rows
+
+
+def _has_command(before: dict[str, str], name: str) -> bool:
+    """Whether the ``before`` code has the command (enc closure, say, came later)."""
+    return subprocess.run(["bash", "-c", with_env(before, f"{ENC} {name} --help")],
+                          capture_output=True).returncode == 0
 
 
 #: make-rom rows: every memory table format (its file's extension), at 2^20 and 2^26 entries,
