@@ -75,3 +75,17 @@ def figures_or_nan(values: np.ndarray) -> Figures:
         nan = float("nan")
         return Figures(int(x.size), nan, nan, nan, nan, nan, nan, nan)
     return curve_figures(x)
+
+
+def median(values: np.ndarray) -> float:
+    """The median of the values, in their unit (NaN when there is none or a NaN among
+    them): ``np.median``'s value without its import of ``numpy.ma``, a tenth of importing
+    numpy and pyarrow, which a command on a small input pays at start."""
+    x = np.asarray(values, dtype=np.float64).ravel()
+    if x.size == 0 or np.isnan(x).any():
+        return float("nan")
+    k = x.size // 2
+    if x.size % 2:
+        return float(np.partition(x, k)[k])
+    part = np.partition(x, (k - 1, k))
+    return float((part[k - 1] + part[k]) / 2.0)

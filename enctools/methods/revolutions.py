@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from enctools.data.readings import HeadInfo
+from enctools.data.statistics import median
 from enctools.errors import DataError
 from enctools.methods.harmonics import bin_average, revolution_coefficients
 from enctools.units import TWO_PI
@@ -489,7 +490,7 @@ def warn_stroboscopic(rev: Revolution, spec: ChannelSpec, band: int) -> None:
     for ppr, names in by_period.items():
         leak, n, m = aliased_interpolation(rev, ppr, band)
         if leak > limit:
-            periods = abs(float(np.median(np.diff(rev.u)))) * ppr / TWO_PI
+            periods = abs(median(np.diff(rev.u))) * ppr / TWO_PI
             bad.append(f"{', '.join(names)} ({periods:.4f} signal periods per sample: "
                        f"harmonic {m} of the period lands at n = {n} with {leak:.2f} "
                        f"of its amplitude)")

@@ -25,6 +25,7 @@ import pyarrow as pa
 
 from enctools.data.readings import HeadInfo, head_angle, head_info, signal_step
 from enctools.data.schemas import columns_with_role
+from enctools.data.statistics import median
 from enctools.errors import DataError
 from enctools.methods.interp.bank import FitBank
 from enctools.methods.interp.curve import Curve, harmonics_meta
@@ -131,7 +132,7 @@ def _stroboscopic(batch: pa.RecordBatch, schema: pa.Schema, names: Sequence[str]
     seen = [head_info(schema, n) for n in names if n in schema.names]
     if reference.head is not None:
         seen.append(reference.head)
-    return dict(stroboscopic_heads(float(np.median(d)), tuple(seen)))
+    return dict(stroboscopic_heads(median(d), tuple(seen)))
 
 
 def _plan(schema: pa.Schema, names: list[str], settings: Settings, reference: Reference,
