@@ -516,3 +516,26 @@ def test_full_history_disk_is_one_line_not_ok(tmp_path, full_tmpfs):
         assert b"ok" not in r.stdout
         assert not [f.name for f in hist.rglob(".*")]
     assert read_history(full_tmpfs / "h").runs == 0
+
+
+@pytest.mark.slow
+def test_a_night_does_not_import_pandas(tmp_path):
+    """pyarrow asks whether every array it builds is a pandas object, importing pandas to
+    answer when it is installed (the test extra installs it): a night keeps it out as enc
+    does. Imported, it cost start-up, and a SIGTERM landing inside its import left a
+    half-made module that the clean-up then failed on (exit 2, not 143)."""
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    code = textwrap.dedent(f"""
+        import runpy, sys
+        sys.argv = ["enc-nightly", "--rig", "ciomp-23bit", "--history", {str(hist)!r},
+                    "--calibration", {str(cal)!r}, "--campaign", {csv_campaign(1)!r}]
+        try:
+            runpy.run_module("enctools.cli.nightly", run_name="__main__")
+        except SystemExit as exc:
+            print("exit", exc.code, "pandas" in sys.modules)
+        """)
+    env = dict(os.environ, PATH=f"{ROOT / 'bin'}{os.pathsep}{os.environ['PATH']}")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                       cwd=tmp_path)
+    assert r.stdout.split()[-3:] == ["exit", "0", "False"], r.stderr

@@ -86,7 +86,10 @@ def main(argv: list[str] | None = None) -> None:
         with command.make_context(PROG, list(args)) as ctx:
             command.invoke(ctx)
 
-    code = runner.run(invoke, debug=os.environ.get("ENC_DEBUG", "") not in ("", "0"))
+    from enctools.cli.tuning import without_pandas
+
+    with without_pandas():  # as in enc: pyarrow would import pandas to ask about each array
+        code = runner.run(invoke, debug=os.environ.get("ENC_DEBUG", "") not in ("", "0"))
     try:  # a full disk under a redirected stdout fails here: one line, not a traceback
         sys.stdout.flush()
     except OSError as exc:
