@@ -71,7 +71,7 @@ class Series:
     @property
     def periodic(self) -> bool:
         """True when every frequency is an integer (the series repeats every turn)."""
-        return bool(np.all(self.freq == np.round(self.freq)))
+        return bool(np.all(self._integer))
 
     def __call__(self, x: np.ndarray | float) -> np.ndarray:
         """Evaluate at angles ``x`` [rad] (any shape).
@@ -114,7 +114,7 @@ class Series:
         ``synchronous``: True keeps integer frequencies, False the others.
         """
         mask = np.ones(self.freq.shape, dtype=bool)
-        integer = self.freq == np.round(self.freq)
+        integer = self._integer
         if keep is not None:
             mask &= np.isin(self.freq, np.asarray(keep, dtype=np.float64))
         if n_max is not None:

@@ -38,7 +38,6 @@ def put_bytes(lines: np.ndarray, col: int, text: bytes) -> None:
         text, col = text[size:], col + size
 
 
-
 class Gather:
     """Buffers written to a file in order, in as few system calls as ``os.writev`` allows:
     the same bytes written several times are one buffer listed several times. Every write
