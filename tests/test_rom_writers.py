@@ -188,6 +188,24 @@ def test_csv_spans_run_by_run_and_block_by_block(monkeypatch):
     assert runs == [10_000, 100_000]
 
 
+@pytest.mark.parametrize("fmt", ("coe", "mem"))
+def test_word_lines_span_by_span(fmt, monkeypatch):
+    """COE and MEM take a table a span at a time: a span of seldom changing values as its
+    runs' repeated text (a run crossing spans, runs longer than the repeated text), a span of
+    many values a block at a time, spans of each kind after the other and a short last one;
+    every word width's lines the same as the plain formatter's."""
+    monkeypatch.setattr(writers, "SPAN", 30_000)
+    monkeypatch.setattr(writers, "RUN_LINES", 1000)
+    rng = np.random.default_rng(11)
+    for width in (5, 16, 24):
+        hi = 1 << (width - 1)
+        smooth = np.repeat(rng.integers(-hi, hi, 7), [1, 4000, 9999, 2, 11_000, 5, 4993])
+        rough = rng.integers(-hi, hi, 30_000)
+        values = np.concatenate([smooth, smooth[::-1], rough, smooth, rough[:7001]])
+        dtype = np.int16 if width <= 16 else np.int32
+        _check(fmt, values.astype(dtype), rf.Target(fmt, width))
+
+
 def test_csv_of_wide_words_holding_small_values():
     """A 24-bit table whose values fit 16 bits is written from the table of 16-bit values'
     text, one whose values do not by Arrow's writer: the same lines either way."""

@@ -17,6 +17,10 @@ LINES = 1 << 16
 #: is written whole rather than line by line (a correction table's values change slowly:
 #: the table-1 model's 1680 times in 2^26 addresses, runs of some 40 000 lines)
 RUNS = 64
+#: lines of a span whose changes of value are found at once (CSV, COE, MEM)
+SPAN = 1 << 20
+#: the mean run [line] from which a span is written run by run
+LONG_RUN = 1024
 
 
 def column(lines: np.ndarray, col: int, dtype: type | np.dtype, shape: tuple[int, ...] = (),

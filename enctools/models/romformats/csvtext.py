@@ -2,11 +2,12 @@
 
 Values of up to 16 bits are written from a table of every 16-bit value's text (a comma,
 the sign, the digits, the newline: one 8-byte word each) and the five low digits of every
-address, which repeat every 100 000 lines. The table is taken a span of :data:`SPAN`
-lines at a time: a span whose values change seldom (a correction table's, the table-1
-model's 1680 times in 2^26 addresses) is written run by run, each run's lines as a
-fixed-width table whose value and address digits are stored whole into a reused buffer
-(:meth:`CsvLines.runs`); a span of many values is written a block of
+address, which repeat every 100 000 lines. The table is taken a span of
+:data:`~.blocks.SPAN` lines at a time: a span whose values change seldom (a correction
+table's, the table-1 model's 1680 times in 2^26 addresses) is written run by run, each
+run's lines as a fixed-width table in a reused buffer: its value words stored once for
+the run, then each line's first word (the address, and the value's first bytes) in one
+pass (:meth:`CsvLines.runs`); a span of many values is written a block of
 :data:`~.blocks.LINES` lines at a time (:meth:`CsvLines.text`). Wider values are written
 by Arrow's CSV writer. Every buffer goes out through :class:`~.blocks.Gather`: page-aligned
 ``os.writev`` calls.
@@ -21,15 +22,19 @@ from typing import IO
 
 import numpy as np
 
-from enctools.models.romformats.blocks import LINES, RUNS, Gather, column, put_bytes
+from enctools.models.romformats.blocks import (
+    LINES,
+    LONG_RUN,
+    RUNS,
+    SPAN,
+    Gather,
+    column,
+    put_bytes,
+)
 from enctools.models.romformats.words import Target, twos
 
 #: CSV lines whose address has fewer than 5 digits are formatted one by one
 CSV_SHORT = 10_000
-#: lines of a span whose changes of value are found at once
-SPAN = 1 << 20
-#: the mean run [line] from which a span is written run by run
-LONG_RUN = 1024
 
 
 def write_csv(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
@@ -78,6 +83,10 @@ def _fit_16_bits(values: np.ndarray) -> bool:
     return bool(values.min() >= -(1 << 15) and values.max() < 1 << 15)
 
 
+#: :attr:`CsvLines.held` when the buffer holds no run's values
+_NOTHING = (-1, 0, 0)
+
+
 class CsvLines:
     """CSV lines ``address,value``, addresses of ``d`` digits (5..9) and values of 16-bit
     words, whose text and newline come from a table of every 16-bit value: run by run
@@ -102,6 +111,7 @@ class CsvLines:
         self.word = np.empty(LINES, np.uint64)  # and its addresses
         self.out = np.empty(LINES * (d + 8) + self.ROW, np.uint8)
         self.rows: np.ndarray | None = None
+        self.held = _NOTHING  # the value word, line width and lines whose values out holds
         # the five low digits of every address where a line's first word holds them all
         self.five = (_last_five()[2] << np.uint64(8 * (d - 5))
                      if d <= 8 and sys.byteorder == "little" else None)
@@ -117,15 +127,39 @@ class CsvLines:
             a, end = start + k0, start + k1
             while a < end:
                 n = min(end - a, 100_000 - a % 100_000, LINES)
-                cv = self.fill[:n]
-                cv.fill(word)  # again each time: :meth:`_addresses` shifts it
-                np.copyto(self._words_at(d, np.uint64, n, width), cv)
-                self._addresses(0, n, width, a, cv)
+                if self.five is not None:
+                    self._one_value(self.five, n, width, word, a)
+                else:
+                    cv = self.fill[:n]
+                    cv.fill(word)
+                    np.copyto(self._words_at(d, np.uint64, n, width), cv)
+                    self._addresses(0, n, width, a, cv)
                 yield self.out[:n * width].data
                 a += n
 
+    def _one_value(self, five: np.ndarray, n: int, width: int, word: np.uint64,
+                   first: int) -> None:
+        """``n`` lines of ``width`` bytes of the value ``word`` (its comma, text and newline),
+        addresses from ``first`` in the 100 000 of one prefix, where a line's first word
+        holds its whole address (``five``: :attr:`five`). The value words are stored where
+        the buffer does not hold them already (from the lines before, of the same run), then each
+        line's first word in one pass: the address's five low digits OR its prefix and the
+        value's first bytes."""
+        d, held = self.d, self.held[2] if self.held[:2] == (int(word), width) else 0
+        if held < n:
+            cv = self.fill[:n - held]
+            cv.fill(word)
+            np.copyto(self._words_at(d + held * width, np.uint64, n - held, width), cv)
+            self.held = (int(word), width, n)
+        q, r = divmod(first, 100_000)
+        head = int.from_bytes(str(q).encode(), "little") if q else 0
+        if d < 8:
+            head |= (int(word) << 8 * d) & 0xFFFF_FFFF_FFFF_FFFF
+        np.add(five[r:r + n], np.uint64(head), out=self._words_at(0, np.uint64, n, width))
+
     def text(self, start: int, values: np.ndarray) -> memoryview:
         """The block's lines, addresses from ``start``, as one buffer."""
+        self.held = _NOTHING
         u = twos(values, 16)
         first = -start % 100_000  # the address digits above the last five change there
         fives = np.arange(first if first else 100_000, u.size, 100_000)

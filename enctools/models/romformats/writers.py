@@ -6,8 +6,9 @@ every block) are set once: a block then costs a table look-up of digits per 16 b
 its words, stored straight into the lines, and one write. A correction table's values
 change slowly, so most blocks are a few runs of equal words, each stored whole; a block
 of many runs is written line by line, with the same bytes. COE and MEM, whose lines hold
-no address, write a run as one buffer of a few thousand of its lines listed as often as
-the run needs in one ``os.writev``; Intel HEX repeats a run of equal records' digits as
+no address, find the runs of a span of :data:`~.blocks.SPAN` lines at once and write a run
+as one buffer of a few thousand of its lines listed as often as the run needs in one
+``os.writev``; Intel HEX repeats a run of equal records' digits as
 one 32-byte item. Every write but a file's last ends at a whole page of the file
 (:class:`~.blocks.Gather`). Nothing grows with the table but the table (and a binary
 image or Intel HEX in the other byte order than the table's: its image). CSV is written
@@ -24,7 +25,15 @@ from typing import IO
 
 import numpy as np
 
-from enctools.models.romformats.blocks import LINES, RUNS, Gather, column, put_bytes
+from enctools.models.romformats.blocks import (
+    LINES,
+    LONG_RUN,
+    RUNS,
+    SPAN,
+    Gather,
+    column,
+    put_bytes,
+)
 from enctools.models.romformats.words import Target, comment_text, twos
 
 _HEX = np.frombuffer(b"0123456789ABCDEF", dtype=np.uint8)
@@ -226,30 +235,32 @@ RUN_LINES = 4096
 
 
 def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes) -> None:
-    """The table's words in hex, each followed by ``end``, a block of :data:`LINES` at a
-    time: a block of few runs of equal words as each run's text, :data:`RUN_LINES` lines of
-    it formatted once and written as often as the run needs (``os.writev``); a block of
-    many runs formatted line by line into one buffer."""
+    """The table's words in hex, each followed by ``end``, a span of :data:`SPAN` lines at
+    a time: a span whose values change seldom as each run's text, :data:`RUN_LINES` lines
+    of it formatted once and written as often as the run needs (``os.writev``), a span of
+    many runs a block of :data:`LINES` at a time, formatted line by line into one buffer."""
     if not values.size:
         return
     width = t.hex_digits + len(end)
     lines = np.empty((min(values.size, LINES), width), np.uint8)
     put_bytes(lines, t.hex_digits, end)
     out = Gather(f)
-    for start in range(0, values.size, LINES):
-        u = twos(values[start:start + LINES], t.width)
+    for start in range(0, values.size, SPAN):
+        u = twos(values[start:start + SPAN], t.width)
         cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
-        if cuts.size < RUNS:  # a table's values change slowly
+        if cuts.size * LONG_RUN < u.size:  # a table's values change slowly
             for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
                 line = f"{int(u[k0]):0{t.hex_digits}X}".encode() + end
                 text = line * min(k1 - k0, RUN_LINES)
                 whole, part = divmod(k1 - k0, RUN_LINES)
                 out.add(*[text] * whole, memoryview(text)[:part * width])
-        else:
-            block = lines[:u.size]
-            _put_hex(block, 0, u, t.hex_digits)
+            out.flush()
+            continue
+        for k in range(0, u.size, LINES):
+            block = lines[:min(LINES, u.size - k)]
+            _put_hex(block, 0, u[k:k + LINES], t.hex_digits)
             out.add(block.reshape(-1).data)
-        out.flush()  # before the block's buffer is used again
+            out.flush()  # before the block's buffer is used again
     out.flush(whole=True)
 
 
