@@ -172,3 +172,28 @@ def test_metadata_as_before(short_run: tuple) -> None:
     np.testing.assert_array_equal(b.column("X").to_numpy(),
                                   batches[0].column("H2").to_numpy()
                                   + batches[0].column("H4").to_numpy())
+
+
+def test_summed_counts_overflow_and_nulls() -> None:
+    """A batch's summed counts: Python's exact sums; a sum beyond int64 refused; a row with
+    a null count null (the rows of a column holding nulls are left to the reader)."""
+    import pyarrow as pa
+
+    from enctools.errors import DataError
+    from enctools.methods.heads import AverageGroup, average_column
+
+    big = (1 << 62) - 5
+    group = AverageGroup("H", ("H1", "H2", "H3"))
+    rows = {"H1": [0, -7, big, -big], "H2": [3, 2, big - 10, -big], "H3": [-1, 1 << 40, -big, 9]}
+    got = average_column(pa.record_batch({k: pa.array(v, pa.int64()) for k, v in rows.items()}),
+                         group)
+    assert got.type == pa.int64()
+    assert got.to_pylist() == [sum(r) for r in zip(*rows.values(), strict=True)]
+    over = {"H1": [0, big], "H2": [0, big], "H3": [0, 11]}  # 2^63 + 1
+    with pytest.raises(DataError, match="overflow int64"):
+        average_column(pa.record_batch({k: pa.array(v, pa.int64()) for k, v in over.items()}),
+                       group)
+    nulls = {"H1": [1, None, 3], "H2": [10, 20, None], "H3": [100, 200, 300]}
+    got = average_column(pa.record_batch({k: pa.array(v, pa.int64()) for k, v in nulls.items()}),
+                         group)
+    assert got.to_pylist() == [111, None, None]

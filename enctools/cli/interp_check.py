@@ -170,23 +170,23 @@ def _summary(c: Any) -> dict[str, Any]:
 
 
 def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) -> tuple[Any, Any]:
-    import numpy as np
     import pyarrow as pa
 
+    from enctools.data.arrays import arrow_array
     from enctools.data.columns import uncertainty_name
     from enctools.data.schemas import make_field
 
     fields = [make_field("theta", pa.float64(), "rad")]
-    arrays = [pa.array(curves[0].phase)]
+    arrays = [arrow_array(curves[0].phase, pa.float64())]
     for c in curves:
         fields.append(make_field(c.name, pa.float64(), "arcsec", "deviation",
                                  encoder=c.encoder, periods_per_rev=c.periods_per_rev,
                                  period_arcsec=repr(c.meta["period_arcsec"]),
                                  reference=c.meta.get("reference", "")))
-        arrays.append(pa.array(np.asarray(c.error, dtype=np.float64)))
+        arrays.append(arrow_array(c.error, pa.float64()))
         fields.append(make_field(uncertainty_name(c.name), pa.float64(), "arcsec",
                                  "uncertainty", of=c.name))
-        arrays.append(pa.array(np.asarray(c.u, dtype=np.float64)))
+        arrays.append(arrow_array(c.u, pa.float64()))
     schema = pa.schema(fields)
     periods = {c.meta["period_arcsec"] for c in curves}
     meta: dict[str, Any] = {

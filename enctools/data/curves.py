@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.arrays import arrow_array
 from enctools.data.columns import uncertainty_name
 from enctools.data.schemas import make_field
 
@@ -36,10 +37,10 @@ def uncertainty(of: str, values: np.ndarray, unit: str = "arcsec") -> Column:
 def deviations_table(theta: np.ndarray, columns: list[Column]) -> pa.Table:
     """A deviations table: ``theta`` [rad] then one column per curve."""
     fields = [make_field("theta", pa.float64(), "rad")]
-    arrays = [pa.array(np.asarray(theta, dtype=np.float64))]
+    arrays = [arrow_array(theta, pa.float64())]
     for c in columns:
         fields.append(make_field(c.name, pa.float64(), c.unit, c.role, **c.meta))
-        arrays.append(pa.array(np.asarray(c.values, dtype=np.float64)))
+        arrays.append(arrow_array(c.values, pa.float64()))
     return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
 
 

@@ -26,7 +26,6 @@ import os
 import re
 import socket
 import stat
-import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -138,6 +137,8 @@ def _host() -> str:
 def new_temporary(path: str | Path) -> tuple[int, str]:
     """A new empty temporary file beside ``path`` (after removing stale ones): its open
     descriptor and its name ``.NAME.PID@HOST.RANDOM.tmp``."""
+    import tempfile  # here: a command that writes to a pipe never needs it
+
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     remove_stale_temporaries(p)

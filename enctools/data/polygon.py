@@ -18,7 +18,6 @@ title may name its unit (``error [urad]``). Comment lines ``# key: value`` give
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import re
@@ -113,6 +112,8 @@ def read_certificate(path: str, faces: int | None = None, unit: str | None = Non
     missing or repeated faces, a value that is not a finite number, an uncertainty not
     > 0, errors that do not sum to about zero where the reference is the mean.
     """
+    import hashlib  # here: most commands that import this module read no certificate
+
     size = _size(path)
     if size > limits.MAX_CSV_BYTES:
         msg = f"{path}: a certificate of {size} bytes; at most {limits.MAX_CSV_BYTES} are read"

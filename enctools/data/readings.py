@@ -26,13 +26,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, TypeAlias
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 import pyarrow as pa
 
 from enctools.data.limits import FIELD_RANGES
-from enctools.data.rig import Encoder, Head
 from enctools.data.schemas import (
     check_field_values,
     columns_with_role,
@@ -42,6 +41,9 @@ from enctools.data.schemas import (
 )
 from enctools.errors import DataError
 from enctools.units import DEG, TWO_PI
+
+if TYPE_CHECKING:  # the rig module is imported where a stream's rig is read back
+    from enctools.data.rig import Encoder
 
 #: head counts [count] as numpy or Arrow
 Counts: TypeAlias = np.ndarray | pa.Array | pa.ChunkedArray
@@ -233,6 +235,8 @@ def rig_measure_heads(meta: Mapping[str, Any], encoder: str) -> tuple[str, ...]:
 
 
 def _encoder(d: Mapping[str, Any]) -> Encoder:
+    from enctools.data.rig import Encoder, Head
+
     name = str(d.get("name", ""))
 
     def num(obj: Mapping[str, Any], key: str, kind: type, default: Any, where: str = "") -> Any:

@@ -6,15 +6,16 @@ error that names it, its table and the closest known key.
 
 Units in rig files: angles in degrees, lengths in mm, errors in arcsec, radial
 motion in nm, times in s, speeds in r/min.
+
+The TOML parser and the package's resources are imported by the functions that read a
+rig file: a command that reads the rig a stream records needs the classes alone.
 """
 
 from __future__ import annotations
 
 import difflib
 import math
-import tomllib
 from dataclasses import asdict, dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -154,12 +155,16 @@ class Rig:
 
 def bundled_rigs() -> list[str]:
     """Names of the rigs shipped with enctools."""
+    from importlib import resources
+
     root = resources.files("enctools") / "rigs"
     return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
 
 
 def load_rig(name_or_path: str) -> Rig:
     """Load a rig by bundled name or TOML path; raises DataError with one line."""
+    import tomllib
+
     text, source = rig_text(name_or_path)
     try:
         raw = tomllib.loads(text)
@@ -186,6 +191,8 @@ def rig_text(name_or_path: str) -> tuple[str, str]:
     looks_like_path = name_or_path.endswith(".toml") or "/" in name_or_path or p.exists()
     if looks_like_path:
         return _read_rig_file(p, name_or_path), str(p)
+    from importlib import resources
+
     names = bundled_rigs()
     if name_or_path not in names:
         hint = difflib.get_close_matches(name_or_path, names, n=1)

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.arrays import arrow_array
 from enctools.data.readings import head_field
 from enctools.data.rig import Rig
 from enctools.data.riglimits import ARRAYS, RANGES, fmt
@@ -346,9 +347,9 @@ def _batch(block: dict[str, np.ndarray], schema: pa.Schema,
     cols = []
     for f in schema:
         if f.name in unwrap:
-            cols.append(pa.array(unwrap[f.name][0](block[f.name]), pa.int64()))
+            cols.append(arrow_array(unwrap[f.name][0](block[f.name]), pa.int64()))
         else:
-            cols.append(pa.array(np.asarray(block[f.name], dtype=np.float64)))
+            cols.append(arrow_array(np.asarray(block[f.name], dtype=np.float64)))
     return pa.RecordBatch.from_arrays(cols, schema=schema)
 
 

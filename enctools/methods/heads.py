@@ -196,13 +196,34 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
 
 
 def average_column(batch: pa.RecordBatch, group: AverageGroup) -> pa.Array:
-    """The summed counts of the group's heads in one batch (int64, exact)."""
+    """The summed counts [count] of the group's heads in one batch (int64, exact: a sum
+    beyond int64 is refused). Summed in numpy; columns with nulls (null sums) by Arrow."""
+    from enctools.data.arrays import arrow_array
+    from enctools.errors import DataError
+
+    columns = [batch.column(h) for h in group.heads]
+    if any(c.null_count for c in columns):
+        return _average_column_with_nulls(columns)
+    total = columns[0].to_numpy().astype(np.int64, copy=False)
+    for c in columns[1:]:
+        add = c.to_numpy().astype(np.int64, copy=False)
+        s = total + add
+        if np.any((total ^ s) & (add ^ s) < 0):  # a sum of two of one sign has the other
+            msg = f"--average {group.name}: the heads' summed counts overflow int64"
+            raise DataError(msg)
+        total = s
+    return arrow_array(total)
+
+
+def _average_column_with_nulls(columns: list[pa.Array]) -> pa.Array:
+    """:func:`average_column` of head columns, some with nulls: a row's sum is null where
+    any of its counts is (Arrow's checked sum)."""
     import pyarrow as pa
     import pyarrow.compute as pc
 
-    total = batch.column(group.heads[0])
-    for h in group.heads[1:]:
-        total = pc.add_checked(total, batch.column(h))
+    total = columns[0]
+    for c in columns[1:]:
+        total = pc.add_checked(total, c)
     return total if total.type == pa.int64() else total.cast(pa.int64())
 
 

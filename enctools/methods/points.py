@@ -31,6 +31,7 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data import limits
+from enctools.data.arrays import arrow_array
 from enctools.data.columns import column, declared_unit
 from enctools.data.polygon import Certificate, read_certificate
 from enctools.data.readings import head_angle, head_info, measuring_heads
@@ -78,11 +79,12 @@ class Points:
         run, reference [rad]."""
         schema = points_schema()
         rad = factor("deg", "rad")
-        return pa.table([pa.array(self.position_deg * rad, pa.float64()),
-                         pa.array(self.deviation, pa.float64()),
-                         pa.array(self.direction, pa.int8()),
-                         pa.array(self.run, pa.int32()),
-                         pa.array(self.reference() * rad, pa.float64())], schema=schema)
+        return pa.table([arrow_array(self.position_deg * rad, pa.float64()),
+                         arrow_array(self.deviation, pa.float64()),
+                         arrow_array(self.direction, pa.int8()),
+                         arrow_array(self.run, pa.int32()),
+                         arrow_array(self.reference() * rad, pa.float64())],
+                        schema=schema)
 
 
 def points_schema() -> pa.Schema:

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.arrays import arrow_array
 from enctools.data.columns import column, declared_unit
 from enctools.data.limits import MAX_MODEL_TERMS
 from enctools.data.schemas import column_with_role, make_field
@@ -52,8 +53,8 @@ def model_table(model: RBFModel | FourierModel) -> tuple[pa.Table, dict[str, Any
     if isinstance(model, RBFModel):
         schema = pa.schema([make_field("centre", pa.float64(), "rad"),
                             make_field("weight", pa.float64(), "arcsec")])
-        table = pa.table([pa.array(model.centres_deg * factor("deg", "rad")),
-                          pa.array(model.weights)], schema=schema)
+        table = pa.table([arrow_array(model.centres_deg * factor("deg", "rad")),
+                          arrow_array(model.weights)], schema=schema)
         meta = {"kernel": "rbf", "spread_deg": float(model.spread_deg),
                 "spread_factor": SPREAD_FACTOR, "distance": "chord on the unit circle",
                 "bias_arcsec": float(model.bias), "units": int(model.centres_deg.size),
@@ -62,8 +63,8 @@ def model_table(model: RBFModel | FourierModel) -> tuple[pa.Table, dict[str, Any
         schema = pa.schema([make_field("n", pa.int32(), ""),
                             make_field("weight", pa.float64(), "arcsec"),
                             make_field("weight_sin", pa.float64(), "arcsec")])
-        table = pa.table([pa.array(model.n.astype(np.int32)), pa.array(model.a),
-                          pa.array(model.b)], schema=schema)
+        table = pa.table([arrow_array(model.n.astype(np.int32)), arrow_array(model.a),
+                          arrow_array(model.b)], schema=schema)
         meta = {"kernel": "fourier", "harmonics": int(model.n.max()),
                 "undetermined": list(model.undetermined),
                 "ill_conditioned": list(model.ill_conditioned),

@@ -28,6 +28,7 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data import streams
+from enctools.data.arrays import arrow_array
 from enctools.data.header import Header, history_line
 from enctools.data.schemas import make_field
 from enctools.errors import DataError, UsageError
@@ -422,8 +423,8 @@ def write_stream(output: str | None, header: Header, values: np.ndarray, force: 
     with streams.OutputStream(output, header, force, fmt) as out:
         for start in range(0, values.size, rows):
             v = values[start:start + rows]
-            out.write(pa.record_batch([pa.array(np.arange(start, start + v.size)),
-                                       pa.array(v.astype(np.int64))], schema=schema))
+            out.write(pa.record_batch([arrow_array(np.arange(start, start + v.size)),
+                                       arrow_array(v.astype(np.int64))], schema=schema))
 
 
 def control_source(header: Header, table: pa.Table, source: str, curve: str | None

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
-import tomllib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -83,6 +82,8 @@ def load_certificate(path: str | None, number: str | None = None) -> Certificate
         return None
     cert = Certificate(source=f"certificate file {path}" if path else "--certificate-number")
     if path is not None:
+        import tomllib  # here: a report without a certificate file never parses TOML
+
         text = read_small_text(path, f"certificate file {path}", MAX_BYTES,
                                "a certificate file")
         try:

@@ -246,7 +246,7 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
     direction, run = (table.column(c).to_numpy(zero_copy_only=False)
                       if c in table.schema.names else None for c in ("direction", "run"))
     _points_into(s, pos, dev, direction, opts, "deviation", "points", run=run)
-    _budget_into(s, one_approach=all(x is None or np.unique(x).size == 1
+    _budget_into(s, one_approach=all(x is None or len(set(x.tolist())) == 1
                                      for x in (direction, run)))
 
 
@@ -340,7 +340,7 @@ def _means_and_u(a_index: np.ndarray, a_dir: np.ndarray, a_x: np.ndarray, m: int
     """Per target: the mean over the directions of each direction's mean x_ij [arcsec]
     (x_i of ISO 230-2 with both), its standard uncertainty (type A: s / sqrt(n) of each
     direction, combined) [arcsec], and the fewest approaches of a target and direction."""
-    means, var, n_min, dirs = np.zeros(m), np.zeros(m), np.inf, np.unique(a_dir)
+    means, var, n_min, dirs = np.zeros(m), np.zeros(m), np.inf, sorted(set(a_dir.tolist()))
     for sign in dirs:
         sel = a_dir == sign
         n = np.bincount(a_index[sel], minlength=m)
@@ -353,7 +353,7 @@ def _means_and_u(a_index: np.ndarray, a_dir: np.ndarray, a_x: np.ndarray, m: int
         with np.errstate(invalid="ignore", divide="ignore"):
             var += np.bincount(a_index[sel], weights=resid ** 2, minlength=m) / (n - 1) / n
         means += mean
-    return means / dirs.size, np.sqrt(var) / dirs.size, int(n_min)
+    return means / len(dirs), np.sqrt(var) / len(dirs), int(n_min)
 
 
 # --------------------------------------------------------------- model and rom

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.data.arrays import arrow_array
 from enctools.data.readings import HeadInfo, head_info
 from enctools.data.schemas import columns_with_role, field_meta
 from enctools.errors import DataError
@@ -144,5 +145,5 @@ def corrected_readings(table: pa.Table, fits: dict[str, dict[str, Any]],
     """The readings ``table`` with the counts of heads ``names`` from :func:`corrected_counts`."""
     for name, counts in corrected_counts(table, fits, names).items():
         idx = table.schema.get_field_index(name)
-        table = table.set_column(idx, table.schema.field(name), pa.array(counts, pa.int64()))
+        table = table.set_column(idx, table.schema.field(name), arrow_array(counts, pa.int64()))
     return table
