@@ -142,9 +142,9 @@ class CsvLines:
         """``n`` lines of ``width`` bytes of the value ``word`` (its comma, text and newline),
         addresses from ``first`` in the 100 000 of one prefix, where a line's first word
         holds its whole address (``five``: :attr:`five`). The value words are stored where
-        the buffer does not hold them already (from the lines before, of the same run), then each
-        line's first word in one pass: the address's five low digits OR its prefix and the
-        value's first bytes."""
+        the buffer does not hold them already (from the lines before, of the same run),
+        then each line's first word in one pass: the sum of the address's five low digits,
+        its prefix and the value's first bytes, whose bytes do not overlap."""
         d, held = self.d, self.held[2] if self.held[:2] == (int(word), width) else 0
         if held < n:
             cv = self.fill[:n - held]
