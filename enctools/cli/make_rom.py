@@ -112,7 +112,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
     _check_applies(target)
     if target in romformats.CONTROLS:
-        _control(input, curve, romformats.controls.ControlSettings(
+        from enctools.models.romformats.controls import ControlSettings
+
+        _control(input, curve, ControlSettings(
             target, bidirectional, sign, comp_type, points, max_entries, axis,
             detection_unit, ref_point), str(path), force, verify, as_json, unit)
         return

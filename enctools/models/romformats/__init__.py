@@ -36,17 +36,19 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
 
 from enctools.data.files import format_by_extension, read_bytes
 from enctools.errors import CheckFailed, DataError, UsageError
-from enctools.models.romformats import controlreaders, controlwriters, csvtext, readers, writers
-from enctools.models.romformats.controls import CONTROLS, ControlTable
-from enctools.models.romformats.points import PointTable
+from enctools.models.romformats import csvtext, readers, writers
 from enctools.models.romformats.words import Target
 from enctools.units import ARCSEC, DEG
+
+if TYPE_CHECKING:  # the controls' modules are imported for a control's table alone
+    from enctools.models.romformats.controls import ControlTable
+    from enctools.models.romformats.points import PointTable
 
 FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens")
 EXTENSIONS = {".bin": "bin", ".rom": "bin", ".hex": "ihex", ".ihex": "ihex", ".mif": "mif",
@@ -55,6 +57,8 @@ EXTENSIONS = {".bin": "bin", ".rom": "bin", ".hex": "ihex", ".ihex": "ihex", ".m
               ".lis": "twincat", ".com": "heidenhain"}
 #: formats whose table is a controller's interpolation-point table (0 and 360 deg)
 CONTROLLER = ("acs", "siemens")
+#: the motion controls whose point tables :mod:`.controls` builds
+CONTROLS = ("linuxcnc", "twincat", "fanuc", "heidenhain")
 #: entries a target accepts at most (None: only the 2^28 of enctools.models.rom).
 #: Intel HEX: 32-bit byte addresses. The controllers' tables are sized by the
 #: control's configuration (SINUMERIK MD38000 MM_ENC_COMP_MAX_POINTS, the ACS
@@ -189,6 +193,7 @@ def write_control_table(path: str, table: ControlTable, force: bool = False,
                         comment: list[str] | None = None) -> int:
     """Write a control's table to ``path`` atomically; returns the file's size [byte]."""
     from enctools.data.files import check_new_file, write_atomic
+    from enctools.models.romformats import controlwriters
 
     check_new_file(path, force)
     writer = controlwriters.WRITERS[table.settings.target]
@@ -219,6 +224,8 @@ def read_control_table(path: str, target: str, sign: str | None = None, comp_typ
 def _read_control(data: bytes, path: str, target: str, sign: str | None, comp_type: int,
                   axis: str | None, array_name: str) -> PointTable:
     """:func:`read_control_table` of the file's bytes, by the target's reader."""
+    from enctools.models.romformats import controlreaders
+
     if target == "linuxcnc":
         return controlreaders.read_linuxcnc(data, path, comp_type)
     if target == "twincat":

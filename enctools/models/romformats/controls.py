@@ -23,8 +23,6 @@ import numpy as np
 from enctools.errors import DataError, UsageError
 from enctools.units import factor
 
-#: targets of the point-table path
-CONTROLS = ("linuxcnc", "twincat", "fanuc", "heidenhain")
 ARCSEC_PER_DEG = factor("deg", "arcsec")
 #: grid spacings that are whole multiples of 0.0001 deg divide this many steps of a turn
 TURN_STEPS = 3_600_000
@@ -76,7 +74,7 @@ SPECS = {
 class ControlSettings:
     """How a control's table is built, checked when made.
 
-    target : one of :data:`CONTROLS`.
+    target : one of :data:`~enctools.models.romformats.CONTROLS`.
     bidirectional : separate forward and backward tables (the source must have both
         directions; the control must take them).
     sign : ``correction`` or ``error`` where the control's convention is not confirmed
