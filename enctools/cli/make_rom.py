@@ -112,11 +112,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
     _check_applies(target)
     if target in romformats.CONTROLS:
-        from enctools.models.romformats.controls import ControlSettings
-
-        _control(input, curve, ControlSettings(
-            target, bidirectional, sign, comp_type, points, max_entries, axis,
-            detection_unit, ref_point), str(path), force, verify, as_json, unit)
+        _control(input, curve, _control_settings(target, bidirectional, sign, comp_type, points,
+                                                 max_entries, axis, detection_unit, ref_point),
+                 str(path), force, verify, as_json, unit)
         return
     kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
     src = streams.open_input(input, kinds)
@@ -173,6 +171,14 @@ def _check_applies(target: str) -> None:
                 ", ".join(targets)
             msg = f"{opt} applies to {some}, not --target {target}"
             raise UsageError(msg)
+
+
+def _control_settings(*options: Any) -> ControlSettings:
+    """A control's table settings from the options (the controls' modules imported here:
+    a memory table never needs them)."""
+    from enctools.models.romformats.controls import ControlSettings
+
+    return ControlSettings(*options)
 
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
