@@ -182,18 +182,18 @@ def test_summed_counts_overflow_and_nulls() -> None:
     from enctools.errors import DataError
     from enctools.methods.heads import AverageGroup, average_column
 
+    def batch(rows: dict) -> pa.RecordBatch:
+        return pa.record_batch([pa.array(v, pa.int64()) for v in rows.values()], names=list(rows))
+
     big = (1 << 62) - 5
     group = AverageGroup("H", ("H1", "H2", "H3"))
     rows = {"H1": [0, -7, big, -big], "H2": [3, 2, big - 10, -big], "H3": [-1, 1 << 40, -big, 9]}
-    got = average_column(pa.record_batch({k: pa.array(v, pa.int64()) for k, v in rows.items()}),
-                         group)
+    got = average_column(batch(rows), group)
     assert got.type == pa.int64()
     assert got.to_pylist() == [sum(r) for r in zip(*rows.values(), strict=True)]
     over = {"H1": [0, big], "H2": [0, big], "H3": [0, 11]}  # 2^63 + 1
     with pytest.raises(DataError, match="overflow int64"):
-        average_column(pa.record_batch({k: pa.array(v, pa.int64()) for k, v in over.items()}),
-                       group)
+        average_column(batch(over), group)
     nulls = {"H1": [1, None, 3], "H2": [10, 20, None], "H3": [100, 200, 300]}
-    got = average_column(pa.record_batch({k: pa.array(v, pa.int64()) for k, v in nulls.items()}),
-                         group)
+    got = average_column(batch(nulls), group)
     assert got.to_pylist() == [111, None, None]

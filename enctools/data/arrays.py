@@ -29,7 +29,11 @@ def arrow_array(values: Any, type: pa.DataType | None = None) -> pa.Array:
     if type is not None:
         if not (pa.types.is_integer(type) or pa.types.is_floating(type)):
             return pa.array(a, type)
-        dtype = np.dtype(type.to_pandas_dtype())
+        # the numpy dtype of the Arrow type (not type.to_pandas_dtype(): pyarrow < 15
+        # imports pandas for it)
+        kind = "f" if pa.types.is_floating(type) else (
+            "u" if pa.types.is_unsigned_integer(type) else "i")
+        dtype = np.dtype(f"{kind}{type.bit_width // 8}")
         if not np.can_cast(a.dtype, dtype, "safe"):
             return pa.array(a, type)
         a = a.astype(dtype, copy=False)
