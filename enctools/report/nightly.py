@@ -396,7 +396,11 @@ def _write_html(path: str, s: Settings, rep: Report, d: Drift, status: str) -> N
     rep.history = read_history(s.history_dir, rig=s.rig)
     rep.settings["thresholds"] = {"drift tolerance": s.tolerance}
     fails = [] if status == "ok" else [f"drift {d.max_abs:.3f} arcsec > {s.tolerance:g}"]
-    page = to_html(rep, fails, f"Nightly recheck — {s.rig}").encode()
+    # SIGTERM's Interrupted raised inside matplotlib's drawing may be swallowed there and
+    # leave a half-drawn figure that fails later ("Invalid bounding box", exit 2 for 143):
+    # a signal is acted on once the page is made
+    with signals_held():
+        page = to_html(rep, fails, f"Nightly recheck — {s.rig}").encode()
     with _naming(path):
         write_atomic(path, page)
 
