@@ -151,19 +151,26 @@ def test_csv_runs_of_every_address_length(d):
     """Run by run (a table's seldom changing values): runs longer than a buffer of lines,
     runs crossing the 100 000 lines whose address digits above the last five agree, runs
     of one line, values of every length, starting on and off those 100 000 lines and
-    ending at the last address of d digits."""
+    ending at the last address of d digits; in the writer's buffer and in one of some
+    100 kB, which fills every few thousand lines, runs cut across its writes."""
     rng = np.random.default_rng(d)
     lengths = [1, 70_000, 3, 31_000, 1, 2, 40_000] if d > 5 else [1, 30_000, 3, 21_000, 1, 2, 9]
     words = [-32768, 7, -5, 32767, 0, -1, 123]
     v = np.repeat(np.array(words, np.int16), lengths)
-    lines = csvtext.CsvLines(d)
     room = 9 * 10 ** (d - 1) - v.size  # the addresses of d digits
-    for start in (10 ** (d - 1), 10 ** (d - 1) + int(rng.integers(1, room)), 10 ** d - v.size):
-        u = v.view(np.uint16)
-        change = np.flatnonzero(u[1:] != u[:-1]) + 1
-        got = b"".join(bytes(p) for p in lines.runs(start, u, change))
-        want = "".join(f"{start + k},{x}\n" for k, x in enumerate(v.tolist())).encode()
-        assert got == want, (d, start)
+    for size in (None, 100_003):
+        lines = csvtext.CsvLines(d)
+        if size is not None:
+            lines.out = np.empty(size, np.uint8)
+        for start in (10 ** (d - 1), 10 ** (d - 1) + int(rng.integers(1, room)),
+                      10 ** d - v.size):
+            u = v.view(np.uint16)
+            change = np.flatnonzero(u[1:] != u[:-1]) + 1
+            parts = [bytes(p) for p in lines.runs(start, u, change)]
+            want = "".join(f"{start + k},{x}\n" for k, x in enumerate(v.tolist())).encode()
+            assert b"".join(parts) == want, (d, start, size)
+            assert max(map(len, parts)) <= lines.out.size - 8
+            assert len(parts) >= (len(want) // lines.out.size + 1 if size else 1)
 
 
 def test_csv_spans_run_by_run_and_block_by_block(monkeypatch):

@@ -286,6 +286,24 @@ def test_fourier_series_at_any_angle_exact_to_rounding(band: int) -> None:
     assert np.max(np.abs(turns - want)) <= 1e-12 * scale  # x + 2 pi k rounds at its size
 
 
+@pytest.mark.parametrize("band", [1, 100, 800])
+def test_fourier_series_slope_from_its_table(band: int) -> None:
+    """The slope read off the value's table (what Newton's method divides by when u is
+    mapped to theta) against the direct sum of the derivative's series: to rounding."""
+    from enctools.methods.harmonics import FourierSeries
+
+    rng = np.random.default_rng(band + 7)
+    n = np.arange(band + 1)
+    c = (rng.normal(size=band + 1) + 1j * rng.normal(size=band + 1)) * np.exp(-n / 40)
+    x = rng.uniform(-2 * np.pi, 4 * np.pi, 3000)
+    want = series(c * (1j * n), x)
+    scale = float(np.sum((1 + n) ** 2 * np.abs(c)))
+    got = FourierSeries(c, slope=True).slope()(x)
+    assert np.max(np.abs(got - want)) <= 1e-13 * scale
+    alone = FourierSeries(c * (1j * n))(x)  # the derivative's own table: the same to rounding
+    assert np.max(np.abs(got - alone)) <= 1e-13 * scale
+
+
 def _man_block(text: str, after: str) -> str:
     """The first .EX/.EE block after the line holding ``after``, as the reader types it."""
     tail = text[text.index(after):]

@@ -230,8 +230,16 @@ def rig_measure_heads(meta: Mapping[str, Any], encoder: str) -> tuple[str, ...]:
 
     Empty when the rig is not recorded or has no such encoder.
     """
-    enc = rig_encoder(meta, encoder)
-    return enc.measure_heads if enc is not None else ()
+    rig = meta.get("rig")
+    if not isinstance(rig, Mapping):
+        return ()
+    try:  # the one list, read as _encoder reads it: no rig module, no other encoder built
+        return next((tuple(str(h) for h in e.get("measure_heads") or ())
+                     for e in rig.get("encoders") or ()
+                     if isinstance(e, Mapping) and str(e.get("name", "")) == encoder), ())
+    except (TypeError, ValueError) as exc:
+        msg = f"the rig description in the metadata has a malformed encoder: {exc}"
+        raise DataError(msg) from None
 
 
 def _encoder(d: Mapping[str, Any]) -> Encoder:

@@ -96,8 +96,8 @@ def invert(error: np.ndarray) -> np.ndarray:
     where they reach it.
     """
     err = np.asarray(error, dtype=np.complex128)
-    n = np.arange(err.size)
-    value, slope = FourierSeries(err), FourierSeries(err * (1j * n))
+    value = FourierSeries(err, slope=True)
+    slope = value.slope()
     floor = 4 * np.finfo(np.float64).eps * float(np.abs(err).sum())  # rounding of delta [rad]
     points = max(_MAP_POINTS[0], 1 << math.ceil(math.log2(16 * err.size)))
     while True:

@@ -259,10 +259,11 @@ class FourierSeries:
     ``Q_pb = Re sum_n c_n (i n h)^p / p! exp(i n x_b)``, made once by P inverse FFTs
     (the transpose of :func:`_binned_sums`). P is the fewest terms whose first neglected
     one, ``sum_n |c_n| (n h)^P / P!``, is below the unit roundoff of ``sum_n |c_n|``.
-    Each evaluation is then P gathers and multiply-adds per angle.
+    Each evaluation is then P gathers and multiply-adds per angle. ``slope``: one term
+    more, for :meth:`slope`.
     """
 
-    def __init__(self, coefficients: np.ndarray) -> None:
+    def __init__(self, coefficients: np.ndarray, slope: bool = False) -> None:
         c = np.asarray(coefficients, dtype=np.complex128)
         band = c.size - 1
         self.bins = 1 << max(6, math.ceil(math.log2(64 * (band + 1))))
@@ -274,12 +275,23 @@ class FourierSeries:
         while float(term.sum()) > _TAYLOR_EPS * total and terms < 40:
             term = term * (n * h) / terms
             terms += 1
+        terms += slope
         shift = c * np.exp(1j * n * h)
         table = np.empty((terms, self.bins))
         for p in range(terms):
             table[p] = synthesize(shift, self.bins)
             shift = shift * (1j * n * h) / (p + 1)
         self.table = table
+
+    def slope(self) -> FourierSeries:
+        """The curve's derivative [its unit/rad] from the same table: in bin b the
+        derivative of ``sum_p Q_pb s^p`` is ``sum_p (p + 1) / h Q_(p+1)b s^p`` (exact to
+        rounding when made with ``slope=True``)."""
+        out = object.__new__(FourierSeries)
+        out.bins = self.bins
+        p = np.arange(1, self.table.shape[0], dtype=np.float64)
+        out.table = self.table[1:] * (p * (self.bins / math.pi))[:, None]
+        return out
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """The curve at angles ``x`` [rad] (any shape), in the coefficients' unit."""

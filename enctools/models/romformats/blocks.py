@@ -21,6 +21,9 @@ RUNS = 64
 SPAN = 1 << 20
 #: the mean run [line] from which a span is written run by run
 LONG_RUN = 1024
+#: bytes of text gathered for one write (the kernel takes 256 KiB writes at some 1.5 times
+#: the CPU of 1 MiB or larger ones)
+WRITE = 1 << 22
 
 
 def column(lines: np.ndarray, col: int, dtype: type | np.dtype, shape: tuple[int, ...] = (),

@@ -5,12 +5,12 @@ the sign, the digits, the newline: one 8-byte word each) and the five low digits
 address, which repeat every 100 000 lines. The table is taken a span of
 :data:`~.blocks.SPAN` lines at a time: a span whose values change seldom (a correction
 table's, the table-1 model's 1680 times in 2^26 addresses) is written run by run, each
-run's lines as a fixed-width table in a reused buffer: its value words stored once for
-the run, then each line's first word (the address, and the value's first bytes) in one
-pass (:meth:`CsvLines.runs`); a span of many values is written a block of
-:data:`~.blocks.LINES` lines at a time (:meth:`CsvLines.text`). Wider values are written
-by Arrow's CSV writer. Every buffer goes out through :class:`~.blocks.Gather`: page-aligned
-``os.writev`` calls.
+run's lines a fixed-width table after the run before in a reused buffer of
+:data:`~.blocks.WRITE` bytes: its value words, then each line's first word (the address,
+and the value's first bytes) in one pass (:meth:`CsvLines.runs`); a span of many values is
+written a block of :data:`~.blocks.LINES` lines at a time (:meth:`CsvLines.text`). Wider
+values are written by Arrow's CSV writer. Every buffer goes out through
+:class:`~.blocks.Gather`: page-aligned ``os.writev`` calls.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from enctools.models.romformats.blocks import (
     LONG_RUN,
     RUNS,
     SPAN,
+    WRITE,
     Gather,
     column,
     put_bytes,
@@ -83,10 +84,6 @@ def _fit_16_bits(values: np.ndarray) -> bool:
     return bool(values.min() >= -(1 << 15) and values.max() < 1 << 15)
 
 
-#: :attr:`CsvLines.held` when the buffer holds no run's values
-_NOTHING = (-1, 0, 0)
-
-
 class CsvLines:
     """CSV lines ``address,value``, addresses of ``d`` digits (5..9) and values of 16-bit
     words, whose text and newline come from a table of every 16-bit value: run by run
@@ -107,59 +104,56 @@ class CsvLines:
         self.d = d
         self.words, sizes = _decimal_table()
         self.sizes = sizes + d  # a line's length [byte]
-        self.fill = np.empty(LINES, np.uint64)  # a run's values, for a contiguous copy
-        self.word = np.empty(LINES, np.uint64)  # and its addresses
-        self.out = np.empty(LINES * (d + 8) + self.ROW, np.uint8)
+        self.fill = np.empty(100_000, np.uint64)  # a run's values, for a contiguous copy
+        self.word = np.empty(100_000, np.uint64)  # and its addresses
+        self.out = np.empty(max(WRITE, LINES * (d + 8) + self.ROW), np.uint8)
         self.rows: np.ndarray | None = None
-        self.held = _NOTHING  # the value word, line width and lines whose values out holds
         # the five low digits of every address where a line's first word holds them all
         self.five = (_last_five()[2] << np.uint64(8 * (d - 5))
                      if d <= 8 and sys.byteorder == "little" else None)
 
     def runs(self, start: int, u: np.ndarray, change: np.ndarray) -> Iterator[memoryview]:
         """The lines of the 16-bit words ``u``, addresses from ``start``, a run of one value
-        at a time (``change``: where each run but the first starts), cut where the address
-        digits above the last five change and into at most :data:`~.blocks.LINES` lines:
-        the same buffer every time (written before the next is taken)."""
-        d, bounds = self.d, [0, *change.tolist(), u.size]
+        at a time (``change``: where each run but the first starts), each cut where the
+        address digits above the last five change: runs written one after another into a
+        buffer of :data:`~.blocks.WRITE` bytes, handed out when the next would not fit (the
+        same buffer every time: written before the next is taken)."""
+        bounds, at = [0, *change.tolist(), u.size], 0
+        room = self.out.size - 8  # the last value word reaches past its line
         for k0, k1 in pairwise(bounds):
             word, width = self.words[u[k0]], int(self.sizes[u[k0]])
             a, end = start + k0, start + k1
             while a < end:
-                n = min(end - a, 100_000 - a % 100_000, LINES)
-                if self.five is not None:
-                    self._one_value(self.five, n, width, word, a)
-                else:
-                    cv = self.fill[:n]
-                    cv.fill(word)
-                    np.copyto(self._words_at(d, np.uint64, n, width), cv)
-                    self._addresses(0, n, width, a, cv)
-                yield self.out[:n * width].data
+                n = min(end - a, 100_000 - a % 100_000, room // width)
+                if at + n * width > room:
+                    yield self.out[:at].data
+                    at = 0
+                self._one_value(at, n, width, word, a)
+                at += n * width
                 a += n
+        if at:
+            yield self.out[:at].data
 
-    def _one_value(self, five: np.ndarray, n: int, width: int, word: np.uint64,
-                   first: int) -> None:
-        """``n`` lines of ``width`` bytes of the value ``word`` (its comma, text and newline),
-        addresses from ``first`` in the 100 000 of one prefix, where a line's first word
-        holds its whole address (``five``: :attr:`five`). The value words are stored where
-        the buffer does not hold them already (from the lines before, of the same run),
-        then each line's first word in one pass: the sum of the address's five low digits,
-        its prefix and the value's first bytes, whose bytes do not overlap."""
-        d, held = self.d, self.held[2] if self.held[:2] == (int(word), width) else 0
-        if held < n:
-            cv = self.fill[:n - held]
-            cv.fill(word)
-            np.copyto(self._words_at(d + held * width, np.uint64, n - held, width), cv)
-            self.held = (int(word), width, n)
+    def _one_value(self, at: int, n: int, width: int, word: np.uint64, first: int) -> None:
+        """``n`` lines of ``width`` bytes of the value ``word`` (its comma, text and newline)
+        from byte ``at`` of the text, addresses from ``first`` in the 100 000 of one
+        prefix: the value words first (each reaching into the next line), then each line's
+        first word. Of up to 8 digits: the sum of the address's five low digits, its prefix
+        and the value's first bytes, whose bytes do not overlap."""
+        d, cv = self.d, self.fill[:n]
+        cv.fill(word)
+        np.copyto(self._words_at(at + d, np.uint64, n, width), cv)
+        if self.five is None:
+            self._addresses(at, n, width, first, cv)
+            return
         q, r = divmod(first, 100_000)
         head = int.from_bytes(str(q).encode(), "little") if q else 0
         if d < 8:
             head |= (int(word) << 8 * d) & 0xFFFF_FFFF_FFFF_FFFF
-        np.add(five[r:r + n], np.uint64(head), out=self._words_at(0, np.uint64, n, width))
+        np.add(self.five[r:r + n], np.uint64(head), out=self._words_at(at, np.uint64, n, width))
 
     def text(self, start: int, values: np.ndarray) -> memoryview:
         """The block's lines, addresses from ``start``, as one buffer."""
-        self.held = _NOTHING
         u = twos(values, 16)
         first = -start % 100_000  # the address digits above the last five change there
         fives = np.arange(first if first else 100_000, u.size, 100_000)

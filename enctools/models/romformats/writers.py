@@ -119,6 +119,7 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
     # a record's checksum is this, less its data bytes' sum (mod 256)
     checks = ((-(IHEX_DATA + (addr >> 8) + (addr & 0xFF))) & 0xFF).astype(np.uint8)
     out = Gather(f)
+    check_text: dict[int, np.ndarray] = {}
     for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
         data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
         for j in range(data.shape[0]):
@@ -126,19 +127,21 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
             block[j, :IHEX_EXT] = np.frombuffer(
                 _ihex_record(4, 0, [(at >> 24) & 0xFF, (at >> 16) & 0xFF]), np.uint8)
         text = block[:data.shape[0]]
-        _ihex_data(text, data, checks)
+        _ihex_data(text, data, checks, check_text)
         out.add(text.reshape(-1).data)
         out.flush()  # before the block is used again
     out.flush(whole=True)
 
 
-def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
+def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray,
+               check_text: dict[int, np.ndarray]) -> None:
     """The data digits and checksums of the records of whole segments ``data`` (segments,
-    records, 16) uint8 into their text (segments, its bytes): the 32 digits of each run of
-    equal records, as a table's slowly changing values give, formatted once and repeated
-    as one 32-byte item, or every record's looked up 16 bits at a time; the checksums
-    looked up for every record at once. ``checks``: each record's checksum were its data
-    bytes all 0 (uint8)."""
+    records, 16) uint8 into their text (segments, its bytes): the 32 digits and the byte sum
+    of each run of equal records, as a table's slowly changing values give, found once and
+    stored into the run's lines as one 32-byte item and a row of the checksums' text; or
+    every record's looked up, 16 bits at a time. ``checks``: each record's checksum were its
+    data bytes all 0 (uint8); ``check_text``: the checksums' text of the records of a
+    segment whose data bytes all sum to the key (mod 256), uint16 words, filled as met."""
     segs, records, _ = data.shape
     flat = data.reshape(-1, IHEX_DATA)
     words = flat.view(np.uint64)
@@ -146,22 +149,31 @@ def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray) -> None:
     np.not_equal(words[1:, 0], words[:-1, 0], out=new[1:])
     new[1:] |= words[1:, 1] != words[:-1, 1]
     heads = np.flatnonzero(new)
+    digits = column(text, IHEX_EXT + 9, np.dtype(f"V{2 * IHEX_DATA}"), (records,), (IHEX_LINE,))
+    sums = column(text, IHEX_EXT + 9 + 2 * IHEX_DATA, np.uint16, (records,), (IHEX_LINE,))
     if heads.size >= RUNS * segs:
         np.take(_hex_tables()[0], data.view("<u2"), mode="clip",
                 out=column(text, IHEX_EXT + 9, np.uint32, (records, IHEX_DATA // 2),
                             (IHEX_LINE, 4)))
-        sums = _byte_sums(flat).astype(np.uint8)
-    else:
-        item = np.dtype(f"V{2 * IHEX_DATA}")
-        lengths = np.diff(heads, append=flat.shape[0])
-        digits = np.frombuffer(flat[heads].tobytes().hex().upper().encode(), item)
-        np.copyto(column(text, IHEX_EXT + 9, item, (records,), (IHEX_LINE,)),
-                  np.repeat(digits, lengths).reshape(segs, records))
-        sums = np.repeat(_byte_sums(flat[heads]).astype(np.uint8), lengths)
-    # looked up into a contiguous array, then stored (4x a look-up into the lines)
-    index = np.subtract(checks, sums.reshape(segs, records), dtype=np.uint8)
-    np.copyto(column(text, IHEX_EXT + 9 + 2 * IHEX_DATA, np.uint16, (records,), (IHEX_LINE,)),
-              np.take(_hex_tables()[2], index))
+        # looked up into a contiguous array, then stored (4x a look-up into the lines)
+        index = np.subtract(checks, _byte_sums(flat).astype(np.uint8).reshape(segs, records),
+                            dtype=np.uint8)
+        np.copyto(sums, np.take(_hex_tables()[2], index))
+        return
+    run_digits = np.frombuffer(flat[heads].tobytes().hex().upper().encode(), digits.dtype)
+    ends = [*heads[1:].tolist(), flat.shape[0]]
+    for k, e, item, total in zip(heads.tolist(), ends, run_digits,
+                                 _byte_sums(flat[heads]).tolist(), strict=True):
+        row = check_text.get(total & 0xFF)
+        if row is None:
+            row = np.take(_hex_tables()[2], np.subtract(checks, total & 0xFF, dtype=np.uint8))
+            check_text[total & 0xFF] = row
+        while k < e:  # the run's records in each segment it reaches
+            seg, a = divmod(k, records)
+            b = min(e - seg * records, records)
+            digits[seg, a:b] = item
+            sums[seg, a:b] = row[a:b]
+            k = seg * records + b
 
 
 def _byte_sums(data: np.ndarray) -> np.ndarray:
