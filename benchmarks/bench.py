@@ -353,10 +353,11 @@ def _make_rom_row(d: Path, bits: int, fmt: str, ext: str, image: Path, repeat: i
     if before is not None:
         shells |= {"before": with_env(before, run.replace(f"-o {target}", f"-o {kept}")),
                    "writer before": with_env(before, writer + str(kept))}
-    # dd three times a turn: on a shared machine its CPU seconds for the same bytes vary
-    # most (the kernel's reclaim of cached pages falls on whoever asks for them)
+    # dd and the writer three times a turn: on a shared machine the kernel's CPU seconds
+    # for the same bytes written into the page cache vary by 2-5x from run to run, for
+    # both alike (a run that finds fresh pages slow to get): the best of nine each
     t = fresh_cpu(shells, {"after": target, "before": kept, "dd": dd_out}, repeat,
-                  printed=("writer", "writer before"), times={"dd": 3})
+                  printed=("writer", "writer before"), times={"dd": 3, "writer": 3})
     cpu_dd = t["dd"][1]
     row = {"entries": 1 << bits, "bits": bits, "format": ext, "bytes": size, "peak_mb": peak,
            "seconds": t["after"][0], "cpu_seconds": t["after"][1],
@@ -571,7 +572,7 @@ def main() -> None:
         "startup": startup(5),
         "runs": [],
     }
-    results["commands"] = command_startup(out, 5, before)
+    results["commands"] = command_startup(out, 7, before)
     done(results, out, "start-up")
     results["report"] = report_rows(out, 1 if args.quick else 3, before)
     done(results, out, "report")
