@@ -39,6 +39,10 @@ ENC = "import sys; sys.argv[0] = 'enc'; from enctools.cli.main import main; main
 RUNS = {
     "sweep, sjtu-dual (255 positions)": ["--rig", "sjtu-dual", "--mode", "sweep"],
     "steps, ciomp-23bit (24 positions)": ["--rig", "ciomp-23bit", "--mode", "steps"],
+    # a run as ISO 230-2 asks for: every position five times, approached from both sides
+    "steps, ciomp-23bit, 72 positions x 5 runs, both ways (720 positions)":
+        ["--rig", "ciomp-23bit", "--mode", "steps", "--count", "72", "--runs", "5",
+         "--bidirectional"],
     "closure, ciomp-23bit (576 positions)": ["--rig", "ciomp-23bit", "--mode", "closure"],
 }
 TINY = ["--rig", "sjtu-dual", "--revolutions", "0.0005"]

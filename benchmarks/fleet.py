@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 """A fleet's nightly history: the time to tabulate one rig's drift as the fleet grows.
 
-Builds the history dataset of 100 rigs x 365 nights (one Parquet file per night in the
-``rig=NAME/year=YYYY`` partitions that ``enc-nightly`` writes; written here at once by
-``pyarrow.dataset.write_dataset``, one row a file, without the fsync each night makes) in steps of 10, 30 and 100 rigs, and times at each step, in turn
-and the best of five:
+Builds the history dataset of 10, 30 and 100 rigs x 365 nights, each in a folder of its own
+(one Parquet file per night in the ``rig=NAME/year=YYYY`` partitions that ``enc-nightly``
+writes; written here at once by ``pyarrow.dataset.write_dataset``, one row a file, without
+the fsync each night makes), and times on each, the three fleets in turn (a machine busy
+for a while slows them alike) and the best of five:
 
 - one rig (``read_history(DIR, rig=...)`` and its table, as ``enc report --history DIR
   --rig NAME`` does), and the same since a date (the year before is pruned);
@@ -84,25 +85,22 @@ def add_rigs(root: Path, first: int, last: int, nights: int) -> None:
         existing_data_behavior="overwrite_or_ignore")
 
 
-def best(fn: Callable[[], object], repeat: int = 5) -> float:
-    """The least CPU time [s] of ``repeat`` calls of ``fn()``: this process's, its threads
-    and the children it waited for included (a machine shared with other work changes
-    the wall time far more)."""
+def cpu_seconds(fn: Callable[[], object]) -> float:
+    """The CPU time [s] of one call of ``fn()``: this process's, its threads and the
+    children it waited for included (a machine shared with other work changes the wall
+    time far more)."""
     def cpu() -> float:
         me, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
                                                      resource.RUSAGE_CHILDREN))
         return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
-    times = []
-    for _ in range(repeat):
-        t0 = cpu()
-        fn()
-        times.append(cpu() - t0)
-    return min(times)
+    t0 = cpu()
+    fn()
+    return cpu() - t0
 
 
-def measure(root: Path, rigs: int) -> dict[str, float]:
-    """The times [s] at one fleet size, for a rig in the middle of the fleet."""
+def jobs(root: Path, rigs: int) -> dict[str, Callable[[], object]]:
+    """What is timed at one fleet size, for a rig in the middle of the fleet."""
     rig = rig_name(rigs // 2)
     since = dt.datetime.fromisoformat(SINCE).replace(tzinfo=dt.UTC)
 
@@ -121,8 +119,21 @@ def measure(root: Path, rigs: int) -> dict[str, float]:
         subprocess.run([ENC, "report", "--history", str(root), "--rig", rig], check=True,
                        stdout=subprocess.DEVNULL)
 
-    return {"one rig": best(one_rig), "one rig since": best(one_rig_since),
-            "whole-dataset scan": best(whole_scan), "enc report --rig": best(command, 3)}
+    return {"one rig": one_rig, "one rig since": one_rig_since,
+            "whole-dataset scan": whole_scan, "enc report --rig": command}
+
+
+def measure(roots: dict[int, Path], repeat: int = 5) -> dict[str, dict[str, float]]:
+    """The least CPU time [s] of ``repeat`` turns of every job on every fleet, the fleets
+    in turn within each turn."""
+    todo = {n: jobs(root, n) for n, root in roots.items()}
+    best: dict[str, dict[str, float]] = {str(n): {} for n in roots}
+    for _ in range(repeat):
+        for n, each in todo.items():
+            for what, fn in each.items():
+                t = cpu_seconds(fn)
+                best[str(n)][what] = min(best[str(n)].get(what, t), t)
+    return best
 
 
 def markdown(res: dict) -> str:
@@ -148,18 +159,17 @@ def main() -> None:
     a = ap.parse_args()
     sizes = sorted(int(x) for x in a.rigs.split(","))
     out = Path(a.out)
-    root = out / "fleet-history"
-    shutil.rmtree(root, ignore_errors=True)
-    res: dict = {"rigs": sizes, "nights": a.nights, "times": {}, "build_s": {}}
-    built = 0
-    for n in sizes:
+    roots = {n: out / f"fleet-history-{n}" for n in sizes}
+    res: dict = {"rigs": sizes, "nights": a.nights, "build_s": {}}
+    for n, root in roots.items():
+        shutil.rmtree(root, ignore_errors=True)
         t0 = time.perf_counter()
-        add_rigs(root, built, n, a.nights)
+        add_rigs(root, 0, n, a.nights)
         res["build_s"][str(n)] = time.perf_counter() - t0
-        built = n
-        res["times"][str(n)] = measure(root, n)
-        print(f"fleet: {n} rigs measured", file=sys.stderr)
-    shutil.rmtree(root, ignore_errors=True)
+        print(f"fleet: {n} rigs built", file=sys.stderr)
+    res["times"] = measure(roots)
+    for root in roots.values():
+        shutil.rmtree(root, ignore_errors=True)
     (out / "fleet.json").write_text(json.dumps(res, indent=1))
     print(markdown(res))
 

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from enctools.data.rig import Encoder, Rig
+from enctools.data.rig import Encoder, Head, Rig
 from enctools.errors import UsageError
 from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session, carry_partial
 from enctools.hw.sim_truth import jitter_motion, make_truth
@@ -170,6 +170,9 @@ class VirtualRig(Session):
         self._radial = {e.name: {ax: _Tabulated(s) for ax, s in self._truth.radial[e.name].items()}
                         for e in rig.encoders}
         self._held = start
+        #: the truth at the held angle, by (encoder, angle, shape): see _held_truth
+        self._held_cache: dict[tuple[str, float, tuple[int, ...]], list] = {}
+        self._settled: dict[float, float] = {}  # see settled
         self.feedback = self._feedback_encoder()
         self.counter = SimCounter(self)
         self.axis = SimAxis(self)
@@ -218,15 +221,35 @@ class VirtualRig(Session):
                      ) -> tuple[np.ndarray, np.ndarray]:
         """(reading [rad] relative to the head's zero, signal phase [rad]) at true angles."""
         h = enc.heads[head_index]
+        reading, phase = self._head_truth(enc, h, theta, xy)
+        if noise and h.noise_arcsec > 0:
+            reading = reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, theta.shape)
+        return reading, phase
+
+    def _head_truth(self, enc: Encoder, h: Head, theta: np.ndarray,
+                    xy: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+        """(reading [rad] without noise, signal phase [rad]) of head ``h`` at true angles."""
         x, y = xy if xy is not None else self.radial_motion(enc, theta)
         radial = (x * np.sin(h.angle) - y * np.cos(h.angle)) * 1e-9 / enc.radius_m
         ideal = theta + self._eps[enc.name](theta + h.angle) * ARCSEC + radial
         phase = np.mod(ideal + h.angle, TWO_PI) * enc.periods_per_rev
         psi = _phase_error(self._truth.signals[h.name], phase) / enc.periods_per_rev
-        reading = ideal + psi
-        if noise and h.noise_arcsec > 0:
-            reading = reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, theta.shape)
-        return reading, phase
+        return ideal + psi, phase
+
+    def _held_truth(self, enc: Encoder, shape: tuple[int, ...]
+                    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """:meth:`_head_truth` of every head of ``enc`` at the held angle: worked out once
+        per angle held (a step run's readings at one position differ by their noise
+        alone); the same arrays every time, never changed by their users."""
+        key = (enc.name, self._held, shape)
+        got = self._held_cache.get(key)
+        if got is None:
+            theta = np.full(shape, self._held)
+            xy = self.radial_motion(enc, theta)
+            got = [self._head_truth(enc, h, theta, xy) for h in enc.heads]
+            self._held_cache = {k: v for k, v in self._held_cache.items()
+                                if k[1] == self._held} | {key: got}
+        return got
 
     def counts(self, enc: Encoder, head_index: int, reading: np.ndarray) -> np.ndarray:
         """Raw counter values [count] of a reading [rad]: quantised, zeroed near the head, wrapped
@@ -240,11 +263,18 @@ class VirtualRig(Session):
                held: bool = False) -> dict[str, np.ndarray]:
         """Raw counter values of every head (and signals) at times ``t``."""
         out: dict[str, np.ndarray] = {"t": t}
+        if not held:  # a block may tabulate the truth: what was held is worked out anew
+            self._held_cache, self._settled = {}, {}
         for enc in self.rig.encoders:
-            theta = np.full(t.shape, self._held) if held else self.angle(t - enc.latency_s)
-            xy = self.radial_motion(enc, theta)
-            for k, h in enumerate(enc.heads):
-                reading, phase = self.head_reading(enc, k, theta, xy=xy)
+            if held:
+                truth = self._held_truth(enc, t.shape)
+            else:
+                theta = self.angle(t - enc.latency_s)
+                xy = self.radial_motion(enc, theta)
+                truth = [self._head_truth(enc, h, theta, xy) for h in enc.heads]
+            for k, (h, (reading, phase)) in enumerate(zip(enc.heads, truth, strict=True)):
+                if h.noise_arcsec > 0:
+                    reading = reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, t.shape)
                 out[h.name] = self.counts(enc, k, reading)
                 if with_signals:
                     f = self._truth.signals[h.name]
@@ -258,6 +288,18 @@ class VirtualRig(Session):
                     out[f"{h.name}.cos"] = i
                     out[f"{h.name}.sin"] = q
         return out
+
+    def settled(self, angle: float) -> float:
+        """The true angle [rad] at which the feedback encoder reads ``angle`` [rad], as the
+        controller closes its loop on it (a fixed-point iteration: the error is tiny);
+        worked out once per angle (a run returns to its positions run after run)."""
+        theta = self._settled.get(angle)
+        if theta is None:
+            theta = angle
+            for _ in range(4):
+                theta = angle - self.feedback_error(theta)
+            self._settled[angle] = theta
+        return theta
 
     def feedback_error(self, theta: float) -> float:
         """Error [rad] of the feedback encoder's head average at true angle ``theta``."""
@@ -363,11 +405,7 @@ class SimAxis(Axis):
         sim = self.sim
         if not self.holding:
             self.stop()
-        # The controller closes the loop on the feedback encoder: find theta whose
-        # reading is the target (a fixed-point iteration: the error is tiny).
-        theta = angle
-        for _ in range(4):
-            theta = angle - sim.feedback_error(theta)
+        theta = sim.settled(angle)
         if self.position_noise > 0:
             theta += float(sim.rng.normal(0.0, self.position_noise))
         travel = abs(theta - sim._held)
