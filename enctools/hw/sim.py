@@ -116,6 +116,8 @@ class _Tabulated:
             out = self.slope[i]
             out *= u
             out += self.table[i]
+        if not self._amp.size:  # no other components: the sum above is the curve
+            return out
         if x.size * self._amp.size <= self._DIRECT_TERMS // 8:  # a few angles: no loop
             terms = np.multiply.outer(x, self.rest.freq)
             terms -= self._phase
@@ -173,6 +175,7 @@ class VirtualRig(Session):
         #: the truth at the held angle, by (encoder, angle, shape): see _held_truth
         self._held_cache: dict[tuple[str, float, tuple[int, ...]], list] = {}
         self._settled: dict[float, float] = {}  # see settled
+        self._measuring: list[int] | None = None  # the feedback encoder's measuring heads
         self.feedback = self._feedback_encoder()
         self.counter = SimCounter(self)
         self.axis = SimAxis(self)
@@ -304,7 +307,9 @@ class VirtualRig(Session):
     def feedback_error(self, theta: float) -> float:
         """Error [rad] of the feedback encoder's head average at true angle ``theta``."""
         enc = self.feedback
-        idx = [k for k, h in enumerate(enc.heads) if h.name in enc.measure_heads]
+        if self._measuring is None:
+            self._measuring = [k for k, h in enumerate(enc.heads) if h.name in enc.measure_heads]
+        idx = self._measuring
         th = np.array([theta])
         xy = self.radial_motion(enc, th)  # the same for every head
         return float(np.mean([self.head_reading(enc, k, th, noise=False, xy=xy)[0][0] - theta
