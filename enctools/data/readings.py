@@ -216,8 +216,11 @@ def rig_encoders(meta: Mapping[str, Any]) -> tuple[Encoder, ...]:
     try:
         return tuple(_encoder(e) for e in rig.get("encoders") or () if isinstance(e, Mapping))
     except (TypeError, ValueError) as exc:
-        msg = f"the rig description in the metadata has a malformed encoder: {exc}"
-        raise DataError(msg) from None
+        raise _malformed(exc) from None
+
+
+def _malformed(exc: Exception) -> DataError:
+    return DataError(f"the rig description in the metadata has a malformed encoder: {exc}")
 
 
 def rig_encoder(meta: Mapping[str, Any], name: str) -> Encoder | None:
@@ -238,8 +241,7 @@ def rig_measure_heads(meta: Mapping[str, Any], encoder: str) -> tuple[str, ...]:
                      for e in rig.get("encoders") or ()
                      if isinstance(e, Mapping) and str(e.get("name", "")) == encoder), ())
     except (TypeError, ValueError) as exc:
-        msg = f"the rig description in the metadata has a malformed encoder: {exc}"
-        raise DataError(msg) from None
+        raise _malformed(exc) from None
 
 
 def _encoder(d: Mapping[str, Any]) -> Encoder:

@@ -175,8 +175,9 @@ class VirtualRig(Session):
         #: the truth at the held angle, by (encoder, angle, shape): see _held_truth
         self._held_cache: dict[tuple[str, float, tuple[int, ...]], list] = {}
         self._settled: dict[float, float] = {}  # see settled
-        self._measuring: list[int] | None = None  # the feedback encoder's measuring heads
         self.feedback = self._feedback_encoder()
+        self._measuring = [k for k, h in enumerate(self.feedback.heads)
+                           if h.name in self.feedback.measure_heads]
         self.counter = SimCounter(self)
         self.axis = SimAxis(self)
         self.sensors: dict[str, Sensor] = {}
@@ -225,9 +226,13 @@ class VirtualRig(Session):
         """(reading [rad] relative to the head's zero, signal phase [rad]) at true angles."""
         h = enc.heads[head_index]
         reading, phase = self._head_truth(enc, h, theta, xy)
-        if noise and h.noise_arcsec > 0:
-            reading = reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, theta.shape)
-        return reading, phase
+        return (self._noisy(h, reading) if noise else reading), phase
+
+    def _noisy(self, h: Head, reading: np.ndarray) -> np.ndarray:
+        """``reading`` [rad] with head ``h``'s noise added (a new array when it has any)."""
+        if h.noise_arcsec > 0:
+            return reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, reading.shape)
+        return reading
 
     def _head_truth(self, enc: Encoder, h: Head, theta: np.ndarray,
                     xy: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
@@ -276,9 +281,7 @@ class VirtualRig(Session):
                 xy = self.radial_motion(enc, theta)
                 truth = [self._head_truth(enc, h, theta, xy) for h in enc.heads]
             for k, (h, (reading, phase)) in enumerate(zip(enc.heads, truth, strict=True)):
-                if h.noise_arcsec > 0:
-                    reading = reading + self.rng.normal(0.0, h.noise_arcsec * ARCSEC, t.shape)
-                out[h.name] = self.counts(enc, k, reading)
+                out[h.name] = self.counts(enc, k, self._noisy(h, reading))
                 if with_signals:
                     f = self._truth.signals[h.name]
                     amp = float(h.signal.get("amplitude_v", 0.5))
@@ -307,13 +310,10 @@ class VirtualRig(Session):
     def feedback_error(self, theta: float) -> float:
         """Error [rad] of the feedback encoder's head average at true angle ``theta``."""
         enc = self.feedback
-        if self._measuring is None:
-            self._measuring = [k for k, h in enumerate(enc.heads) if h.name in enc.measure_heads]
-        idx = self._measuring
         th = np.array([theta])
         xy = self.radial_motion(enc, th)  # the same for every head
         return float(np.mean([self.head_reading(enc, k, th, noise=False, xy=xy)[0][0] - theta
-                               for k in idx]))
+                               for k in self._measuring]))
 
     # -- session ---------------------------------------------------------------
     def channels(self) -> list[Channel]:

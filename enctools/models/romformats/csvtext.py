@@ -105,7 +105,7 @@ class CsvLines:
         self.words, sizes = _decimal_table()
         self.sizes = sizes + d  # a line's length [byte]
         self.fill = np.empty(100_000, np.uint64)  # a run's values, for a contiguous copy
-        self.word = np.empty(100_000, np.uint64)  # and its addresses
+        self.word = np.empty(LINES, np.uint64)  # a block's addresses
         self.out = np.empty(max(WRITE, LINES * (d + 8) + self.ROW), np.uint8)
         self.rows: np.ndarray | None = None
         # the five low digits of every address where a line's first word holds them all

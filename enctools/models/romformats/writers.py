@@ -164,10 +164,11 @@ def _ihex_data(text: np.ndarray, data: np.ndarray, checks: np.ndarray,
     ends = [*heads[1:].tolist(), flat.shape[0]]
     for k, e, item, total in zip(heads.tolist(), ends, run_digits,
                                  _byte_sums(flat[heads]).tolist(), strict=True):
-        row = check_text.get(total & 0xFF)
+        total &= 0xFF
+        row = check_text.get(total)
         if row is None:
-            row = np.take(_hex_tables()[2], np.subtract(checks, total & 0xFF, dtype=np.uint8))
-            check_text[total & 0xFF] = row
+            row = np.take(_hex_tables()[2], np.subtract(checks, total, dtype=np.uint8))
+            check_text[total] = row
         while k < e:  # the run's records in each segment it reaches
             seg, a = divmod(k, records)
             b = min(e - seg * records, records)
