@@ -77,8 +77,10 @@ def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: 
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Entry point of bin/enc-nightly: the prologue and the error handling of every command."""
+    """Entry point of bin/enc-nightly and of the installed enc-nightly: the prologue and the
+    error handling of every command."""
     args = sys.argv[1:] if argv is None else argv
+    _enc_on_path()
     runner.set_program(PROG)
     runner.prologue()
 
@@ -102,6 +104,14 @@ def main(argv: list[str] | None = None) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     sys.exit(code)
+
+
+def _enc_on_path() -> None:
+    """The campaign's ``enc`` is this environment's: its folder first on PATH (cron's PATH
+    holds neither a virtual environment's bin nor ~/.local/bin)."""
+    here = Path(sys.executable).parent
+    if (here / "enc").exists():
+        os.environ["PATH"] = os.pathsep.join([str(here), os.environ.get("PATH", "")])
 
 
 if __name__ == "__main__":
