@@ -144,3 +144,22 @@ def test_every_example_of_the_page_runs(page: str, tmp_path: Path) -> None:
     _stage(tmp_path)
     for n, b in enumerate(examples(page)):
         _run_block(b, tmp_path, n)
+
+
+def _without_opening_comment(text: str) -> list[str]:
+    lines = text.splitlines()
+    return lines[next(i for i, line in enumerate(lines) if not line.startswith("#")):]
+
+
+def test_the_example_rigs_are_the_bundled_rig_but_for_what_they_say():
+    """examples/rigs/*.toml: the bundled rig they name in their first comment, but for the
+    comment, the name and one setting (kept in step when the bundled rig changes)."""
+    for path in sorted((ROOT / "examples" / "rigs").glob("*.toml")):
+        body = _without_opening_comment(path.read_text())
+        named = re.search(r"\(enc rig show (\S+?)\)", path.read_text())
+        assert named, f"{path}: its comment names no bundled rig"
+        bundled = _without_opening_comment(
+            (ROOT / "enctools" / "rigs" / f"{named.group(1)}.toml").read_text())
+        assert len(body) == len(bundled), path
+        changed = [(a, b) for a, b in zip(bundled, body, strict=True) if a != b]
+        assert len(changed) == 2 and changed[0][1] == f'name = "{path.stem}"', (path, changed)
