@@ -198,7 +198,8 @@ def test_acs_sign_as_given(model_file, tmp_path):
     ("--bits 23 --width 4", "use --width"),               # corrections do not fit 4 bits
     ("--bits 32", "2^32 = 4294967296 entries"),   # 2^32 entries
     ("--bits 23 --target siemens --resolution 0.0001", "exceed the 5000"),
-    ("--bits 23 --address-bits 8 --target siemens", "give --resolution"),
+    ("--bits 23 --address-bits 8 --target siemens", "SINUMERIK: 1 / MD10210"),
+    ("--bits 23 --address-bits 8 --target acs --sign correction", "ACS: the axis' position"),
     ("--bits 23 --address-bits 8 --target siemens --resolution 0.0002", "power of ten"),
     ("--bits 23 --address-bits 8 --target acs --resolution 0.0001", "--sign correction"),
     ("--bits 23 --address-bits 8 --target siemens --resolution 0.0001 --sign error",

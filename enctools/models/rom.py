@@ -248,12 +248,17 @@ class Settings:
                 "endian": self.endian}
 
 
+#: where each control keeps the resolution --resolution asks for
+_RESOLUTION_SOURCE = {"siemens": "SINUMERIK: 1 / MD10210 $MN_INT_INCR_PER_DEG",
+                      "acs": "ACS: the axis' position step in degrees, as its user units give it"}
+
+
 def _check_resolution(target: str, resolution_deg: float | None) -> None:
     """Refuse (one line) a controller table without a resolution that is a power of ten
     in RESOLUTION_DEG: the control's step, which is not in any file enctools reads."""
     if resolution_deg is None:
         msg = (f"{target}: give --resolution, the control's resolution [deg] (a power of ten; "
-               "SINUMERIK: 1 / MD10210 $MN_INT_INCR_PER_DEG)")
+               f"{_RESOLUTION_SOURCE.get(target, 'the control')})")
         raise UsageError(msg)
     d = round(-math.log10(resolution_deg)) if resolution_deg > 0 else 0
     if not (RESOLUTION_DEG[0] <= resolution_deg <= RESOLUTION_DEG[1]
