@@ -127,6 +127,31 @@ def _text_attrs(obj: Any) -> dict[str, str]:
     return out
 
 
+def members(group: Any, source: str) -> dict[str, Any]:
+    """A group's members, each a hard link inside this file; refused (DataError) are a
+    link to another file or path (an external or soft link) and a dataset whose data is
+    not in this file (external storage, a virtual dataset): opening them would read
+    whatever file they name, a FIFO or another user's secrets among them."""
+    import h5py
+
+    out: dict[str, Any] = {}
+    for name in group:
+        link = group.get(name, getlink=True)
+        if not isinstance(link, h5py.HardLink):
+            kind = "external" if isinstance(link, h5py.ExternalLink) else "soft"
+            msg = (f"{source}: HDF5 member {name!r} is an {kind} link; only data stored in "
+                   "the file itself is read")
+            raise DataError(msg)
+        member = group[name]
+        if isinstance(member, h5py.Dataset) and (member.external or member.is_virtual):
+            where = "a virtual dataset" if member.is_virtual else "stored in external files"
+            msg = (f"{source}: HDF5 dataset {name!r} is {where}; only data stored in the "
+                   "file itself is read")
+            raise DataError(msg)
+        out[str(name)] = member
+    return out
+
+
 def open_table(f: IO[bytes], source: str,
                kind: str | None = None) -> tuple[Any, Iterator[pa.RecordBatch], Callable[[], None]]:
     """Open the table in an HDF5 file object: (Header, batch iterator, closer)."""
@@ -150,7 +175,8 @@ def _table_name(h5: Any, source: str, kind: str | None) -> str:
     """The group holding the table: ``kind`` if present, else the only one."""
     import h5py
 
-    groups = [k for k, v in h5.items() if isinstance(v, h5py.Group) and "kind" in v.attrs]
+    groups = [k for k, v in members(h5, source).items()
+              if isinstance(v, h5py.Group) and "kind" in v.attrs]
     if not groups:
         msg = f"{source}: HDF5 file holds no enctools table (no group with a 'kind' attribute)"
         raise DataError(msg)
@@ -174,8 +200,9 @@ def _read_layout(g: Any, source: str, name: str) -> tuple[dict[str, Any], pa.Sch
             msg = "'columns' is not a list of names"
             raise ValueError(msg)
         fields = []
+        datasets = members(g, source)
         for n in names:
-            ds = g[n]
+            ds = datasets[n]
             if not isinstance(ds, h5py.Dataset) or len(ds.shape) != 1:
                 msg = f"column {n!r} is not a one-dimensional dataset"
                 raise ValueError(msg)
@@ -183,7 +210,7 @@ def _read_layout(g: Any, source: str, name: str) -> tuple[dict[str, Any], pa.Sch
             attrs = _text_attrs(ds)
             arrow_type = attrs.pop("arrow_type")
             fields.append(pa.field(n, _arrow_type(arrow_type), metadata=attrs or None))
-        nrows = {g[n].shape[0] for n in names}
+        nrows = {datasets[n].shape[0] for n in names}
     except (KeyError, ValueError, TypeError, RecursionError) as exc:
         msg = f"{source}: HDF5 table {name!r} is not an enctools table ({exc})"
         raise DataError(msg) from None

@@ -188,9 +188,11 @@ def is_plain(path: str, fmt: str) -> bool:
         if fmt == "hdf5":
             import h5py
 
+            from enctools.data.h5io import members
+
             with h5py.File(path, "r") as h5:
                 return not any(isinstance(v, h5py.Group) and "kind" in v.attrs
-                               for v in h5.values())
+                               for v in members(h5, path).values())
         schema = _arrow_schema(path, fmt)
     except Exception:  # noqa: BLE001 - any decoder failure: not a plain table
         return False
@@ -263,10 +265,13 @@ def _numbers(values: np.ndarray) -> np.ndarray:
 def _hdf5_columns(path: str) -> dict[str, np.ndarray]:
     import h5py
 
+    from enctools.data.h5io import members
+
     with h5py.File(path, "r") as h5:
-        groups = [v for v in h5.values() if isinstance(v, h5py.Group)]
-        where = groups[0] if len(groups) == 1 and not any(
-            isinstance(v, h5py.Dataset) for v in h5.values()) else h5
+        top = members(h5, path)
+        groups = [v for v in top.values() if isinstance(v, h5py.Group)]
+        where = members(groups[0], path) if len(groups) == 1 and not any(
+            isinstance(v, h5py.Dataset) for v in top.values()) else top
         sets = {k: v for k, v in where.items() if isinstance(v, h5py.Dataset)}
         compound = [v for v in sets.values() if v.dtype.names and len(v.shape) == 1]
         if len(compound) == 1:
