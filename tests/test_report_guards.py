@@ -1,6 +1,7 @@
-"""Guards of enc report (enc-report(1)): harmonics only where the positions resolve them
-(harmonics). Inputs are made here: tables written with numpy, step runs of the
-simulator, scored against an independent least squares."""
+"""Two guards of enc report (enc-report(1)): harmonics only where the positions resolve
+them (FIGURES, harmonics), and no positioning figures of a step run read on the axis'
+feedback encoder (FEEDBACK ENCODER). Inputs are made here: tables written with numpy,
+step runs of the simulator, scored against its truth and an independent least squares."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run
+from conftest import ROOT, run
 
 DEG = np.pi / 180.0
 #: the report's condition limit for harmonics (enc-report(1), harmonics)
@@ -144,3 +145,94 @@ def test_half_a_turn_resolves_only_the_orders_its_design_conditions(tmp_path):
     assert np.cos(curve["harmonics"][0]["phase_rad"] - phase) == pytest.approx(1.0, abs=1e-9)
     assert curve["harmonics_note"].startswith(
         "harmonics n=2..6 not resolvable from 13 positions over 180 deg")
+
+
+# ---------------------------------------------------------------- feedback encoder
+
+STEPS = "--mode steps --count 8 --runs 2 --bidirectional --readings 1 --seed 11 -q"
+
+
+@pytest.fixture(scope="module")
+def step_runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Bidirectional 8-target step runs, 2 runs: ciomp-23bit (its one encoder A is the
+    feedback), sjtu-dual (feedback II, encoder I recorded too) and sjtu-dual with
+    feedback I."""
+    d = tmp_path_factory.mktemp("feedback")
+    rig = (ROOT / "enctools" / "rigs" / "sjtu-dual.toml").read_text()
+    assert 'feedback = "II"' in rig
+    (d / "sjtu-fb-I.toml").write_text(rig.replace('feedback = "II"', 'feedback = "I"', 1))
+    for name, rig_arg in (("ciomp", "ciomp-23bit"), ("sjtu", "sjtu-dual"),
+                          ("sjtu-fb-I", str(d / "sjtu-fb-I.toml"))):
+        r = run(f"enc acquire --rig {rig_arg} {STEPS} -o {d}/{name}.arrows")
+        assert r.returncode == 0, r.stderr.decode()
+    return d
+
+
+def _truth(path: Path):
+    from enctools.data.streams import open_input
+    from enctools.hw.truth import Truth
+    with open_input(str(path)) as s:
+        return Truth.from_dict(s.meta["truth"])
+
+
+def _head_mean(truth, encoder: str, heads_deg: tuple[float, ...], x: np.ndarray) -> np.ndarray:
+    """The graduation error [arcsec] of the mean of heads at ``heads_deg`` at angles x [rad]."""
+    eps = truth.graduation[encoder]
+    return np.mean([eps(x + a * DEG) for a in heads_deg], axis=0)
+
+
+def test_a_run_read_on_the_feedback_encoder_gets_no_figures(step_runs):
+    """ciomp-23bit: encoder A is the feedback, so A - target is the servo loop. No ISO
+    230-2 (nor VDI/DGQ 3441) figures, a note and one warning line naming why; the
+    polygon of the same run gives the axis' figures, which follow the truth."""
+    path = step_runs / "ciomp.arrows"
+    for standard, key in (("iso230-2", "iso230_2"), ("vdi3441", "vdi3441")):
+        doc, err = report(path, "--standard", standard)
+        sec = doc["sections"][0]
+        assert key not in sec
+        name = "ISO 230-2" if key == "iso230_2" else "VDI/DGQ 3441"
+        why = [n for n in sec["notes"] if n.startswith(f"no {name} figures: encoder A is "
+                                                       "the axis' feedback")]
+        assert len(why) == 1 and "servo loop" in why[0] and "enc points" in why[0]
+        warnings = [ln for ln in err.splitlines() if "WARNING" in ln]
+        assert len(warnings) == 1 and "feedback" in warnings[0] and str(path) in warnings[0]
+        assert "the axis' feedback (the servo loop)" in sec["info"]["positioning read on"]
+    text = run(f"enc report {path}").stdout.decode()
+    assert "ISO 230-2 (R = 4s" not in text and "no ISO 230-2 figures: encoder A is" in text
+    # what the guard keeps out: the loop's E is a fraction of the axis' E
+    loop = report(path, "--servo-loop")[0]["sections"][0]
+    assert any(n.startswith("ISO 230-2 figures of the servo loop") for n in loop["notes"])
+    r = run(f"enc points {path} -q | enc report --json")
+    assert r.returncode == 0, r.stderr.decode()
+    axis = json.loads(r.stdout)["sections"][0]["iso230_2"]
+    x = np.radians([p["position_deg"] for p in axis["positions"]])
+    truth_pp = np.ptp(_head_mean(_truth(path), "A", (0.0, 180.0), x))
+    assert axis["axis"]["M"] == pytest.approx(truth_pp, abs=0.3)
+    assert loop["iso230_2"]["axis"]["E"] < 0.1 * axis["axis"]["E"]
+
+
+@pytest.mark.parametrize("run_name, measured, feedback", [
+    ("sjtu", "I", "II"), ("sjtu-fb-I", "II", "I")])
+def test_a_run_read_on_another_encoder_gets_the_axis_figures(step_runs, run_name, measured,
+                                                             feedback):
+    """sjtu-dual: the positioning deviation is read on the encoder the axis does not
+    position on (I when the feedback is II, II when it is I), without a warning; its
+    mean per target is that encoder's error less the feedback's, as the truth gives it."""
+    path = step_runs / f"{run_name}.arrows"
+    doc, err = report(path)
+    sec = doc["sections"][0]
+    assert "WARNING" not in err
+    assert sec["curves"][0]["name"] == f"encoder {measured} - target"
+    assert sec["info"]["positioning read on"] == (
+        f"encoder {measured}, independent of the axis' feedback {feedback}")
+    iso = sec["iso230_2"]
+    assert not any("feedback" in n for n in sec["notes"])
+    x = np.radians([p["position_deg"] for p in iso["positions"]])
+    heads = {"I": (0.0, 180.0), "II": (0.0, 90.0, 180.0, 270.0)}   # the measuring heads
+    truth = _truth(path)
+    want = (_head_mean(truth, measured, heads[measured], x)
+            - _head_mean(truth, feedback, heads[feedback], x))
+    got = np.array([p["mean"] for p in iso["positions"]])
+    resid = (got - got.mean()) - (want - want.mean())
+    assert np.sqrt(np.mean(resid ** 2)) < 0.03 and np.max(np.abs(resid)) < 0.05
+    assert np.ptp(want) > 0.2               # the comparison has something to find
