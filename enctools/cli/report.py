@@ -41,6 +41,9 @@ from enctools.cli import options, runner
 @click.option("--standard", type=click.Choice(["iso230-2", "vdi3441"]), default="iso230-2",
               show_default=True, help="The positioning figures of step runs: ISO 230-2:2014 "
               "or VDI/DGQ 3441 (1977).")
+@click.option("--servo-loop", is_flag=True,
+              help="Give the positioning figures of a step run read on the axis' feedback "
+              "encoder anyway, as the servo loop's (they do not describe the axis).")
 @click.option("--max-vdi", multiple=True, metavar="FIG:ARCSEC",
               help="With --standard vdi3441: fail when a VDI/DGQ 3441 figure (P, Pa, Ps_max, "
               "U_max, U_mean) exceeds ARCSEC.")
@@ -61,7 +64,8 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
             certificate_number: str | None, top_harmonics: int, nmax: int,
             max_pp: float | None, max_std: float | None, max_abs: float | None,
             max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
-            max_iso: tuple[str, ...], standard: str, max_vdi: tuple[str, ...],
+            max_iso: tuple[str, ...], standard: str, servo_loop: bool,
+            max_vdi: tuple[str, ...],
             history_dir: str | None, history_rig: str | None,
             since: datetime | None, mapping: Any, unit: str, force: bool) -> None:
     """Summarise enctools streams: figures, harmonics, U (k=2), ISO 230-2 or VDI/DGQ 3441.
@@ -102,7 +106,7 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     from enctools.report.certificate import load_certificate
     cert = load_certificate(certificate_path, certificate_number)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
-    run_report(sources, Options(top_harmonics, nmax, standard), limits, as_json=as_json,
+    run_report(sources, Options(top_harmonics, nmax, standard, servo_loop), limits, as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
                history_filter={"rig": history_rig, "since": since},
                prog=runner.command_name(), unit=unit,

@@ -28,6 +28,12 @@ GRID_ROW = 4096
 COND_LIMIT = 100.0
 #: the highest order the default series tries (513 unknowns: one QR of N x 513)
 DEFAULT_MAX_ORDER = 256
+#: the largest condition number of the design whose harmonics are figures of the turn
+#: (dimensionless; enc report): a model may predict between its points through a design of
+#: :data:`COND_LIMIT`, but an amplitude stated for the whole turn must not move by more
+#: than 10x what the points' scatter and the orders left out move them (N even positions
+#: over the turn: sqrt(2); 24 positions over 120 deg reach 10 at n = 1)
+RESOLVE_LIMIT = 10.0
 
 
 @dataclass
@@ -127,14 +133,15 @@ def _orders(columns: np.ndarray) -> np.ndarray:
     return (np.asarray(columns) + 1) // 2
 
 
-def determined_terms(x_rad: np.ndarray, harmonics: int) -> tuple[Terms, np.ndarray, np.ndarray]:
+def determined_terms(x_rad: np.ndarray, harmonics: int, cond_limit: float = COND_LIMIT
+                     ) -> tuple[Terms, np.ndarray, np.ndarray]:
     """The terms of orders 0..K that angles ``x_rad`` [rad] determine, and the QR of them.
 
     A term whose column has less than 1e-9 of its norm outside the span of the lower
     terms is undetermined (it aliases). Of the rest, orders are kept from 0 up while
-    the kept columns' condition number stays within :data:`COND_LIMIT`; the orders
-    above are ill-conditioned. Returns the :class:`Terms`, and Q (N x kept) and R of the
-    kept columns in order.
+    the kept columns' condition number stays within ``cond_limit`` (dimensionless,
+    :data:`COND_LIMIT` by default); the orders above are ill-conditioned. Returns the
+    :class:`Terms`, and Q (N x kept) and R of the kept columns in order.
     """
     a = design_matrix(x_rad, harmonics)
     _, r = np.linalg.qr(a)
@@ -150,11 +157,11 @@ def determined_terms(x_rad: np.ndarray, harmonics: int) -> tuple[Terms, np.ndarr
         return float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else np.inf
 
     limit = harmonics
-    if cond(limit) > COND_LIMIT:   # cond grows with the order: bisect for the last one within
+    if cond(limit) > cond_limit:   # cond grows with the order: bisect for the last one within
         lo, hi = 0, harmonics
         while hi - lo > 1:
             mid = (lo + hi) // 2
-            lo, hi = (mid, hi) if cond(mid) <= COND_LIMIT else (lo, mid)
+            lo, hi = (mid, hi) if cond(mid) <= cond_limit else (lo, mid)
         limit = lo
     kept = independent[_orders(independent) <= limit]
     dependent = np.setdiff1d(np.arange(a.shape[1]), independent)
@@ -165,12 +172,12 @@ def determined_terms(x_rad: np.ndarray, harmonics: int) -> tuple[Terms, np.ndarr
     return terms, qk, rk
 
 
-def fit_fourier(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int
-                ) -> FourierModel:
+def fit_fourier(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int,
+                cond_limit: float = COND_LIMIT) -> FourierModel:
     """Least-squares Fourier series of orders 0..K through points [deg, arcsec], on the
-    terms the points determine (:func:`determined_terms`); the others are exactly 0 and
-    named in ``undetermined`` and ``ill_conditioned``."""
-    model, _ = fit_with_loo(angle_deg, error_arcsec, harmonics)
+    terms the points determine within ``cond_limit`` (:func:`determined_terms`); the
+    others are exactly 0 and named in ``undetermined`` and ``ill_conditioned``."""
+    model, _ = fit_with_loo(angle_deg, error_arcsec, harmonics, cond_limit)
     return model
 
 
@@ -184,14 +191,14 @@ def _model(harmonics: int, terms: Terms, coef: np.ndarray) -> FourierModel:
                         terms.limit, terms.condition)
 
 
-def fit_with_loo(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int
-                 ) -> tuple[FourierModel, np.ndarray]:
+def fit_with_loo(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int,
+                 cond_limit: float = COND_LIMIT) -> tuple[FourierModel, np.ndarray]:
     """:func:`fit_fourier` and its leave-one-out residuals [arcsec], in closed form
     (``r_i / (1 - H_ii)``, the same terms fitted without point i); NaN where a point
     is interpolated (H_ii = 1: without it the terms are not determined)."""
     x = np.asarray(angle_deg, dtype=np.float64) * DEG
     y = np.asarray(error_arcsec, dtype=np.float64)
-    terms, q, r = determined_terms(x, harmonics)
+    terms, q, r = determined_terms(x, harmonics, cond_limit)
     qy = q.T @ y
     coef = np.linalg.solve(r, qy) if r.size else np.zeros(0)
     resid = y - q @ qy
@@ -199,6 +206,28 @@ def fit_with_loo(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int
     with np.errstate(divide="ignore", invalid="ignore"):
         loo = np.where(h < 1.0 - 1e-9, resid / (1.0 - h), np.nan)
     return _model(harmonics, terms, coef), loo
+
+
+def arc_coverage_deg(angle_deg: np.ndarray) -> float:
+    """The arc of the turn that positions [deg] cover [deg]: 360 less the largest gap
+    between neighbours on the circle (0 for one position; positions modulo 360)."""
+    x = np.unique(np.mod(np.asarray(angle_deg, dtype=np.float64).ravel(), 360.0))
+    if x.size < 2:
+        return 0.0
+    gaps = np.diff(np.r_[x, x[0] + 360.0])
+    return float(360.0 - gaps.max())
+
+
+def design_condition(x_rad: np.ndarray, harmonics: int) -> float:
+    """The condition number (dimensionless) of :func:`design_matrix` of orders 0..K at
+    angles ``x_rad`` [rad]: how much the coefficients of a least-squares fit may
+    magnify an error of the points (inf when the points do not determine them: fewer
+    distinct angles than the 2K + 1 terms)."""
+    a = design_matrix(x_rad, harmonics)
+    if a.shape[0] < a.shape[1]:
+        return float("inf")
+    sv = np.linalg.svd(a, compute_uv=False)
+    return float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
 
 
 def choose_order(angle_deg: np.ndarray, error_arcsec: np.ndarray,

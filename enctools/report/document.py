@@ -220,6 +220,8 @@ def _harmonics(curves: Sequence[Curve], top: int) -> dict[str, Any] | None:
         if c.harmonics is None:
             continue
         h = c.harmonics.largest(top)
+        if not h.n.size:        # none resolvable: the notes say why
+            continue
         cells = [f"n={int(n)}: {fmt(float(a), c.unit)} @ {float(p) / DEG:.0f}°"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         rows.append([c.name, label(c.unit)] + cells)
@@ -283,8 +285,8 @@ def _value(v: Any) -> str:
 
 def _section(s: Section, top: int, drawings: Drawings) -> dict[str, Any]:
     notes = [customer_text(n) for n in s.notes]
-    notes += [f"{c.name}: {c.harmonics.left_out_text()}" for c in s.curves
-              if c.harmonics is not None and c.harmonics.left_out]
+    notes += [f"{c.name}: {c.harmonics.note()}" for c in s.curves
+              if c.harmonics is not None and c.harmonics.note()]
     return {"heading": f"{s.source} — {citations.kind_name(s.kind)}",
             "info": table(["", ""], [[k, _value(v)] for k, v in s.info.items()], left=2)
             if s.info else None,

@@ -37,6 +37,10 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
         if c.harmonics.limit is not None:
             d["harmonics_limit_n"] = c.harmonics.limit
             d["harmonics_left_out"] = c.harmonics.left_out
+            d["harmonics_positions"] = c.harmonics.positions
+            d["harmonics_arc_deg"] = c.harmonics.arc_deg
+        if c.harmonics.note():
+            d["harmonics_note"] = c.harmonics.note()
     return d
 
 

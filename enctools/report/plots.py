@@ -241,7 +241,7 @@ def harmonics_rows(curves: Sequence[Curve]) -> list[SpectrumRows]:
     """The harmonics of curves as spectrum rows (for :func:`spectrum_plot`)."""
     return [SpectrumRows(c.name, c.harmonics.n, c.harmonics.amplitude, c.harmonics.phase,
                          unit=c.unit)
-            for c in curves if c.harmonics is not None]
+            for c in curves if c.harmonics is not None and c.harmonics.resolved]
 
 
 def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:

@@ -13,14 +13,16 @@ a :class:`Section` holding, for its kind:
   (:attr:`Options.standard`);
 - model and rom: their metadata and the figures of weights / corrections;
 - readings: what was recorded (mode, heads, rows, duration, turns), for step runs the
-  positioning deviation of the axis (encoder - target) with ISO 230-2, and the raw
-  sin/cos signals for a Lissajous plot when recorded.
+  positioning deviation of the axis (encoder - target, on an encoder the axis does not
+  position on: :mod:`enctools.report.positioning`) with ISO 230-2, and the raw sin/cos
+  signals for a Lissajous plot when recorded.
 
 Readings are read batch by batch (memory does not grow with the run's length).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,6 +38,12 @@ from enctools.errors import DataError
 from enctools.methods.budget import Budget
 from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
+from enctools.report.positioning import (
+    Positioning,
+    feedback_reason,
+    positioning_heads,
+    servo_loop_note,
+)
 from enctools.report.vdi3441 import Vdi3441, from_iso
 from enctools.units import ARCSEC, DEG, TWO_PI
 
@@ -115,12 +123,15 @@ class Section:
 
 @dataclass(frozen=True)
 class Options:
-    """Report settings: harmonics listed, the highest order considered and the
-    positioning standard of step runs (``iso230-2`` or ``vdi3441``)."""
+    """Report settings: harmonics listed, the highest order considered, the
+    positioning standard of step runs (``iso230-2`` or ``vdi3441``) and whether a step
+    run read on the axis' feedback encoder gets the servo loop's figures
+    (``servo_loop``; else none, :mod:`enctools.report.positioning`)."""
 
     top_harmonics: int = 5
     nmax: int = 100
     standard: str = "iso230-2"
+    servo_loop: bool = False
 
     @property
     def standard_name(self) -> str:
@@ -419,6 +430,7 @@ class _ReadingsScan:
     direction: list[np.ndarray] = field(default_factory=list)
     run: list[np.ndarray] = field(default_factory=list)
     angle: list[np.ndarray] = field(default_factory=list)       # encoder angle [rad]
+    autocollimator: bool = False                            # an autocollimator column
 
 
 def _readings(stream: InputStream, s: Section, opts: Options) -> None:
@@ -426,9 +438,9 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
     infos = readings.heads(schema)
     signal_cols = _signal_columns(schema)
     stepped = "target" in schema.names
-    # the positioning deviation is read on the heads of the first encoder
-    encoder = [i for i in infos if i.encoder == infos[0].encoder] if infos else []
-    scan = _ReadingsScan()
+    # the positioning deviation is read on an encoder the axis does not position on
+    encoder, where = positioning_heads(infos, s.meta)
+    scan = _ReadingsScan(autocollimator=bool(columns_with_role(schema, "autocollimator")))
     for batch in stream.batches():
         if batch.num_rows:
             _scan_batch(scan, batch, infos, signal_cols, encoder if stepped else [])
@@ -448,8 +460,9 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
             sn = np.concatenate(scan.signals[head + ".sin"])
             step = max(1, c.size // LISSAJOUS_POINTS)
             s.signals[head] = (c[::step], sn[::step])
-    if stepped and infos and scan.rows:
-        _positioning(s, scan, encoder, opts)
+    if stepped and where is not None and scan.rows:
+        s.info["positioning read on"] = where.describe()
+        _positioning(s, scan, encoder, opts, where)
     elif scan.rows and not stepped:
         s.notes.append(f"no {opts.standard_name} figures: a continuous run has no target "
                        "positions to approach (enc acquire --mode steps)")
@@ -495,8 +508,9 @@ def _scan_batch(scan: _ReadingsScan, batch: pa.RecordBatch, infos: list[readings
 
 
 def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInfo],
-                 opts: Options) -> None:
-    """Positioning deviation of a step run: mean angle of the encoder's heads - target."""
+                 opts: Options, where: Positioning) -> None:
+    """Positioning deviation of a step run: mean angle of the encoder's heads - target;
+    read on the axis' feedback encoder, no figures unless ``opts.servo_loop``."""
     target = np.concatenate(scan.target)
     angle = np.concatenate(scan.angle)
     dev = (np.mod(angle - target + np.pi, TWO_PI) - np.pi) / ARCSEC
@@ -507,9 +521,16 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
     if s.info.get("mode") == "sweep":
         no_iso = ("a sweep steps over a small range, not targets over the axis's travel "
                   f"(a full turn) as {opts.standard_name} asks")
+    elif where.is_feedback and not opts.servo_loop:
+        no_iso = feedback_reason(where, scan.autocollimator)
     enc = encoder[0].encoder
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "
                    "signal period)")
     _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
                  "positioning", tol_deg=1e-9, run=run, no_iso=no_iso)
+    if where.is_feedback and (s.iso is not None or s.vdi is not None):
+        s.notes.append(servo_loop_note(where, opts.standard_name))
+    elif where.is_feedback and f"figures: {no_iso}" in " ".join(s.notes):
+        logging.getLogger("enctools").warning("%s: no %s figures: %s", s.source,
+                                              opts.standard_name, no_iso)

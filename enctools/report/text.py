@@ -29,8 +29,8 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
         parts = [f"n={int(n)} {g(a)}{sym} @ {p / DEG:.0f} deg"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
-    if c.harmonics is not None and c.harmonics.left_out:
-        lines.append(f"    {c.harmonics.left_out_text()}")
+    if c.harmonics is not None and c.harmonics.note():
+        lines.append(f"    {c.harmonics.note()}")
     return lines
 
 
