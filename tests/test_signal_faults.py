@@ -287,3 +287,23 @@ def test_summary_keys_are_documented(tmp_path):
              str(tmp_path / "t.parquet")])
     assert "signal faults (faults clipping, samples 3000, fitted" in r.stderr.decode()
     assert "clipped 5 %" in r.stderr.decode()
+
+
+@pytest.mark.parametrize("gap_deg, refused", [(100.0, True), (60.0, False)])
+def test_a_gap_in_the_phase_over_several_periods(tmp_path, gap_deg, refused):
+    """Three periods swept but a band of the phase never sampled (a sample rate locked to
+    the period): a gap over 90 deg is a missing quadrant, one under it is not."""
+    phi, i, q = signals(10)
+    keep = ~(np.mod(phi, TWO_PI) >= 100 * DEG) | (np.mod(phi, TWO_PI) >= (100 + gap_deg) * DEG)
+    code, err, doc, out = check(readings(tmp_path / "gap.parquet", phi[keep], i[keep], q[keep]))
+    if refused:
+        assert code == 2 and "missing quadrant" in err and len(err.splitlines()) == 1, err
+        import re
+
+        # the arc as seen about the circle through the samples: the faults bend it a little
+        arc = float(re.search(r"cover (\d+) deg", err).group(1))
+        assert abs(arc - (360 - gap_deg)) < 10 and not out.exists()
+    else:
+        assert code == 0, err
+        assert doc["curves"][0]["signal_faults"]["faults"] == []
+        assert worst_difference(out) < TOLERANCE_ARCSEC

@@ -53,6 +53,8 @@ ALLOW_EXCLUDED_PCT = 20.0
 #: the fit is refused when the samples kept cover less of the phase [deg] (--min-arc): a
 #: gap of more than a quarter of the circle is a missing quadrant
 MIN_ARC_DEG = 270.0
+#: the shortest arc [deg] --min-arc may accept
+LEAST_ARC_DEG = 10.0
 #: fits at most, dropping the radius outliers of the previous one
 OUTLIER_PASSES = 6
 
@@ -165,8 +167,7 @@ def screened_fit(channels: Mapping[str, np.ndarray], i: np.ndarray, q: np.ndarra
         outliers = new
         _check_excluded(clipped, outliers, allow_excluded_pct)
         fit = _fit_kept(i, q, clipped | outliers, min_arc_deg)
-    kept = ~(clipped | outliers)
-    screen = Screen(clipped, outliers, found, hd.circle_arc(i[kept], q[kept]))
+    screen = Screen(clipped, outliers, found, fit.arc)
     said = describe(screen.to_dict())
     if said:
         fit.warnings.insert(0, said)
@@ -175,21 +176,28 @@ def screened_fit(channels: Mapping[str, np.ndarray], i: np.ndarray, q: np.ndarra
 
 def _fit_kept(i: np.ndarray, q: np.ndarray, excluded: np.ndarray,
               min_arc_deg: float) -> EllipseFit:
-    """The ellipse fit of the samples not ``excluded``; DataError for a missing quadrant."""
+    """The ellipse fit of the samples not ``excluded``; DataError for a missing quadrant.
+
+    The arc is judged from the circle through the samples before the fit (a short arc
+    can send the fit off) and along the fitted ellipse after it (its ``arc``).
+    """
     from enctools.methods import heydemann as hd
 
     ik, qk = i[~excluded], q[~excluded]
-    if ik.size >= 8:  # fewer: the fit's own line says so
-        arc = hd.circle_arc(ik, qk)
-        if not arc >= min_arc_deg * DEG:
-            lost = f" ({int(excluded.sum())} clipped or outliers left out)" if excluded.any() \
-                else ""
-            msg = (f"a missing quadrant: the samples{lost} cover {arc / DEG:.0f} deg of the "
-                   f"signal phase (--min-arc {min_arc_deg:g} deg), too little for a "
-                   f"well-conditioned ellipse fit; record over a whole signal period, or "
-                   f"accept the partial arc with a smaller --min-arc (at least 10)")
-            raise DataError(msg)
-    return hd.fit_ellipse(ik, qk, min_arc=min_arc_deg * DEG)
+    if ik.size < 8:  # the fit's own line says so
+        return hd.fit_ellipse(ik, qk)
+    arc = hd.circle_arc(ik, qk)
+    if arc >= min_arc_deg * DEG:
+        fit = hd.fit_ellipse(ik, qk, min_arc=LEAST_ARC_DEG * DEG)
+        if fit.arc >= min_arc_deg * DEG:
+            return fit
+        arc = fit.arc
+    lost = f" ({int(excluded.sum())} clipped or outliers left out)" if excluded.any() else ""
+    msg = (f"a missing quadrant: the samples{lost} cover {arc / DEG:.0f} deg of the "
+           f"signal phase (--min-arc {min_arc_deg:g} deg), too little for a "
+           f"well-conditioned ellipse fit; record over a whole signal period, or "
+           f"accept the partial arc with a smaller --min-arc (at least {LEAST_ARC_DEG:g})")
+    raise DataError(msg)
 
 
 def _check_excluded(clipped: np.ndarray, outliers: np.ndarray, max_pct: float) -> None:
