@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from statistics import NormalDist
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -44,8 +45,10 @@ FLAT_TOP_SAMPLES = 5
 #: ... and at least this fraction of the samples
 FLAT_TOP_FRACTION = 0.002
 #: radius outliers: a normalised radius further from the median than this many robust
-#: standard deviations (1.4826 MAD) ...
+#: standard deviations (1.4826 MAD), or than a Gaussian sample of that size exceeds by
+#: chance in :data:`RADIUS_CHANCE` of records (more for a long record) ...
 RADIUS_SIGMAS = 5.0
+RADIUS_CHANCE = 0.01
 #: ... and further than this fraction of the amplitude
 RADIUS_FLOOR = 0.01
 #: the fit is refused when more than this share [%] of the samples is excluded (--allow-excluded)
@@ -306,8 +309,9 @@ def radius_outliers(fit: EllipseFit, i: np.ndarray, q: np.ndarray) -> np.ndarray
 
     The radius of (I, Q) [V] with the fitted faults removed is 1 for a sample on the
     ellipse; an outlier lies further from the median radius than :data:`RADIUS_SIGMAS`
-    robust standard deviations (1.4826 times the median absolute deviation) and than
-    :data:`RADIUS_FLOOR` (a fraction of the amplitude).
+    robust standard deviations (1.4826 times the median absolute deviation), or than
+    the Gaussian noise of as many samples exceeds once in 1 / :data:`RADIUS_CHANCE`
+    records, and than :data:`RADIUS_FLOOR` (a fraction of the amplitude).
     """
     u = (i - fit.offset_cos) / fit.amplitude
     w = (q - fit.offset_sin) / (fit.amplitude * fit.ratio)
@@ -315,4 +319,5 @@ def radius_outliers(fit: EllipseFit, i: np.ndarray, q: np.ndarray) -> np.ndarray
     rho = np.hypot(u, v)
     med = float(np.median(rho))
     mad = 1.4826 * float(np.median(np.abs(rho - med)))
-    return np.abs(rho - med) > max(RADIUS_SIGMAS * mad, RADIUS_FLOOR)
+    sigmas = max(RADIUS_SIGMAS, NormalDist().inv_cdf(1.0 - RADIUS_CHANCE / (2 * max(rho.size, 1))))
+    return np.abs(rho - med) > max(sigmas * mad, RADIUS_FLOOR)
