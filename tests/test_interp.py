@@ -168,6 +168,8 @@ def test_signals_mode_recovers_faults_and_error(sweep, tmp_path):
         assert np.abs(table[name].to_numpy() - want).max() < 1e-6
         liss = header.meta["signals"][name]["lissajous"]
         assert liss["variation"] > 0.02
+        # readings repeated at each position hold the extremes at one phase: no flat top
+        assert header.meta["signals"][name]["screen"]["faults"] == []
     _spec_h, spec = read_table(tmp_path / "s.parquet", "spectrum")
     assert set(spec["curve"].to_pylist()) == set(HEADS)
     # counts re-interpolated from the corrected phase: interpolation error gone
@@ -253,6 +255,9 @@ def test_zero_arm_length(sweep, tmp_path):
     ("--heads H1 --ref H1", "device itself"),
     ("--heads H1 --keep 7", "kept harmonic 7"),
     ("--signals --heads H1 --min-arc 400", "--min-arc"),
+    ("--signals --heads H1 --allow-excluded 150", "--allow-excluded"),
+    ("--signals --heads H1 --rails 1,-1", "--rails must be LOW,HIGH"),
+    ("--rails -1,1", "--rails needs --signals"),
     ("--corrected x.parquet", "--corrected needs --signals"),
 ])
 @pytest.mark.slow
@@ -380,6 +385,12 @@ def test_nan_probe_samples_are_skipped_and_said(sweep, tmp_path):
     ({"corrected": True}, "--corrected needs --signals"),
     ({"signals": True, "average": True}, "--average does not apply to --signals"),
     ({"signals": True, "window_arcsec": 900.0}, "--window applies to the reference mode"),
+    ({"rails_v": (-1.0, 1.0)}, "--rails needs --signals"),
+    ({"signals": True, "rails_v": (1.0, -1.0)}, "--rails must be LOW,HIGH"),
+    ({"signals": True, "rails_v": (1.0,)}, "--rails must be LOW,HIGH"),
+    ({"signals": True, "rails_v": (-1.0, float("inf"))}, "--rails must be LOW,HIGH"),
+    ({"signals": True, "allow_excluded_pct": float("nan")}, "--allow-excluded must be 0..100"),
+    ({"signals": True, "allow_excluded_pct": 101.0}, "--allow-excluded must be 0..100"),
 ])
 def test_settings_refuse_bad_combinations(options, words):
     with pytest.raises(UsageError, match=words):
@@ -399,7 +410,8 @@ def test_settings_resolve_the_window_and_record_the_options():
         "reference_harmonics": 2}
     assert Settings(signals=True, corrected=True, min_arc_deg=45.0).to_meta(False) == {
         "heads": None, "average": False, "harmonics": None, "points": 256, "trend": 1,
-        "mode": "signals", "min_arc_deg": 45.0}
+        "mode": "signals", "min_arc_deg": 45.0, "allow_excluded_pct": 20.0, "rails_v": None}
+    assert Settings(signals=True, rails_v=[-1, 1.5]).to_meta(False)["rails_v"] == [-1.0, 1.5]
 
 
 def small_sweep(runs: int = 2, readings: int = 3) -> pa.Table:

@@ -64,9 +64,18 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @options.points("Points of the output curve per signal period.", 256, minimum=8)
 @click.option("--signals", "signals_mode", is_flag=True, default=False,
               help="Raw-signal mode: Heydemann ellipse fit of each head's sin/cos signals.")
-@click.option("--min-arc", "min_arc_deg", type=float, default=90.0,
-              callback=options.bounded(10, 360, unit=" deg"),
-              show_default=True, help="--signals: refuse a fit over a shorter arc [deg].")
+@click.option("--min-arc", "min_arc_deg", type=float, default=270.0,
+              callback=options.bounded(10, 360, unit=" deg"), show_default=True,
+              help="--signals: refuse a fit whose samples cover a shorter arc of the "
+                   "phase [deg] (the default: no quadrant missing).")
+@click.option("--allow-excluded", "allow_excluded_pct", type=float, default=20.0,
+              callback=options.bounded(0, 100, unit=" %"), show_default=True, metavar="PCT",
+              help="--signals: the largest share of the samples [%] that may be clipped "
+                   "or radius outliers, left out of the fit; beyond, it is refused.")
+@click.option("--rails", "rails_v", default=None, callback=options.float_list,
+              metavar="LOW,HIGH",
+              help="--signals: the ADC's rails of every signal channel [V] (default: the "
+                   "columns' rail_low_v/rail_high_v, else flat tops detected).")
 @click.option("--corrected", default=None, type=click.Path(dir_okay=False),
               help="--signals: also write the readings with each head's counts "
                    "re-interpolated from the corrected phase.")
@@ -81,7 +90,8 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
             reference_file: str | None, probes: list[str] | None, arm_m: float | None,
             harmonics: int | None, keep: list[int] | None, reference_harmonics: int,
             trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool,
-            min_arc_deg: float, corrected: str | None, spectrum_path: str | None,
+            min_arc_deg: float, allow_excluded_pct: float, rails_v: list[float] | None,
+            corrected: str | None, spectrum_path: str | None,
             tolerance: float | None, as_json: bool, unit: str, output: str | None,
             force: bool, fmt: str | None) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
@@ -104,7 +114,8 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         probes=probes, arm_m=arm_m, harmonics=harmonics, keep=keep,
         reference_harmonics=reference_harmonics, trend_degree=trend_degree,
         window_arcsec=window_arcsec, points=points, signals=signals_mode,
-        min_arc_deg=min_arc_deg, corrected=bool(corrected))
+        min_arc_deg=min_arc_deg, allow_excluded_pct=allow_excluded_pct,
+        rails_v=None if rails_v is None else tuple(rails_v), corrected=bool(corrected))
     options.distinct_outputs({"-o": output, "--spectrum": spectrum_path, "--corrected": corrected})
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
@@ -161,6 +172,8 @@ def _summary(c: Any) -> dict[str, Any]:
     out |= figure_dict(curve_figures(c.error), "arcsec", ("pm", "pp", "rms"))
     out |= {"u_max_arcsec": float(c.u.max()) if c.u.size else None,
             "period_arcsec": c.meta["period_arcsec"], "reference": c.meta.get("reference", "")}
+    if "screen" in c.meta:  # --signals: what was left out of the ellipse fit, and why
+        out["signal_faults"] = {k: v for k, v in c.meta["screen"].items() if k != "channels"}
     if "period_ratio" in c.meta:
         out |= {"period_ratio": c.meta["period_ratio"], "kept": list(c.meta.get("kept", []))}
     out["harmonics"] = [{"n": int(n), "amplitude_arcsec": float(a), "phase_rad": float(p),

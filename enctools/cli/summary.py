@@ -22,8 +22,9 @@ from enctools.cli import runner
 LABELS = {"pp": "p-p", "pm": "+/-", "s_bessel": "Bessel s", "n_points": "n", "lsb": "LSB",
           "max_abs": "max |e|", "u_max": "u max", "expanded_u_max": "U(k=2) max"}
 #: unit suffixes of keys other than angles, printed after the value as they are
-SUFFIXES = ("nm", "deg_s", "rpm", "rev_s", "s", "deg", "rad", "lsb", "bytes", "m", "counts")
-SHOWN = {"lsb": "LSB"}
+SUFFIXES = ("nm", "deg_s", "rpm", "rev_s", "s", "deg", "rad", "lsb", "bytes", "m", "counts",
+            "percent")
+SHOWN = {"lsb": "LSB", "percent": "%"}
 #: at most this many items of a list (of groups) are printed in text (JSON has them all)
 TEXT_ITEMS = 4
 TEXT_GROUPS = 2

@@ -157,6 +157,9 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
     "signal": {
         "head": Range("text"),
         "component": Range("text", choices=("cos", "sin")),
+        # the ADC's rails of the channel (optional): the bound of a signal sample
+        "rail_low_v": Range("float", -1e12, 1e12, "V"),
+        "rail_high_v": Range("float", -1e12, 1e12, "V"),
     },
 }
 

@@ -177,6 +177,13 @@ def _circle_centre(i: np.ndarray, q: np.ndarray) -> tuple[float, float]:
     return ci + sol[0] / 2.0, cq + sol[1] / 2.0
 
 
+def circle_arc(i: np.ndarray, q: np.ndarray) -> float:
+    """Part of the Lissajous figure [rad] the points (I, Q) [V] cover, seen from the centre
+    of the circle through them: no ellipse fit needed, which a short noisy arc can send off."""
+    ci, cq = _circle_centre(i, q)
+    return arc_covered(np.arctan2(q - cq, i - ci))
+
+
 def arc_covered(phi: np.ndarray) -> float:
     """Part of the circle [rad] covered by phases phi: 2 pi minus the largest gap."""
     p = np.sort(np.mod(np.asarray(phi, float), TWO_PI))
@@ -206,7 +213,7 @@ def fit_ellipse(i: np.ndarray, q: np.ndarray, min_arc: float = 90 * DEG,
     the Sampson distances, scaled by the residual rms), the residual noise [V] and
     the arc covered [rad]; ``warnings`` name a partial arc.
     """
-    i, q = _finite_signals(i, q)
+    i, q = finite_signals(i, q)
     # the fit is done on signals scaled to about 1: volts of 1e300 or 1e-300 would
     # overflow or underflow in the squares of the conic and the Sampson distance
     scale = float(max(np.max(np.abs(i)), np.max(np.abs(q))))
@@ -239,7 +246,7 @@ def fit_ellipse(i: np.ndarray, q: np.ndarray, min_arc: float = 90 * DEG,
 MAX_SIGNAL_V = 1e12
 
 
-def _finite_signals(i: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def finite_signals(i: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The samples [V] where both I and Q are finite; DataError for fewer than 8."""
     i = np.asarray(i, dtype=np.float64).ravel()
     q = np.asarray(q, dtype=np.float64).ravel()
@@ -265,7 +272,7 @@ def _first_guess(i: np.ndarray, q: np.ndarray, min_arc: float) -> tuple[np.ndarr
     The arc seen from the centre of a circle through the points does not depend on
     the ellipse fit, which a short noisy arc can send far off.
     """
-    arc = arc_covered(np.arctan2(q - (yc := _circle_centre(i, q))[1], i - yc[0]))
+    arc = circle_arc(i, q)
     if arc >= min_arc:
         p0 = _from_conic(_conic(i, q))
         arc = min(arc, arc_covered(corrected_phase(i, q, *p0)))
@@ -273,7 +280,7 @@ def _first_guess(i: np.ndarray, q: np.ndarray, min_arc: float) -> tuple[np.ndarr
         arc = arc if np.isfinite(arc) else 0.0
         msg = (f"the signals cover {arc / DEG:.0f} deg of the Lissajous ellipse (< "
                f"{min_arc / DEG:.0f} deg): offsets and ratio are undetermined; "
-               f"record over at least a quarter of a signal period, better one or more")
+               f"record over a longer arc of the signal period, better one or more periods")
         raise DataError(msg)
     return p0, arc
 

@@ -36,6 +36,7 @@ from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
 from enctools.errors import DataError
 from enctools.methods.budget import Budget
+from enctools.methods.interp.screen import screen_notes
 from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
 from enctools.report.positioning import (
@@ -199,6 +200,7 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
             if in_period and "period_arcsec" in fm:
                 s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
     s.info["grid points"] = table.num_rows
+    s.notes += screen_notes(s.meta.get("signals"))  # interp-check --signals: faults found
     if s.domain == "period":
         periods = sorted({f"{c.extra['period_arcsec']:.4g}" for c in s.curves
                           if "period_arcsec" in c.extra})

@@ -12,6 +12,7 @@ the device's error is fitted as harmonics of its signal phase. One module per jo
 - :mod:`.reference`: the references (probes, another head, a time-matched file);
 - :mod:`.readings`: a readings stream's heads checked against a reference;
 - :mod:`.signals`: the error from the heads' raw signals (Heydemann);
+- :mod:`.screen`: their faults (clipping, radius outliers, a missing quadrant) kept out;
 - :mod:`.curve`, :mod:`.tables`: the result curves, the Arrow plumbing;
 - :mod:`.check`: one check as the command runs it (:func:`.check.run`).
 """

@@ -45,8 +45,8 @@ def run(source: Any, settings: Settings) -> Checked:
         from enctools.methods.interp.signals import check_signals, corrected_readings
 
         table = read_sweep(source, why="--signals")
-        curves, fits = check_signals(table, settings)
-        corrected = corrected_readings(table, fits, [c.name for c in curves]) \
+        curves, fits, fitted = check_signals(table, settings)
+        corrected = corrected_readings(table, fits, [c.name for c in curves], fitted) \
             if settings.corrected else None
         return Checked(curves, meta, fits, corrected)
     reference_table = None

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from enctools.errors import UsageError
+from enctools.methods.interp.screen import ALLOW_EXCLUDED_PCT, MIN_ARC_DEG
 
 #: default window of a continuous run [arcsec]: a line per 0.5 deg leaves of the
 #: graduation error of sjtu-dual (harmonics up to 180 per turn) 0.004" rms
@@ -38,9 +40,11 @@ class Settings:
     encoder's own period fitted alongside; a polynomial of ``trend_degree`` per run,
     or per ``window_arcsec`` [arcsec] of angle (default for a continuous run:
     :data:`DEFAULT_WINDOW_ARCSEC`). Signals mode (``signals``): the Heydemann fit of
-    each head's raw signals over at least ``min_arc_deg`` [deg], with ``corrected``
-    the readings re-interpolated from the corrected phase. ``points``: the output
-    curve's points per signal period.
+    each head's raw signals over at least ``min_arc_deg`` [deg] of the phase, refused
+    when more than ``allow_excluded_pct`` [%] of the samples are clipped (on the rails
+    ``rails_v`` (low, high) [V] when given) or radius outliers; with ``corrected`` the
+    readings re-interpolated from the corrected phase. ``points``: the output curve's
+    points per signal period.
 
     Raises UsageError, naming the option, for a combination no check can carry out.
     """
@@ -58,7 +62,9 @@ class Settings:
     window_arcsec: float | None = None
     points: int = 256
     signals: bool = False
-    min_arc_deg: float = 90.0
+    min_arc_deg: float = MIN_ARC_DEG
+    allow_excluded_pct: float = ALLOW_EXCLUDED_PCT
+    rails_v: tuple[float, ...] | None = None
     corrected: bool = False
 
     def __post_init__(self) -> None:
@@ -81,6 +87,22 @@ class Settings:
             raise UsageError(msg)
         if self.signals and self.window_arcsec is not None:
             msg = "--window applies to the reference mode, not --signals"
+            raise UsageError(msg)
+        self._check_signal_limits()
+
+    def _check_signal_limits(self) -> None:
+        """--rails (with --signals, low below high) and --allow-excluded (0..100 %)."""
+        if self.rails_v is not None:
+            object.__setattr__(self, "rails_v", tuple(float(v) for v in self.rails_v))
+            if not self.signals:
+                msg = "--rails needs --signals"
+                raise UsageError(msg)
+            if not (len(self.rails_v) == 2 and all(map(math.isfinite, self.rails_v))
+                    and self.rails_v[0] < self.rails_v[1]):
+                msg = f"--rails must be LOW,HIGH [V] with LOW < HIGH, not {self.rails_v!r}"
+                raise UsageError(msg)
+        if not 0.0 <= self.allow_excluded_pct <= 100.0:  # also NaN
+            msg = f"--allow-excluded must be 0..100 %, not {self.allow_excluded_pct!r}"
             raise UsageError(msg)
 
     def _check_sizes(self) -> None:
@@ -118,7 +140,9 @@ class Settings:
             "heads": _list(self.heads), "average": self.average, "harmonics": self.harmonics,
             "points": self.points, "trend": self.trend_degree}
         if self.signals:
-            return out | {"mode": "signals", "min_arc_deg": self.min_arc_deg}
+            return out | {"mode": "signals", "min_arc_deg": self.min_arc_deg,
+                          "allow_excluded_pct": self.allow_excluded_pct,
+                          "rails_v": _list(self.rails_v)}
         return out | {"mode": "reference", "window_arcsec": self.trend_window_arcsec(continuous),
                       "reference": self.reference, "reference_file": self.reference_file,
                       "probes": _list(self.probes), "arm_m": self.arm_m, "keep": _list(self.keep),
