@@ -382,6 +382,10 @@ def source_format(path: str, fmt: str | None) -> str:
         return STREAM if doc is not None and not headers.is_table_sidecar(doc) else "csv"
     if ext in romformats.EXTENSIONS:
         return romformats.EXTENSIONS[ext]
+    doc = headers.sidecar_doc(path)
+    if headers.is_table_sidecar(doc) and doc is not None:  # a table's sidecar names it
+        stated = doc["enctools"]["table"].get("format")
+        return stated if stated in headers.SIDECAR_FORMATS else "csv"
     if formats.by_name(path) is not None or not os.path.isfile(path):
         return STREAM  # a missing file: opening it says so
     try:
