@@ -225,7 +225,8 @@ def read_control_table(path: str, target: str, sign: str | None = None, comp_typ
     does not say. DataError (one line) when the control would refuse or misread it."""
     data = read_bytes(path)
     if target in ("acs", "fanuc", "heidenhain") and sign not in ("correction", "error"):
-        msg = f"{target}: give the sign of the stored values (correction or error)"
+        msg = (f"{target}: the file does not say the sign of its values; give --sign "
+               "correction or --sign error, as make-rom was given it")
         raise UsageError(msg)
     try:
         return _read_control(data, path, target, sign, comp_type, axis, array_name)
