@@ -64,10 +64,14 @@ $(OUT)/joint.comp: $(OUT)/points.parquet
 	$(ENC) make-rom $< --target linuxcnc --verify -o $@ --force
 
 # 6b. The ROM applied to a dense turn as the FPGA would (look-up by code, words added):
-#     the error before and after (seed 001 tables 1-2: s 1.30" -> 0.50"); exit 1 above MAX_STD
-$(OUT)/residual.parquet: $(OUT)/correction.mif
+#     the error before and after (seed 001 tables 1-2: s 1.30" -> 0.50"); exit 1 above MAX_STD.
+#     The raw image too, which states no layout (the run's rig gives the code's bits): the
+#     same corrected turn as the MIF's
+$(OUT)/residual.parquet: $(OUT)/correction.mif $(OUT)/correction.bin
 	$(ENC) acquire --rig $(RIG) --mode continuous --revolutions 1 -o $(OUT)/dense.parquet --force
 	$(ENC) correct $(OUT)/dense.parquet --table $< --ref $(REF) --max-std $(MAX_STD) -o $@ --force
+	$(ENC) correct $(OUT)/dense.parquet --table $(OUT)/correction.bin --ref $(REF) \
+	    --max-std $(MAX_STD) -o $(OUT)/residual-bin.parquet --force
 
 # 7. The calibration certificate: text on stdout, HTML and A4 PDF for the customer
 $(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet $(CERT)

@@ -372,7 +372,9 @@ def test_readings_against_a_reference_encoder(tmp_path):
                     f"| enc correct --table {tmp_path}/zero.parquet --heads P1,P2 "
                     f"--ref H1,H2,H3,H4 --json"))
     assert s["input"]["reference"] == ["H1", "H2", "H3", "H4"]
-    assert s["after"] == s["before"]
+    for key in ("pp_arcsec", "s_bessel_arcsec"):  # after: about its mean
+        assert s["after"][key] == s["before"][key]
+    assert s["constant"]["added_arcsec"] == 0.0
     header, table = streams.read_table(str(tmp_path / "run.parquet"), "readings")
     from enctools.data.readings import head_info, mean_head_reading
     infos = {h: head_info(header.schema, h) for h in ("P1", "P2", "H1", "H2", "H3", "H4")}
@@ -412,3 +414,67 @@ def test_a_bidirectional_point_table_corrects_each_direction_with_its_own_points
     x = np.array([0.0, np.pi / 4, 7 * np.pi / 4, 2 * np.pi + np.pi / 2, np.pi / 4])
     got = table.correction_rad(x, np.array([1, 1, 1, -1, -1]))
     assert np.allclose(got, [1.0, 1.5, 2.5, -2.0, -1.5])  # modulo 360, across 360 -> 0
+
+
+# ------------------------------------------------------------ the figures after, the hints
+
+
+def test_after_figures_are_about_their_mean_and_the_constant_is_named(tables, tmp_path):
+    """A table whose words are all +5 LSB over an error with no mean: the correction adds a
+    constant, which moves no point relative to another. s, p-p and rms after are those
+    before; the constant and the rms with it are named as such."""
+    pos = np.linspace(0, 359, 50)
+    dev = 2.0 * np.sin(np.deg2rad(pos) * 3)
+    dev -= dev.mean()
+    write_points(tmp_path / "p.csv", pos, dev)
+    words = np.full(64, 5)
+    theta = np.arange(64) * (2 * np.pi / 64)
+    lsb = TURN_ARCSEC / 2 ** 16
+    curve = deviations_table(theta, [Column("e", -words * lsb)])
+    streams.write_table(str(tmp_path / "dev.parquet"), Header("deviations", curve.schema, {}),
+                        curve)
+    assert run(f"enc make-rom {tmp_path}/dev.parquet --curve e --bits 16 --address-bits 6 "
+               f"-o {tmp_path}/t.mif -q").returncode == 0
+    s = summary(run_in_process(f"enc correct {tmp_path}/p.csv --table {tmp_path}/t.mif --json"))
+    before, after = s["before"], s["after"]
+    for key in ("pp_arcsec", "s_bessel_arcsec", "rms_arcsec", "max_abs_arcsec"):
+        assert after[key] == pytest.approx(before[key], abs=1e-9), key
+    assert after["mean_arcsec"] == 0.0
+    assert s["constant"]["added_arcsec"] == pytest.approx(5 * lsb, abs=1e-9)
+    with_it = np.sqrt(np.mean((dev + 5 * lsb) ** 2))
+    assert s["constant"]["after_rms_with_it_arcsec"] == pytest.approx(with_it, abs=1e-9)
+    r = run_in_process(f"enc correct {tmp_path}/p.csv --table {tmp_path}/t.mif")
+    assert "constant: added" in r.stderr.decode()
+
+
+def test_a_tables_column_hints_are_spelt_as_enc_correct_takes_them(tables, tmp_path):
+    """The table's reference column is --reference-column here (--reference is --ref):
+    every hint names it so, and the command it suggests works."""
+    (tmp_path / "t.csv").write_text("ref,meas\n0,0.001\n90,90.002\n180,179.999\n270,270\n")
+    line = one_error_line(run_in_process(f"enc correct {tmp_path}/t.csv "
+                                         f"--table {tables}/rom.mif"), 2, "enc correct")
+    assert "--reference-column COL --measured COL" in line
+    assert re.search(r"--reference(?![-\w])", line) is None, line
+    r = run_in_process(f"enc correct {tmp_path}/t.csv --table {tables}/rom.mif "
+                       "--reference-column ref --measured meas -q")
+    assert r.returncode == 0, r.stderr.decode()
+    line = one_error_line(run_in_process(f"enc correct {DATA}/seed001_table1.csv --table "
+                                         f"{tables}/rom.mif --reference-column x"),
+                          2, "enc correct")
+    assert "--reference-column 'x': no such column" in line
+
+
+def test_a_table_named_otherwise_is_known_by_its_content(tables, tmp_path):
+    """A MIF, COE or Intel HEX table under a name that says nothing: its content says it."""
+    write_points(tmp_path / "p.csv", np.array([0.0, 90.0]), np.zeros(2))
+    for fmt in ("mif", "coe", "ihex"):
+        r = run(f"enc make-rom {tables}/m.parquet --bits {N_BITS} --address-bits {M_BITS} "
+                f"--lsb {LSB} --width {WIDTH} --target {fmt} -o {tmp_path}/table.{fmt}.txt -q")
+        assert r.returncode == 0, r.stderr.decode()
+        s = summary(run_in_process(f"enc correct {tmp_path}/p.csv "
+                                   f"--table {tmp_path}/table.{fmt}.txt --json"))
+        assert (s["table"]["format"], s["table"]["code_bits"]) == (fmt, N_BITS)
+    (tmp_path / "table.txt").write_bytes(b"\x01\x02" * 64)
+    line = one_error_line(run_in_process(f"enc correct {tmp_path}/p.csv "
+                                         f"--table {tmp_path}/table.txt"), 2, "enc correct")
+    assert "give --target" in line

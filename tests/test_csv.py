@@ -256,7 +256,13 @@ def test_points_table_through_fit_rbf_and_make_rom(tmp_path):
     assert (tmp_path / "rom.csv").read_text().startswith("address,correction_count\n")
     table = (tmp_path / "table.csv").read_text()  # the table format: header first too
     assert table.startswith("address,correction\n") and "#" not in table
-    assert not (tmp_path / "table.csv-metadata.json").exists()
+    # its sidecar says its layout (enc-make-rom(1)): read back without --bits, not a stream
+    side = json.loads((tmp_path / "table.csv-metadata.json").read_text())
+    assert side["url"] == "table.csv" and side["enctools"]["table"]["code_bits"] == 12
+    err = one_error_line(run("enc info table.csv", cwd=tmp_path), 2, "enc info")
+    assert "correction table of enc make-rom" in err
+    r = run(f"enc correct {DATA}/seed001_table1.csv --table table.csv -q", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
 
 
 def test_output_and_sidecar_are_written_together_or_not_at_all(tmp_path):

@@ -41,15 +41,30 @@ def test_round_trip_every_format(tmp_path, ext):
     assert h2.kind == "deviations"
 
 
-def test_format_detected_from_magic_not_name(tmp_path):
+def test_the_name_decides_then_an_unambiguous_signature(tmp_path):
+    """enc-streams(5), FORMATS: a known extension first; without one, the content where its
+    signature is unambiguous (PAR1 and ARROW1 at both ends, HDF5's); an Arrow stream's
+    marker only in a file that claims nothing else."""
     header, table = _deviations()
-    p = tmp_path / "really-parquet.parquet"
-    streams.write_table(str(p), header, table)
+    for ext, fmt in ((".parquet", "Parquet"), (".arrow", "Arrow file"), (".h5", "HDF5"),
+                     (".arrows", "Arrow IPC stream")):
+        p = tmp_path / f"dev{ext}"
+        streams.write_table(str(p), header, table)
+        plain = tmp_path / f"no-extension-{ext[1:]}"
+        plain.write_bytes(p.read_bytes())
+        with streams.open_input(str(plain)) as s:
+            assert s.format == fmt
+            assert s.read_all().equals(table)
     disguised = tmp_path / "misnamed.h5"
-    disguised.write_bytes(p.read_bytes())
-    with streams.open_input(str(disguised)) as s:
-        assert s.format == "Parquet"
-        assert s.read_all().equals(table)
+    disguised.write_bytes((tmp_path / "dev.parquet").read_bytes())
+    with pytest.raises(DataError, match=r"misnamed.h5: .*hdf5.*its content is Parquet: "
+                                        r"name it .parquet"):
+        streams.open_input(str(disguised))
+    # PAR1 at the start only is not Parquet's signature: a name or a pipe must say it
+    cut = tmp_path / "cut"
+    cut.write_bytes((tmp_path / "dev.parquet").read_bytes()[:-1])
+    with pytest.raises(DataError, match="cut: truncated or corrupt parquet"):
+        streams.open_input(str(cut))
 
 
 def test_parquet_and_hdf5_on_a_pipe_are_buffered(tmp_path):

@@ -14,6 +14,8 @@ TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcn
            "fanuc", "heidenhain")
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from enctools.data.streams import Header
     from enctools.data.tablemap import Mapping
     from enctools.models.corrected import Residuals
@@ -27,17 +29,19 @@ if TYPE_CHECKING:
               help="The correction: a table file (bin, ihex, mif, coe, mem, csv, acs, siemens), "
                    "a rom stream, a model stream or a deviations stream.")
 @click.option("--target", type=click.Choice(TARGETS), default=None,
-              help="The table file's format (default: from its extension).")
+              help="The table file's format (default: from its extension, else its content).")
 @click.option("--bits", "code_bits", type=int, default=None,
-              help="Bits n of the code the table is for (default: from its comment).")
+              help="Bits n of the code the table is for (default: from its comment or "
+                   "sidecar, else the input's 2^n-count encoder).")
 @click.option("--address-bits", type=int, default=None,
               help="The table is addressed by the code's top M bits (default: from its size).")
 @click.option("--width", type=int, default=None,
               help="Word width [bit] of bin and ihex tables (default: from the comment, else 16).")
 @click.option("--lsb", type=float, default=None,
               help="Counts of the code per LSB of a value (default: from the comment, else 1).")
-@click.option("--endian", type=click.Choice(["little", "big"]), default="little",
-              show_default=True, help="bin and ihex: byte order of the words.")
+@click.option("--endian", type=click.Choice(["little", "big"]), default=None,
+              help="bin and ihex: byte order of the words (default: from the sidecar, "
+                   "else little).")
 @click.option("--array", "array_name", default="ENC_COMP", show_default=True,
               help="acs: name of the REAL array holding the map.")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
@@ -64,7 +68,7 @@ if TYPE_CHECKING:
 @options.outputs
 @options.verbosity
 def command(input: str | None, table_path: str, target: str | None, code_bits: int | None,
-            address_bits: int | None, width: int | None, lsb: float | None, endian: str,
+            address_bits: int | None, width: int | None, lsb: float | None, endian: str | None,
             array_name: str, sign: str | None, comp_type: int, axis: str | None,
             curve: str | None, heads: list[str] | None,
             reference: list[str] | None, points: int, max_pp: float | None,
@@ -93,15 +97,21 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
         streams.check_output(output, force, fmt)
     settings = correction.TableSettings(target, code_bits, address_bits, width, lsb, endian,
                                         array_name, sign, comp_type, axis)
-    table = correction.load(table_path, settings, curve)
-    header, out, res, extra = _apply(input, table, heads, reference, points, mapping)
+    def table_for(rig_bits: int | None) -> Correction:
+        return correction.load(table_path, settings, curve, rig_bits)
+
+    header, out, res, extra, table = _apply(input, table_for, heads, reference, points,
+                                            mapping)
     described = {"file": table_path} | table.describe()
     if output is not None:
         kind = "deviations" if header.kind == "readings" else "points"
         out_header = header.derive(kind, out.schema, source=extra["input"]["source"],
                                    settings={"table": described})
         streams.write_table(output, streams.with_history(out_header), out, force, fmt)
-    emit({"table": described} | extra | before_after(res.figures_before, res.figures_after)
+    figures = before_after(res.figures_before, res.figures_after)
+    constant = {"constant": {"added_arcsec": res.constant,
+                             "after_rms_with_it_arcsec": res.rms_with_constant}}
+    emit({"table": described} | extra | dict(list(figures.items())[:2]) | constant | figures
          | ({"output": output} if output is not None else {}), as_json, unit)
     bad = figure_limits(res.figures_after, Thresholds(max_pp, max_std, max_abs),
                         f"the corrected {header.kind} of {extra['input']['source']}")
@@ -109,15 +119,17 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
         raise CheckFailed("; ".join(bad))
 
 
-def _apply(input: str | None, table: Correction, heads: list[str] | None,
-           reference: list[str] | None, points: int, mapping: Mapping
-           ) -> tuple[Header, Any, Residuals, dict[str, Any]]:
-    """The input's header, the corrected stream's rows, the residuals, and what the
-    summary says of the input."""
+def _apply(input: str | None, table_for: Callable[[int | None], Correction],
+           heads: list[str] | None, reference: list[str] | None, points: int,
+           mapping: Mapping) -> tuple[Header, Any, Residuals, dict[str, Any], Correction]:
+    """The input's header, the corrected stream's rows, the residuals, what the summary
+    says of the input, and the table (``table_for(the bits of the input's 2^n-count
+    code, or None)``)."""
     from enctools.data import streams
     from enctools.errors import UsageError
     from enctools.methods.points import check_points, from_table, is_table_file, read_points
     from enctools.models.corrected import correct_points
+    from enctools.models.correction import rig_code_bits
 
     given = [o for o, v in (("--heads", heads), ("--ref", reference)) if v is not None]
     if input is not None and is_table_file(input):
@@ -130,21 +142,22 @@ def _apply(input: str | None, table: Correction, heads: list[str] | None,
         src = streams.open_input(input, ("points", "readings"))
         header, source = src.header, src.source
         if header.kind == "readings":
-            return _readings(src, table, heads, reference, points)
+            return _readings(src, table_for, heads, reference, points)
         pts = check_points(from_table(src.read_all(), source, header.meta), source)
     if given:
         msg = f"{given[0]} applies to readings; {source} holds points"
         if given[0] == "--ref" and input is not None and is_table_file(input):
             msg += " (a table's reference column is --reference-column)"
         raise UsageError(msg)
+    table = table_for(rig_code_bits(header.meta))
     fixed, res = correct_points(pts, table, source)
     return header, fixed.table(), res, {"input": {"kind": "points", "source": source,
-                                                  "n_rows": len(pts)}}
+                                                  "n_rows": len(pts)}}, table
 
 
-def _readings(src: Any, table: Correction, heads: list[str] | None,
-              reference: list[str] | None, points: int
-              ) -> tuple[Header, Any, Residuals, dict[str, Any]]:
+def _readings(src: Any, table_for: Callable[[int | None], Correction],
+              heads: list[str] | None, reference: list[str] | None, points: int
+              ) -> tuple[Header, Any, Residuals, dict[str, Any], Correction]:
     """A continuous run's residuals against its reference, and both curves binned."""
     import numpy as np
 
@@ -155,8 +168,8 @@ def _readings(src: Any, table: Correction, heads: list[str] | None,
     from enctools.methods.harmonics import bin_average, grid
     from enctools.models.corrected import correct_readings, encoder_code
 
-    header, rows = src.header, src.read_all()
-    if "step" in rows.column_names:
+    header = src.header
+    if "step" in header.schema.names:
         msg = (f"{src.source}: a steps run; make its points first "
                "(enc points RUN | enc correct --table ...)")
         raise DataError(msg)
@@ -165,6 +178,8 @@ def _readings(src: Any, table: Correction, heads: list[str] | None,
     cpr = infos[0].counts_per_rev
     if any(i.counts_per_rev != cpr for i in infos):
         raise DataError(f"{src.source}: heads {', '.join(names)} count differently per turn")
+    table = table_for(cpr.bit_length() - 1 if cpr > 0 and cpr & (cpr - 1) == 0 else None)
+    rows = src.read_all()
     code = encoder_code([rows.column(i.name).to_numpy(zero_copy_only=False) for i in infos], cpr)
     ref = reference_angle(rows, header.schema, header.meta, times(rows, src.source), reference,
                           src.source)
@@ -174,5 +189,5 @@ def _readings(src: Any, table: Correction, heads: list[str] | None,
     return header, out, res, {"input": {"kind": "readings", "source": src.source,
                                         "n_samples": int(code.size),
                                         "heads": names, "reference": reference or ["truth"]},
-                              "zero_offset_arcsec": res.zero_offset}
+                              "zero_offset_arcsec": res.zero_offset}, table
 

@@ -304,7 +304,7 @@ def _table_columns(f: Callable[..., Any], reference: tuple[str, ...]) -> Callabl
 
         given = {k: kwargs.pop(f"column_{k}") for k in names}
         given |= {k: kwargs.pop(k) for k in [*units, "counts_per_rev", "zero_offset"]}
-        return f(*args, mapping=Mapping(**given), **kwargs)
+        return f(*args, mapping=Mapping(**given, reference_option=reference[-1]), **kwargs)
 
     g: Callable[..., Any] = with_mapping
     g = click.option("--zero-offset", type=click.Choice(["remove", "keep"]), default=None,

@@ -288,6 +288,11 @@ class _Layout:
     """What a sidecar says of its table: fields, titles, written units, rows, metadata."""
 
     def __init__(self, doc: dict[str, Any], source: str) -> None:
+        own = doc.get("enctools") if isinstance(doc, dict) else None
+        if isinstance(own, dict) and "table" in own and "kind" not in own:
+            msg = (f"{source}: the sidecar of a correction table of enc make-rom, not of a "
+                   "stream (enc correct --table reads the table)")
+            raise DataError(msg)
         try:
             self._parse(doc)
         except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:

@@ -4,11 +4,12 @@ A stream is a :class:`Header` (kind, Arrow schema with field metadata, and a JSO
 metadata dict carrying the rig, the settings, the ground truth and the ``history``)
 plus Arrow record batches.
 
-- Input: a path, or ``-``/``None`` for stdin. The format is found from the magic
-  bytes (``PAR1``, ``ARROW1``, ``FF FF FF FF``, ``\\x89HDF\\r\\n\\x1a\\n``), whatever
-  the name; a CSV or TSV table (:mod:`enctools.data.csvio`) by its sidecar or its
-  extension. Arrow IPC streams are read batch by batch; Parquet, Arrow files and HDF5
-  arriving on a pipe are buffered in memory first (they need seeking).
+- Input: a path, or ``-``/``None`` for stdin. A file's format is what its name says
+  (its extension, or a CSV or TSV table's sidecar beside it), else what its content says
+  where the signature is unambiguous; a pipe's, its first bytes
+  (:mod:`enctools.data.formats`: the order of authority). Arrow IPC streams are read
+  batch by batch; Parquet, Arrow files and HDF5 arriving on a pipe are buffered in
+  memory first (they need seeking).
 - Output: a path, whose extension chooses the format, or stdout (Arrow IPC stream,
   or Parquet, CSV, TSV with ``fmt``). Named outputs are written to a temporary file
   in the same folder and renamed only on success (a table with its sidecar); binary
@@ -33,12 +34,18 @@ from typing import IO, Any
 import pyarrow as pa
 
 from enctools.data import csvio, files, limits, pipes
+from enctools.data.formats import EXTENSIONS, FORMATS, MAGIC, detect_format, file_format
+from enctools.data.formats import ends as file_ends
+from enctools.data.formats import mismatch as format_mismatch
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
 from enctools.data.text import first_line
 from enctools.errors import DataError, OutputError, UsageError
 
 __all__ = [
+    "EXTENSIONS",
+    "FORMATS",
+    "MAGIC",
     "Header",
     "InputStream",
     "OutputStream",
@@ -53,17 +60,6 @@ __all__ = [
 
 BATCH_ROWS = 65536
 
-MAGIC = {
-    b"PAR1": "parquet",
-    b"ARROW1": "arrow",
-    b"\xff\xff\xff\xff": "arrows",
-    b"\x89HDF\r\n\x1a\n": "hdf5",
-}
-EXTENSIONS = {".parquet": "parquet", ".pq": "parquet", ".h5": "hdf5", ".hdf5": "hdf5",
-              ".arrow": "arrow", ".feather": "arrow", ".arrows": "arrows", ".ipc": "arrows",
-              **csvio.EXTENSIONS}
-FORMATS = ("arrows", "parquet", "arrow", "hdf5", *csvio.FORMATS)
-
 # What the Arrow, Parquet and HDF5 decoders raise on corrupt or truncated input (h5py
 # raises RuntimeError and KeyError for damaged B-trees and heaps; pyarrow's "not
 # implemented" for a damaged type is an ArrowException).
@@ -72,14 +68,6 @@ _DECODE_ERRORS = (pa.ArrowException, OSError, EOFError, ValueError, KeyError, Ty
 
 
 # --------------------------------------------------------------------------- input
-
-
-def detect_format(prefix: bytes) -> str | None:
-    """The format named by a file's first bytes, or None."""
-    for magic, fmt in MAGIC.items():
-        if prefix.startswith(magic):
-            return fmt
-    return None
 
 
 #: batches read ahead of the caller on a reader thread (InputStream.batches)
@@ -229,18 +217,20 @@ def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...
 
 def _open_file(fh: IO[bytes], source: str) -> InputStream:
     """A stream from a seekable file: the format from its first bytes."""
-    prefix = fh.read(8)
-    fh.seek(0)
-    if not prefix:
+    head, tail = file_ends(fh)
+    if not head:
         msg = f"{source}: empty file"
         raise DataError(msg)
-    fmt = detect_format(prefix) or csvio.text_format(source) or _known_format(prefix, source)
+    fmt = file_format(source, fh) or _known_format(head, source)
     if fmt in csvio.FORMATS:  # a text table, read with its sidecar
         header, batches, rows, closer = csvio.open_table(fh, source)
         stream = InputStream(header, batches, source, fmt.upper(), closer)
         stream.claimed_rows = rows
         return stream
-    return _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
+    try:
+        return _open_arrows(fh, source) if fmt == "arrows" else _open_seekable(fh, fmt, source)
+    except DataError as exc:  # named as one format, holding another: say which
+        raise DataError(f"{exc}{format_mismatch(fmt, head, tail)}") from None
 
 
 def _open_pipe(raw: IO[bytes], source: str) -> InputStream:

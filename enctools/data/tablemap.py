@@ -22,7 +22,7 @@ refused with one line naming the line (row) or column.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -72,6 +72,12 @@ class Mapping:
     deviation_unit: str | None = None
     counts_per_rev: int | None = None
     zero_offset: str | None = None
+    #: how the command spells the reference column's option (enc correct: --reference-column)
+    reference_option: str = field(default="--reference", compare=False, repr=False)
+
+    def option(self, role: str) -> str:
+        """The option naming a role's column, as this command spells it."""
+        return self.reference_option if role == "reference" else f"--{role}"
 
     def __post_init__(self) -> None:
         for role in (*ANGLES, "deviation"):
@@ -95,8 +101,9 @@ class Mapping:
 
     def given(self) -> list[str]:
         """The options given, by name."""
-        return [f"--{f.name.replace('_', '-')}" for f in fields(self)
-                if getattr(self, f.name) is not None]
+        return [self.option(f.name) if f.name in ROLES else f"--{f.name.replace('_', '-')}"
+                for f in fields(self) if f.name != "reference_option"
+                and getattr(self, f.name) is not None]
 
     def names_columns(self) -> bool:
         """Whether any column is named by an option (then other columns are ignored)."""
@@ -104,7 +111,8 @@ class Mapping:
 
     def to_meta(self) -> dict[str, Any]:
         """The mapping as given (None: found by title, or the default)."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if f.name != "reference_option"}
 
 
 @dataclass
@@ -134,19 +142,20 @@ class TablePoints:
                 "zero_offset_removed": self.offset_removed}
 
 
-def _options_line() -> str:
-    return ("map them with --position COL --deviation COL, or --reference COL --measured "
-            "COL (or --reference COL --deviation COL), and --direction COL, --run COL; "
+def _options_line(reference: str = "--reference") -> str:
+    return (f"map them with --position COL --deviation COL, or {reference} COL --measured "
+            f"COL (or {reference} COL --deviation COL), and --direction COL, --run COL; "
             "units: --position-unit, --reference-unit, --measured-unit, --deviation-unit "
             f"({', '.join(UNITS)}; counts with --counts-per-rev)")
 
 
-def _cannot_map(raw: RawTable, what: str) -> DataError:
+def _cannot_map(raw: RawTable, what: str, mapping: Mapping) -> DataError:
     found = ", ".join(repr(printable(t)) for t in raw.titles)
-    return DataError(f"{raw.source}: {what}; columns found: {found}; {_options_line()}")
+    return DataError(f"{raw.source}: {what}; columns found: {found}; "
+                     f"{_options_line(mapping.option('reference'))}")
 
 
-def _named(raw: RawTable, name: str, role: str) -> int:
+def _named(raw: RawTable, name: str, role: str, mapping: Mapping) -> int:
     """The column an option names: by title (any case), else by its 1-based number."""
     exact = [k for k, t in enumerate(raw.titles) if t == name]
     loose = [k for k, t in enumerate(raw.titles) if t.strip().lower() == name.strip().lower()]
@@ -154,10 +163,11 @@ def _named(raw: RawTable, name: str, role: str) -> int:
         return (exact or loose)[0]
     if name.isdigit() and 1 <= int(name) <= len(raw.titles):
         return int(name) - 1
-    raise _cannot_map(raw, f"--{role} {printable(name)!r}: no such column")
+    raise _cannot_map(raw, f"{mapping.option(role)} {printable(name)!r}: no such column",
+                      mapping)
 
 
-def _found(raw: RawTable, role: str, taken: set[int]) -> int | None:
+def _found(raw: RawTable, role: str, taken: set[int], mapping: Mapping) -> int | None:
     """The column found for ``role`` by its title (None: none; DataError: several)."""
     hits = []
     for k, t in enumerate(raw.titles):
@@ -168,7 +178,7 @@ def _found(raw: RawTable, role: str, taken: set[int]) -> int | None:
     if len(hits) > 1:
         titles = ", ".join(repr(printable(raw.titles[k])) for k in hits)
         raise _cannot_map(raw, f"columns {titles} could each be the {role}: name one with "
-                          f"--{role}")
+                          f"{mapping.option(role)}", mapping)
     return hits[0] if hits else None
 
 
@@ -179,23 +189,23 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
     for role in ROLES:
         name = getattr(mapping, role)
         if name is not None:
-            cols[role] = _named(raw, name, role)
+            cols[role] = _named(raw, name, role, mapping)
     for role in ROLES:
         known = {"indicated" if r in ("position", "measured") else r for r in cols}
         enough = role in (*ANGLES, "deviation") and len(
             known & {"indicated", "reference", "deviation"}) >= 2
         if role not in cols and not enough and (role != "position" or "measured" not in cols):
-            k = _found(raw, role, set(cols.values()))
+            k = _found(raw, role, set(cols.values()), mapping)
             if k is not None:
                 cols[role] = k
     if "measured" in cols and "position" in cols:
-        raise _cannot_map(raw, "both a position and a measured column: name one")
+        raise _cannot_map(raw, "both a position and a measured column: name one", mapping)
     have = {"indicated" if r in ("position", "measured") else r for r in cols}
     angles = sorted(have & {"indicated", "reference", "deviation"})
     if len(angles) != 2:
         found = f" (found: {', '.join(angles)})" if angles else ""
         raise _cannot_map(raw, "a table needs two of indicated angle, reference and "
-                          f"deviation{found}")
+                          f"deviation{found}", mapping)
     for role in (*ANGLES, "deviation"):
         if getattr(mapping, f"{role}_unit") is not None and role not in cols:
             msg = f"--{role}-unit: the table has no {role} column"
@@ -203,7 +213,7 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
     unused = [t for k, t in enumerate(raw.titles) if k not in cols.values()]
     listed = ", ".join(repr(printable(t)) for t in unused)
     if unused and not mapping.names_columns():
-        raise _cannot_map(raw, f"unknown column(s) {listed}")
+        raise _cannot_map(raw, f"unknown column(s) {listed}", mapping)
     if unused:
         logging.getLogger("enctools").info("%s: columns not used: %s", raw.source, listed)
     return cols

@@ -18,7 +18,7 @@ is compared with the error before.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -33,9 +33,15 @@ from enctools.units import ARCSEC, DEG, TWO_PI
 class Residuals:
     """The error [arcsec] before and after the correction, and their figures.
 
-    before, after : one value per point or reading [arcsec].
-    figures_before, figures_after : their figures (points: of the distinct positions,
-        as enc points gives them; readings: of every reading).
+    before, after : one value per point or reading [arcsec], as they stand.
+    figures_before : the figures of ``before`` (points: of the distinct positions, as
+        enc points gives them; readings: of every reading).
+    figures_after : the figures of ``after`` (the same values) about their mean: mean
+        0, every other figure (min, max, rms, max |e|) of ``after`` less its mean; s and
+        p-p are the same either way.
+    constant : the constant the correction adds [arcsec]: the mean of ``after`` less
+        the mean of ``before`` (a table's mean is a shift of the zero, not an error).
+    rms_with_constant : the rms of ``after`` as it stands [arcsec], the constant in it.
     zero_offset : readings: the circular mean of code minus reference [arcsec] removed
         from both (0 for points).
     """
@@ -45,6 +51,20 @@ class Residuals:
     figures_before: Figures
     figures_after: Figures
     zero_offset: float = 0.0
+    constant: float = 0.0
+    rms_with_constant: float = 0.0
+
+
+def residuals(before: np.ndarray, after: np.ndarray, figures_of_before: np.ndarray,
+              figures_of_after: np.ndarray, zero_offset: float = 0.0) -> Residuals:
+    """The residuals, the after figures about their mean (:class:`Residuals`).
+
+    figures_of_before, figures_of_after : the values the figures are of [arcsec] (the
+        distinct positions of points, every reading).
+    """
+    fb, raw = curve_figures(figures_of_before), curve_figures(figures_of_after)
+    fa = replace(curve_figures(figures_of_after - raw.mean), mean=0.0)
+    return Residuals(before, after, fb, fa, zero_offset, raw.mean - fb.mean, raw.rms)
 
 
 def correct_points(points: Points, correction: Correction, source: str = "input"
@@ -59,10 +79,10 @@ def correct_points(points: Points, correction: Correction, source: str = "input"
     c = correction.correction_rad(points.position_deg * DEG, points.direction)
     after = points.deviation + c / ARCSEC
     corrected = Points(points.position_deg + c / DEG, after, points.direction, points.run)
-    fb = curve_figures(distinct(points, source=source)[1])
-    fa = curve_figures(distinct(Points(points.position_deg, after, points.direction,
-                                       points.run), source=source)[1])
-    return corrected, Residuals(points.deviation, after, fb, fa)
+    fb = distinct(points, source=source)[1]
+    fa = distinct(Points(points.position_deg, after, points.direction, points.run),
+                  source=source)[1]
+    return corrected, residuals(points.deviation, after, fb, fa)
 
 
 def encoder_code(counts: Sequence[np.ndarray], counts_per_rev: int) -> np.ndarray:
@@ -129,5 +149,4 @@ def correct_readings(code: np.ndarray, counts_per_rev: int, reference_rad: np.nd
     added = code_correction(correction, code, counts_per_rev, directions(code, counts_per_rev),
                             source)
     after = before + added * (TWO_PI / counts_per_rev) / ARCSEC
-    return indicated, Residuals(before, after, curve_figures(before), curve_figures(after),
-                                offset / ARCSEC)
+    return indicated, residuals(before, after, before, after, offset / ARCSEC)

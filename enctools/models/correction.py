@@ -22,7 +22,6 @@ reader returns a :class:`~enctools.models.romformats.points.PointTable`.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -33,12 +32,12 @@ from enctools.data.files import read_bytes
 from enctools.errors import DataError, UsageError
 from enctools.models import romformats
 from enctools.models.rom import LSB_COUNTS, MAX_ADDRESS_BITS
+from enctools.models.romformats import headers
 from enctools.models.romformats.points import PointTable
 from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
 #: the first comment line enc make-rom writes in a text table (mif, coe, mem, acs, siemens)
-COMMENT = re.compile(r"enctools make-rom: (\d+) entries, (\d+)-bit signed corrections to add "
-                     r"to a (\d+)-bit code, LSB ([-+0-9.eE]+) arcsec")
+COMMENT = headers.COMMENT
 #: bits of the code a table may be built for (enc make-rom --bits)
 MAX_CODE_BITS = 40
 #: the formats of an FPGA's memory: looked up by the code's top bits
@@ -74,6 +73,7 @@ class MemoryTable:
     lsb: float
     fmt: str = "bin"
     width: int | None = None
+    stated: dict[str, Any] | None = None  # sample, endian, where the layout came from
 
     @property
     def address_bits(self) -> int:
@@ -103,7 +103,8 @@ class MemoryTable:
         if self.width is not None:
             out["width_bits"] = self.width
         return out | {"lsb_arcsec": self.lsb * count_arcsec,
-                      "min_lsb": int(self.values.min()), "max_lsb": int(self.values.max())}
+                      "min_lsb": int(self.values.min()), "max_lsb": int(self.values.max())
+                      } | (self.stated or {})
 
 
 @dataclass(frozen=True)
@@ -145,16 +146,18 @@ class ModelCorrection:
 
 @dataclass(frozen=True)
 class TableSettings:
-    """How to read a table file, as enc make-rom names its options; None: from the file's
-    comment (enc make-rom writes one in mif, coe, mem, acs and siemens tables), else the
-    default.
+    """How to read a table file, as enc make-rom names its options; None: what the file
+    states (enc make-rom writes its layout in a comment of mif, coe, mem, acs and siemens
+    tables, in a sidecar of csv and ihex tables), else the default.
 
-    fmt : a format of :mod:`enctools.models.romformats` (None: from the extension).
-    code_bits : n, bits of the code (no default: memory tables without a comment need it).
+    fmt : a format of :mod:`enctools.models.romformats` (None: from the extension, else
+        the content).
+    code_bits : n, bits of the code (None: stated by the file, else the rig's code of the
+        stream corrected; a raw image states none).
     address_bits : m, the code's top bits addressing the table (default: from its size).
     width : word width [bit] (default 16): bin and ihex need it to split words.
     lsb : counts of the code per LSB (default 1).
-    endian : bin and ihex byte order.
+    endian : bin and ihex byte order (default little).
     array_name : acs: the REAL array holding the map.
     sign : acs, fanuc, heidenhain: whether the file stores the correction or the error.
     comp_type : linuxcnc: COMP_FILE_TYPE (0 or 1).
@@ -166,7 +169,7 @@ class TableSettings:
     address_bits: int | None = None
     width: int | None = None
     lsb: float | None = None
-    endian: str = "little"
+    endian: str | None = None
     array_name: str = "ENC_COMP"
     sign: str | None = None
     comp_type: int = 0
@@ -189,76 +192,115 @@ class TableSettings:
     def given(self) -> dict[str, Any]:
         """The table options given, by option name."""
         return {k: v for k, v in (("--bits", self.code_bits), ("--address-bits", self.address_bits),
-                                  ("--width", self.width), ("--lsb", self.lsb)) if v is not None}
+                                  ("--width", self.width), ("--lsb", self.lsb),
+                                  ("--endian", self.endian)) if v is not None}
 
 
 @dataclass(frozen=True)
 class Layout:
-    """A table's layout as resolved: code bits n, word width [bit], lsb [counts]."""
+    """A table's layout as resolved: code bits n, word width [bit], lsb [counts], byte
+    order, and what stated it (``comment``, ``sidecar``, ``options``, ``rig``)."""
 
     code_bits: int | None
     width: int
     lsb: float
-    from_comment: bool
+    endian: str = "little"
+    stated_by: str = "options"
+    sample: str | None = None
+
+    def describe(self) -> dict[str, Any]:
+        """What a summary says of the layout beyond the table's size and words."""
+        out: dict[str, Any] = {"layout_from": self.stated_by}
+        return out | ({"sample": self.sample} if self.sample else {})
 
 
-def file_layout(data: bytes, settings: TableSettings, path: str) -> Layout:
-    """The layout of a table file: the options given, else its make-rom comment, else the
-    defaults; UsageError when an option contradicts the comment."""
-    m = COMMENT.search(data[:4096].decode("utf-8", "replace"))
-    if m is None:
-        return Layout(settings.code_bits, settings.width or 16, settings.lsb or 1.0, False)
-    entries, width, bits = int(m.group(1)), int(m.group(2)), int(m.group(3))
-    lsb = float(m.group(4)) / (TWO_PI / 2.0 ** bits * factor("rad", "arcsec"))
-    check_given(settings, {"--bits": bits, "--width": width, "--lsb": lsb,
-                           "--address-bits": entries.bit_length() - 1}, path, "its comment")
-    return Layout(bits, width, lsb, True)
+def file_layout(path: str, data: bytes, settings: TableSettings, fmt: str,
+                rig_bits: int | None = None) -> Layout:
+    """The layout of a table file: what it states (its sidecar, else its make-rom comment),
+    else the options given, else the code's bits ``rig_bits`` of the rig of the stream
+    corrected and the defaults; UsageError when an option contradicts what it states."""
+    stated, where = None, "its sidecar"
+    if fmt in headers.SIDECAR_FORMATS:
+        stated = headers.from_sidecar(path)
+    if stated is None:
+        stated, where = headers.from_comment(data[:4096].decode("utf-8", "replace")), \
+            "its comment"
+    if stated is None:
+        bits, by = (settings.code_bits, "options") if settings.code_bits is not None or \
+            rig_bits is None else (rig_bits, "rig")
+        return Layout(bits, settings.width or 16, settings.lsb or 1.0,
+                      settings.endian or "little", by)
+    check_given(settings, {"--bits": stated.code_bits, "--width": stated.width,
+                           "--lsb": stated.lsb, "--address-bits": stated.address_bits,
+                           "--endian": stated.endian}, path, where)
+    return Layout(stated.code_bits, stated.width, stated.lsb,
+                  stated.endian or settings.endian or "little", where.split()[1],
+                  stated.sample)
 
 
 def check_given(settings: TableSettings, found: dict[str, Any], path: str, where: str) -> None:
     """UsageError when an option given contradicts what the table itself states."""
     for option, value in settings.given().items():
-        if found.get(option) is not None and not np.isclose(value, found[option], rtol=1e-9,
-                                                            atol=0):
+        stated = found.get(option)
+        if stated is None:
+            continue
+        if isinstance(value, str) or isinstance(stated, str):
+            same = value == stated
+        else:
+            same = bool(np.isclose(value, stated, rtol=1e-9, atol=0))
+        if not same:
+            shown = stated if isinstance(stated, str) else f"{stated:.10g}"
+            given = value if isinstance(value, str) else f"{value:.10g}"
             msg = (f"{path}: {where} says the table was made with {option} "
-                   f"{found[option]:.10g}, not {value:.10g}; leave {option} out")
+                   f"{shown}, not {given}; leave {option} out")
             raise UsageError(msg)
 
 
 def _read_values(path: str, settings: TableSettings, fmt: str, layout: Layout,
                  count_deg: float) -> np.ndarray:
     """The signed values [LSB] of a table file, read by :func:`romformats.read_table`."""
-    target = romformats.Target(fmt, layout.width, settings.endian, count_deg=count_deg,
+    target = romformats.Target(fmt, layout.width, layout.endian, count_deg=count_deg,
                                name=settings.array_name)
     return np.asarray(romformats.read_table(path, target), dtype=np.int64)
 
 
-def memory_table(path: str, data: bytes, settings: TableSettings, fmt: str) -> MemoryTable:
+#: what a table's error adds about the options of a file without a stated layout
+LAYOUT_OPTIONS = ("give --bits N (the code's bits), and --width, --lsb, --endian as make-rom "
+                  "was given them when not 16, 1, little")
+
+
+def memory_table(path: str, data: bytes, settings: TableSettings, fmt: str,
+                 rig_bits: int | None = None) -> MemoryTable:
     """A memory table (bin, ihex, mif, coe, mem, csv) and its layout, its size checked."""
-    layout = file_layout(data, settings, path)
+    layout = file_layout(path, data, settings, fmt, rig_bits)
     if layout.code_bits is None:
-        msg = (f"{path}: a {fmt} table does not say the bits of its code; give --bits "
-               "(and --width, --lsb, --endian if make-rom was given them)")
+        place = "sidecar" if fmt in headers.SIDECAR_FORMATS else "comment"
+        where = "a raw image has no place for its layout" if fmt == "bin" else \
+            f"a {fmt} table without its make-rom {place}"
+        msg = f"{path}: {where}, and the input names no 2^n-count code; {LAYOUT_OPTIONS}"
         raise UsageError(msg)
     values = _read_values(path, settings, fmt, layout, 1.0)
+    stated = layout.describe() | ({"endian": layout.endian} if fmt in ("bin", "ihex") else {})
     return checked_memory(values, layout.code_bits, settings.address_bits, layout.lsb, path,
-                          fmt, layout.width)
+                          fmt, layout.width, stated)
 
 
 def checked_memory(values: np.ndarray, code_bits: int, address_bits: int | None, lsb: float,
-                   path: str, fmt: str, width: int | None = None) -> MemoryTable:
+                   path: str, fmt: str, width: int | None = None,
+                   stated: dict[str, Any] | None = None) -> MemoryTable:
     """A memory table once its size is 2**m entries, m <= n (and m = --address-bits)."""
     n = values.size
     m = n.bit_length() - 1
     if n == 0 or n != 1 << m or m > code_bits:
         msg = (f"{path}: {n} entries do not address a {code_bits}-bit code "
-               f"(a table holds 2^m entries, m <= {code_bits}); check --bits")
+               f"(a table holds 2^m entries, m <= {code_bits}); check --bits"
+               + (", --width" if fmt in ("bin", "ihex") else ""))
         raise DataError(msg)
     if address_bits is not None and address_bits != m:
         msg = (f"{path}: {n} entries = 2^{m}, not the 2^{address_bits} of "
                f"--address-bits {address_bits}")
         raise DataError(msg)
-    return MemoryTable(values, code_bits, lsb, fmt, width)
+    return MemoryTable(values, code_bits, lsb, fmt, width, stated)
 
 
 def control_table(path: str, settings: TableSettings, fmt: str) -> ControlTable:
@@ -269,12 +311,15 @@ def control_table(path: str, settings: TableSettings, fmt: str) -> ControlTable:
     return ControlTable(table, fmt)
 
 
-def read_file(path: str, settings: TableSettings) -> Correction:
-    """The correction held by a table file of any format enc make-rom writes."""
-    fmt = romformats.format_for(path, settings.fmt)
+def read_file(path: str, settings: TableSettings, fmt: str | None = None,
+              rig_bits: int | None = None) -> Correction:
+    """The correction held by a table file of any format enc make-rom writes (``fmt``:
+    its format, None: :func:`source_format`'s); ``rig_bits``: the code's bits of the rig of
+    the stream corrected, for a memory table that states none."""
+    fmt = fmt or romformats.format_for(path, settings.fmt)
     if fmt in CONTROL_FORMATS:  # its reader reads the file
         return control_table(path, settings, fmt)
-    return memory_table(path, read_bytes(path), settings, fmt)
+    return memory_table(path, read_bytes(path), settings, fmt, rig_bits)
 
 
 def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,
@@ -301,41 +346,90 @@ def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,
                           float(lsb), source, "stream", rom.get("width_bits"))
 
 
-def is_stream(path: str) -> bool:
-    """Whether ``path`` holds an enctools stream (magic bytes, or a CSV table with its
-    sidecar) rather than a table file."""
-    import os
+def rig_code_bits(meta: dict[str, Any]) -> int | None:
+    """n of the one 2^n-count encoder of a stream's rig (its ``rig`` metadata), else None."""
+    from enctools.data.readings import rig_encoders
 
-    from enctools.data.csvio import sidecar_path
-    from enctools.data.streams import detect_format
-
-    if os.path.exists(sidecar_path(path)):
-        return True
     try:
-        with open(path, "rb") as f:
-            return detect_format(f.read(8)) is not None
+        found = {e.counts_per_rev for e in rig_encoders(meta)}
+    except (DataError, KeyError, TypeError, ValueError):
+        return None
+    bits = [c.bit_length() - 1 for c in found if c > 0 and c & (c - 1) == 0]
+    return bits[0] if len(bits) == 1 else None
+
+
+#: what a file is called when it is read as a stream, not a table file
+STREAM = "stream"
+
+
+def source_format(path: str, fmt: str | None) -> str:
+    """What ``path`` holds, by the order of authority (enc-streams(5), FORMATS): ``fmt``
+    (--target) if given; else a known extension (a table format's, or a stream's: .csv is
+    a stream when its sidecar is a stream's, else a make-rom table); else the content:
+    a stream's unambiguous signature or an Arrow stream's marker, a table format's own
+    content (:func:`~enctools.models.romformats.headers.identify`). :data:`STREAM` or a
+    table format; UsageError when nothing says."""
+    import os
+    from pathlib import Path
+
+    from enctools.data import formats
+
+    if fmt is not None:
+        return fmt
+    ext = Path(path).suffix.lower()
+    if ext == ".csv":
+        doc = headers.sidecar_doc(path)
+        return STREAM if doc is not None and not headers.is_table_sidecar(doc) else "csv"
+    if ext in romformats.EXTENSIONS:
+        return romformats.EXTENSIONS[ext]
+    doc = headers.sidecar_doc(path)
+    if headers.is_table_sidecar(doc) and doc is not None:  # a table's sidecar names it
+        stated = doc["enctools"]["table"].get("format")
+        return stated if stated in headers.SIDECAR_FORMATS else "csv"
+    if formats.by_name(path) is not None or not os.path.isfile(path):
+        return STREAM  # a missing file: opening it says so
+    try:
+        head, tail = formats.path_ends(path, 4096)
     except OSError:
-        return False
+        return STREAM
+    found = STREAM if formats.content_format(head, tail[-8:]) else headers.identify(head)
+    if found is None:
+        msg = (f"{path}: cannot tell the table's format from its name or content; give "
+               f"--target ({', '.join(romformats.FORMATS + romformats.CONTROLS)})")
+        raise UsageError(msg)
+    return found
 
 
-def load(path: str, settings: TableSettings, curve: str | None = None) -> Correction:
+def load(path: str, settings: TableSettings, curve: str | None = None,
+         rig_bits: int | None = None) -> Correction:
     """The correction held by ``path``: a table file of any format enc make-rom writes,
-    a ``rom`` stream, a model stream (enc fit-rbf) or a deviations stream (``curve``)."""
+    a ``rom`` stream, a model stream (enc fit-rbf) or a deviations stream (``curve``).
+    ``rig_bits``: the bits of the code of the stream corrected (a 2^n-count encoder's n),
+    for a memory table that states none (a raw image)."""
     if path == "-":
         msg = "--table must name a file (the input is read from stdin)"
         raise UsageError(msg)
-    if not is_stream(path):
+    fmt = source_format(path, settings.fmt)
+    if fmt != STREAM:
         if curve is not None:
             msg = f"--curve chooses a curve of a deviations stream; {path} is a table file"
             raise UsageError(msg)
-        return read_file(path, settings)
-    from enctools.data import streams
+        return read_file(path, settings, fmt, rig_bits)
+    import os
+
+    from enctools.data import formats, streams
     from enctools.models.curve_model import from_stream
 
-    src = streams.open_input(path, ("rom", "model", "deviations"))
+    try:
+        src = streams.open_input(path, ("rom", "model", "deviations"))
+    except DataError as exc:
+        if formats.by_name(path) is None and os.path.isfile(path):  # known by its content
+            msg = f"{exc}; if it is a table file, give its format with --target"
+            raise DataError(msg) from None
+        raise
     table = src.read_all()
-    if src.header.kind != "rom" and (settings.given() or settings.fmt is not None):
-        option = next(iter(settings.given()), "--target")
+    if src.header.kind != "rom" and settings.given():
+        option = next(iter(settings.given()))
         msg = f"{option} describes a table; {src.source} is a {src.header.kind} stream"
         raise UsageError(msg)
     if src.header.kind == "rom":

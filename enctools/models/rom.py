@@ -300,9 +300,10 @@ class Rom:
 
     def file_comment(self) -> list[str]:
         """The comment lines heading a table file: layout, LSB [arcsec], CRC-32, history."""
+        from enctools.models.romformats.headers import Layout, comment_line
+
         s = self.spec
-        return [f"enctools make-rom: {s.entries} entries, {s.width}-bit signed corrections "
-                f"to add to a {s.code_bits}-bit code, LSB {s.lsb_arcsec!r} arcsec",
+        return [comment_line(Layout(s.entries, s.code_bits, s.width, s.lsb, s.sample)),
                 f"CRC-32 {self.crc32:08x} (little-endian int{8 * s.storage_bytes} image); "
                 + history_line()]
 

@@ -35,14 +35,16 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
 import numpy as np
 
+from enctools.data.csvio import sidecar_path
 from enctools.data.files import format_by_extension, read_bytes
 from enctools.errors import CheckFailed, DataError, UsageError
-from enctools.models.romformats import csvtext, readers, writers
+from enctools.models.romformats import csvtext, headers, readers, writers
 from enctools.models.romformats.words import Target
 from enctools.units import ARCSEC, DEG
 
@@ -157,10 +159,22 @@ def write_table(path: str, values: np.ndarray, target: Target, force: bool = Fal
     Returns the file's size [byte].
     """
     check_capacity(target, values.size)
-    from enctools.data.files import check_new_file, write_atomic
+    from enctools.data.files import OutputGroup, check_new_file, write_atomic
 
     check_new_file(path, force)
-    write_atomic(path, lambda f: WRITERS[target.fmt](f, values, target, comment or []))
+    lines = comment or []
+    layout = headers.from_comment("\n".join(lines[:1]))
+    if target.fmt not in headers.SIDECAR_FORMATS or layout is None:
+        write_atomic(path, lambda f: WRITERS[target.fmt](f, values, target, lines))
+        return Path(path).stat().st_size
+    # no place in the file for its layout: a sidecar beside it, written with it or not at all
+    side = sidecar_path(path)
+    check_new_file(side, force)
+    layout = replace(layout, endian=target.endian if target.fmt == "ihex" else None)
+    with OutputGroup() as group:
+        group.write(path, lambda f: WRITERS[target.fmt](f, values, target, lines), force=force)
+        group.write(side, headers.sidecar(layout, target.fmt, Path(path).name, lines),
+                    force=force)
     return Path(path).stat().st_size
 
 
@@ -211,7 +225,8 @@ def read_control_table(path: str, target: str, sign: str | None = None, comp_typ
     does not say. DataError (one line) when the control would refuse or misread it."""
     data = read_bytes(path)
     if target in ("acs", "fanuc", "heidenhain") and sign not in ("correction", "error"):
-        msg = f"{target}: give the sign of the stored values (correction or error)"
+        msg = (f"{target}: the file does not say the sign of its values; give --sign "
+               "correction or --sign error, as make-rom was given it")
         raise UsageError(msg)
     try:
         return _read_control(data, path, target, sign, comp_type, axis, array_name)
