@@ -52,7 +52,6 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     from enctools.data.streams import with_history
     from enctools.errors import CheckFailed
     from enctools.methods.points import distinct, read_points, target_means
-    from enctools.methods.targets import measured_range
     from enctools.models import fitting
     from enctools.models.curve_model import model_table
 
@@ -74,7 +73,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
         runner.log.warning("%s", note)
     table, meta = model_table(fit.model)
     meta |= {"selection": fit.choice, "targets": means.targets.meta(),
-             "domain": measured_range(means.position_deg).meta()}
+             "domain": means.measured().meta()}
     out = header.derive("model", table.schema, model=meta, residuals=fit.residuals(),
                         settings=settings.to_meta())
     streams.write_table(output, with_history(out), table, force, fmt)

@@ -11,8 +11,8 @@ positions (enc points, fit-rbf, report, correct, make-rom) groups them here, ali
       T = max(min(S / SEPARATION, MAX_SPREAD_DEG), COUNTS x one count of the encoder)
 
   where S is the run's step (the smallest step between neighbouring targets). S is
-  found from the positions: the coarsest grouping whose largest gap inside a target
-  is within both S / SEPARATION and MAX_SPREAD_DEG.
+  found from the positions: the coarsest grouping each of whose targets spreads (its
+  first to its last visit) within both S / SEPARATION and MAX_SPREAD_DEG.
 - A target's position is the circular mean of its visits [deg, 0..360); a target whose
   visits straddle 0 deg (359.99998 and 0.00002) is the first target, at 0 deg.
 - Its deviation per direction is the mean over runs of each run's mean there (ISO
@@ -75,19 +75,35 @@ def _circular_gaps(p: np.ndarray) -> np.ndarray:
     return np.diff(np.r_[p, p[:1] + 360.0])
 
 
+def _spreads(p: np.ndarray, within: float) -> np.ndarray:
+    """The spread [deg] (first to last visit) of each group of sorted angles ``p`` [deg,
+    0..360) whose neighbours are at most ``within`` apart, around the circle."""
+    breaks = np.flatnonzero(np.diff(p) > within)
+    first = np.r_[0, breaks + 1]
+    last = np.r_[breaks, p.size - 1]
+    spread = p[last] - p[first]
+    if first.size > 1 and p[0] + 360.0 - p[-1] <= within:  # the last group joins the first
+        spread[0] = p[last[0]] + 360.0 - p[first[-1]]
+        spread = spread[:-1]
+    return spread
+
+
 def tolerance(position_deg: np.ndarray, count_deg: float = 0.0) -> float:
     """The tolerance T [deg] within which positions [deg] are visits of one target
     (module docstring): the coarsest split of the gaps between neighbours into gaps
-    inside targets (each <= min(S / SEPARATION, MAX_SPREAD_DEG)) and steps between
-    them (each >= S); at least COUNTS counts of ``count_deg`` [deg]."""
+    inside targets and steps between them (each >= S, the smallest) such that every
+    target spreads within min(S / SEPARATION, MAX_SPREAD_DEG); at least COUNTS counts
+    of ``count_deg`` [deg]."""
     p = np.sort(np.mod(np.asarray(position_deg, np.float64), 360.0))
     if p.size == 0:
         return COUNTS * count_deg
     g = np.sort(_circular_gaps(p))
     bound = np.minimum(g / SEPARATION, MAX_SPREAD_DEG)  # T if g[k] is the smallest step
-    ok = np.flatnonzero(g[:-1] <= bound[1:]) + 1  # k: gaps g[:k] inside, g[k:] between
-    k = int(ok[-1]) if ok.size else 0
-    return max(float(bound[k]), COUNTS * count_deg)
+    # k: gaps g[:k] inside targets, g[k:] between them; the coarsest that holds
+    for k in np.flatnonzero(g[:-1] <= bound[1:])[::-1] + 1:
+        if g[k] > g[k - 1] and np.all(_spreads(p, g[k - 1]) <= bound[k]):
+            return max(float(bound[k]), COUNTS * count_deg)
+    return max(float(bound[0]), COUNTS * count_deg)
 
 
 def group(position_deg: np.ndarray, count_deg: float = 0.0) -> Targets:
@@ -144,6 +160,10 @@ class TargetMeans:
     def position_deg(self) -> np.ndarray:
         return self.targets.position_deg
 
+    def measured(self) -> MeasuredRange:
+        """The range the targets measure (:func:`measured_range`), their tolerance beyond."""
+        return measured_range(self.position_deg, self.targets.tolerance_deg)
+
 
 def direction_means(index: np.ndarray, deviation: np.ndarray, run: np.ndarray, m: int
                     ) -> np.ndarray:
@@ -198,6 +218,8 @@ class MeasuredRange:
         other than the largest.
     gap_deg : the largest gap between neighbouring targets (across 360 deg too).
     full_turn : whether the targets cover the turn (gap <= FULL_TURN_GAP x step).
+    margin_deg : how far beyond the end targets the range reaches: the targets'
+        tolerance, within which their visits lie [deg].
     """
 
     start_deg: float
@@ -205,6 +227,7 @@ class MeasuredRange:
     step_deg: float
     gap_deg: float
     full_turn: bool
+    margin_deg: float = 0.0
 
     @property
     def end_deg(self) -> float:
@@ -216,43 +239,49 @@ class MeasuredRange:
         a = np.asarray(angle_deg, np.float64)
         if self.full_turn:
             return np.ones(a.shape, bool)
-        return np.mod(a - self.start_deg, 360.0) <= self.span_deg
+        start = self.start_deg - self.margin_deg
+        return np.mod(a - start, 360.0) <= self.span_deg + 2.0 * self.margin_deg
 
     def text(self) -> str:
         """The range as a person reads it, e.g. ``15..56 deg (41 deg)``."""
         if self.full_turn:
             return "the full turn"
         end = self.end_deg - 360.0 if self.end_deg >= 360.0 else self.end_deg
-        return f"{self.start_deg:.6g}..{end:.6g} deg ({self.span_deg:.6g} deg of the turn)"
+        return f"{self.start_deg:.6g}..{end:.6g} deg ({self.span_deg:.4g} deg of the turn)"
 
     def meta(self) -> dict[str, Any]:
         """The ``domain`` metadata of a model stream [deg]."""
         return {"start_deg": self.start_deg, "end_deg": self.end_deg,
                 "span_deg": self.span_deg, "step_deg": self.step_deg, "gap_deg": self.gap_deg,
-                "full_turn": self.full_turn}
+                "full_turn": self.full_turn, "margin_deg": self.margin_deg}
 
     @classmethod
     def from_meta(cls, meta: Any, source: str = "input") -> MeasuredRange:
         """A range from a model stream's ``domain`` metadata (DataError when malformed)."""
         try:
             r = cls(float(meta["start_deg"]), float(meta["span_deg"]),
-                    float(meta["step_deg"]), float(meta["gap_deg"]), bool(meta["full_turn"]))
+                    float(meta["step_deg"]), float(meta["gap_deg"]), bool(meta["full_turn"]),
+                    float(meta.get("margin_deg", 0.0)))
         except (KeyError, TypeError, ValueError):
             r = None
-        if r is None or not (0.0 <= r.start_deg < 360.0 and 0.0 <= r.span_deg <= 360.0):
+        if r is None or not (0.0 <= r.start_deg < 360.0 and 0.0 <= r.span_deg <= 360.0
+                             and 0.0 <= r.margin_deg <= MAX_SPREAD_DEG * 10):
             msg = f"{source}: the model's domain metadata is malformed: {meta!r}"
             raise DataError(msg)
         return r
 
 
-def measured_range(position_deg: np.ndarray) -> MeasuredRange:
-    """The range targets at ``position_deg`` [deg, 0..360) measure (module docstring)."""
+def measured_range(position_deg: np.ndarray, margin_deg: float = 0.0) -> MeasuredRange:
+    """The range targets at ``position_deg`` [deg, 0..360) measure (module docstring),
+    reaching ``margin_deg`` (their tolerance) beyond the end targets."""
     p = np.sort(np.mod(np.asarray(position_deg, np.float64), 360.0))
     if p.size < 2:
-        return MeasuredRange(float(p[0]) if p.size else 0.0, 0.0, 0.0, 360.0, False)
+        return MeasuredRange(float(p[0]) if p.size else 0.0, 0.0, 0.0, 360.0, False,
+                             margin_deg)
     gaps = _circular_gaps(p)
     k = int(np.argmax(gaps))
     step = float(np.median(np.delete(gaps, k)))
     start = float(p[(k + 1) % p.size])
     gap = float(gaps[k])
-    return MeasuredRange(start, 360.0 - gap, step, gap, gap <= FULL_TURN_GAP * step)
+    return MeasuredRange(start, 360.0 - gap, step, gap, gap <= FULL_TURN_GAP * step,
+                         margin_deg)

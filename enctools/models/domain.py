@@ -51,7 +51,7 @@ def measured_of(header: Header, table: pa.Table, source: str) -> MeasuredRange |
     if not np.all(np.isfinite(position)) or position.size == 0:
         return None  # the source itself is refused, by its reader
     found = group_within(position, tolerance(position, count_deg(header.meta)))
-    return measured_range(found.position_deg)
+    return measured_range(found.position_deg, found.tolerance_deg)
 
 
 def check(measured: MeasuredRange | None, outside: str | None, source: str) -> None:

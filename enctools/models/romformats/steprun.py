@@ -18,7 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from enctools.errors import DataError
-from enctools.methods.targets import measured_range, target_means
+from enctools.methods.targets import target_means
 from enctools.models.romformats.controls import SPACED_DEG, Source
 
 
@@ -64,7 +64,7 @@ def from_points(position_deg: np.ndarray, deviation: np.ndarray,
     assert up is not None
     return Source(_periodic(targets, up), None if down is None else _periodic(targets, down),
                   targets, None if down is None else up - down,
-                  measured_range(means.position_deg))
+                  means.measured())
 
 
 def _periodic(targets_deg: np.ndarray, values: np.ndarray
