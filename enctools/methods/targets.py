@@ -193,6 +193,9 @@ def target_means(position_deg: np.ndarray, deviation: np.ndarray,
                "the circle")
         raise DataError(msg)
     d = np.ones(x.size) if direction is None else np.asarray(direction)
+    if not np.all(np.isin(d, (1, -1))):
+        msg = f"{source}: a direction is not +1 or -1"
+        raise DataError(msg)
     r = np.zeros(x.size, np.int64) if run is None else np.asarray(run, np.int64)
     per = {}
     for sign in (1, -1):
