@@ -143,7 +143,7 @@ def test_fit_rbf_bad_input(tmp_path, ciomp_steps):
     one = tmp_path / "one.csv"
     one.write_text("position_deg,deviation_arcsec\n0,1\n360,1\n")
     r = run(f"enc fit-rbf {one} -o {out}")
-    assert r.returncode == 2 and b"fewer than 2 distinct positions" in r.stderr
+    assert r.returncode == 2 and b"fewer than 2 targets" in r.stderr
     r = run(f"enc fit-rbf {DATA}/seed001_table1.csv --goal -1 -o {out}")
     assert r.returncode == 2
     assert not out.exists()

@@ -41,15 +41,17 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
 
     INPUT is a points stream (`enc points`) or a table, its columns mapped as by `enc
     points` (a point's position is the indicated angle).
-    Points at the same angle (0 and 360 deg, repeated runs) are averaged. The summary
-    on stderr gives the Bessel s and p-p of the points (seed 001 eq. 8) and the
-    training, leave-one-out and hold-out residuals.
+    The visits of one target (runs, directions, 0 and 360 deg) are one point: the model
+    goes through each target's mean, and leave-one-out leaves out a target. The
+    summary on stderr gives the targets, visits and measured range, the Bessel s and
+    p-p of the targets (seed 001 eq. 8) and the training, leave-one-out and hold-out
+    residuals.
     """
     from enctools.cli.summary import check_json, emit
     from enctools.data import streams
     from enctools.data.streams import with_history
     from enctools.errors import CheckFailed
-    from enctools.methods.points import distinct, read_points
+    from enctools.methods.points import distinct, read_points, target_means
     from enctools.models import fitting
     from enctools.models.curve_model import model_table
 
@@ -57,19 +59,21 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
     header, pts = read_points(input, mapping)
-    x, y, closure = distinct(pts, source=header.meta.get("source", "input"))
-    if closure > 0:
-        runner.log.info("points at the same angle differ by up to %.4f arcsec; fitted their mean",
-                        closure)
+    means = target_means(pts, header.meta.get("source", "input"), header.meta)
+    if means.spread > 0:
+        runner.log.info("visits of one target differ by up to %.4f arcsec; fitted the mean per "
+                        "target", means.spread)
     hold = None
     if holdout_path is not None:
-        _, hp = read_points(holdout_path, mapping)
-        hold = distinct(hp, source=holdout_path)[:2]
-    fit = fitting.fit_points(x, y, settings, hold, runner.Progress("spread search", "spreads"))
+        hh, hp = read_points(holdout_path, mapping)
+        hold = distinct(hp, holdout_path, hh.meta)[:2]
+    fit = fitting.fit_points(means.position_deg, means.mean, settings, hold,
+                             runner.Progress("spread search", "spreads"))
     for note in fit.notes:
         runner.log.warning("%s", note)
     table, meta = model_table(fit.model)
-    meta["selection"] = fit.choice
+    meta |= {"selection": fit.choice, "targets": means.targets.meta(),
+             "domain": means.measured().meta()}
     out = header.derive("model", table.schema, model=meta, residuals=fit.residuals(),
                         settings=settings.to_meta())
     streams.write_table(output, with_history(out), table, force, fmt)
@@ -92,7 +96,11 @@ def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
     else:
         model["n_harmonics"] = meta["harmonics"]
     model |= {k: v for k, v in fit.choice.items() if k != "tried"}
-    out: dict[str, Any] = {"model": model, "points": from_meta(fit.points),
+    t = meta["targets"]
+    out: dict[str, Any] = {"model": model, "targets": {
+        "n_targets": t["targets"], "n_visits": t["visits"],
+        "tolerance_arcsec": t["tolerance_deg"] * 3600.0, "step_deg": t["step_deg"],
+        "domain": _domain_text(meta["domain"])}, "points": from_meta(fit.points),
                            "training": from_meta(fit.training),
                            "leave_one_out": from_meta(fit.loo)}
     if fit.holdout:
@@ -108,3 +116,10 @@ def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
         if meta.get(key):
             out[key] = list(meta[key])
     return out
+
+
+def _domain_text(domain: dict[str, Any]) -> str:
+    """The model's measured range as the summary words it."""
+    from enctools.methods.targets import MeasuredRange
+
+    return MeasuredRange.from_meta(domain).text()

@@ -14,6 +14,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from enctools.data.header import Header
+    from enctools.data.streams import InputStream
     from enctools.models.rom import Rom, Settings
     from enctools.models.romformats.controls import ControlSettings
 
@@ -71,6 +72,9 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
               help="fanuc: the axis's detection unit [deg].")
 @click.option("--ref-point", type=int, default=0, show_default=True,
               help="fanuc: compensation point number of the reference position.")
+@click.option("--outside", type=click.Choice(["zero", "hold"]), default=None,
+              help="Where the source's targets do not cover the turn: zero correction, or "
+                   "hold the nearer end's (default: refused).")
 @click.option("--verify", is_flag=True, default=False,
               help="Read the written table back and check it equals the table built.")
 @options.output
@@ -85,8 +89,8 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             axis: str | None, zone: int, array_name: str, max_entries: int | None,
             bidirectional: bool,
             sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
-            detection_unit: float, ref_point: int, verify: bool, output: str | None,
-            force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
+            detection_unit: float, ref_point: int, outside: str | None, verify: bool,
+            output: str | None, force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -114,11 +118,11 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     if target in romformats.CONTROLS:
         _control(input, curve, _control_settings(target, bidirectional, sign, comp_type, points,
                                                  max_entries, axis, detection_unit, ref_point),
-                 str(path), force, verify, as_json, unit)
+                 str(path), (force, verify, outside), as_json, unit)
         return
     kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
     src = streams.open_input(input, kinds)
-    evaluate = rom.deviation_model(src.header, src.read_all(), src.source, curve)
+    evaluate, extent = _measured_model(src, curve, outside)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
                             address_bits, width, lsb, sample, target, endian, axis, zone,
                             array_name, max_entries, resolution_deg, sign)
@@ -127,7 +131,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         raise UsageError(msg)
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
-    summary = _rom_summary(table, src.header, curve, evaluate, settings)
+    summary = _rom_summary(table, src.header, curve, evaluate, settings) | extent
     size = None
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,
@@ -135,11 +139,25 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         rom.write_stream(output, streams.with_history(header), table.values, force, fmt)
     else:
         size = romformats.write_table(path, table.values, settings.table, force,
-                                      table.file_comment())
+                                      table.file_comment() + _range_line(summary))
         if verify:
             romformats.verify_table(path, table.values, settings.table)
     emit(_summary(summary, size, output, time.monotonic() - t0, verify and size is not None),
          as_json, unit)
+
+
+def _measured_model(src: InputStream, curve: str | None, outside: str | None
+                    ) -> tuple[Callable[[np.ndarray], np.ndarray], dict[str, Any]]:
+    """The deviation [arcsec] at angles [deg] a memory table is built from, restricted to
+    the range its source measured (refused over a partial one without ``outside``), and
+    what the summary says of that range."""
+    from enctools.models import domain, rom
+
+    rows = src.read_all()
+    measured = domain.measured_of(src.header, rows, src.source)
+    evaluate = domain.restrict(rom.deviation_model(src.header, rows, src.source, curve),
+                               measured, outside, src.source)
+    return evaluate, domain.summary(measured, outside)
 
 
 def _rom_summary(table: Rom, header: Header, curve: str | None,
@@ -182,27 +200,41 @@ def _control_settings(*options: Any) -> ControlSettings:
 
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
-             force: bool, verify: bool, as_json: bool, unit: str) -> None:
-    """Build a control's point table from a step run or a model, write it, verify it."""
+             flags: tuple[bool, bool, str | None], as_json: bool, unit: str) -> None:
+    """Build a control's point table from a step run or a model, write it, verify it
+    (``flags``: --force, --verify, --outside)."""
     import time
 
     from enctools.cli.summary import emit
     from enctools.data import streams
     from enctools.data.header import history_line
-    from enctools.models import rom, romformats
+    from enctools.models import domain, rom, romformats
     from enctools.models.romformats import controls
 
+    force, verify, outside = flags
     t0 = time.monotonic()
     src = streams.open_input(input, ("points", "model", "deviations"))
-    source = rom.control_source(src.header, src.read_all(), src.source, curve)
+    rows = src.read_all()
+    source = rom.control_source(src.header, rows, src.source, curve)
+    measured = source.measured or domain.measured_of(src.header, rows, src.source)
+    source = domain.restrict_source(source, measured, outside, src.source)
     table = controls.build(settings, source)
+    extent = domain.summary(measured, outside)
     comment = [f"enctools make-rom: {table.grid_deg.size} points 0..360 deg, "
                f"resolution {table.resolution_deg!r} deg; " + history_line()]
-    size = romformats.write_control_table(path, table, force, comment)
+    size = romformats.write_control_table(path, table, force, comment + _range_line(extent))
     if verify:
         romformats.verify_control_table(path, table)
-    emit(table.summary | {"output": path, "file_bytes": size, "verified": verify,
-                          "elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
+    emit(table.summary | extent | {"output": path, "file_bytes": size, "verified": verify,
+                                   "elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
+
+
+def _range_line(summary: dict[str, Any]) -> list[str]:
+    """The comment line a table file gives its measured range, if the source has one."""
+    if "measured_range" not in summary:
+        return []
+    outside = f"; outside it {summary['outside']}" if "outside" in summary else ""
+    return [f"measured range {summary['measured_range']}{outside}"]
 
 
 def _target(target: str | None, output: str | None, force: bool, fmt: str | None
@@ -259,6 +291,7 @@ def _summary(s: dict, size: int | None, output: str | None, seconds: float,
            "corrections": corrections,
            "crc32": {"value": s["crc32"], "of": s["crc32_of"], "image_bytes": s["image_bytes"]},
            "output": output or "-", "elapsed_s": round(seconds, 3)}
+    out |= {k: s[k] for k in ("measured_range", "outside") if k in s}
     if size is not None:
         out |= {"file_bytes": size, "verified": verified}
     return out

@@ -60,4 +60,8 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
                     "zero_offset_removed": header.meta["zero_offset_removed"]}
     if "polygon_certificate" in header.meta:
         summary["polygon_face_u_max_arcsec"] = header.meta["polygon_certificate"]["u_max_arcsec"]
+    t = header.meta["targets"]
+    summary["targets"] = {"n_targets": t["targets"], "n_visits": t["visits"],
+                          "tolerance_arcsec": t["tolerance_deg"] * 3600.0,
+                          "step_deg": t["step_deg"]}
     emit(summary | {"distinct_positions": from_meta(header.meta["figures"])}, as_json, unit)

@@ -41,11 +41,13 @@ from enctools.data.statistics import Figures, figures_or_nan
 from enctools.data.tablemap import Mapping, TablePoints
 from enctools.data.tables import is_plain
 from enctools.errors import DataError, UsageError
+from enctools.methods import targets
 from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor
 
 if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
     from enctools.data.streams import Header
+    from enctools.methods.targets import TargetMeans
 
 
 @dataclass
@@ -489,8 +491,9 @@ def make_points(path: str | None, settings: Settings, mapping: Mapping | None = 
 
     From a user's table (:func:`read_points`; the step run's settings are refused) or a
     steps-mode readings stream (:func:`points_from_steps`; stdin: None; the table's
-    column options are refused). The header carries the settings and the figures of
-    the distinct positions [arcsec].
+    column options are refused). The header carries the settings, the targets the
+    points visit (:func:`target_means`: ``targets``) and the figures of their mean
+    deviations [arcsec] (``figures``).
     """
     from enctools.data import streams
 
@@ -511,32 +514,34 @@ def make_points(path: str | None, settings: Settings, mapping: Mapping | None = 
                 "first_face": cert.first if settings.first_face is None else settings.first_face}
         header.meta["polygon_run"] = points.run_meta
     header.meta["settings"] = settings.to_meta()
-    header.meta["figures"] = figures_meta(figures_or_nan(distinct(
-        points, source=header.meta.get("source", "input"))[1]))
+    means = target_means(points, header.meta.get("source", "input"), header.meta)
+    header.meta["figures"] = figures_meta(figures_or_nan(means.mean))
+    header.meta["targets"] = means.targets.meta()
     return header, points
 
 
-def distinct(points: Points, tol_deg: float = 1e-6, source: str = "input"
-             ) -> tuple[np.ndarray, np.ndarray, float]:
-    """Distinct angles [deg, 0..360) and the mean deviation at each [arcsec].
+def count_deg(meta: dict[str, Any] | None) -> float:
+    """One count [deg] of the coarsest encoder of the rig a stream names (0: none named):
+    the least tolerance of :func:`enctools.methods.targets.tolerance`."""
+    from enctools.data.readings import rig_encoders
 
-    Points at the same angle (0 and 360 deg, several runs or directions) are
-    averaged; the largest spread among them [arcsec] is returned (the closure
-    error of a 0/360 pair).
-    """
-    pos = np.mod(points.position_deg, 360.0)
-    pos = np.where(360.0 - pos < tol_deg, 0.0, pos)
-    order = np.argsort(pos, kind="stable")
-    ps, ds = pos[order], points.deviation[order]
-    group = np.r_[0, np.cumsum(np.diff(ps) > tol_deg)]
-    ng = int(group[-1]) + 1 if group.size else 0
-    counts = np.bincount(group, minlength=ng)
-    mean_pos = np.bincount(group, ps, ng) / counts
-    mean_dev = np.bincount(group, ds, ng) / counts
-    spread = 0.0
-    for g in np.flatnonzero(counts > 1):
-        spread = max(spread, float(np.ptp(ds[group == g])))
-    if ng < 2:
-        msg = f"{source}: fewer than 2 distinct positions; a model needs points around the circle"
-        raise DataError(msg)
-    return mean_pos, mean_dev, spread
+    counts = [e.counts_per_rev for e in rig_encoders(meta or {}) if e.counts_per_rev > 0]
+    return 360.0 / min(counts) if counts else 0.0
+
+
+def target_means(points: Points, source: str = "input", meta: dict[str, Any] | None = None
+                 ) -> TargetMeans:
+    """The points grouped into targets and their deviation per target and direction
+    [arcsec] (:func:`enctools.methods.targets.target_means`; ``meta``: the stream's
+    metadata, whose rig gives one count of the encoder)."""
+    return targets.target_means(points.position_deg, points.deviation, points.direction,
+                                points.run, count_deg(meta), source)
+
+
+def distinct(points: Points, source: str = "input", meta: dict[str, Any] | None = None
+             ) -> tuple[np.ndarray, np.ndarray, float]:
+    """The targets [deg, 0..360) and the mean deviation at each [arcsec] over runs and
+    directions (:func:`target_means`), and the largest spread of one target's visits
+    [arcsec] (the closure error of a 0/360 pair, the repeatability of a step run)."""
+    t = target_means(points, source, meta)
+    return t.position_deg, t.mean, t.spread

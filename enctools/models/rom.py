@@ -438,6 +438,7 @@ def control_source(header: Header, table: pa.Table, source: str, curve: str | No
     """What a control's table is built from: a ``points`` stream (a step run: the means
     per target and direction) or a model or deviations stream (one direction)."""
     from enctools.data.columns import column, declared_unit
+    from enctools.methods.points import count_deg
     from enctools.models.curve_model import from_stream
     from enctools.models.romformats import steprun
 
@@ -451,7 +452,7 @@ def control_source(header: Header, table: pa.Table, source: str, curve: str | No
     deviation = column(table, "deviation", "arcsec", source)
     direction, run = (table.column(c).to_numpy(zero_copy_only=False)
                       if c in table.schema.names else None for c in ("direction", "run"))
-    return steprun.from_points(position, deviation, direction, run)
+    return steprun.from_points(position, deviation, direction, run, count_deg(header.meta))
 
 
 def deviation_model(header: Header, table: pa.Table, source: str, curve: str | None

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from enctools.errors import DataError
-from enctools.units import DEG
+from enctools.methods.targets import group_within
 
 UP, DOWN = 1, -1
 
@@ -151,28 +151,20 @@ def _runs_warning(up: DirectionFigures | None, down: DirectionFigures | None,
 def target_positions(position_deg: np.ndarray, tol_deg: float = 0.01, circular: bool = False
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Group measured positions [deg] into targets: positions closer than ``tol_deg``
-    (after sorting) are one target; ``circular``: modulo 360 deg, so 359.999 and 0.001
-    are one target. Returns (target [deg], index of each reading's target, readings
-    per target); a target is its group's mean (circular mean when circular)."""
+    (after sorting) are one target. ``circular``: the targets every command counts
+    (:func:`enctools.methods.targets.group_within`): modulo 360 deg, 359.999 and 0.001
+    are the 0 deg target. Returns (target [deg], index of each reading's target,
+    readings per target); a target is its group's mean (circular mean when circular)."""
     p = np.asarray(position_deg, dtype=np.float64)
     if circular:
-        p = np.mod(p, 360.0)
+        t = group_within(p, tol_deg)
+        return t.position_deg, t.index, t.visits
     order = np.argsort(p, kind="stable")
-    new = np.concatenate([[True], np.diff(p[order]) > tol_deg])
-    group_sorted = np.cumsum(new) - 1
-    if circular and group_sorted[-1] > 0 and p[order][0] + 360.0 - p[order][-1] <= tol_deg:
-        group_sorted[group_sorted == group_sorted[-1]] = 0     # the wrap joins last to first
+    group_sorted = np.cumsum(np.concatenate([[True], np.diff(p[order]) > tol_deg])) - 1
     index = np.empty(p.size, np.int64)
     index[order] = group_sorted
     counts = np.bincount(index)
-    if circular:
-        z = np.bincount(index, weights=np.cos(p * DEG)) + \
-            1j * np.bincount(index, weights=np.sin(p * DEG))
-        targets = np.mod(np.angle(z) / DEG, 360.0)
-        targets[np.abs(targets - 360.0) < 1e-9] = 0.0
-    else:
-        targets = np.bincount(index, weights=p) / counts
-    return targets, index, counts
+    return np.bincount(index, weights=p) / counts, index, counts
 
 
 def _targets_warning(positions: np.ndarray) -> list[str]:

@@ -37,6 +37,8 @@ from enctools.data.streams import InputStream
 from enctools.errors import DataError
 from enctools.methods.budget import Budget
 from enctools.methods.interp.screen import screen_notes
+from enctools.methods.points import count_deg
+from enctools.methods.targets import tolerance
 from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
 from enctools.report.positioning import (
@@ -258,7 +260,8 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
     dev = column(table, "deviation", "arcsec", s.source)
     direction, run = (table.column(c).to_numpy(zero_copy_only=False)
                       if c in table.schema.names else None for c in ("direction", "run"))
-    _points_into(s, pos, dev, direction, opts, "deviation", "points", run=run)
+    _points_into(s, pos, dev, direction, opts, "deviation", "points",
+                 tolerance(pos, count_deg(s.meta)), run=run)
     _budget_into(s, one_approach=all(x is None or len(set(x.tolist())) == 1
                                      for x in (direction, run)))
 
@@ -283,8 +286,9 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                  no_iso: str | None = None) -> None:
     """Points -> one curve (means per target when positions repeat) and ISO 230-2.
 
-    ``tol_deg``: measured positions closer than this are one target (commanded
-    targets of a readings stream are exact: a tiny tolerance). ``run``: the run of
+    ``tol_deg``: measured positions closer than this are one target (a points stream:
+    the tolerance every command derives, :func:`enctools.methods.targets.tolerance`;
+    commanded targets of a readings stream are exact: a tiny tolerance). ``run``: the run of
     each reading; the readings of one run at one target in one direction are one
     approach, averaged first (None: each reading is one). ``no_iso``: why the run
     gets no ISO 230-2 figures (a sweep), as a note."""

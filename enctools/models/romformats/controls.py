@@ -16,12 +16,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from enctools.errors import DataError, UsageError
 from enctools.units import factor
+
+if TYPE_CHECKING:
+    from enctools.methods.targets import MeasuredRange
 
 ARCSEC_PER_DEG = factor("deg", "arcsec")
 #: grid spacings that are whole multiples of 0.0001 deg divide this many steps of a turn
@@ -193,6 +196,7 @@ class Source:
     backward: Callable[[np.ndarray], np.ndarray] | None = None
     targets_deg: np.ndarray | None = None
     reversal_arcsec: np.ndarray | None = None  # B_i = deviation up - down, per target
+    measured: MeasuredRange | None = None  # the range the step run's targets measure
 
 
 @dataclass

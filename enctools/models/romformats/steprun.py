@@ -2,7 +2,8 @@
 
 A step run (a ``points`` stream: position [rad], deviation = indicated - true
 [arcsec], direction +1/-1, run) gives per target and direction the mean over its
-approaches: each run's readings at a target in a direction are averaged first, then
+approaches (:func:`enctools.methods.targets.target_means`: the targets every command
+counts alike): each run's readings at a target in a direction are averaged first, then
 the runs (ISO 230-2's mean unidirectional positioning deviation, in the deviation's
 sign). Between targets the deviation is interpolated linearly and periodically over
 the turn. Targets within SPACED_DEG of m equal steps over the turn are taken at those
@@ -17,10 +18,8 @@ from collections.abc import Callable
 import numpy as np
 
 from enctools.errors import DataError
+from enctools.methods.targets import target_means
 from enctools.models.romformats.controls import SPACED_DEG, Source
-
-#: measured positions closer than this [deg] are one target
-TARGET_TOLERANCE_DEG = 1e-3
 
 
 def from_model(deviation: Callable[[np.ndarray], np.ndarray]) -> Source:
@@ -29,10 +28,13 @@ def from_model(deviation: Callable[[np.ndarray], np.ndarray]) -> Source:
 
 
 def from_points(position_deg: np.ndarray, deviation: np.ndarray,
-                direction: np.ndarray | None, run: np.ndarray | None) -> Source:
+                direction: np.ndarray | None, run: np.ndarray | None,
+                count_deg: float = 0.0) -> Source:
     """A step run's per-target means per direction as a source (DataError, one line, when
-    a direction misses a target or fewer than 2 targets are visited)."""
-    p = np.mod(np.asarray(position_deg, np.float64), 360.0)
+    a direction misses a target or fewer than 2 targets are visited). The targets are
+    those of :func:`enctools.methods.targets.group` (``count_deg``: one count of the
+    encoder [deg])."""
+    p = np.asarray(position_deg, np.float64)
     x = np.asarray(deviation, np.float64)
     if p.size == 0 or not (np.all(np.isfinite(p)) and np.all(np.isfinite(x))):
         msg = "the points stream is empty or holds NaN or infinite values"
@@ -42,54 +44,27 @@ def from_points(position_deg: np.ndarray, deviation: np.ndarray,
     if not (np.all(np.isin(d, (1.0, -1.0))) and np.all(np.isfinite(r))):
         msg = "a direction is not +1 or -1, or a run is missing"
         raise DataError(msg)
-    r = r.astype(np.int64)
-    targets, index = _targets(p)
-    if targets.size < 2:
+    try:
+        means = target_means(p, x, d, r.astype(np.int64), count_deg, "the step run")
+    except DataError:
         msg = "the step run visits fewer than 2 targets"
-        raise DataError(msg)
+        raise DataError(msg) from None
+    for name, values in (("up (+1)", means.up), ("down (-1)", means.down)):
+        if values is not None and np.any(np.isnan(values)):
+            msg = (f"the {name} direction misses {int(np.sum(np.isnan(values)))} of the "
+                   f"{values.size} targets; a table needs every target in every direction "
+                   "it holds")
+            raise DataError(msg)
+    targets = means.position_deg
     nominal = np.arange(targets.size) * (360.0 / targets.size)
     if np.all(np.abs(targets - nominal) < SPACED_DEG):
         targets = nominal  # measured positions about m commanded steps over the turn
-    means = {}
-    for sign in (1, -1):
-        sel = d == sign
-        if sel.any():
-            means[sign] = _direction_means(index[sel], x[sel], r[sel], targets.size, sign)
-    up = means[1] if 1 in means else means[-1]
-    down = means[-1] if len(means) == 2 else None
+    up = means.up if means.up is not None else means.down
+    down = means.down if means.up is not None else None
+    assert up is not None
     return Source(_periodic(targets, up), None if down is None else _periodic(targets, down),
-                  targets, None if down is None else up - down)
-
-
-def _targets(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Targets [deg] (sorted, closer than TARGET_TOLERANCE_DEG are one, 360 = 0) and the
-    target of each position."""
-    order = np.argsort(p, kind="stable")
-    new = np.concatenate([[True], np.diff(p[order]) > TARGET_TOLERANCE_DEG])
-    group = np.cumsum(new) - 1
-    if group[-1] > 0 and p[order][0] + 360.0 - p[order][-1] <= TARGET_TOLERANCE_DEG:
-        group[group == group[-1]] = 0  # 359.9995 and 0 are one target
-    index = np.empty(p.size, np.int64)
-    index[order] = group
-    first = np.zeros(group[-1] + 1 if group.size else 0)
-    first[group[::-1]] = p[order][::-1]  # each target at its smallest position
-    return first, index
-
-
-def _direction_means(index: np.ndarray, x: np.ndarray, run: np.ndarray, m: int,
-                     sign: int) -> np.ndarray:
-    """Per target the mean over runs of each run's mean deviation [arcsec]."""
-    keys = np.stack([index, run]).T
-    uniq, group = np.unique(keys, axis=0, return_inverse=True)
-    group = group.reshape(-1)
-    per_run = np.bincount(group, weights=x) / np.bincount(group)
-    runs = np.bincount(uniq[:, 0], minlength=m)
-    if np.any(runs == 0):
-        name = "up (+1)" if sign > 0 else "down (-1)"
-        msg = (f"the {name} direction misses {int(np.sum(runs == 0))} of the {m} targets; "
-               "a table needs every target in every direction it holds")
-        raise DataError(msg)
-    return np.bincount(uniq[:, 0], weights=per_run, minlength=m) / runs
+                  targets, None if down is None else up - down,
+                  means.measured())
 
 
 def _periodic(targets_deg: np.ndarray, values: np.ndarray
