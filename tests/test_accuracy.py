@@ -46,7 +46,7 @@ def over_seeds(measure: Callable[..., dict[str, float]], **size: float) -> dict[
 
 @pytest.mark.slow
 def test_seed000_campaign_over_20_seeds() -> None:
-    """selfcal esa: RMS over harmonics 1..100 and x, y; the share of errors inside 2u;
+    """selfcal esa: RMS over harmonics 1..100 and x, y; the share of errors inside U;
     compare H - P; P by H and the self-calibrated curve, and its +/- against the truth's
     within 100 harmonics (+/-0.262"; +/-0.270" with the harmonics above 100 that no
     method sees)."""
@@ -54,7 +54,7 @@ def test_seed000_campaign_over_20_seeds() -> None:
     truth = accuracy.truth_of_averages()
     assert f["esa_rms"].max() <= 0.0025
     assert max(f["x_rms_nm"].max(), f["y_rms_nm"].max()) <= 2.0
-    assert 0.92 <= f["inside_2u"].mean() <= 0.97
+    assert 0.93 <= f["inside_U"].mean() <= 0.97
     assert f["h_p_max"].max() <= 0.004
     assert f["p_max"].max() <= 0.0055
     assert np.abs(f["p_pm"] - truth["p_pm_100"]).max() <= 0.003
@@ -62,6 +62,31 @@ def test_seed000_campaign_over_20_seeds() -> None:
     assert truth["p_pm_100"] == pytest.approx(0.262, abs=5e-4)
     assert truth["p_pm_all"] == pytest.approx(0.270, abs=5e-4)
     assert truth["h_pm_100"] == pytest.approx(0.167, abs=5e-4)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("revolutions", [2, 3, 5])
+def test_selfcal_u_covers_the_truth_on_few_revolutions(revolutions: int) -> None:
+    """selfcal esa on 2, 3 and 5 revolutions (12 ms) over the 20 seeds: U = k u with the
+    k the outputs state (Student's t, curve / harmonics: 12.7 / 4.30, 4.30 / 2.78,
+    2.78 / 2.31) covers the truth within 100 harmonics at 93 to 97 % of the curve's
+    points and of the harmonics' re, im, pooled over the seeds (measured 95.1 / 94.9,
+    94.8 / 94.7, 95.1 / 95.3 %). With k = 2 the curve was covered at 71, 82, 88 %."""
+    f = over_seeds(accuracy.selfcal_coverage, revolutions=revolutions, interval=0.012)
+    assert 0.93 <= f["curve"].mean() <= 0.97
+    assert 0.93 <= f["harmonics"].mean() <= 0.97
+    assert f["curve_k2"].mean() < 0.93
+
+
+@pytest.mark.slow
+def test_compare_u_covers_the_truth_on_two_revolutions() -> None:
+    """compare H - P on 2 revolutions (12 ms) over the 20 seeds: U = k u (k 12.7 per
+    point, 4.30 per harmonic) covers the truth at 93 to 97 % of the points and of the
+    harmonics' re, im (measured 94.5 / 95.2 %); k = 2 covered 70 / 82 %."""
+    f = over_seeds(accuracy.compare_coverage, revolutions=2, interval=0.012)
+    assert 0.93 <= f["curve"].mean() <= 0.97
+    assert 0.93 <= f["harmonics"].mean() <= 0.97
+    assert f["curve_k2"].mean() < 0.9
 
 
 @pytest.mark.slow

@@ -31,7 +31,8 @@ from enctools.cli import options, runner
 @options.threshold("--max-pp", "Fail (exit 1) when a curve's peak-to-peak exceeds this.")
 @options.threshold("--max-std", "Fail when a curve's Bessel standard deviation exceeds this.")
 @options.threshold("--max-abs", "Fail when a curve's largest |deviation| exceeds this.")
-@options.threshold("--max-u", "Fail when the expanded uncertainty U (k=2) exceeds this.")
+@options.threshold("--max-u", "Fail when the expanded uncertainty U (k as stated, else 2) "
+                   "exceeds this.")
 @options.threshold("--max-radial-pp", "Fail when radial error motion peak-to-peak exceeds "
                    "this [nm].", metavar="NM")
 @click.option("--max-harmonic", multiple=True, metavar="N:ARCSEC",

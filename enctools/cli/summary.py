@@ -20,7 +20,8 @@ from enctools.cli import runner
 
 #: how a key's stem reads in text (the stem is the key without its unit suffix)
 LABELS = {"pp": "p-p", "pm": "+/-", "s_bessel": "Bessel s", "n_points": "n", "lsb": "LSB",
-          "max_abs": "max |e|", "u_max": "u max", "expanded_u_max": "U(k=2) max"}
+          "max_abs": "max |e|", "u_max": "u max", "expanded_u_max": "U max",
+          "coverage_k": "k", "dof": "nu"}
 #: unit suffixes of keys other than angles, printed after the value as they are
 SUFFIXES = ("nm", "deg_s", "rpm", "rev_s", "s", "deg", "rad", "lsb", "bytes", "m", "counts",
             "percent")
@@ -149,7 +150,9 @@ def _value(key: str, value: Any, unit: str) -> str:
 
 def curves(header: Any, table: Any) -> list[dict[str, Any]]:
     """The figures of each deviation and radial-motion column of a deviations stream, in
-    its unit (arcsec, nm), with the largest standard uncertainty of its ``u`` column."""
+    its unit (arcsec, nm), with the largest standard uncertainty of its ``u`` column and,
+    when that column states its coverage (field metadata ``k``, ``dof``), k, the degrees
+    of freedom and the largest expanded uncertainty U = k u."""
     import numpy as np
 
     from enctools.data.columns import uncertainty_columns
@@ -170,5 +173,17 @@ def curves(header: Any, table: Any) -> list[dict[str, Any]]:
         if name in u_of:
             u = table.column(u_of[name]).to_numpy(zero_copy_only=False)
             d[f"u_max_{unit}"] = float(np.max(u)) if u.size else None
+            d |= _expanded(metas[u_of[name]], d[f"u_max_{unit}"], unit)
         out.append(d)
     return out
+
+
+def _expanded(u_meta: dict[str, str], u_max: float | None, unit: str) -> dict[str, Any]:
+    """k, the degrees of freedom and U max of an uncertainty column that states its
+    coverage in its field metadata (``k``, ``dof``; checked when the stream was read)."""
+    if "k" not in u_meta:
+        return {}
+    k = float(u_meta["k"])
+    dof = float(u_meta.get("dof", "inf"))
+    return {"coverage_k": k, "dof": dof if math.isfinite(dof) else None,
+            f"expanded_u_max_{unit}": None if u_max is None else k * u_max}

@@ -28,10 +28,13 @@ class Column:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
-def uncertainty(of: str, values: np.ndarray, unit: str = "arcsec") -> Column:
+def uncertainty(of: str, values: np.ndarray, unit: str = "arcsec",
+                coverage: dict[str, str] | None = None) -> Column:
     """The standard uncertainty of curve ``of`` [its unit: arcsec or nm] as the naming rule
-    has it: column ``u_<of>``, role ``uncertainty``, field metadata ``of``."""
-    return Column(uncertainty_name(of), values, "uncertainty", unit, {"of": of})
+    has it: column ``u_<of>``, role ``uncertainty``, field metadata ``of``; ``coverage``:
+    the field metadata ``dof``, ``k`` and ``coverage`` of its expanded uncertainty."""
+    return Column(uncertainty_name(of), values, "uncertainty", unit,
+                  {"of": of} | (coverage or {}))
 
 
 def deviations_table(theta: np.ndarray, columns: list[Column]) -> pa.Table:
@@ -45,12 +48,13 @@ def deviations_table(theta: np.ndarray, columns: list[Column]) -> pa.Table:
 
 
 def spectrum_table(curves: list[tuple[str, np.ndarray, np.ndarray | None, np.ndarray | None]],
-                   first: int = 1) -> pa.Table:
+                   first: int = 1, coverage: dict[str, str] | None = None) -> pa.Table:
     """A spectrum table: one row per curve and harmonic n = first..K.
 
     ``curves``: (name, coefficients c_0..c_K [arcsec], transfer |W(n)| or None,
     standard uncertainty u [arcsec] or None). amplitude = |c_n|, phase = arg c_n
-    (``amplitude * cos(n x + phase)``), re = a, im = -b, ``u_amplitude`` = u.
+    (``amplitude * cos(n x + phase)``), re = a, im = -b, ``u_amplitude`` = u, with
+    ``coverage`` (field metadata ``dof``, ``k``, ``coverage``) when its U is stated.
     """
     u_name = uncertainty_name("amplitude")
     rows: dict[str, list[Any]] = {k: [] for k in ("n", "amplitude", "phase", "re", "im",
@@ -70,6 +74,7 @@ def spectrum_table(curves: list[tuple[str, np.ndarray, np.ndarray | None, np.nda
     fields = [make_field("n", pa.int64(), ""), make_field("amplitude", pa.float64(), "arcsec"),
               make_field("phase", pa.float64(), "rad"), make_field("re", pa.float64(), "arcsec"),
               make_field("im", pa.float64(), "arcsec"), make_field("transfer", pa.float64(), ""),
-              make_field(u_name, pa.float64(), "arcsec", "uncertainty", of="amplitude"),
+              make_field(u_name, pa.float64(), "arcsec", "uncertainty", of="amplitude",
+                         **(coverage or {})),
               make_field("curve", pa.string(), "")]
     return pa.Table.from_pydict(rows, schema=pa.schema(fields))

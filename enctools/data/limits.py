@@ -154,6 +154,11 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
         "arm_m": Range("float", 0.0, 100.0, "m"),  # 0: refused by the method that needs it
         "side": Range("int", -1, 1, ""),
     },
+    "uncertainty": {  # an expanded uncertainty's U = k u: Student's k at dof, its coverage
+        "dof": Range("float", 1.0, math.inf, ""),
+        "k": Range("float", 1.0, 1000.0, ""),
+        "coverage": Range("float", 0.5, 0.9999, ""),
+    },
     "signal": {
         "head": Range("text"),
         "component": Range("text", choices=("cos", "sin")),

@@ -89,6 +89,52 @@ def effective_dof(u: Iterable[float], dof: Iterable[float]) -> float:
     return total * total / denominator
 
 
+@dataclass(frozen=True)
+class Coverage:
+    """The coverage of an expanded uncertainty U = k u: ``dof`` the degrees of freedom
+    of u (``math.inf`` when it rests on no estimate), ``k`` the two-sided Student t
+    quantile at ``probability`` and ``dof``."""
+
+    dof: float
+    k: float
+    probability: float = 0.95
+
+    def field_meta(self) -> dict[str, str]:
+        """The field metadata of an uncertainty column that states it (enc-streams(5))."""
+        return {"dof": "inf" if math.isinf(self.dof) else f"{self.dof:.6g}",
+                "k": f"{self.k:.6g}", "coverage": f"{self.probability:g}"}
+
+
+def repeats_dof(repeats: int, parts: int = 1) -> float:
+    """Degrees of freedom of a standard deviation of the mean of ``repeats`` repeats
+    (revolutions, runs), its variance pooled over ``parts`` independent components of
+    the same variance (2: the real and imaginary part of a harmonic); 0 for one."""
+    return float(parts * max(repeats - 1, 0))
+
+
+def type_a_coverage(u_a: np.ndarray | float, dof: float, u_b: np.ndarray | float = 0.0,
+                    probability: float = 0.95) -> Coverage | None:
+    """k and the effective degrees of freedom of u = sqrt(u_a^2 + u_b^2) along a column
+    (a curve's points, a spectrum's harmonics; any one unit).
+
+    ``u_a``: Type A standard uncertainties on ``dof`` degrees of freedom each; ``u_b``:
+    the Type B part, taken as exact. Welch-Satterthwaite (GUM G.4.1) on the column's
+    mean variances, not point by point: a point's own u_a is itself the estimate whose
+    scatter Student's t allows for, and a point where it came out small must not get a
+    small k as well (that understates U on a few repeats). None when there is no
+    estimate (``dof`` 0: a single repeat; u_a not finite).
+    """
+    var_a = float(np.mean(np.square(u_a)))
+    var_b = float(np.mean(np.square(u_b)))
+    if not (dof > 0.0 and math.isfinite(var_a) and math.isfinite(var_b)):
+        return None
+    if var_a == 0.0 or math.isinf(dof):
+        nu = math.inf
+    else:
+        nu = (var_a + var_b) ** 2 / (var_a ** 2 / dof)
+    return Coverage(nu, coverage_factor(nu, probability), probability)
+
+
 def combine(contributions: Iterable[Contribution], coverage: float = 0.95) -> Budget:
     """The budget of uncorrelated ``contributions``: u_c, nu_eff, k and U [arcsec]."""
     rows = tuple(contributions)

@@ -26,6 +26,7 @@ import numpy as np
 from enctools.data.columns import uncertainty_name
 from enctools.data.schemas import check_new_columns
 from enctools.errors import DataError, UsageError
+from enctools.methods.budget import Coverage, repeats_dof, type_a_coverage
 from enctools.methods.harmonics import analyse, check_grid, grid, synthesize
 from enctools.methods.revolutions import (
     ChannelSpec,
@@ -97,13 +98,23 @@ class Settings:
 @dataclass
 class Comparison:
     """Averaged deviation: coefficients c_0..c_K and per-harmonic u [arcsec] (band > 0),
-    the curve on the grid and its pointwise standard uncertainty [arcsec]."""
+    the curve on the grid and its pointwise standard uncertainty [arcsec], over
+    ``revolutions``."""
 
     coefficients: np.ndarray | None
     uncertainty: np.ndarray | None
     curve: np.ndarray
     curve_uncertainty: np.ndarray
     revolutions: int
+
+    def coverage(self) -> tuple[Coverage | None, Coverage | None]:
+        """The coverage (dof, k) of U = k u of the curve and of the harmonics: the spread
+        of the revolutions' mean, R - 1 degrees of freedom per point, 2 (R - 1) per
+        harmonic (re and im pooled); None where one revolution gives no spread."""
+        curve = type_a_coverage(self.curve_uncertainty, repeats_dof(self.revolutions))
+        if self.uncertainty is None:
+            return curve, None
+        return curve, type_a_coverage(self.uncertainty[1:], repeats_dof(self.revolutions, 2))
 
 
 def compare(revolutions: Iterator[Spectra], band: int, points: int,
@@ -226,15 +237,18 @@ def _outputs(header: Header, settings: Settings, res: Comparison
     from enctools.data.curves import Column, deviations_table, spectrum_table, uncertainty
 
     label = settings.label
+    curve_cov, spectrum_cov = res.coverage()
     cols = [Column(label, res.curve, "deviation", "arcsec",
                    {"device": ",".join(settings.device), "reference": ",".join(settings.ref),
                     "argument": "reference angle", "band": settings.band}),
-            uncertainty(label, res.curve_uncertainty)]
+            uncertainty(label, res.curve_uncertainty, "arcsec",
+                        None if curve_cov is None else curve_cov.field_meta())]
     table = deviations_table(grid(settings.points), cols)
     recorded = settings.to_dict() | {"revolutions": res.revolutions}
     deviations = header.derive("deviations", table.schema, settings=recorded,
                                domain="revolution")
     if res.coefficients is None:
         return (deviations, table), None
-    st = spectrum_table([(label, res.coefficients, None, res.uncertainty)])
+    st = spectrum_table([(label, res.coefficients, None, res.uncertainty)],
+                        coverage=None if spectrum_cov is None else spectrum_cov.field_meta())
     return (deviations, table), (header.derive("spectrum", st.schema, settings=recorded), st)

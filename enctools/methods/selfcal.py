@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from enctools.errors import DataError, UsageError
-from enctools.methods.coordinate import Refined, Settled, refine, settle, spectra_against
+from enctools.methods.coordinate import Settled, refine, settle, spectra_against
 from enctools.methods.harmonics import check_grid, grid, synthesize
 from enctools.methods.heads import format_orders
 from enctools.methods.revolutions import (
@@ -44,6 +44,12 @@ from enctools.methods.revolutions import (
     RunningMean,
     require_continuous,
     revolutions,
+)
+from enctools.methods.selfcal_uncertainty import (
+    SampleRepeats,
+    Uncertainties,
+    systematic,
+    uncertainties,
 )
 from enctools.methods.transfer import (
     BLIND,
@@ -61,6 +67,7 @@ if TYPE_CHECKING:
 
     from enctools.data.readings import HeadInfo
     from enctools.data.streams import Header, InputStream
+    from enctools.methods.budget import Coverage
 
 #: the transfer functions are importable from here too, as before they had a module
 __all__ = ["METHODS", "MIN_TRANSFER", "Conditioning", "Method", "Result", "Settings", "Solution",
@@ -291,8 +298,9 @@ class Result:
     Coefficients c_0..c_K of the graduation error [arcsec] (function of the scale
     angle) and of radial motion x, y [nm] (function of the spindle angle; esa only),
     each with its standard uncertainty per harmonic [same unit]: the spread between
-    revolutions and the bound on the method's own error (:func:`systematic`); curves
-    on a ``points`` grid with pointwise uncertainties. ``iterations``: of the
+    revolutions and the bound on the method's own error, and the coverage of U
+    (``u``: :class:`~enctools.methods.selfcal_uncertainty.Uncertainties`); curves
+    on a ``points`` grid with pointwise uncertainties in ``u``. ``iterations``: of the
     coordinate on the first revolution and on the mean; ``last_change``: the RMS
     change of the graduation error in the last [arcsec]; ``offsets``: each head's
     constant offset against the reference [rad].
@@ -305,9 +313,8 @@ class Result:
     revolutions: int
     conditioning: Conditioning
     coefficients: dict[str, np.ndarray]
-    uncertainty: dict[str, np.ndarray]
+    u: Uncertainties
     curves: dict[str, np.ndarray]
-    curve_uncertainty: dict[str, np.ndarray]
     iterations: tuple[int, int] = (0, 0)
     last_change: float = 0.0
     offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -336,7 +343,7 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
     are found on the first revolution and taken out of every one
     (:mod:`enctools.methods.coordinate`); what is left of it is corrected on the mean.
     ``resolution``: one count of the heads [rad] (2 pi / counts_per_rev; the coarsest).
-    Memory does not grow with the revolutions.
+    Memory does not grow with the revolutions (but for the first one's sample angles).
     """
 
     def model(g: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -347,7 +354,9 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
     coef = {name: RunningMean() for name in SCALE}
     curves = {name: RunningMean() for name in SCALE}
     settled: Settled | None = None
+    repeats = SampleRepeats(resolution / max(len(coordinate_alphas), 1))
     for rev in revolutions:
+        repeats.add(rev)
         if settled is None:
             settled = settle(rev, method.band, model)
         rev.values -= settled.offsets[:, None]
@@ -364,37 +373,17 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
         raise DataError(msg)
     refined = refine(spectra.mean, settled.angle.error_coefficients(method.band), model)
     noise = resolution / np.sqrt(12.0) * np.sqrt(2.0 / (samples / spectra.count))
-    bound = systematic(method, refined, noise)
-    out: dict[str, dict[str, np.ndarray]] = {"c": {}, "u": {}, "curves": {}, "cu": {}}
-    for name, c in refined.parts.items():
-        out["c"][name] = c * SCALE[name]
-        out["u"][name] = np.hypot(coef[name].sem(), bound[name])
-        out["curves"][name] = synthesize(out["c"][name], points)
-        out["cu"][name] = np.hypot(curves[name].sem(), np.sqrt(np.sum(bound[name] ** 2)))
+    bound = systematic(lambda g: _parts(method.solve(g)), len(method.all_alphas), refined,
+                       noise if repeats.repeated else 0.0, SCALE)
+    solved = {name: part * SCALE[name] for name, part in refined.parts.items()}
     change = refined.change["graduation"] * SCALE["graduation"]
     return Result(method.name, list(method.names), coordinate, method.band, spectra.count,
-                  method.conditioning, out["c"], out["u"], out["curves"], out["cu"],
+                  method.conditioning, solved,
+                  uncertainties(coef, curves, bound, repeats.repeated),
+                  {name: synthesize(part, points) for name, part in solved.items()},
                   (settled.iterations, refined.iterations),
                   float(np.sqrt(np.sum(np.abs(change[1:]) ** 2) / 2)),
                   spectra.mean[:, 0].real - spectra.mean[0, 0].real)
-
-
-def systematic(method: Method, refined: Refined, noise: float) -> dict[str, np.ndarray]:
-    """A bound per harmonic on what the method itself leaves in each solution array
-    [arcsec, nm]: the last iteration's change, the second-order term of the coordinate
-    correction, and the heads' rounding to whole counts, ``noise`` [rad] per harmonic
-    of one head (LSB / sqrt(12) * sqrt(2 / samples per revolution)) times the noise gain
-    of each harmonic, in full: a run that samples the same angles every revolution
-    repeats its rounding, which no averaging then reduces."""
-    heads = len(method.all_alphas)
-    gain = {name: np.zeros(method.band + 1) for name in refined.parts}
-    for k in range(heads):
-        unit = np.zeros((heads, method.band + 1), dtype=np.complex128)
-        unit[k] = 1.0
-        for name, c in _parts(method.solve(unit)).items():
-            gain[name] += np.abs(c) ** 2
-    return {name: (np.abs(refined.change[name]) + np.abs(refined.second[name])
-                   + noise * np.sqrt(gain[name])) * SCALE[name] for name in refined.parts}
 
 
 @dataclass
@@ -562,17 +551,21 @@ def _outputs(header: Header, p: Plan, res: Result
     """The deviations (curves on the grid) and spectrum (coefficients) of a result."""
     from enctools.data.curves import Column, deviations_table, spectrum_table, uncertainty
 
+    def stated(cov: Coverage | None) -> dict[str, str]:
+        return {} if cov is None else cov.field_meta()
+
     cols = [Column("graduation", res.curves["graduation"], "deviation", "arcsec",
                    {"encoder": p.encoder, "argument": "scale angle",
                     "method": p.method.name}),
-            uncertainty("graduation", res.curve_uncertainty["graduation"])]
+            uncertainty("graduation", res.u.curves["graduation"], "arcsec",
+                        stated(res.u.curve["graduation"]))]
     for ax in ("x", "y"):
         if ax in res.curves:
-            u_rms = float(np.sqrt(np.mean(res.curve_uncertainty[ax] ** 2)))
+            u_rms = float(np.sqrt(np.mean(res.u.curves[ax] ** 2)))
             cols.append(Column(ax, res.curves[ax], "radial", "nm",
                                {"encoder": p.encoder, "argument": "spindle angle",
                                 "u_rms_nm": f"{u_rms:.4g}"}))
-            cols.append(uncertainty(ax, res.curve_uncertainty[ax], "nm"))
+            cols.append(uncertainty(ax, res.u.curves[ax], "nm", stated(res.u.curve[ax])))
     table = deviations_table(grid(p.settings.points), cols)
     cond = p.method.conditioning
     meta = {"settings": p.settings.to_dict() | {"encoder": p.encoder,
@@ -580,11 +573,13 @@ def _outputs(header: Header, p: Plan, res: Result
             "blind": cond.blind, "ill_conditioned": cond.ill, "domain": "revolution",
             "iterations": {"first_revolution": res.iterations[0], "mean": res.iterations[1],
                            "last_change_arcsec": res.last_change},
-            "offsets_arcsec": {h: float(o / ARCSEC) for h, o in zip(res.heads, res.offsets)}}
+            "offsets_arcsec": {h: float(o / ARCSEC) for h, o in zip(res.heads, res.offsets)},
+            "rounding_repeats": res.u.repeated}
     if "x" in res.curves:
         meta["blind_radial"] = cond.blind_radial
     dev_header = header.derive("deviations", table.schema, **meta)
     st = spectrum_table([("graduation", res.coefficients["graduation"], cond.transfer,
-                          res.uncertainty["graduation"])])
+                          res.u.harmonics["graduation"])],
+                        coverage=stated(res.u.spectrum["graduation"]))
     spec_header = header.derive("spectrum", st.schema, **meta)
     return (dev_header, table), (spec_header, st)

@@ -18,10 +18,11 @@ from enctools.units import factor
 
 #: what the results say of their uncertainty when no budget is declared
 TYPE_A = ("No uncertainty budget is declared for these inputs: the expanded uncertainty "
-          "U = k u with k = 2 (about 95 % coverage for a normal distribution) is the "
-          "Type A evaluation the results carry (GUM 4.2 [5]): the standard uncertainty u "
-          "from the scatter of the repeated runs (s/√n per position) or as the method "
-          "propagates it from the data.")
+          "U = k u is the Type A evaluation the results carry (GUM 4.2 [5]): the "
+          "standard uncertainty u from the scatter of the repeated runs (s/√n per "
+          "position) or as the method propagates it from the data, and k Student's t at "
+          "95 % for the degrees of freedom the data state (the revolutions averaged), "
+          "else 2 (about 95 % coverage for a normal distribution).")
 
 
 def _dof(nu: float) -> str:

@@ -50,11 +50,14 @@ def spectrum_dict(sp: SpectrumRows, top: int) -> dict[str, Any]:
         r = {"n": int(sp.n[i]), "amplitude_arcsec": float(sp.amplitude[i]),
              "phase_rad": float(sp.phase[i])}
         if sp.u is not None:
-            r["expanded_u_arcsec"] = 2.0 * float(sp.u[i])
+            r["expanded_u_arcsec"] = sp.k * float(sp.u[i])
         if sp.transfer is not None:
             r["transfer"] = float(sp.transfer[i])
         rows.append(r)
-    return {"curve": sp.curve, "harmonics": rows}
+    out: dict[str, Any] = {"curve": sp.curve, "harmonics": rows}
+    if sp.u is not None:
+        out["coverage_k"] = sp.k
+    return out
 
 
 def vdi_dict(vdi: Vdi3441) -> dict[str, Any]:

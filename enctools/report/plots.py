@@ -127,7 +127,7 @@ def _unit_label(unit: str) -> str:
 
 
 def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
-    """Deviation curves against angle with the U band (k = 2, or a budget's) where known."""
+    """Deviation curves against angle with the U band (the curve's k) where known."""
     fig = Figure(figsize=SIZE)
     ax = fig.add_subplot()
     for i, c in enumerate(curves):
@@ -200,7 +200,7 @@ def _last_significant(rows: Sequence[SpectrumRows]) -> int:
 
 
 def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") -> Figure:
-    """Harmonic amplitudes [arcsec] against order, with U (k = 2) as error bars."""
+    """Harmonic amplitudes [arcsec] against order, with U = k u as error bars."""
     fig = Figure(figsize=SIZE)
     ax = fig.add_subplot()
     width = 0.8 / max(1, len(rows))
@@ -210,7 +210,7 @@ def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") ->
         n = sp.n[keep] + (i - (len(rows) - 1) / 2) * width
         _bars(ax, n, sp.amplitude[keep], width, COLORS[i % len(COLORS)], sp.curve)
         if sp.u is not None:
-            ax.errorbar(n, sp.amplitude[keep], yerr=2 * sp.u[keep], fmt="none", ecolor="k",
+            ax.errorbar(n, sp.amplitude[keep], yerr=sp.k * sp.u[keep], fmt="none", ecolor="k",
                         elinewidth=0.6, capsize=1.5)
     ax.set_xlabel(f"harmonic order n [1/{per}]")
     ax.set_ylabel(f"amplitude [{label(rows[0].unit)}]")
@@ -401,7 +401,8 @@ def section_figures(s: Section, top: int = 5) -> list[tuple[str, Figure]]:
         out.append((f"{c.name} against angle", deviation_plot([c], name)))
     if s.spectra:
         per = "period" if s.domain == "period" else "rev"
-        out.append(("Spectrum (error bars: U, k=2)",
+        ks = sorted({sp.k for sp in s.spectra if sp.u is not None}) or [2.0]
+        out.append((f"Spectrum (error bars: U, k={'/'.join(f'{k:.3g}' for k in ks)})",
                     spectrum_plot(s.spectra, f"spectrum — {name}", per)))
     if s.iso is not None:
         out.append(("ISO 230-2 mean positioning deviations with ±2s",

@@ -5,8 +5,10 @@ a :class:`Section` holding, for its kind:
 
 - deviations: every curve (role deviation [arcsec], radial [nm]) with its figures,
   largest harmonics and, where a role-uncertainty column names it (field metadata
-  ``of``), its standard uncertainty and expanded uncertainty U (k = 2);
-- spectrum: the largest harmonics of each curve with U = 2 u and |W(n)|, and the
+  ``of``), its standard uncertainty and expanded uncertainty U = k u (k as the
+  column states it in its field metadata ``k``: Student's at its degrees of freedom;
+  else 2);
+- spectrum: the largest harmonics of each curve with U = k u and |W(n)|, and the
   harmonics the method is blind to (metadata ``blind``);
 - points: the deviation per position (means when positions repeat), figures, the
   harmonics by least squares and, for runs with repeats, ISO 230-2 or VDI/DGQ 3441
@@ -89,6 +91,7 @@ class SpectrumRows:
     u: np.ndarray | None = None
     transfer: np.ndarray | None = None
     unit: str = "arcsec"            # of amplitude and u
+    k: float = K_COVERAGE           # coverage factor of U = k u (as the u column states it)
 
     def largest(self, count: int) -> np.ndarray:
         """Row indices of the ``count`` largest amplitudes (n > 0), largest first."""
@@ -199,6 +202,8 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
             s.curves.append(_curve(name, unit, role, theta, values, opts, s.source,
                                    u=u, head=fm.get("head", name if in_period else None),
                                    domain="period" if in_period else "revolution"))
+            if name in unc:
+                s.curves[-1].k = stated_k(table.schema, unc[name])
             if in_period and "period_arcsec" in fm:
                 s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
     s.info["grid points"] = table.num_rows
@@ -227,7 +232,8 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
             amplitude=column(table, "amplitude", "arcsec", s.source)[mask],
             phase=column(table, "phase", "rad", s.source)[mask],
             u=column(table, u_col, "arcsec", s.source)[mask] if u_col else None,
-            transfer=_col(table, "transfer")[mask] if "transfer" in names else None))
+            transfer=_col(table, "transfer")[mask] if "transfer" in names else None,
+            k=stated_k(table.schema, u_col) if u_col else K_COVERAGE))
     blind = s.meta.get("blind")
     if blind:
         s.info["blind harmonics"] = ", ".join(str(b) for b in blind) if isinstance(
@@ -238,6 +244,13 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
                        ("blind_radial", "radial motion x, y blind at")):
         if s.meta.get(key):
             s.info[label] = ", ".join(map(str, s.meta[key]))
+
+
+def stated_k(schema: pa.Schema, u_column: str) -> float:
+    """The coverage factor an uncertainty column states (field metadata ``k``, checked
+    against its range when the stream was read), else 2."""
+    k = field_meta(schema.field(u_column)).get("k")
+    return K_COVERAGE if k is None else float(k)
 
 
 def _period_domain(meta: dict[str, Any], schema: pa.Schema) -> bool:

@@ -90,7 +90,7 @@ def section_lines(s: Section, top: int) -> list[str]:
         for i in sp.largest(top):
             p = f"n={int(sp.n[i])} {fmt(float(sp.amplitude[i]), sp.unit)}{mark(sp.unit)}"
             if sp.u is not None:
-                p += f" (U {fmt(2 * float(sp.u[i]), sp.unit)}{mark(sp.unit)})"
+                p += f" (U {fmt(sp.k * float(sp.u[i]), sp.unit)}{mark(sp.unit)})"
             if sp.transfer is not None:
                 p += f" |W| {fmt(float(sp.transfer[i]), decimals=2)}"
             parts.append(p)
