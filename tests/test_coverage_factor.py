@@ -234,3 +234,48 @@ def test_repeated_rounding_stays_in_u_and_is_covered(tmp_path: Path) -> None:
     err = g - synthesize(truth.graduation["II"].harmonics(100), g.size)
     k = float(field(tmp_path / "grad.parquet", "u_graduation")["k"])
     assert np.mean(np.abs(err) <= k * table["u_graduation"].to_numpy()) >= 0.9
+
+
+# ------------------------------------------------ repeated step runs in enc report
+
+
+@pytest.mark.parametrize("runs, directions", [(3, 1), (5, 1), (5, 2), (10, 2)])
+def test_repeated_step_run_points_u_covers_at_students_k(runs, directions):
+    """The U of a point of a repeated step run (enc report's per-target mean, u from the
+    approaches' scatter) covers its truth 93-97 % of the time at Student's k on the
+    approaches' degrees of freedom (n - 1, Welch-Satterthwaite over both directions);
+    k = 2 covers clearly less on 3 and 5 runs."""
+    from enctools.report.sections import _means_and_u
+
+    rng = np.random.default_rng(runs * 10 + directions)
+    m, trials = 8, 1500
+    truth = np.sin(np.arange(m) * TWO_PI / m)           # [arcsec]
+    inside = inside_k2 = 0
+    for _ in range(trials):
+        index = np.tile(np.arange(m), runs * directions)
+        direction = np.repeat([1, -1][:directions], m * runs)
+        x = truth[index] + 0.05 * direction + rng.normal(0.0, 0.3, index.size)
+        means, u, n_min, dof = _means_and_u(index, direction, x, m)
+        assert n_min == runs and u is not None
+        assert dof == pytest.approx((runs - 1) * directions, rel=0.5)
+        k = type_a_coverage(u, dof).k
+        err = np.abs(means - truth)
+        inside += int(np.sum(err <= k * u))
+        inside_k2 += int(np.sum(err <= 2.0 * u))
+    fraction, fraction_k2 = inside / (m * trials), inside_k2 / (m * trials)
+    assert 0.93 <= fraction <= 0.97, fraction
+    if runs * directions <= 5:
+        assert fraction_k2 < 0.92, fraction_k2
+
+
+def test_enc_report_states_students_k_for_a_repeated_step_run(tmp_path):
+    rng = np.random.default_rng(3)
+    rows = ["position_deg,deviation_arcsec,direction,run"]
+    for r in range(5):
+        for d in (1, -1):
+            rows += [f"{t * 45},{math.sin(math.radians(t * 45)) + rng.normal(0, 0.3):.5f},{d},{r}"
+                     for t in range(8)]
+    (tmp_path / "steps.csv").write_text("\n".join(rows) + "\n")
+    out = json.loads(enc_ok("report steps.csv --json", tmp_path))
+    curve = out["sections"][0]["curves"][0]
+    assert 2.2 < curve["coverage_k"] < 2.4     # t(0.975) at about 8 degrees of freedom

@@ -10,6 +10,7 @@ import numpy as np
 import pyarrow as pa
 import pytest
 from conftest import run
+from scipy import stats
 
 from enctools.data.schemas import field_meta
 from enctools.data.streams import Header, write_table
@@ -228,7 +229,13 @@ def test_iso230_of_a_step_run_is_computed_per_approach(step_runs):
     # the curve is x_i; its u combines s / sqrt(n) of each direction over the approaches
     curve = sec["curves"][0]
     u = np.sqrt(want["s_up"] ** 2 / 5 + want["s_down"] ** 2 / 5) / 2
-    assert curve["expanded_u_max_arcsec"] == pytest.approx(2 * u.max(), abs=1e-9)
+    # U = k u, Student's k at the approaches' degrees of freedom (4 a direction, combined
+    # by Welch-Satterthwaite on the directions' mean variances along the curve)
+    v_up, v_dn = np.mean(want["s_up"] ** 2 / 5), np.mean(want["s_down"] ** 2 / 5)
+    nu = (v_up + v_dn) ** 2 / (v_up ** 2 / 4 + v_dn ** 2 / 4)
+    k = stats.t.ppf(0.975, nu)
+    assert curve["coverage_k"] == pytest.approx(k, rel=1e-9)
+    assert curve["expanded_u_max_arcsec"] == pytest.approx(k * u.max(), abs=1e-9)
     assert curve["pp_arcsec"] == pytest.approx(want["M"], abs=1e-9)
     # pooling the 25 readings per target gives another s: the test tells them apart
     pooled = np.array([dev[(cols["step"] == k) & (cols["direction"] == 1)].std(ddof=1)

@@ -37,7 +37,7 @@ from enctools.data.schemas import columns_with_role, field_meta
 from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
 from enctools.errors import DataError
-from enctools.methods.budget import Budget
+from enctools.methods.budget import Budget, type_a_coverage
 from enctools.methods.interp.screen import screen_notes
 from enctools.methods.points import count_deg
 from enctools.methods.targets import tolerance
@@ -336,7 +336,7 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
     unique, index = targets
     d = np.ones(dev.size, np.int64) if direction is None else np.asarray(direction, np.int64)
     a_index, a_dir, a_x, _ = approaches(index, dev, d, run)
-    means, u, n_min = _means_and_u(a_index, a_dir, a_x, unique.size)
+    means, u, n_min, dof = _means_and_u(a_index, a_dir, a_x, unique.size)
     curve = _curve(name, "arcsec", role, unique * DEG, means, opts, s.source)
     s.notes.append(f"{dev.size} readings at {unique.size} positions ({a_x.size} approaches): "
                    "the curve and its figures use the mean deviation per position")
@@ -346,6 +346,9 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
                        "column numbers them; its readings are one approach); s needs 2 or more")
         return curve
     curve.u = u
+    coverage = type_a_coverage(u, dof) if u is not None else None
+    if coverage is not None:    # Student's k on the few approaches u rests on
+        curve.k = coverage.k
     if no_iso is not None:
         s.notes.append(f"{none}: {no_iso}")
         return curve
@@ -366,24 +369,33 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
 
 
 def _means_and_u(a_index: np.ndarray, a_dir: np.ndarray, a_x: np.ndarray, m: int
-                 ) -> tuple[np.ndarray, np.ndarray | None, int]:
+                 ) -> tuple[np.ndarray, np.ndarray | None, int, float]:
     """Per target: the mean over the directions of each direction's mean x_ij [arcsec]
     (x_i of ISO 230-2 with both), its standard uncertainty (type A: s / sqrt(n) of each
-    direction, combined) [arcsec], and the fewest approaches of a target and direction."""
+    direction, combined) [arcsec], the fewest approaches of a target and direction, and
+    the degrees of freedom u rests on (Welch-Satterthwaite over the directions, on their
+    mean variances along the curve: n - 1 for one direction)."""
     means, var, n_min, dirs = np.zeros(m), np.zeros(m), np.inf, sorted(set(a_dir.tolist()))
+    parts: list[tuple[float, int]] = []     # (mean variance of a direction's mean, n - 1)
     for sign in dirs:
         sel = a_dir == sign
         n = np.bincount(a_index[sel], minlength=m)
         n_min = min(n_min, int(n.min()))
         if n.min() == 0:        # a direction misses a target: pooled, ISO 230-2 says so
             total = np.bincount(a_index, minlength=m)
-            return np.bincount(a_index, weights=a_x, minlength=m) / total, None, int(total.min())
+            return (np.bincount(a_index, weights=a_x, minlength=m) / total, None,
+                    int(total.min()), 0.0)
         mean = np.bincount(a_index[sel], weights=a_x[sel], minlength=m) / n
         resid = a_x[sel] - mean[a_index[sel]]
         with np.errstate(invalid="ignore", divide="ignore"):
-            var += np.bincount(a_index[sel], weights=resid ** 2, minlength=m) / (n - 1) / n
+            var_d = np.bincount(a_index[sel], weights=resid ** 2, minlength=m) / (n - 1) / n
+        var += var_d
+        parts.append((float(np.mean(var_d)), int(n.min()) - 1))
         means += mean
-    return means / len(dirs), np.sqrt(var) / len(dirs), int(n_min)
+    total_var = sum(v for v, _ in parts)
+    denominator = sum(v * v / f for v, f in parts if f > 0)
+    dof = total_var ** 2 / denominator if denominator > 0 else 0.0
+    return means / len(dirs), np.sqrt(var) / len(dirs), int(n_min), dof
 
 
 # --------------------------------------------------------------- model and rom
