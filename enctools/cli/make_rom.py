@@ -73,6 +73,12 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
               help="fanuc: compensation point number of the reference position.")
 @click.option("--verify", is_flag=True, default=False,
               help="Read the written table back and check it equals the table built.")
+@click.option("--allow-no-gain", is_flag=True, default=False,
+              help="Write a model that does not beat no correction (enc fit-rbf's gain), "
+                   "with a warning.")
+@click.option("--allow-coarse", is_flag=True, default=False,
+              help="Write a table whose LSB or resolution leaves an RMS error over 1/4 of "
+                   "the correction's (or rounds it all to 0), with a warning.")
 @options.output
 @options.force
 @click.option("--format", "fmt", type=click.Choice(options.FORMATS), default=None,
@@ -85,8 +91,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             axis: str | None, zone: int, array_name: str, max_entries: int | None,
             bidirectional: bool,
             sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
-            detection_unit: float, ref_point: int, verify: bool, output: str | None,
-            force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
+            detection_unit: float, ref_point: int, verify: bool, allow_no_gain: bool,
+            allow_coarse: bool, output: str | None, force: bool, fmt: str | None,
+            as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -114,10 +121,11 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     if target in romformats.CONTROLS:
         _control(input, curve, _control_settings(target, bidirectional, sign, comp_type, points,
                                                  max_entries, axis, detection_unit, ref_point),
-                 str(path), force, verify, as_json, unit)
+                 str(path), force, verify, as_json, unit, (allow_no_gain, allow_coarse))
         return
     kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
     src = streams.open_input(input, kinds)
+    _guard("gain", src.header.meta, allow_no_gain)
     evaluate = rom.deviation_model(src.header, src.read_all(), src.source, curve)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
                             address_bits, width, lsb, sample, target, endian, axis, zone,
@@ -127,6 +135,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         raise UsageError(msg)
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
+    _guard("rom", table, allow_coarse)
     summary = _rom_summary(table, src.header, curve, evaluate, settings)
     size = None
     if path is None:
@@ -156,6 +165,18 @@ def _rom_summary(table: Rom, header: Header, curve: str | None,
     return summary
 
 
+def _guard(what: str, subject: Any, allowed: bool) -> None:
+    """A guard of models/tableguards.py (``gain`` of a stream's metadata; ``rom`` or
+    ``control`` of a built table): refused in one line, or warned when ``allowed``."""
+    from enctools.models import tableguards as g
+
+    check = {"gain": g.gain_problem, "rom": g.rom_problem, "control": g.control_problem}[what]
+    option = g.ALLOW_NO_GAIN if what == "gain" else g.ALLOW_COARSE
+    warning = g.enforce(check(subject), allowed, option)
+    if warning is not None:
+        runner.log.warning("%s", warning)
+
+
 def _check_applies(target: str) -> None:
     """Refuse (one line) an option given that the target does not take."""
     import click
@@ -182,7 +203,8 @@ def _control_settings(*options: Any) -> ControlSettings:
 
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
-             force: bool, verify: bool, as_json: bool, unit: str) -> None:
+             force: bool, verify: bool, as_json: bool, unit: str,
+             allow: tuple[bool, bool]) -> None:
     """Build a control's point table from a step run or a model, write it, verify it."""
     import time
 
@@ -194,8 +216,10 @@ def _control(input: str | None, curve: str | None, settings: ControlSettings, pa
 
     t0 = time.monotonic()
     src = streams.open_input(input, ("points", "model", "deviations"))
+    _guard("gain", src.header.meta, allow[0])
     source = rom.control_source(src.header, src.read_all(), src.source, curve)
     table = controls.build(settings, source)
+    _guard("control", table, allow[1])
     comment = [f"enctools make-rom: {table.grid_deg.size} points 0..360 deg, "
                f"resolution {table.resolution_deg!r} deg; " + history_line()]
     size = romformats.write_control_table(path, table, force, comment)
