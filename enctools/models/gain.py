@@ -9,7 +9,7 @@ the points' Bessel s times ``sqrt(N / (N - 1))`` (seed 001 eq. 8).
 Leave-one-out is optimistic where neighbouring points are correlated (a dense table,
 a step run with many close targets: a point's neighbours carry its own slow error).
 The *blocked* hold-out leaves out the contiguous blocks of the turn instead,
-:data:`BLOCKS` blocks of 360/BLOCKS deg, one at a time, refits the model with the
+:data:`BLOCKS` blocks of 360/BLOCKS deg centred on 0, 15, 30, ... deg, one at a time, refits the model with the
 same settings on the rest and predicts the block. A table with at most one point in
 every block (a 24-face polygon) has its blocked hold-out equal to its leave-one-out
 one; a table with more (dense) is judged by the worse of the two.
@@ -62,9 +62,10 @@ def threshold(n_points: int) -> float:
 
 
 def block_index(angle_deg: np.ndarray, blocks: int = BLOCKS) -> np.ndarray:
-    """The block 0..blocks-1 of each angle [deg]: [k, k+1) x 360/blocks deg."""
-    a = np.mod(np.asarray(angle_deg, dtype=np.float64), 360.0)
-    return np.minimum((a * (blocks / 360.0)).astype(np.int64), blocks - 1)
+    """The block 0..blocks-1 of each angle [deg]: (k -+ 1/2) x 360/blocks deg, centred on
+    the polygon's positions (measured ones scatter about k x 15 deg)."""
+    a = np.mod(np.asarray(angle_deg, dtype=np.float64) * (blocks / 360.0) + 0.5, blocks)
+    return np.minimum(a.astype(np.int64), blocks - 1)
 
 
 def is_dense(angle_deg: np.ndarray, blocks: int = BLOCKS) -> bool:
