@@ -18,8 +18,9 @@ from enctools.models import fitting, gain, tableguards
 
 
 def write_table(path: Path, deg: np.ndarray, arcsec: np.ndarray) -> Path:
+    rows = zip(deg, arcsec, strict=True)
     path.write_text("position_deg,deviation_arcsec\n"
-                    + "".join(f"{float(a)!r},{float(e)!r}\n" for a, e in zip(deg, arcsec, strict=True)))
+                    + "".join(f"{float(a)!r},{float(e)!r}\n" for a, e in rows))
     return path
 
 
@@ -201,8 +202,8 @@ def test_coarse_lsb_refused_with_both_figures(tmp_path):
     assert r.returncode == 0
     import pyarrow.parquet as pq
 
-    from enctools.models.curve_model import from_stream
     from enctools.data.streams import open_input
+    from enctools.models.curve_model import from_stream
     src = open_input(str(model), ("model",))
     exact = -from_stream(src.header, src.read_all(), src.source, None)(
         (np.arange(1024) + 0.5) * 360 / 1024)

@@ -108,11 +108,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     control's resolution, with the interpolation error it costs in the summary.
     """
     import time
-    from pathlib import Path
 
     from enctools.cli.summary import check_json, emit
     from enctools.data import streams
-    from enctools.errors import UsageError
     from enctools.models import rom, romformats
 
     target, path = _target(target, output, force, fmt)
@@ -125,14 +123,11 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         return
     kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
     src = streams.open_input(input, kinds)
-    _guard("gain", src.header.meta, allow_no_gain)
     evaluate = rom.deviation_model(src.header, src.read_all(), src.source, curve)
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
                             address_bits, width, lsb, sample, target, endian, axis, zone,
                             array_name, max_entries, resolution_deg, sign)
-    if path is not None and not force and Path(path).exists():
-        msg = f"output {path} exists; use --force to replace it"
-        raise UsageError(msg)
+    _before_work(path, force, src.header.meta, allow_no_gain)
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
     _guard("rom", table, allow_coarse)
@@ -163,6 +158,18 @@ def _rom_summary(table: Rom, header: Header, curve: str | None,
     if settings.target in romformats.CONTROLLER:
         summary["interpolation_error_arcsec"] = rom.interpolation_error(evaluate, settings.spec)
     return summary
+
+
+def _before_work(path: str | None, force: bool, meta: dict, allow_no_gain: bool) -> None:
+    """Refuse an existing table file without --force, then a model without gain."""
+    from pathlib import Path
+
+    from enctools.errors import UsageError
+
+    if path is not None and not force and Path(path).exists():
+        msg = f"output {path} exists; use --force to replace it"
+        raise UsageError(msg)
+    _guard("gain", meta, allow_no_gain)
 
 
 def _guard(what: str, subject: Any, allowed: bool) -> None:

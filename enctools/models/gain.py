@@ -9,10 +9,11 @@ the points' Bessel s times ``sqrt(N / (N - 1))`` (seed 001 eq. 8).
 Leave-one-out is optimistic where neighbouring points are correlated (a dense table,
 a step run with many close targets: a point's neighbours carry its own slow error).
 The *blocked* hold-out leaves out the contiguous blocks of the turn instead,
-:data:`BLOCKS` blocks of 360/BLOCKS deg centred on 0, 15, 30, ... deg, one at a time, refits the model with the
-same settings on the rest and predicts the block. A table with at most one point in
-every block (a 24-face polygon) has its blocked hold-out equal to its leave-one-out
-one; a table with more (dense) is judged by the worse of the two.
+:data:`BLOCKS` blocks of 360/BLOCKS deg centred on 0, 15, 30, ... deg, one at a time,
+refits the model with the same settings on the rest and predicts the block. A table
+with at most one point in every block (a 24-face polygon) has its blocked hold-out
+equal to its leave-one-out one; a table with more (dense) is judged by the worse of
+the two.
 
 The model helps when that figure is below :func:`threshold` times the same figure of
 the constant. The margin covers what a search over many models finds in pure noise
@@ -224,7 +225,7 @@ def from_residuals(residuals: dict[str, Any]) -> dict[str, Any] | None:
     gain = residuals.get("gain")
     if isinstance(gain, dict) and {"helps", "model", "baseline"} <= gain.keys():
         return gain
-    points, loo = residuals.get("points"), residuals.get("leave_one_out")
+    points, loo = residuals.get("points") or {}, residuals.get("leave_one_out") or {}
     try:
         n, s = int(points["n"]), float(points["bessel_std_arcsec"])
         model = float(loo["rms_arcsec"])
