@@ -246,8 +246,10 @@ def test_selfcal_to_csv_with_a_unit_then_back(tmp_path, sjtu_raw):
 @pytest.mark.slow
 def test_points_table_through_fit_rbf_and_make_rom(tmp_path):
     r = run(f"enc points {DATA}/seed001_table1.csv -o p.csv && enc fit-rbf p.csv -q -o m.tsv "
-            "&& enc make-rom m.tsv --bits 12 --target stream --format csv -o rom.csv "
-            "&& enc make-rom m.tsv --bits 12 -o table.csv --verify -q", cwd=tmp_path)
+            "&& enc make-rom m.tsv --bits 12 --target stream --format csv --allow-no-gain "
+            "--allow-coarse -o rom.csv "
+            "&& enc make-rom m.tsv --bits 12 -o table.csv --verify --allow-no-gain --allow-coarse "
+            "-q", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     h, t = streams.read_table(str(tmp_path / "p.csv"), "points")
     assert t.num_rows > 10 and h.meta["history"][-1].endswith("-o p.csv")

@@ -66,7 +66,8 @@ def outputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         f"enc points {DATA}/seed001_table1.csv -o points.parquet",
         "enc fit-rbf points.parquet -o model.parquet",
         "enc fit-rbf points.parquet --kernel fourier -o fourier.parquet",
-        "enc make-rom model.parquet --bits 10 --target stream -o rom.parquet",
+        "enc make-rom model.parquet --bits 10 --target stream --allow-no-gain --allow-coarse "
+        "-o rom.parquet",
         "enc acquire --rig ciomp-23bit --mode steps --runs 2 --bidirectional -o steps.parquet",
     ]
     r = run(" && ".join(steps), cwd=d)
@@ -159,7 +160,7 @@ def test_model_v1_in_deg_gives_the_same_table_as_v2(tmp_path):
     pq.write_table(pa.table([table.column("centre").to_numpy() * 180.0 / np.pi,
                              table.column("weight")], schema=old.arrow_schema()),
                    tmp_path / "m1.parquet")
-    rom = "--bits 23 --address-bits 12 --target stream"
+    rom = "--bits 23 --address-bits 12 --target stream --allow-no-gain"
     r = run(f"enc make-rom m1.parquet {rom} -o r1.parquet && "
             f"enc make-rom m2.parquet {rom} -o r2.parquet", cwd=tmp_path)
     assert r.returncode == 0, r.stderr.decode()

@@ -97,6 +97,7 @@ def test_make_rom_command_every_format(model_file, tmp_path):
         control = {"acs": "--resolution 0.00001 --sign correction",
                    "siemens": "--resolution 0.00001"}.get(_fmt, "")
         r = run(f"enc make-rom {model_file} --bits 23 --address-bits 12 --verify {control} "
+                f"--allow-no-gain "
                 f"-o {out}")
         assert r.returncode == 0, r.stderr.decode()
         err = r.stderr.decode()
@@ -112,7 +113,7 @@ def test_make_rom_command_every_format(model_file, tmp_path):
 @pytest.mark.slow
 def test_siemens_rotary_rules(model_file, tmp_path):
     out = tmp_path / "c.spf"
-    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 8 --axis C1 "
+    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 8 --axis C1 --allow-no-gain "
             f"--resolution 0.0001 -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     lines = out.read_text().splitlines()
@@ -145,10 +146,10 @@ def test_deviations_curve_as_model(tmp_path):
     table = pa.table([theta, 3.0 * np.sin(2 * theta)], schema=schema)
     streams.write_table(str(tmp_path / "d.parquet"), streams.Header("deviations", schema, {}),
                         table)
-    r = run(f"enc make-rom {tmp_path}/d.parquet --bits 16 --width 8 --lsb 4 -o {tmp_path}/d.bin")
+    r = run(f"enc make-rom {tmp_path}/d.parquet --bits 16 --width 8 --lsb 0.01 -o {tmp_path}/d.bin")
     assert r.returncode == 0, r.stderr.decode()
     v = np.fromfile(tmp_path / "d.bin", dtype=np.int8)
-    lsb = 4 * 1_296_000 / 2 ** 16
+    lsb = 0.01 * 1_296_000 / 2 ** 16
     x = np.arange(v.size) * 2 * np.pi / v.size
     assert np.abs(v - (-3.0 * np.sin(2 * x) / lsb)).max() < 0.5 + 1e-3  # + linear interpolation
 
@@ -175,7 +176,7 @@ def test_a_curve_with_empty_bins_is_interpolated_with_a_warning(tmp_path):
 
 @pytest.mark.slow
 def test_rom_stream_output(model_file):
-    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 10 -q | enc info")
+    r = run(f"enc make-rom {model_file} --bits 23 --address-bits 10 --allow-no-gain -q | enc info")
     assert r.returncode == 0, r.stderr.decode()
     assert b"rom stream" in r.stdout and b"1024 rows" in r.stdout
 
@@ -186,6 +187,7 @@ def test_acs_sign_as_given(model_file, tmp_path):
     text = {}
     for sign in ("correction", "error"):
         r = run(f"enc make-rom {model_file} --bits 23 --address-bits 6 --resolution 0.0001 "
+                f"--allow-no-gain "
                 f"--sign {sign} --verify -o {tmp_path}/{sign}.prg")
         assert r.returncode == 0, r.stderr.decode()
         text[sign] = {int(i): float(v) for i, v in re.findall(
@@ -209,7 +211,7 @@ def test_acs_sign_as_given(model_file, tmp_path):
 ])
 def test_make_rom_refuses(model_file, tmp_path, args, what):
     out = tmp_path / "t.bin"
-    r = run(f"enc make-rom {model_file} {args} -o {out}")
+    r = run(f"enc make-rom {model_file} {args} --allow-no-gain -q -o {out}")
     assert r.returncode == 2, r.stderr.decode()
     err = r.stderr.decode()
     assert err.startswith("enc make-rom: error:") and err.count("\n") == 1, err

@@ -207,6 +207,7 @@ def test_model_source_reports_interpolation_error(tmp_path):
     interpolation costs is reported."""
     r = run(f"enc fit-rbf {DATA}/seed001_table1.csv -q -o {tmp_path}/m.parquet && "
             f"enc make-rom {tmp_path}/m.parquet --target linuxcnc --verify --json "
+            f"--allow-no-gain "
             f"-o {tmp_path}/j.comp")
     assert r.returncode == 0, r.stderr.decode()
     s = json.loads(r.stdout)

@@ -51,7 +51,7 @@ HOSTILE_DIR = "d\nM30\r%*"
 HOSTILE_NAME = ("*m\nM30\r\nM30\x1b[2J\x1b]0;t\x07\t\x7f\x85\u2028\u2029\u202e%\xfc\udcff"
                 "\n$AA_ENC_COMP_STEP[0,AX1]=1.0\nERRORMAP1D AXIS_NO, 0, 0, 1, ENC_COMP"
                 "\nmemory_initialization_radix=2;\nCONTENT BEGIN\n.parquet")
-BASE = ["--bits", "23", "--address-bits", "5", "--width", "16"]
+BASE = ["--bits", "23", "--address-bits", "5", "--width", "16", "--allow-no-gain"]
 #: what the controllers' tables need besides: the control's resolution, ACS's sign
 RESOLUTION = {"acs": 1e-4, "siemens": 1e-4}
 CONTROL = {"acs": ["--resolution", "0.0001", "--sign", "correction"],

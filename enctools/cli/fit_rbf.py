@@ -95,7 +95,7 @@ def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
         model |= {"n_units": meta["units"], "spread_deg": meta["spread_deg"]}
     else:
         model["n_harmonics"] = meta["harmonics"]
-    model |= {k: v for k, v in fit.choice.items() if k != "tried"}
+    model |= {k: v for k, v in fit.choice.items() if k not in ("tried", "spread_range")}
     t = meta["targets"]
     out: dict[str, Any] = {"model": model, "targets": {
         "n_targets": t["targets"], "n_visits": t["visits"],
@@ -115,6 +115,8 @@ def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
     for key in ("undetermined", "ill_conditioned"):
         if meta.get(key):
             out[key] = list(meta[key])
+    if fit.gain is not None:  # against no correction: whether enc make-rom takes it
+        out["gain"] = fit.gain.to_meta()
     return out
 
 

@@ -77,6 +77,12 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
                    "hold the nearer end's (default: refused).")
 @click.option("--verify", is_flag=True, default=False,
               help="Read the written table back and check it equals the table built.")
+@click.option("--allow-no-gain", is_flag=True, default=False,
+              help="Write a model that does not beat no correction (enc fit-rbf's gain), "
+                   "with a warning.")
+@click.option("--allow-coarse", is_flag=True, default=False,
+              help="Write a table whose LSB or resolution leaves an RMS error over 1/4 of "
+                   "the correction's (or rounds it all to 0), with a warning.")
 @options.output
 @options.force
 @click.option("--format", "fmt", type=click.Choice(options.FORMATS), default=None,
@@ -90,7 +96,8 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             bidirectional: bool,
             sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
             detection_unit: float, ref_point: int, outside: str | None, verify: bool,
-            output: str | None, force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
+            allow_no_gain: bool, allow_coarse: bool, output: str | None, force: bool,
+            fmt: str | None, as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -105,11 +112,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     control's resolution, with the interpolation error it costs in the summary.
     """
     import time
-    from pathlib import Path
 
     from enctools.cli.summary import check_json, emit
     from enctools.data import streams
-    from enctools.errors import UsageError
     from enctools.models import rom, romformats
 
     target, path = _target(target, output, force, fmt)
@@ -118,7 +123,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     if target in romformats.CONTROLS:
         _control(input, curve, _control_settings(target, bidirectional, sign, comp_type, points,
                                                  max_entries, axis, detection_unit, ref_point),
-                 str(path), (force, verify, outside), as_json, unit)
+                 str(path), (force, verify, outside), as_json, unit, (allow_no_gain, allow_coarse))
         return
     kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
     src = streams.open_input(input, kinds)
@@ -126,11 +131,10 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
                             address_bits, width, lsb, sample, target, endian, axis, zone,
                             array_name, max_entries, resolution_deg, sign)
-    if path is not None and not force and Path(path).exists():
-        msg = f"output {path} exists; use --force to replace it"
-        raise UsageError(msg)
+    _before_work(path, force, src.header.meta, allow_no_gain)
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
+    _guard("rom", table, allow_coarse)
     summary = _rom_summary(table, src.header, curve, evaluate, settings) | extent
     size = None
     if path is None:
@@ -174,6 +178,30 @@ def _rom_summary(table: Rom, header: Header, curve: str | None,
     return summary
 
 
+def _before_work(path: str | None, force: bool, meta: dict, allow_no_gain: bool) -> None:
+    """Refuse an existing table file without --force, then a model without gain."""
+    from pathlib import Path
+
+    from enctools.errors import UsageError
+
+    if path is not None and not force and Path(path).exists():
+        msg = f"output {path} exists; use --force to replace it"
+        raise UsageError(msg)
+    _guard("gain", meta, allow_no_gain)
+
+
+def _guard(what: str, subject: Any, allowed: bool) -> None:
+    """A guard of models/tableguards.py (``gain`` of a stream's metadata; ``rom`` or
+    ``control`` of a built table): refused in one line, or warned when ``allowed``."""
+    from enctools.models import tableguards as g
+
+    check = {"gain": g.gain_problem, "rom": g.rom_problem, "control": g.control_problem}[what]
+    option = g.ALLOW_NO_GAIN if what == "gain" else g.ALLOW_COARSE
+    warning = g.enforce(check(subject), allowed, option)
+    if warning is not None:
+        runner.log.warning("%s", warning)
+
+
 def _check_applies(target: str) -> None:
     """Refuse (one line) an option given that the target does not take."""
     import click
@@ -200,9 +228,10 @@ def _control_settings(*options: Any) -> ControlSettings:
 
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
-             flags: tuple[bool, bool, str | None], as_json: bool, unit: str) -> None:
+             flags: tuple[bool, bool, str | None], as_json: bool, unit: str,
+             allow: tuple[bool, bool]) -> None:
     """Build a control's point table from a step run or a model, write it, verify it
-    (``flags``: --force, --verify, --outside)."""
+    (``flags``: --force, --verify, --outside; ``allow``: --allow-no-gain, --allow-coarse)."""
     import time
 
     from enctools.cli.summary import emit
@@ -214,11 +243,13 @@ def _control(input: str | None, curve: str | None, settings: ControlSettings, pa
     force, verify, outside = flags
     t0 = time.monotonic()
     src = streams.open_input(input, ("points", "model", "deviations"))
+    _guard("gain", src.header.meta, allow[0])
     rows = src.read_all()
     source = rom.control_source(src.header, rows, src.source, curve)
     measured = source.measured or domain.measured_of(src.header, rows, src.source)
     source = domain.restrict_source(source, measured, outside, src.source)
     table = controls.build(settings, source)
+    _guard("control", table, allow[1])
     extent = domain.summary(measured, outside)
     comment = [f"enctools make-rom: {table.grid_deg.size} points 0..360 deg, "
                f"resolution {table.resolution_deg!r} deg; " + history_line()]

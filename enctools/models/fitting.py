@@ -14,6 +14,7 @@ import numpy as np
 from enctools.data.statistics import figures_or_nan
 from enctools.errors import UsageError
 from enctools.methods.points import figures_meta
+from enctools.models import gain as gains
 from enctools.models.fourier import (
     COND_LIMIT,
     DEFAULT_MAX_ORDER,
@@ -21,7 +22,7 @@ from enctools.models.fourier import (
     choose_order,
     fit_with_loo,
 )
-from enctools.models.rbf import RBFModel, choose_network
+from enctools.models.rbf import SMOOTHING, RBFModel, choose_network, fit_smoothed
 
 KERNELS = ("rbf", "fourier")
 #: the ranges of the options [deg], [arcsec], harmonic orders (bounds included): a
@@ -30,6 +31,12 @@ KERNELS = ("rbf", "fourier")
 SPREAD_DEG = (0.001, 360.0)
 GOAL_ARCSEC = (0.0, 3600.0)
 MAX_HARMONICS = 1024
+#: the smoother alternative a model is compared with: a Fourier series of at most this
+#: order, chosen by leave-one-out
+LOW_ORDER = 4
+#: the alternative is named when its prediction residual is below this fraction of the
+#: model's (a clear difference, not the search's scatter)
+ALTERNATIVE_BETTER = 0.9
 
 
 @dataclass(frozen=True)
@@ -90,12 +97,15 @@ class Fit:
     holdout: dict[str, Any] | None = None
     notes: list[str] = field(default_factory=list)
     choice: dict[str, Any] = field(default_factory=dict)
+    gain: gains.Gain | None = None
 
     def residuals(self) -> dict[str, Any]:
         """The ``residuals`` metadata of the model stream."""
         out = {"points": self.points, "training": self.training, "leave_one_out": self.loo}
         if self.holdout is not None:
             out["holdout"] = self.holdout
+        if self.gain is not None:
+            out["gain"] = self.gain.to_meta()
         return out
 
 
@@ -135,8 +145,82 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
                        "before_peak_to_peak_arcsec": before.pp,
                        "bessel_std_arcsec": after.std, "peak_to_peak_arcsec": after.pp,
                        "max_abs_arcsec": after.max_abs, "rms_arcsec": after.rms}
-    fit.notes = _notes(fit, settings, x.size)
+    if x.size >= 3:
+        fit.gain = _gain(x, y, fit, settings, loo)
+    fit.notes = _notes(fit, settings, x.size) + _gain_notes(fit.gain)
     return fit
+
+
+def _refit(model: RBFModel | FourierModel, smoothing: float | None) -> gains.Refit:
+    """The model's kind refitted with its settings (spread, smoothing, centres; order) to
+    other points [deg, arcsec]: the blocked hold-out's refits."""
+    if isinstance(model, RBFModel):
+        spread, centres, lam = model.spread_deg, model.centres_deg, float(smoothing or 0.0)
+        return lambda xs, ys: fit_smoothed(xs, ys, spread, lam, centres)
+    order = int(model.n.max(initial=0))
+    return lambda xs, ys: fit_with_loo(xs, ys, order)[0]
+
+
+def _gain(x: np.ndarray, y: np.ndarray, fit: Fit, settings: Settings, loo: np.ndarray
+          ) -> gains.Gain:
+    """Whether the model beats no correction (enctools.models.gain), beside a smoother
+    alternative (a Fourier series of order <= LOW_ORDER), and where the search ended on
+    the edge of its grid."""
+    dense = gains.is_dense(x)
+    model = gains.figure(x, y, loo, _refit(fit.model, fit.choice.get("smoothing")), dense)
+    baseline = gains.figure(x, y, (y - y.mean()) * x.size / (x.size - 1),
+                            gains.constant_refit, dense)
+    g = gains.Gain(model, baseline, int(x.size), edges=_edges(fit, settings))
+    if fit.holdout is not None:
+        g.holdout = (fit.holdout["bessel_std_arcsec"], fit.holdout["before_bessel_std_arcsec"])
+    order = int(fit.model.n.max(initial=0)) if isinstance(fit.model, FourierModel) else None
+    if order is None or order > LOW_ORDER:
+        smooth, smooth_loo = choose_order(x, y, most=LOW_ORDER)
+        k = int(smooth.n.max(initial=0))
+        alt = gains.figure(x, y, smooth_loo, _refit(smooth, None), dense)
+        g.alternative = {"kernel": "fourier", "n_harmonics": k} | alt.to_meta()
+    return g
+
+
+def _edges(fit: Fit, settings: Settings) -> list[str]:
+    """Where the model's search ended on the edge of its grid: the largest smoothing, the
+    narrowest spread or the widest one short of 180 deg, the highest order tried."""
+    model, choice, out = fit.model, fit.choice, []
+    if isinstance(model, RBFModel):
+        if choice.get("smoothing") == float(SMOOTHING[-1]):
+            out.append(f"smoothing {SMOOTHING[-1]:g} (largest tried)")
+        lo, hi = choice.get("spread_range", (np.nan, np.nan))
+        if settings.spread_deg is None and model.spread_deg == lo:
+            out.append(f"spread {lo:.5g} deg (narrowest tried)")
+        elif settings.spread_deg is None and model.spread_deg == hi and hi < 180.0:
+            out.append(f"spread {hi:.5g} deg (widest tried)")
+    elif settings.harmonics is None:
+        order, tried = int(model.n.max(initial=0)), choice.get("highest_order_tried")
+        if tried is not None and order == tried and order > 0:
+            out.append(f"order {order} (highest tried)")
+    return out
+
+
+def _gain_notes(g: gains.Gain | None) -> list[str]:
+    """No gain over no correction, a search ended on its grid's edge, a smoother model
+    that predicts better: each said once."""
+    if g is None:
+        return []
+    notes = []
+    if not g.helps:
+        notes.append(f"no gain: {g.why_not()}; enc make-rom refuses this model unless "
+                     "given --allow-no-gain")
+    if g.edges:
+        notes.append("the search ended on the edge of its grid (" + "; ".join(g.edges)
+                     + "): a better model may lie beyond it")
+    alt = g.alternative
+    if alt is not None and g.helps:
+        worst = gains.Figure(alt["leave_one_out_rms_arcsec"], alt.get("blocked_rms_arcsec")).worst
+        if worst < ALTERNATIVE_BETTER * g.model.worst:
+            notes.append(f"a Fourier series of order {alt['n_harmonics']} predicts better: "
+                         f"{worst:.4g} arcsec against {g.model.worst:.4g} "
+                         f"(--kernel fourier --band {alt['n_harmonics']})")
+    return notes
 
 
 def _notes(fit: Fit, settings: Settings, n: int) -> list[str]:
@@ -188,7 +272,8 @@ def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
         network, choice = choose_network(x, y, settings.spread_deg, progress,
                                          settings.goal_arcsec)
         how = {"selection": "leave-one-out, closed form", "tried": choice.tried,
-               "smoothing": choice.smoothing, "effective_parameters": choice.effective}
+               "smoothing": choice.smoothing, "effective_parameters": choice.effective,
+               "spread_range": choice.spread_range}
         if choice.reached is not None:
             how |= {"selection": "leave-one-out among those within --goal",
                     "goal_reached": choice.reached,

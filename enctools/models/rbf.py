@@ -221,7 +221,7 @@ class Choice:
     number of parameters the data effectively determine; tried : spreads x smoothings;
     reached : whether the network reaches the training goal (None: no goal given);
     best_rms : the smallest RMS leave-one-out residual [arcsec] of any network tried,
-    goal or not.
+    goal or not; spread_range : the narrowest and widest spread tried [deg].
     """
 
     spread_deg: float
@@ -231,6 +231,7 @@ class Choice:
     tried: int
     reached: bool | None = None
     best_rms: float = float("nan")
+    spread_range: tuple[float, float] = (float("nan"), float("nan"))
 
 
 class _Ridge:
@@ -368,4 +369,5 @@ def choose_network(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     key, ridge, smoothing, loo, effective = best
     return ridge.model(smoothing), Choice(ridge.spread, smoothing, loo, effective,
                                           len(spreads) * SMOOTHING.size,
-                                          None if goal is None else not key[0], best_rms)
+                                          None if goal is None else not key[0], best_rms,
+                                          (spreads[0], spreads[-1]))

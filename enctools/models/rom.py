@@ -278,6 +278,11 @@ class Rom:
     min_value: int
     max_value: int
     crc32: int = 0
+    #: RMS of the exact correction, RMS of (stored - exact), largest |exact correction|,
+    #: over every address [LSB]: what the table's quantisation guard weighs
+    rms_correction_lsb: float = 0.0
+    rms_quantisation_lsb: float = 0.0
+    max_abs_correction_lsb: float = 0.0
 
     @property
     def max_quantisation_arcsec(self) -> float:
@@ -337,6 +342,8 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     vmin = min(p[0] for p in parts)
     vmax = max(p[1] for p in parts)
     worst = max(p[2] for p in parts)
+    rms_corr, rms_err = (math.sqrt(sum(p[i] for p in parts) / spec.entries) for i in (3, 4))
+    largest = max(p[5] for p in parts)
     lo, hi = spec.word_range
     if vmin < lo or vmax > hi:
         msg = (f"corrections reach {vmin:.0f}..{vmax:.0f} LSB, beyond the {spec.width}-bit "
@@ -345,7 +352,7 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
         raise DataError(msg)
     le = values.astype(values.dtype.newbyteorder("<"), copy=False)
     crc = zlib.crc32(le.data if le.flags.c_contiguous else le.tobytes())
-    return Rom(spec, values, worst, int(vmin), int(vmax), crc)
+    return Rom(spec, values, worst, int(vmin), int(vmax), crc, rms_corr, rms_err, largest)
 
 
 def _on_grid(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec
@@ -362,11 +369,12 @@ def _on_grid(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec
 
 
 def _quantise(at: Callable[[int, int], np.ndarray], values: np.ndarray, spec: RomSpec,
-              start: int) -> tuple[float, float, float]:
+              start: int) -> tuple[float, float, float, float, float, float]:
     """Quantise addresses start..start+CHUNK-1 into ``values``.
 
-    Returns (min, max, largest |quantisation error|) [LSB]. A chunk beyond the word
-    width is not stored, but its range is returned, to name the width needed.
+    Returns (min, max, largest |quantisation error|, sum of squared corrections, sum of
+    squared quantisation errors, largest |correction|) [LSB, LSB^2]. A chunk beyond the
+    word width is not stored, but its range is returned, to name the width needed.
     """
     stop = min(spec.entries, start + CHUNK)
     corr = np.multiply(at(start, stop), -1.0 / spec.lsb_arcsec, dtype=np.float64)
@@ -377,15 +385,16 @@ def _quantise(at: Callable[[int, int], np.ndarray], values: np.ndarray, spec: Ro
         raise DataError(msg)
     lo, hi = spec.word_range
     if qmin < lo or qmax > hi:
-        return qmin, qmax, 0.0
+        return qmin, qmax, 0.0, 0.0, 0.0, 0.0
+    sum_corr, largest = float(corr @ corr), float(np.max(np.abs(corr)))
     corr -= q
     err = max(-float(corr.min()), float(corr.max()))
     values[start:stop] = q
-    return qmin, qmax, err
+    return qmin, qmax, err, sum_corr, float(corr @ corr), largest
 
 
-def _each_chunk(quantise: Callable[[int], tuple[float, float, float]], n: int,
-                progress: Callable[[int, int], None] | None) -> list[tuple[float, float, float]]:
+def _each_chunk(quantise: Callable[[int], tuple[float, ...]], n: int,
+                progress: Callable[[int, int], None] | None) -> list[tuple[float, ...]]:
     """``quantise(start)`` of every chunk of n entries, in order, on THREADS threads."""
     starts = range(0, n, CHUNK)
     parts = []
