@@ -6,7 +6,8 @@ says otherwise (the comment is invisible in the rendered page)::
 
     .\\" example: file NAME      the block is the text of the file NAME, which later
                                 blocks of the page use (a rig file, a certificate)
-    .\\" example: python         the block is a Python script
+    .\\" example: python         the block is Python, run after the page's earlier Python
+                                blocks (as in one interpreter session)
     .\\" example: status N       a shell script whose documented ending is exit status N
     .\\" example: skip REASON    not run (a crontab line); the reason is listed by the test
 
@@ -116,15 +117,17 @@ def _stage(folder: Path) -> None:
     shutil.copytree(ROOT / "examples", folder / "examples")
 
 
-def _run_block(b: Block, folder: Path, n: int) -> None:
+def _run_block(b: Block, folder: Path, n: int, session: list[str]) -> None:
+    """Run one example block in ``folder``; ``session``: the page's Python so far."""
     if b.kind == "skip":
         return
     if b.kind == "file":
         (folder / b.arg).write_text(b.text)
         return
     if b.kind == "python":
+        session.append(b.text)
         script = folder / f".example-{n}.py"
-        script.write_text(b.text)
+        script.write_text("\n".join(session))
         r = run([sys.executable, str(script)], cwd=folder)
         expected = 0
     else:
@@ -142,8 +145,9 @@ def _run_block(b: Block, folder: Path, n: int) -> None:
 @pytest.mark.parametrize("page", [p for p in PAGES if examples(p)])
 def test_every_example_of_the_page_runs(page: str, tmp_path: Path) -> None:
     _stage(tmp_path)
+    session: list[str] = []
     for n, b in enumerate(examples(page)):
-        _run_block(b, tmp_path, n)
+        _run_block(b, tmp_path, n, session)
 
 
 def _without_opening_comment(text: str) -> list[str]:

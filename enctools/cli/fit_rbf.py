@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from enctools.cli import options, runner
+from enctools.units import factor
 
 
 @click.command("fit-rbf")
@@ -99,7 +100,7 @@ def _summary(fit: Any, meta: dict[str, Any]) -> dict[str, Any]:
     t = meta["targets"]
     out: dict[str, Any] = {"model": model, "targets": {
         "n_targets": t["targets"], "n_visits": t["visits"],
-        "tolerance_arcsec": t["tolerance_deg"] * 3600.0, "step_deg": t["step_deg"],
+        "tolerance_arcsec": t["tolerance_deg"] * factor("deg", "arcsec"), "step_deg": t["step_deg"],
         "domain": _domain_text(meta["domain"])}, "points": from_meta(fit.points),
                            "training": from_meta(fit.training),
                            "leave_one_out": from_meta(fit.loo)}

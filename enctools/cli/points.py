@@ -7,7 +7,7 @@ from typing import Any
 import click
 
 from enctools.cli import options
-from enctools.units import ANGLE_UNITS
+from enctools.units import ANGLE_UNITS, factor
 
 
 @click.command("points")
@@ -62,6 +62,6 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
         summary["polygon_face_u_max_arcsec"] = header.meta["polygon_certificate"]["u_max_arcsec"]
     t = header.meta["targets"]
     summary["targets"] = {"n_targets": t["targets"], "n_visits": t["visits"],
-                          "tolerance_arcsec": t["tolerance_deg"] * 3600.0,
+                          "tolerance_arcsec": t["tolerance_deg"] * factor("deg", "arcsec"),
                           "step_deg": t["step_deg"]}
     emit(summary | {"distinct_positions": from_meta(header.meta["figures"])}, as_json, unit)

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from enctools.errors import DataError
-from enctools.units import DEG
+from enctools.units import DEG, factor
 
 #: neighbouring targets are at least this many tolerances apart
 SEPARATION = 4.0
@@ -188,9 +188,9 @@ def target_means(position_deg: np.ndarray, deviation: np.ndarray,
     targets = group(position_deg, count_deg)
     m = len(targets)
     if m < 2:
-        msg = (f"{source}: fewer than 2 targets ({x.size} positions within "
-               f"{targets.tolerance_deg * 3600.0:.4g} arcsec); a model needs points around "
-               "the circle")
+        within = targets.tolerance_deg * factor("deg", "arcsec")
+        msg = (f"{source}: fewer than 2 targets ({x.size} positions within {within:.4g} "
+               "arcsec); a model needs points around the circle")
         raise DataError(msg)
     d = np.ones(x.size) if direction is None else np.asarray(direction)
     if not np.all(np.isin(d, (1, -1))):
