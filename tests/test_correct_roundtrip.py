@@ -198,3 +198,13 @@ def test_the_demos_raw_image_corrects_the_dense_turn_as_its_mif_does(tmp_path):
     a, b = (pq.read_table(d / f"residual-{t}.parquet") for t in ("mif", "bin"))
     assert a.column_names == ["theta", "before", "after"] and a.equals(b)
     assert out["mif"]["after"]["s_bessel_arcsec"] < 0.7 * out["mif"]["before"]["s_bessel_arcsec"]
+
+
+def test_a_hostile_sidecar_is_one_line(tmp_path):
+    """A table's sidecar is read within the limits of a stream's header: nested past
+    them, it is refused in one line (exit 2), not parsed into a recursion error."""
+    (tmp_path / "t.csv").write_text("0,1\n1,2\n")
+    (tmp_path / "t.csv-metadata.json").write_text("[" * 100000 + "]" * 100000)
+    r = run(f"enc correct {DATA}/seed001_table1.csv --table {tmp_path}/t.csv")
+    err = r.stderr.decode()
+    assert r.returncode == 2 and err.count("\n") == 1 and "nested" in err, err

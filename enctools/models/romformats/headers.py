@@ -25,6 +25,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from enctools.data.csvio import CSVW_CONTEXT, sidecar_path
+from enctools.data.header import load_metadata
+from enctools.data.limits import MAX_METADATA_BYTES
 from enctools.errors import DataError
 from enctools.units import TWO_PI, factor
 
@@ -106,20 +108,18 @@ def sidecar(layout: Layout, fmt: str, url: str, comment: list[str]) -> bytes:
 
 def sidecar_doc(path: str) -> dict[str, Any] | None:
     """The JSON document beside ``path`` (``path-metadata.json``), or None when there is
-    none; DataError when it is there but not a JSON object of at most 1 MiB."""
+    none; DataError when it is there but not a JSON object within the metadata limits
+    (its size and nesting checked before it is parsed, as a stream's header is)."""
     side = sidecar_path(path)
     if not os.path.isfile(side):
         return None
     try:
         with open(side, "rb") as f:
-            doc = json.loads(f.read(1 << 20))
-    except (OSError, ValueError) as exc:
+            raw = f.read(MAX_METADATA_BYTES + 1)
+    except OSError as exc:
         msg = f"{side}: not a readable sidecar ({type(exc).__name__})"
         raise DataError(msg) from None
-    if not isinstance(doc, dict):
-        msg = f"{side}: not a JSON object"
-        raise DataError(msg)
-    return doc
+    return load_metadata(raw, side)
 
 
 def is_table_sidecar(doc: dict[str, Any] | None) -> bool:
