@@ -54,7 +54,8 @@ def test_a_run_imports_only_what_it_uses(tmp_path):
              "interp-check": ([t, "--ref", "P1"], UNUSED + ("tempfile",)),
              "report": ([str(tmp_path / "p.arrows")], UNUSED + ("tempfile",)),
              "make-rom": ([str(tmp_path / "m.arrows"), "--bits", "10", "-o",
-                           str(tmp_path / "r.bin")], UNUSED)}
+                           str(tmp_path / "r.bin"), "--allow-no-gain", "--allow-coarse"],
+                          UNUSED)}
     r = run_in_process(f"enc fit-rbf {DATA}/seed001_table1.csv -q -o {tmp_path}/m.arrows")
     assert r.returncode == 0, r.stderr.decode()
     run_in_process(f"enc points {DATA}/seed001_table1.csv -q -o {tmp_path}/p.arrows")

@@ -471,7 +471,8 @@ def test_a_table_named_otherwise_is_known_by_its_content(tables, tmp_path):
     write_points(tmp_path / "p.csv", np.array([0.0, 90.0]), np.zeros(2))
     for fmt in ("mif", "coe", "ihex"):
         r = run(f"enc make-rom {tables}/m.parquet --bits {N_BITS} --address-bits {M_BITS} "
-                f"--lsb {LSB} --width {WIDTH} --target {fmt} -o {tmp_path}/table.{fmt}.txt -q")
+                f"--lsb {LSB} --width {WIDTH} --target {fmt} -o {tmp_path}/table.{fmt}.txt -q "
+                "--allow-no-gain --allow-coarse")  # table 1's, a coarse LSB (enc-make-rom(1))
         assert r.returncode == 0, r.stderr.decode()
         s = summary(run_in_process(f"enc correct {tmp_path}/p.csv "
                                    f"--table {tmp_path}/table.{fmt}.txt --json"))

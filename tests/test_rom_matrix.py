@@ -34,6 +34,10 @@ OPTIONS = {"bin": "--bits 12", "ihex": "--bits 12", "mif": "--bits 12", "coe": "
            "siemens": "--address-bits 6 --resolution 0.0001", "linuxcnc": "", "twincat": "",
            "fanuc": "--sign error", "heidenhain": "--sign error"}
 MEMORIES = tuple(t for t in TARGETS if t not in CONTROLS + rf.CONTROLLER)
+#: the matrix is of the tables' plumbing and means: a model through 8 targets cannot show
+#: that it beats no correction, and Fanuc's 0.001 deg is coarse beside a 2" correction;
+#: the guards of enc-make-rom(1) are waived here and tested in test_gain.py
+GUARDS = "--allow-no-gain --allow-coarse"
 SIGN = {"acs": "correction", "fanuc": "error", "heidenhain": "error"}
 
 
@@ -89,7 +93,7 @@ def test_every_command_counts_the_targets(streams, name):
 def test_model_into_every_target(streams, tmp_path, name, target):
     out = tmp_path / f"table.{target}"
     r = run_in_process(f"enc make-rom {streams}/{name}-m.parquet --target {target} "
-                       f"{OPTIONS[target]} --verify --json -o {out}")
+                       f"{OPTIONS[target]} {GUARDS} --verify --json -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     doc = json.loads(r.stdout)
     assert doc["measured_range"] == "the full turn"
@@ -109,7 +113,7 @@ def test_points_into_every_target(streams, tmp_path, name, target):
     out = tmp_path / f"table.{target}"
     points = streams / f"{name}-p.parquet"
     r = run_in_process(f"enc make-rom {points} --target {target} {OPTIONS[target]} "
-                       f"--verify --json -o {out}")
+                       f"{GUARDS} --verify --json -o {out}")
     if target in MEMORIES:
         assert "is a points stream" in one_error_line(r, 2, "enc make-rom")
         assert not out.exists()
@@ -140,7 +144,7 @@ def test_bidirectional_tables(streams, tmp_path, name, target):
     out = tmp_path / f"table.{target}"
     points = streams / f"{name}-p.parquet"
     r = run_in_process(f"enc make-rom {points} --target {target} --bidirectional --verify "
-                       f"--json -o {out}")
+                       f"{GUARDS} --json -o {out}")
     if not both:
         assert "both directions" in one_error_line(r, 2, "enc make-rom")
         assert not out.exists()

@@ -243,12 +243,13 @@ def _control(input: str | None, curve: str | None, settings: ControlSettings, pa
     force, verify, outside = flags
     t0 = time.monotonic()
     src = streams.open_input(input, ("points", "model", "deviations"))
-    _guard("gain", src.header.meta, allow[0])
     rows = src.read_all()
     source = rom.control_source(src.header, rows, src.source, curve)
     measured = source.measured or domain.measured_of(src.header, rows, src.source)
     source = domain.restrict_source(source, measured, outside, src.source)
     table = controls.build(settings, source)
+    # what cannot be written is refused first, then what should not be (GUARDS)
+    _guard("gain", src.header.meta, allow[0])
     _guard("control", table, allow[1])
     extent = domain.summary(measured, outside)
     comment = [f"enctools make-rom: {table.grid_deg.size} points 0..360 deg, "
