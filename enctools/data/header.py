@@ -8,6 +8,7 @@ Parquet's footer and in HDF5 attributes alike; :mod:`enctools.data.streams` and
 from __future__ import annotations
 
 import json
+import os
 import re
 import sys
 import time
@@ -97,12 +98,27 @@ def library_version(name: str) -> str | None:
         return None
 
 
+def output_time() -> float:
+    """The time a command writes into its outputs [s since 1970-01-01 UTC]: the
+    environment's SOURCE_DATE_EPOCH when it is set (the reproducible-builds convention:
+    the same inputs give the same bytes), else now. A SOURCE_DATE_EPOCH that is not a
+    whole number of seconds >= 0 is refused (DataError), as that convention asks."""
+    given = os.environ.get("SOURCE_DATE_EPOCH")
+    if given is None:
+        return time.time()
+    if not given.isascii() or not given.isdigit() or len(given) > 12:
+        msg = f"SOURCE_DATE_EPOCH={given!r} is not a whole number of seconds since 1970"
+        raise DataError(msg)
+    return float(int(given))
+
+
 def history_line(argv: list[str] | None = None) -> str:
-    """One NCO-style history line: UTC time, enctools and library versions, command line."""
+    """One NCO-style history line: UTC time (:func:`output_time`), enctools and library
+    versions, command line."""
     import shlex
     argv = sys.argv if argv is None else argv
     cmd = "enc " + shlex.join(argv[1:]) if argv else "enc"
-    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(output_time()))
     return f"{stamp} enctools {__version__} ({library_versions()}): {cmd}"
 
 

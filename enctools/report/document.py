@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from enctools import __version__
+from enctools.data.header import output_time
 from enctools.data.readings import rig_encoders
 from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
@@ -346,7 +347,7 @@ def _approval(cert: Certificate | None) -> dict[str, str] | None:
 def build(report: Report, failures: Sequence[str] | None, title: str | None,
           drawings: Drawings, cert: Certificate | None = None) -> dict[str, Any]:
     """The template's data of the whole document (see the module's docstring)."""
-    now = _dt.datetime.now(_dt.UTC)
+    now = _dt.datetime.fromtimestamp(output_time(), _dt.UTC)
     unit = str(report.settings.get("unit", "arcsec"))
     rigs = [s.rig_name for s in report.sections if s.rig_name]
     default = ("Calibration certificate" if cert else "Calibration report") + (

@@ -10,11 +10,13 @@ embedded as subsets. Every page carries the title, the certificate number and
 
 from __future__ import annotations
 
+import datetime as _dt
 import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from enctools.data.header import output_time
 from enctools.report.certificate import Certificate
 from enctools.report.document import build, render
 from enctools.report.drawings import Drawings
@@ -70,6 +72,8 @@ def _document(title: str, number: str) -> Any:
         pdf.add_font(FAMILY, style, str(folder / name))
     pdf.set_title(title)
     pdf.set_creator("enctools")
+    # CreationDate as the document's own date: SOURCE_DATE_EPOCH makes the bytes repeat
+    pdf.set_creation_date(_dt.datetime.fromtimestamp(output_time(), _dt.UTC))
     pdf.set_font(FAMILY, "", BODY_PT)
     return pdf
 
