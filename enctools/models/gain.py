@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from enctools.data.statistics import figures_or_nan
+
 #: blocks of the blocked hold-out: 24 blocks of 15 deg (the 24-face polygon's spacing)
 BLOCKS = 24
 #: the margin a model must beat the constant by: min(MAX_MARGIN, MARGIN_POINTS / N)
@@ -44,19 +46,16 @@ Refit = Callable[[np.ndarray, np.ndarray], Callable[[np.ndarray], np.ndarray]]
 
 
 def rms(values: np.ndarray) -> float:
-    """Root mean square of values (NaN when empty or any is not finite)."""
-    v = np.asarray(values, dtype=np.float64)
-    return float(np.sqrt(np.mean(v * v))) if v.size else float("nan")
+    """Root mean square of values, the one convention of :mod:`enctools.data.statistics`
+    (NaN when empty or any is not finite)."""
+    return figures_or_nan(values).rms
 
 
 def constant_loo_rms(error_arcsec: np.ndarray) -> float:
     """RMS leave-one-out residual [arcsec] of a constant (the mean) through points:
     Bessel s x sqrt(N / (N - 1)); NaN for fewer than 2 points."""
-    y = np.asarray(error_arcsec, dtype=np.float64)
-    n = y.size
-    if n < 2:
-        return float("nan")
-    return float(np.std(y, ddof=1) * np.sqrt(n / (n - 1)))
+    f = figures_or_nan(error_arcsec)
+    return f.std * float(np.sqrt(f.n / (f.n - 1))) if f.n >= 2 else float("nan")
 
 
 def threshold(n_points: int) -> float:
