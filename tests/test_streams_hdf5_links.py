@@ -45,10 +45,15 @@ def _external_storage(src: Path, dst: Path, target: Path) -> None:
         ds.attrs.update(attrs)
 
 
-def _external_link(src: Path, dst: Path, target: Path) -> None:
-    dst.write_bytes(src.read_bytes())
+def _other_file(target: Path) -> None:
+    """Another HDF5 file whose dataset ``data`` holds the secret's first 64 bytes."""
     with h5py.File(target, "w") as other:
         other["data"] = np.frombuffer(SECRET[:64], dtype=np.int64)
+
+
+def _external_link(src: Path, dst: Path, target: Path) -> None:
+    dst.write_bytes(src.read_bytes())
+    _other_file(target)
     with h5py.File(dst, "r+") as h5:
         g, name = _column(h5)
         del g[name]
@@ -57,8 +62,7 @@ def _external_link(src: Path, dst: Path, target: Path) -> None:
 
 def _virtual(src: Path, dst: Path, target: Path) -> None:
     dst.write_bytes(src.read_bytes())
-    with h5py.File(target, "w") as other:
-        other["data"] = np.frombuffer(SECRET[:64], dtype=np.int64)
+    _other_file(target)
     with h5py.File(dst, "r+") as h5:
         g, name = _column(h5)
         attrs = dict(g[name].attrs)
