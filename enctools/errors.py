@@ -6,11 +6,40 @@ Every error a user can cause or meet is one of these; the command layer prints
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable
+
+#: a setting named in a message: a field of a settings object between backticks,
+#: ``band`` or ``target.lsb`` (dotted: a field of a field)
+_FIELD = re.compile(r"`([A-Za-z_][A-Za-z0-9_.]*)`")
+
 
 class EncError(Exception):
-    """Base class: a one-line message and an exit status."""
+    """Base class: a one-line message and an exit status.
+
+    A message names a setting by the field that holds it, between backticks: ``str()``
+    shows the field (``band must be >= 0``), which a caller of the library sets; the
+    command line shows, in its place, the option that sets it (by the table of
+    ``enctools.cli.usage``), so the library never speaks of options.
+    """
 
     exit_code = 2
+
+    def __init__(self, message: str = "") -> None:
+        super().__init__(message)
+        self.template = message
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        """The settings the message names, in order of appearance."""
+        return tuple(dict.fromkeys(_FIELD.findall(self.template)))
+
+    def render(self, name: Callable[[str], str]) -> str:
+        """The message with each field named by ``name(field)``."""
+        return _FIELD.sub(lambda m: name(m.group(1)), self.template)
+
+    def __str__(self) -> str:
+        return self.render(lambda field: field)
 
 
 class CheckFailed(EncError):
@@ -25,7 +54,17 @@ class UsageError(EncError):
     exit_code = 2
 
 
-class OutputError(UsageError):
+class SettingsError(EncError):
+    """Settings that are out of range or do not go together: exit 2.
+
+    The message names each setting as the field that holds it, between backticks
+    (see :class:`EncError`): ``SettingsError(f"`band` must be >= 0, not {band}")``.
+    """
+
+    exit_code = 2
+
+
+class OutputError(EncError):
     """An output that cannot be written (disk full, folder gone, read-only): exit 2.
 
     ``path`` names the output (None: stdout), so that a command writing several outputs

@@ -74,6 +74,7 @@ class LazyGroup(click.Group):
         module = importlib.import_module(f"enctools.cli.{COMMANDS[name][0]}")
         command: click.Command = module.command
         set_envvars(command, name)
+        runner.set_command(name, command)
         return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:

@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> None:
     error handling of every command."""
     args = sys.argv[1:] if argv is None else argv
     _enc_on_path()
-    runner.set_program(PROG)
+    runner.set_program(PROG, command)
     runner.prologue()
 
     def invoke() -> None:

@@ -69,13 +69,17 @@ def _warning_line(message: Warning | str, category: type[Warning], filename: str
 _state: dict[str, Any] = {"command": "enc", "quiet": False}
 
 
-def set_command(name: str) -> None:
+def set_command(name: str, command: click.Command | None = None) -> None:
+    """Name the command running (``name``: ``make-rom``), whose options name the settings
+    of its errors (:func:`enctools.cli.usage.message`)."""
     _state["command"] = f"enc {name}"
+    _state["name"], _state["click"] = name, command
 
 
-def set_program(name: str) -> None:
+def set_program(name: str, command: click.Command | None = None) -> None:
     """Name a command that is its own executable (``enc-nightly``) in its messages."""
     _state["command"] = name
+    _state["name"], _state["click"] = name, command
 
 
 def command_name() -> str:
@@ -235,6 +239,15 @@ def _interruption(exc: BaseException) -> BaseException | None:
     return None
 
 
+def _text(exc: EncError) -> str:
+    """An error's line, the settings it names as the command's options."""
+    if not exc.fields:
+        return str(exc)
+    from enctools.cli.usage import message
+
+    return message(exc, _state.get("click"), _state.get("name"))
+
+
 def run(invoke: Callable[[], Any], debug: bool) -> int:
     """Run a command; map its ending to an exit status with one line on stderr."""
     try:
@@ -261,7 +274,7 @@ def run(invoke: Callable[[], Any], debug: bool) -> int:
         if debug:
             import traceback
             traceback.print_exc()
-        error(str(exc))
+        error(_text(exc))
         return exc.exit_code
     except BrokenPipeError:
         _quiet_stdout()

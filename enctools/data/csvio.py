@@ -191,7 +191,7 @@ def stage(tmp: str, path: str, sidecar: bytes, force: bool,
         together.write(sidecar_path(path), sidecar, force=force)
         if group is None:
             together.commit()
-    except UsageError as exc:
+    except (UsageError, OutputError) as exc:
         if group is None:
             together.discard()
         raise OutputError(str(exc), path) from None

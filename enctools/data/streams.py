@@ -518,7 +518,7 @@ class OutputStream:
                 return
             try:  # a file, device or FIFO that appeared meanwhile is refused
                 files.rename_into_place(self._tmp, self.path, self.force)
-            except UsageError as exc:
+            except (UsageError, OutputError) as exc:
                 self._discard()
                 raise OutputError(str(exc), self.path) from None
             except OSError as exc:
