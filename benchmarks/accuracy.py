@@ -59,7 +59,7 @@ def enc(cmd: str, cwd: Path) -> None:
 
 def _truth(path: Path):
     from enctools.data.streams import read_table
-    from enctools.hw.truth import Truth
+    from enctools.data.truth import Truth
 
     header, table = read_table(path)
     return Truth.from_dict(header.meta["truth"]), header, table
@@ -284,7 +284,7 @@ def sweep_checks(seed: int, tmp: Path, readings: int = 20) -> dict[str, float]:
     to the same harmonics."""
     import pyarrow.parquet as pq
 
-    from enctools.hw.truth import interpolation_error_read
+    from enctools.data.truth import interpolation_error_read
 
     enc(f"acquire --rig sjtu-dual --mode sweep --readings {readings} --seed {seed} -q "
         "-o sweep.parquet", tmp)
@@ -314,7 +314,7 @@ def continuous_interp(seed: int, tmp: Path, revolutions: float = 20) -> dict[str
     enc(f"acquire --rig sjtu-dual --interval 0.00505 --heads H1,P1 --seed {seed} "
         f"--revolutions {revolutions} -q -o run.arrow", tmp)
     enc("interp-check run.arrow --ref P1 -q -o c.parquet", tmp)
-    from enctools.hw.truth import interpolation_error_read
+    from enctools.data.truth import interpolation_error_read
 
     truth, _, table = _truth(tmp / "c.parquet")
     theta = table["theta"].to_numpy()
@@ -334,7 +334,7 @@ def rbf_dense(seed: int, tmp: Path, interval: float = 0.002) -> dict[str, float]
     and after [arcsec] and their ratio."""
     from enctools.data import streams
     from enctools.data.readings import head_angle, head_info
-    from enctools.hw.truth import Motion
+    from enctools.data.truth import Motion
     from enctools.models.curve_model import from_stream
     from enctools.units import ARCSEC, DEG
 

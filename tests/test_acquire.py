@@ -9,7 +9,7 @@ from conftest import run
 
 from enctools.data import streams
 from enctools.data.readings import head_info
-from enctools.hw.truth import Truth, signal_phase_error
+from enctools.data.truth import Truth, signal_phase_error
 from enctools.units import ARCSEC, TWO_PI
 
 HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]
@@ -135,7 +135,7 @@ def test_four_equally_spaced_heads_keep_multiples_of_four(sjtu):
 
 
 def test_interpolation_error_truth_is_heydemann():
-    from enctools.hw.truth import SignalFaults, interpolation_error
+    from enctools.data.truth import SignalFaults, interpolation_error
 
     f = SignalFaults(0.05, 0.0, 1.0, 0.0)
     x = np.linspace(0, 2 * np.pi / 52000, 2001)

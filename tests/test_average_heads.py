@@ -23,7 +23,7 @@ from conftest import run, simulate
 
 from enctools.data.readings import head_info, head_reading
 from enctools.data.streams import read_table
-from enctools.hw.truth import Truth
+from enctools.data.truth import Truth
 from enctools.methods.harmonics import revolution_coefficients, synthesize
 from enctools.methods.heads import average_transfer, summarize_average
 from enctools.methods.revolutions import RunningMean

@@ -15,7 +15,7 @@ from test_summaries import check_keys
 
 from enctools.data import streams
 from enctools.data.polygon import read_certificate
-from enctools.hw.truth import Truth
+from enctools.data.truth import Truth
 from enctools.methods import closure
 from enctools.methods.points import Settings, from_table
 from enctools.units import ARCSEC, TWO_PI

@@ -27,7 +27,7 @@ import pytest
 from conftest import run, simulate
 
 from enctools.data.streams import read_table
-from enctools.hw.truth import Truth
+from enctools.data.truth import Truth
 from enctools.methods.harmonics import synthesize
 from enctools.methods.heads import average_transfer
 

@@ -19,7 +19,7 @@ from conftest import DATA, ROOT, one_error_line, run, run_in_process
 from enctools.data import streams
 from enctools.data.curves import Column, deviations_table
 from enctools.data.header import Header
-from enctools.hw.truth import Motion
+from enctools.data.truth import Motion
 
 TURN_ARCSEC = 1_296_000.0
 MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"

@@ -26,7 +26,7 @@ from conftest import ROOT, one_error_line, run, run_in_process
 from scipy import stats
 
 from enctools.data.streams import read_table
-from enctools.hw.truth import Truth
+from enctools.data.truth import Truth
 from enctools.methods.budget import repeats_dof, type_a_coverage
 from enctools.methods.harmonics import synthesize
 from enctools.methods.revolutions import Revolution

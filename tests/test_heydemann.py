@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from enctools.data.truth import SignalFaults, interpolation_error, signal_phase_error
 from enctools.errors import DataError
-from enctools.hw.truth import SignalFaults, interpolation_error, signal_phase_error
 from enctools.methods import heydemann as hd
 from enctools.units import DEG, TWO_PI
 

@@ -19,8 +19,8 @@ from conftest import run
 from enctools.data.readings import head_info, signal_phase
 from enctools.data.schemas import make_field
 from enctools.data.streams import Header, read_table, write_table
+from enctools.data.truth import Truth, interpolation_error_read
 from enctools.errors import UsageError
-from enctools.hw.truth import Truth, interpolation_error_read
 from enctools.methods.interp import Settings
 from enctools.methods.interp.curve import error_figures
 from enctools.methods.interp.fit import fit_interpolation_error

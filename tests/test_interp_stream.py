@@ -22,7 +22,7 @@ from conftest import run
 from test_interp import one_line_error, read_phase_truth
 
 from enctools.data.streams import read_table
-from enctools.hw.truth import Truth
+from enctools.data.truth import Truth
 from enctools.methods.interp.coverage import PhaseCoverage
 from enctools.methods.interp.settings import DEFAULT_WINDOW_ARCSEC
 from enctools.methods.trend_lsq import StackedTrendLSQ, TrendProjectedLSQ, group_batch

@@ -12,7 +12,7 @@ from enctools.data import streams
 from enctools.data.columns import column
 from enctools.data.statistics import curve_figures
 from enctools.data.streams import read_table
-from enctools.hw.truth import Truth, interpolation_error
+from enctools.data.truth import Truth, interpolation_error
 from enctools.methods.points import distinct, from_table
 from enctools.units import DEG
 

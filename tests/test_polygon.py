@@ -20,7 +20,7 @@ from enctools.data.polygon import (
     read_certificate,
 )
 from enctools.data.rig import load_rig
-from enctools.hw.truth import Truth, interpolation_error
+from enctools.data.truth import Truth, interpolation_error
 from enctools.methods.points import from_table
 from enctools.units import ARCSEC, DEG
 

@@ -8,7 +8,7 @@ from conftest import DATA, ROOT, run
 
 from enctools.data import streams
 from enctools.data.readings import head_angle, head_info
-from enctools.hw.truth import Motion
+from enctools.data.truth import Motion
 from enctools.methods.points import distinct, points_from_csv
 from enctools.models.curve_model import from_stream
 from enctools.models.fourier import fit_fourier

@@ -21,9 +21,9 @@ from conftest import DATA, ROOT, run
 from enctools.data.rig import load_rig
 from enctools.data.schemas import make_field
 from enctools.data.streams import Header, write_table
+from enctools.data.truth import interpolation_error
 from enctools.errors import DataError
 from enctools.hw.sim_truth import make_truth
-from enctools.hw.truth import interpolation_error
 from enctools.units import ARCSEC, TWO_PI
 
 U_STD = 0.02          # standard uncertainty given to the synthetic deviations [arcsec]
@@ -278,7 +278,7 @@ def test_iso230_from_a_polygon_run_against_truth(iso_run):
 
 def _truth_of(path: Path):
     from enctools.data.streams import open_input
-    from enctools.hw.truth import Truth
+    from enctools.data.truth import Truth
     with open_input(str(path)) as s:
         return Truth.from_dict(s.meta["truth"])
 

@@ -170,7 +170,7 @@ def step_runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _truth(path: Path):
     from enctools.data.streams import open_input
-    from enctools.hw.truth import Truth
+    from enctools.data.truth import Truth
     with open_input(str(path)) as s:
         return Truth.from_dict(s.meta["truth"])
 

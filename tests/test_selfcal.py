@@ -30,7 +30,7 @@ import pytest
 from conftest import run, simulate
 
 from enctools.data.streams import read_table
-from enctools.hw.truth import Truth
+from enctools.data.truth import Truth
 from enctools.methods.harmonics import revolution_coefficients
 from enctools.methods.revolutions import RunningMean
 from enctools.methods.selfcal import Method, esa_transfer, esa_weights, fourier_solve

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from conftest import one_error_line, run
 
-from enctools.hw.truth import Truth
+from enctools.data.truth import Truth
 from enctools.methods.harmonics import analyse
 from enctools.units import ARCSEC
 

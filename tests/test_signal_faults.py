@@ -7,7 +7,7 @@ amplitude, ratio 1.04, phase error 2.5 deg; amplitude 0.5 V, noise 1 mV rms), sa
 interpolator reads from the unclipped signals. Then the signals are clipped at ADC rails
 (symmetric about 0 V, set so that 5, 20 or 43 % of the samples touch one), given spikes
 of the Lissajous radius, or cut to half a circle. The fitted error curve is scored
-against the error the known faults cause (:func:`enctools.hw.truth.interpolation_error_read`).
+against the error the known faults cause (:func:`enctools.data.truth.interpolation_error_read`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from conftest import run
 
 from enctools.data.schemas import make_field
 from enctools.data.streams import Header, read_table, write_table
-from enctools.hw.truth import SignalFaults, interpolation_error_read, signal_phase_error
+from enctools.data.truth import SignalFaults, interpolation_error_read, signal_phase_error
 from enctools.units import DEG, TWO_PI
 
 PPR, INTERP = 52000, 4096

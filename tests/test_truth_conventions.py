@@ -1,11 +1,11 @@
 """The simulator's ground truth follows the conventions its text states (the docstring
-of enctools.hw.truth), and the tests that score enc interp-check read it that way.
+of enctools.data.truth), and the tests that score enc interp-check read it that way.
 
 The text's interpolation-error convention is re-implemented here from the words alone:
 psi is interpolation_error of the true scale angle s under the head; the head reads
 r = s + psi; a method sees psi as a function of r. Each step is checked against the
 code that makes or evaluates it: the simulator's noise-free readings, and
-:func:`enctools.hw.truth.interpolation_error_read`, by which every interp-check test
+:func:`enctools.data.truth.interpolation_error_read`, by which every interp-check test
 (``read_phase_truth``) and benchmarks/accuracy.py score a result (its fixed-point
 iteration is one way to do what the text says; here the map s -> r is tabulated
 forward and inverted by interpolation, another).
@@ -16,11 +16,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import enctools.hw.truth as truth_module
+import enctools.data.truth as truth_module
 from enctools.data.rig import load_rig
+from enctools.data.truth import interpolation_error, interpolation_error_read
 from enctools.hw.sim import VirtualRig
 from enctools.hw.sim_truth import make_truth
-from enctools.hw.truth import interpolation_error, interpolation_error_read
 from enctools.units import ARCSEC, TWO_PI
 
 RIG = load_rig("sjtu-dual")

@@ -161,11 +161,11 @@ def _readings(src: Any, table_for: Callable[[int | None], Correction],
     """A continuous run's residuals against its reference, and both curves binned."""
     import numpy as np
 
-    from enctools.cli.reference import reference_angle, times
     from enctools.data.curves import Column, deviations_table
     from enctools.data.readings import head_info, measuring_heads
     from enctools.errors import DataError
     from enctools.methods.harmonics import bin_average, grid
+    from enctools.methods.reference_angle import reference_angle, times
     from enctools.models.corrected import correct_readings, encoder_code
 
     header = src.header

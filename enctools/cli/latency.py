@@ -124,11 +124,11 @@ def _measure(inputs: tuple[str, ...], heads: list[str] | None,
              reference: list[str] | None) -> tuple[list[RunLag], int | None]:
     """The device-minus-reference difference of each run, and the bits of a 2^n-count
     device (None otherwise)."""
-    from enctools.cli.reference import mean_reading, reference_angle, times
     from enctools.data.readings import head_info, measuring_heads
     from enctools.data.streams import open_input
     from enctools.errors import DataError
     from enctools.methods import latency as lat
+    from enctools.methods.reference_angle import mean_reading, reference_angle, times
 
     runs: list[RunLag] = []
     bits: int | None = None

@@ -103,8 +103,9 @@ def renamed(spellings: Mapping[str, str]) -> Callable[[click.Command], click.Com
                     raise UsageError(msg)
                 import logging
 
-                logging.getLogger("enctools").warning("%s is now spelt %s; %s will not be accepted after "
-                                   "this release", old, new, old)
+                logging.getLogger("enctools").warning(
+                    "%s is now spelt %s; %s will not be accepted after this release",
+                    old, new, old)
                 kwargs[str(target.name)] = value
             return callback(*args, **kwargs)
 

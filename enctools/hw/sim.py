@@ -29,10 +29,10 @@ from typing import Any
 import numpy as np
 
 from enctools.data.rig import Encoder, Head, Rig
+from enctools.data.truth import Motion, Series, interpolation_error
 from enctools.errors import UsageError
 from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session, carry_partial
 from enctools.hw.sim_truth import jitter_motion, make_truth
-from enctools.hw.truth import Motion, Series, interpolation_error
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 _GRID = 1 << 18  # points per turn of the tabulated periodic errors

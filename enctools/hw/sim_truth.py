@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from enctools.data.rig import Encoder, Rig
-from enctools.hw.truth import Motion, Series, SignalFaults, Truth
+from enctools.data.truth import Motion, Series, SignalFaults, Truth
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 _GRID = 4096

@@ -13,7 +13,7 @@ jittered) samples, the revolution's ends interpolated. This is the resampling on
 uniform angle grid and the DFT in one step: unlike binning or decimating onto a
 coarse grid, it does not alias the interpolation error (tens of thousands of cycles
 per revolution) into the low harmonics. With the convention of
-:mod:`enctools.hw.truth`, ``f(u) = Re(sum_n c_n exp(i n u))`` and
+:mod:`enctools.data.truth`, ``f(u) = Re(sum_n c_n exp(i n u))`` and
 ``a cos(n u) + b sin(n u)`` has ``c_n = a - i b``.
 
 Units: angles in rad; a channel's coefficients carry the channel's unit.

@@ -38,12 +38,12 @@ def reference_angle(table: pa.Table, schema: pa.Schema, meta: dict[str, Any], t:
                     reference: list[str] | None, source: str) -> np.ndarray:
     """The reference angle [rad] at each reading: the true motion a simulated stream
     carries (``reference`` None or ``["truth"]``), else the mean of the named heads."""
+    from enctools.data.truth import Motion
     from enctools.errors import DataError
-    from enctools.hw.truth import Motion
 
     if reference is None or reference == ["truth"]:
         motion = (meta.get("truth") or {}).get("motion")
         if motion is None:
-            raise DataError(f"{source}: no true motion in the stream; give --ref HEADS")
+            raise DataError(f"{source}: no true motion in the stream; give `reference` HEADS")
         return Motion.from_dict(motion)(t)
     return mean_reading(table, schema, reference, source)
