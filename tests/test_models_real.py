@@ -317,7 +317,7 @@ def test_goal_unreachable_or_reached_by_the_noise_is_said(tmp_path):
 # ------------------------------------------- the documented route, defaults, end to end
 
 #: the README's options for these files ("Your own table")
-OPTS = "--reference 'Reference Angle [degree]' --measured 'Measured Angle [degree]'"
+OPTS = "--reference-column 'Reference Angle [degree]' --measured 'Measured Angle [degree]'"
 LSB16 = 1_296_000.0 / 2 ** 16  # one word of a 16-bit table [arcsec]
 
 
@@ -327,9 +327,7 @@ def documented_route(d: Path, table: str, held: str | None = None) -> dict:
     r = run(f"enc points {table} {OPTS} -q -o {d}/p.parquet && enc fit-rbf {d}/p.parquet -q "
             f"-o {d}/m.parquet && enc make-rom {d}/m.parquet --bits 16 -q -o {d}/t.mif")
     assert r.returncode == 0, r.stderr.decode()
-    # enc correct's --reference names a readings input's reference heads (enc-correct(1))
-    columns = OPTS.replace("--reference ", "--reference-column ")
-    target = f"{held} {columns}" if held else f"{d}/p.parquet"
+    target = f"{held} {OPTS}" if held else f"{d}/p.parquet"
     r = run(f"enc correct {target} --table {d}/t.mif --json")
     assert r.returncode == 0, r.stderr.decode()
     return json.loads(r.stdout)

@@ -11,7 +11,7 @@ from enctools.cli.main import _available, cli
 def _params(name: str) -> list[click.Option]:
     cmd = cli.get_command(click.Context(cli), name)
     assert cmd is not None
-    return [p for p in cmd.params if isinstance(p, click.Option)]
+    return [p for p in cmd.params if isinstance(p, click.Option) and not p.hidden]
 
 
 ALL = [(name, p) for name in _available() for p in _params(name)]

@@ -24,7 +24,7 @@ MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
 FILES = ["calibration_data_input_example.csv", "calibration_data_input_example_add_75.csv",
          "calibration_data_input_example_add_260.csv"]
 #: the documented options for these files (README, "Your own table")
-OPTS = "--reference 'Reference Angle [degree]' --measured 'Measured Angle [degree]'"
+OPTS = "--reference-column 'Reference Angle [degree]' --measured 'Measured Angle [degree]'"
 needs_magalpha = pytest.mark.skipif(not MAGALPHA.is_dir(),
                                     reason="../shared/data/magalpha is not beside the clone")
 
@@ -128,7 +128,7 @@ def _written(tmp_path: Path, fmt: str) -> tuple[Path, str]:
         p = tmp_path / "t.parquet"
         pd.DataFrame({"stage": POS_DEG, "encoder": POS_DEG + DEV_ARCSEC / 3600 + 40.0}
                      ).to_parquet(p)
-        return p, "--reference stage --measured encoder"
+        return p, "--reference-column stage --measured encoder"
     if fmt == "arrow":
         import pyarrow as pa
         import pyarrow.feather as feather
@@ -147,7 +147,7 @@ def _written(tmp_path: Path, fmt: str) -> tuple[Path, str]:
         rec = np.zeros(POS_DEG.size, dtype=[("ref", "f8"), ("dev", "f8")])
         rec["ref"], rec["dev"] = POS_DEG - DEV_ARCSEC / 3600, DEV_ARCSEC
         h5["points"] = rec
-    return p, "--reference ref --deviation dev"
+    return p, "--reference-column ref --deviation dev"
 
 
 @pytest.mark.parametrize("fmt", ["csv", "tsv", "blank", "parquet", "arrow", "hdf5",
@@ -197,7 +197,7 @@ def test_a_table_that_does_not_map_names_its_columns_and_the_options(tmp_path):
         r = run(f"enc {cmd} {f} -o {tmp_path}/out.parquet")
         line = one_error_line(r, 2, f"enc {cmd}")
         assert "columns found: 'when', 'temp', 'angle'" in line
-        assert "--position COL --deviation COL" in line and "--reference COL" in line
+        assert "--position COL --deviation COL" in line and "--reference-column COL" in line
         assert not (tmp_path / "out.parquet").exists()
 
 

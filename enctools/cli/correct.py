@@ -59,7 +59,7 @@ if TYPE_CHECKING:
              "encoder (default: truth).", dest="reference", metavar="truth|H1,...",
              callback=options.name_list)
 @options.points("Readings: bins of the output deviations curves.", 1024)
-@options.table_columns_spelt(("--reference-column",))
+@options.table_columns
 @options.threshold("--max-pp", "Exit 1 when the corrected peak-to-peak exceeds this.")
 @options.threshold("--max-std", "Exit 1 when the corrected Bessel s exceeds this.")
 @options.threshold("--max-abs", "Exit 1 when the largest corrected |deviation| exceeds this.")

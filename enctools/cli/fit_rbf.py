@@ -6,10 +6,11 @@ from typing import Any
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options, runner, usage
 from enctools.units import factor
 
 
+@usage.renamed(options.TABLE_RENAMED)
 @click.command("fit-rbf")
 @options.input_arg
 @click.option("--kernel", type=click.Choice(["rbf", "fourier"]), default="rbf", show_default=True,

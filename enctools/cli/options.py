@@ -276,23 +276,16 @@ _TABLE_ROLES = (("position", "the indicated angle (what the encoder reads)"),
                 ("run", "run number"))
 
 
+#: the old spellings of the reference column's option (a command that reads tables
+#: keeps them for one release: ``usage.renamed(options.TABLE_RENAMED)``)
+TABLE_RENAMED = {"--ref": "--reference-column", "--reference": "--reference-column"}
+
+
 def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
-    """--position/--ref (--reference)/--measured/--deviation/--direction/--run COL, a unit per
-    angle column (--position-unit, ...), --counts-per-rev and --zero-offset: passed to
-    the command as ``mapping`` (a ``Mapping``; its checks are one UsageError line)."""
-    return table_columns_spelt(("--ref", "--reference"))(f)
-
-
-def table_columns_spelt(reference: tuple[str, ...]
-                        ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """:func:`table_columns` with the reference column's option spelt ``reference``: a
-    command whose ``--ref`` names a readings input's reference heads (enc correct) spells
-    it ``--reference-column``."""
-    return functools.partial(_table_columns, reference=reference)
-
-
-def _table_columns(f: Callable[..., Any], reference: tuple[str, ...]) -> Callable[..., Any]:
-    """The options of :func:`table_columns`, the reference column spelt ``reference``."""
+    """--position/--reference-column/--measured/--deviation/--direction/--run COL, a unit
+    per angle column (--position-unit, ...), --counts-per-rev and --zero-offset: passed
+    to the command as ``mapping`` (a ``Mapping``; its checks are one UsageError line)."""
+    reference = ("--reference-column",)
     from enctools.units import COLUMN_UNITS
 
     names = [r for r, _ in _TABLE_ROLES]

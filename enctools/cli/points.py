@@ -6,10 +6,11 @@ from typing import Any
 
 import click
 
-from enctools.cli import options
+from enctools.cli import options, usage
 from enctools.units import ANGLE_UNITS, factor
 
 
+@usage.renamed(options.TABLE_RENAMED)
 @click.command("points")
 @options.input_arg
 @options.polygon_run

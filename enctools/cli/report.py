@@ -7,9 +7,10 @@ from typing import Any
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options, runner, usage
 
 
+@usage.renamed(options.TABLE_RENAMED)
 @click.command("report")
 @click.argument("inputs", nargs=-1, metavar="[INPUT...]",
                 type=click.Path(dir_okay=False, allow_dash=True))
