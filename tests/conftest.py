@@ -2,9 +2,11 @@
 in-process runner for usage errors and small cases, and the simulator runs that several
 files read, made once per test session (once across xdist workers too).
 
-Tiers: ``make check`` runs the tests not marked ``slow`` (in under 30 s on two cores);
-``make test`` runs them all. A test is marked slow when it runs the simulator on a
-full-size run, reads one made by a slow fixture, or runs many subprocesses.
+Tiers: ``make check`` runs the library's own tests: neither ``slow`` nor ``command``
+(under 30 s on two loaded cores, the load printed first); ``make test`` runs them all. A
+test is marked ``command`` here, at collection, when it runs a command or the simulator
+(itself, through its module's helpers or a fixture); it is marked ``slow`` by hand when
+it runs a full-size simulation, many subprocesses or a long in-process computation.
 """
 
 from __future__ import annotations
@@ -291,3 +293,50 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
             f"peak memory max {peak['all'][0]:.0f} MB in case {peak['all'][1]} "
             f"(of the passing cases: {peak['passed'][0]:.0f} MB in {peak['passed'][1]}); "
             f"children: {seconds:.0f} s, {cpu:.0f} s of CPU")
+
+
+# ------------------------------------------------------------ the tiers
+
+#: calls that run a command (a subprocess, or enc in this process) or the simulator
+COMMAND_CALLS = {"run", "run_in_process", "Popen", "check_output", "check_call", "simulate",
+                 "made_once", "pty_run", "spawn"}
+#: fixtures that run commands to make their files
+COMMAND_FIXTURES = {"sjtu_raw", "ciomp_steps", "enc", "full_tmpfs"}
+_CALLERS: dict[str, set[str]] = {}
+
+
+def _command_runners(path: str) -> set[str]:
+    """The functions of a test module that run a command, directly or through the
+    module's own helpers and fixtures (its call graph, closed)."""
+    if path in _CALLERS:
+        return _CALLERS[path]
+    import ast
+
+    tree = ast.parse(Path(path).read_text(encoding="utf-8"))
+    calls: dict[str, set[str]] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            names = {n.func.id if isinstance(n.func, ast.Name) else n.func.attr
+                     for n in ast.walk(node) if isinstance(n, ast.Call)
+                     and isinstance(n.func, (ast.Name, ast.Attribute))}
+            names |= {a.arg for a in node.args.args}  # fixtures it asks for
+            calls[node.name] = calls.get(node.name, set()) | names
+    runners = {f for f, names in calls.items() if names & (COMMAND_CALLS | COMMAND_FIXTURES)}
+    while True:
+        more = {f for f, names in calls.items() if names & runners} - runners
+        if not more:
+            break
+        runners |= more
+    _CALLERS[path] = runners
+    return runners
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """Mark ``command`` each test that runs a command or the simulator (itself, through
+    its module's helpers, or through a fixture that does): ``make check`` leaves them
+    out with the ``slow`` ones, keeping the library's own tests."""
+    for item in items:
+        function = getattr(item, "originalname", None) or item.name.split("[")[0]
+        runners = _command_runners(str(item.path))
+        if function in runners or set(item.fixturenames) & (COMMAND_FIXTURES | runners):
+            item.add_marker(pytest.mark.command)
