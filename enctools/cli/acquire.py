@@ -13,13 +13,18 @@ from enctools.hw import backends
 
 #: the options of one kind of run: shown under their heading in --help, refused in another
 CONTINUOUS = "Continuous runs (--mode continuous)"
+POSITIONS = "Runs of positions (--mode steps, sweep or closure)"
 STEPS = "Step runs (--mode steps)"
 SWEEP = "Sweep runs (--mode sweep)"
 REPLAY = "Replays (--replay FILE)"
 MODES = {CONTINUOUS: ("revolutions", "speed_rpm", "interval_s"),
+         POSITIONS: ("settle_s", "readings", "runs", "bidirectional", "overshoot_deg",
+                     "start_deg"),
          STEPS: ("positions_deg", "count"),
          SWEEP: ("range_arcsec", "step_arcsec"),
          REPLAY: ("pace",)}
+#: the options that step and sweep runs both take
+SHARED = {POSITIONS: (STEPS, SWEEP)}
 #: closure runs refuse the options of step runs in words of their own (the polygon fixes
 #: the design), so they take no group
 _HEADING = {"continuous": CONTINUOUS, "steps": STEPS, "sweep": SWEEP}
@@ -46,7 +51,7 @@ def _kinds(role: str) -> str:
     return ", ".join(backends.kinds(role))
 
 
-@click.command("acquire", cls=usage.ModeCommand, modes=MODES, mode_of=_mode_of)
+@click.command("acquire", cls=usage.ModeCommand, modes=MODES, mode_of=_mode_of, shared=SHARED)
 @options.rig
 @click.option("--mode", type=click.Choice(["continuous", "steps", "sweep", "closure"]),
               default=None, help="continuous: turn and sample; steps: target positions; "
@@ -62,18 +67,18 @@ def _kinds(role: str) -> str:
 @click.option("--count", type=int, default=None, callback=options.positive,
               help="N positions equally spaced over a turn (when --positions is absent).")
 @click.option("--settle", "settle_s", type=float, default=None,
-              help="steps/sweep/closure: settling time [s].")
+              help="Settling time after each move [s].")
 @click.option("--readings", type=int, default=None, callback=options.positive,
-              help="steps/sweep/closure: readings per position.")
+              help="Readings per position.")
 @click.option("--runs", type=int, default=None, callback=options.positive,
-              help="steps/sweep: number of runs.")
+              help="Number of runs (closure: one per setting of the polygon).")
 @click.option("--bidirectional/--unidirectional", default=None,
-              help="steps/sweep: also approach every position from above.")
+              help="Also approach every position from above (not closure).")
 @click.option("--overshoot", "overshoot_deg", type=float, default=None,
               callback=options.non_negative,
-              help="steps/closure: approach each position from this far [deg].")
+              help="Approach each position from this far [deg] (not sweep).")
 @click.option("--start", "start_deg", type=float, default=None, callback=options.finite,
-              help="sweep/closure (and steps with --count): first position [deg].")
+              help="First position [deg] (steps: with --count).")
 @click.option("--range", "range_arcsec", type=float, default=None, help="Range [arcsec].")
 @click.option("--step", "step_arcsec", type=float, default=None, help="Step [arcsec].")
 @options.heads("Record only these heads (default: all).")
