@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pyarrow as pa
 import pytest
-from conftest import run
+from conftest import one_error_line, run, run_in_process
 
 from enctools.data import streams
 from enctools.data.readings import head_info
@@ -288,3 +288,35 @@ def test_environment_defaults_and_precedence(tmp_path):
     r = run(f"enc acquire --revolutions 0.02 --interval 0.012 -o {out} --force",
             env={"ENC_RIG": "sjtu-dual", "ENC_ACQUIRE_INTERVAL": "0.006"})
     assert streams.read_table(str(out))[1].num_rows == 100
+
+
+@pytest.mark.parametrize("args, line", [
+    ("--rig sjtu-dual --readings 3", "--readings applies to Runs of positions (--mode steps, "
+     "sweep or closure), not to Continuous runs (--mode continuous)"),
+    ("--rig ciomp-23bit --revolutions 2", "--revolutions applies to Continuous runs "
+     "(--mode continuous), not to Step runs (--mode steps)"),
+    ("--rig ciomp-23bit --mode sweep --count 8", "--count applies to Step runs (--mode steps), "
+     "not to Sweep runs (--mode sweep)"),
+    ("--rig sjtu-dual --pace", "--pace applies to Replays (--replay FILE), not to Continuous "
+     "runs (--mode continuous)"),
+])
+def test_an_option_of_another_kind_of_run_is_refused(tmp_path, args, line):
+    """Options that a kind of run would have ignored: refused in one line, by the mode given
+    or the rig's (ciomp-23bit's is steps); the help lists them under their kind."""
+    out = tmp_path / "out.parquet"
+    r = run_in_process(f"enc acquire {args} -o {out}")
+    assert one_error_line(r, 2) == f"enc acquire: error: {line}"
+    assert not out.exists()
+
+
+def test_options_shared_by_kinds_of_run_apply_in_each(tmp_path):
+    out = tmp_path / "out.parquet"
+    r = run_in_process(f"enc acquire --rig sjtu-dual --mode sweep --range 1 --readings 1 "
+                       f"--bidirectional -q -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    assert streams.read_table(str(out))[1].column("direction").to_pylist() == [1, 1, 1, -1, -1, -1]
+    help_text = run_in_process("enc acquire --help").stdout.decode()
+    for heading, option in (("Continuous runs", "--interval"), ("Runs of positions", "--settle"),
+                            ("Step runs", "--positions"), ("Sweep runs", "--range"),
+                            ("Replays", "--pace")):
+        assert help_text.index(heading) < help_text.index(option), heading

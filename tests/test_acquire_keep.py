@@ -133,3 +133,26 @@ def test_keep_partial_keeps_for_every_ending_but_bad_usage_or_input(
     if kept:
         assert pq.read_table(path).num_rows == 2
     assert leftovers(tmp_path) == []
+
+
+def test_a_run_recorded_by_the_library_keeps_what_was_read(tmp_path: Path) -> None:
+    """hw.recording without the command line: a device fault after two positions leaves
+    both outputs holding them, and the fault is raised again."""
+    from conftest import simulate
+
+    from enctools.errors import DeviceError
+    from enctools.hw import recording
+
+    header, batches = simulate("ciomp-23bit", 1, mode="steps", count=4)
+
+    def faulty() -> Any:
+        yield from batches[:2]
+        raise DeviceError("the table stopped answering")
+
+    paths = [str(tmp_path / "a.parquet"), str(tmp_path / "b.arrows")]
+    outs = recording.open_outputs(header, [(p, None) for p in paths])
+    with pytest.raises(DeviceError, match="stopped answering"):
+        recording.record(faulty(), outs)
+    for p in paths:
+        assert streams.read_table(p, "readings")[1].column("step").to_pylist() == [0] * 5 + [1] * 5
+    assert leftovers(tmp_path) == []

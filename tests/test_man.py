@@ -109,7 +109,7 @@ def test_every_key_the_rig_loaders_accept_is_in_enc_rig():
     body, limits = text.split(".SH LIMITS")[0], text.split(".SH LIMITS")[1]
     keys = {k: "riglimits" for d in (riglimits.RANGES, riglimits.ARRAYS, riglimits.CHOICES,
                                      riglimits.LEAST) for k in d}
-    backends = {"dialogue": (dialogue.BACKEND_KEYS, dialogue.INSTRUMENT_KEYS,
+    backends = {"dialogue": (dialogue.backend_keys(), dialogue.instrument_keys(),
                              dialogue.COUNTER_KEYS, dialogue.SENSOR_KEYS, dialogue.MOTION_KEYS),
                 "nidaq": (nidaq.COUNTER_KEYS, nidaq.HEAD_KEYS),
                 "sim": ({"kind", "seed", "realtime"},)}

@@ -122,15 +122,18 @@ class ModeCommand(click.Command):
 
     ``modes``: heading -> the parameter names of that mode's options; ``mode_of``: the
     parsed parameters -> the heading of the mode chosen (None: no check); options in no
-    mode apply in every mode.
+    mode apply in every mode. ``shared``: a heading of options that several modes take
+    -> the headings of those modes.
     """
 
     def __init__(self, *args: Any, modes: Mapping[str, tuple[str, ...]] | None = None,
                  mode_of: Callable[[Mapping[str, Any]], str | None] | None = None,
+                 shared: Mapping[str, tuple[str, ...]] | None = None,
                  **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.modes = dict(modes or {})
         self.mode_of = mode_of
+        self.shared = dict(shared or {})
 
     def _mode(self, param: click.Parameter) -> str | None:
         return next((m for m, names in self.modes.items() if param.name in names), None)
@@ -158,7 +161,8 @@ class ModeCommand(click.Command):
             if chosen is not None:
                 for p in self.params:
                     mode = self._mode(p)
-                    if (mode is not None and mode != chosen and p.name is not None
+                    if (mode is not None and chosen not in self.shared.get(mode, (mode,))
+                            and p.name is not None
                             and ctx.get_parameter_source(p.name) == ParameterSource.COMMANDLINE):
                         msg = f"{_long_opt(p)} applies to {mode}, not to {chosen}"
                         raise UsageError(msg)

@@ -1,25 +1,27 @@
 """Hardware I/O: one small device interface (:mod:`enctools.hw.base`) and its backends.
 
-- ``sim``: the virtual rig (:mod:`enctools.hw.sim`), deterministic by seed;
-- ``replay``: re-stream a recorded readings file (:mod:`enctools.hw.replay`);
-- ``visa``: SCPI instruments through PyVISA (:mod:`enctools.hw.visa`);
-- ``serial``: line-oriented ASCII instruments through pyserial
-  (:mod:`enctools.hw.serialline`);
-- ``nidaq``: NI-DAQmx angular-encoder counter channels (:mod:`enctools.hw.nidaq`).
+Each backend is one record of :mod:`enctools.hw.backends`, found by the kind a rig names
+(``[backend] kind``): ``sim``, the virtual rig (:mod:`enctools.hw.sim`), deterministic by
+seed; ``visa``, SCPI instruments through PyVISA (:mod:`enctools.hw.visa`); ``serial``,
+line-oriented ASCII instruments through pyserial (:mod:`enctools.hw.serialline`);
+``nidaq``, NI-DAQmx angular-encoder counter channels (:mod:`enctools.hw.nidaq`).
+A recorded readings file is re-streamed by :mod:`enctools.hw.replay`.
 
 The instrument backends share the role dialogues of :mod:`enctools.hw.dialogue` (a rig
 may mix them: a VISA counter box, a serial autocollimator, NI counters) and the fault
-handling of :mod:`enctools.hw.retry`. :func:`open_session` picks the backend named in
-the rig (``[backend] kind``).
+handling of :mod:`enctools.hw.retry`. :func:`open_session` opens a rig with the backend
+it names.
 """
 
 from __future__ import annotations
 
-from enctools.data.rig import Rig
-from enctools.errors import UsageError
-from enctools.hw.base import Session
+from typing import TYPE_CHECKING
 
-BACKENDS = ("sim", "visa", "serial", "nidaq")
+from enctools.errors import SettingsError
+
+if TYPE_CHECKING:
+    from enctools.data.rig import Rig
+    from enctools.hw.base import Session
 
 
 def open_session(rig: Rig, seed: int | None = None, signals: bool = False,
@@ -27,22 +29,21 @@ def open_session(rig: Rig, seed: int | None = None, signals: bool = False,
                  retries: int | None = None) -> Session:
     """Open the devices of a rig with the backend its ``[backend]`` table names.
 
-    ``realtime``: the simulator paces itself to the wall clock (for live pipelines and
-    interrupt tests). ``timeout_s``, ``retries``: override the instruments' settings.
+    ``seed``: the simulator's noise seed (None: the rig's); ``signals``: record raw
+    signals too (a backend that cannot refuses them); ``realtime``: the simulator paces
+    itself to the wall clock (live pipelines, interrupt tests); ``timeout_s`` [s],
+    ``retries``: override the instruments' settings. The kind unknown is a DataError.
     """
-    kind = rig.backend.get("kind", "sim")
-    if kind == "sim":
-        from enctools.hw.sim import VirtualRig
+    from enctools.hw import backends
 
-        return VirtualRig(rig, seed=seed, signals=signals,
-                          realtime=realtime or bool(rig.backend.get("realtime", False)))
-    if kind in ("visa", "serial", "nidaq"):
-        if signals:
-            msg = f"--signals: the {kind} backend records counter values only, not raw signals"
-            raise UsageError(msg)
-        from enctools.hw.dialogue import InstrumentSession
+    backend = backends.of_rig(rig)
+    if signals and not backend.signals:
+        msg = (f"`signals`: the {backend.kind} backend records counter values only, "
+               "not raw signals")
+        raise SettingsError(msg)
+    opening = backends.Opening(seed, signals, realtime, timeout_s, retries)
+    if backend.session is not None:
+        return backend.session(rig, opening)
+    from enctools.hw.dialogue import InstrumentSession
 
-        return InstrumentSession(rig, timeout_s=timeout_s, retries=retries)
-    msg = (f"rig {rig.name}: backend {kind!r} is not available in this enctools "
-           f"(backends: {', '.join(BACKENDS)})")
-    raise UsageError(msg)
+    return InstrumentSession(rig, timeout_s=timeout_s, retries=retries)

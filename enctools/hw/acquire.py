@@ -1,4 +1,4 @@
-"""Acquisition: drive a rig's devices in one of three modes and yield readings batches.
+"""Acquisition: drive a rig's devices in one of four modes and yield readings batches.
 
 - ``continuous``: turn at a speed for N revolutions, sample every head every
   ``interval_s`` (hardware-timed blocks); seed 000's procedure.
@@ -32,7 +32,7 @@ from enctools.data.rig import Rig
 from enctools.data.riglimits import ARRAYS, RANGES, fmt
 from enctools.data.schemas import make_field
 from enctools.data.streams import BATCH_ROWS, Header
-from enctools.errors import DeviceError, UsageError
+from enctools.errors import DeviceError, SettingsError
 from enctools.hw.base import Session, partial_block
 from enctools.units import ARCSEC, DEG, TWO_PI
 
@@ -86,7 +86,8 @@ def rig_defaults(rig: Rig, mode: str | None) -> dict[str, Any]:
 
 
 def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
-    """Settings from the options given (None = not given) over the rig's and built-in defaults."""
+    """Settings from the ones given (None = not given) over the rig's and built-in defaults;
+    each one checked, a SettingsError naming its field."""
     mode = given.get("mode")
     merged = dict(DEFAULTS)
     merged.update(rig_defaults(rig, mode))
@@ -98,41 +99,40 @@ def resolve(rig: Rig, given: dict[str, Any]) -> Settings:
     if s.heads:
         unknown = [h for h in s.heads if h not in rig.head_names]
         if unknown:
-            msg = (f"--heads: rig {rig.name} has no head {unknown[0]!r} "
+            msg = (f"`heads`: rig {rig.name} has no head {unknown[0]!r} "
                    f"(heads: {', '.join(rig.head_names)})")
-            raise UsageError(msg)
+            raise SettingsError(msg)
     return s
 
 
 def _closure_plan(rig: Rig, given: dict[str, Any]) -> dict[str, Any]:
-    """A closure run's positions and runs: the polygon's faces each (its own options for
-    them are refused: the design is fixed by the polygon)."""
+    """A closure run's positions and runs: the polygon's faces each (the settings for
+    them given are refused: the design is fixed by the polygon)."""
     faces = rig.polygon.get("faces") if rig.polygon else None
     if faces is None:
-        msg = f"--mode closure: rig {rig.name} has no [polygon]"
-        raise UsageError(msg)
-    for name, flag in (("count", "--count"), ("positions_deg", "--positions"),
-                       ("runs", "--runs"), ("bidirectional", "--bidirectional")):
+        msg = f"`mode` closure: rig {rig.name} has no [polygon]"
+        raise SettingsError(msg)
+    for name in ("count", "positions_deg", "runs", "bidirectional"):
         if given.get(name) not in (None, False):
-            msg = (f"{flag}: not for --mode closure (one run of the {faces} faces' positions "
+            msg = (f"`{name}`: not for `mode` closure (one run of the {faces} faces' positions "
                    "per setting of the polygon)")
-            raise UsageError(msg)
+            raise SettingsError(msg)
     return {"count": int(faces), "runs": int(faces), "positions_deg": None,
             "bidirectional": False}
 
 
-#: setting -> (option, the rig key whose range it shares: enc-rig(5) LIMITS)
-BOUNDS: dict[str, tuple[str, str]] = {
-    "revolutions": ("--revolutions", "acquire.revolutions"),
-    "interval_s": ("--interval", "acquire.interval_s"),
-    "count": ("--count", "acquire.steps.count"),
-    "settle_s": ("--settle", "acquire.steps.settle_s"),
-    "readings": ("--readings", "acquire.steps.readings"),
-    "runs": ("--runs", "acquire.steps.runs"),
-    "overshoot_deg": ("--overshoot", "acquire.steps.overshoot_deg"),
-    "start_deg": ("--start", "acquire.sweep.start_deg"),
-    "range_arcsec": ("--range", "acquire.sweep.range_arcsec"),
-    "step_arcsec": ("--step", "acquire.sweep.step_arcsec"),
+#: setting -> the rig key whose range it shares (enc-rig(5) LIMITS)
+BOUNDS: dict[str, str] = {
+    "revolutions": "acquire.revolutions",
+    "interval_s": "acquire.interval_s",
+    "count": "acquire.steps.count",
+    "settle_s": "acquire.steps.settle_s",
+    "readings": "acquire.steps.readings",
+    "runs": "acquire.steps.runs",
+    "overshoot_deg": "acquire.steps.overshoot_deg",
+    "start_deg": "acquire.sweep.start_deg",
+    "range_arcsec": "acquire.sweep.range_arcsec",
+    "step_arcsec": "acquire.sweep.step_arcsec",
 }
 #: the most positions a steps or sweep run visits (positions x runs x directions)
 MAX_TARGETS = 1_000_000
@@ -140,45 +140,46 @@ MAX_TARGETS = 1_000_000
 MAX_SAMPLES = 2_000_000_000
 
 
-def _bounded(flag: str, v: Any, lo: float, hi: float) -> None:
+def _bounded(name: str, v: Any, lo: float, hi: float) -> None:
     if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
             and lo <= v <= hi):
-        msg = f"{flag} must be {fmt(lo)}..{fmt(hi)}, not {v!r}"
-        raise UsageError(msg)
+        msg = f"`{name}` must be {fmt(lo)}..{fmt(hi)}, not {v!r}"
+        raise SettingsError(msg)
 
 
 def check(s: Settings) -> None:
     """Reject settings no rig could carry out, or that would loop or allocate without
-    end, naming the option and its range (the rig key's, enc-rig(5) LIMITS)."""
+    end: a SettingsError naming the field and its range (the rig key's, enc-rig(5)
+    LIMITS)."""
     if s.mode not in MODES:
-        msg = f"--mode must be one of {', '.join(MODES)}, not {s.mode!r}"
-        raise UsageError(msg)
-    for name, (flag, key) in BOUNDS.items():
-        _bounded(flag, getattr(s, name), *RANGES[key])
+        msg = f"`mode` must be one of {', '.join(MODES)}, not {s.mode!r}"
+        raise SettingsError(msg)
+    for name, key in BOUNDS.items():
+        _bounded(name, getattr(s, name), *RANGES[key])
     lo, hi = RANGES["acquire.speed_rpm"]
     if s.mode == "continuous" and not (isinstance(s.speed_rpm, int | float)
                                        and 0 < abs(s.speed_rpm) <= hi):
-        msg = f"--speed must be non-zero and {fmt(lo)}..{fmt(hi)} r/min, not {s.speed_rpm!r}"
-        raise UsageError(msg)
+        msg = f"`speed_rpm` must be non-zero and {fmt(lo)}..{fmt(hi)} r/min, not {s.speed_rpm!r}"
+        raise SettingsError(msg)
     if s.positions_deg is not None:
         most = ARRAYS["acquire.steps.positions_deg"][1]
         if not 1 <= len(s.positions_deg) <= most:
-            msg = f"--positions must give 1..{most} positions, not {len(s.positions_deg)}"
-            raise UsageError(msg)
+            msg = f"`positions_deg` must give 1..{most} positions, not {len(s.positions_deg)}"
+            raise SettingsError(msg)
         for p in s.positions_deg:
-            _bounded("--positions", p, *RANGES["acquire.steps.positions_deg"])
+            _bounded("positions_deg", p, *RANGES["acquire.steps.positions_deg"])
     if s.mode == "continuous":
         n = samples_total(s)
         if not 1 <= n <= MAX_SAMPLES:
-            msg = (f"{n} samples requested (--revolutions/--speed/--interval); "
+            msg = (f"{n} samples requested (`revolutions`/`speed_rpm`/`interval_s`); "
                    f"must be 1..{MAX_SAMPLES}")
-            raise UsageError(msg)
+            raise SettingsError(msg)
     else:
         n = positions_total(s) * s.runs * (2 if s.bidirectional else 1)
         if n > MAX_TARGETS:
-            msg = (f"{n} positions requested (positions x --runs x directions); "
+            msg = (f"{n} positions requested (positions x `runs` x directions); "
                    f"must be at most {MAX_TARGETS}")
-            raise UsageError(msg)
+            raise SettingsError(msg)
 
 
 def positions_total(s: Settings) -> int:

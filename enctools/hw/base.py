@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 
 
 @dataclass(frozen=True)
@@ -134,10 +134,10 @@ class Session(ABC):
 
     def turn_polygon(self, setting: int) -> None:
         """Set the polygon on the table turned by ``setting`` faces from its first setting
-        (enc acquire --mode closure); a rig that cannot refuses it before any output."""
-        msg = (f"--mode closure: the {self.describe().get('backend', 'rig')!s} backend cannot "
+        (a closure run of enc acquire); a rig that cannot refuses it before any output."""
+        msg = (f"`mode` closure: the {self.describe().get('backend', 'rig')!s} backend cannot "
                "turn the polygon on the table; closure runs are simulated (backend sim)")
-        raise UsageError(msg)
+        raise SettingsError(msg)
 
     def close(self) -> None:  # noqa: B027 - a session without devices has nothing to release
         """Release the devices."""

@@ -35,30 +35,39 @@ from typing import Any
 import numpy as np
 
 from enctools.data.rig import Rig
-from enctools.errors import DataError, DeviceError, UsageError
-from enctools.hw import retry
+from enctools.errors import DataError, DeviceError
+from enctools.hw import backends, retry
 from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session, carry_partial
 from enctools.hw.config import check_keys, check_template, need
 from enctools.units import ARCSEC, DEG, TWO_PI
 
 log = logging.getLogger("enctools.hw")
 
-# Keys of the backend tables this module reads (the rig loader leaves them open).
-BACKEND_KEYS = {"kind", "visa_library", "timeout_s", "retries", "instrument", "counter"}
-INSTRUMENT_KEYS = {"kind", "resource", "port", "baudrate", "bytesize", "parity", "stopbits",
-                   "rtscts", "xonxoff", "write_termination", "read_termination", "timeout_s",
-                   "retries", "init", "ack", "error_query", "no_error", "idn", "encoding"}
+# Keys of the backend tables this module reads (the rig loader leaves them open); a
+# backend's own keys are in its record (enctools.hw.backends).
+BACKEND_KEYS = {"kind", "timeout_s", "retries", "instrument", "counter"}
+INSTRUMENT_KEYS = {"kind", "timeout_s", "retries", "init", "ack", "error_query", "no_error",
+                   "idn"}
 COUNTER_KEYS = {"kind", "instrument", "read", "heads", "separator"}
 SENSOR_KEYS = {"instrument", "read", "field", "scale", "offset"}
 MOTION_KEYS = {"instrument", "move", "in_position", "in_position_reply", "poll_s",
                "move_timeout_s", "rotate", "stop"}
-INSTRUMENT_KINDS = ("visa", "serial")
 # The fields of [motion.backend]'s command templates, with a sample value each.
 TEMPLATE_FIELDS: dict[str, dict[str, Any]] = {
     "move": {"deg": 0.0, "rad": 0.0, "arcsec": 0.0, "counts": 0},
     "rotate": {"rpm": 0.0, "deg_s": 0.0, "rad_s": 0.0},
 }
 _BLOCK_S = 0.25  # continuous mode: a block at least every this many seconds
+
+
+def backend_keys() -> set[str]:
+    """The keys of ``[backend]`` in a rig of instruments: the dialogue's and its backends'."""
+    return BACKEND_KEYS.union(*(b.backend_keys for b in backends.records() if b.session is None))
+
+
+def instrument_keys() -> set[str]:
+    """The keys of ``[backend.instrument.NAME]``: the dialogue's and every transport's."""
+    return INSTRUMENT_KEYS.union(*(b.keys for b in backends.records() if b.port is not None))
 
 
 class Link:
@@ -138,20 +147,16 @@ def open_link(name: str, cfg: dict[str, Any], rig: Rig, default_kind: str,
               policy: retry.Policy) -> Link:
     """Open the instrument ``name`` of ``[backend.instrument.NAME]``."""
     where = f"backend.instrument.{name}"
-    check_keys(cfg, INSTRUMENT_KEYS, rig, where)
+    check_keys(cfg, instrument_keys(), rig, where)
     kind = need(cfg, "kind", str, rig, where, default_kind)
     pol = retry.Policy(float(need(cfg, "timeout_s", (int, float), rig, where, policy.timeout_s)),
                        int(need(cfg, "retries", int, rig, where, policy.retries)))
-    if kind == "visa":
-        from enctools.hw.visa import open_port
-        port: retry.Port = open_port(name, cfg, rig, pol)
-    elif kind == "serial":
-        from enctools.hw.serialline import open_port as open_serial
-        port = open_serial(name, cfg, rig, pol)
-    else:
+    backend = backends.find(kind) if isinstance(kind, str) else None
+    if backend is None or backend.port is None:
         msg = (f"rig file {rig.source}: {where}.kind must be one of "
-               f"{', '.join(INSTRUMENT_KINDS)}, not {kind!r}")
+               f"{', '.join(backends.kinds('port'))}, not {kind!r}")
         raise DataError(msg)
+    port = backend.port(name, cfg, rig, pol)
     no_error = need(cfg, "no_error", (str, list), rig, where, ["0", "+0"])
     link = Link(port, pol, cfg.get("ack"), cfg.get("error_query"),
                 tuple([no_error] if isinstance(no_error, str) else no_error))
@@ -269,20 +274,15 @@ def check_templates(cfg: dict[str, Any], rig: Rig) -> None:
         check_template(tpl, fields, rig, f"motion.backend.{key}")
 
 
-def check_rig(rig: Rig, kind: str) -> None:
+def check_rig(rig: Rig) -> None:
     """What can be checked before any instrument library is imported or loaded.
 
-    The VISA library string (never a path to a shared library) and the command
-    templates; DataError with one line.
+    Each backend the rig uses checks its keys (the VISA library string: never a path
+    to a shared library), then the command templates; DataError with one line.
     """
-    be = rig.backend
-    instruments = be.get("instrument")
-    default = kind if kind in INSTRUMENT_KINDS else "visa"
-    kinds = {str(c.get("kind", default)) for c in instruments.values()
-             if isinstance(c, dict)} if isinstance(instruments, dict) else set()
-    if "visa_library" in be or kind == "visa" or "visa" in kinds:
-        from enctools.hw.visa import library_spec
-        library_spec(rig)
+    for backend in backends.used_by(rig):
+        if backend.check is not None:
+            backend.check(rig)
     mb = rig.motion.get("backend")
     if isinstance(mb, dict):
         check_templates(mb, rig)
@@ -309,7 +309,7 @@ class LineAxis(Axis):
     def _need(self, what: str, value: str) -> str:
         if not value:
             msg = f"[motion.backend] has no {what!r} command: this run needs one"
-            raise UsageError(msg)
+            raise DataError(msg)
         return value
 
     def rotate(self, speed: float) -> None:
@@ -362,7 +362,7 @@ class NoAxis(Axis):
         pass
 
     def move_to(self, angle: float) -> None:
-        raise UsageError("the rig has no [motion.backend]: it cannot move the table")
+        raise DataError("the rig has no [motion.backend]: it cannot move the table")
 
 
 class InstrumentSession(Session):
@@ -374,9 +374,9 @@ class InstrumentSession(Session):
         self.clock = Clock()
         self.links: dict[str, Link] = {}
         be = rig.backend
-        check_keys(be, BACKEND_KEYS, rig, "backend")
+        check_keys(be, backend_keys(), rig, "backend")
         self.kind = str(be.get("kind", "visa"))
-        check_rig(rig, self.kind)
+        check_rig(rig)
         self.policy = retry.Policy(
             float(timeout_s if timeout_s is not None else need(be, "timeout_s", (int, float),
                                                                 rig, "backend", 1.0)),
@@ -404,17 +404,18 @@ class InstrumentSession(Session):
                 msg = f"rig file {self.rig.source}: backend.instrument.{name} must be a table"
                 raise DataError(msg)
             cfg = dict(cfg) | self._overrides
-            kind = self.kind if self.kind in INSTRUMENT_KINDS else "visa"
-            self.links[name] = open_link(name, cfg, self.rig, kind, self.policy)
+            self.links[name] = open_link(name, cfg, self.rig, backends.default_port(self.kind),
+                                         self.policy)
         return self.links[name]
 
     def _open(self) -> None:
         rig = self.rig
         self.t0 = self.clock.now()
         cfg = need(rig.backend, "counter", dict, rig, "backend", {})
-        if cfg.get("kind", self.kind) == "nidaq":
-            from enctools.hw.nidaq import NidaqCounter
-            self.counter: Counter = NidaqCounter(rig, cfg, self.clock, self.t0)
+        kind = cfg.get("kind", self.kind)
+        backend = backends.find(kind) if isinstance(kind, str) else None
+        if backend is not None and backend.counter is not None:
+            self.counter: Counter = backend.counter(rig, cfg, self.clock, self.t0)
         else:
             self.counter = self._polled_counter(cfg)
         for p in rig.probes:

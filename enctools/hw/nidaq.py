@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from enctools.data.rig import Rig
-from enctools.errors import DataError, DeviceError, UsageError
+from enctools.errors import DataError, DeviceError, SettingsError
 from enctools.hw.base import Clock, Counter
 
 log = logging.getLogger("enctools.hw")
@@ -55,15 +55,15 @@ TIMEOUT_CODE = -200284  # DAQmx: some or all requested samples have not yet been
 
 
 def import_nidaqmx() -> Any:
-    """The nidaqmx package, or a one-line UsageError (exit 2) naming what to install."""
+    """The nidaqmx package, or a one-line SettingsError (exit 2) naming what to install."""
     try:
         import nidaqmx
         import nidaqmx.constants
         import nidaqmx.errors
     except ImportError:
-        msg = ("the nidaq backend needs the Python package nidaqmx: "
-               "pip install 'enctools[nidaq]' (and the NI-DAQmx driver from ni.com)")
-        raise UsageError(msg) from None
+        from enctools.hw.backends import get
+
+        raise get("nidaq").missing() from None
     return nidaqmx
 
 
@@ -149,7 +149,7 @@ class NidaqCounter(Counter):
                 if not self.clock_counter:
                     msg = ("[backend.counter] needs sample_clock or clock_counter for a "
                            "hardware-timed (continuous) run")
-                    raise UsageError(msg)
+                    raise DataError(msg)
                 doing = f"starting the sample clock on {self.clock_counter}"
                 self.clock_task = nx.Task("enc-clock")
                 self.clock_task.co_channels.add_co_pulse_chan_freq(
@@ -157,7 +157,7 @@ class NidaqCounter(Counter):
                 self.clock_task.timing.cfg_implicit_timing(
                     sample_mode=c.AcquisitionType.CONTINUOUS)
                 self.clock_task.start()
-        except (UsageError, DataError):
+        except (SettingsError, DataError):
             self._close_tasks()
             raise
         except Exception as exc:  # noqa: BLE001 - every DAQmx failure becomes one line

@@ -36,7 +36,7 @@ import os
 from typing import Any
 
 from enctools.data.rig import Rig
-from enctools.errors import DataError, DeviceError, UsageError
+from enctools.errors import DataError, DeviceError
 from enctools.hw import retry
 
 log = logging.getLogger("enctools.hw")
@@ -48,8 +48,9 @@ def _pyserial() -> Any:
     try:
         import serial
     except ImportError:
-        msg = "the serial backend needs the Python package pyserial: pip install 'enctools[serial]'"
-        raise UsageError(msg) from None
+        from enctools.hw.backends import get
+
+        raise get("serial").missing() from None
     return serial
 
 

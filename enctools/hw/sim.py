@@ -30,7 +30,7 @@ import numpy as np
 
 from enctools.data.rig import Encoder, Head, Rig
 from enctools.data.truth import Motion, Series, interpolation_error
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 from enctools.hw.base import Axis, Channel, Clock, Counter, Sensor, Session, carry_partial
 from enctools.hw.sim_truth import jitter_motion, make_truth
 from enctools.units import ARCSEC, DEG, TWO_PI
@@ -198,8 +198,8 @@ class VirtualRig(Session):
         (the polygon set again by hand: a few arcsec, the same for every face)."""
         ac = next((s for s in self.sensors.values() if isinstance(s, SimAutocollimator)), None)
         if ac is None:
-            msg = f"--mode closure: rig {self.rig.name} has no polygon and autocollimator"
-            raise UsageError(msg)
+            msg = f"`mode` closure: rig {self.rig.name} has no polygon and autocollimator"
+            raise SettingsError(msg)
         ac.setting = setting
         ac.offset = float(self.rng.normal(0.0, _SETTING_ARCSEC)) if setting else 0.0
 

@@ -51,7 +51,7 @@ from pathlib import Path
 from typing import Any
 
 from enctools.data.rig import Rig
-from enctools.errors import DataError, DeviceError, UsageError
+from enctools.errors import DataError, DeviceError
 from enctools.hw import retry
 
 log = logging.getLogger("enctools.hw")
@@ -63,9 +63,9 @@ def _pyvisa() -> Any:
     try:
         import pyvisa
     except ImportError:
-        msg = ("the visa backend needs the Python package pyvisa: "
-               "pip install 'enctools[visa]' (and a VISA library, or pyvisa-py)")
-        raise UsageError(msg) from None
+        from enctools.hw.backends import get
+
+        raise get("visa").missing() from None
     return pyvisa
 
 
