@@ -20,6 +20,9 @@ NOT_CODE = {
     "cat", "dd",   # the Unix commands the benchmarks compare against
     "rig=NAME/year=YYYY",  # the folders of the history, not of the project
 }
+#: names the page cites as what the code had before a change (the "before" of a worked
+#: example): each must be gone from the code
+GONE = {"INSTRUMENT_KINDS", "BACKENDS"}
 #: where a file the page names may be, relative to its layer or the project
 BASES = (ROOT, PACKAGE, *(p for p in PACKAGE.rglob("*") if p.is_dir()), ROOT / "tests",
          ROOT / "benchmarks")
@@ -27,11 +30,14 @@ BASES = (ROOT, PACKAGE, *(p for p in PACKAGE.rglob("*") if p.is_dir()), ROOT / "
 
 def _definitions() -> tuple[set[str], set[str]]:
     """Every module (last dotted part and whole dotted path) and every name defined at
-    any level of a module, class or function of the package (defs, classes, assignments,
-    annotated fields)."""
+    any level of a module, class or function of the package or its tests (defs, classes,
+    assignments, annotated fields), and every string constant that is an identifier (a
+    backend's kind, a rig key)."""
     modules: set[str] = set()
     names: set[str] = set()
-    for path in PACKAGE.rglob("*.py"):
+    for path in [*PACKAGE.rglob("*.py"), *(ROOT / "tests").rglob("*.py")]:
+        if path.resolve() == Path(__file__).resolve():
+            continue
         parts = list(path.relative_to(ROOT).with_suffix("").parts)
         if parts[-1] == "__init__":
             parts = parts[:-1]
@@ -50,6 +56,9 @@ def _definitions() -> tuple[set[str], set[str]]:
                     names.add(node.target.attr)
             elif isinstance(node, ast.arg):
                 names.add(node.arg)
+            elif isinstance(node, ast.Constant) and isinstance(node.value, str) \
+                    and node.value.isidentifier():
+                names.add(node.value)
     return modules, names
 
 
@@ -90,7 +99,7 @@ def cited() -> list[tuple[int, str]]:
             continue
         for token in re.findall(r"`([^`]+)`", line):
             token = token.strip()
-            if token in NOT_CODE or token.startswith(("-", "enc ", "make ", "$")):
+            if token in NOT_CODE or token in GONE or token.startswith(("-", "enc ", "make ", "$")):
                 continue
             if ("/" in token and " " not in token) or IDENT.match(token):
                 found.append((n, token))
@@ -105,3 +114,8 @@ def test_every_name_the_page_cites_exists():
     missing = [f"line {n}: `{t}`" for n, t in cited() if not _exists(t)]
     assert not missing, "docs/ARCHITECTURE.md cites what the code does not have:\n" + \
         "\n".join(missing)
+
+
+def test_what_the_page_says_is_gone_is_gone():
+    back = sorted(t for t in GONE if t in NAMES)
+    assert not back, f"the page cites as gone what the code still defines: {back}"
