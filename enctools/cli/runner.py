@@ -58,12 +58,9 @@ def _warning_line(message: Warning | str, category: type[Warning], filename: str
     """A Python warning (numpy's RuntimeWarning, a library's deprecation) as one line of
     the command's log, ``enc CMD: WARNING: message``, without the file and the source
     line; silenced by -q like every warning."""
-    import logging
-
     from enctools.data.text import printable
 
-    text = printable(" ".join(str(message).split())) or category.__name__
-    logging.getLogger("enctools").warning("%s", text)
+    log_warning(printable(" ".join(str(message).split())) or category.__name__)
 
 
 _state: dict[str, Any] = {"command": "enc", "quiet": False}
@@ -176,8 +173,24 @@ def prologue(verbose: int = 0, quiet: int = 0) -> None:
     from enctools.cli.tuning import tune_for_streaming
 
     setup_logging(verbose, quiet)
+    for text in _state.pop("deferred", []):
+        log_warning(text)
     tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
     install_sigterm()
+
+
+def warn_after_prologue(text: str) -> None:
+    """A warning found while the options are parsed (an old spelling), logged once the
+    prologue has set the command's logging, so it reads ``enc CMD: WARNING: text`` and
+    -q silences it."""
+    _state.setdefault("deferred", []).append(text)
+
+
+def log_warning(text: str) -> None:
+    """``text`` as one warning line of the command's log."""
+    import logging
+
+    logging.getLogger("enctools").warning("%s", text)
 
 
 def install_sigterm() -> None:

@@ -24,6 +24,7 @@ from typing import Any
 import click
 from click.core import ParameterSource
 
+from enctools.cli import runner
 from enctools.errors import EncError, UsageError
 
 __all__ = ["FIELD_FLAGS", "RENAMED", "ModeCommand", "UsageError", "flag_for", "message",
@@ -101,11 +102,8 @@ def renamed(spellings: Mapping[str, str]) -> Callable[[click.Command], click.Com
                 if ctx.get_parameter_source(str(target.name)) == ParameterSource.COMMANDLINE:
                     msg = f"{old} is the old spelling of {new}: give {new} alone"
                     raise UsageError(msg)
-                import logging
-
-                logging.getLogger("enctools").warning(
-                    "%s is now spelt %s; %s will not be accepted after this release",
-                    old, new, old)
+                runner.warn_after_prologue(
+                    f"{old} is now spelt {new}; {old} will not be accepted after this release")
                 kwargs[str(target.name)] = value
             return callback(*args, **kwargs)
 
