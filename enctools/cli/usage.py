@@ -33,7 +33,9 @@ __all__ = ["FIELD_FLAGS", "RENAMED", "ModeCommand", "UsageError", "flag_for", "m
 #: fields whose option is not spelt as the field: command name ("*": every command) ->
 #: field -> the option (or words) that sets it
 FIELD_FLAGS: dict[str, dict[str, str]] = {
-    "*": {},
+    # options every command (that writes, or reports) has
+    "*": {"force": "--force", "fmt": "--format", "format": "--format", "unit": "--unit",
+          "as_json": "--json"},
 }
 
 #: the old spellings still accepted, with a warning: (command, old) -> new
