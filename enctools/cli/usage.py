@@ -142,7 +142,8 @@ class ModeCommand(click.Command):
         common: list[tuple[str, str]] = []
         by_mode: dict[str, list[tuple[str, str]]] = {m: [] for m in self.modes}
         for p in self.get_params(ctx):
-            record = p.get_help_record(ctx)
+            # arguments are in the usage line, not among the options (as click's own)
+            record = None if isinstance(p, click.Argument) else p.get_help_record(ctx)
             if record is None:
                 continue
             mode = self._mode(p)
