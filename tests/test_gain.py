@@ -147,6 +147,7 @@ def decisions(make: str, n: int, seeds: range) -> list[bool]:
     return out
 
 
+@pytest.mark.slow  # 60 fits with their leave-one-out and hold-out
 @pytest.mark.parametrize("n", [24, 48])
 def test_noise_refused_in_95_percent_of_seeds_and_signal_always_accepted(n):
     noise = decisions("noise", n, range(40))
