@@ -109,6 +109,7 @@ def ar1(rng: np.random.Generator, n: int, phi: float, s: float) -> np.ndarray:
     return e
 
 
+@pytest.mark.slow  # a dense table of thousands of points, fitted per block
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_dense_correlated_table_is_judged_by_its_blocked_holdout(seed):
     """240 points, a 3" harmonic under a slow 2" drift (neighbours correlated): the
