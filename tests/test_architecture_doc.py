@@ -19,6 +19,7 @@ NOT_CODE = {
     "numpy.ma",    # numpy's
     "cat", "dd",   # the Unix commands the benchmarks compare against
     "rig=NAME/year=YYYY",  # the folders of the history, not of the project
+    "subprocess",  # the standard library's
 }
 #: names the page cites as what the code had before a change (the "before" of a worked
 #: example): each must be gone from the code

@@ -109,6 +109,7 @@ def ar1(rng: np.random.Generator, n: int, phi: float, s: float) -> np.ndarray:
     return e
 
 
+@pytest.mark.slow  # a dense table of thousands of points, fitted per block
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_dense_correlated_table_is_judged_by_its_blocked_holdout(seed):
     """240 points, a 3" harmonic under a slow 2" drift (neighbours correlated): the
@@ -147,6 +148,7 @@ def decisions(make: str, n: int, seeds: range) -> list[bool]:
     return out
 
 
+@pytest.mark.slow  # 60 fits with their leave-one-out and hold-out
 @pytest.mark.parametrize("n", [24, 48])
 def test_noise_refused_in_95_percent_of_seeds_and_signal_always_accepted(n):
     noise = decisions("noise", n, range(40))

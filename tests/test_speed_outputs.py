@@ -45,6 +45,7 @@ def test_html_and_pdf_hold_every_figure(inputs, tmp_path):
     assert shown == count and len(pages) >= 2
 
 
+@pytest.mark.slow  # the whole report drawn, to HTML and PDF
 def test_each_figure_drawn_once_for_both_outputs(inputs, monkeypatch):
     from enctools.report import drawings, plots
     from enctools.report.html import to_html

@@ -171,19 +171,13 @@ def is_quiet() -> bool:
 def prologue(verbose: int = 0, quiet: int = 0) -> None:
     """What every command does first: logging (-v/-q), streaming tuning, SIGTERM -> 143."""
     from enctools.cli.tuning import tune_for_streaming
+    from enctools.cli.usage import take_deferred
 
     setup_logging(verbose, quiet)
-    for text in _state.pop("deferred", []):
+    for text in take_deferred():
         log_warning(text)
     tune_for_streaming()  # before numpy: one BLAS thread; malloc keeps its memory
     install_sigterm()
-
-
-def warn_after_prologue(text: str) -> None:
-    """A warning found while the options are parsed (an old spelling), logged once the
-    prologue has set the command's logging, so it reads ``enc CMD: WARNING: text`` and
-    -q silences it."""
-    _state.setdefault("deferred", []).append(text)
 
 
 def log_warning(text: str) -> None:

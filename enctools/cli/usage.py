@@ -24,11 +24,10 @@ from typing import Any
 import click
 from click.core import ParameterSource
 
-from enctools.cli import runner
 from enctools.errors import EncError, UsageError
 
 __all__ = ["FIELD_FLAGS", "RENAMED", "ModeCommand", "UsageError", "flag_for", "message",
-           "renamed"]
+           "renamed", "take_deferred"]
 
 #: fields whose option is not spelt as the field: command name ("*": every command) ->
 #: field -> the option (or words) that sets it
@@ -40,6 +39,17 @@ FIELD_FLAGS: dict[str, dict[str, str]] = {
 
 #: the old spellings still accepted, with a warning: (command, old) -> new
 RENAMED: dict[tuple[str, str], str] = {}
+#: warnings found while the options are parsed, logged by the prologue
+_DEFERRED: list[str] = []
+
+
+def take_deferred() -> list[str]:
+    """The warnings found while the options were parsed (an old spelling), for the
+    prologue to log once the command's logging is set: ``enc CMD: WARNING: text``,
+    silenced by -q."""
+    taken = list(_DEFERRED)
+    _DEFERRED.clear()
+    return taken
 
 
 def _long_opt(param: click.Parameter) -> str:
@@ -104,7 +114,7 @@ def renamed(spellings: Mapping[str, str]) -> Callable[[click.Command], click.Com
                 if ctx.get_parameter_source(str(target.name)) == ParameterSource.COMMANDLINE:
                     msg = f"{old} is the old spelling of {new}: give {new} alone"
                     raise UsageError(msg)
-                runner.warn_after_prologue(
+                _DEFERRED.append(
                     f"{old} is now spelt {new}; {old} will not be accepted after this release")
                 kwargs[str(target.name)] = value
             return callback(*args, **kwargs)
