@@ -126,10 +126,12 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     from enctools.report.certificate import load_certificate
     cert = load_certificate(certificate_path, certificate_number)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
-    run_report(sources, Options(top_harmonics, nmax, standard, servo_loop), limits, as_json=as_json,
+    words = functools.partial(usage.flag_for, command=click.get_current_context().command,
+                              name="report")
+    run_report(sources, Options(top_harmonics, nmax, standard, servo_loop, words), limits,
+               as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
                history_filter={"rig": history_rig, "since": since},
                prog=runner.command_name(), unit=unit,
                progress=runner.Progress("inputs and renderings"), mapping=mapping, cert=cert,
-               words=functools.partial(usage.flag_for, command=click.get_current_context().command,
-                                       name="report"))
+               words=words)
