@@ -12,7 +12,7 @@ for a while slows them alike) and the best of five:
 - one rig by a scan of the whole dataset with the filter applied there
   (``pyarrow.dataset.dataset(DIR, partitioning="hive").to_table(filter=...)``): what the
   partitions save, since that scan lists every rig's files;
-- ``enc report --history DIR --rig NAME`` as a command (start-up included).
+- ``enc report --history DIR --history-rig NAME`` as a command (start-up included).
 
 Times are CPU seconds (threads and child processes included): on a machine shared with
 other work they hold where wall times do not.
@@ -116,11 +116,11 @@ def jobs(root: Path, rigs: int) -> dict[str, Callable[[], object]]:
         assert t.num_rows > 300
 
     def command() -> None:
-        subprocess.run([ENC, "report", "--history", str(root), "--rig", rig], check=True,
+        subprocess.run([ENC, "report", "--history", str(root), "--history-rig", rig], check=True,
                        stdout=subprocess.DEVNULL)
 
     return {"one rig": one_rig, "one rig since": one_rig_since,
-            "whole-dataset scan": whole_scan, "enc report --rig": command}
+            "whole-dataset scan": whole_scan, "enc report --history-rig": command}
 
 
 def measure(roots: dict[int, Path], repeat: int = 5) -> dict[str, dict[str, float]]:

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from enctools.data import csvio, streams
 from enctools.data.schemas import KINDS, kind_spec, make_field
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, OutputError, SettingsError, UsageError
 
 NAN = float("nan")
 #: the titles of kind_table("spectrum")
@@ -271,7 +271,7 @@ def test_output_and_sidecar_are_written_together_or_not_at_all(tmp_path):
     header, table = kind_table("points", 3)
     out = tmp_path / "p.csv"
     (tmp_path / "p.csv-metadata.json").write_text("old")
-    with pytest.raises(UsageError, match=r"p\.csv-metadata\.json exists"):
+    with pytest.raises(OutputError, match=r"p\.csv-metadata\.json exists"):
         streams.write_table(str(out), header, table)
     assert not out.exists() and (tmp_path / "p.csv-metadata.json").read_text() == "old"
     streams.write_table(str(out), header, table, force=True)
@@ -298,7 +298,7 @@ def test_text_goes_to_a_terminal_binary_does_not():
 
     streams.check_output(None, fmt="csv", stdout=Tty())  # type: ignore[arg-type]
     streams.check_output(None, fmt="tsv", stdout=Tty())  # type: ignore[arg-type]
-    with pytest.raises(UsageError, match="binary data to a terminal"):
+    with pytest.raises(SettingsError, match="binary data to a terminal"):
         streams.check_output(None, fmt="arrows", stdout=Tty())  # type: ignore[arg-type]
 
 

@@ -1,5 +1,5 @@
 """The nightly history of a fleet: one Hive-partitioned dataset (rig=NAME/year=YYYY) that
-pyarrow.dataset and DuckDB read as written; enc report --history --rig/--since reads
+pyarrow.dataset and DuckDB read as written; enc report --history --history-rig/--since reads
 only the partitions asked for; the layout before partitions is read and moved."""
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ def test_duckdb_reads_the_fleet_as_written(tmp_path):
 
 def test_report_reads_one_rig_since_a_date(tmp_path):
     fleet(tmp_path)
-    r = run(["enc", "report", "--history", str(tmp_path), "--rig", HOSTILE, "--since",
+    r = run(["enc", "report", "--history", str(tmp_path), "--history-rig", HOSTILE, "--since",
              "2026-01-01", "--json"])
     assert r.returncode == 0, r.stderr.decode()
     rows = json.loads(r.stdout)["history"]
@@ -80,6 +80,22 @@ def test_report_reads_one_rig_since_a_date(tmp_path):
     assert h.runs == 0 and h.table.schema == SCHEMA
 
 
+def test_the_old_spelling_of_history_rig_still_works_with_a_warning(tmp_path):
+    """enc report's --rig, the rig of the nightly history, is now --history-rig (acquire's
+    --rig is a rig file): --rig and ENC_REPORT_RIG still work for one release."""
+    fleet(tmp_path)
+    report = ["enc", "report", "--history", str(tmp_path)]
+    new = run_in_process([*report, "--history-rig", HOSTILE, "--json"])
+    old = run_in_process([*report, "--rig", HOSTILE, "--json"])
+    assert new.returncode == old.returncode == 0, old.stderr.decode()
+    assert json.loads(old.stdout)["history"] == json.loads(new.stdout)["history"]
+    assert "--rig is now spelt --history-rig" in old.stderr.decode()
+    env = run_in_process([*report, "--json"], env={"ENC_REPORT_RIG": HOSTILE})
+    assert json.loads(env.stdout)["history"] == json.loads(new.stdout)["history"]
+    both = run_in_process([*report, "--rig", "a", "--history-rig", "b"])
+    assert both.returncode == 2 and "old spelling of --history-rig" in both.stderr.decode()
+
+
 def test_one_rig_reads_its_partition_only(tmp_path):
     """Damaged files in another rig's folder and in a year before --since are never
     opened (no warning); read without the filters they are skipped and named."""
@@ -88,7 +104,7 @@ def test_one_rig_reads_its_partition_only(tmp_path):
                tmp_path / "rig=lab%2F3%20a%3Db%2520c.toml" / "year=2025" / "run-damaged.parquet"]
     for f in damaged:
         f.write_bytes(b"PAR1 not really")
-    r = run(["enc", "report", "--history", str(tmp_path), "--rig", HOSTILE, "--since",
+    r = run(["enc", "report", "--history", str(tmp_path), "--history-rig", HOSTILE, "--since",
              "2026-01-01"])
     assert r.returncode == 0 and r.stderr == b"" and ": 2 run(s)" in r.stdout.decode()
     r = run(["enc", "report", "--history", str(tmp_path)])
@@ -121,7 +137,7 @@ def test_a_run_both_moved_and_not_yet_removed_is_read_once(tmp_path):
 
 
 @pytest.mark.parametrize(("argv", "says"), [
-    (["--rig", "x"], "--rig and --since select runs of --history DIR"),
+    (["--history-rig", "x"], "--history-rig and --since select runs of --history DIR"),
     (["--history", ".", "--since", "2026-13-01"], "Invalid value for '--since'"),
 ])
 def test_report_filter_errors_are_one_line(argv, says):

@@ -292,12 +292,12 @@ def test_settings_and_drift_in_process():
     import numpy as np
 
     from enctools.data.statistics import curve_figures
-    from enctools.errors import UsageError
+    from enctools.errors import SettingsError
     from enctools.report.nightly import Settings, drift
     from enctools.report.sections import Curve
 
     for bad in (-1.0, float("nan"), float("inf")):
-        with pytest.raises(UsageError, match="--max-drift must be >= 0"):
+        with pytest.raises(SettingsError, match="tolerance must be >= 0"):
             Settings("r", "h", "c", tolerance=bad)
     angle = np.radians(np.arange(0.0, 360.0, 15.0))
     stored = 2.0 * np.sin(angle)
@@ -539,3 +539,66 @@ def test_a_night_does_not_import_pandas(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
                        cwd=tmp_path)
     assert r.stdout.split()[-3:] == ["exit", "0", "False"], r.stderr
+
+
+# ------------------------------------------------ the campaign: in-process or a script
+
+def test_the_default_campaign_runs_in_process_without_a_shell(tmp_path, monkeypatch):
+    """The default campaign (a step run of the polygon and its points) is run through the
+    library: no process is started, and the history records it as the pipeline it stands
+    for."""
+    import subprocess
+
+    from enctools.cli.campaign import DEFAULT_TEXT
+
+    def no_process(*args, **kwargs):
+        raise AssertionError(f"a process was started: {args}")
+    monkeypatch.setattr(subprocess, "Popen", no_process)
+    hist, cal, work = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "work"
+    r = _nightly_in_process(["--rig", "ciomp-23bit", "--history", str(hist), "--calibration",
+                             str(cal), "--init", "--keep", str(work)],
+                            {"PATH": str(tmp_path / "nothing"), "TMPDIR": str(tmp_path)})
+    assert r.returncode == 0, r.stderr.decode()
+    assert ": ok: p-p" in r.stdout.decode() and cal.exists()
+    assert sorted(f.name for f in work.iterdir()) == ["result.parquet"]
+    h = read_history(hist)
+    assert h.runs == 1 and h.column("campaign")[0] == DEFAULT_TEXT
+    assert 1.0 < h.column("std")[0] < 2.0   # the polygon run's Bessel s (ciomp-23bit)
+
+
+def test_a_library_campaign_is_a_callable(tmp_path):
+    """report.nightly takes the campaign as a callable: its failure is the night's."""
+    from enctools.errors import DeviceError
+    from enctools.report.nightly import Campaign, Settings, run_nightly
+
+    def broken(rig: str, folder: Path, run_id: str) -> None:
+        raise DeviceError("`axis` did not answer")
+
+    night = run_nightly(Settings("r", str(tmp_path / "h"), str(tmp_path / "c.parquet"),
+                                 Campaign(broken, "broken")),
+                        words=lambda field: f"--{field}")
+    assert night.code == 3
+    assert night.messages == [("error", "campaign failed with exit 3: --axis did not answer")]
+    h = read_history(tmp_path / "h")
+    assert h.column("campaign")[0] == "broken" and h.column("exit_code")[0] == 3
+
+
+def test_a_campaign_script_past_its_time_limit_is_stopped(tmp_path, enc):
+    """A --campaign script runs as a process group of its own, stopped whole once past
+    --campaign-timeout: exit 3, recorded."""
+    import time
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    mark = tmp_path / "went-on"
+    start = time.monotonic()
+    r = nightly(hist, cal, "--campaign-timeout", "0.5",
+                campaign=f"(sleep 3; touch {mark}) | cat")
+    assert time.monotonic() - start < 10
+    assert one_error_line(r, 3, "enc-nightly").endswith("campaign stopped after 0.5 s "
+                                                         "(its time limit)")
+    time.sleep(3)
+    assert not mark.exists()
+    h = read_history(hist)
+    assert h.runs == 1 and h.column("exit_code")[0] == 3
+    r = nightly(hist, cal, "--campaign-timeout", "1")
+    assert r.returncode == 2 and "--campaign-timeout limits a --campaign script" in \
+        r.stderr.decode()

@@ -120,10 +120,10 @@ def test_a_fifo_appearing_before_the_rename_is_refused(tmp_path):
     fd, tmp = files.new_temporary(out)
     os.close(fd)
     os.mkfifo(out)
-    with pytest.raises(files.UsageError, match="FIFO"):
+    with pytest.raises(files.OutputError, match="FIFO"):
         files.rename_into_place(tmp, out)
     assert stat.S_ISFIFO(os.lstat(out).st_mode)
-    with pytest.raises(files.UsageError, match="FIFO"):
+    with pytest.raises(files.OutputError, match="FIFO"):
         files.write_atomic(out, b"x")
     assert sorted(p.name for p in tmp_path.iterdir()) == [Path(tmp).name, out.name]
 

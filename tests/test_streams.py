@@ -15,7 +15,7 @@ from conftest import run
 from enctools.data import streams
 from enctools.data.header import history_line
 from enctools.data.schemas import make_field
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, OutputError, SettingsError
 
 
 def _deviations(n: int = 1000) -> tuple[streams.Header, pa.Table]:
@@ -121,16 +121,17 @@ def test_output_rules(tmp_path):
     header, table = _deviations()
     p = tmp_path / "out.parquet"
     streams.write_table(str(p), header, table)
-    with pytest.raises(UsageError, match="exists; use --force"):
+    with pytest.raises(OutputError, match="exists; use force") as refused:
         streams.write_table(str(p), header, table)
+    assert refused.value.fields == ("force",) and refused.value.path == str(p)
     streams.write_table(str(p), header, table, force=True)
-    with pytest.raises(UsageError, match="cannot tell the format"):
+    with pytest.raises(SettingsError, match="cannot tell the format"):
         streams.check_output(str(tmp_path / "out.txt"))
-    with pytest.raises(UsageError, match="is a directory"):
+    with pytest.raises(OutputError, match="is a directory"):
         streams.check_output(str(tmp_path))
-    with pytest.raises(UsageError, match="does not exist"):
+    with pytest.raises(OutputError, match="does not exist"):
         streams.check_output(str(tmp_path / "nope" / "x.parquet"))
-    with pytest.raises(UsageError, match="cannot be written to a pipe"):
+    with pytest.raises(SettingsError, match="cannot be written to a pipe"):
         streams.check_output(None, fmt="hdf5")
 
 

@@ -19,14 +19,14 @@ from pathlib import Path
 import click
 
 from enctools.cli import runner
-from enctools.report.nightly import DEFAULT_CAMPAIGN
+from enctools.cli.campaign import DEFAULT_TEXT
 
 PROG = "enc-nightly"
 
 
 @click.command(PROG, context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("--rig", envvar="ENC_RIG", required=True, metavar="NAME|PATH",
-              help="Rig to re-acquire on (passed to the campaign as $RIG).")
+              help="Rig to re-acquire on (passed to a --campaign script as $RIG).")
 @click.option("--history", "history_dir", envvar="ENC_NIGHTLY_HISTORY", required=True,
               metavar="DIR", type=click.Path(file_okay=False),
               help="History folder: one Parquet file per run is added.")
@@ -34,9 +34,13 @@ PROG = "enc-nightly"
               help="The stored calibration (points or deviations stream) to compare with.")
 @click.option("--init", is_flag=True, default=False,
               help="When FILE does not exist, store this run as the calibration.")
-@click.option("--campaign", envvar="ENC_NIGHTLY_CAMPAIGN", default=DEFAULT_CAMPAIGN,
-              show_default=True, metavar="CMD",
-              help="Shell command writing $OUT/result.parquet.")
+@click.option("--campaign", envvar="ENC_NIGHTLY_CAMPAIGN", default=None, metavar="CMD",
+              help="Shell command writing $OUT/result.parquet, run as a process of its own "
+              f"[default: the polygon check, {DEFAULT_TEXT}, run in this process]")
+@click.option("--campaign-timeout", "campaign_timeout_s", type=float, default=None,
+              metavar="SECONDS", callback=lambda ctx, p, v: _positive(v),
+              help="Stop a --campaign script still running after SECONDS (exit 3; default: "
+              "no limit).")
 @click.option("--max-drift", "--tolerance", "tolerance", type=float, default=0.5,
               show_default=True, metavar="ARCSEC",
               help="Largest allowed |drift| against the calibration.")
@@ -46,14 +50,19 @@ PROG = "enc-nightly"
               help="Also write this run's HTML report with the history.")
 @click.option("--force", is_flag=True, default=False,
               help="Replace an existing --html FILE (a nightly report usually wants it).")
-def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: str,
-            tolerance: float, keep: str | None, html: str | None, force: bool) -> None:
+def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: str | None,
+            campaign_timeout_s: float | None, tolerance: float, keep: str | None,
+            html: str | None, force: bool) -> None:
     """Nightly recheck: re-acquire, run the campaign, compare, append to the history.
 
     Exit status: 0 within tolerance, 1 drift beyond it, 2 bad usage or input or a file
     that cannot be written (full disk, permission), 3 device fault in the campaign, 130
     interrupted, 143 terminated.
     """
+    import functools
+
+    from enctools.cli import campaign as campaigns
+    from enctools.cli import usage
     from enctools.data.files import check_new_file
     from enctools.errors import DataError
     from enctools.report.nightly import Settings, os_message, run_nightly
@@ -64,8 +73,13 @@ def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: 
         except OSError as exc:
             raise DataError(f"--html {html}: " + os_message(exc)) from None
         check_new_file(html, force)
-    night = run_nightly(Settings(rig, history_dir, calibration, campaign, tolerance, init,
-                                 keep, html))
+    if campaign_timeout_s is not None and campaign is None:
+        raise click.UsageError("--campaign-timeout limits a --campaign script; give one")
+    what = (campaigns.DEFAULT if campaign is None
+            else campaigns.script(campaign, campaign_timeout_s))
+    night = run_nightly(Settings(rig, history_dir, calibration, what, tolerance, init,
+                                 keep, html),
+                        words=functools.partial(usage.flag_for, command=command, name=PROG))
     if night.summary is not None and night.code in (0, 1):  # a verdict, not a failure
         click.echo(night.summary)
     for level, text in night.messages:
@@ -74,6 +88,12 @@ def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: 
         else:
             sys.stderr.write(f"{PROG}: {text}\n")
     raise click.exceptions.Exit(night.code)
+
+
+def _positive(value: float | None) -> float | None:
+    if value is not None and not value > 0:
+        raise click.BadParameter(f"must be > 0 seconds, not {value:g}")
+    return value
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -284,7 +284,8 @@ TABLE_RENAMED = {"--ref": "--reference-column", "--reference": "--reference-colu
 def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
     """--position/--reference-column/--measured/--deviation/--direction/--run COL, a unit
     per angle column (--position-unit, ...), --counts-per-rev and --zero-offset: passed
-    to the command as ``mapping`` (a ``Mapping``; its checks are one UsageError line)."""
+    to the command as ``mapping`` (a ``Mapping``; its checks are one SettingsError line
+    naming these options)."""
     reference = ("--reference-column",)
     from enctools.units import COLUMN_UNITS
 
@@ -295,9 +296,9 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
     def with_mapping(*args: Any, **kwargs: Any) -> Any:
         from enctools.data.tablemap import Mapping
 
-        given = {k: kwargs.pop(f"column_{k}") for k in names}
+        given = {f"column_{k}": kwargs.pop(f"column_{k}") for k in names}
         given |= {k: kwargs.pop(k) for k in [*units, "counts_per_rev", "zero_offset"]}
-        return f(*args, mapping=Mapping(**given, reference_option=reference[-1]), **kwargs)
+        return f(*args, mapping=Mapping(**given), **kwargs)
 
     g: Callable[..., Any] = with_mapping
     g = click.option("--zero-offset", type=click.Choice(["remove", "keep"]), default=None,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from datetime import datetime
 from typing import Any
 
@@ -9,9 +10,25 @@ import click
 
 from enctools.cli import options, runner, usage
 
+#: the options of one kind of input or output, under a heading of their own in --help;
+#: given where they do not apply, the command refuses or ignores them as it says
+MODES = {
+    "HTML and PDF document": ("html_path", "pdf_path", "title", "certificate_path",
+                              "certificate_number"),
+    "Thresholds (exit 1 when one is exceeded)": (
+        "max_pp", "max_std", "max_abs", "max_u", "max_radial_pp", "max_harmonic", "max_iso",
+        "max_vdi"),
+    "Step runs (positioning)": ("standard", "servo_loop"),
+    "Nightly history": ("history_dir", "history_rig", "since"),
+    "Tables read as points": (
+        "column_position", "column_reference", "column_measured", "column_deviation",
+        "column_direction", "column_run", "position_unit", "reference_unit", "measured_unit",
+        "deviation_unit", "counts_per_rev", "zero_offset"),
+}
 
-@usage.renamed(options.TABLE_RENAMED)
-@click.command("report")
+
+@usage.renamed(options.TABLE_RENAMED | {"--rig": "--history-rig"})
+@click.command("report", cls=usage.ModeCommand, modes=MODES)
 @click.argument("inputs", nargs=-1, metavar="[INPUT...]",
                 type=click.Path(dir_okay=False, allow_dash=True))
 @options.as_json
@@ -53,7 +70,8 @@ from enctools.cli import options, runner, usage
               type=click.Path(file_okay=False),
               help="Tabulate (and plot, with --html/--pdf) the nightly history in DIR.")
 @options.table_columns
-@click.option("--rig", "history_rig", default=None, metavar="NAME",
+@click.option("--history-rig", "history_rig", default=None, metavar="NAME",
+              envvar=["ENC_REPORT_HISTORY_RIG", "ENC_REPORT_RIG"],
               help="With --history: only this rig's runs (its partition alone is read).")
 @click.option("--since", default=None, metavar="DATE",
               type=click.DateTime(["%Y-%m-%d", "%Y-%m-%dT%H:%M", "%Y-%m-%dT%H:%M:%S"]),
@@ -90,15 +108,15 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
 
     limits = Thresholds(max_pp=max_pp, max_std=max_std, max_abs=max_abs, max_u=max_u,
                         max_radial_pp=max_radial_pp,
-                        max_harmonic=parse_pairs(max_harmonic, "--max-harmonic", int),
-                        max_iso=parse_pairs(max_iso, "--max-iso", str),
-                        max_vdi=parse_pairs(max_vdi, "--max-vdi", str))
+                        max_harmonic=parse_pairs(max_harmonic, "max_harmonic", int),
+                        max_iso=parse_pairs(max_iso, "max_iso", str),
+                        max_vdi=parse_pairs(max_vdi, "max_vdi", str))
     wrong = {"iso230-2": "--max-vdi", "vdi3441": "--max-iso"}[standard]
     if (max_vdi if standard == "iso230-2" else max_iso):
         msg = f"{wrong} checks figures that --standard {standard} does not compute"
         raise UsageError(msg)
     if history_dir is None and (history_rig is not None or since is not None):
-        msg = "--rig and --since select runs of --history DIR; give --history"
+        msg = "--history-rig and --since select runs of --history DIR; give --history"
         raise UsageError(msg)
     options.distinct_outputs({"--html": html_path, "--pdf": pdf_path})
     check_paths([html_path, pdf_path], force)
@@ -108,8 +126,12 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     from enctools.report.certificate import load_certificate
     cert = load_certificate(certificate_path, certificate_number)
     sources: list[str | None] = list(inputs) if inputs else ([] if history_dir else [None])
-    run_report(sources, Options(top_harmonics, nmax, standard, servo_loop), limits, as_json=as_json,
+    words = functools.partial(usage.flag_for, command=click.get_current_context().command,
+                              name="report")
+    run_report(sources, Options(top_harmonics, nmax, standard, servo_loop, words), limits,
+               as_json=as_json,
                html_path=html_path, pdf_path=pdf_path, title=title, history_dir=history_dir,
                history_filter={"rig": history_rig, "since": since},
                prog=runner.command_name(), unit=unit,
-               progress=runner.Progress("inputs and renderings"), mapping=mapping, cert=cert)
+               progress=runner.Progress("inputs and renderings"), mapping=mapping, cert=cert,
+               words=words)

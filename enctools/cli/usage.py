@@ -32,7 +32,9 @@ __all__ = ["FIELD_FLAGS", "RENAMED", "ModeCommand", "UsageError", "flag_for", "m
 #: fields whose option is not spelt as the field: command name ("*": every command) ->
 #: field -> the option (or words) that sets it
 FIELD_FLAGS: dict[str, dict[str, str]] = {
-    "*": {},
+    # options every command (that writes, or reports) has
+    "*": {"force": "--force", "fmt": "--format", "format": "--format", "unit": "--unit",
+          "as_json": "--json"},
 }
 
 #: the old spellings still accepted, with a warning: (command, old) -> new
@@ -150,7 +152,8 @@ class ModeCommand(click.Command):
         common: list[tuple[str, str]] = []
         by_mode: dict[str, list[tuple[str, str]]] = {m: [] for m in self.modes}
         for p in self.get_params(ctx):
-            record = p.get_help_record(ctx)
+            # arguments are in the usage line, not among the options (as click's own)
+            record = None if isinstance(p, click.Argument) else p.get_help_record(ctx)
             if record is None:
                 continue
             mode = self._mode(p)

@@ -18,7 +18,7 @@ A stream written as CSV (``x.csv``) or TSV (``x.tsv``) is two files:
   history). Reading the table with its sidecar gives back the same stream.
 
 The angle errors (columns whose field unit is arcsec) are written in the unit chosen
-with :func:`set_error_unit` (the commands' ``--unit``) and read back into arcsec; other
+with :func:`set_error_unit` (the unit the command reports in) and read back into arcsec; other
 columns keep their stream's unit. On stdout a table goes without its sidecar: the
 metadata is then nowhere.
 """
@@ -37,7 +37,7 @@ import pyarrow as pa
 from enctools.data import files, limits
 from enctools.data.header import META_KEY, Header, load_metadata
 from enctools.data.text import first_line, printable
-from enctools.errors import DataError, OutputError, UsageError
+from enctools.errors import DataError, OutputError
 from enctools.units import ANGLE_UNITS, DISPLAY_UNITS, factor
 
 FORMATS = ("csv", "tsv")
@@ -46,7 +46,7 @@ EXTENSIONS = {".csv": "csv", ".tsv": "tsv"}
 #: appended to the table's name to name its sidecar (CSVW's ``{+url}-metadata.json``)
 SIDECAR_SUFFIX = "-metadata.json"
 CSVW_CONTEXT = "http://www.w3.org/ns/csvw"
-#: the unit of the angle errors in the stream (the field unit converted by --unit)
+#: the unit of the angle errors in the stream (the field unit converted by set_error_unit)
 ERROR_UNIT = "arcsec"
 
 #: Arrow type -> CSVW (XML Schema) datatype, for the types a stream's columns may have
@@ -60,7 +60,7 @@ _error_unit = ERROR_UNIT
 
 def set_error_unit(unit: str) -> None:
     """The unit the angle errors (field unit arcsec) of the CSV and TSV outputs this
-    process writes are in, from now on (``--unit``: one of DISPLAY_UNITS)."""
+    process writes are in, from now on (the command's unit: one of DISPLAY_UNITS)."""
     global _error_unit
     if unit not in DISPLAY_UNITS:
         msg = f"not a unit for angle errors: {unit!r} (one of {', '.join(DISPLAY_UNITS)})"
@@ -191,10 +191,10 @@ def stage(tmp: str, path: str, sidecar: bytes, force: bool,
         together.write(sidecar_path(path), sidecar, force=force)
         if group is None:
             together.commit()
-    except (UsageError, OutputError) as exc:
+    except OutputError as exc:
         if group is None:
             together.discard()
-        raise OutputError(str(exc), path) from None
+        raise OutputError(exc.template, path) from None
 
 
 def _text(column: pa.Array, delimiter: str) -> pa.Array:
@@ -291,7 +291,7 @@ class _Layout:
         own = doc.get("enctools") if isinstance(doc, dict) else None
         if isinstance(own, dict) and "table" in own and "kind" not in own:
             msg = (f"{source}: the sidecar of a correction table of enc make-rom, not of a "
-                   "stream (enc correct --table reads the table)")
+                   "stream (enc correct reads it as its correction table)")
             raise DataError(msg)
         try:
             self._parse(doc)

@@ -11,10 +11,10 @@ temporary left by a killed run is removed by the next run that writes the same N
 (:func:`remove_stale_temporaries`).
 
 Only regular files are ever replaced. An existing output that is a device, a FIFO or a
-socket (or a symbolic link to one) is refused, ``--force`` or not: the rename would put a
-regular file in its place (as root, ``-o /dev/null --force`` would replace /dev/null).
+socket (or a symbolic link to one) is refused, ``force`` or not: the rename would put a
+regular file in its place (as root, writing /dev/null with ``force`` would replace it).
 A symbolic link to a regular file, or a broken one, counts as an existing output: with
-``--force`` the link itself is replaced by the new file and the file it pointed to is
+``force`` the link itself is replaced by the new file and the file it pointed to is
 left as it was (what a rename does).
 """
 
@@ -31,7 +31,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import BinaryIO
 
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, OutputError, SettingsError
 
 STALE_AGE_S = 3600.0
 """A temporary of a dead writer is removed once its last write is this old [s]."""
@@ -89,27 +89,31 @@ def read_small_text(path: str | Path, what: str, max_bytes: int, noun: str) -> s
 
 
 def check_new_file(path: str, force: bool) -> None:
-    """UsageError unless ``path`` can be written: not a folder nor any other non-regular
-    file, absent or ``force``, in a folder that exists and is writable."""
+    """OutputError naming ``path`` unless it can be written: not a folder nor any other
+    non-regular file, absent or ``force``, in a folder that exists and is writable."""
     p = Path(path)
     if p.is_dir():
         msg = f"output {path}: is a directory; give a file name"
-        raise UsageError(msg)
+        raise OutputError(msg, path)
     check_replaceable(path)
     if os.path.lexists(p) and not force:
-        msg = f"output {path} exists; use --force to replace it"
-        raise UsageError(msg)
+        raise exists(path)
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         msg = f"output {path}: folder {parent} does not exist"
-        raise UsageError(msg)
+        raise OutputError(msg, path)
     if not os.access(parent, os.W_OK):
         msg = f"output {path}: folder {parent} is not writable"
-        raise UsageError(msg)
+        raise OutputError(msg, path)
+
+
+def exists(path: str | Path) -> OutputError:
+    """The refusal of an output that exists, ``force`` not given (the field named)."""
+    return OutputError(f"output {path} exists; use `force` to replace it", str(path))
 
 
 def check_replaceable(path: str | Path) -> None:
-    """UsageError when ``path`` exists and is not a regular file (nor a link to one).
+    """OutputError when ``path`` exists and is not a regular file (nor a link to one).
 
     Absent paths and broken links pass: a rename puts a new file there and loses nothing.
     """
@@ -119,7 +123,7 @@ def check_replaceable(path: str | Path) -> None:
         return
     except OSError as exc:
         msg = f"output {path}: {exc.strerror}; only regular files are replaced"
-        raise UsageError(msg) from None
+        raise OutputError(msg, str(path)) from None
     if stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode):
         return  # a folder is refused by check_new_file, and by the rename itself
     kind = next((name for test, name in _KINDS if test(st.st_mode)), "a special file")
@@ -127,7 +131,7 @@ def check_replaceable(path: str | Path) -> None:
         kind = f"a symbolic link to {kind}"
     msg = (f"output {path}: is {kind}, not a regular file; only regular files are replaced "
            "(write to stdout and redirect instead)")
-    raise UsageError(msg)
+    raise OutputError(msg, str(path))
 
 
 def _host() -> str:
@@ -229,8 +233,7 @@ def rename_into_place(tmp: str, path: str | Path, force: bool = True) -> None:
     ``force``, any file). On a refusal, ``tmp`` is left for the caller to remove."""
     check_replaceable(path)
     if not force and os.path.lexists(path):  # appeared meanwhile
-        msg = f"output {path} exists; use --force to replace it"
-        raise UsageError(msg)
+        raise exists(path)
     os.replace(tmp, path)
 
 
@@ -319,12 +322,12 @@ class OutputGroup:
     def write(self, path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
               mode: int | None = None, force: bool = True) -> None:
         """Write ``data`` (as :func:`write_atomic` takes it) into a temporary for ``path``;
-        UsageError naming ``path`` when it cannot be written."""
+        OutputError naming ``path`` when it cannot be written."""
         try:
             tmp = _write_temporary(Path(path), data, False, mode)
         except OSError as exc:
             msg = f"output {path}: {exc.strerror or exc}"
-            raise UsageError(msg) from None
+            raise OutputError(msg, str(path)) from None
         self.stage(tmp, path, force)
 
     def commit(self) -> None:
@@ -334,15 +337,14 @@ class OutputGroup:
             for _, path, force in staged:
                 check_replaceable(path)
                 if not force and os.path.lexists(path):  # appeared meanwhile
-                    msg = f"output {path} exists; use --force to replace it"
-                    raise UsageError(msg)
+                    raise exists(path)
             while staged:
                 tmp, path, _ = staged[0]
                 try:
                     os.replace(tmp, path)
                 except OSError as exc:
                     msg = f"output {path}: {exc.strerror or exc}"
-                    raise UsageError(msg) from None
+                    raise OutputError(msg, path) from None
                 staged.pop(0)
         finally:
             self._staged = staged
@@ -368,15 +370,16 @@ class OutputGroup:
 def format_by_extension(path: str, fmt: str | None, formats: Sequence[str],
                         extensions: Mapping[str, str], what: str, hint: str) -> str:
     """The format of an output: ``fmt`` if given (one of ``formats``), else the one
-    ``extensions`` gives for ``path``'s extension; UsageError naming ``what`` otherwise
-    (``hint`` says how to name it: the option and its choices)."""
+    ``extensions`` gives for ``path``'s extension; SettingsError naming ``what`` otherwise
+    (``hint`` says how to name it: the setting, as a field between backticks, and its
+    choices)."""
     if fmt:
         if fmt not in formats:
             msg = f"unknown {what} {fmt!r} (formats: {', '.join(formats)})"
-            raise UsageError(msg)
+            raise SettingsError(msg)
         return fmt
     ext = Path(path).suffix.lower()
     if ext not in extensions:
         msg = f"cannot tell the {what} of {path!r} from its extension; {hint}"
-        raise UsageError(msg)
+        raise SettingsError(msg)
     return extensions[ext]

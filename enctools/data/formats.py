@@ -1,6 +1,6 @@
 """Which format a stream file or pipe holds: the order of authority (enc-streams(5), FORMATS).
 
-1. What the user says (``--format``, ``--target``): the caller's, before anything here.
+1. What the user says (a command's format option): the caller's, before anything here.
 2. A known extension (:data:`EXTENSIONS`): ``.parquet``, ``.h5``, ``.arrow``, ``.arrows``,
    ``.csv`` ... A CSV or TSV table's sidecar beside it makes it a text stream too.
 3. The content, only where its signature is unambiguous: Parquet's ``PAR1`` at both ends

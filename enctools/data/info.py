@@ -48,7 +48,7 @@ def describe(stream: InputStream) -> str:
 
 
 def info_dict(stream: InputStream) -> dict[str, Any]:
-    """A stream described as a dict for ``enc info --json`` (enc-streams(5), SUMMARIES):
+    """A stream described as a dict for enc info's JSON (enc-streams(5), SUMMARIES):
     source, kind, schema version, format, rows and batches read, the rig's name, the
     mode, each column with its type, unit, role and other field metadata, the keys of
     the stream metadata and the history lines."""

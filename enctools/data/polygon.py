@@ -13,7 +13,7 @@ The file is a text table as :mod:`enctools.data.tables` reads one (CSV, TSV or b
 either ``U`` (expanded uncertainty, with ``k``) or ``u`` (standard uncertainty); a
 title may name its unit (``error [urad]``). Comment lines ``# key: value`` give
 ``certificate`` (its number), ``traceability``, ``unit``, ``k`` and ``reference``.
-:func:`certificate_text` writes the same format (enc closure's ``--faces-out``).
+:func:`certificate_text` writes the same format (what enc closure writes of the faces).
 """
 
 from __future__ import annotations
@@ -224,7 +224,7 @@ def _units(raw: RawTable, cols: dict[str, Any], keys: dict[str, str], given: str
     """The unit of the error and u columns: the title's, else the file's, else ``given``."""
     if given is not None and "unit" in keys and keys["unit"] != given:
         msg = (f"{raw.source}: the certificate says unit {keys['unit']}, "
-               f"--certificate-unit {given} (mixed units)")
+               f"`certificate_unit` {given} (mixed units)")
         raise DataError(msg)
     out = {}
     for role in ("error", "u"):

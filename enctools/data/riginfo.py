@@ -53,7 +53,7 @@ def summary(rig: Rig) -> list[str]:
 
 
 def summary_dict(rig: Rig) -> dict[str, Any]:
-    """What :func:`summary` says, as a dict for ``enc rig check --json``
+    """What :func:`summary` says, as a dict for enc rig check's JSON
     (enc-streams(5), SUMMARIES): head angles [deg], resolution [arcsec], sizes [mm]."""
     return {
         "name": rig.name, "source": rig.source, "description": rig.description,

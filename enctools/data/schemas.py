@@ -290,19 +290,20 @@ def parse_field_value(text: str, rng: limits.Range) -> float | int | str | None:
 
 def check_new_columns(kind: str, names: list[str], what: str) -> None:
     """Names a command will give columns of a ``kind`` output by role: none empty, none
-    a named column of the kind (``theta``...), none twice; ``what`` (an option) names
-    their origin in the one-line UsageError, raised before any work."""
-    from enctools.errors import UsageError
+    a named column of the kind (``theta``...), none twice; ``what`` (a setting's field
+    between backticks, or words) names their origin in the one-line SettingsError,
+    raised before any work."""
+    from enctools.errors import SettingsError
 
     fixed = {c.name for c in kind_spec(kind).columns if c.name}
     for name in names:
         if not name.strip() or len(name) > limits.MAX_FIELD_TEXT or name in fixed:
             why = "is a column of its own" if name in fixed else "is not a column name"
             msg = f"{what} {name!r} {why} in a {kind} stream; choose another"
-            raise UsageError(msg)
+            raise SettingsError(msg)
     if len(set(names)) < len(names):
         msg = f"{what}: the names {', '.join(names)} are not distinct"
-        raise UsageError(msg)
+        raise SettingsError(msg)
 
 
 def columns_with_role(schema: pa.Schema, role: str) -> list[str]:

@@ -40,7 +40,7 @@ from enctools.data.formats import mismatch as format_mismatch
 from enctools.data.header import Header, header_from_arrow, with_history
 from enctools.data.schemas import validate
 from enctools.data.text import first_line
-from enctools.errors import DataError, OutputError, UsageError
+from enctools.errors import DataError, EncError, OutputError, SettingsError
 
 __all__ = [
     "EXTENSIONS",
@@ -190,7 +190,7 @@ def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...
     if path is None or str(path) == "-":
         if stdin is None and sys.stdin.isatty():
             msg = "no input: give an input file, or pipe a stream into the command"
-            raise UsageError(msg)
+            raise SettingsError(msg)
         stream = _open_pipe(stdin if stdin is not None else sys.stdin.buffer, "stdin")
     else:
         source = str(path)
@@ -383,7 +383,7 @@ def read_table(path: str | os.PathLike[str] | None,
 def format_for_path(path: str, fmt: str | None = None) -> str:
     """The output format: ``fmt`` if given, else from the file's extension."""
     return files.format_by_extension(path, fmt, FORMATS, EXTENSIONS, "format",
-                                     f"use one of {', '.join(sorted(EXTENSIONS))} or --format")
+                                     f"use one of {', '.join(sorted(EXTENSIONS))} or `fmt`")
 
 
 def check_output(path: str | None, force: bool = False, fmt: str | None = None,
@@ -393,11 +393,11 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
         fmt = fmt or "arrows"
         if fmt not in ("arrows", "parquet", *csvio.FORMATS):
             msg = f"{fmt} cannot be written to a pipe (it needs seeking); use -o FILE"
-            raise UsageError(msg)
+            raise SettingsError(msg)
         out = stdout if stdout is not None else sys.stdout
         if fmt not in csvio.FORMATS and hasattr(out, "isatty") and out.isatty():
             msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
-            raise UsageError(msg)
+            raise SettingsError(msg)
         return
     files.check_new_file(path, force)
     if format_for_path(path, fmt) in csvio.FORMATS:  # its sidecar is written with it
@@ -412,7 +412,7 @@ class OutputStream:
     instead closes everything written so far into a valid file under the final name (see
     :meth:`keeps`): a device fault, an interruption (SIGINT, SIGTERM), a closed
     downstream pipe, a sibling output that failed, even a bug. Bad usage or bad input
-    (UsageError, DataError), or a failure of this output itself, still leaves nothing.
+    (SettingsError, DataError), or a failure of this output itself, still leaves nothing.
     """
 
     def __init__(self, path: str | None, header: Header, force: bool = False,
@@ -442,7 +442,7 @@ class OutputStream:
                 fd, tmp = files.new_temporary(p)
             except OSError as exc:
                 msg = f"output {self.path}: cannot create a file in {p.parent}: {exc.strerror}"
-                raise UsageError(msg) from None
+                raise OutputError(msg, self.path) from None
             os.close(fd)
             self._tmp = tmp
             self._sink = None
@@ -518,9 +518,9 @@ class OutputStream:
                 return
             try:  # a file, device or FIFO that appeared meanwhile is refused
                 files.rename_into_place(self._tmp, self.path, self.force)
-            except (UsageError, OutputError) as exc:
+            except OutputError as exc:
                 self._discard()
-                raise OutputError(str(exc), self.path) from None
+                raise OutputError(exc.template, self.path) from None
             except OSError as exc:
                 self._discard()
                 raise self._write_error(exc) from None
@@ -566,16 +566,17 @@ class OutputStream:
     def keeps(self, exc: BaseException) -> bool:
         """Whether ``keep_partial`` keeps what was written when ``exc`` ends the writing.
 
-        Kept for every ending but bad usage or bad input (UsageError, DataError) and a
-        failure of this output itself: a sibling output's failure (an OutputError naming
-        another path, or the pipe downstream closed) keeps this one.
+        Kept for every ending but bad usage or bad input (an error of exit status 2:
+        settings, usage, data) and a failure of this output itself: a sibling output's
+        failure (an OutputError naming another path, or the pipe downstream closed) keeps
+        this one.
         """
         if isinstance(exc, OutputError):
             return exc.path != self.path
         if isinstance(exc, BrokenPipeError) or (isinstance(exc, OSError)
                                                 and exc.errno == errno.EPIPE):
             return self.path is not None  # the closed pipe is stdout, not this file
-        return not isinstance(exc, (UsageError, DataError))
+        return not (isinstance(exc, EncError) and exc.exit_code == 2)
 
 
 def write_table(path: str | None, header: Header, table: pa.Table, force: bool = False,

@@ -1,7 +1,7 @@
 """The figures a command summarises, as plain dicts in one vocabulary.
 
-Every command that prints a summary builds it here as a dict (``--json`` prints it,
-the text on stderr is rendered from it), and ``enc report --json`` uses the same keys
+Every command that prints a summary builds it here as a dict (printed as JSON, or
+rendered as the text on stderr), and enc report's JSON uses the same keys
 for the same figures. The keys are listed in enc-streams(5), SUMMARIES. The rules:
 
 - snake_case; a number's key ends in its unit: ``pp_arcsec``, ``pp_nm`` (radial

@@ -1,18 +1,18 @@
 """Calibration points from a user's table: which column is what, in which unit.
 
-The options of enc-points(1), TABLES, as one :class:`Mapping`: the columns of the
-indicated angle (``--position``, or ``--measured`` beside a ``--reference``), the
-reference angle, the deviation, the direction and the run, each found by its title
-when no option names it, with a unit per column. :func:`map_table` turns a
+The table settings of enc-points(1), TABLES, as one :class:`Mapping`: the columns of
+the indicated angle (``column_position``, or ``column_measured`` beside a
+``column_reference``), the reference angle, the deviation, the direction and the run,
+each found by its title when no setting names it, with a unit per column. :func:`map_table` turns a
 :class:`~enctools.data.tables.RawTable` into :class:`TablePoints`:
 
 - the position of a point is the indicated angle (what the encoder reads), the index
   of a correction table; the reference angle is kept beside it;
 - reference + measured: deviation = measured - reference, wrapped to +-180 deg; their
-  constant zero offset (circular mean) is removed by default (``--zero-offset keep``
+  constant zero offset (circular mean) is removed by default (``zero_offset="keep"``
   keeps it) and always reported; the positions are the measured angles mod 360 deg;
 - position + deviation, or reference + deviation: the deviations as given (the offset,
-  their mean, is reported and removed only with ``--zero-offset remove``).
+  their mean, is reported and removed only with ``zero_offset="remove"``).
 
 Bad rows (not a number, NaN, out of range, a unit other than the column's), two points
 at one position, and a reference that steps back where the indicated angle goes on are
@@ -22,7 +22,7 @@ refused with one line naming the line (row) or column.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -30,7 +30,7 @@ import numpy as np
 from enctools.data import limits
 from enctools.data.tables import UNITS, RawTable, cell_unit, title_unit
 from enctools.data.text import printable
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
 from enctools.units import counts_factor, factor
 
 #: the columns a table maps to, in the order they are looked for
@@ -50,9 +50,10 @@ _ARCSEC_PER_DEG = factor("deg", "arcsec")
 class Mapping:
     """How a table's columns map to points; None: found by title, or the default.
 
-    position, reference, measured, deviation, direction, run : column titles (or
-        1-based numbers); position is the indicated angle (measured is the same,
-        named beside a reference).
+    column_position, column_reference, column_measured, column_deviation,
+    column_direction, column_run : the column of each role (:data:`ROLES`), by title
+        (or 1-based number); the position is the indicated angle (the measured angle
+        is the same, named beside a reference).
     position_unit, reference_unit, measured_unit : deg (default), rad, arcsec, arcmin,
         urad, mrad or counts; deviation_unit likewise, arcsec by default.
     counts_per_rev : counts a revolution, for a column in counts.
@@ -60,59 +61,61 @@ class Mapping:
         angle (None: remove for reference + measured, keep for a deviation column).
     """
 
-    position: str | None = None
-    reference: str | None = None
-    measured: str | None = None
-    deviation: str | None = None
-    direction: str | None = None
-    run: str | None = None
+    column_position: str | None = None
+    column_reference: str | None = None
+    column_measured: str | None = None
+    column_deviation: str | None = None
+    column_direction: str | None = None
+    column_run: str | None = None
     position_unit: str | None = None
     reference_unit: str | None = None
     measured_unit: str | None = None
     deviation_unit: str | None = None
     counts_per_rev: int | None = None
     zero_offset: str | None = None
-    #: how the command spells the reference column's option (enc correct: --reference-column)
-    reference_option: str = field(default="--reference", compare=False, repr=False)
 
-    def option(self, role: str) -> str:
-        """The option naming a role's column, as this command spells it."""
-        return self.reference_option if role == "reference" else f"--{role}"
+    def column(self, role: str) -> str | None:
+        """The column named for ``role`` (None: found by its title)."""
+        return getattr(self, f"column_{role}")
+
+    @staticmethod
+    def option(role: str) -> str:
+        """The setting naming a role's column, as a field between backticks."""
+        return f"`column_{role}`"
 
     def __post_init__(self) -> None:
         for role in (*ANGLES, "deviation"):
             unit = getattr(self, f"{role}_unit")
             if unit is not None and unit not in UNITS:
-                msg = f"--{role}-unit must be one of {', '.join(UNITS)}, not {unit!r}"
-                raise UsageError(msg)
+                msg = f"`{role}_unit` must be one of {', '.join(UNITS)}, not {unit!r}"
+                raise SettingsError(msg)
             if unit == "counts" and self.counts_per_rev is None:
-                msg = f"--{role}-unit counts needs --counts-per-rev"
-                raise UsageError(msg)
+                msg = f"`{role}_unit` counts needs `counts_per_rev`"
+                raise SettingsError(msg)
         lo, hi = 1, 1 << 40
         if self.counts_per_rev is not None and not lo <= self.counts_per_rev <= hi:
-            msg = f"--counts-per-rev must be in [{lo}, {hi}], not {self.counts_per_rev}"
-            raise UsageError(msg)
-        if self.position is not None and self.measured is not None:
-            msg = "--position and --measured both name the indicated angle: give one"
-            raise UsageError(msg)
+            msg = f"`counts_per_rev` must be in [{lo}, {hi}], not {self.counts_per_rev}"
+            raise SettingsError(msg)
+        if self.column_position is not None and self.column_measured is not None:
+            msg = ("`column_position` and `column_measured` both name the indicated angle: "
+                   "give one")
+            raise SettingsError(msg)
         if self.zero_offset is not None and self.zero_offset not in ZERO_OFFSET:
-            msg = f"--zero-offset must be remove or keep, not {self.zero_offset!r}"
-            raise UsageError(msg)
+            msg = f"`zero_offset` must be remove or keep, not {self.zero_offset!r}"
+            raise SettingsError(msg)
 
     def given(self) -> list[str]:
-        """The options given, by name."""
-        return [self.option(f.name) if f.name in ROLES else f"--{f.name.replace('_', '-')}"
-                for f in fields(self) if f.name != "reference_option"
-                and getattr(self, f.name) is not None]
+        """The settings given, each as its field between backticks."""
+        return [f"`{f.name}`" for f in fields(self) if getattr(self, f.name) is not None]
 
     def names_columns(self) -> bool:
-        """Whether any column is named by an option (then other columns are ignored)."""
-        return any(getattr(self, r) is not None for r in ROLES)
+        """Whether any column is named by a setting (then other columns are ignored)."""
+        return any(self.column(r) is not None for r in ROLES)
 
     def to_meta(self) -> dict[str, Any]:
-        """The mapping as given (None: found by title, or the default)."""
-        return {f.name: getattr(self, f.name) for f in fields(self)
-                if f.name != "reference_option"}
+        """The mapping as given (None: found by title, or the default), a column by its
+        role (``position``)."""
+        return {f.name.removeprefix("column_"): getattr(self, f.name) for f in fields(self)}
 
 
 @dataclass
@@ -142,17 +145,17 @@ class TablePoints:
                 "zero_offset_removed": self.offset_removed}
 
 
-def _options_line(reference: str = "--reference") -> str:
-    return (f"map them with --position COL --deviation COL, or {reference} COL --measured "
-            f"COL (or {reference} COL --deviation COL), and --direction COL, --run COL; "
-            "units: --position-unit, --reference-unit, --measured-unit, --deviation-unit "
-            f"({', '.join(UNITS)}; counts with --counts-per-rev)")
+def _options_line() -> str:
+    return ("map them with `column_position` COL `column_deviation` COL, or "
+            "`column_reference` COL `column_measured` COL (or `column_reference` COL "
+            "`column_deviation` COL), and `column_direction` COL, `column_run` COL; "
+            "units: `position_unit`, `reference_unit`, `measured_unit`, `deviation_unit` "
+            f"({', '.join(UNITS)}; counts with `counts_per_rev`)")
 
 
 def _cannot_map(raw: RawTable, what: str, mapping: Mapping) -> DataError:
     found = ", ".join(repr(printable(t)) for t in raw.titles)
-    return DataError(f"{raw.source}: {what}; columns found: {found}; "
-                     f"{_options_line(mapping.option('reference'))}")
+    return DataError(f"{raw.source}: {what}; columns found: {found}; {_options_line()}")
 
 
 def _named(raw: RawTable, name: str, role: str, mapping: Mapping) -> int:
@@ -187,7 +190,7 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
     naming the columns found and the options when the table does not map."""
     cols: dict[str, int] = {}
     for role in ROLES:
-        name = getattr(mapping, role)
+        name = mapping.column(role)
         if name is not None:
             cols[role] = _named(raw, name, role, mapping)
     for role in ROLES:
@@ -208,8 +211,8 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
                           f"deviation{found}", mapping)
     for role in (*ANGLES, "deviation"):
         if getattr(mapping, f"{role}_unit") is not None and role not in cols:
-            msg = f"--{role}-unit: the table has no {role} column"
-            raise UsageError(msg)
+            msg = f"`{role}_unit`: the table has no {role} column"
+            raise SettingsError(msg)
     unused = [t for k, t in enumerate(raw.titles) if k not in cols.values()]
     listed = ", ".join(repr(printable(t)) for t in unused)
     if unused and not mapping.names_columns():
@@ -228,7 +231,7 @@ def _unit(raw: RawTable, k: int, role: str, mapping: Mapping) -> str | None:
     said = title_unit(raw.titles[k])[1]
     if given is not None and said is not None and given != said:
         msg = (f"{raw.source}: column {printable(raw.titles[k])!r}: its title says {said}, "
-               f"--{role}-unit says {given} (mixed units)")
+               f"`{role}_unit` says {given} (mixed units)")
         raise DataError(msg)
     return given or said
 

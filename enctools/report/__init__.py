@@ -7,7 +7,7 @@
 - :mod:`.sections`: one section per stream kind, built from a stream's header and table.
 - :mod:`.summary`: the report of several inputs (sections + comparisons).
 - :mod:`.text`, :mod:`.jsonout`, :mod:`.html`, :mod:`.pdf`, :mod:`.plots`: renderings.
-- :mod:`.thresholds`: the cron contract (``--max-pp`` ...).
+- :mod:`.thresholds`: the cron contract (``max_pp`` ...).
 - :mod:`.history`: the nightly history dataset (one Parquet file per run, in the Hive
   partitions of :mod:`.partitions`).
 """

@@ -92,7 +92,7 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
 
 def certificate_face(meta: dict[str, Any]) -> Declaration | None:
     """The polygon's face uncertainty from the certificate the points were corrected with
-    (``enc points --polygon-certificate``): its largest standard uncertainty [arcsec]
+    (enc points' polygon certificate): its largest standard uncertainty [arcsec]
     (None: no certificate applied)."""
     u = points_face_uncertainty(meta)
     if u is None:
@@ -120,7 +120,7 @@ def budget_dict(budget: Budget) -> dict[str, Any]:
 
 
 def budget_lines(budget: Budget, unit: str = "arcsec") -> list[str]:
-    """The budget as text lines: u, u_c and U in ``unit`` (enc report --unit), each
+    """The budget as text lines: u, u_c and U in ``unit`` (the unit the report is read in), each
     declared value in its own unit."""
     f = factor("arcsec", unit)
     lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {budget.u_c * f:.4g}  nu_eff "

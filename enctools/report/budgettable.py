@@ -3,7 +3,7 @@
 One row per contribution: quantity, source, type, distribution, value with its unit,
 divisor, sensitivity c_i, standard uncertainty u_i and degrees of freedom nu_i; then
 the combined u_c, nu_eff, k and U. The budget is in arcsec; u_i, u_c and U are shown in
-the unit of ``enc report --unit`` (c_i in that unit per the value's unit).
+the unit the report is read in (c_i in that unit per the value's unit).
 """
 
 from __future__ import annotations

@@ -1,11 +1,12 @@
 """The laboratory's fields of a calibration certificate: a certificate file (TOML).
 
-``enc report --certificate FILE.toml`` reads who the certificate is for and what was
-calibrated, where and when, under which conditions, against which reference standards
-and who approves it (ISO/IEC 17025:2017 clause 7.8); ``--certificate-number`` overrides
-the number per run. Every key is documented in enc-certificate(5). An unknown table or
-key, a value of the wrong type or out of its range is one DataError line naming the
-file and the key, raised before the report is built (no partial output).
+A certificate file (enc report's, FILE.toml) says who the certificate is for and what
+was calibrated, where and when, under which conditions, against which reference
+standards and who approves it (ISO/IEC 17025:2017 clause 7.8); a number given apart
+(``certificate_number``) overrides the file's per run. Every key is documented in
+enc-certificate(5). An unknown table or key, a value of the wrong type or out of its
+range is one DataError line naming the file and the key, raised before the report is
+built (no partial output).
 
 Temperatures are in degC, humidity in % (relative).
 """
@@ -76,11 +77,11 @@ def load_certificate(path: str | None, number: str | None = None) -> Certificate
 
     Raises DataError (one line naming the file and the key) for a file that cannot be
     read, is not TOML, or has an unknown key or a value of the wrong type or range;
-    UsageError-free: the number option is checked as the file's key is.
+    the number given apart (``certificate_number``) is checked as the file's key is.
     """
     if path is None and number is None:
         return None
-    cert = Certificate(source=f"certificate file {path}" if path else "--certificate-number")
+    cert = Certificate(source=f"certificate file {path}" if path else "`certificate_number`")
     if path is not None:
         import tomllib  # here: a report without a certificate file never parses TOML
 
@@ -96,10 +97,10 @@ def load_certificate(path: str | None, number: str | None = None) -> Certificate
             raise DataError(msg) from None
         _parse(raw, cert, f"certificate file {path}")
     if number is not None:
-        cert.number = _value(number, TEXT, "--certificate-number", "number")
+        cert.number = _value(number, TEXT, "`certificate_number`", "number")
     if not cert.number or len(cert.number) > MAX_NUMBER or "\n" in cert.number:
         msg = (f"{cert.source}: no certificate number ([certificate] number of the file, "
-               f"or --certificate-number: one line of at most {MAX_NUMBER} characters)")
+               f"or `certificate_number`: one line of at most {MAX_NUMBER} characters)")
         raise DataError(msg)
     return cert
 

@@ -1,8 +1,8 @@
-"""The report in the angle unit a person asked for (``enc report --unit``).
+"""The report in the angle unit a person asked for (enc report's ``unit``).
 
-Streams and ``--json`` keep their documented units (angle errors in arcsec); the
-text, HTML and PDF a person reads show every angle error in the unit chosen by
-``--unit`` (arcsec, urad, mrad, deg, rad). :func:`in_unit` returns a copy of a
+Streams and the JSON summary keep their documented units (angle errors in arcsec); the
+text, HTML and PDF a person reads show every angle error in the unit chosen (``unit``:
+arcsec, urad, mrad, deg, rad). :func:`in_unit` returns a copy of a
 report whose angle errors (curves, uncertainties, figures, harmonic amplitudes,
 spectra, ISO 230-2 figures, the nightly history) are in that unit, each converted
 by :func:`enctools.units.factor`; radial motion stays nm, correction tables count,

@@ -9,7 +9,7 @@ into place (``os.replace`` is atomic within a file system). Readers see a run's 
 whole or not at all; hidden (``.``, ``_``) files are ignored, and a file that cannot be
 read is reported and skipped, never fatal.
 
-Reading one rig (``--rig``) opens that rig's folder only, and ``--since`` prunes the
+Reading one rig (``rig``) opens that rig's folder only, and ``since`` prunes the
 year folders before it and filters the rows on ``time``: both are pushed down to
 ``pyarrow.dataset``, so tabulating one rig costs the same in a fleet of ten rigs or a
 thousand.
@@ -249,7 +249,7 @@ def read_history(folder: str | os.PathLike[str], rig: str | None = None,
     """
     d = Path(folder)
     if not d.is_dir():
-        msg = f"--history {folder}: no such folder"
+        msg = f"`history_dir` {folder}: no such folder"
         raise DataError(msg)
     if since is not None and since.tzinfo is None:
         since = since.replace(tzinfo=_dt.UTC)

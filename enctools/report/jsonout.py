@@ -1,6 +1,6 @@
-"""The report as JSON for machines (``enc report --json``; the nightly history).
+"""The report as JSON for machines (enc report's JSON summary; the nightly history).
 
-The figures have the keys every command's ``--json`` gives them
+The figures have the keys every command's JSON summary gives them
 (:mod:`enctools.data.summaries`, enc-streams(5) SUMMARIES): each number's key ends in
 its unit (``pp_arcsec``, ``pp_nm`` for radial motion); NaN becomes null.
 """

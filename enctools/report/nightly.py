@@ -2,10 +2,11 @@
 append the run to the history dataset; the command is ``enc-nightly``
 (:mod:`enctools.cli.nightly`).
 
-1. Run the campaign: a shell command with ``RIG`` and ``OUT`` (a fresh folder) in its
-   environment that leaves its result stream in ``$OUT/result.parquet`` (default:
-   ``enc acquire --rig "$RIG" --mode steps | enc points -o "$OUT/result.parquet"``,
-   the polygon check of seed 001).
+1. Run the campaign (:class:`Campaign`): a callable given the rig, a fresh folder and
+   the run's id that leaves its result stream in ``result.parquet`` of that folder
+   (the command's default runs the polygon check of seed 001 through the library, a
+   step run and its points, in-process: :mod:`enctools.cli.campaign`; a user's script
+   runs as a process of its own).
 2. Report on the result (figures of its first deviation curve [arcsec]).
 3. Compare with the stored calibration (a points or deviations stream): drift =
    current - stored at the current positions (the stored curve interpolated
@@ -26,14 +27,13 @@ import math
 import os
 import re
 import shutil
-import subprocess
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from enctools.errors import DataError, EncError, UsageError
+from enctools.errors import DataError, EncError, Interrupted, SettingsError
 
 if TYPE_CHECKING:  # numpy, pyarrow and the report are imported when a night runs
     import numpy as np
@@ -41,24 +41,46 @@ if TYPE_CHECKING:  # numpy, pyarrow and the report are imported when a night run
     from enctools.report.sections import Curve, Section
     from enctools.report.summary import Report
 
-DEFAULT_CAMPAIGN = 'enc acquire --rig "$RIG" --mode steps | enc points -o "$OUT/result.parquet"'
+RESULT = "result.parquet"
+"""The name of the result stream a campaign leaves in its folder."""
+
+
+class CampaignFailed(EncError):
+    """A campaign that ended with a failing exit status of its own (1, 3, or another:
+    exit 2)."""
+
+    def __init__(self, message: str, exit_code: int = 2) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """What a night measures: ``run(rig, folder, run_id)`` leaves the result stream in
+    ``folder / RESULT`` (a points or deviations stream) or raises an
+    :class:`~enctools.errors.EncError` (:class:`CampaignFailed` with its exit status);
+    ``text``: how the history records it."""
+
+    run: Callable[[str, Path, str], object]
+    text: str
 
 
 @dataclass(frozen=True)
 class Settings:
     """One nightly recheck.
 
-    ``rig``: passed to the campaign as ``$RIG``; ``history_dir``: the history folder;
-    ``calibration``: the stored calibration stream; ``campaign``: the shell command;
-    ``tolerance``: largest allowed |drift| [arcsec]; ``init``: store this run as the
-    calibration when there is none; ``keep``: folder for the campaign's outputs
-    (default: a removed temporary folder); ``html``: also write the HTML report here.
+    ``rig``: the rig the campaign measures (a name or rig file); ``history_dir``: the
+    history folder; ``calibration``: the stored calibration stream; ``campaign``: what
+    is run (:class:`Campaign`); ``tolerance``: largest allowed |drift| [arcsec];
+    ``init``: store this run as the calibration when there is none; ``keep``: folder for
+    the campaign's outputs (default: a removed temporary folder); ``html``: also write
+    the HTML report here.
     """
 
     rig: str
     history_dir: str
     calibration: str
-    campaign: str = DEFAULT_CAMPAIGN
+    campaign: Campaign | None = None
     tolerance: float = 0.5
     init: bool = False
     keep: str | None = None
@@ -66,30 +88,37 @@ class Settings:
 
     def __post_init__(self) -> None:
         if not (self.tolerance >= 0 and math.isfinite(self.tolerance)):
-            msg = f"--max-drift must be >= 0, not {self.tolerance}"
-            raise UsageError(msg)
+            msg = f"`tolerance` must be >= 0, not {self.tolerance}"
+            raise SettingsError(msg)
         from enctools.report.partitions import rig_folder
 
         try:  # the rig names the history's partition folder
             rig_folder(self.rig)
         except ValueError as exc:
-            msg = f"--rig: {exc}"
-            raise UsageError(msg) from None
+            msg = f"`rig`: {exc}"
+            raise SettingsError(msg) from None
 
 
 @dataclass
 class Night:
     """What one run did: exit status, the summary line (stdout) and the messages
-    (stderr) in the order they arose, each ``("error" | "info", text)``."""
+    (stderr) in the order they arose, each ``("error" | "info", text)``; a setting named
+    in them (a field between backticks) is said in ``words`` (None: the field)."""
 
     code: int = 2
     status: str = "error"          # ok, drift or error
     summary: str | None = None
     messages: list[tuple[str, str]] = field(default_factory=list)
+    words: Callable[[str], str] | None = None
+
+    def say(self, text: str) -> str:
+        """``text`` with each setting it names (```field```) in this night's words."""
+        return EncError(text).render(self.words or (lambda name: name))
 
     def fail(self, why: str, code: int, record: dict[str, Any],
              summary: str | None = None) -> None:
         """End the run with an error: say why, keep it (or ``summary``) for the history."""
+        why = self.say(why)
         self.messages.append(("error", why))
         self.code = code
         if record:  # else the row is written already
@@ -141,17 +170,19 @@ def drift(current: Curve, stored: Curve) -> Drift:
     return Drift(x, d - offset, offset)
 
 
-def run_nightly(s: Settings) -> Night:
+def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night:
     """One nightly run (steps 1-4 above); the history gets its row whatever happens.
+    ``words``: a setting's field -> the words that name it in the night's messages (a
+    command: its option).
 
     SIGINT and SIGTERM end the night as a failure (exit 130, 143) that is recorded like
     any other; they wait while the row is written and the work folder removed, so a
     signal never leaves half of either. An OS error (a full disk, no permission, a
     read-only file system) is one message naming the file, exit 2.
     """
-    night = Night()
+    night = Night(words=words)
     record: dict[str, Any] = {"run_id": "", "rig": s.rig, "tolerance": s.tolerance,
-                              "campaign": s.campaign}
+                              "campaign": s.campaign.text if s.campaign else ""}
     work: Path | None = None
     try:
         with signals_held():  # a signal inside an import would leave numpy unusable for the row
@@ -163,7 +194,7 @@ def run_nightly(s: Settings) -> Night:
             work = _work_folder(s)
         _recheck(s, work, record, night)
     except EncError as exc:  # SIGTERM too (Interrupted, exit 143)
-        night.fail(str(exc), exc.exit_code, record)
+        night.fail(exc.template, exc.exit_code, record)
     except KeyboardInterrupt:
         night.fail("interrupted", 130, record)
     except OSError as exc:  # a folder that cannot be made, a full disk: one line, exit 2
@@ -211,7 +242,7 @@ WORK_PREFIX = "enc-nightly-"
 
 
 def _work_folder(s: Settings) -> Path:
-    """The campaign's folder: ``--keep``, or a new temporary folder named after this
+    """The campaign's folder: ``keep``, or a new temporary folder named after this
     process (``enc-nightly-PID@HOST-RANDOM``), once those of killed runs are removed."""
     if s.keep:
         work = Path(s.keep)
@@ -309,65 +340,33 @@ def _recheck(s: Settings, work: Path, record: dict[str, Any], night: Night) -> N
                      f"s {f.std:.3f}\", drift max {d.max_abs:.3f}\" "
                      f"(tolerance {s.tolerance:g}\")")
     if status != "ok":
-        night.messages.append(("error", f"drift {d.max_abs:.3f} arcsec > --max-drift "
-                                        f"{s.tolerance:g} against {s.calibration}"))
+        night.messages.append(("error", night.say(f"drift {d.max_abs:.3f} arcsec > "
+                                                  f"`tolerance` {s.tolerance:g} against "
+                                                  f"{s.calibration}")))
 
 
 def _run_campaign(s: Settings, work: Path, record: dict[str, Any], night: Night) -> Path | None:
     """Run the campaign in ``work``; its result stream, or None (the failure is told)."""
-    env = dict(os.environ, RIG=s.rig, OUT=str(work), ENC_NIGHTLY_RUN=record["run_id"])
-    code, err = run_campaign(s.campaign, env)
-    result = work / "result.parquet"
-    if code == 0 and result.exists():
-        return result
-    last = (err.decode(errors="replace").strip().splitlines() or ["-"])[-1]
-    why = f"campaign failed with exit {code}: {last}" if code else f"campaign left no {result}"
-    night.fail(why, code if code in (1, 3) else 2, record)
-    return None
-
-
-def run_campaign(command: str, env: dict[str, str]) -> tuple[int, bytes]:
-    """Run a shell command in a process group of its own; its status and stderr.
-
-    Whatever stops the wait (SIGTERM, SIGINT) stops the whole campaign first, every
-    process of its pipeline: SIGTERM, then SIGKILL for those still there after 5 s.
-    """
-    proc: subprocess.Popen[bytes] | None = None
+    if s.campaign is None:
+        night.fail("no campaign to run", 2, record)
+        return None
+    result = work / RESULT
     try:
-        with signals_held():  # a signal is acted on once ``proc`` is known
-            proc = subprocess.Popen(["/bin/bash", "-o", "pipefail", "-c", command], env=env,
-                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                    stderr=subprocess.PIPE, start_new_session=True)
-        _, err = proc.communicate()
-    except BaseException:
-        if proc is not None:
-            with signals_held():
-                _stop_group(proc)
+        s.campaign.run(s.rig, work, record["run_id"])
+    except Interrupted:
         raise
-    return proc.returncode, err
-
-
-def _stop_group(proc: subprocess.Popen[bytes]) -> None:
-    """SIGTERM to the process group of ``proc``, SIGKILL to what is left after 5 s."""
-    import signal
-    import time
-
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(proc.pid, signal.SIGTERM)
-    deadline = time.monotonic() + 5.0
-    with contextlib.suppress(subprocess.TimeoutExpired):
-        proc.wait(timeout=5.0)
-    while time.monotonic() < deadline:
-        try:
-            os.killpg(proc.pid, 0)
-        except ProcessLookupError:
-            break
-        time.sleep(0.05)
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait()
-    if proc.stderr is not None:
-        proc.stderr.close()
+    except CampaignFailed as exc:
+        night.fail(exc.template, exc.exit_code if exc.exit_code in (1, 3) else 2, record)
+        return None
+    except EncError as exc:  # the library's, in this process
+        code = exc.exit_code
+        night.fail(f"campaign failed with exit {code}: {exc.template}",
+                   code if code in (1, 3) else 2, record)
+        return None
+    if result.exists():
+        return result
+    night.fail(f"campaign left no {result}", 2, record)
+    return None
 
 
 def _calibration_ready(s: Settings, result: Path, record: dict[str, Any], night: Night) -> bool:
@@ -375,7 +374,7 @@ def _calibration_ready(s: Settings, result: Path, record: dict[str, Any], night:
     if Path(s.calibration).exists():
         return True
     if not s.init:
-        night.fail(f"--calibration {s.calibration}: no such file (use --init to store this "
+        night.fail(f"`calibration` {s.calibration}: no such file (use `init` to store this "
                    "run as the calibration)", 2, record, summary="no stored calibration")
         return False
     from enctools.data.files import write_atomic

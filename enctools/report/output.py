@@ -11,11 +11,12 @@ from enctools.errors import CheckFailed
 from enctools.report.display import in_unit
 from enctools.report.sections import Options
 from enctools.report.summary import build_report
-from enctools.report.thresholds import Thresholds, check
+from enctools.report.thresholds import Thresholds, check, in_words
 
 
 def check_paths(paths: Sequence[str | None], force: bool) -> None:
-    """Fail early when a report file cannot be written (exists without --force, no folder)."""
+    """Fail early when a report file cannot be written (exists without ``force``, no
+    folder)."""
     for p in paths:
         if p is not None:
             check_new_file(p, force)
@@ -27,7 +28,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
                history_filter: dict[str, Any] | None = None,
                prog: str = "enc report", unit: str = "arcsec",
                progress: Callable[[int, int], object] | None = None,
-               mapping: Any = None, cert: Any = None) -> None:
+               mapping: Any = None, cert: Any = None,
+               words: Callable[[str], str] | None = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
@@ -37,6 +39,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     the inputs read and the HTML and PDF renderings. ``mapping``: how a user's table
     maps to points (``data.tablemap.Mapping``). ``cert``: the laboratory's fields
     (``certificate.Certificate``; None: the HTML and PDF are a calibration report).
+    ``words``: a threshold's field -> the words that name it (a command: its option;
+    None: the field).
     """
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
@@ -49,7 +53,7 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         from enctools.report.history import read_history
         report.history = read_history(history_dir, **(history_filter or {}))
     report.settings["thresholds"] = limits.to_dict()
-    failures = check(report, limits)
+    failures = in_words(check(report, limits), words)
     shown = in_unit(report, unit)
     if as_json:
         from enctools.report.jsonout import to_json

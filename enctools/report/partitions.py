@@ -5,7 +5,7 @@ partitioned Parquet dataset: the rig and the year live in the folder names, not 
 files. A rig name is percent-encoded (``urllib.parse.quote`` with no safe character, so
 ``/``, ``=``, ``%`` and spaces become ``%2F``, ``%3D``, ``%25``, ``%20``), which those
 engines decode back. Kept free of numpy and pyarrow: ``enc-nightly`` checks its
-``--rig`` here before anything heavy is imported.
+rig's name here before anything heavy is imported.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The report's plots, as matplotlib Figures (object API: no pyplot state, no display).
 
 Every plot labels both axes with units: angle [deg] (or phase within the signal
-period [deg]), deviation [arcsec, or the unit of ``enc report --unit``], radial
+period [deg]), deviation [arcsec, or the unit the report is read in], radial
 motion [nm], signals [V], harmonic order [1/rev or 1/period], time [UTC].
 """
 

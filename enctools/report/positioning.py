@@ -85,11 +85,12 @@ def feedback_reason(where: Positioning, has_autocollimator: bool) -> str:
              "record a second encoder or a polygon with an autocollimator for the axis' figures")
     return (f"encoder {where.encoder} is the axis' feedback (rig motion.feedback): the axis "
             "moves until it reads the target, so encoder - target measures the servo loop, "
-            f"not the axis; {other}; --servo-loop gives the loop's figures")
+            f"not the axis; {other}; `servo_loop` gives the loop's figures")
 
 
 def servo_loop_note(where: Positioning, standard: str) -> str:
-    """The note of figures computed with --servo-loop from the feedback encoder."""
-    return (f"{standard} figures of the servo loop (--servo-loop): encoder {where.encoder} is "
+    """The note of figures computed with ``servo_loop`` from the feedback encoder (the
+    setting named as a field between backticks)."""
+    return (f"{standard} figures of the servo loop (`servo_loop`): encoder {where.encoder} is "
             "the axis' feedback, so they say how closely the loop holds it on the target, "
             "not how well the axis positions")

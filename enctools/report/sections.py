@@ -25,6 +25,7 @@ Readings are read batch by batch (memory does not grow with the run's length).
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,7 +37,7 @@ from enctools.data.columns import column, declared_unit, uncertainty_columns
 from enctools.data.schemas import columns_with_role, field_meta
 from enctools.data.statistics import Figures, curve_figures
 from enctools.data.streams import InputStream
-from enctools.errors import DataError
+from enctools.errors import DataError, EncError
 from enctools.methods.budget import Budget, type_a_coverage
 from enctools.methods.interp.screen import screen_notes
 from enctools.methods.points import count_deg
@@ -138,6 +139,12 @@ class Options:
     nmax: int = 100
     standard: str = "iso230-2"
     servo_loop: bool = False
+    #: a setting's field -> the words that name it in a note (a command: its option)
+    words: Callable[[str], str] | None = field(default=None, compare=False)
+
+    def say(self, text: str) -> str:
+        """``text`` with each setting it names (```field```) in :attr:`words`."""
+        return EncError(text).render(self.words or (lambda name: name))
 
     @property
     def standard_name(self) -> str:
@@ -496,7 +503,7 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
         _positioning(s, scan, encoder, opts, where)
     elif scan.rows and not stepped:
         s.notes.append(f"no {opts.standard_name} figures: a continuous run has no target "
-                       "positions to approach (enc acquire --mode steps)")
+                       "positions to approach (a step run of enc acquire has them)")
 
 
 def _signal_columns(schema: pa.Schema) -> dict[str, dict[str, str]]:
@@ -553,7 +560,7 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
         no_iso = ("a sweep steps over a small range, not targets over the axis's travel "
                   f"(a full turn) as {opts.standard_name} asks")
     elif where.is_feedback and not opts.servo_loop:
-        no_iso = feedback_reason(where, scan.autocollimator)
+        no_iso = opts.say(feedback_reason(where, scan.autocollimator))
     enc = encoder[0].encoder
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "
@@ -561,7 +568,7 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
     _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
                  "positioning", tol_deg=1e-9, run=run, no_iso=no_iso)
     if where.is_feedback and (s.iso is not None or s.vdi is not None):
-        s.notes.append(servo_loop_note(where, opts.standard_name))
+        s.notes.append(opts.say(servo_loop_note(where, opts.standard_name)))
     elif where.is_feedback and f"figures: {no_iso}" in " ".join(s.notes):
         logging.getLogger("enctools").warning("%s: no %s figures: %s", s.source,
                                               opts.standard_name, no_iso)

@@ -1,35 +1,39 @@
-"""Thresholds for cron: a check per option; exceeding any is exit status 1.
+"""Thresholds for cron: a check per field of :class:`Thresholds`; exceeding any is exit
+status 1.
 
-Each check names the figure, the curve and the input at fault, e.g.
-``p-p of deviation in before.parquet is 5.46 arcsec > --max-pp 3``.
+Each check names the figure, the curve and the input at fault, and the threshold by its
+field between backticks, e.g.
+``p-p of deviation in before.parquet is 5.46 arcsec > `max_pp` 3``, which
+:func:`in_words` renders with the caller's words for it (a command: its option).
 Figures in arcsec apply to deviation, points and positioning curves; radial
-motion [nm] has its own option; ROM corrections [count] and model curves (a fit,
+motion [nm] has its own threshold; ROM corrections [count] and model curves (a fit,
 not a measurement) are not checked.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from enctools.data.statistics import Figures
-from enctools.errors import UsageError
+from enctools.errors import CheckFailed, SettingsError
 from enctools.report.vdi3441 import AXIS_FIGURES
 
 if TYPE_CHECKING:  # a report's sections load its inputs' rigs: not needed by enc correct
     from enctools.report.summary import Report
 
 ISO_FIGURES = ("A", "R", "E", "B", "M", "A_up", "A_down", "R_up", "R_down", "E_up", "E_down")
-#: the figures of each standard a threshold may name, by option
-FIGURES = {"--max-iso": ("ISO 230-2", ISO_FIGURES), "--max-vdi": ("VDI/DGQ 3441", AXIS_FIGURES)}
+#: the figures of each standard a threshold may name, by field
+FIGURES = {"max_iso": ("ISO 230-2", ISO_FIGURES), "max_vdi": ("VDI/DGQ 3441", AXIS_FIGURES)}
 
 
 @dataclass
 class Thresholds:
-    """Limits given on the command line (None: not checked). Units: arcsec, nm."""
+    """Limits to check (None: not checked). Units: arcsec, nm."""
 
     max_pp: float | None = None
     max_std: float | None = None
@@ -50,8 +54,10 @@ class Thresholds:
         return {k: v for k, v in self.__dict__.items() if v not in (None, {}, [])}
 
 
-def parse_pairs(values: tuple[str, ...], option: str, key_type: type) -> dict:
-    """``N:VALUE`` pairs of an option given several times -> {key: value}."""
+def parse_pairs(values: tuple[str, ...], name: str, key_type: type) -> dict:
+    """``N:VALUE`` pairs of the threshold ``name`` (a field: ``max_harmonic``), given
+    several times -> {key: value}; SettingsError naming the field otherwise."""
+    option = f"`{name}`"
     out = {}
     for v in values:
         key, sep, limit = v.partition(":")
@@ -62,14 +68,14 @@ def parse_pairs(values: tuple[str, ...], option: str, key_type: type) -> dict:
             k, lim = None, math.nan
         if not sep or k is None or not math.isfinite(lim) or lim < 0:
             msg = f"{option} wants KEY:VALUE with VALUE >= 0 (e.g. {option} 2:0.5), not {v!r}"
-            raise UsageError(msg)
-        if key_type is str and k not in FIGURES[option][1]:
-            name, known = FIGURES[option]
-            msg = f"{option}: unknown {name} figure {k!r} (figures: {', '.join(known)})"
-            raise UsageError(msg)
+            raise SettingsError(msg)
+        if key_type is str and k not in FIGURES[name][1]:
+            standard, known = FIGURES[name]
+            msg = f"{option}: unknown {standard} figure {k!r} (figures: {', '.join(known)})"
+            raise SettingsError(msg)
         if key_type is int and k < 1:
             msg = f"{option}: harmonic order must be >= 1, not {k}"
-            raise UsageError(msg)
+            raise SettingsError(msg)
         out[k] = lim
     return out
 
@@ -80,20 +86,27 @@ def _arcsec_curves(report: Report):
             yield s, c
 
 
-def exceeded(value: float | None, limit: float | None, what: str, where: str, option: str,
+def exceeded(value: float | None, limit: float | None, what: str, where: str, name: str,
              unit: str = "arcsec") -> list[str]:
-    """The line naming a figure over its limit (``value > limit``), or none."""
+    """The line naming a figure over its limit (``value > limit``), or none; ``name``: the
+    threshold's field, and the key of a pair threshold (``max_harmonic 2:``)."""
     if limit is None or value is None or not value > limit:
         return []
-    sep = "" if option.endswith(":") else " "
-    return [f"{what} of {where} is {value:.4g} {unit} > {option}{sep}{limit:g}"]
+    field, _, key = name.partition(" ")
+    return [f"{what} of {where} is {value:.4g} {unit} > `{field}` {key}{limit:g}"]
+
+
+def in_words(lines: Sequence[str], words: Callable[[str], str] | None) -> list[str]:
+    """Lines of :func:`check` with each threshold's field named by ``words(field)``
+    (None: the field itself)."""
+    return [CheckFailed(line).render(words or (lambda field: field)) for line in lines]
 
 
 def figure_limits(f: Figures, limits: Thresholds, where: str) -> list[str]:
-    """--max-pp, --max-std and --max-abs over the figures [arcsec] of one set of values."""
-    return (exceeded(f.pp, limits.max_pp, "p-p", where, "--max-pp")
-            + exceeded(f.std, limits.max_std, "s (Bessel)", where, "--max-std")
-            + exceeded(f.max_abs, limits.max_abs, "max |deviation|", where, "--max-abs"))
+    """max_pp, max_std and max_abs over the figures [arcsec] of one set of values."""
+    return (exceeded(f.pp, limits.max_pp, "p-p", where, "max_pp")
+            + exceeded(f.std, limits.max_std, "s (Bessel)", where, "max_std")
+            + exceeded(f.max_abs, limits.max_abs, "max |deviation|", where, "max_abs"))
 
 
 def check(report: Report, limits: Thresholds) -> list[str]:
@@ -107,10 +120,10 @@ def check(report: Report, limits: Thresholds) -> list[str]:
     for s, c in _arcsec_curves(report):
         where = f"{c.name} in {s.source}"
         bad.extend(figure_limits(c.figures, limits, where))
-        over(c.U_max, limits.max_u, f"U (k={c.k:.3g})", where, "--max-u")
+        over(c.U_max, limits.max_u, f"U (k={c.k:.3g})", where, "max_u")
     for s, c in report.curves("nm"):
         over(c.figures.pp, limits.max_radial_pp, "p-p", f"{c.name} in {s.source}",
-             "--max-radial-pp", "nm")
+             "max_radial_pp", "nm")
     if limits.max_harmonic:
         for s, c in _arcsec_curves(report):
             h = c.harmonics
@@ -118,24 +131,24 @@ def check(report: Report, limits: Thresholds) -> list[str]:
                 continue
             for n, lim in sorted(limits.max_harmonic.items()):
                 over(h.amplitude_of(n), lim, f"harmonic {n}", f"{c.name} in {s.source}",
-                     f"--max-harmonic {n}:")
+                     f"max_harmonic {n}:")
         for s in report.sections:
             for sp in s.spectra:
                 for n, lim in sorted(limits.max_harmonic.items()):
                     hit = np.flatnonzero(sp.n == n)
                     if hit.size:
                         over(float(sp.amplitude[hit[0]]), lim, f"harmonic {n}",
-                             f"{sp.curve} in {s.source}", f"--max-harmonic {n}:")
+                             f"{sp.curve} in {s.source}", f"max_harmonic {n}:")
     if limits.max_iso:
         for s in report.sections:
             if s.iso is None:
                 continue
             axis = s.iso.axis()
             for key, lim in limits.max_iso.items():
-                over(axis.get(key), lim, f"ISO 230-2 {key}", s.source, f"--max-iso {key}:")
+                over(axis.get(key), lim, f"ISO 230-2 {key}", s.source, f"max_iso {key}:")
     for s in report.sections:
         if s.vdi is not None:
             axis = s.vdi.axis()
             for key, lim in limits.max_vdi.items():
-                over(axis[key], lim, f"VDI/DGQ 3441 {key}", s.source, f"--max-vdi {key}:")
+                over(axis[key], lim, f"VDI/DGQ 3441 {key}", s.source, f"max_vdi {key}:")
     return bad

@@ -124,7 +124,7 @@ def from_iso(iso: Iso230) -> Vdi3441:
     same run (the two standards share x_j and s_j per direction) [arcsec]."""
     if iso.up is None or iso.down is None:
         msg = ("one approach direction: the reversal span U and P need both "
-               "(enc acquire --bidirectional)")
+               "(a bidirectional step run of enc acquire)")
         raise DataError(msg)
     return vdi3441(iso.positions, iso.up.mean, iso.up.s, iso.down.mean, iso.down.s,
                    iso.up.runs, iso.down.runs)
