@@ -138,7 +138,7 @@ def _finish(outs: Sequence[OutputStream], failed: dict[OutputStream, BaseExcepti
 def _output_failure(failed: dict[OutputStream, BaseException], kept: list[str],
                     rows: int) -> OutputError:
     """One error for outputs that could not be written: which, why, and where the rows are."""
-    why = "; ".join(str(e) if isinstance(e, OutputError)
+    why = "; ".join(e.template if isinstance(e, OutputError)
                     else f"output {o.path or 'stdout'}: {e}" for o, e in failed.items())
     where = (f"the {rows} rows read are kept in {' and '.join(kept)}" if kept
              else "no output could keep them")
