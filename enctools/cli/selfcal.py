@@ -55,11 +55,18 @@ class MethodOption(click.Option):
         pass
 
 
+#: what sets the sample interval of a run: the recording's option
+ACQUIRE_INTERVAL = "enc acquire --interval"
+
+
 def method_option(command: str, tail: str) -> Callable[..., Any]:
     """``--method NAME`` of ``command`` (``"selfcal"``, ``"design"``): one of the
     registry's methods, default None (the registry's default for the number of heads)."""
     return click.option("--method", cls=MethodOption, command=command, tail=tail,
                         default=None)
+
+
+usage.FIELD_FLAGS["selfcal"] = {"interval_s": ACQUIRE_INTERVAL}
 
 
 @usage.renamed({"--ref": "--ref-head", "--reference": "--ref-head"})
