@@ -8,12 +8,13 @@ no noise gain and no ill-conditioned harmonics. One head is an arrangement too.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from enctools.methods.heads import average_transfer
 from enctools.methods.selfcal_methods.base import SelfcalMethod
 from enctools.methods.selfcal_methods.registry import register
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 @dataclass(frozen=True)
@@ -22,11 +23,17 @@ class Average(SelfcalMethod):
 
     def transfer(self, alpha_ref: float, alphas: np.ndarray,
                  n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        import numpy as np
+
+        from enctools.methods.heads import average_transfer
+
         a = np.abs(average_transfer(np.concatenate([[alpha_ref], alphas]), n))
         return a, a.copy()
 
     def sensitivity(self, alpha_ref: float, alphas: np.ndarray, n: np.ndarray,
                     transfer: np.ndarray) -> np.ndarray:
+        import numpy as np
+
         return np.zeros(n.size)
 
 

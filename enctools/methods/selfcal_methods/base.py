@@ -16,12 +16,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol
-
-import numpy as np
+from typing import TYPE_CHECKING, Any, Protocol
 
 from enctools.errors import SettingsError
-from enctools.methods.transfer import fourier_transfer
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["Bound", "SelfcalMethod", "Solution", "basic_scores", "basic_table"]
 
@@ -56,6 +56,8 @@ def basic_table(all_alphas: np.ndarray, n: np.ndarray, blind: float) -> tuple[np
                                                                                   np.ndarray]:
     """(exp(i n alpha_k) per head and order, the basic least squares' multiplier
     conj(exp(i n alpha_k) - mean_j exp(i n alpha_j)) / |W(n)|^2, 0 where blind and at n = 0)."""
+    import numpy as np
+
     w = np.exp(1j * np.outer(all_alphas, n))  # (heads, size)
     wc = w - w.mean(axis=0)
     den = np.sum(np.abs(wc) ** 2, axis=0)
@@ -68,6 +70,8 @@ def basic_table(all_alphas: np.ndarray, n: np.ndarray, blind: float) -> tuple[np
 def basic_scores(angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray:
     """min over ``n`` of the least-squares |W(n)| for candidate rows of angles [rad]
     besides a reference at 0 (``criterion`` alike: the basic |W| is its own noise norm)."""
+    import numpy as np
+
     full = np.concatenate([np.zeros((angles.shape[0], 1)), angles], axis=1)
     out = np.empty(angles.shape[0])
     for i0 in range(0, angles.shape[0], 4096):
@@ -153,6 +157,10 @@ class SelfcalMethod:
                  n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(|W(n)| as the method defines it, |W(n)| / its noise norm: 1 / noise gain) at
         orders ``n`` for heads at ``alpha_ref`` then ``alphas`` [rad]."""
+        import numpy as np
+
+        from enctools.methods.transfer import fourier_transfer
+
         basic = fourier_transfer(np.concatenate([[alpha_ref], alphas]), n)
         return basic, basic.copy()
 
@@ -160,6 +168,8 @@ class SelfcalMethod:
                     transfer: np.ndarray) -> np.ndarray:
         """First-order RMS relative error of F(n) per rad of each non-reference head's
         mounting error (iid)."""
+        import numpy as np
+
         m = alphas.size + 1
         return n * np.sqrt(m - 1) / np.maximum(transfer, 1e-300) / np.sqrt(m)
 
@@ -174,6 +184,8 @@ class SelfcalMethod:
               table: dict[str, np.ndarray]) -> Solution:
         """The head spectra (reference first; rad) solved for F (X, Y): the basic least
         squares, blind orders 0."""
+        import numpy as np
+
         f = np.einsum("kn,kn->n", table["basic"], spectra)  # fourier_solve's sum
         f[bound.blind] = 0
         return Solution(f)

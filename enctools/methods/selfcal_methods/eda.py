@@ -9,13 +9,13 @@ the rig's measuring heads, which are the equally spaced ones.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from enctools.methods.selfcal_methods.base import SelfcalMethod
 from enctools.methods.selfcal_methods.registry import register
-from enctools.methods.transfer import check_equal_spacing
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 @dataclass(frozen=True)
@@ -23,6 +23,10 @@ class EqualDivision(SelfcalMethod):
     """The basic method over equally spaced heads, checked to be so."""
 
     def prepare(self, alpha_ref: float, alphas: np.ndarray, names: list[str]) -> Any:
+        import numpy as np
+
+        from enctools.methods.transfer import check_equal_spacing
+
         check_equal_spacing(np.concatenate([[alpha_ref], alphas]), names)
         return None
 

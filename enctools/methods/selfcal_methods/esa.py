@@ -11,21 +11,14 @@ design figure is min |W(n)| over n = 2..K (Jiao et al. 2017, seed 000 ref. [16])
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from enctools.errors import SettingsError
 from enctools.methods.selfcal_methods.base import Bound, SelfcalMethod, Solution
 from enctools.methods.selfcal_methods.registry import register
-from enctools.methods.transfer import (
-    BLIND,
-    esa_noise_norm,
-    esa_transfer,
-    esa_weights,
-    fourier_transfer,
-)
-from enctools.units import DEG
+
+if TYPE_CHECKING:
+    import numpy as np
 
 #: scores are figured this many candidates at a time (arrays of the band each)
 CHUNK = 8192
@@ -36,6 +29,10 @@ class ErrorSeparation(SelfcalMethod):
     """Four heads: the graduation error and the spindle's radial motion x, y."""
 
     def prepare(self, alpha_ref: float, alphas: np.ndarray, names: list[str]) -> Any:
+        import numpy as np
+
+        from enctools.methods.transfer import esa_weights
+
         a = esa_weights(alpha_ref, alphas)
         if np.max(np.abs(a)) < 1e-9:
             msg = (f"esa: heads {', '.join(names)} cannot separate radial motion "
@@ -44,6 +41,10 @@ class ErrorSeparation(SelfcalMethod):
         return a
 
     def check_angles(self, alphas: np.ndarray, angles_deg: list[float]) -> None:
+        import numpy as np
+
+        from enctools.methods.transfer import esa_weights
+
         super().check_angles(alphas, angles_deg)
         if np.max(np.abs(esa_weights(alphas[0], alphas[1:]))) < 1e-12:
             msg = f"esa: heads at {angles_deg} cannot separate radial motion"
@@ -52,6 +53,10 @@ class ErrorSeparation(SelfcalMethod):
     def transfer(self, alpha_ref: float, alphas: np.ndarray,
                  n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """|W(n)| of eq. (15) with C = 1 and |W| / noise norm; n < 2 from the basic model."""
+        import numpy as np
+
+        from enctools.methods.transfer import esa_noise_norm, esa_transfer, fourier_transfer
+
         basic = fourier_transfer(np.concatenate([[alpha_ref], alphas]), n)
         transfer = np.abs(esa_transfer(alpha_ref, alphas, n))
         normalised = transfer / esa_noise_norm(alpha_ref, alphas)
@@ -63,6 +68,10 @@ class ErrorSeparation(SelfcalMethod):
     def sensitivity(self, alpha_ref: float, alphas: np.ndarray, n: np.ndarray,
                     transfer: np.ndarray) -> np.ndarray:
         """``n sqrt(sum a_j^2) / |W(n)|``; at n = 1 the basic model's ``1 / |W(1)|``."""
+        import numpy as np
+
+        from enctools.methods.transfer import esa_weights
+
         a = esa_weights(alpha_ref, alphas)
         sens = n * np.sqrt(np.sum(a**2)) / np.maximum(transfer, 1e-300)
         sens[n == 1] = 1.0 / np.maximum(transfer[n == 1], 1e-300)
@@ -71,6 +80,10 @@ class ErrorSeparation(SelfcalMethod):
     def tables(self, bound: Bound, n: np.ndarray, w: np.ndarray) -> dict[str, np.ndarray]:
         """``inverse`` 1 / W(n) (0 where blind and at n < 2), ``pairs`` exp(i n alpha_j) -
         exp(i n alpha_ref) and ``radial`` the least-squares inverse of eqs. (17), (18)."""
+        import numpy as np
+
+        from enctools.methods.transfer import BLIND, esa_noise_norm, esa_transfer
+
         transfer = esa_transfer(bound.alpha_ref, bound.alphas, n)
         ok = np.abs(transfer) / esa_noise_norm(bound.alpha_ref, bound.alphas) > BLIND
         ok[:2] = False
@@ -83,6 +96,8 @@ class ErrorSeparation(SelfcalMethod):
     def solve(self, bound: Bound, spectra: np.ndarray,
               table: dict[str, np.ndarray]) -> Solution:
         """Seed 000 eqs. (12)-(18) on spectra (ref first, then the three heads)."""
+        import numpy as np
+
         d = spectra[1:] - spectra[0]  # delta_j1(n), eq. (11)
         e = bound.params @ d  # E(n), eqs. (12), (15)
         f = e * table["inverse"]  # eq. (16)
@@ -100,6 +115,8 @@ class ErrorSeparation(SelfcalMethod):
 
     def scores(self, angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray:
         """min over n of |W(n)| (or |W| / noise norm) for candidate rows (ref at 0) [rad]."""
+        import numpy as np
+
         s = np.sin(angles)
         c = np.cos(angles) - 1.0
         a = np.cross(s, c)  # (N, 3), eq. (14)
@@ -118,6 +135,10 @@ class ErrorSeparation(SelfcalMethod):
     def grid_scores(self, cand_deg: np.ndarray, step: float, n: np.ndarray,
                     criterion: str) -> np.ndarray:
         """As :meth:`scores` for angles on a grid of ``step`` [deg]: a table lookup."""
+        import numpy as np
+
+        from enctools.units import DEG
+
         idx = np.rint(cand_deg / step).astype(np.int64)
         slots = np.arange(round(360.0 / step)) * (step * DEG)
         table = np.exp(1j * np.outer(slots, n)) - 1.0  # (slots, K)

@@ -3,6 +3,8 @@
 enc selfcal, enc design and their command lines read the methods from here, never a
 list of names: a method is one module of this package calling :func:`register` (found
 and imported on first use), or one :func:`register` call of one's own before the run.
+The modules stay light: numpy is imported when a method computes, so a command's help
+lists the methods without it.
 """
 
 from __future__ import annotations
