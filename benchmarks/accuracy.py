@@ -99,11 +99,11 @@ def continuous_campaign(seed: int, tmp: Path, revolutions: float = 20,
 
     enc(f"acquire --rig sjtu-dual --seed {seed} --revolutions {revolutions} "
         f"--interval {interval} -q -o raw.arrow", tmp)
-    enc("selfcal raw.arrow --method esa --ref H1 --heads H5,H6,H7 -q "
+    enc("selfcal raw.arrow --method esa --ref-head H1 --heads H5,H6,H7 -q "
         "--spectrum spec.parquet -o grad.parquet", tmp)
     enc("average-heads raw.arrow -q -o avg.arrow", tmp)
-    enc("compare avg.arrow --device H --ref P -q -o h-p.parquet", tmp)
-    enc("compare avg.arrow --device P --ref H --ref-curve grad.parquet --name P -q "
+    enc("compare avg.arrow --device H --reference P -q -o h-p.parquet", tmp)
+    enc("compare avg.arrow --device P --reference H --reference-curve grad.parquet --name P -q "
         "-o p.parquet", tmp)
     truth, _, grad = _truth(tmp / "grad.parquet")
     import pyarrow.parquet as pq
@@ -155,7 +155,7 @@ def selfcal_coverage(seed: int, tmp: Path, revolutions: float = 2,
 
     enc(f"acquire --rig sjtu-dual --seed {seed} --revolutions {revolutions} "
         f"--interval {interval} --heads H1,H2,H3,H4,H5,H6,H7 -q -o raw.arrow", tmp)
-    enc("selfcal raw.arrow --method esa --ref H1 --heads H5,H6,H7 -q "
+    enc("selfcal raw.arrow --method esa --ref-head H1 --heads H5,H6,H7 -q "
         "--spectrum spec.parquet -o grad.parquet", tmp)
     truth, _, grad = _truth(tmp / "grad.parquet")
     want = truth.graduation["II"].harmonics(K)
@@ -191,7 +191,7 @@ def compare_coverage(seed: int, tmp: Path, revolutions: float = 2,
     enc(f"acquire --rig sjtu-dual --seed {seed} --revolutions {revolutions} "
         f"--interval {interval} --heads H1,H2,H3,H4,P1,P2 -q -o raw.arrow", tmp)
     enc("average-heads raw.arrow -q -o avg.arrow", tmp)
-    enc("compare avg.arrow --device H --ref P -q --spectrum s.parquet -o h-p.parquet", tmp)
+    enc("compare avg.arrow --device H --reference P -q --spectrum s.parquet -o h-p.parquet", tmp)
     truth, _, hp = _truth(tmp / "h-p.parquet")
     want = _combined(truth, "II", [0, 90, 180, 270], K) - _combined(truth, "I", [0, 180], K)
     want[0] = 0
@@ -269,7 +269,7 @@ def quiet_selfcal(seed: int, tmp: Path, revolutions: float = 4) -> dict[str, flo
 
     rig = quiet_rig(tmp)
     enc(f"acquire --rig {rig} --seed {seed} --revolutions {revolutions} -q -o raw.arrow", tmp)
-    enc("selfcal raw.arrow --method esa --ref H1 --heads H5,H6,H7 -q --spectrum s.parquet "
+    enc("selfcal raw.arrow --method esa --ref-head H1 --heads H5,H6,H7 -q --spectrum s.parquet "
         "-o g.parquet", tmp)
     truth, _, _ = _truth(tmp / "g.parquet")
     spec = pq.read_table(tmp / "s.parquet")
@@ -289,7 +289,7 @@ def sweep_checks(seed: int, tmp: Path, readings: int = 20) -> dict[str, float]:
     enc(f"acquire --rig sjtu-dual --mode sweep --readings {readings} --seed {seed} -q "
         "-o sweep.parquet", tmp)
     enc("interp-check sweep.parquet -q -o probes.parquet", tmp)
-    enc("interp-check sweep.parquet --heads H1,H2 --ref P1 -q -o by-p1.parquet", tmp)
+    enc("interp-check sweep.parquet --heads H1,H2 --reference P1 -q -o by-p1.parquet", tmp)
     truth, header, table = _truth(tmp / "probes.parquet")
     theta = table["theta"].to_numpy()
     worst, worst_u = 0.0, np.inf
@@ -313,7 +313,7 @@ def continuous_interp(seed: int, tmp: Path, revolutions: float = 20) -> dict[str
     harmonics, largest difference from the truth [arcsec], and the largest u stated."""
     enc(f"acquire --rig sjtu-dual --interval 0.00505 --heads H1,P1 --seed {seed} "
         f"--revolutions {revolutions} -q -o run.arrow", tmp)
-    enc("interp-check run.arrow --ref P1 -q -o c.parquet", tmp)
+    enc("interp-check run.arrow --reference P1 -q -o c.parquet", tmp)
     from enctools.data.truth import interpolation_error_read
 
     truth, _, table = _truth(tmp / "c.parquet")

@@ -36,12 +36,12 @@ HEADS = 9  # sjtu-dual
 #: filter name -> arguments; a filter whose command is not installed is skipped
 FILTERS: dict[str, list[str]] = {
     "average-heads": ["average-heads"],
-    "compare": ["compare", "-q", "--device", "H1,H2,H3,H4", "--ref", "P1,P2"],
-    "selfcal": ["selfcal", "--method", "esa", "--ref", "H1", "--heads", "H5,H6,H7"],
+    "compare": ["compare", "-q", "--device", "H1,H2,H3,H4", "--reference", "P1,P2"],
+    "selfcal": ["selfcal", "--method", "esa", "--ref-head", "H1", "--heads", "H5,H6,H7"],
     "info": ["info"],
     # streams a continuous run: a trend per 0.5 deg window, sums of the fit only
     # (at the 3 ms of RUN, P2 is stroboscopic: skipped with a warning)
-    "interp-check": ["interp-check", "-q", "--ref", "P1"],
+    "interp-check": ["interp-check", "-q", "--reference", "P1"],
 }
 #: exit statuses that count as a measured run (besides 0)
 ACCEPT: dict[str, tuple[int, ...]] = {}
@@ -174,8 +174,8 @@ TINY_RUNS: dict[str, str] = {
     "average-heads": "average-heads {d}/r001.arrows",
     "selfcal": "selfcal {d}/r2.arrows",
     "design": "design --angles 0,90,200 -q",
-    "compare": "compare {d}/r2.arrows --device H1,H2,H3,H4 --ref P1,P2 -q",
-    "interp-check": "interp-check {d}/r001.arrows --ref P1 -q",
+    "compare": "compare {d}/r2.arrows --device H1,H2,H3,H4 --reference P1,P2 -q",
+    "interp-check": "interp-check {d}/r001.arrows --reference P1 -q",
     "fit-rbf": "fit-rbf {d}/points.arrows --spread 15 -q",
     "make-rom": "make-rom {d}/model.arrows --bits 10 -q{allow}",
     "latency": "latency --bits 23 --delay 1e-6",

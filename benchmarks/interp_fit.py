@@ -2,7 +2,7 @@
 """interp-check on a continuous run, before and after the fit's speed-ups (issue 18, item 1).
 
 Records one continuous run of the sjtu-dual rig at the paper's 3 ms (as benchmarks/bench.py
-does), then runs ``enc interp-check -q --ref P1`` on it, read from a pipe, with this
+does), then runs ``enc interp-check -q --reference P1`` on it, read from a pipe, with this
 checkout's code and with the code of a git revision (default: the fit before its
 speed-ups), each in turn and the best of ``--repeat``; ``cat`` of the same bytes into
 /dev/null is timed between them. CPU seconds (user + system, the reading thread
@@ -35,7 +35,7 @@ PY = sys.executable
 #: the fit before its speed-ups: the parent of the first of them (the 2026-11-26 code)
 BEFORE = "ec875cc~1"
 RUN = ["acquire", "--rig", "sjtu-dual", "--interval", "0.003", "-q"]
-CHECK = ["interp-check", "-q", "--ref", "P1", "--force"]
+CHECK = ["interp-check", "-q", "--reference", "P1", "--force"]
 ENC = "import sys; sys.argv[0] = 'enc'; from enctools.cli.main import main; main()"
 
 

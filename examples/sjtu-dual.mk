@@ -23,7 +23,7 @@ $(OUT)/raw.parquet:
 # 2. Self-calibration of encoder II: four-head error separation (eqs. 11-18) gives the
 #    graduation error (harmonics 1..100) and the spindle's radial error motion x, y
 $(OUT)/grad.parquet: $(OUT)/raw.parquet
-	$(ENC) selfcal $< --method esa --ref H1 --heads H5,H6,H7 \
+	$(ENC) selfcal $< --method esa --ref-head H1 --heads H5,H6,H7 \
 	    --spectrum $(OUT)/grad-spectrum.parquet -o $@ --force
 
 # 3. Multi-head averages H = mean(H1..H4), P = mean(P1, P2) (eqs. 3-6)
@@ -32,11 +32,11 @@ $(OUT)/avg.parquet: $(OUT)/raw.parquet
 
 # 4. Direct comparison of the two encoders, 100 harmonics, 20 revolutions (eq. 10)
 $(OUT)/h-p.parquet: $(OUT)/avg.parquet
-	$(ENC) compare $< --device H --ref P -o $@ --force
+	$(ENC) compare $< --device H --reference P -o $@ --force
 
 # 5. Encoder I's own error: H corrected with the self-calibrated curve (fig. 8)
 $(OUT)/p-error.parquet: $(OUT)/avg.parquet $(OUT)/grad.parquet
-	$(ENC) compare $< --device P --ref H --ref-curve $(OUT)/grad.parquet --name P \
+	$(ENC) compare $< --device P --reference H --reference-curve $(OUT)/grad.parquet --name P \
 	    -o $@ --force
 
 # 6. What the 0/60/135/228 deg arrangement can recover (|W(n)|, blind harmonics)
@@ -54,13 +54,13 @@ $(OUT)/interp.parquet: $(OUT)/sweep.parquet
 
 # 8. H1, H2 against P1 (another signal period), 1st/2nd harmonics kept (figs. 12-15)
 $(OUT)/interp-by-p1.parquet: $(OUT)/sweep.parquet
-	$(ENC) interp-check $< --heads H1,H2 --ref P1 -o $@ --force
+	$(ENC) interp-check $< --heads H1,H2 --reference P1 -o $@ --force
 
 # 9. H1's interpolation error from a continuous run instead of a sweep: 0.5 deg windows,
 #    each with its own trend, the harmonics shared; streamed in constant memory
 $(OUT)/interp-run.parquet:
 	@mkdir -p $(OUT)
-	$(ENC) acquire --rig $(RIG) --heads H1,P1 | $(ENC) interp-check --ref P1 -o $@ --force
+	$(ENC) acquire --rig $(RIG) --heads H1,P1 | $(ENC) interp-check --reference P1 -o $@ --force
 
 # 10. Signal quality from raw sin/cos (Heydemann), and the readings corrected with it
 $(OUT)/sweep-signals.parquet:

@@ -13,7 +13,6 @@ harmonics (see test_compare.py).
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 
 import numpy as np
@@ -131,11 +130,14 @@ def short_run() -> tuple:
 
 
 def test_settings_refuse_bad_band() -> None:
-    from enctools.errors import UsageError
+    from enctools.cli import average_heads
+    from enctools.cli.usage import message
+    from enctools.errors import SettingsError
     from enctools.methods.heads import Settings
 
-    with pytest.raises(UsageError, match="--band must be > 0, not 0"):
+    with pytest.raises(SettingsError) as err:
         Settings(band=0)
+    assert "--band must be > 0, not 0" in message(err.value, average_heads.command)
 
 
 @pytest.mark.parametrize("groups,expect", [
@@ -145,13 +147,16 @@ def test_settings_refuse_bad_band() -> None:
     ((("X", ("H1", "H3")), ("X", ("H2", "H4"))), "--average X: the name is given to two"),
 ])
 def test_groups_that_do_not_fit_the_heads(short_run: tuple, groups: tuple, expect: str) -> None:
+    from enctools.cli import average_heads
+    from enctools.cli.usage import message
     from enctools.data.streams import InputStream
-    from enctools.errors import UsageError
+    from enctools.errors import SettingsError
     from enctools.methods import heads
 
     header, batches = short_run
-    with pytest.raises(UsageError, match=re.escape(expect)):
+    with pytest.raises(SettingsError) as err:
         heads.run(InputStream(header, iter(batches), "sim", "sim"), heads.Settings(groups))
+    assert expect in message(err.value, average_heads.command, "average-heads")
 
 
 def test_metadata_as_before(short_run: tuple) -> None:

@@ -33,9 +33,9 @@ def campaigns(tmp_path_factory, sjtu_raw, ciomp_steps) -> dict[str, list[str]]:
     spectrum), direct comparison and interpolation error; seed 001's polygon points and
     RBF model."""
     d = tmp_path_factory.mktemp("campaigns")
-    _ok(f"enc selfcal {sjtu_raw} --method esa --ref H1 --heads H5,H6,H7 "
+    _ok(f"enc selfcal {sjtu_raw} --method esa --ref-head H1 --heads H5,H6,H7 "
         f"--spectrum {d}/spec.parquet -o {d}/grad.parquet")
-    _ok(f"enc average-heads {sjtu_raw} | enc compare --device H --ref P -o {d}/h-p.parquet")
+    _ok(f"enc average-heads {sjtu_raw} | enc compare --device H --reference P -o {d}/h-p.parquet")
     interp = make_interp(d / "interp.parquet")
     _ok(f"enc points {ciomp_steps} -o {d}/points.parquet")
     _ok(f"enc fit-rbf {d}/points.parquet -o {d}/model.parquet")

@@ -51,7 +51,7 @@ def test_a_run_imports_only_what_it_uses(tmp_path):
     cases = {"info": ([t], UNUSED + ("tempfile",)),
              "points": ([f"{DATA}/seed001_table1.csv"], UNUSED + ("tempfile",)),
              "average-heads": ([t], UNUSED + ("tempfile",)),
-             "interp-check": ([t, "--ref", "P1"], UNUSED + ("tempfile",)),
+             "interp-check": ([t, "--reference", "P1"], UNUSED + ("tempfile",)),
              "report": ([str(tmp_path / "p.arrows")], UNUSED + ("tempfile",)),
              "make-rom": ([str(tmp_path / "m.arrows"), "--bits", "10", "-o",
                            str(tmp_path / "r.bin"), "--allow-no-gain", "--allow-coarse"],

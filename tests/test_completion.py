@@ -61,7 +61,7 @@ def test_heads_complete_from_the_input_file(dual_run):
     # INPUT before the option: click cannot parse a line that ends in a bare --device,
     # so the names come from the words of the line
     assert plain(complete(f"enc compare {dual_run} --device ", 4)) == heads
-    assert plain(complete(f"enc selfcal --band 3 {dual_run} --ref P", 6)) == ["P1", "P2"]
+    assert plain(complete(f"enc selfcal --band 3 {dual_run} --ref-head P", 6)) == ["P1", "P2"]
     # in a comma list: the last name, never one already given
     offered = plain(complete(f"enc selfcal {dual_run} --heads H1,H2,H", 4))
     assert offered == [f"H1,H2,H{i}" for i in range(3, 8)]
@@ -80,8 +80,8 @@ def test_heads_complete_from_the_rig():
 def test_heads_complete_nothing_from_what_is_not_a_stream(tmp_path):
     junk = tmp_path / "notes.txt"
     junk.write_text("not a stream\n")
-    for line, cword in ((f"enc selfcal {junk} --ref ", 4), ("enc selfcal - --ref ", 4),
-                        (f"enc selfcal {tmp_path}/missing --ref ", 4),
+    for line, cword in ((f"enc selfcal {junk} --ref-head ", 4), ("enc selfcal - --ref-head ", 4),
+                        (f"enc selfcal {tmp_path}/missing --ref-head ", 4),
                         ("enc acquire --rig no-such-rig --heads ", 5)):
         assert plain(complete(line, cword)) == [], line
 

@@ -33,7 +33,7 @@ from enctools.methods.revolutions import Revolution
 from enctools.methods.selfcal_uncertainty import SampleRepeats
 from enctools.units import TWO_PI
 
-SELFCAL = "selfcal raw.arrow --method esa --ref H1 --heads H5,H6,H7"
+SELFCAL = "selfcal raw.arrow --method esa --ref-head H1 --heads H5,H6,H7"
 
 
 def enc_ok(args: str, cwd: Path) -> str:
@@ -166,7 +166,7 @@ def test_compare_states_k_and_dof(tmp_path: Path) -> None:
     enc_ok("acquire --rig sjtu-dual --seed 2 --revolutions 3 --interval 0.012 "
            "--heads H1,H2,H3,H4,P1,P2 -q -o raw.arrow", tmp_path)
     enc_ok("average-heads raw.arrow -q -o avg.arrow", tmp_path)
-    doc = json.loads(enc_ok("compare avg.arrow --device H --ref P --spectrum s.parquet "
+    doc = json.loads(enc_ok("compare avg.arrow --device H --reference P --spectrum s.parquet "
                             "--json -o hp.parquet", tmp_path))
     assert (field(tmp_path / "hp.parquet", "u_H-P")["dof"],
             field(tmp_path / "hp.parquet", "u_H-P")["k"]) == ("2", "4.30265")
@@ -174,7 +174,7 @@ def test_compare_states_k_and_dof(tmp_path: Path) -> None:
     assert doc["curves"][0]["coverage_k"] == pytest.approx(4.30265)
     enc_ok("acquire --rig sjtu-dual --seed 2 --revolutions 1.2 --interval 0.012 "
            "--heads H1,P1 -q -o one.arrow", tmp_path)
-    enc_ok("compare one.arrow --device H1 --ref P1 -q -o one.parquet", tmp_path)
+    enc_ok("compare one.arrow --device H1 --reference P1 -q -o one.parquet", tmp_path)
     assert "k" not in field(tmp_path / "one.parquet", "u_H1-P1")
 
 

@@ -10,6 +10,7 @@ The counts are quantised to 1/4096 of a period (0.0018" for P, 0.0061" for H).
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pyarrow as pa
@@ -20,7 +21,7 @@ from enctools.data.readings import head_info, signal_phase
 from enctools.data.schemas import make_field
 from enctools.data.streams import Header, read_table, write_table
 from enctools.data.truth import Truth, interpolation_error_read
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 from enctools.methods.interp import Settings
 from enctools.methods.interp.curve import error_figures
 from enctools.methods.interp.fit import fit_interpolation_error
@@ -84,7 +85,7 @@ def test_every_head_against_probes_matches_truth(sweep, tmp_path):
 @pytest.mark.slow
 def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
     _, probes, _ = check(f"{sweep} --heads H1,H2", tmp_path / "cs.parquet")
-    header, by_p1, r = check(f"{sweep} --heads H1,H2 --ref P1", tmp_path / "p1.parquet")
+    header, by_p1, r = check(f"{sweep} --heads H1,H2 --reference P1", tmp_path / "p1.parquet")
     meta = header.meta["curves"]["H1"]
     assert meta["period_ratio"] == pytest.approx(180000 / 52000)
     assert meta["kept"] == [1, 2]
@@ -99,28 +100,28 @@ def test_h1_against_p1_keeps_1st_2nd_harmonic(sweep, tmp_path):
         assert diff < 0.02, f"{name} by P1: {diff:.4f}\" from the probe result"
         assert np.abs(by_p1[name].to_numpy() - cs).max() < 0.02
     # the unfiltered difference H1 - P1 carries P1's error: clearly worse
-    _, raw, _ = check(f"{sweep} --heads H1 --ref P1 --keep 1,2,3,4 "
-                      "--ref-band 0", tmp_path / "raw.parquet")
+    _, raw, _ = check(f"{sweep} --heads H1 --reference P1 --keep 1,2,3,4 "
+                      "--reference-band 0", tmp_path / "raw.parquet")
     assert np.abs(raw["H1"].to_numpy() - probes["H1"].to_numpy()).max() > 0.03
 
 
 @pytest.mark.slow
 def test_reference_with_longer_period_warns(sweep, tmp_path):
     # the plain filter cannot remove H1's 2nd harmonic, at 0.578 of P1's period
-    header, _, r = check(f"{sweep} --heads P1 --ref H1 --ref-band 0",
+    header, _, r = check(f"{sweep} --heads P1 --reference H1 --reference-band 0",
                          tmp_path / "w.parquet")
     err = r.stderr.decode()
     assert "WARNING" in err and "lands at 0.578" in err and "kept harmonic 1" in err
     assert header.meta["curves"]["P1"]["period_ratio"] == pytest.approx(52000 / 180000)
     # fitted alongside over 3.47 P1 periods it is separable (1.46 cycles apart): no warning,
     # and P1's error by H1 matches the probes' 1st/2nd harmonics
-    header, by_h1, r = check(f"{sweep} --heads P1 --ref H1", tmp_path / "w2.parquet")
+    header, by_h1, r = check(f"{sweep} --heads P1 --reference H1", tmp_path / "w2.parquet")
     assert "WARNING" not in r.stderr.decode()
     _, probes, _ = check(f"{sweep} --heads P1", tmp_path / "w3.parquet")
     assert np.abs(by_h1["P1"].to_numpy() - probes["P1"].to_numpy()).max() < 0.01
     # too many reference harmonics: H1's 3rd..8th crowd P1's 1st and 2nd
     out = tmp_path / "w4.parquet"
-    r = run(f"enc interp-check {sweep} --heads P1 --ref H1 --ref-band 8 -o {out}")
+    r = run(f"enc interp-check {sweep} --heads P1 --reference H1 --reference-band 8 -o {out}")
     assert r.returncode == 2 and "undetermined" in r.stderr.decode()
 
 
@@ -224,10 +225,10 @@ def test_reference_without_overlap_in_time(sweep, tmp_path):
     ref = tmp_path / "later.parquet"
     write_table(str(ref), header, moved)
     out = tmp_path / "o.parquet"
-    r = run(f"enc interp-check {sweep} --heads H1 --ref P1 --ref-file {ref} -o {out}")
+    r = run(f"enc interp-check {sweep} --heads H1 --reference P1 --reference-file {ref} -o {out}")
     assert "no overlap in time" in one_line_error(r, out)
     # the same file in time works (the reference matched by t)
-    r = run(f"enc interp-check {sweep} --heads H1 --ref P1 --ref-file {sweep} -o {out}")
+    r = run(f"enc interp-check {sweep} --heads H1 --reference P1 --reference-file {sweep} -o {out}")
     assert r.returncode == 0, r.stderr.decode()
 
 
@@ -251,14 +252,14 @@ def test_zero_arm_length(sweep, tmp_path):
 
 @pytest.mark.parametrize("args, words", [
     ("--heads H9", "no head 'H9'"),
-    ("--ref Q1", "no head 'Q1'"),
-    ("--heads H1 --ref H1", "device itself"),
+    ("--reference Q1", "no head 'Q1'"),
+    ("--heads H1 --reference H1", "device itself"),
     ("--heads H1 --keep 7", "kept harmonic 7"),
     ("--signals --heads H1 --min-arc 400", "--min-arc"),
     ("--signals --heads H1 --allow-excluded 150", "--allow-excluded"),
     ("--signals --heads H1 --rails 1,-1", "--rails must be LOW,HIGH"),
-    ("--rails -1,1", "--rails needs --signals"),
-    ("--corrected x.parquet", "--corrected needs --signals"),
+    ("--rails -1,1", "--rails applies to Signals mode (--signals), not to Reference mode"),
+    ("--corrected x.parquet", "--corrected applies to Signals mode (--signals)"),
 ])
 @pytest.mark.slow
 def test_bad_options(sweep, tmp_path, args, words):
@@ -383,7 +384,7 @@ def test_nan_probe_samples_are_skipped_and_said(sweep, tmp_path):
     ({"arm_m": 0.0}, "--arm must be 1e-06..10 m"),
     ({"arm_m": float("nan")}, "--arm must be 1e-06..10 m"),
     ({"corrected": True}, "--corrected needs --signals"),
-    ({"signals": True, "average": True}, "--average does not apply to --signals"),
+    ({"signals": True, "average": True}, "--mean-of-heads does not apply to --signals"),
     ({"signals": True, "window_arcsec": 900.0}, "--window applies to the reference mode"),
     ({"rails_v": (-1.0, 1.0)}, "--rails needs --signals"),
     ({"signals": True, "rails_v": (1.0, -1.0)}, "--rails must be LOW,HIGH"),
@@ -393,8 +394,13 @@ def test_nan_probe_samples_are_skipped_and_said(sweep, tmp_path):
     ({"signals": True, "allow_excluded_pct": 101.0}, "--allow-excluded must be 0..100"),
 ])
 def test_settings_refuse_bad_combinations(options, words):
-    with pytest.raises(UsageError, match=words):
+    """The library names fields; the command line shows them as its options."""
+    from enctools.cli import interp_check
+    from enctools.cli.usage import message
+
+    with pytest.raises(SettingsError) as err:
         Settings(**options)
+    assert re.search(words, message(err.value, interp_check.command, "interp-check"))
 
 
 def test_settings_resolve_the_window_and_record_the_options():

@@ -28,8 +28,8 @@ BEFORE = "ec875cc~1"
 ENC = "import sys; sys.argv[0] = 'enc'; from enctools.cli.main import main; main()"
 
 CASES = {
-    "3ms": ("--interval 0.003 --revolutions 2", "--ref P1"),
-    "5ms": ("--interval 0.00505 --revolutions 2 --heads H1,H2,P1", "--ref P1"),
+    "3ms": ("--interval 0.003 --revolutions 2", "--reference P1"),
+    "5ms": ("--interval 0.00505 --revolutions 2 --heads H1,H2,P1", "--reference P1"),
     "sweep": ("--mode sweep", ""),
 }
 

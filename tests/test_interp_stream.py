@@ -54,7 +54,7 @@ def test_continuous_h1_by_p1_matches_truth(run20, tmp_path):
     whose projection on the phase columns averages over 14 400 windows), and within
     5 u + 0.0005"; P1's own 1st harmonic, fitted alongside, within 0.001"."""
     out = tmp_path / "c.parquet"
-    r = run(f"enc interp-check {run20} --ref P1 -o {out}")
+    r = run(f"enc interp-check {run20} --reference P1 -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     assert "WARNING" not in r.stderr.decode()
     header, table = read_table(out, "deviations")
@@ -82,9 +82,9 @@ def test_window_choice_and_bad_windows(run20, tmp_path):
     """A wider window (2 deg) leaves more graduation error: a larger residual and u, the
     same curve within 0.002"; a window shorter than the signal period is refused."""
     out = tmp_path / "w.parquet"
-    assert run(f"enc interp-check {run20} --ref P1 -q -o {out}").returncode == 0
+    assert run(f"enc interp-check {run20} --reference P1 -q -o {out}").returncode == 0
     _, base = read_table(out)
-    r = run(f"enc interp-check {run20} --ref P1 --window 7200 -q -o {out} --force")
+    r = run(f"enc interp-check {run20} --reference P1 --window 7200 -q -o {out} --force")
     assert r.returncode == 0, r.stderr.decode()
     header, wide = read_table(out)
     assert header.meta["curves"]["H1"]["residual_rms_arcsec"] > 0.04
@@ -92,7 +92,7 @@ def test_window_choice_and_bad_windows(run20, tmp_path):
     assert header.meta["settings"]["window_arcsec"] == 7200
     bad = tmp_path / "b.parquet"
     assert "shorter than the signal period" in one_line_error(
-        run(f"enc interp-check {run20} --ref P1 --window 20 -o {bad}"), bad)
+        run(f"enc interp-check {run20} --reference P1 --window 20 -o {bad}"), bad)
     assert "--window" in one_line_error(
         run(f"enc interp-check {run20} --window -5 -o {bad}"), bad)
     assert "--signals" in one_line_error(
@@ -109,9 +109,9 @@ def test_stroboscopic_heads_are_named(tmp_path):
             f"-o {raw}")
     assert r.returncode == 0
     out = tmp_path / "o.parquet"
-    err = one_line_error(run(f"enc interp-check {raw} --heads P2 --ref P1 -o {out}"), out)
+    err = one_line_error(run(f"enc interp-check {raw} --heads P2 --reference P1 -o {out}"), out)
     assert "P2" in err and "synchronous" in err and "--interval" in err
-    r = run(f"enc interp-check {raw} --ref P1 -o {out}")
+    r = run(f"enc interp-check {raw} --reference P1 -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     text = r.stderr.decode()
     assert "P2: sampling is nearly synchronous" in text and "not checked" in text
@@ -346,7 +346,7 @@ def test_peak_memory_does_not_grow_with_revolutions(run20, tmp_path):
     assert run(f"{ACQUIRE} --revolutions 200 -o {long}").returncode == 0
     peaks = []
     for f in (run20, long):
-        r = run(f"cat {f} | /usr/bin/time -f %M enc interp-check -q --ref P1 > /dev/null")
+        r = run(f"cat {f} | /usr/bin/time -f %M enc interp-check -q --reference P1 > /dev/null")
         assert r.returncode == 0, r.stderr.decode()
         peaks.append(int(r.stderr.decode().split()[-1]))
     assert peaks[1] < 1.2 * peaks[0], peaks

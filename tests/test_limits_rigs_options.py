@@ -244,7 +244,7 @@ def test_other_counts_and_spans_are_bounded(args: list[str], named: str,
     ["report", "{m}", "--html", "{d}/x", "--pdf", "{d}/x"],
     ["report", "{m}", "--html", "{d}/x", "--pdf", "{d}/./x"],
     ["selfcal", "{s}", "-o", "{d}/x.parquet", "--spectrum", "{d}/x.parquet"],
-    ["compare", "{s}", "--device", "H1", "--ref", "H3", "-o", "{d}/x.parquet",
+    ["compare", "{s}", "--device", "H1", "--reference", "H3", "-o", "{d}/x.parquet",
      "--spectrum", "{d}/x.parquet"],
     ["interp-check", "{s}", "-o", "{d}/x.parquet", "--spectrum", "{d}/x.parquet"],
     ["interp-check", "{s}", "--signals", "-o", "{d}/x.parquet", "--corrected", "{d}/x.parquet"],
@@ -267,8 +267,15 @@ def test_feedback_names_an_encoder_and_seeds_are_bounded(tmp_path: Path) -> None
 
 
 def test_min_arc_nan_is_refused() -> None:
-    from enctools.errors import UsageError
+    """The library names the field; the command line shows it as its option."""
+    import re
+
+    from enctools.cli import interp_check
+    from enctools.cli.usage import message
+    from enctools.errors import SettingsError
     from enctools.methods.interp import Settings
 
-    with pytest.raises(UsageError, match=r"--min-arc must be 10\.\.360 deg, not nan"):
+    with pytest.raises(SettingsError) as err:
         Settings(signals=True, min_arc_deg=float("nan"))
+    assert re.search(r"--min-arc must be 10\.\.360 deg, not nan",
+                     message(err.value, interp_check.command, "interp-check"))

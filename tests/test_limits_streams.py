@@ -76,7 +76,7 @@ def refused(cmd: str, what: str, name: str | None = None, timeout: float = 60) -
 @pytest.mark.parametrize("command", [
     "info",  # the stream is refused when opened, whatever the command: the others are slow
     pytest.param("selfcal --method esa", marks=pytest.mark.slow),
-    pytest.param("compare --device H1,H2,H3,H4 --ref P1,P2", marks=pytest.mark.slow)])
+    pytest.param("compare --device H1,H2,H3,H4 --reference P1,P2", marks=pytest.mark.slow)])
 def test_head_field_metadata_out_of_range(raw, tmp_path, key, value, command):
     bad = rewrite(raw, tmp_path / "bad.parquet", {"H1": {key: value}})
     out = "" if command == "info" else f" -o {tmp_path}/out.parquet"
@@ -185,7 +185,8 @@ def test_counts_near_the_int64_maximum(raw, tmp_path):
     h1 = table.column("H1").to_numpy() + (np.iinfo(np.int64).max - 10**9)
     bad = rewrite(raw, tmp_path / "big.parquet", columns={"H1": h1})
     for cmd in (f"enc selfcal --method esa {bad} -o {tmp_path}/o.parquet",
-                f"enc compare --device H1,H2,H3,H4 --ref P1,P2 {bad} -o {tmp_path}/o.parquet"):
+                f"enc compare --device H1,H2,H3,H4 --reference P1,P2 {bad} "
+                f"-o {tmp_path}/o.parquet"):
         refused(cmd, "'H1'")
 
 
@@ -219,7 +220,8 @@ def test_rig_metadata_of_the_wrong_type_names_the_field(encoder, key):
 
 def test_compare_name_of_a_column_of_its_own(raw, tmp_path):
     out = tmp_path / "c.parquet"
-    line = refused(f"enc compare --device H1,H2,H3,H4 --ref P1,P2 --name theta {raw} -o {out}",
+    line = refused(f"enc compare --device H1,H2,H3,H4 --reference P1,P2 --name theta {raw} "
+                   f"-o {out}",
                    "--name 'theta'")
     assert "deviations" in line and not out.exists()
 
@@ -278,7 +280,8 @@ def test_a_small_but_consistent_counts_per_rev(raw, tmp_path):
     tiny = {"counts_per_rev": "16", "periods_per_rev": "1", "interpolation": "16"}
     bad = rewrite(raw, tmp_path / "c16.parquet", {h: tiny for h in ("H1", "H2", "H3", "H4")})
     for cmd in (f"enc selfcal --method esa --heads H1,H2,H3,H4 {bad} -o {tmp_path}/o.parquet",
-                f"enc compare --device P1,P2 --ref H1,H2,H3,H4 {bad} -o {tmp_path}/o.parquet"):
+                f"enc compare --device P1,P2 --reference H1,H2,H3,H4 {bad} "
+                f"-o {tmp_path}/o.parquet"):
         line = refused(cmd, "turns between two samples", timeout=30)
         assert "counts_per_rev" in line
 

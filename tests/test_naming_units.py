@@ -59,9 +59,9 @@ def outputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         "enc selfcal raw.arrows --method esa --spectrum selfcal-spectrum.parquet "
         "-o selfcal.parquet",
         "enc average-heads raw.arrows -o avg.parquet",
-        "enc compare avg.parquet --device H --ref P --spectrum compare-spectrum.parquet "
+        "enc compare avg.parquet --device H --reference P --spectrum compare-spectrum.parquet "
         "-o compare.parquet",
-        "enc interp-check raw.arrows --heads H1 --ref P1 --spectrum interp-spectrum.parquet "
+        "enc interp-check raw.arrows --heads H1 --reference P1 --spectrum interp-spectrum.parquet "
         "-o interp.parquet",
         f"enc points {DATA}/seed001_table1.csv -o points.parquet",
         "enc fit-rbf points.parquet -o model.parquet",

@@ -18,7 +18,7 @@ ALL = [(name, p) for name in _available() for p in _params(name)]
 
 #: flags that once meant the same idea as another flag, or two ideas at once
 RETIRED = {"--nmax": "--band", "--harmonics": "--band or --top", "--check": "--max-<figure>",
-           "--reference-harmonics": "--ref-band"}
+           "--reference-harmonics": "--reference-band"}
 
 
 @pytest.mark.parametrize("flag, metavar", [("--band", "K"), ("--heads", "H1,H2,..."),
@@ -31,10 +31,14 @@ def test_shared_option_has_one_metavar(flag, metavar):
         assert p.metavar == metavar, f"enc {name} {flag} shows {p.metavar}, not {metavar}"
 
 
-def test_references_are_ref_first():
+def test_references_are_spelt_one_way():
+    """A reference a command measures against is --reference (a head of the scale
+    calibrated is selfcal's --ref-head); --ref alone is an old spelling, hidden."""
     for name, p in ALL:
         if "--reference" in p.opts:
-            assert p.opts[0] == "--ref", f"enc {name}: {p.opts}"
+            assert p.opts[0] in ("--ref", "--reference"), f"enc {name}: {p.opts}"
+    for name in ("selfcal", "compare", "latency", "interp-check"):
+        assert not [p for p in _params(name) if "--ref" in p.opts], name
 
 
 def test_retired_spellings_are_gone():
@@ -54,7 +58,7 @@ def test_thresholds_are_max_figure_numbers():
 
 
 @pytest.mark.parametrize("cmd", ["selfcal --band 2000000", "selfcal --points 1000000000",
-                                 "compare --device H1 --ref H2 --points 1000000000",
+                                 "compare --device H1 --reference H2 --points 1000000000",
                                  "design --angles 0,60,135,228 --band 1000000000",
                                  "average-heads --band 1000000000", "report --band 2000000"])
 def test_absurd_orders_and_grids_are_usage_errors(cmd, tmp_path):

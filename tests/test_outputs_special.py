@@ -46,7 +46,7 @@ WRITERS = [
     ("make-rom", "{model} --bits 16 --allow-no-gain --allow-coarse --target mif -o {out}",
      ".mif"),
     ("average-heads", "{raw} -o {out}", ".parquet"),
-    ("compare", "{raw} --device H1 --ref H2 -o {tmp}/c.parquet --spectrum {out}", ".parquet"),
+    ("compare", "{raw} --device H1 --reference H2 -o {tmp}/c.parquet --spectrum {out}", ".parquet"),
     ("fit-rbf", "{csv} -o {out}", ".parquet"),
     ("points", "{csv} -o {out}", ".h5"),
     ("interp-check", "{raw} --signals -o {tmp}/i.parquet --corrected {out}", ".arrows"),

@@ -29,7 +29,7 @@ def raw(tmp_path_factory):
 # (command, its arguments with {o} its folder of outputs, the outputs' names)
 COMMANDS = [
     ("selfcal", "{raw} -o {o}/d.parquet --spectrum {o}/s.parquet", ["d.parquet", "s.parquet"]),
-    ("compare", "{raw} --device H1 --ref H2 -o {o}/c.parquet --spectrum {o}/s.parquet",
+    ("compare", "{raw} --device H1 --reference H2 -o {o}/c.parquet --spectrum {o}/s.parquet",
      ["c.parquet", "s.parquet"]),
     ("interp-check", "{sig} --signals -o {o}/i.parquet --spectrum {o}/s.parquet "
      "--corrected {o}/c.arrows", ["i.parquet", "s.parquet", "c.arrows"]),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -143,17 +144,26 @@ def test_real_comparator_table_magalpha(tmp_path, name):
 
 
 def test_points_settings_refuse_in_process(tmp_path):
-    from enctools.errors import UsageError
+    """The library names fields; the command line shows them as its options."""
+    from enctools.cli import points as points_cli
+    from enctools.cli.usage import message
+    from enctools.errors import SettingsError
     from enctools.methods.points import Settings, make_points
 
-    with pytest.raises(UsageError, match=r"^--faces must be > 0, not 0$"):
+    def shown(err: pytest.ExceptionInfo) -> str:
+        return message(err.value, points_cli.command, "points")
+
+    with pytest.raises(SettingsError) as err:
         Settings(faces=0)
+    assert re.match(r"^--faces must be > 0, not 0$", shown(err))
     given = Settings(heads=("F1",), faces=3)
-    with pytest.raises(UsageError, match=r"^--heads, --faces: for a steps run; t.csv is a table"):
+    with pytest.raises(SettingsError) as err:
         given.check_table("t.csv")
+    assert re.match(r"^--heads, --faces: for a steps run; t.csv is a table", shown(err))
     Settings().check_table("t.csv")
-    with pytest.raises(UsageError, match="--autocollimator: for a steps run"):
+    with pytest.raises(SettingsError) as err:
         make_points(str(DATA / "seed001_table1.csv"), Settings(autocollimator="AC"))
+    assert "--autocollimator: for a steps run" in shown(err)
     assert given.to_meta() == {"heads": ["F1"], "autocollimator": None, "faces": 3}
 
 

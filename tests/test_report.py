@@ -566,7 +566,7 @@ def test_real_pipeline_selfcal_compare_interp(sjtu_raw, tmp_path):
     read, its figures equal the columns' own (numpy on the file), the HTML is written."""
     d = tmp_path
     r = run(f"enc selfcal {sjtu_raw} --spectrum {d}/spec.parquet -o {d}/selfcal.parquet && "
-            f"enc compare {sjtu_raw} --device H1 --ref P1,P2 -o {d}/compare.parquet && "
+            f"enc compare {sjtu_raw} --device H1 --reference P1,P2 -o {d}/compare.parquet && "
             f"enc acquire --rig sjtu-dual --mode sweep | enc interp-check -o {d}/interp.parquet")
     assert r.returncode == 0, r.stderr.decode()
     files = [d / f for f in ("selfcal.parquet", "spec.parquet", "compare.parquet",

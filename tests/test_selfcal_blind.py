@@ -98,7 +98,7 @@ def moved_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 
 def test_blind_radial_warned_recorded_and_strict(moved_run: tuple[Path, Path]) -> None:
     d, raw = moved_run
-    r = run(f"enc selfcal {raw} --ref H1 --heads H5,H6,H7 -o {d}/g.parquet "
+    r = run(f"enc selfcal {raw} --ref-head H1 --heads H5,H6,H7 -o {d}/g.parquet "
             f"--spectrum {d}/s.parquet --json")
     assert r.returncode == 0, r.stderr.decode()
     warning = r.stderr.decode()
@@ -112,7 +112,7 @@ def test_blind_radial_warned_recorded_and_strict(moved_run: tuple[Path, Path]) -
         assert header.meta["blind_radial"] == BLIND, name
     r = run(f"enc report {d}/s.parquet")
     assert "radial motion x, y blind at: 35, 36, 37, 71, 72, 73" in r.stdout.decode()
-    r = run(f"enc selfcal {raw} --ref H1 --heads H5,H6,H7 --strict -o {d}/h.parquet")
+    r = run(f"enc selfcal {raw} --ref-head H1 --heads H5,H6,H7 --strict -o {d}/h.parquet")
     line = one_error_line(r, 2, cmd="enc selfcal")
     assert "radial motion x, y blind at 35, 36, 37, 71, 72, 73" in line
     assert not (d / "h.parquet").exists()
@@ -121,7 +121,7 @@ def test_blind_radial_warned_recorded_and_strict(moved_run: tuple[Path, Path]) -
 def test_fourier_has_no_blind_radial(moved_run: tuple[Path, Path]) -> None:
     """The fourier method does not solve x, y: the summary's blind_radial is null."""
     d, raw = moved_run
-    r = run(f"enc selfcal {raw} --method fourier --ref H1 --heads H5,H6,H7 "
+    r = run(f"enc selfcal {raw} --method fourier --ref-head H1 --heads H5,H6,H7 "
             f"-o {d}/f.parquet --json -q")
     assert r.returncode == 0, r.stderr.decode()
     assert json.loads(r.stdout)["blind_radial"] is None

@@ -140,7 +140,7 @@ def test_three_heads_exact_whatever_the_offsets(tmp_path: Path, convention: str,
     offsets = _offsets(convention)
     readings = tmp_path / "r.parquet"
     write_readings(readings, grad, offsets, simulator=convention == "simulator")
-    c, u, meta = selfcal(tmp_path, readings, f"--method fourier --ref H1 --heads H2,H3 "
+    c, u, meta = selfcal(tmp_path, readings, f"--method fourier --ref-head H1 --heads H2,H3 "
                                              f"--angle-from {coordinate}")
     origin = offsets[0] + np.radians(ANGLES[0])  # the reference head's own offset
     err = rms(c - shifted_truth(grad, origin))
@@ -160,7 +160,7 @@ def test_other_heads_offsets_change_nothing_the_reference_moves_the_origin(
     """Whole counts added to H2, H3 (the coordinate's heads too) leave the result as it was,
     to rounding; added to H1 (the reference) they move the curve along theta by as much."""
     grad = profile(2.85, seed=4)
-    args = "--method fourier --ref H1 --heads H2,H3 --angle-from H1,H2,H3"
+    args = "--method fourier --ref-head H1 --heads H2,H3 --angle-from H1,H2,H3"
     base = tmp_path / "base.parquet"
     write_readings(base, grad, np.zeros(3), simulator=True)
     want, _, _ = selfcal(tmp_path, base, args)
@@ -189,7 +189,7 @@ def test_issue_profile_counts_rounding_within_u(tmp_path: Path) -> None:
     grad = profile(2.85, seed=2)
     readings = tmp_path / "r.parquet"
     write_readings(readings, grad, _offsets("zero_count 0"))
-    c, u, _ = selfcal(tmp_path, readings, "--method fourier --ref H1 --heads H2,H3 "
+    c, u, _ = selfcal(tmp_path, readings, "--method fourier --ref-head H1 --heads H2,H3 "
                                           "--angle-from H1,H2,H3")
     err = rms(c - shifted_truth(grad, 0.0))
     assert err <= 1e-7 * 2.85, err / 2.85
@@ -207,7 +207,7 @@ def test_esa_with_radial_motion_and_offsets(tmp_path: Path) -> None:
     readings = tmp_path / "r.parquet"
     write_readings(readings, grad, offsets, angles=(0.0, 60.0, 135.0, 228.0),
                    radial=(x, y, 0.1))
-    c, u, _ = selfcal(tmp_path, readings, "--method esa --ref H1 --heads H2,H3,H4 "
+    c, u, _ = selfcal(tmp_path, readings, "--method esa --ref-head H1 --heads H2,H3,H4 "
                                           "--angle-from H2")
     err = rms(c - shifted_truth(grad, offsets[0]))
     assert err <= 1e-9 * 600.0 and err <= 2 * rms(u), (err, rms(u))

@@ -101,7 +101,7 @@ def test_interp_check_streams_a_long_run(tmp_path) -> None:
     res = {}
     for revs in (20, 100):
         out = tmp_path / f"ic{revs}.arrows"
-        r = run(f"{acquire} --revolutions {revs} | enc interp-check --ref P1 -q -o {out}")
+        r = run(f"{acquire} --revolutions {revs} | enc interp-check --reference P1 -q -o {out}")
         assert r.returncode == 0, r.stderr.decode()
         res[revs] = read_table(out)[0].meta["curves"]["H1"]
     assert res[100]["samples"] > 1_000_000
@@ -126,7 +126,7 @@ with pa.ipc.new_stream(sys.stdout.buffer, t.schema) as w:
 """
 
 
-@pytest.mark.parametrize("command", ["compare --device H1 --ref P1", "selfcal"])
+@pytest.mark.parametrize("command", ["compare --device H1 --reference P1", "selfcal"])
 @pytest.mark.slow
 def test_an_error_mid_stream_ends_at_once_while_the_writer_is_quiet(
         tmp_path, sjtu_raw, command: str) -> None:

@@ -109,7 +109,7 @@ def test_selfcal_json(runs, tmp_path):
 
 def test_compare_json(runs, tmp_path):
     out = tmp_path / "c.parquet"
-    doc = json_of(f"enc compare {runs}/run.parquet --device H1,H2,H3,H4 --ref P1,P2 "
+    doc = json_of(f"enc compare {runs}/run.parquet --device H1,H2,H3,H4 --reference P1,P2 "
                   f"--name HP --json -o {out}")
     c = doc["curves"][0]
     assert c["name"] == "HP" and doc["n_revolutions"] == 3
@@ -204,7 +204,8 @@ def test_report_json_keys_as_the_commands(runs, tmp_path):
 
 @pytest.mark.parametrize("cmd", [
     "acquire --rig ciomp-23bit --mode steps", "average-heads {run}", "selfcal {run}",
-    "compare {run} --device H1 --ref P1", "interp-check {run} --ref P1", "points {steps}",
+    "compare {run} --device H1 --reference P1", "interp-check {run} --reference P1",
+    "points {steps}",
     f"fit-rbf {DATA}/seed001_table1.csv", "make-rom {steps}"])
 def test_json_needs_o_file_when_the_stream_takes_stdout(cmd, runs):
     r = run("enc " + cmd.format(run=runs / "run.parquet", steps=runs / "steps.parquet")
@@ -217,7 +218,7 @@ def test_json_needs_o_file_when_the_stream_takes_stdout(cmd, runs):
 def test_quiet_is_silent_and_unit_converts(runs, tmp_path):
     for cmd in (f"enc average-heads {runs}/run.parquet -o {tmp_path}/a.parquet",
                 f"enc selfcal {runs}/run.parquet -o {tmp_path}/s.parquet",
-                f"enc compare {runs}/run.parquet --device H1,H2,H3,H4 --ref P1,P2 "
+                f"enc compare {runs}/run.parquet --device H1,H2,H3,H4 --reference P1,P2 "
                 f"-o {tmp_path}/c.parquet",
                 f"enc points {runs}/steps.parquet -o {tmp_path}/p.parquet",
                 f"enc fit-rbf {DATA}/seed001_table1.csv -o {tmp_path}/m.parquet",
@@ -269,9 +270,9 @@ def _on_a_terminal(argv: list[str]) -> tuple[int, str]:
 def test_progress_on_a_terminal_and_not_with_q(runs, tmp_path):
     for cmd, what in ((["average-heads", str(runs / "run.parquet")], "rows"),
                       (["selfcal", str(runs / "run.parquet")], "revolutions"),
-                      (["compare", str(runs / "run.parquet"), "--device", "H1", "--ref", "P1"],
-                       "revolutions"),
-                      (["interp-check", str(runs / "run.parquet"), "--ref", "P1",
+                      (["compare", str(runs / "run.parquet"), "--device", "H1",
+                        "--reference", "P1"], "revolutions"),
+                      (["interp-check", str(runs / "run.parquet"), "--reference", "P1",
                         "--heads", "H1"], "rows read"),
                       (["fit-rbf", f"{DATA}/seed001_table1.csv"], "spread search"),
                       (["make-rom", str(tmp_path / "fit-rbf.parquet"), "--bits", "23",

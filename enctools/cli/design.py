@@ -6,15 +6,20 @@ from typing import Any
 
 import click
 
-from enctools.cli import options
+from enctools.cli import options, usage
+from enctools.cli.selfcal import method_option
 from enctools.units import DEG
 
+usage.FIELD_FLAGS["design"] = {"angles_deg": "--angles", "min_gap_deg": "--min-gap",
+                               "mounting_error_deg": "--mounting-error"}
 
+
+@usage.renamed({"--table": "--tsv"})
 @click.command("design")
 @click.option("--angles", default=None, callback=options.float_list, metavar="DEG,DEG,...",
               help="Head angles [deg], the reference first (e.g. 0,60,135,228).")
-@click.option("--method", type=click.Choice(["esa", "fourier", "average"]), default=None,
-              help="Transfer function to analyse (default: esa for 4 heads, else fourier).")
+@method_option("design", "the transfer function analysed; default: esa for 4 heads, "
+                         "else fourier")
 @options.band("Highest harmonic K analysed.")
 @options.min_transfer()
 @click.option("--mounting-error", "mounting_error", type=float, default=0.01, show_default=True,
@@ -30,7 +35,7 @@ from enctools.units import DEG
               help="search: least angle between neighbouring heads [deg].")
 @click.option("--criterion", type=click.Choice(["w", "gain"]), default="w", show_default=True,
               help="search (esa): maximise min |W(n)| (w, as Jiao 2017) or min |W|/noise norm.")
-@click.option("--table", is_flag=True, default=False,
+@click.option("--tsv", "table", is_flag=True, default=False,
               help="Print n, |W(n)|, normalised |W(n)|, noise gain, sensitivity as TSV.")
 @options.strict
 @options.as_json

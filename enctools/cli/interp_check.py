@@ -11,10 +11,19 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options, runner, usage
 
 if TYPE_CHECKING:
     from enctools.data.files import OutputGroup
+
+SIGNALS = "Signals mode (--signals)"
+REFERENCE = "Reference mode (without --signals)"
+#: the options of one mode: the other ignores them, or refuses them
+MODES = {REFERENCE: ("average", "reference", "reference_file", "probes", "arm_m", "keep",
+                     "reference_harmonics", "window_arcsec"),
+         SIGNALS: ("min_arc_deg", "allow_excluded_pct", "rails_v", "corrected")}
+usage.FIELD_FLAGS["interp-check"] = {"signals": "--signals",
+                                     "interval_s": "enc acquire --interval"}
 
 
 def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> list[int] | None:
@@ -31,15 +40,20 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
     return out
 
 
-@click.command("interp-check", context_settings={"auto_envvar_prefix": "ENC_INTERP_CHECK"})
+@usage.renamed({"--ref": "--reference", "--ref-file": "--reference-file",
+                "--ref-band": "--reference-band", "--average": "--mean-of-heads"})
+@click.command("interp-check", context_settings={"auto_envvar_prefix": "ENC_INTERP_CHECK"},
+               cls=usage.ModeCommand, modes=MODES,
+               mode_of=lambda p: SIGNALS if p.get("signals_mode") else REFERENCE)
 @options.input_arg
 @options.heads("Heads to check (default: every head but the reference; with "
                "--signals every head with signals).")
-@click.option("--average", is_flag=True, default=False,
+@click.option("--mean-of-heads", "average", is_flag=True, default=False,
               help="Check the mean of --heads (one encoder) as one device.")
-@options.ref("Reference: the averaged probes (psi = side h / L) or a head.", dest="reference",
-             default="probes", show_default=True, metavar="probes|HEAD")
-@click.option("--ref-file", "--reference-file", "reference_file", default=None,
+@click.option("--reference", "reference", default="probes", show_default=True,
+              metavar="probes|HEAD", shell_complete=options.complete_heads,
+              help="Reference: the averaged probes (psi = side h / L) or a head.")
+@click.option("--reference-file", "reference_file", default=None,
               type=click.Path(dir_okay=False), metavar="FILE",
               help="Take the reference from this readings file, matched by time t.")
 @click.option("--probes", default=None, callback=options.name_list, metavar="S1,S2",
@@ -51,7 +65,7 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @click.option("--keep", default=None, callback=_int_list, metavar="N,N,...",
               help="Harmonics kept in the error curve (default: 1,2 against an encoder "
                    "of another signal period, else all fitted).")
-@click.option("--ref-band", "reference_harmonics", type=click.IntRange(0, 8), default=2,
+@click.option("--reference-band", "reference_harmonics", type=click.IntRange(0, 8), default=2,
               show_default=True, metavar="J",
               help="Harmonics 1..J of the reference encoder's own period fitted alongside "
                    "(0: the seed's plain filter).")
@@ -66,18 +80,18 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
               help="Raw-signal mode: Heydemann ellipse fit of each head's sin/cos signals.")
 @click.option("--min-arc", "min_arc_deg", type=float, default=270.0,
               callback=options.bounded(10, 360, unit=" deg"), show_default=True,
-              help="--signals: refuse a fit whose samples cover a shorter arc of the "
+              help="Refuse a fit whose samples cover a shorter arc of the "
                    "phase [deg] (the default: no quadrant missing).")
 @click.option("--allow-excluded", "allow_excluded_pct", type=float, default=20.0,
               callback=options.bounded(0, 100, unit=" %"), show_default=True, metavar="PCT",
-              help="--signals: the largest share of the samples [%] that may be clipped "
+              help="The largest share of the samples [%] that may be clipped "
                    "or radius outliers, left out of the fit; beyond, it is refused.")
 @click.option("--rails", "rails_v", default=None, callback=options.float_list,
               metavar="LOW,HIGH",
-              help="--signals: the ADC's rails of every signal channel [V] (default: the "
+              help="The ADC's rails of every signal channel [V] (default: the "
                    "columns' rail_low_v/rail_high_v, else flat tops detected).")
 @click.option("--corrected", default=None, type=click.Path(dir_okay=False),
-              help="--signals: also write the readings with each head's counts "
+              help="Also write the readings with each head's counts "
                    "re-interpolated from the corrected phase.")
 @options.spectrum("Also write the harmonics (per signal period) as a spectrum stream.")
 @options.threshold("--max-pm", "Exit 1 when any curve's +/- (half its peak-to-peak) "
@@ -119,11 +133,11 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     options.distinct_outputs({"-o": output, "--spectrum": spectrum_path, "--corrected": corrected})
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
-    for extra in (spectrum_path, corrected):
-        if extra:
-            streams.check_output(extra, force, None)
+    for extra in filter(None, (spectrum_path, corrected)):
+        streams.check_output(extra, force, None)
     source = streams.open_input(input, "readings")
-    checked = check.run(runner.RowsRead(source), settings)
+    ref_stream = None if reference_file is None else streams.open_input(reference_file, "readings")
+    checked = check.run(runner.RowsRead(source), settings, ref_stream)
     curves = checked.curves
     if not curves:
         msg = "no curve: the heads with signals carry no encoder geometry"

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from enctools.cli import options
+from enctools.cli import options, usage
 from enctools.units import factor
 
 if TYPE_CHECKING:
@@ -29,6 +29,7 @@ def _speeds(ctx: click.Context, param: click.Parameter, value: str | None) -> li
     return speeds
 
 
+@usage.renamed({"--ref": "--reference"})
 @click.command("latency")
 @click.argument("inputs", nargs=-1, type=click.Path(dir_okay=False, allow_dash=True),
                 metavar="[RUN]...")
@@ -40,8 +41,10 @@ def _speeds(ctx: click.Context, param: click.Parameter, value: str | None) -> li
 @click.option("--speed", "speeds", default=None, callback=_speeds, metavar="RPM,...",
               help="Speeds [r/min] at which to state the dynamic error (seed 001 eq. 2).")
 @options.heads("Runs: heads averaged into the device reading (default: the rig's measuring heads).")
-@options.ref("Runs: the reference angle: 'truth' (simulator) or heads of a reference encoder.",
-             dest="reference", metavar="truth|H1,...", callback=options.name_list)
+@click.option("--reference", "reference", default=None, metavar="truth|H1,...",
+              callback=options.name_list, shell_complete=options.complete_heads,
+              help="Runs: the reference angle: 'truth' (simulator) or heads of a reference "
+                   "encoder.")
 @click.option("--fit-offset", is_flag=True, default=False,
               help="Runs at several speeds: fit the zero offset too, instead of assuming it is 0.")
 @options.as_json

@@ -21,7 +21,7 @@ from enctools.cli import runner
 COMMANDS: dict[str, tuple[str, str]] = {
     "acquire": ("acquire", "Acquire readings from a rig (simulator, replay or instruments)."),
     "average-heads": ("average_heads", "Average heads into a new channel; report A(n)."),
-    "selfcal": ("selfcal", "Self-calibrate graduation error (fourier, eda, esa)."),
+    "selfcal": ("selfcal", "Self-calibrate graduation error from several heads of a scale."),
     "design": ("design", "Analyse and optimise head arrangements for self-calibration."),
     "compare": ("compare", "Deviation of a device against a reference."),
     "interp-check": ("interp_check", "Interpolation error within a signal period."),

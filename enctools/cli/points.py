@@ -9,9 +9,24 @@ import click
 from enctools.cli import options, usage
 from enctools.units import ANGLE_UNITS, factor
 
+STEPS = "Step runs (INPUT a readings stream)"
+TABLE = "Tables (INPUT is a table: text, Parquet, Arrow, HDF5)"
+#: the options of one kind of input, refused with the other (the library refuses them too)
+MODES = {STEPS: ("heads", "autocollimator", "faces", "certificate", "certificate_unit",
+                 "first_face"),
+         TABLE: ("column_position", "column_reference", "column_measured", "column_deviation",
+                 "column_direction", "column_run", "position_unit", "reference_unit",
+                 "measured_unit", "deviation_unit", "counts_per_rev", "zero_offset")}
+
+
+def _mode(params: Any) -> str:
+    from enctools.data.usertables import is_table_file
+
+    return TABLE if is_table_file(params.get("input")) else STEPS
+
 
 @usage.renamed(options.TABLE_RENAMED)
-@click.command("points")
+@click.command("points", cls=usage.ModeCommand, modes=MODES, mode_of=_mode)
 @options.input_arg
 @options.polygon_run
 @click.option("--polygon-certificate", "certificate", default=None, metavar="FILE",
@@ -44,7 +59,8 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     angle of a step run, and the points carry the certificate's uncertainty.
     """
     from enctools.cli.summary import check_json, emit
-    from enctools.data import streams
+    from enctools.data import streams, usertables
+    from enctools.data.polygon import read_certificate
     from enctools.data.streams import with_history
     from enctools.data.summaries import from_meta
     from enctools.methods import points
@@ -53,7 +69,11 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     streams.check_output(output, force, fmt)
     settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces,
                                certificate, certificate_unit, first_face)
-    header, found = points.make_points(input, settings, mapping)
+    cert = None
+    if certificate is not None and not usertables.is_table_file(input):
+        cert = read_certificate(certificate, None, certificate_unit)
+    given = usertables.open_input(input, "readings")
+    header, found = points.make_points(given, settings, mapping, cert)
     streams.write_table(output, with_history(header), found.table(), force, fmt)
     summary: dict[str, Any] = {"n_rows": len(found)}
     if "zero_offset_arcsec" in header.meta:

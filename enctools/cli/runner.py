@@ -37,7 +37,7 @@ def setup_logging(verbose: int = 0, quiet: int = 0) -> None:
     level = logging.WARNING - 10 * verbose + 10 * quiet
     handler = logging.StreamHandler(sys.stderr)
     name = command_name()
-    handler.setFormatter(logging.Formatter(f"{name}: %(levelname)s: %(message)s"))
+    handler.setFormatter(_fields_formatter()(f"{name}: %(levelname)s: %(message)s"))
     root = logging.getLogger("enctools")
     root.handlers[:] = [handler]
     root.setLevel(max(logging.DEBUG, min(logging.CRITICAL, level)))
@@ -51,6 +51,20 @@ def setup_logging(verbose: int = 0, quiet: int = 0) -> None:
     import warnings
     warnings.showwarning = _warning_line
     _state["quiet"] = quiet > 0
+
+
+def _fields_formatter() -> type[Any]:
+    import logging
+
+    class Fields(logging.Formatter):
+        """A log line whose settings, named by their fields between backticks as the
+        library names them in errors, are shown as the command's options."""
+
+        def format(self, record: logging.LogRecord) -> str:
+            text = super().format(record)
+            return _text(EncError(text)) if "`" in text else text
+
+    return Fields
 
 
 def _warning_line(message: Warning | str, category: type[Warning], filename: str, lineno: int,

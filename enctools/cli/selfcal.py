@@ -1,18 +1,81 @@
-"""enc selfcal: graduation error (and radial motion) of a scale from several of its heads."""
+"""enc selfcal: graduation error (and radial motion) of a scale from several of its heads.
+
+Its ``--method`` choices and their help are the registry's
+(:mod:`enctools.methods.selfcal_methods`), read when they are shown or checked, so a
+method registered before the command runs is offered and one unregistered is refused;
+enc design takes its ``--method`` the same way (:func:`method_option`).
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import Any
+
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options, runner, usage
 
 
+class MethodChoice(click.Choice):
+    """The methods the registry offers a command, read when they are needed."""
+
+    def __init__(self, command: str) -> None:
+        self.command = command
+        super().__init__([])
+
+    @property  # type: ignore[override]
+    def choices(self) -> Sequence[str]:
+        from enctools.methods import selfcal_methods
+
+        return selfcal_methods.names(self.command)
+
+    @choices.setter
+    def choices(self, value: Sequence[str]) -> None:
+        pass
+
+
+class MethodOption(click.Option):
+    """``--method``: its help is a line per method of the registry, then ``tail``."""
+
+    def __init__(self, *args: Any, command: str = "selfcal", tail: str = "",
+                 **kwargs: Any) -> None:
+        self.command, self.tail = command, tail
+        kwargs["type"] = MethodChoice(command)
+        super().__init__(*args, **kwargs)
+
+    @property
+    def help(self) -> str:
+        from enctools.methods import selfcal_methods
+
+        lines = [f"{m.name}: {m.about}" for m in selfcal_methods.records(self.command)]
+        return "; ".join(lines) + (f" ({self.tail})" if self.tail else ".")
+
+    @help.setter
+    def help(self, value: str | None) -> None:
+        pass
+
+
+#: what sets the sample interval of a run: the recording's option
+ACQUIRE_INTERVAL = "enc acquire --interval"
+
+
+def method_option(command: str, tail: str) -> Callable[..., Any]:
+    """``--method NAME`` of ``command`` (``"selfcal"``, ``"design"``): one of the
+    registry's methods, default None (the registry's default for the number of heads)."""
+    return click.option("--method", cls=MethodOption, command=command, tail=tail,
+                        default=None)
+
+
+usage.FIELD_FLAGS["selfcal"] = {"interval_s": ACQUIRE_INTERVAL}
+
+
+@usage.renamed({"--ref": "--ref-head", "--reference": "--ref-head"})
 @click.command("selfcal")
 @options.input_arg
-@click.option("--method", type=click.Choice(["fourier", "eda", "esa"]), default=None,
-              help="fourier: basic transfer-function method; eda: equal-division averaging; "
-                   "esa: four-head error separation (default with 4 heads).")
-@options.ref("Reference head (default: the encoder's head nearest 0 deg).")
+@method_option("selfcal", "default: esa with 4 heads, else fourier")
+@click.option("--ref-head", "ref", default=None, metavar="HEAD",
+              shell_complete=options.complete_heads,
+              help="Reference head (default: the encoder's head nearest 0 deg).")
 @options.heads("The other heads (default: the encoder's heads that do not measure).")
 @options.heads("Heads whose mean is the angle coordinate (default: the encoder's measuring "
                "heads, else the reference).", flag="--angle-from", dest="angle_from")

@@ -2,8 +2,8 @@
 calibrated at once, neither known beforehand (enc-closure(1)).
 
 The polygon of F faces is measured at the F table positions j * 360/F, once in each of
-F settings on the table, turned by one face between settings (enc acquire --mode
-closure: run s is setting s), so that at table position j the autocollimator sees face
+F settings on the table, turned by one face between settings (enc acquire's closure
+mode: run s is setting s), so that at table position j the autocollimator sees face
 f = (j + s) mod F. With I the encoder's reading [rad] and A the autocollimator's
 [arcsec] at (s, j)::
 
@@ -112,7 +112,7 @@ def closure_matrix(header: Header, table: pa.Table, settings: Settings, source: 
     """
     if header.meta.get("mode") != "closure":
         msg = (f"{source}: not a closure run (mode {header.meta.get('mode', 'continuous')!r}); "
-               "make one with enc acquire --mode closure")
+               "make one with enc acquire in closure mode")
         raise DataError(msg)
     faces, (angle, ac, run, direction, step) = step_visits(header, table, settings, source)
     y = np.full((faces, faces), np.nan)

@@ -25,7 +25,7 @@ import numpy as np
 
 from enctools.data.columns import uncertainty_name
 from enctools.data.schemas import check_new_columns
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
 from enctools.methods.budget import Coverage, repeats_dof, type_a_coverage
 from enctools.methods.harmonics import analyse, check_grid, grid, synthesize
 from enctools.methods.revolutions import (
@@ -52,10 +52,11 @@ class Settings:
     whose reading is the angle; ``band``: keep harmonics 1..K (0: no band limit, the
     samples averaged in angle bins instead); ``points``: points of the output grid
     over one revolution (more than 2 K); ``name``: the deviation column (default
-    DEVICE-REF, see :attr:`label`); ``ref_curve``: path of a deviations stream holding
-    the reference's calibrated error, ``ref_column`` its column (default the first);
-    ``spectrum``: a spectrum output is asked for (needs a band limit; not recorded in
-    the outputs). UsageError naming the option when they do not go together.
+    DEVICE-REF, see :attr:`label`); ``ref_curve``: the name (path) of a deviations stream
+    holding the reference's calibrated error, as recorded (:func:`run` takes the stream's
+    table), ``ref_column`` its column (default the first); ``spectrum``: a spectrum
+    output is asked for (needs a band limit; not recorded in the outputs).
+    SettingsError naming the fields when they do not go together.
     """
 
     device: tuple[str, ...]
@@ -69,19 +70,19 @@ class Settings:
 
     def __post_init__(self) -> None:
         if self.band < 0:
-            msg = f"--band must be >= 0, not {self.band}"
-            raise UsageError(msg)
+            msg = f"`band` must be >= 0, not {self.band}"
+            raise SettingsError(msg)
         if self.spectrum and self.band == 0:
-            msg = "--spectrum needs a band limit (--band K > 0)"
-            raise UsageError(msg)
+            msg = "`spectrum` needs a band limit (`band` K > 0)"
+            raise SettingsError(msg)
         both = set(self.device) & set(self.ref)
         if both:
-            msg = f"--device and --ref share {', '.join(sorted(both))}"
-            raise UsageError(msg)
+            msg = f"`device` and `ref` share {', '.join(sorted(both))}"
+            raise SettingsError(msg)
         if self.band > 0:
             check_grid(self.points, self.band)
         check_new_columns("deviations", [self.label, uncertainty_name(self.label)],
-                          "--name" if self.name is not None else "the column name")
+                          "`name`" if self.name is not None else "the column name")
 
     @property
     def label(self) -> str:
@@ -206,16 +207,17 @@ def reference_error(curve_table: pa.Table, column: str | None,
     return total
 
 
-def run(source: InputStream, settings: Settings, progress: Callable[[int], Any] | None = None
+def run(source: InputStream, settings: Settings, progress: Callable[[int], Any] | None = None,
+        curve: pa.Table | None = None
         ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
     """A readings stream in; the deviations (and, band-limited, spectrum) of device - reference.
 
-    ``progress`` is called with the number of revolutions analysed.
+    ``curve``: the table of the deviations stream ``settings.ref_curve`` names (the
+    reference's calibrated error, added back), as the caller read it. ``progress`` is
+    called with the number of revolutions analysed.
     """
     from enctools.data.readings import head_info
-    from enctools.data.streams import read_table
 
-    curve = None if settings.ref_curve is None else read_table(settings.ref_curve, "deviations")[1]
     require_continuous(source, "enc compare needs a continuous run")
     dev = tuple(head_info(source.schema, h, source.source) for h in settings.device)
     refs = tuple(head_info(source.schema, h, source.source) for h in settings.ref)

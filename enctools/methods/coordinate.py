@@ -76,7 +76,7 @@ def _steep(error: np.ndarray, where: str) -> bool:
         return False
     log.warning("the angle coordinate's error as solved %s slopes by up to %.3g rad/rad "
                 "(at most %g is taken out): it is left as it was; noise amplified through "
-                "ill-conditioned harmonics? narrow --band or move heads", where, slope,
+                "ill-conditioned harmonics? narrow the band or move heads", where, slope,
                 MAX_SLOPE)
     return True
 

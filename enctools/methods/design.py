@@ -1,8 +1,9 @@
 """Head arrangements for self-calibration: analyse one, or search for the best.
 
 For heads at angles alpha_k (the first is the reference) and a band of harmonics
-K this module gives |W(n)| of the method (esa: seed 000 eq. (15) with the weights of
-eq. (14), C = 1; fourier: the least-squares |W|; average: |A(n)|), the blind and
+K this module gives |W(n)| of the method (each method of
+:mod:`enctools.methods.selfcal_methods` says its own: esa: seed 000 eq. (15) with the
+weights of eq. (14), C = 1; fourier: the least-squares |W|; average: |A(n)|), the blind and
 ill-conditioned harmonics, the orders where radial motion x, y is blind (esa: those
 where W(n) = 0), min |W| and where, the noise amplification, and the
 sensitivity of the result to errors in the heads' mounting angles. The search
@@ -22,24 +23,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from enctools.errors import UsageError
-from enctools.methods.heads import average_transfer, format_orders
+from enctools.errors import SettingsError
+from enctools.methods import selfcal_methods
+from enctools.methods.heads import format_orders
 from enctools.methods.selfcal import MIN_TRANSFER
-from enctools.methods.transfer import (
-    esa_noise_norm,
-    esa_transfer,
-    esa_weights,
-    fourier_transfer,
-)
+from enctools.methods.selfcal_methods.base import SelfcalMethod
 from enctools.units import DEG
 
 _BLIND = 1e-9
-#: the highest --band a --search scores (its candidates are scored in chunks of
-#: arrays of the band: 2^20 orders would take gigabytes)
+#: the highest band a search scores (its candidates are scored in chunks of arrays of
+#: the band: 2^20 orders would take gigabytes)
 MAX_SEARCH_BAND = 4096
-#: the arrangements --method analyses, and those --criterion scores a search by
-METHODS = ("esa", "fourier", "average")
+#: what a search scores by (see :func:`search`)
 CRITERIA = ("w", "gain")
+#: enc design's name in the registry of methods
+COMMAND = "design"
 
 
 @dataclass(frozen=True)
@@ -48,13 +46,14 @@ class Settings:
 
     ``angles_deg``: the head angles to analyse, the reference first; ``search_heads``:
     search the best arrangement of this many heads instead (its result is analysed);
-    ``method``: esa, fourier or average (default esa for 4 heads, else fourier);
+    ``method``: a method of :mod:`enctools.methods.selfcal_methods` that enc design
+    offers (default: the registry's for the number of heads, esa for 4, else fourier);
     ``band``: the highest harmonic K; ``min_transfer``: the normalised |W(n)|
     (dimensionless) below which a harmonic is ill-conditioned; ``mounting_error_deg``:
     the RMS error of each head's mounting angle for the sensitivity; ``step_deg``,
     ``min_gap_deg``, ``criterion``: the search's grid step, least angle between
     neighbouring heads and score (see :func:`search`); ``strict``: refuse blind and
-    ill-conditioned harmonics instead of warning. UsageError naming the option when
+    ill-conditioned harmonics instead of warning. SettingsError naming the fields when
     they do not go together.
     """
 
@@ -71,24 +70,25 @@ class Settings:
 
     def __post_init__(self) -> None:
         if self.angles_deg is None and self.search_heads is None:
-            msg = "give --angles DEG,... to analyse, or --search M to search"
-            raise UsageError(msg)
+            msg = "give `angles_deg` DEG,... to analyse, or `search_heads` M to search"
+            raise SettingsError(msg)
         if self.criterion not in CRITERIA:
-            msg = f"--criterion must be {' or '.join(CRITERIA)}, not {self.criterion!r}"
-            raise UsageError(msg)
+            msg = f"`criterion` must be {' or '.join(CRITERIA)}, not {self.criterion!r}"
+            raise SettingsError(msg)
         if self.search_heads is not None:
             check_search(self.search_heads, self.search_method, self.min_gap_deg)
             if self.band > MAX_SEARCH_BAND:
-                msg = (f"--band must be at most {MAX_SEARCH_BAND} with --search (each "
+                msg = (f"`band` must be at most {MAX_SEARCH_BAND} with `search_heads` (each "
                        f"arrangement scored is an array of the band), not {self.band}")
-                raise UsageError(msg)
+                raise SettingsError(msg)
         elif self.angles_deg is not None:
             arrangement_method(list(self.angles_deg), self.method)
 
     @property
     def search_method(self) -> str:
-        """The method a search scores: --method, else esa for 4 heads, else fourier."""
-        return self.method or ("esa" if self.search_heads == 4 else "fourier")
+        """The method a search scores: ``method``, else the default for ``search_heads``
+        heads (esa for 4, else fourier)."""
+        return self.method or selfcal_methods.default(self.search_heads or 0, COMMAND).name
 
 
 @dataclass
@@ -130,69 +130,60 @@ class Analysis:
         return float(g[i]), int(n[i])
 
 
+def strategy(method: str) -> SelfcalMethod:
+    """The method ``method`` as enc design offers it; SettingsError naming `method` and
+    the methods offered when there is none."""
+    found = selfcal_methods.find(method, COMMAND)
+    if found is None:
+        offered = selfcal_methods.names(COMMAND)
+        msg = (f"`method` must be {', '.join(offered[:-1])} or {offered[-1]}, "
+               f"not {method!r}")
+        raise SettingsError(msg)
+    return found
+
+
 def arrangement_method(angles_deg: list[float], method: str | None) -> str:
-    """The method analysing heads at ``angles_deg`` [deg]: ``method``, else esa for 4
-    heads, else fourier; UsageError naming the option when the heads do not fit it."""
+    """The method analysing heads at ``angles_deg`` [deg]: ``method``, else the registry's
+    default for their number (esa for 4 heads, else fourier); SettingsError naming the
+    fields when the heads do not fit it."""
     al = np.asarray(angles_deg, dtype=np.float64) * DEG
-    if al.size < 2 and method != "average":
-        raise UsageError("give at least 2 head angles (--angles 0,60,135,228)")
+    given = selfcal_methods.find(method, COMMAND)
+    if al.size < (given.min_heads if given is not None else 2):
+        raise SettingsError("give at least 2 head angles (`angles_deg` 0,60,135,228)")
     if len(set(np.round(np.mod(angles_deg, 360.0), 9))) != al.size:
-        raise UsageError(f"--angles: two heads at the same angle ({angles_deg})")
-    method = method or ("esa" if al.size == 4 else "fourier")
-    if method == "esa":
-        if al.size != 4:
-            raise UsageError(f"esa needs 4 head angles, not {al.size}")
-        if np.max(np.abs(esa_weights(al[0], al[1:]))) < 1e-12:
-            raise UsageError(f"esa: heads at {angles_deg} cannot separate radial motion")
-    elif method not in METHODS:
-        raise UsageError(f"--method must be esa, fourier or average, not {method!r}")
-    return method
+        raise SettingsError(f"`angles_deg`: two heads at the same angle ({angles_deg})")
+    chosen = (selfcal_methods.default(al.size, COMMAND) if method is None
+              else strategy(method))
+    chosen.check_angles(al, angles_deg)
+    return chosen.name
 
 
 def analyse(angles_deg: list[float], band: int, method: str | None = None,
             min_transfer: float = MIN_TRANSFER) -> Analysis:
     """|W(n)|, blind/ill harmonics, noise gain and mounting sensitivity of an arrangement.
 
-    ``angles_deg``: head angles [deg], the reference first. ``method``: esa (4 heads),
-    fourier (any >= 2) or average (the mean of the heads: |A(n)|); default esa for 4
-    heads, else fourier (:func:`arrangement_method`). Sensitivity: first-order RMS
-    relative error of F(n) when each non-reference head is off its nominal angle by
-    1 rad (iid): ``n sqrt(sum a_j^2) / |W(n)|`` for esa, ``n / |W(n)|`` scaled likewise
-    for fourier.
+    ``angles_deg``: head angles [deg], the reference first. ``method``: a method enc
+    design offers (esa: 4 heads; fourier: any >= 2; average: the mean of the heads,
+    |A(n)|); default the registry's for the number of heads (:func:`arrangement_method`).
+    Sensitivity: first-order RMS relative error of F(n) when each non-reference head is
+    off its nominal angle by 1 rad (iid), as the method figures it
+    (:meth:`~enctools.methods.selfcal_methods.SelfcalMethod.sensitivity`).
     """
-    method = arrangement_method(angles_deg, method)
+    chosen = strategy(arrangement_method(angles_deg, method))
     al = np.asarray(angles_deg, dtype=np.float64) * DEG
     n = np.arange(band + 1)
-    if method == "esa":
-        a = esa_weights(al[0], al[1:])
-        transfer = np.abs(esa_transfer(al[0], al[1:], n))
-        norm = esa_noise_norm(al[0], al[1:])
-        normalised = transfer / norm
-        basic = fourier_transfer(al, n)
-        transfer[1], normalised[1] = basic[1], basic[1]
-        sens = n * np.sqrt(np.sum(a**2)) / np.maximum(transfer, 1e-300)
-        sens[1] = 1.0 / max(basic[1], 1e-300)
-        first = 2
-    elif method == "fourier":
-        transfer = fourier_transfer(al, n)
-        normalised = transfer
-        sens = n * np.sqrt(al.size - 1) / np.maximum(transfer, 1e-300) / np.sqrt(al.size)
-        first = 1
-    else:  # average
-        transfer = np.abs(average_transfer(al, n))
-        normalised = transfer
-        sens = np.zeros(n.size)
-        first = 1
+    transfer, normalised = chosen.transfer(al[0], al[1:], n)
+    sens = chosen.sensitivity(al[0], al[1:], n, transfer)
     transfer[0] = normalised[0] = 0.0
     with np.errstate(divide="ignore"):
         gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
     sens = np.where(normalised > _BLIND, sens, np.inf)
     blind = [int(k) for k in n[1:] if normalised[k] <= _BLIND]
-    ill = [] if method == "average" else \
-        [int(k) for k in n[1:] if _BLIND < normalised[k] < min_transfer]
-    radial = [k for k in blind if k >= 2] if method == "esa" else None
-    return Analysis(method, tuple(float(x) for x in angles_deg), band, transfer, normalised,
-                    gain, sens, first, blind, ill, min_transfer, radial)
+    ill = [int(k) for k in n[1:] if _BLIND < normalised[k] < min_transfer] \
+        if chosen.conditions else []
+    radial = [k for k in blind if k >= 2] if chosen.separates_radial else None
+    return Analysis(chosen.name, tuple(float(x) for x in angles_deg), band, transfer,
+                    normalised, gain, sens, chosen.first, blind, ill, min_transfer, radial)
 
 
 @dataclass
@@ -205,77 +196,29 @@ class SearchResult:
     evaluated: int
 
 
-def _esa_scores(angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray:
-    """min over n of |W(n)| (or |W| / noise norm) for candidate rows (ref at 0) [rad]."""
-    s = np.sin(angles)
-    c = np.cos(angles) - 1.0
-    a = np.cross(s, c)  # (N, 3), eq. (14)
-    out = np.empty(angles.shape[0])
-    for i0 in range(0, angles.shape[0], 8192):
-        sl = slice(i0, i0 + 8192)
-        w = np.zeros((a[sl].shape[0], n.size), dtype=np.complex128)
-        for j in range(3):
-            w += a[sl, j, None] * (np.exp(1j * angles[sl, j, None] * n[None, :]) - 1.0)
-        m = np.abs(w)
-        if criterion == "gain":
-            m = m / np.sqrt(np.sum(a[sl] ** 2, axis=1) + np.sum(a[sl], axis=1) ** 2)[:, None]
-        out[sl] = m.min(axis=1)
-    return out
-
-
-def _esa_grid_scores(idx: np.ndarray, step: float, n: np.ndarray, criterion: str) -> np.ndarray:
-    """As :func:`_esa_scores` for angles on a grid (indices into k * step deg): a table lookup."""
-    slots = np.arange(round(360.0 / step)) * (step * DEG)
-    table = np.exp(1j * np.outer(slots, n)) - 1.0  # (slots, K)
-    sn, cs = np.sin(slots), np.cos(slots) - 1.0
-    out = np.empty(idx.shape[0])
-    for i0 in range(0, idx.shape[0], 8192):
-        ii = idx[i0:i0 + 8192]
-        a = np.cross(sn[ii], cs[ii])
-        w = (a[:, 0, None] * table[ii[:, 0]] + a[:, 1, None] * table[ii[:, 1]]
-             + a[:, 2, None] * table[ii[:, 2]])
-        m = np.abs(w)
-        if criterion == "gain":
-            m = m / np.sqrt(np.sum(a**2, axis=1) + np.sum(a, axis=1) ** 2)[:, None]
-        out[i0:i0 + 8192] = m.min(axis=1)
-    return out
-
-
-def _fourier_scores(angles: np.ndarray, n: np.ndarray, criterion: str) -> np.ndarray:
-    full = np.concatenate([np.zeros((angles.shape[0], 1)), angles], axis=1)
-    out = np.empty(angles.shape[0])
-    for i0 in range(0, angles.shape[0], 4096):
-        sl = slice(i0, i0 + 4096)
-        w = np.exp(1j * full[sl, :, None] * n[None, None, :])
-        t = np.sqrt(np.sum(np.abs(w - w.mean(axis=1, keepdims=True)) ** 2, axis=1))
-        out[sl] = t.min(axis=1)
-    return out
-
-
 def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
            min_gap_deg: float = 10.0, criterion: str = "w", keep: int = 100) -> SearchResult:
     """The arrangement of ``heads`` heads (reference at 0 deg) maximising min |W(n)|.
 
-    esa: over n = 2..band (Jiao 2017), ``criterion`` "w" (|W| with C = 1, as the
-    seed) or "gain" (|W| / noise norm); fourier: normalised |W| over 1..band. Every
+    Over the method's orders ``first``..band, by its own scores
+    (:meth:`~enctools.methods.selfcal_methods.SelfcalMethod.scores`): esa over n =
+    2..band (Jiao 2017), ``criterion`` "w" (|W| with C = 1, as the seed) or "gain"
+    (|W| / noise norm); fourier: normalised |W| over 1..band. Every
     arrangement on a ``step_deg`` grid with neighbours at least ``min_gap_deg`` apart
     (head bodies need room) is scored (a coarser grid first when that is too many),
     then the ``keep`` best are refined locally down to 0.01 deg.
     """
     check_search(heads, method, min_gap_deg)
-    first = 2 if method == "esa" else 1
-    n = np.arange(first, band + 1, dtype=np.float64)
-    score = _esa_scores if method == "esa" else _fourier_scores
+    chosen = strategy(method)
+    n = np.arange(chosen.first, band + 1, dtype=np.float64)
+    score = chosen.scores
     m = heads - 1
     step = float(step_deg)
     while _count(m, step, min_gap_deg) > 1_500_000:
         step *= 1.5
     cand = _grid(m, step, min_gap_deg)
     evaluated = cand.shape[0]
-    if method == "esa":
-        sc = _esa_grid_scores(np.rint(cand / step).astype(np.int64), step, n, criterion)
-    else:
-        sc = score(cand * DEG, n, criterion)
+    sc = chosen.grid_scores(cand, step, n, criterion)
     order = np.argsort(-sc)[:keep]
     best = [(float(sc[i]), cand[i]) for i in order]
     h = step
@@ -304,14 +247,13 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
 
 
 def check_search(heads: int, method: str, min_gap_deg: float) -> None:
-    """UsageError naming the option unless ``heads`` heads at least ``min_gap_deg`` [deg]
-    apart can be searched for ``method``."""
-    if method == "esa" and heads != 4:
-        raise UsageError(f"esa arrangements have 4 heads, not {heads} (use --method fourier)")
+    """SettingsError naming the fields unless ``heads`` heads at least ``min_gap_deg``
+    [deg] apart can be searched for ``method``."""
+    strategy(method).check_search(heads)
     if heads < 2 or heads > 8:
-        raise UsageError(f"--search: 2 to 8 heads, not {heads}")
+        raise SettingsError(f"`search_heads`: 2 to 8 heads, not {heads}")
     if min_gap_deg * heads >= 360:
-        raise UsageError(f"--min-gap {min_gap_deg} deg leaves no room for {heads} heads")
+        raise SettingsError(f"`min_gap_deg` {min_gap_deg} deg leaves no room for {heads} heads")
 
 
 def _count(m: int, step: float, gap: float) -> int:
@@ -344,7 +286,8 @@ def report(a: Analysis, mounting_error_deg: float) -> str:
     g, ng = a.max_gain
     lines = [f"arrangement: {'/'.join(f'{x:g}' for x in a.angles_deg)} deg, method {a.method}, "
              f"harmonics {a.first}..{a.band}"]
-    label = "|A(n)|" if a.method == "average" else "|W(n)|"
+    chosen = strategy(a.method)
+    label = chosen.figure
     lines.append(f"min {label} over {a.first}..{a.band}: {w:.4g} at n = {nw}"
                  + (" (blind harmonics excluded)" if a.blind else ""))
     lines.append(f"blind harmonics: {format_orders(a.blind) or 'none'}")
@@ -352,7 +295,7 @@ def report(a: Analysis, mounting_error_deg: float) -> str:
         lines.append(f"radial motion x, y: not separated ({a.method})")
     else:
         lines.append(f"radial motion x, y blind at: {format_orders(a.blind_radial) or 'none'}")
-    if a.method != "average":
+    if chosen.conditions:
         lines.append(f"ill-conditioned (noise gain > {1 / a.min_transfer:g}): "
                      f"{format_orders(a.ill) or 'none'}")
         gains = a.gain[a.first:]
@@ -388,7 +331,8 @@ def run(settings: Settings) -> Design:
 
 
 def refuse_or_warn(a: Analysis, strict: bool) -> None:
-    """Name the blind and ill-conditioned harmonics: UsageError when ``strict``, else a warning."""
+    """Name the blind and ill-conditioned harmonics: SettingsError when ``strict``, else a
+    warning."""
     problems = []
     if a.blind:
         problems.append(f"blind harmonics {format_orders(a.blind)}")
@@ -401,5 +345,5 @@ def refuse_or_warn(a: Analysis, strict: bool) -> None:
     where = "/".join(f"{x:g}" for x in a.angles_deg)
     msg = f"{where} deg up to n = {a.band}: {'; '.join(problems)}"
     if strict:
-        raise UsageError(msg + " (--strict)")
+        raise SettingsError(msg + " (`strict`)")
     logging.getLogger("enctools").warning("%s", msg)

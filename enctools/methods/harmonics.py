@@ -27,19 +27,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 from enctools.units import TWO_PI
 
 
 def check_grid(points: int, band: int) -> None:
-    """UsageError unless a grid of ``points`` points carries harmonics 1..``band``.
+    """SettingsError unless a grid of ``points`` points carries harmonics 1..``band``.
 
     A curve of K harmonics needs more than 2 K points (:func:`synthesize`); the
-    message names the options --points and --band.
+    message names the fields `points` and `band`.
     """
     if points <= 2 * band:
-        msg = f"--points {points} cannot carry --band {band}: give more than {2 * band}"
-        raise UsageError(msg)
+        msg = f"`points` {points} cannot carry `band` {band}: give more than {2 * band}"
+        raise SettingsError(msg)
 
 
 def trapezoid_weights(x: np.ndarray) -> np.ndarray:

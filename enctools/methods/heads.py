@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 from enctools.units import DEG
 
 if TYPE_CHECKING:
@@ -167,23 +167,23 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
 
     infos = [head_info(schema, h, source) for h in group.heads]
     if len(infos) < 1:
-        raise UsageError(f"--average {group.name}: no heads given")
+        raise SettingsError(f"`groups` {group.name}: no heads given")
     encs = {i.encoder for i in infos}
     cprs = {i.counts_per_rev for i in infos}
     if len(encs) > 1 or len(cprs) > 1:
-        msg = (f"--average {group.name}: heads {', '.join(group.heads)} are of different "
+        msg = (f"`groups` {group.name}: heads {', '.join(group.heads)} are of different "
                f"encoders ({', '.join(sorted(encs))}); average heads of one scale")
-        raise UsageError(msg)
+        raise SettingsError(msg)
     if len(set(group.heads)) != len(group.heads):
-        raise UsageError(f"--average {group.name}: a head is named twice")
+        raise SettingsError(f"`groups` {group.name}: a head is named twice")
     if group.name in schema.names:
-        raise UsageError(f"--average {group.name}: the input already has a column {group.name!r}")
+        raise SettingsError(f"`groups` {group.name}: the input already has a column {group.name!r}")
     n = len(infos)
     alphas = np.array([i.alpha for i in infos])
     s = summarize_average(alphas, band)
     i0 = infos[0]
     if n * i0.counts_per_rev > (1 << 62) // 1024:
-        raise DataError(f"--average {group.name}: counts would overflow int64")
+        raise DataError(f"`groups` {group.name}: counts would overflow int64")
     return make_field(group.name, pa.int64(), "count", "head", encoder=i0.encoder,
                       alpha_deg=repr(float(alphas.mean() / DEG)),
                       counts_per_rev=n * i0.counts_per_rev, periods_per_rev=i0.periods_per_rev,
@@ -209,7 +209,7 @@ def average_column(batch: pa.RecordBatch, group: AverageGroup) -> pa.Array:
         add = c.to_numpy().astype(np.int64, copy=False)
         s = total + add
         if np.any((total ^ s) & (add ^ s) < 0):  # a sum of two of one sign has the other
-            msg = f"--average {group.name}: the heads' summed counts overflow int64"
+            msg = f"`groups` {group.name}: the heads' summed counts overflow int64"
             raise DataError(msg)
         total = s
     return arrow_array(total)
@@ -254,8 +254,8 @@ class Settings:
 
     def __post_init__(self) -> None:
         if self.band < 1:
-            msg = f"--band must be > 0, not {self.band}"
-            raise UsageError(msg)
+            msg = f"`band` must be > 0, not {self.band}"
+            raise SettingsError(msg)
 
 
 def run(source: InputStream, settings: Settings) -> tuple[Header, Iterator[pa.RecordBatch]]:
@@ -293,8 +293,8 @@ def _measuring_groups(source: InputStream) -> tuple[tuple[str | None, tuple[str,
         if len(hs) >= 2:
             groups.append((None, hs))
     if not groups:
-        msg = "no --average given and the rig names no measuring heads to average"
-        raise UsageError(msg)
+        msg = "no `groups` given and the rig names no measuring heads to average"
+        raise SettingsError(msg)
     return tuple(groups)
 
 
@@ -308,8 +308,8 @@ def _averages(schema: pa.Schema, groups: tuple[tuple[str | None, tuple[str, ...]
     fields = []
     for name, hs in groups:
         if name is not None and any(g.name == name for g in resolved):
-            msg = f"--average {name}: the name is given to two averages"
-            raise UsageError(msg)
+            msg = f"`groups` {name}: the name is given to two averages"
+            raise SettingsError(msg)
         g = AverageGroup(name or default_name(hs, taken), tuple(hs))
         fields.append(average_field(schema, g, band, source))
         taken.add(g.name)

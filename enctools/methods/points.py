@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pyarrow as pa
 
-from enctools.data import limits
+from enctools.data import limits, usertables
 from enctools.data.arrays import arrow_array
 from enctools.data.columns import column, declared_unit
 from enctools.data.polygon import Certificate, read_certificate
@@ -39,14 +39,15 @@ from enctools.data.riglimits import RANGES
 from enctools.data.schemas import column_with_role, make_field
 from enctools.data.statistics import Figures, figures_or_nan
 from enctools.data.tablemap import Mapping, TablePoints
-from enctools.data.tables import is_plain
-from enctools.errors import DataError, UsageError
+from enctools.data.usertables import UserTable
+from enctools.data.usertables import is_table_file as is_table_file
+from enctools.errors import DataError, SettingsError
 from enctools.methods import targets
 from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor
 
 if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
-    from enctools.data.streams import Header
+    from enctools.data.streams import Header, InputStream
     from enctools.methods.targets import TargetMeans
 
 
@@ -119,30 +120,31 @@ class Settings:
 
     def __post_init__(self) -> None:
         if self.faces is not None and self.faces < 1:
-            msg = f"--faces must be > 0, not {self.faces}"
-            raise UsageError(msg)
+            msg = f"`faces` must be > 0, not {self.faces}"
+            raise SettingsError(msg)
         most = int(RANGES["polygon.faces"][1])
         if self.faces is not None and self.faces > most:
-            msg = f"--faces must be at most {most} (a rig's polygon.faces), not {self.faces}"
-            raise UsageError(msg)
+            msg = f"`faces` must be at most {most} (a rig's polygon.faces), not {self.faces}"
+            raise SettingsError(msg)
         if self.certificate is None and (self.first_face, self.certificate_unit) != (None, None):
-            msg = "--first-face and --certificate-unit need --polygon-certificate"
-            raise UsageError(msg)
+            msg = "`first_face` and `certificate_unit` need `certificate`"
+            raise SettingsError(msg)
         if self.first_face is not None and not 0 <= self.first_face <= most:
-            msg = f"--first-face must be 0..{most}, not {self.first_face}"
-            raise UsageError(msg)
+            msg = f"`first_face` must be 0..{most}, not {self.first_face}"
+            raise SettingsError(msg)
 
     def given(self) -> list[str]:
-        """The options given, by name."""
-        return [o for o, v in (("--heads", self.heads), ("--autocollimator", self.autocollimator),
-                               ("--faces", self.faces), ("--polygon-certificate", self.certificate),
-                               ("--first-face", self.first_face)) if v is not None]
+        """The fields given, each between backticks (as an error names them)."""
+        given = (("heads", self.heads), ("autocollimator", self.autocollimator),
+                 ("faces", self.faces), ("certificate", self.certificate),
+                 ("first_face", self.first_face))
+        return [f"`{o}`" for o, v in given if v is not None]
 
     def check_table(self, path: str) -> None:
-        """Refuse (UsageError) the step run's options for a table."""
+        """Refuse (SettingsError) the step run's fields for a table."""
         if self.given():
             msg = f"{', '.join(self.given())}: for a steps run; {path} is a table (CSV, ...)"
-            raise UsageError(msg)
+            raise SettingsError(msg)
 
     def to_meta(self) -> dict[str, Any]:
         """The ``settings`` metadata of the points stream (the options as given)."""
@@ -187,7 +189,7 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
     va, vac, vr, vd, _ = visits(heads.mean(axis=0), ac, *keys, source)
     if certificate is not None and header.meta.get("mode") == "closure":
         msg = (f"{source}: a closure run, the polygon turned between its runs: "
-               "enc closure separates its face errors (--polygon-certificate is for step runs)")
+               "enc closure separates its face errors (`certificate` is for step runs)")
         raise DataError(msg)
     if certificate is not None and certificate.faces != faces:
         msg = (f"{certificate.source}: the certificate lists {certificate.faces} faces; the "
@@ -217,7 +219,7 @@ def _step_columns(header: Header, table: pa.Table, settings: Settings, source: s
     for col in ("step", "run", "direction"):
         if col not in table.column_names:
             msg = (f"{source}: no {col!r} column: is this a steps-mode run "
-                   "(enc acquire --mode steps)?")
+                   "(enc acquire in steps mode)?")
             raise DataError(msg)
     if table.num_rows == 0:
         msg = f"{source}: the readings stream has no rows"
@@ -267,9 +269,9 @@ def face_correction(cert: Certificate, j: np.ndarray, first_face: int | None) ->
     the first position (None: its first face)."""
     start = 0 if first_face is None else first_face - cert.first
     if not 0 <= start < cert.faces:
-        msg = (f"--first-face {first_face}: the certificate numbers its {cert.faces} faces "
+        msg = (f"`first_face` {first_face}: the certificate numbers its {cert.faces} faces "
                f"{cert.first}..{cert.first + cert.faces - 1}")
-        raise UsageError(msg)
+        raise SettingsError(msg)
     err = cert.error_arcsec
     return err[(start + j) % cert.faces] - err[start]
 
@@ -282,7 +284,7 @@ def steps_inputs(header: Header, settings: Settings, source: str
              else settings.heads)
     infos = [head_info(header.schema, h, source) for h in heads]
     autocollimator = column_with_role(header.schema, "autocollimator", settings.autocollimator,
-                                      source, "--autocollimator")
+                                      source, "`autocollimator`")
     faces = settings.faces
     if faces is None:
         faces = _rig_faces(header.meta, source)
@@ -294,14 +296,14 @@ def _rig_faces(meta: dict[str, Any], source: str) -> int:
     polygon = (meta.get("rig") or {}).get("polygon") or {}
     faces = polygon.get("faces") if isinstance(polygon, dict) else None
     if faces is None:
-        msg = f"{source}: the rig names no polygon; give --faces"
+        msg = f"{source}: the rig names no polygon; give `faces`"
         raise DataError(msg)
     lo, hi = RANGES["polygon.faces"]
     if isinstance(faces, float) and faces.is_integer():
         faces = int(faces)
     if isinstance(faces, bool) or not isinstance(faces, int) or not lo <= faces <= hi:
         msg = (f"{source}: the rig's polygon.faces must be a whole number {int(lo)}..{int(hi)}, "
-               f"not {faces!r}; give --faces")
+               f"not {faces!r}; give `faces`")
         raise DataError(msg)
     return faces
 
@@ -351,7 +353,7 @@ def _polygon_deviation(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, faces
         off = np.abs(rel - j * pitch) / ARCSEC
         if off.max() > 1000.0:
             msg = (f"{source}: run {int(r)}: a position is {off.max():.0f} arcsec off the "
-                   f"nearest of {faces} polygon faces; wrong --faces?")
+                   f"nearest of {faces} polygon faces; wrong `faces`?")
             raise DataError(msg)
     return dev, face
 
@@ -359,20 +361,17 @@ def _polygon_deviation(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, faces
 # --------------------------------------------------------------------- from a table
 
 
-def points_from_table(path: str | Path, mapping: Mapping | None = None
+def points_from_table(table: str | Path | UserTable, mapping: Mapping | None = None
                       ) -> tuple[Points, TablePoints]:
     """Points from a user's table (text, or Parquet/Arrow/HDF5 without enctools
-    metadata) mapped by ``mapping`` (:mod:`enctools.data.tablemap`): positions at the
+    metadata; as read by :func:`enctools.data.usertables.read`, or its path, which that
+    reads) mapped by ``mapping`` (:mod:`enctools.data.tablemap`): positions at the
     indicated angle [deg], the reference angle beside them, deviations [arcsec]."""
-    from enctools.data.streams import detect_format
     from enctools.data.tablemap import map_table
-    from enctools.data.tables import read_binary, read_text
 
-    source = str(path)
-    with open(source, "rb") as f:
-        fmt = detect_format(f.read(8))
-    raw = read_text(source) if fmt is None else read_binary(source, fmt)
-    tp = map_table(raw, mapping or Mapping())
+    if not isinstance(table, UserTable):
+        table = usertables.read(str(table))
+    tp = map_table(table.raw, mapping or Mapping())
     return Points(tp.position_deg, tp.deviation, tp.direction, tp.run, tp.reference_deg), tp
 
 
@@ -423,36 +422,6 @@ def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | No
     return Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32), ref)
 
 
-def is_table_file(path: str | None) -> bool:
-    """Whether ``path`` names a user's table, not a stream: a regular file of text
-    without a sidecar, or a Parquet, Arrow or HDF5 table without enctools metadata.
-
-    A stream starts with its format's magic bytes and carries enctools metadata, or is a
-    CSV or TSV table with its sidecar (read as a stream, see enc-streams(5)); stdin
-    (None, "-") and pipes are streams (a pipe can be read once only). An unreadable path
-    is not a table: opening it as a stream then says what is wrong.
-    """
-    import os
-    import stat
-
-    from enctools.data.csvio import sidecar_path
-    from enctools.data.streams import detect_format
-
-    if path is None or path == "-" or os.path.exists(sidecar_path(path)):
-        return False
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            return False
-        with open(path, "rb") as f:
-            head = f.read(8)
-    except OSError:
-        return False
-    if not head:
-        return False
-    fmt = detect_format(head)
-    return fmt is None or is_plain(path, fmt)
-
-
 def _table_header(path: str, mapping: Mapping, tp: TablePoints) -> Header:
     """The header of points from a user's table: its source, mapping and zero offset."""
     from enctools.data import streams
@@ -463,49 +432,60 @@ def _table_header(path: str, mapping: Mapping, tp: TablePoints) -> Header:
     return streams.Header("points", points_schema(), meta)
 
 
-def read_points(path: str | None, mapping: Mapping | None = None) -> tuple[Header, Points]:
+def read_points(given: str | None | UserTable | InputStream, mapping: Mapping | None = None
+                ) -> tuple[Header, Points]:
     """Points from a user's table mapped by ``mapping`` (:func:`points_from_table`) or a
-    points stream (stdin: None; a mapping's options are then refused)."""
-    from enctools.data import streams
-
+    points stream (a mapping's fields are then refused): as opened by
+    :func:`enctools.data.usertables.open_input`, or its path (None: stdin), which that
+    opens."""
     mapping = mapping or Mapping()
-    if path is not None and is_table_file(path):
-        points, tp = points_from_table(path, mapping)
-        return _table_header(path, mapping, tp), check_points(points, path)
-    _no_mapping(mapping, path)
-    src = streams.open_input(path, "points")
+    src = _opened(given, "points")
+    if isinstance(src, UserTable):
+        points, tp = points_from_table(src, mapping)
+        return _table_header(src.source, mapping, tp), check_points(points, src.source)
+    _no_mapping(mapping, src.source)
     return src.header, check_points(from_table(src.read_all(), src.source, src.header.meta),
                                      src.source)
 
 
-def _no_mapping(mapping: Mapping, path: str | None) -> None:
-    """Refuse (UsageError) a table's column options for a stream."""
+def _opened(given: str | None | UserTable | InputStream, kind: str) -> UserTable | InputStream:
+    """``given`` as opened: a path (None: stdin) opened by :mod:`enctools.data.usertables`."""
+    if given is None or isinstance(given, str | Path):
+        return usertables.open_input(None if given is None else str(given), kind)
+    return given
+
+
+def _no_mapping(mapping: Mapping, source: str | None) -> None:
+    """Refuse (SettingsError) a table's column fields for a stream."""
     if mapping.given():
-        msg = f"{', '.join(mapping.given())}: for a table; {path or 'stdin'} is a stream"
-        raise UsageError(msg)
+        msg = f"{', '.join(mapping.given())}: for a table; {source or 'stdin'} is a stream"
+        raise SettingsError(msg)
 
 
-def make_points(path: str | None, settings: Settings, mapping: Mapping | None = None
+def make_points(given: str | None | UserTable | InputStream, settings: Settings,
+                mapping: Mapping | None = None, certificate: Certificate | None = None
                 ) -> tuple[Header, Points]:
     """The points of enc points and the header of their stream.
 
-    From a user's table (:func:`read_points`; the step run's settings are refused) or a
-    steps-mode readings stream (:func:`points_from_steps`; stdin: None; the table's
-    column options are refused). The header carries the settings, the targets the
-    points visit (:func:`target_means`: ``targets``) and the figures of their mean
-    deviations [arcsec] (``figures``).
+    ``given``: a user's table or a steps-mode readings stream as opened by
+    :func:`enctools.data.usertables.open_input` (or its path, None: stdin, which that
+    opens); ``certificate``: the polygon's certificate ``settings.certificate`` names,
+    as read (None: read by :func:`enctools.data.polygon.read_certificate`). From a
+    table (:func:`read_points`; the step run's settings are refused) or a stream
+    (:func:`points_from_steps`; the table's column fields are refused). The header
+    carries the settings, the targets the points visit (:func:`target_means`:
+    ``targets``) and the figures of their mean deviations [arcsec] (``figures``).
     """
-    from enctools.data import streams
-
     mapping = mapping or Mapping()
-    if path is not None and is_table_file(path):
-        settings.check_table(path)
-        header, points = read_points(path, mapping)
+    src = _opened(given, "readings")
+    if isinstance(src, UserTable):
+        settings.check_table(src.source)
+        header, points = read_points(src, mapping)
     else:
-        _no_mapping(mapping, path)
-        cert = None if settings.certificate is None else read_certificate(
-            settings.certificate, None, settings.certificate_unit)
-        src = streams.open_input(path, "readings")
+        _no_mapping(mapping, src.source)
+        cert = certificate
+        if cert is None and settings.certificate is not None:
+            cert = read_certificate(settings.certificate, None, settings.certificate_unit)
         points = check_points(points_from_steps(src.header, src.read_all(), settings, src.source,
                                                 cert), src.source)
         header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")

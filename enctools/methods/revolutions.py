@@ -498,7 +498,7 @@ def warn_stroboscopic(rev: Revolution, spec: ChannelSpec, band: int) -> None:
         logging.getLogger("enctools").warning(
             "sampling is nearly synchronous with the signal period of %s: their "
             "interpolation error aliases into low harmonics; record with another "
-            "sample interval (enc acquire --interval)", "; ".join(bad))
+            "sample interval (`interval_s`)", "; ".join(bad))
 
 
 def _analyse(rev: Revolution, band: int, grid_points: int) -> Spectra:

@@ -34,7 +34,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
+from enctools.methods import selfcal_methods
 from enctools.methods.coordinate import Settled, refine, settle, spectra_against
 from enctools.methods.harmonics import check_grid, grid, synthesize
 from enctools.methods.heads import format_orders
@@ -45,6 +46,7 @@ from enctools.methods.revolutions import (
     require_continuous,
     revolutions,
 )
+from enctools.methods.selfcal_methods.base import Solution, basic_table
 from enctools.methods.selfcal_uncertainty import (
     SampleRepeats,
     Uncertainties,
@@ -70,35 +72,36 @@ if TYPE_CHECKING:
     from enctools.methods.budget import Coverage
 
 #: the transfer functions are importable from here too, as before they had a module
-__all__ = ["METHODS", "MIN_TRANSFER", "Conditioning", "Method", "Result", "Settings", "Solution",
+__all__ = ["MIN_TRANSFER", "Conditioning", "Method", "Result", "Settings", "Solution",
            "calibrate", "check_equal_spacing", "check_method", "esa_noise_norm", "esa_transfer",
            "esa_weights", "fourier_solve", "fourier_transfer", "plan", "run"]
 
-METHODS = ("fourier", "eda", "esa")
 #: default: a harmonic whose normalised transfer |W(n)| / |a| is below this is ill-conditioned
 MIN_TRANSFER = 0.1
 
 log = logging.getLogger("enctools")
+#: how the other heads are chosen when no method is given (that of the basic method)
+_DEFAULT_OTHERS = selfcal_methods.SelfcalMethod("", "")
 
 
 def check_method(name: str) -> None:
-    """UsageError unless ``name`` is one of :data:`METHODS`."""
-    if name not in METHODS:
-        msg = f"--method must be one of {', '.join(METHODS)}, not {name!r}"
-        raise UsageError(msg)
+    """SettingsError naming `method` unless ``name`` is a method enc selfcal solves with
+    (:func:`enctools.methods.selfcal_methods.names`)."""
+    selfcal_methods.get(name, "selfcal")
 
 
 @dataclass(frozen=True)
 class Settings:
     """What a self-calibration does: the options of enc selfcal, checked together.
 
-    ``method``: fourier, eda or esa; ``ref``: the reference head; ``heads``: the other
-    heads; ``angle_from``: the heads whose mean is the angle coordinate (None: chosen
-    from the readings, see :func:`plan`); ``band``: the highest harmonic K solved for;
-    ``points``: points of the output grid over one revolution (more than 2 K);
-    ``min_transfer``: the normalised |W(n)| (dimensionless) below which a harmonic is
-    ill-conditioned; ``strict``: refuse blind and ill-conditioned harmonics instead of
-    warning. UsageError naming the option when they do not go together.
+    ``method``: a method of :mod:`enctools.methods.selfcal_methods`; ``ref``: the
+    reference head; ``heads``: the other heads; ``angle_from``: the heads whose mean is
+    the angle coordinate (None: chosen from the readings, see :func:`plan`); ``band``:
+    the highest harmonic K solved for; ``points``: points of the output grid over one
+    revolution (more than 2 K); ``min_transfer``: the normalised |W(n)| (dimensionless)
+    below which a harmonic is ill-conditioned; ``strict``: refuse blind and
+    ill-conditioned harmonics instead of
+    warning. SettingsError naming the fields when they do not go together.
     """
 
     method: str | None = None
@@ -114,12 +117,12 @@ class Settings:
         if self.method is not None:
             check_method(self.method)
         if self.band < 1:
-            msg = f"--band must be > 0, not {self.band}"
-            raise UsageError(msg)
+            msg = f"`band` must be > 0, not {self.band}"
+            raise SettingsError(msg)
         check_grid(self.points, self.band)
         if not self.min_transfer > 0:
-            msg = f"--min-transfer must be > 0, not {self.min_transfer}"
-            raise UsageError(msg)
+            msg = f"`min_transfer` must be > 0, not {self.min_transfer}"
+            raise SettingsError(msg)
 
     def to_dict(self) -> dict[str, Any]:
         """The settings as the outputs' metadata records them (lists, not tuples)."""
@@ -131,15 +134,6 @@ class Settings:
 
 def _listed(names: tuple[str, ...] | None) -> list[str] | None:
     return None if names is None else list(names)
-
-
-@dataclass
-class Solution:
-    """Coefficients c_0..c_K [rad] of the graduation error F and radial motion X, Y [m]."""
-
-    graduation: np.ndarray
-    x: np.ndarray | None = None
-    y: np.ndarray | None = None
 
 
 @dataclass
@@ -177,14 +171,15 @@ class Conditioning:
 class Method:
     """A self-calibration method bound to a head arrangement and a band.
 
-    ``ref`` and ``heads``: the reference head's angle and the others' [rad]
-    (``fourier``/``eda`` treat them alike); ``radius_m``: scale radius [m].
+    ``name``: the method's name in the registry (:mod:`enctools.methods.selfcal_methods`);
+    ``ref`` and ``heads``: the reference head's angle and the others' [rad];
+    ``radius_m``: scale radius [m].
     """
 
     def __init__(self, name: str, alpha_ref: float, alphas: np.ndarray, band: int,
                  radius_m: float, names: list[str] | None = None,
                  min_transfer: float = MIN_TRANSFER) -> None:
-        check_method(name)
+        self.strategy = selfcal_methods.get(name, "selfcal")
         self.name = name
         self.alpha_ref = float(alpha_ref)
         self.alphas = np.asarray(alphas, dtype=np.float64)
@@ -193,92 +188,49 @@ class Method:
         self.radius_m = float(radius_m)
         self.names = names or [f"head{k}" for k in range(len(self.all_alphas))]
         self.min_transfer = float(min_transfer)
-        if name == "eda":
-            check_equal_spacing(self.all_alphas, self.names)
-        if name == "esa":
-            a = esa_weights(self.alpha_ref, self.alphas)
-            if np.max(np.abs(a)) < 1e-9:
-                msg = (f"esa: heads {', '.join(self.names)} cannot separate radial motion "
-                       "(collinear arrangement); choose other heads")
-                raise UsageError(msg)
-            self.weights = a
+        self.params = self.strategy.prepare(self.alpha_ref, self.alphas, self.names)
         self.conditioning = self._conditioning()
         self._tables: dict[int, dict[str, np.ndarray]] = {}
 
+    @property
+    def blind(self) -> list[int]:
+        """The orders 1..K not determined."""
+        return self.conditioning.blind
+
+    @property
+    def blind_radial(self) -> list[int]:
+        """The orders 2..K where radial motion is not determined."""
+        return self.conditioning.blind_radial
+
     def _conditioning(self) -> Conditioning:
         n = np.arange(self.band + 1)
-        basic = fourier_transfer(self.all_alphas, n)
-        if self.name == "esa":
-            transfer = np.abs(esa_transfer(self.alpha_ref, self.alphas, n))
-            norm = esa_noise_norm(self.alpha_ref, self.alphas)
-            transfer[:2] = basic[:2]  # n = 1 from the basic model
-            normalised = transfer / norm
-            normalised[:2] = basic[:2]
-        else:
-            transfer = basic
-            normalised = basic
+        transfer, normalised = self.strategy.transfer(self.alpha_ref, self.alphas, n)
         with np.errstate(divide="ignore"):
             gain = np.where(normalised > BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
         blind = [int(k) for k in n[1:] if normalised[k] <= BLIND]
         ill = [int(k) for k in n[1:] if BLIND < normalised[k] < self.min_transfer]
-        radial = [k for k in blind if k >= 2] if self.name == "esa" else []
+        radial = [k for k in blind if k >= 2] if self.strategy.separates_radial else []
         return Conditioning(transfer, gain, blind, ill, self.min_transfer, radial)
 
     def _table(self, size: int) -> dict[str, np.ndarray]:
         """What :meth:`solve` multiplies by at harmonics 0..size-1: made once, not per call.
 
         ``basic``: conj(exp(i n alpha_k) - mean_j exp(i n alpha_j)) / |W(n)|^2 of the
-        least squares (0 where blind; eq. (15) of the basic model); esa: ``inverse``
-        1 / W(n) (0 where blind and at n < 2), ``pairs`` exp(i n alpha_j) -
-        exp(i n alpha_ref) and ``radial`` the least-squares inverse of eqs. (17), (18).
+        least squares (0 where blind; eq. (15) of the basic model); and the method's own
+        (:meth:`~enctools.methods.selfcal_methods.SelfcalMethod.tables`).
         """
         table = self._tables.get(size)
         if table is not None:
             return table
         n = np.arange(size)
-        w = np.exp(1j * np.outer(self.all_alphas, n))  # (heads, size)
-        wc = w - w.mean(axis=0)
-        den = np.sum(np.abs(wc) ** 2, axis=0)
-        den = np.where(den > BLIND * len(self.all_alphas), den, np.inf)
-        table = {"basic": np.conj(wc) / den}
-        table["basic"][:, 0] = 0
-        if self.name == "esa":
-            transfer = esa_transfer(self.alpha_ref, self.alphas, n)
-            ok = np.abs(transfer) / esa_noise_norm(self.alpha_ref, self.alphas) > BLIND
-            ok[:2] = False
-            table["inverse"] = np.where(ok, 1.0 / np.where(ok, transfer, 1.0), 0)
-            table["pairs"] = w[1:] - w[0]
-            s = np.sin(self.alphas) - np.sin(self.alpha_ref)
-            c = -(np.cos(self.alphas) - np.cos(self.alpha_ref))
-            table["radial"] = np.linalg.pinv(np.stack([s, c], axis=1))  # resid = m @ [X, Y]
+        w, basic = basic_table(self.all_alphas, n, BLIND)
+        table = {"basic": basic} | self.strategy.tables(self, n, w)
         self._tables[size] = table
         return table
 
     def solve(self, spectra: np.ndarray) -> Solution:
         """Solve one set of head spectra (heads: ref first, then ``alphas``; rad) for F, X, Y."""
-        table = self._table(spectra.shape[1])
-        if self.name in ("fourier", "eda"):
-            f = np.einsum("kn,kn->n", table["basic"], spectra)  # fourier_solve's sum
-            f[self.conditioning.blind] = 0
-            return Solution(f)
-        return self._esa(spectra, table)
-
-    def _esa(self, spectra: np.ndarray, table: dict[str, np.ndarray]) -> Solution:
-        """Seed 000 eqs. (12)-(18) on spectra (ref first, then the three heads)."""
-        d = spectra[1:] - spectra[0]  # delta_j1(n), eq. (11)
-        e = self.weights @ d  # E(n), eqs. (12), (15)
-        f = e * table["inverse"]  # eq. (16)
-        f[1] = np.dot(table["basic"][:, 1], spectra[:, 1])  # basic model
-        # radial motion: what the differences leave once F is removed (eqs. (17), (18)),
-        # least squares over the three differences
-        resid = (d - table["pairs"] * f) * self.radius_m  # (3, K+1), [m]
-        x, y = table["radial"] @ resid
-        # DC: not observable; 1st harmonic: counted as eccentricity in F; where W(n) = 0
-        # F(n) and X(n), Y(n) trade against each other: neither is determined
-        for gone in (slice(0, 2), self.conditioning.blind_radial):
-            x[gone] = 0
-            y[gone] = 0
-        return Solution(f, x, y)
+        return self.strategy.solve(self, spectra, self._table(spectra.shape[1]))
 
     def coordinate_error(self, sol: Solution, alphas: np.ndarray) -> np.ndarray:
         """Coefficients [rad] of the error of a coordinate: the mean of heads at ``alphas``."""
@@ -369,7 +321,7 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
             curves[name].add(synthesize(c * SCALE[name], points))
     if spectra.mean is None or settled is None or spectra.count < 2:
         msg = (f"input: {spectra.count} complete revolution(s) of the angle coordinate; "
-               "self-calibration needs at least 2 (record more: enc acquire --revolutions N)")
+               "self-calibration needs at least 2 (record more revolutions with enc acquire)")
         raise DataError(msg)
     refined = refine(spectra.mean, settled.angle.error_coefficients(method.band), model)
     noise = resolution / np.sqrt(12.0) * np.sqrt(2.0 / (samples / spectra.count))
@@ -416,7 +368,7 @@ def plan(schema: pa.Schema, meta: dict, settings: Settings, source: str = "input
     infos = all_heads(schema)
     if not infos:
         msg = f"{source}: readings stream has no head column"
-        raise UsageError(msg)
+        raise DataError(msg)
     by_name = {h.name: h for h in infos}
     given = (settings.ref,) if settings.ref is not None else ()
     for name in given + (settings.heads or ()) + (settings.angle_from or ()):
@@ -436,9 +388,9 @@ def plan(schema: pa.Schema, meta: dict, settings: Settings, source: str = "input
     coordinate = [by_name[n] for n in angle_from]
     foreign = [h.name for h in coordinate if h.encoder != encoder]
     if foreign:
-        msg = (f"--angle-from: {', '.join(foreign)} belong to another encoder than {encoder}; "
+        msg = (f"`angle_from`: {', '.join(foreign)} belong to another encoder than {encoder}; "
                "the angle coordinate must come from the calibrated scale's heads")
-        raise UsageError(msg)
+        raise SettingsError(msg)
     m = Method(method, chosen[0].alpha, np.array([h.alpha for h in chosen[1:]]),
                settings.band, chosen[0].radius_m, [h.name for h in chosen],
                settings.min_transfer)
@@ -468,36 +420,32 @@ def _other_heads(settings: Settings, enc_heads: list[HeadInfo], ref: str,
                  measure: list[str]) -> list[str]:
     """The heads besides the reference: as given, else the encoder's non-measuring heads.
 
-    eda takes the measuring heads (equally spaced) when the rig names them; without
-    non-measuring heads, all the encoder's heads but the reference.
+    A method may choose otherwise (eda: the measuring heads, equally spaced, when the rig
+    names them); without non-measuring heads, all the encoder's heads but the reference.
     """
     if settings.heads is not None:
         return list(settings.heads)
-    others = [h.name for h in enc_heads if h.name != ref and h.name not in measure]
-    if settings.method == "eda" and measure:
-        return [n for n in measure if n != ref]
-    if settings.method == "eda" or not others:
-        return [h.name for h in enc_heads if h.name != ref]
-    return others
+    all_but_ref = [h.name for h in enc_heads if h.name != ref]
+    others = [n for n in all_but_ref if n not in measure]
+    strategy = selfcal_methods.find(settings.method, "selfcal") or _DEFAULT_OTHERS
+    return strategy.other_heads(all_but_ref, others, [n for n in measure if n != ref])
 
 
 def _method_for(method: str | None, chosen: list[HeadInfo], encoder: str, ref: str) -> str:
-    """The method for the chosen heads (default esa with 4, else fourier), checked against them."""
+    """The method for the chosen heads (the registry's default for their number: esa with
+    4, else fourier), checked against them."""
     mixed = [h.name for h in chosen if h.encoder != encoder]
     if mixed:
-        msg = (f"--heads: {', '.join(mixed)} belong to another encoder than {ref} ({encoder}); "
+        msg = (f"`heads`: {', '.join(mixed)} belong to another encoder than {ref} ({encoder}); "
                "self-calibration uses heads of one scale")
-        raise UsageError(msg)
+        raise SettingsError(msg)
     if len(chosen) < 2:
-        msg = f"self-calibration needs at least 2 heads of encoder {encoder}; give --heads"
-        raise UsageError(msg)
-    if method is None:
-        method = "esa" if len(chosen) == 4 else "fourier"
-    if method == "esa" and len(chosen) != 4:
-        msg = (f"esa needs the reference and exactly 3 more heads, not {len(chosen)} heads "
-               f"({', '.join(h.name for h in chosen)}); use --method fourier")
-        raise UsageError(msg)
-    return method
+        msg = f"self-calibration needs at least 2 heads of encoder {encoder}; give `heads`"
+        raise SettingsError(msg)
+    strategy = (selfcal_methods.default(len(chosen), "selfcal") if method is None
+                else selfcal_methods.get(method, "selfcal"))
+    strategy.check_count(len(chosen), [h.name for h in chosen])
+    return strategy.name
 
 
 def run(source: InputStream, settings: Settings,
@@ -510,7 +458,7 @@ def run(source: InputStream, settings: Settings,
     revolutions analysed and expected.
     """
     require_continuous(source, "self-calibration needs a continuous run "
-                               "(enc acquire --mode continuous)")
+                               "(enc acquire in continuous mode)")
     p = plan(source.schema, source.meta, settings, source.source)
     _refuse_or_warn(p.method, settings.strict)
     total = int(float((source.meta.get("settings") or {}).get("revolutions") or 0))
@@ -530,14 +478,15 @@ def run(source: InputStream, settings: Settings,
 
 
 def _refuse_or_warn(method: Method, strict: bool) -> None:
-    """Name the blind and ill-conditioned harmonics: UsageError when ``strict``, else a warning."""
+    """Name the blind and ill-conditioned harmonics: SettingsError when ``strict``, else a
+    warning."""
     problem = method.conditioning.message()
     if not problem:
         return
     where = f"{method.name} with {'/'.join(method.names)} up to n = {method.band}"
     if strict:
-        msg = f"{where}: {problem} (--strict; narrow --band or move heads)"
-        raise UsageError(msg)
+        msg = f"{where}: {problem} (`strict`; narrow `band` or move heads)"
+        raise SettingsError(msg)
     what = []
     if method.conditioning.blind:
         what.append("blind orders are set to 0")

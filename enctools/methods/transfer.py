@@ -4,15 +4,14 @@ For heads at angles alpha_k [rad] (the reference first), harmonic by harmonic n:
 the four-head error separation's weights a1..a3 and W(n) (seed 000 eqs. (13)-(15)),
 the basic method's least-squares |W(n)| and its solution (Geckeler 2006; seed 000
 refs [13, 14]), and the check that heads divide the circle equally (equal-division
-averaging). :mod:`enctools.methods.selfcal` solves with them, :mod:`enctools.methods.design`
-scores arrangements by them.
+averaging). The methods of :mod:`enctools.methods.selfcal_methods` are made of them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 from enctools.units import DEG
 
 #: a normalised |W(n)| at or below this is zero: the harmonic is blind
@@ -31,7 +30,7 @@ def esa_weights(alpha_ref: float, alphas: np.ndarray) -> np.ndarray:
     al = np.asarray(alphas, dtype=np.float64)
     if al.size != 3:
         msg = f"esa needs exactly 3 heads besides the reference, not {al.size}"
-        raise UsageError(msg)
+        raise SettingsError(msg)
     s = np.sin(al) - np.sin(alpha_ref)
     c = np.cos(al) - np.cos(alpha_ref)
     return np.cross(s, c)
@@ -81,12 +80,12 @@ def fourier_solve(spectra: np.ndarray, alphas: np.ndarray) -> np.ndarray:
 
 
 def check_equal_spacing(alphas: np.ndarray, names: list[str], tol_deg: float = 0.05) -> None:
-    """UsageError unless the heads divide the circle equally (eda)."""
+    """SettingsError unless the heads divide the circle equally (eda)."""
     n = len(alphas)
     a = np.sort(np.mod(alphas, 2 * np.pi))
     gaps = np.diff(np.append(a, a[0] + 2 * np.pi))
     if n < 2 or np.max(np.abs(gaps - 2 * np.pi / n)) > tol_deg * DEG:
         msg = (f"eda needs equally spaced heads; {', '.join(names)} are at "
                f"{'/'.join(f'{x / DEG:g}' for x in alphas)} deg "
-               "(use --method fourier or esa)")
-        raise UsageError(msg)
+               "(use `method` fourier or esa)")
+        raise SettingsError(msg)

@@ -49,7 +49,7 @@ BASE: list[dict[str, list[str]]] = [
      "model.parquet": ["fit-rbf", "points.parquet", "--spread", "15"],
      "model.h5": ["fit-rbf", "points.parquet", "--spread", "15"],
      "dev.parquet": ["selfcal", "r2.parquet", "--spectrum", "spec.parquet"],
-     "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--ref", "P1"],
+     "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--reference", "P1"],
      "dev.csv": ["selfcal", "r2.parquet", "--spectrum", "spec.tsv"]},
     # a table to be read, whatever it holds: the guards of enc-make-rom(1) waived
     {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream",

@@ -7,7 +7,6 @@ from typing import Any
 
 import pyarrow as pa
 
-from enctools.data.streams import open_input
 from enctools.methods.interp.curve import Curve
 from enctools.methods.interp.readings import check_readings
 from enctools.methods.interp.settings import Settings
@@ -30,11 +29,12 @@ class Checked:
     corrected: pa.Table | None = None
 
 
-def run(source: Any, settings: Settings) -> Checked:
+def run(source: Any, settings: Settings, reference_source: Any = None) -> Checked:
     """Check the interpolation error of the heads of a readings ``source`` (a stream).
 
-    Reference mode: the readings stream through the fit in constant memory, a
-    reference file (``settings.reference_file``) is read whole and matched by time.
+    Reference mode: the readings stream through the fit in constant memory; a
+    reference stream (``reference_source``, opened by the caller from
+    ``settings.reference_file``) is read whole and matched by time.
     Signals mode: the readings are read whole (at most
     :data:`~enctools.methods.interp.tables.MAX_SWEEP_SAMPLES` rows) for the ellipse fit.
     """
@@ -44,13 +44,12 @@ def run(source: Any, settings: Settings) -> Checked:
         # imported here: the ellipse fit needs scipy, the reference mode does not
         from enctools.methods.interp.signals import check_signals, corrected_readings
 
-        table = read_sweep(source, why="--signals")
+        table = read_sweep(source)
         curves, fits, fitted = check_signals(table, settings)
         corrected = corrected_readings(table, fits, [c.name for c in curves], fitted) \
             if settings.corrected else None
         return Checked(curves, meta, fits, corrected)
     reference_table = None
-    if settings.reference_file is not None:
-        reference_table = read_sweep(open_input(settings.reference_file, "readings"),
-                                     why="--ref-file")
+    if reference_source is not None:
+        reference_table = read_sweep(reference_source, why="the reference file")
     return Checked(check_readings(source, settings, reference_table, continuous), meta)

@@ -160,7 +160,7 @@ class RunCoverage:
         """Signal periods [1] the shortest run spans; DataError when under one ``period`` [rad]."""
         if self._short is not None and self._short[0] < period * 0.999:
             msg = (f"the sweep covers {self._short[1] / ARCSEC:.3g}\" but the signal period is "
-                   f"{period / ARCSEC:.4g}\": sweep at least one period (--range)")
+                   f"{period / ARCSEC:.4g}\": sweep at least one period")
             raise DataError(msg)
         return self._min_span / period
 
@@ -193,7 +193,7 @@ class WindowCoverage:
         """Signal periods [1] of the whole run; DataError when no window covers ``period`` [rad]."""
         if self.covering == 0:
             msg = (f"no window of {self.window / ARCSEC:.4g}\" carries the device's phase "
-                   f"through a whole signal period ({self.windows} windows): widen --window "
+                   f"through a whole signal period ({self.windows} windows): widen `window_arcsec` "
                    f"or sample at another interval")
             raise DataError(msg)
         return (self._hi - self._lo) / period
@@ -203,5 +203,5 @@ class WindowCoverage:
         partial = samples - self.covered
         if partial > samples / 2:
             return (f"{partial / samples:.0%} of the samples lie in windows whose phases do not "
-                    f"go through a whole signal period; they add little: widen --window")
+                    f"go through a whole signal period; they add little: widen the window")
         return None

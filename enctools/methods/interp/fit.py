@@ -185,7 +185,7 @@ class InterpolationFit:
             msg = f"kept harmonic {bad[0]} is not fitted (harmonics 1..{harmonics})"
             raise DataError(msg)
         if window is not None and not window >= self.period:
-            msg = (f"--window {window / ARCSEC:.4g}\" is shorter than the signal period "
+            msg = (f"`window_arcsec` {window / ARCSEC:.4g}\" is shorter than the signal period "
                    f"{self.period / ARCSEC:.4g}\": a window must span at least one period")
             raise DataError(msg)
         self.ref_orders = np.asarray(list(reference_orders), dtype=int)
@@ -377,7 +377,7 @@ class InterpolationFit:
         harmonics = int(self.orders[-1])
         if harmonics > k_max:
             msg = (f"{harmonics} harmonics asked but the sweep samples the signal period "
-                   f"only finely enough for {k_max}: fit fewer (--band) or step finer")
+                   f"only finely enough for {k_max}: fit fewer (`harmonics`) or step finer")
             raise DataError(msg)
         n_par = self.lsq.n_trend + self.lsq.p
         if self.lsq.n <= n_par:

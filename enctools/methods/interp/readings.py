@@ -146,7 +146,8 @@ def _plan(schema: pa.Schema, names: list[str], settings: Settings, reference: Re
         name = heads[0] if len(heads) == 1 else "mean(" + ",".join(heads) + ")"
         if reference.in_stream and reference.head is not None \
                 and reference.head.name == infos[0].name:
-            msg = f"--ref {settings.reference} is the device itself; choose another head or probes"
+            msg = (f"`reference` {settings.reference} is the device itself; choose another head "
+                   "or probes")
             raise DataError(msg)
         synchronous = [n for n in heads if n in strobe]
         if synchronous:
@@ -155,9 +156,10 @@ def _plan(schema: pa.Schema, names: list[str], settings: Settings, reference: Re
                     f"({strobe[h]:.3f} periods per sample): its phase barely moves within a "
                     f"window, so its interpolation error goes into the trend")
             if settings.heads:
-                msg = f"{what}; record with another sample interval (enc acquire --interval)"
+                msg = f"{what}; record with another sample interval (`interval_s`)"
                 raise DataError(msg)
-            skipped.append(f"{what}: not checked (record with another --interval)")
+            skipped.append(f"{what}: not checked (record with another sample interval: "
+                               "`interval_s`)")
             continue
         if len({i.periods_per_rev for i in infos}) > 1:
             msg = (f"heads {', '.join(heads)} have different signal periods: "
@@ -244,7 +246,7 @@ def _curve(device: Device, grid: np.ndarray, reference_meta: dict[str, Any],
     try:
         r = device.fit.result()
     except DataError as exc:
-        raise DataError(f"{name}: {exc}") from None
+        raise DataError(f"{name}: {exc.template}") from None
     device.warnings += [f"{name}: {w}" for w in r.warnings]
     meta = {"encoder": info.encoder, "heads": device.heads,
             "periods_per_rev": info.periods_per_rev,

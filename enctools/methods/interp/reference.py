@@ -118,7 +118,7 @@ class ProbeReference(Reference):
                  arm_m: float | None) -> None:
         names = list(probes) if probes else columns_with_role(schema, "probe")
         if not names:
-            msg = "input: no probe column (role=probe); give --ref HEAD or --ref-file"
+            msg = "input: no probe column (role=probe); give `reference` HEAD or `reference_file`"
             raise DataError(msg)
         arms, sides = [], []
         for p in names:
@@ -129,7 +129,7 @@ class ProbeReference(Reference):
             fm = field_meta(schema.field(p))
             arm = float(arm_m) if arm_m is not None else float(fm.get("arm_m", "nan"))
             if not (np.isfinite(arm) and arm > 0):
-                msg = f"probe {p}: arm length L = {arm:g} m; it must be > 0 (give --arm)"
+                msg = f"probe {p}: arm length L = {arm:g} m; it must be > 0 (give `arm_m`)"
                 raise DataError(msg)
             arms.append(arm)
             sides.append(int(float(fm.get("side", "1"))))

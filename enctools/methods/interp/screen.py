@@ -1,4 +1,4 @@
-"""Faults of a head's raw quadrature signals, found before the Heydemann fit (--signals).
+"""Faults of a head's raw quadrature signals, found before the Heydemann fit (signals mode).
 
 Three faults make an ellipse fit of sampled (I, Q) [V] wrong without the fit saying so:
 
@@ -11,7 +11,7 @@ Three faults make an ellipse fit of sampled (I, Q) [V] wrong without the fit say
   quarter of it), and the ellipse through the rest is ill-conditioned.
 
 :func:`screened_fit` finds the clipped samples (against the rails a signal column
-declares, ``rail_low_v``/``rail_high_v`` field metadata, or ``--rails``; else the
+declares, ``rail_low_v``/``rail_high_v`` field metadata, or ``rails_v``; else the
 extreme value of a channel held by samples spread over an arc of the phase: a flat
 top), fits the ellipse to the others, drops the radius outliers and fits again until
 they no longer change, and refuses (DataError) when more than ``allow_excluded_pct`` of
@@ -197,9 +197,9 @@ def _fit_kept(i: np.ndarray, q: np.ndarray, excluded: np.ndarray,
         arc = fit.arc
     lost = f" ({int(excluded.sum())} clipped or outliers left out)" if excluded.any() else ""
     msg = (f"a missing quadrant: the samples{lost} cover {arc / DEG:.0f} deg of the "
-           f"signal phase (--min-arc {min_arc_deg:g} deg), too little for a "
+           f"signal phase (`min_arc_deg` {min_arc_deg:g} deg), too little for a "
            f"well-conditioned ellipse fit; record over a whole signal period, or "
-           f"accept the partial arc with a smaller --min-arc (at least {LEAST_ARC_DEG:g})")
+           f"accept the partial arc with a smaller `min_arc_deg` (at least {LEAST_ARC_DEG:g})")
     raise DataError(msg)
 
 
@@ -210,9 +210,9 @@ def _check_excluded(clipped: np.ndarray, outliers: np.ndarray, max_pct: float) -
     if pct > max_pct:
         msg = (f"{pct:.1f} % of the samples would be excluded from the ellipse fit "
                f"({100.0 * clipped.sum() / n:.1f} % clipped at the rails, "
-               f"{100.0 * outliers.sum() / n:.1f} % radius outliers), over --allow-excluded "
+               f"{100.0 * outliers.sum() / n:.1f} % radius outliers), over `allow_excluded_pct` "
                f"{max_pct:g} %: what is left does not determine the signals' faults; lower "
-               f"the gain before the ADC or clean the scale, or raise --allow-excluded")
+               f"the gain before the ADC or clean the scale, or raise `allow_excluded_pct`")
         raise DataError(msg)
 
 

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 from enctools.methods.interp.screen import ALLOW_EXCLUDED_PCT, MIN_ARC_DEG
 
 #: default window of a continuous run [arcsec]: a line per 0.5 deg leaves of the
@@ -16,9 +16,9 @@ DEFAULT_WINDOW_ARCSEC = 1800.0
 #: the highest harmonic of a signal period a check fits or keeps: an interpolation error
 #: lives in the first few; 2 K parameters per window are solved by normal equations
 MAX_HARMONICS = 64
-#: --window [arcsec]: at least one arcsec, at most a turn
+#: ``window_arcsec`` [arcsec]: at least one arcsec, at most a turn
 WINDOW_ARCSEC = (1.0, 1_296_000.0)
-#: --arm [m]
+#: ``arm_m`` [m]
 ARM_M = (1e-6, 10.0)
 
 
@@ -46,7 +46,7 @@ class Settings:
     readings re-interpolated from the corrected phase. ``points``: the output curve's
     points per signal period.
 
-    Raises UsageError, naming the option, for a combination no check can carry out.
+    Raises SettingsError, naming the fields, for a combination no check can carry out.
     """
 
     heads: Sequence[str] | None = None
@@ -74,55 +74,55 @@ class Settings:
         self.check()
 
     def check(self) -> None:
-        """UsageError naming the option when the settings cannot go together."""
+        """SettingsError naming the fields when the settings cannot go together."""
         if self.arm_m is not None and not ARM_M[0] <= self.arm_m <= ARM_M[1]:
-            msg = f"--arm must be 1e-06..10 m (psi = h / L), not {self.arm_m!r}"
-            raise UsageError(msg)
+            msg = f"`arm_m` must be 1e-06..10 m (psi = h / L), not {self.arm_m!r}"
+            raise SettingsError(msg)
         self._check_sizes()
         if self.corrected and not self.signals:
-            msg = "--corrected needs --signals"
-            raise UsageError(msg)
+            msg = "`corrected` needs `signals`"
+            raise SettingsError(msg)
         if self.signals and self.average:
-            msg = "--average does not apply to --signals (each head has its signals)"
-            raise UsageError(msg)
+            msg = "`average` does not apply to `signals` (each head has its signals)"
+            raise SettingsError(msg)
         if self.signals and self.window_arcsec is not None:
-            msg = "--window applies to the reference mode, not --signals"
-            raise UsageError(msg)
+            msg = "`window_arcsec` applies to the reference mode, not `signals`"
+            raise SettingsError(msg)
         self._check_signal_limits()
 
     def _check_signal_limits(self) -> None:
-        """--rails (with --signals, low below high) and --allow-excluded (0..100 %)."""
+        """``rails_v`` (with ``signals``, low below high) and ``allow_excluded_pct`` (0..100 %)."""
         if self.rails_v is not None:
             object.__setattr__(self, "rails_v", tuple(float(v) for v in self.rails_v))
             if not self.signals:
-                msg = "--rails needs --signals"
-                raise UsageError(msg)
+                msg = "`rails_v` needs `signals`"
+                raise SettingsError(msg)
             if not (len(self.rails_v) == 2 and all(map(math.isfinite, self.rails_v))
                     and self.rails_v[0] < self.rails_v[1]):
-                msg = f"--rails must be LOW,HIGH [V] with LOW < HIGH, not {self.rails_v!r}"
-                raise UsageError(msg)
+                msg = f"`rails_v` must be LOW,HIGH [V] with LOW < HIGH, not {self.rails_v!r}"
+                raise SettingsError(msg)
         if not 0.0 <= self.allow_excluded_pct <= 100.0:  # also NaN
-            msg = f"--allow-excluded must be 0..100 %, not {self.allow_excluded_pct!r}"
-            raise UsageError(msg)
+            msg = f"`allow_excluded_pct` must be 0..100 %, not {self.allow_excluded_pct!r}"
+            raise SettingsError(msg)
 
     def _check_sizes(self) -> None:
-        """The orders fitted and kept against MAX_HARMONICS and the output's --points."""
+        """The orders fitted and kept against MAX_HARMONICS and the output's ``points``."""
         most = min(MAX_HARMONICS, self.points // 2)
         if self.harmonics is not None and not 1 <= self.harmonics <= most:
-            msg = (f"--band must be 1..{most} (at most {MAX_HARMONICS}, and half of "
-                   f"--points {self.points}), not {self.harmonics}")
-            raise UsageError(msg)
+            msg = (f"`harmonics` must be 1..{most} (at most {MAX_HARMONICS}, and half of "
+                   f"`points` {self.points}), not {self.harmonics}")
+            raise SettingsError(msg)
         if self.keep is not None and not all(1 <= k <= most for k in self.keep):
-            msg = (f"--keep: harmonic orders must be 1..{most} (at most {MAX_HARMONICS}, and "
-                   f"half of --points {self.points}), not {max(self.keep)}")
-            raise UsageError(msg)
+            msg = (f"`keep`: harmonic orders must be 1..{most} (at most {MAX_HARMONICS}, and "
+                   f"half of `points` {self.points}), not {max(self.keep)}")
+            raise SettingsError(msg)
         if not 10.0 <= self.min_arc_deg <= 360.0:  # also NaN, which click's range lets by
-            msg = f"--min-arc must be 10..360 deg, not {self.min_arc_deg!r}"
-            raise UsageError(msg)
+            msg = f"`min_arc_deg` must be 10..360 deg, not {self.min_arc_deg!r}"
+            raise SettingsError(msg)
         lo, hi = WINDOW_ARCSEC
         if self.window_arcsec is not None and not lo <= self.window_arcsec <= hi:
-            msg = f"--window must be 1..1296000 arcsec, not {self.window_arcsec!r}"
-            raise UsageError(msg)
+            msg = f"`window_arcsec` must be 1..1296000 arcsec, not {self.window_arcsec!r}"
+            raise SettingsError(msg)
 
     def trend_window_arcsec(self, continuous: bool) -> float | None:
         """The span of angle [arcsec] with its own trend; None: one trend per run.

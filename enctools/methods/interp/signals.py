@@ -1,4 +1,4 @@
-"""The interpolation error from the heads' raw signals by the Heydemann fit (--signals).
+"""The interpolation error from the heads' raw signals by the Heydemann fit (signals mode).
 
 Signals are the role=signal columns of a head: components cos/sin, or the four
 phases 0/90/180/270 (reduced to cos/sin by :func:`~enctools.methods.heydemann.from_four_phase`).
@@ -67,7 +67,7 @@ def quadrature_of(name: str, channels: dict[str, np.ndarray]) -> tuple[np.ndarra
 def declared_rails(schema: pa.Schema, components: dict[str, str], settings: Settings
                    ) -> dict[str, tuple[tuple[float, float], str]]:
     """Per component, the rails (low, high) [V] of its channel and where they come from:
-    ``--rails`` (``settings.rails_v``) for every channel, else the column's field metadata
+    ``settings.rails_v`` for every channel, else the column's field metadata
     ``rail_low_v`` and ``rail_high_v``; channels with neither are left out."""
     out = {}
     for comp, col in components.items():
@@ -79,7 +79,7 @@ def declared_rails(schema: pa.Schema, components: dict[str, str], settings: Sett
             lo, hi = float(fm["rail_low_v"]), float(fm["rail_high_v"])
             if not lo < hi:
                 msg = (f"input: column {col}: rail_low_v {lo:g} V is not below rail_high_v "
-                       f"{hi:g} V; give the ADC's rails with --rails LOW,HIGH")
+                       f"{hi:g} V; give the ADC's rails with `rails_v` LOW,HIGH")
                 raise DataError(msg)
             out[comp] = ((lo, hi), "declared")
     return out
@@ -101,7 +101,7 @@ def check_signals(table: pa.Table, settings: Settings
     """
     by_head = signal_columns(table.schema)
     if not by_head:
-        msg = "input: no raw signal columns (role=signal); record them with enc acquire --signals"
+        msg = "input: no raw signal columns (role=signal); record them with enc acquire"
         raise DataError(msg)
     names = list(settings.heads) if settings.heads else list(by_head)
     curves, fits, fitted = [], {}, {}
@@ -117,7 +117,7 @@ def check_signals(table: pa.Table, settings: Settings
             fit, screen = screened_fit(raw, i, q, declared_rails(table.schema, comp, settings),
                                        settings.min_arc_deg, settings.allow_excluded_pct)
         except DataError as exc:
-            raise DataError(f"head {name}: {exc}") from None
+            raise DataError(f"head {name}: {exc.template}") from None
         meta = {"signals": fit.to_dict(), "lissajous": hd.radius_variation(i, q),
                 "screen": screen.to_dict(), "reference": "signals"}
         fits[name] = meta

@@ -1,7 +1,7 @@
 """Readings as the interpolation check takes them: columns as numpy, batches, a bounded whole.
 
 The reference mode streams its input in chunks of :data:`CHUNK_ROWS`; the modes
-that need the whole input (--signals, a reference file matched by time) read at
+that need the whole input (signals mode, a reference file matched by time) read at
 most :data:`MAX_SWEEP_SAMPLES` rows.
 """
 
@@ -23,10 +23,10 @@ CHUNK_ROWS = 1 << 16
 
 
 def read_sweep(source: Any, max_samples: int = MAX_SWEEP_SAMPLES,
-               why: str = "--signals") -> pa.Table:
+               why: str = "the signals mode") -> pa.Table:
     """All of a stream's readings as one Arrow table, refusing more than ``max_samples`` rows.
 
-    The modes that need the whole table (``why``: the Heydemann fit of --signals,
+    The modes that need the whole table (``why``: the Heydemann fit of the signals mode,
     a reference file matched by time) read at most this many rows; a longer input
     is refused at the first batch past it, before it fills the memory. The
     reference mode proper streams (:func:`enctools.methods.interp.readings.check_readings`).
@@ -38,8 +38,8 @@ def read_sweep(source: Any, max_samples: int = MAX_SWEEP_SAMPLES,
         if rows > max_samples:
             source.close()
             msg = (f"{source.source}: more than {max_samples:,} samples; {why} reads its input "
-                   "whole: record fewer revolutions or a sweep (enc acquire --mode sweep), "
-                   "or check against a reference in the same stream (--ref HEAD or probes)")
+                   "whole: record fewer revolutions or a sweep, "
+                   "or check against a reference in the same stream (`reference` HEAD or probes)")
             raise DataError(msg)
         batches.append(b)
     return pa.Table.from_batches(batches, schema=source.schema)
