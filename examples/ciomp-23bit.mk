@@ -18,7 +18,7 @@ all: $(OUT)/report.html $(OUT)/correction.mif $(OUT)/correction.bin $(OUT)/ENC_C
 # 1. Readout latency: dynamic error and code-skip speed (eqs. 1-4) at 1 and 10 r/s
 $(OUT)/latency.txt:
 	@mkdir -p $(OUT)
-	$(ENC) latency --bits 23 --delay 10e-6 --speed 60,600 > $@
+	$(ENC) latency --bits 23 --delay 10e-6 --speeds 60,600 > $@
 
 # 2. 24-face polygon + autocollimator: 24 positions every 15 deg, 5 readings each (sec. 5.3)
 $(OUT)/polygon.parquet:

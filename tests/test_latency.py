@@ -20,7 +20,7 @@ def test_code_skip_speed_is_eq4_exactly():
 
 
 def test_latency_command_analytic():
-    r = run("enc latency --bits 23 --delay 10e-6 --speed 0.5,600 --json")
+    r = run("enc latency --bits 23 --delay 10e-6 --speeds 0.5,600 --json")
     assert r.returncode == 0, r.stderr.decode()
     d = json.loads(r.stdout)
     assert d["code_skip_speed_deg_s"] == 360.0 / (2 ** 23 * 10e-6)
@@ -87,5 +87,5 @@ def test_latency_bad_data(slow_rig, tmp_path):
     assert r.returncode == 2
     lines = r.stderr.decode().strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("enc latency: error:") and "'t'" in lines[0]
-    r = run("enc latency --bits 23 --delay 1e-5 --speed 1,nan")
+    r = run("enc latency --bits 23 --delay 1e-5 --speeds 1,nan")
     assert r.returncode == 2 and b"finite" in r.stderr and r.stdout == b""

@@ -222,13 +222,13 @@ def test_make_rom_refuses_contradictions_and_absurd_sizes(opts: list[str], named
 
 @pytest.mark.parametrize("args, named", [
     (["latency", "--bits", "23", "--delay", "inf"], "must be > 0 and <= 1 s, not inf"),
-    (["latency", "--bits", "23", "--delay", "1e-3", "--speed", "1e308"],
+    (["latency", "--bits", "23", "--delay", "1e-3", "--speeds", "1e308"],
      "at most 1000 speeds, each -1000000..1000000 r/min"),
-    (["latency", "--bits", "23", "--delay", "1e-3", "--speed", ","], "expected numbers"),
+    (["latency", "--bits", "23", "--delay", "1e-3", "--speeds", ","], "expected numbers"),
     (["design", "--search", "4", "--band", "1048576"],
      "--band must be at most 4096 with --search"),
     (["design", "--angles", "0,60,135,228", "--mounting-error", "1e308"], "must be 0..10 deg"),
-    (["design", "--search", "4", "--step", "1e-300"], "must be 0.01..60 deg"),
+    (["design", "--search", "4", "--search-step", "1e-300"], "must be 0.01..60 deg"),
     (["design", "--search", "4", "--min-gap", "inf"], "must be 0..180 deg"),
     (["design", "--angles", ","], "expected numbers"),
     (["points", "--faces", "1000000000"], "--faces must be at most 720"),

@@ -167,7 +167,7 @@ def test_design_json():
 
 
 def test_latency_json():
-    doc = json_of("enc latency --bits 23 --delay 10e-6 --speed 1 --json")
+    doc = json_of("enc latency --bits 23 --delay 10e-6 --speeds 1 --json")
     assert doc["code_skip_speed_deg_s"] == pytest.approx(360 / (2 ** 23 * 10e-6))
     assert doc["resolution_arcsec"] == pytest.approx(1_296_000 / 2 ** 23)
 

@@ -14,7 +14,7 @@ usage.FIELD_FLAGS["design"] = {"angles_deg": "--angles", "min_gap_deg": "--min-g
                                "mounting_error_deg": "--mounting-error"}
 
 
-@usage.renamed({"--table": "--tsv"})
+@usage.renamed({"--table": "--tsv", "--step": "--search-step"})
 @click.command("design")
 @click.option("--angles", default=None, callback=options.float_list, metavar="DEG,DEG,...",
               help="Head angles [deg], the reference first (e.g. 0,60,135,228).")
@@ -27,7 +27,7 @@ usage.FIELD_FLAGS["design"] = {"angles_deg": "--angles", "min_gap_deg": "--min-g
               help="RMS error of each head's mounting angle [deg] for the sensitivity.")
 @click.option("--search", "search_heads", type=int, default=None, metavar="M",
               help="Search the arrangement of M heads maximising min |W(n)|.")
-@click.option("--step", "step_deg", type=float, default=1.0, show_default=True,
+@click.option("--search-step", "step_deg", type=float, default=1.0, show_default=True,
               callback=options.bounded(0.01, 60.0, unit=" deg"),
               help="search: grid step [deg] before refinement.")
 @click.option("--min-gap", "min_gap", type=float, default=10.0, show_default=True,

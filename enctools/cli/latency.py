@@ -29,7 +29,7 @@ def _speeds(ctx: click.Context, param: click.Parameter, value: str | None) -> li
     return speeds
 
 
-@usage.renamed({"--ref": "--reference"})
+@usage.renamed({"--ref": "--reference", "--speed": "--speeds"})
 @click.command("latency")
 @click.argument("inputs", nargs=-1, type=click.Path(dir_okay=False, allow_dash=True),
                 metavar="[RUN]...")
@@ -38,7 +38,7 @@ def _speeds(ctx: click.Context, param: click.Parameter, value: str | None) -> li
 @click.option("--delay", "delay_s", type=float, default=None,
               callback=options.bounded(0.0, 1.0, low_open=True, unit=" s"),
               help="Readout delay t_d [s] (seed 001 eq. 1); default: the measured lag.")
-@click.option("--speed", "speeds", default=None, callback=_speeds, metavar="RPM,...",
+@click.option("--speeds", "speeds", default=None, callback=_speeds, metavar="RPM,...",
               help="Speeds [r/min] at which to state the dynamic error (seed 001 eq. 2).")
 @options.heads("Runs: heads averaged into the device reading (default: the rig's measuring heads).")
 @click.option("--reference", "reference", default=None, metavar="truth|H1,...",
