@@ -199,7 +199,7 @@ def _guard(what: str, subject: Any, allowed: bool) -> None:
     option = g.ALLOW_NO_GAIN if what == "gain" else g.ALLOW_COARSE
     warning = g.enforce(check(subject), allowed, option)
     if warning is not None:
-        runner.log.warning("%s", warning)
+        runner.log.warning("%s", _words(warning))
 
 
 def _check_applies(target: str) -> None:
@@ -327,3 +327,11 @@ def _summary(s: dict, size: int | None, output: str | None, seconds: float,
     if size is not None:
         out |= {"file_bytes": size, "verified": verified}
     return out
+
+
+def _words(text: str) -> str:
+    """A library's line naming settings by their fields, as this command's options."""
+    from enctools.cli import usage
+    from enctools.errors import EncError
+
+    return usage.message(EncError(text), click.get_current_context().command, "make-rom")

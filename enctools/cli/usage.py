@@ -33,6 +33,9 @@ __all__ = ["FIELD_FLAGS", "RENAMED", "ModeCommand", "UsageError", "flag_for", "m
 #: field -> the option (or words) that sets it
 FIELD_FLAGS: dict[str, dict[str, str]] = {
     "*": {},
+    "make-rom": {"detection_unit_deg": "--detection-unit"},
+    "correct": {"fmt": "--target"},
+    "fit-rbf": {"goal_arcsec": "--goal", "allow_no_gain": "--allow-no-gain"},
 }
 
 #: the old spellings still accepted, with a warning: (command, old) -> new

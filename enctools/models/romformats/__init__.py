@@ -43,7 +43,7 @@ import numpy as np
 
 from enctools.data.csvio import sidecar_path
 from enctools.data.files import format_by_extension, read_bytes
-from enctools.errors import CheckFailed, DataError, UsageError
+from enctools.errors import CheckFailed, DataError, SettingsError
 from enctools.models.romformats import csvtext, headers, readers, writers
 from enctools.models.romformats.words import Target
 from enctools.units import ARCSEC, DEG
@@ -89,25 +89,25 @@ READERS: dict[str, tuple[FastReader | None, Reader]] = {
 def format_for(path: str, fmt: str | None) -> str:
     """The table format: ``fmt`` if given, else from the file's extension."""
     return format_by_extension(path, fmt, FORMATS + CONTROLS, EXTENSIONS, "table format",
-                               f"use --target ({', '.join(FORMATS + CONTROLS)})")
+                               f"use `target` ({', '.join(FORMATS + CONTROLS)})")
 
 
 def check_capacity(target: Target, entries: int) -> None:
-    """Refuse (UsageError, one line) a table the target cannot hold, or names it cannot
+    """Refuse (SettingsError, one line) a table the target cannot hold, or names it cannot
     take (:func:`check_names`)."""
     rows = entries + 1 if target.fmt in CONTROLLER else entries
     limit = target.max_entries if target.max_entries is not None else MAX_ENTRIES[target.fmt]
     if limit is not None and rows > limit:
         msg = (f"{target.fmt}: {rows} table points exceed the {limit} this target holds; use "
-               f"fewer --address-bits, or --max-entries if your control is configured for more")
-        raise UsageError(msg)
+               f"fewer `address_bits`, or `max_entries` if your control is configured for more")
+        raise SettingsError(msg)
     if target.fmt == "ihex" and entries * target.storage_bytes > IHEX_MAX_BYTES:
         msg = (f"ihex: {entries * target.storage_bytes} bytes exceed the 4 GiB of "
                "32-bit Intel HEX addresses")
-        raise UsageError(msg)
+        raise SettingsError(msg)
     if target.fmt == "bin" and target.endian not in ("little", "big"):
-        msg = f"--endian must be little or big, not {target.endian!r}"
-        raise UsageError(msg)
+        msg = f"`endian` must be little or big, not {target.endian!r}"
+        raise SettingsError(msg)
     check_names(target)
 
 
@@ -125,31 +125,31 @@ ACS_WORDS = frozenset({"AXIS_NO", "GLOBAL", "REAL", "INT", "STOP", "ERRORMAP1D",
 
 
 def check_names(target: Target) -> None:
-    """Refuse (UsageError, one line naming the option and the rule) an axis, array name or
+    """Refuse (SettingsError, one line naming the setting and the rule) an axis, array name or
     zone that a controller's program cannot take as a name or number: nothing but a name
     or a number ever lands in program text."""
     if target.fmt not in CONTROLLER:
         return
     if isinstance(target.zone, bool) or not isinstance(target.zone, int) or target.zone < 0:
-        msg = f"--zone must be a whole number >= 0, not {target.zone!r}"
-        raise UsageError(msg)
+        msg = f"`zone` must be a whole number >= 0, not {target.zone!r}"
+        raise SettingsError(msg)
     if target.fmt == "siemens" and not SIEMENS_AXIS.fullmatch(target.axis):
-        msg = (f"--axis must be a SINUMERIK axis name (a letter, then letters, digits or _, "
+        msg = (f"`axis` must be a SINUMERIK axis name (a letter, then letters, digits or _, "
                f"at most 8 characters, e.g. AX1 or C1), not {target.axis!r}")
-        raise UsageError(msg)
+        raise SettingsError(msg)
     if target.fmt != "acs":
         return
     if not (re.fullmatch(r"[0-9]{1,3}", target.axis) and int(target.axis) <= ACS_MAX_AXIS):
-        msg = f"--axis must be an ACS axis number 0..{ACS_MAX_AXIS}, not {target.axis!r}"
-        raise UsageError(msg)
+        msg = f"`axis` must be an ACS axis number 0..{ACS_MAX_AXIS}, not {target.axis!r}"
+        raise SettingsError(msg)
     if not ACS_NAME.fullmatch(target.name):
-        msg = (f"--array must be an ACSPL+ name (a letter, then letters, digits or _, at most "
+        msg = (f"`array_name` must be an ACSPL+ name (a letter, then letters, digits or _, at most "
                f"32 characters), not {target.name!r}")
-        raise UsageError(msg)
+        raise SettingsError(msg)
     if target.name.upper() in ACS_WORDS:
-        msg = (f"--array {target.name!r} is a word of the program written "
+        msg = (f"`array_name` {target.name!r} is a word of the program written "
                f"({', '.join(sorted(ACS_WORDS))}); choose another name")
-        raise UsageError(msg)
+        raise SettingsError(msg)
 
 
 def write_table(path: str, values: np.ndarray, target: Target, force: bool = False,
@@ -225,9 +225,9 @@ def read_control_table(path: str, target: str, sign: str | None = None, comp_typ
     does not say. DataError (one line) when the control would refuse or misread it."""
     data = read_bytes(path)
     if target in ("acs", "fanuc", "heidenhain") and sign not in ("correction", "error"):
-        msg = (f"{target}: the file does not say the sign of its values; give --sign "
-               "correction or --sign error, as make-rom was given it")
-        raise UsageError(msg)
+        msg = (f"{target}: the file does not say the sign of its values; give `sign` "
+               "correction or `sign` error, as make-rom was given it")
+        raise SettingsError(msg)
     try:
         return _read_control(data, path, target, sign, comp_type, axis, array_name)
     except (ValueError, OverflowError, IndexError, KeyError) as exc:
@@ -254,7 +254,7 @@ def _read_control(data: bytes, path: str, target: str, sign: str | None, comp_ty
     if target == "acs":
         return controlreaders.read_acs(data, path, str(sign), array_name)
     msg = f"{target} is not a control's table ({', '.join(CONTROLS + CONTROLLER)})"
-    raise UsageError(msg)
+    raise SettingsError(msg)
 
 
 def verify_control_table(path: str, table: ControlTable) -> float:

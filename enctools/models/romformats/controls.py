@@ -9,7 +9,7 @@ the interpolation error of the control's linear interpolation between its points
 against the source (the step run's targets, or the model on a fine grid).
 
 The sources of each rule are cited in enc-make-rom(1), CONTROLS; what is not
-confirmed there is refused (:class:`~enctools.errors.UsageError`) rather than guessed.
+confirmed there is refused (:class:`~enctools.errors.SettingsError`) rather than guessed.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
 from enctools.units import factor
 
 if TYPE_CHECKING:
@@ -46,10 +46,10 @@ class Control:
 
     resolution_deg : step of a stored value [deg] (Fanuc: per detection unit, times the
         magnification chosen).
-    max_points : points a table holds at most (before --max-entries).
+    max_points : points a table holds at most (before ``max_entries``).
     sign : ``correction`` (value added to the indicated angle), ``error`` (value added
         to the command: minus the correction), ``position`` (LinuxCNC type 0) or None:
-        not confirmed, --sign must say.
+        not confirmed, ``sign`` must say.
     bidirectional : whether separate forward and backward tables are written.
     value_range : smallest and largest stored value [resolution steps], or None.
     exact_spacing : whether the spacing must be a whole number of 0.0001 deg.
@@ -105,35 +105,35 @@ class ControlSettings:
         if self.bidirectional and not spec.bidirectional:
             msg = (f"{self.target}: a bidirectional table is not written: the control's "
                    "backward-direction table is not confirmed (enc-make-rom(1), CONTROLS); "
-                   "leave out --bidirectional")
-            raise UsageError(msg)
+                   "leave out `bidirectional`")
+            raise SettingsError(msg)
         if spec.sign is None and self.sign is None:
             msg = (f"{self.target}: the sign of a stored value (correction added, or error "
                    "measured) is not confirmed from the control's documentation; give "
-                   "--sign correction or --sign error as your control's manual says")
-            raise UsageError(msg)
+                   "`sign` correction or `sign` error as your control's manual says")
+            raise SettingsError(msg)
         if spec.sign is not None and self.sign is not None:
-            msg = (f"--sign applies to the fanuc and heidenhain targets, not {self.target} "
+            msg = (f"`sign` applies to the fanuc and heidenhain targets, not {self.target} "
                    "(whose convention is documented)")
-            raise UsageError(msg)
+            raise SettingsError(msg)
         if self.comp_type not in (0, 1):
-            msg = f"--comp-type must be 0 or 1, not {self.comp_type}"
-            raise UsageError(msg)
+            msg = f"`comp_type` must be 0 or 1, not {self.comp_type}"
+            raise SettingsError(msg)
         if not (0 < self.detection_unit_deg <= 1 and np.isfinite(self.detection_unit_deg)):
-            msg = f"--detection-unit must be in (0, 1] deg, not {self.detection_unit_deg}"
-            raise UsageError(msg)
+            msg = f"`detection_unit_deg` must be in (0, 1] deg, not {self.detection_unit_deg}"
+            raise SettingsError(msg)
         if self.max_entries is not None and not 3 <= self.max_entries <= 1 << 28:
-            msg = f"--max-entries must be 3..{1 << 28}, not {self.max_entries}"
-            raise UsageError(msg)
+            msg = f"`max_entries` must be 3..{1 << 28}, not {self.max_entries}"
+            raise SettingsError(msg)
         if not 0 <= self.ref_point < FANUC_LAST_POINT:
-            msg = f"--ref-point must be 0..{FANUC_LAST_POINT - 1}, not {self.ref_point}"
-            raise UsageError(msg)
+            msg = f"`ref_point` must be 0..{FANUC_LAST_POINT - 1}, not {self.ref_point}"
+            raise SettingsError(msg)
         self.check_axis()
         if self.points is not None:  # before any work
             why = self.allows(self.points - 1) if self.points >= 3 else "fewer than 3"
             if why:
-                msg = f"--points {self.points}: {self.target}: {why}"
-                raise UsageError(msg)
+                msg = f"`points` {self.points}: {self.target}: {why}"
+                raise SettingsError(msg)
 
     def check_axis(self) -> None:
         """Refuse an axis the file cannot name: twincat and fanuc take a number 0..32,
@@ -143,16 +143,16 @@ class ControlSettings:
         if self.axis is None:
             return
         if self.target == "linuxcnc":
-            msg = "--axis: a LinuxCNC compensation file names no joint ([JOINT_n] COMP_FILE does)"
-            raise UsageError(msg)
+            msg = "`axis`: a LinuxCNC compensation file names no joint ([JOINT_n] COMP_FILE does)"
+            raise SettingsError(msg)
         if self.target == "heidenhain":
             if not re.fullmatch(r"[A-Z][A-Z0-9]{0,7}", self.axis):
-                msg = (f"--axis must be a HEIDENHAIN axis name (an upper-case letter, then "
+                msg = (f"`axis` must be a HEIDENHAIN axis name (an upper-case letter, then "
                        f"letters or digits, at most 8), not {self.axis!r}")
-                raise UsageError(msg)
+                raise SettingsError(msg)
         elif not (re.fullmatch(r"[0-9]{1,2}", self.axis) and int(self.axis) <= 32):
-            msg = f"--axis must be an axis number 0..32 for {self.target}, not {self.axis!r}"
-            raise UsageError(msg)
+            msg = f"`axis` must be an axis number 0..32 for {self.target}, not {self.axis!r}"
+            raise SettingsError(msg)
 
     @property
     def spec(self) -> Control:
@@ -219,7 +219,7 @@ class ControlTable:
 
 
 def choose_sections(settings: ControlSettings, source: Source) -> int:
-    """The grid's sections over the turn: --points if given (refused if the control does
+    """The grid's sections over the turn: ``points`` if given (refused if the control does
     not allow it), else the step run's targets if the control allows them (or the fewest
     multiple of them it does), else the most the control allows."""
     if settings.points is not None:  # checked when the settings were made
@@ -234,7 +234,7 @@ def choose_sections(settings: ControlSettings, source: Source) -> int:
         if TURN_STEPS % k == 0 and settings.allows(k) is None:
             return k
     msg = f"{settings.target}: no grid over the turn fits the control's rules"
-    raise UsageError(msg)
+    raise SettingsError(msg)
 
 
 def _equally_spaced(targets_deg: np.ndarray) -> bool:
@@ -251,7 +251,7 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
     lacks the backward direction a bidirectional table needs.
     """
     if settings.bidirectional and source.backward is None:
-        msg = ("--bidirectional needs a step run with both directions "
+        msg = ("`bidirectional` needs a step run with both directions "
                "(a points stream with direction +1 and -1)")
         raise DataError(msg)
     k = choose_sections(settings, source)
@@ -311,7 +311,7 @@ def _fanuc_magnification(settings: ControlSettings, fwd: np.ndarray) -> tuple[in
         if np.abs(np.diff(q)).max(initial=0) <= FANUC_MAX_STEP:
             return mag, mag * du
     msg = (f"fanuc: the correction changes by more than {FANUC_MAX_STEP} x "
-           f"{FANUC_MAX_MAGNIFICATION} x {du!r} deg between points; use more --points")
+           f"{FANUC_MAX_MAGNIFICATION} x {du!r} deg between points; use more `points`")
     raise DataError(msg)
 
 
