@@ -5,19 +5,21 @@ A correction is what an FPGA or a motion controller adds to the encoder's indica
 angle; it is the negative of the error model's deviation (indicated minus true). Each
 family applies it its own way:
 
-- :class:`MemoryTable` (bin, ihex, mif, coe, mem, csv, a ``rom`` stream): the FPGA looks
+- :class:`MemoryTable` (the memory family: bin, ihex, mif, coe, mem, csv; a ``rom``
+  stream): the FPGA looks
   the code c up by its top m bits, ``address = c >> (n - m)``, and adds the stored
   signed integer times ``lsb`` counts: ``c + table[address] * lsb`` (seed 001 sec. 4.2).
   No interpolation, no other rounding than the table's own.
-- :class:`ControlTable` (a motion control's table: linuxcnc, twincat, fanuc, heidenhain,
-  siemens, acs): the control interpolates linearly between points at given positions of
-  its axis, modulo 360 deg where it wraps; a bidirectional table holds one correction
-  per direction. Read by each control's own reader (:mod:`.romformats.controlreaders`).
+- :class:`ControlTable` (the controller and control families: acs, siemens, linuxcnc,
+  twincat, fanuc, heidenhain): the control interpolates linearly between points at given
+  positions of its axis, modulo 360 deg where it wraps; a bidirectional table holds one correction
+  per direction. Read by its format record's own reader (``read_points``).
 - :class:`ModelCorrection` (a model stream of enc fit-rbf, a deviations curve): minus
   the model at the indicated angle, unquantised: what a perfect table would add.
 
-A new control's format plugs in through :func:`romformats.read_control_table`: its
-reader returns a :class:`~enctools.models.romformats.points.PointTable`.
+A new format is a record of :mod:`enctools.models.romformats.registry`: a control's
+reader (``read_points``) returns a :class:`~enctools.models.romformats.points.PointTable`,
+applied here as a :class:`ControlTable`, a memory's words a :class:`MemoryTable`.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from enctools.data.files import read_bytes
 from enctools.errors import DataError, SettingsError
 from enctools.models import romformats
 from enctools.models.rom import LSB_COUNTS, MAX_ADDRESS_BITS
-from enctools.models.romformats import headers
+from enctools.models.romformats import headers, registry
 from enctools.models.romformats.points import PointTable
 from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
@@ -40,10 +42,6 @@ from enctools.units import ARCSEC, DEG, TWO_PI, factor
 COMMENT = headers.COMMENT
 #: bits of the code a table may be built for (enc make-rom's ``code_bits``)
 MAX_CODE_BITS = 40
-#: the formats of an FPGA's memory: looked up by the code's top bits
-MEMORY_FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv")
-#: the formats of a motion control: interpolated between their points
-CONTROL_FORMATS = (*romformats.CONTROLS, *romformats.CONTROLLER)
 
 
 class Correction(Protocol):
@@ -150,8 +148,8 @@ class TableSettings:
     states (enc make-rom writes its layout in a comment of mif, coe, mem, acs and siemens
     tables, in a sidecar of csv and ihex tables), else the default.
 
-    fmt : a format of :mod:`enctools.models.romformats` (None: from the extension, else
-        the content).
+    fmt : a format of :mod:`enctools.models.romformats.registry` (None: from the
+        extension, else the content).
     code_bits : n, bits of the code (None: stated by the file, else the rig's code of the
         stream corrected; a raw image states none).
     address_bits : m, the code's top bits addressing the table (default: from its size).
@@ -306,10 +304,9 @@ def checked_memory(values: np.ndarray, code_bits: int, address_bits: int | None,
 
 def control_table(path: str, settings: TableSettings, fmt: str) -> ControlTable:
     """A motion control's table file (enc-make-rom(1), CONTROLS), read as its control
-    reads it (:func:`~enctools.models.romformats.read_control_table`)."""
-    table = romformats.read_control_table(path, fmt, settings.sign, settings.comp_type,
-                                          settings.axis, settings.array_name)
-    return ControlTable(table, fmt)
+    reads it (:func:`~enctools.models.romformats.read_points`; ``settings`` say what the
+    file does not: sign, comp_type, axis, array_name)."""
+    return ControlTable(romformats.read_points(path, fmt, settings), fmt)
 
 
 def read_file(path: str, settings: TableSettings, fmt: str | None = None,
@@ -318,7 +315,7 @@ def read_file(path: str, settings: TableSettings, fmt: str | None = None,
     its format, None: :func:`source_format`'s); ``rig_bits``: the code's bits of the rig of
     the stream corrected, for a memory table that states none."""
     fmt = fmt or romformats.format_for(path, settings.fmt)
-    if fmt in CONTROL_FORMATS:  # its reader reads the file
+    if registry.get(fmt).points:  # a controller's: its reader reads the file
         return control_table(path, settings, fmt)
     return memory_table(path, read_bytes(path), settings, fmt, rig_bits)
 
@@ -381,8 +378,9 @@ def source_format(path: str, fmt: str | None) -> str:
     if ext == ".csv":
         doc = headers.sidecar_doc(path)
         return STREAM if doc is not None and not headers.is_table_sidecar(doc) else "csv"
-    if ext in romformats.EXTENSIONS:
-        return romformats.EXTENSIONS[ext]
+    named = registry.by_extension(ext)
+    if named is not None:
+        return named.name
     doc = headers.sidecar_doc(path)
     if headers.is_table_sidecar(doc) and doc is not None:  # a table's sidecar names it
         stated = doc["enctools"]["table"].get("format")
@@ -396,7 +394,7 @@ def source_format(path: str, fmt: str | None) -> str:
     found = STREAM if formats.content_format(head, tail[-8:]) else headers.identify(head)
     if found is None:
         msg = (f"{path}: cannot tell the table's format from its name or content; give "
-               f"`fmt` ({', '.join(romformats.FORMATS + romformats.CONTROLS)})")
+               f"`fmt` ({', '.join(registry.names())})")
         raise SettingsError(msg)
     return found
 

@@ -33,6 +33,7 @@ from enctools.data.header import Header, history_line
 from enctools.data.schemas import make_field
 from enctools.errors import DataError, SettingsError
 from enctools.models import romformats
+from enctools.models.romformats import registry
 from enctools.units import TWO_PI, factor
 
 #: the largest table this module builds (2**28 entries, 512 MiB of int16)
@@ -168,9 +169,9 @@ class Settings:
     sign: str | None = None
 
     def __post_init__(self) -> None:
-        if self.target != "stream" and self.target not in romformats.FORMATS:
-            msg = (f"`target` must be one of {', '.join(romformats.FORMATS)} or stream, "
-                   f"not {self.target!r}")
+        addressed = registry.names(registry.MEMORY, registry.CONTROLLER)
+        if self.target != "stream" and self.target not in addressed:
+            msg = f"`target` must be one of {', '.join(addressed)} or stream, not {self.target!r}"
             raise SettingsError(msg)
         self._check_controller_options()
         self.spec.check()
@@ -186,7 +187,7 @@ class Settings:
         if self.max_entries is not None and not 1 <= self.max_entries <= 1 << MAX_ADDRESS_BITS:
             msg = f"`max_entries` must be 1..{1 << MAX_ADDRESS_BITS}, not {self.max_entries}"
             raise SettingsError(msg)
-        if self.target not in romformats.CONTROLLER:
+        if not self.controller:
             given = [f for f, v in (("`axis`", self.axis), ("`max_entries`", self.max_entries),
                                     ("`resolution_deg`", self.resolution_deg),
                                     ("`sign`", self.sign))
@@ -196,20 +197,29 @@ class Settings:
                        f"not `target` {self.target}")
                 raise SettingsError(msg)
             return
-        _check_resolution(self.target, self.resolution_deg)
-        if self.target == "acs" and self.sign not in ("correction", "error"):
-            msg = ("acs: the sign of an ERRORMAP1D value (correction added, or error measured) "
-                   "is not confirmed from ACS's documentation; give `sign` correction or "
-                   "`sign` error as your controller's manual says")
+        fmt = registry.get(self.target)
+        _check_resolution(fmt, self.resolution_deg)
+        if fmt.sign is None and self.sign not in ("correction", "error"):
+            msg = (f"{self.target}: the sign of a stored value (correction added, or error "
+                   f"measured) is not confirmed from the controller's documentation; give "
+                   "`sign` correction or `sign` error as your controller's manual says")
             raise SettingsError(msg)
-        if self.target == "siemens" and self.sign is not None:
-            msg = "`sign` applies to acs, fanuc and heidenhain, not siemens (documented)"
+        if fmt.sign is not None and self.sign is not None:
+            unsure = ", ".join(r.name for r in registry.records() if r.points and r.sign is None)
+            msg = f"`sign` applies to {' and '.join(unsure.rsplit(', ', 1))}, not " \
+                  f"{self.target} (documented)"
             raise SettingsError(msg)
+
+    @property
+    def controller(self) -> bool:
+        """Whether the target is a controller's addressed table (its points interpolated)."""
+        fmt = registry.find(self.target)
+        return fmt is not None and fmt.family == registry.CONTROLLER
 
     @property
     def spec(self) -> RomSpec:
         """The table to build."""
-        controller = self.target in romformats.CONTROLLER
+        controller = self.controller
         lsb = self.lsb
         if controller and self.resolution_deg is not None:  # the LSB is the control's step
             lsb = self.resolution_deg / (360.0 / 2.0 ** self.code_bits)
@@ -224,7 +234,7 @@ class Settings:
             raise ValueError(msg)
         count_deg = self.spec.lsb_arcsec * factor("arcsec", "deg")
         decimals = None
-        if self.target in romformats.CONTROLLER and self.resolution_deg is not None:
+        if self.controller and self.resolution_deg is not None:
             count_deg = self.resolution_deg
             decimals = round(-math.log10(self.resolution_deg))
         return romformats.Target(self.target, self.width, self.endian, count_deg=count_deg,
@@ -233,11 +243,14 @@ class Settings:
                                  sign=-1 if self.sign == "error" else 1, decimals=decimals)
 
     def _axis(self) -> str:
-        """The axis as the program names it: acs a number (leading zeros dropped), siemens a
-        name; checked by :func:`romformats.check_names`."""
+        """The axis as the program names it: the format's default when none is given; a
+        number (leading zeros dropped) where the format numbers its axes; checked by the
+        format's record (:func:`romformats.check_capacity`)."""
+        fmt = registry.find(self.target)
+        default = fmt.default_axis if fmt is not None else ""
         if self.axis is None:
-            return "0" if self.target == "acs" else "AX1"
-        if self.target == "acs" and self.axis.isascii() and self.axis.isdigit():
+            return default
+        if default.isdigit() and self.axis.isascii() and self.axis.isdigit():
             return str(int(self.axis))
         return self.axis
 
@@ -249,17 +262,12 @@ class Settings:
                 "endian": self.endian}
 
 
-#: where each control keeps the resolution ``resolution_deg`` asks for
-_RESOLUTION_SOURCE = {"siemens": "SINUMERIK: 1 / MD10210 $MN_INT_INCR_PER_DEG",
-                      "acs": "ACS: the axis' position step in degrees, as its user units give it"}
-
-
-def _check_resolution(target: str, resolution_deg: float | None) -> None:
+def _check_resolution(fmt: registry.TableFormat, resolution_deg: float | None) -> None:
     """Refuse (one line) a controller table without a resolution that is a power of ten
     in RESOLUTION_DEG: the control's step, which is not in any file enctools reads."""
     if resolution_deg is None:
-        msg = (f"{target}: give `resolution_deg`, the control's resolution [deg] (a power of ten; "
-               f"{_RESOLUTION_SOURCE.get(target, 'the control')})")
+        msg = (f"{fmt.name}: give `resolution_deg`, the control's resolution [deg] (a power of "
+               f"ten; {fmt.resolution_source or 'the control'})")
         raise SettingsError(msg)
     d = round(-math.log10(resolution_deg)) if resolution_deg > 0 else 0
     if not (RESOLUTION_DEG[0] <= resolution_deg <= RESOLUTION_DEG[1]
