@@ -145,8 +145,8 @@ class ModeCommand(click.Command):
         common: list[tuple[str, str]] = []
         by_mode: dict[str, list[tuple[str, str]]] = {m: [] for m in self.modes}
         for p in self.get_params(ctx):
-            record = p.get_help_record(ctx)
-            if record is None:
+            record = p.get_help_record(ctx) if isinstance(p, click.Option) else None
+            if record is None:  # an argument is in the usage line, as click shows it
                 continue
             mode = self._mode(p)
             (common if mode is None else by_mode[mode]).append(record)

@@ -219,7 +219,7 @@ def file_layout(path: str, data: bytes, settings: TableSettings, fmt: str,
     else the options given, else the code's bits ``rig_bits`` of the rig of the stream
     corrected and the defaults; SettingsError when a setting contradicts what it states."""
     stated, where = None, "its sidecar"
-    if fmt in headers.SIDECAR_FORMATS:
+    if headers.has_sidecar(fmt):
         stated = headers.from_sidecar(path)
     if stated is None:
         stated, where = headers.from_comment(data[:4096].decode("utf-8", "replace")), \
@@ -273,13 +273,14 @@ def memory_table(path: str, data: bytes, settings: TableSettings, fmt: str,
     """A memory table (bin, ihex, mif, coe, mem, csv) and its layout, its size checked."""
     layout = file_layout(path, data, settings, fmt, rig_bits)
     if layout.code_bits is None:
-        place = "sidecar" if fmt in headers.SIDECAR_FORMATS else "comment"
-        where = "a raw image has no place for its layout" if fmt == "bin" else \
+        place = registry.get(fmt).layout_in
+        where = "a raw image has no place for its layout" if place is None else \
             f"a {fmt} table without its make-rom {place}"
         msg = f"{path}: {where}, and the input names no 2^n-count code; {LAYOUT_OPTIONS}"
         raise SettingsError(msg)
     values = _read_values(path, settings, fmt, layout, 1.0)
-    stated = layout.describe() | ({"endian": layout.endian} if fmt in ("bin", "ihex") else {})
+    binary = registry.get(fmt).binary
+    stated = layout.describe() | ({"endian": layout.endian} if binary else {})
     return checked_memory(values, layout.code_bits, settings.address_bits, layout.lsb, path,
                           fmt, layout.width, stated)
 
@@ -291,9 +292,10 @@ def checked_memory(values: np.ndarray, code_bits: int, address_bits: int | None,
     n = values.size
     m = n.bit_length() - 1
     if n == 0 or n != 1 << m or m > code_bits:
+        record = registry.find(fmt)  # a rom stream has none
         msg = (f"{path}: {n} entries do not address a {code_bits}-bit code "
                f"(a table holds 2^m entries, m <= {code_bits}); check `code_bits`"
-               + (", `width`" if fmt in ("bin", "ihex") else ""))
+               + (", `width`" if record is not None and record.binary else ""))
         raise DataError(msg)
     if address_bits is not None and address_bits != m:
         msg = (f"{path}: {n} entries = 2^{m}, not the 2^{address_bits} of "
@@ -384,7 +386,7 @@ def source_format(path: str, fmt: str | None) -> str:
     doc = headers.sidecar_doc(path)
     if headers.is_table_sidecar(doc) and doc is not None:  # a table's sidecar names it
         stated = doc["enctools"]["table"].get("format")
-        return stated if stated in headers.SIDECAR_FORMATS else "csv"
+        return stated if isinstance(stated, str) and headers.has_sidecar(stated) else "csv"
     if formats.by_name(path) is not None or not os.path.isfile(path):
         return STREAM  # a missing file: opening it says so
     try:

@@ -99,17 +99,18 @@ def write_table(path: str, values: np.ndarray, target: Target, force: bool = Fal
     check_new_file(path, force)
     lines = comment or []
     layout = headers.from_comment("\n".join(lines[:1]))
-    writer = registry.get(target.fmt).write_values
+    fmt = registry.get(target.fmt)
+    writer = fmt.write_values
     if writer is None:
         msg = f"{target.fmt} is not written as words (a control's table)"
         raise ValueError(msg)
-    if target.fmt not in headers.SIDECAR_FORMATS or layout is None:
+    if fmt.layout_in != "sidecar" or layout is None:
         write_atomic(path, lambda f: writer(f, values, target, lines))
         return Path(path).stat().st_size
     # no place in the file for its layout: a sidecar beside it, written with it or not at all
     side = sidecar_path(path)
     check_new_file(side, force)
-    layout = replace(layout, endian=target.endian if target.fmt == "ihex" else None)
+    layout = replace(layout, endian=target.endian if fmt.binary else None)
     with OutputGroup() as group:
         group.write(path, lambda f: writer(f, values, target, lines), force=force)
         group.write(side, headers.sidecar(layout, target.fmt, Path(path).name, lines),

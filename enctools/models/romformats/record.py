@@ -190,6 +190,14 @@ class TableFormat:
     #: :class:`~.controls.ControlSettings` and None): SettingsError, one line naming the
     #: field
     check: Callable[[Any, int | None], None] | None = None
+    #: where the file states its layout (code bits, width, LSB) for the reader: in its
+    #: ``comment``, a ``sidecar`` beside it, or None (a raw image: nowhere)
+    layout_in: str | None = "comment"
+    #: words stored as bytes: their width and byte order split them (bin, ihex)
+    binary: bool = False
+    #: content only this format has, searched for in a file's first 4 KiB to name a file
+    #: whose extension does not (None: it has none)
+    signature: re.Pattern[bytes] | None = None
     #: where it is listed among the others (lower first; then by name)
     rank: int = 100
 

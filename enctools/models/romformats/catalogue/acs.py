@@ -45,9 +45,12 @@ def check(target: Any, entries: int | None) -> None:
         raise SettingsError(msg)
 
 
+#: what only this format's content has (a file's first 4 KiB)
+SIGNATURE = re.compile(rb"^\s*ERRORMAP1D\s", re.MULTILINE)
+
 ACS = registry.register(TableFormat(
     "acs", "ACS SPiiPlus ERRORMAP1D program", CONTROLLER, (".prg", ".acs"),
     write_values=lazy(".writers", "write_acs"), read_values=lazy(".readers", "read_acs"),
     read_points=lazy(".controlreaders", "read_acs"), sign=None, max_entries=100_000,
     resolution_source="ACS: the axis' position step in degrees, as its user units give it",
-    default_axis="0", check=check, rank=10))
+    default_axis="0", check=check, signature=SIGNATURE, rank=10))

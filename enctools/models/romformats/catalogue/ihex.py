@@ -3,6 +3,7 @@ records (32-bit byte addresses: at most 4 GiB)."""
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from enctools.errors import SettingsError
@@ -21,9 +22,13 @@ def check(target: Any, entries: int | None) -> None:
         raise SettingsError(msg)
 
 
+#: what only this format's content has (a file's first 4 KiB)
+SIGNATURE = re.compile(rb"\A:[0-9A-F]{10,}\r?\n(?::[0-9A-F]{10,}\r?\n)*(?::00000001FF\s*)?\Z"
+                       rb"|\A(?::[0-9A-F]{10,}\r?\n){4}")
+
 IHEX = registry.register(TableFormat(
     "ihex", "Intel HEX of the raw image", MEMORY, (".hex", ".ihex"),
     write_values=lazy(".writers", "write_ihex"),
     read_values=lazy(".readers", "read_ihex"),
     fast_read=lazy(".readers", "fast_ihex"),
-    check=check, rank=20))
+    layout_in="sidecar", binary=True, check=check, signature=SIGNATURE, rank=20))

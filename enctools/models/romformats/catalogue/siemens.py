@@ -26,10 +26,13 @@ def check(target: Any, entries: int | None) -> None:
         raise SettingsError(msg)
 
 
+#: what only this format's content has (a file's first 4 KiB)
+SIGNATURE = re.compile(rb"^\s*\$AA_ENC_COMP\[", re.MULTILINE)
+
 SIEMENS = registry.register(TableFormat(
     "siemens", "SINUMERIK $AA_ENC_COMP table", CONTROLLER, (".spf", ".mpf", ".ini"),
     write_values=lazy(".writers", "write_siemens"),
     read_values=lazy(".readers", "read_siemens"),
     read_points=lazy(".controlreaders", "read_siemens"), max_entries=5_000,
     resolution_source="SINUMERIK: 1 / MD10210 $MN_INT_INCR_PER_DEG",
-    default_axis="AX1", check=check, rank=20))
+    default_axis="AX1", check=check, signature=SIGNATURE, rank=20))
