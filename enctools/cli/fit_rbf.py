@@ -9,9 +9,13 @@ import click
 from enctools.cli import options, runner, usage
 from enctools.units import factor
 
+#: the options of one kernel, under its heading in --help (fitting.Settings refuses them
+#: with the other kernel)
+MODES = {"The rbf kernel": ("spread_deg", "goal"), "The fourier kernel": ("harmonics",)}
+
 
 @usage.renamed(options.TABLE_RENAMED)
-@click.command("fit-rbf")
+@click.command("fit-rbf", cls=usage.ModeCommand, modes=MODES)
 @options.input_arg
 @click.option("--kernel", type=click.Choice(["rbf", "fourier"]), default="rbf", show_default=True,
               help="rbf: Gaussian RBF network on the circle; fourier: trigonometric least "
