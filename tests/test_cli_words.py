@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent / "enctools"
 LAYERS = ("core", "data", "methods", "models", "hw", "report")
 #: what each layer still has (flag strings, UsageError lines): a bound that only falls,
 #: on its way to 0 (issue 30)
-LEFT = {"core": (0, 0), "data": (0, 0), "methods": (0, 0), "models": (103, 68),
+LEFT = {"core": (0, 0), "data": (0, 0), "methods": (0, 0), "models": (0, 0),
         "hw": (0, 0), "report": (0, 0)}
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
 

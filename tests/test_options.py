@@ -37,7 +37,7 @@ def test_references_are_spelt_one_way():
     for name, p in ALL:
         if "--reference" in p.opts:
             assert p.opts[0] in ("--ref", "--reference"), f"enc {name}: {p.opts}"
-    for name in ("selfcal", "compare", "latency", "interp-check"):
+    for name in ("selfcal", "compare", "latency", "interp-check", "correct"):
         assert not [p for p in _params(name) if "--ref" in p.opts], name
 
 

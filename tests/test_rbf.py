@@ -171,12 +171,13 @@ def test_check_threshold_exit_1(tmp_path):
     ({"kernel": "spline"}, "--kernel must be one of rbf, fourier, not 'spline'"),
 ])
 def test_fit_settings_refuse(kw, what):
-    from enctools.errors import UsageError
+    from enctools.cli import fit_rbf, usage
+    from enctools.errors import SettingsError
     from enctools.models.fitting import Settings
 
-    with pytest.raises(UsageError) as err:
+    with pytest.raises(SettingsError) as err:
         Settings(**kw)
-    assert str(err.value) == what
+    assert usage.message(err.value, fit_rbf.command, "fit-rbf") == what  # as the command says it
 
 
 def test_fit_points_in_process_matches_the_command(table1, tmp_path):

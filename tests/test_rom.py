@@ -320,12 +320,14 @@ def test_text_readers_take_lines_by_columns_and_refuse_bad_digits(tmp_path):
     ({"code_bits": 10, "target": "xyz"}, "--target must be one of bin, ihex"),
 ])
 def test_make_rom_settings_refuse(kw, what):
-    from enctools.errors import UsageError
+    from enctools.cli import make_rom, usage
+    from enctools.errors import SettingsError
     from enctools.models.rom import Settings
 
-    with pytest.raises(UsageError) as err:
+    with pytest.raises(SettingsError) as err:
         Settings(**kw)
-    assert str(err.value).startswith(what) and "\n" not in str(err.value)
+    said = usage.message(err.value, make_rom.command, "make-rom")  # as the command says it
+    assert said.startswith(what) and "\n" not in said
 
 
 def test_make_rom_settings_resolve_the_defaults():

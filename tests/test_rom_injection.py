@@ -169,8 +169,8 @@ def test_valid_names_are_written(model, tmp_path, ext, args, want):
 
 
 def test_library_writers_check_names_too(tmp_path):
-    from enctools.errors import UsageError
-    with pytest.raises(UsageError, match="--axis"):
+    from enctools.errors import SettingsError
+    with pytest.raises(SettingsError, match=r"^axis must be"):
         rf.write_table(str(tmp_path / "t.spf"), np.zeros(4, np.int16),
                        rf.Target("siemens", axis="AX1\nM30"))
     assert list(tmp_path.iterdir()) == []

@@ -15,7 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import one_error_line, run, run_in_process
 
-from enctools.cli.make_rom import CONTROLS, TARGETS
+from enctools.cli.make_rom import targets
 from enctools.models import romformats as rf
 
 RAD_ARCSEC = 206264.80624709636
@@ -33,6 +33,8 @@ OPTIONS = {"bin": "--bits 12", "ihex": "--bits 12", "mif": "--bits 12", "coe": "
            "acs": "--address-bits 6 --resolution 0.0001 --sign correction",
            "siemens": "--address-bits 6 --resolution 0.0001", "linuxcnc": "", "twincat": "",
            "fanuc": "--sign error", "heidenhain": "--sign error"}
+TARGETS = targets()
+CONTROLS = rf.CONTROLS
 MEMORIES = tuple(t for t in TARGETS if t not in CONTROLS + rf.CONTROLLER)
 #: the matrix is of the tables' plumbing and means: a model through 8 targets cannot show
 #: that it beats no correction, and Fanuc's 0.001 deg is coarse beside a 2" correction;

@@ -9,9 +9,13 @@ import click
 from enctools.cli import options, runner, usage
 from enctools.units import factor
 
+#: the options of one kernel, under its heading in --help (fitting.Settings refuses them
+#: with the other kernel)
+MODES = {"The rbf kernel": ("spread_deg", "goal"), "The fourier kernel": ("harmonics",)}
+
 
 @usage.renamed(options.TABLE_RENAMED)
-@click.command("fit-rbf")
+@click.command("fit-rbf", cls=usage.ModeCommand, modes=MODES)
 @options.input_arg
 @click.option("--kernel", type=click.Choice(["rbf", "fourier"]), default="rbf", show_default=True,
               help="rbf: Gaussian RBF network on the circle; fourier: trigonometric least "
@@ -52,7 +56,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     from enctools.cli.summary import check_json, emit
     from enctools.data import streams
     from enctools.data.streams import with_history
-    from enctools.errors import CheckFailed
+    from enctools.errors import CheckFailed, EncError
     from enctools.methods.points import distinct, read_points, target_means
     from enctools.models import fitting
     from enctools.models.curve_model import model_table
@@ -71,8 +75,9 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
         hold = distinct(hp, holdout_path, hh.meta)[:2]
     fit = fitting.fit_points(means.position_deg, means.mean, settings, hold,
                              runner.Progress("spread search", "spreads"))
-    for note in fit.notes:
-        runner.log.warning("%s", note)
+    for note in fit.notes:  # the settings a note names, as this command's options
+        runner.log.warning("%s", usage.message(EncError(note), click.get_current_context().command,
+                                               "fit-rbf"))
     table, meta = model_table(fit.model)
     meta |= {"selection": fit.choice, "targets": means.targets.meta(),
              "domain": means.measured().meta()}

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from enctools.cli import options, runner
+from enctools.cli import options, runner, usage
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -18,17 +18,27 @@ if TYPE_CHECKING:
     from enctools.models.rom import Rom, Settings
     from enctools.models.romformats.controls import ControlSettings
 
-TARGETS = ("bin", "ihex", "mif", "coe", "mem", "csv", "acs", "siemens", "linuxcnc", "twincat",
-           "fanuc", "heidenhain", "stream")
-#: the targets that take each option of one kind of table (given with another: refused)
-CONTROLS = ("linuxcnc", "twincat", "fanuc", "heidenhain")
-ROM_PATH = tuple(t for t in TARGETS if t not in CONTROLS)
-APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample", "endian",
-                            "zone", "array_name"), ROM_PATH),
-           "resolution_deg": ("acs", "siemens"), "bidirectional": CONTROLS, "points": CONTROLS,
-           "comp_type": ("linuxcnc",), "detection_unit": ("fanuc",), "ref_point": ("fanuc",)}
 
-@click.command("make-rom")
+
+def targets() -> tuple[str, ...]:
+    """The table formats of the registry, and ``stream``."""
+    from enctools.models.romformats import registry
+
+    return (*registry.names(), "stream")
+
+
+#: the options of one kind of table, under its heading in --help (the formats that take
+#: each are their records'; given for another format, refused by _check_applies)
+MODES = {"Memories' and controllers' tables (addressed by the code)":
+         ("code_bits", "address_bits", "width", "lsb", "sample", "endian", "zone", "array_name",
+          "resolution_deg"),
+         "Controls' tables (a grid over the turn)":
+         ("bidirectional", "points", "comp_type", "detection_unit", "home_point"),
+         "Rom streams (--target stream)": ("fmt",)}
+
+
+@usage.renamed({"--ref-point": "--home-point"})
+@click.command("make-rom", cls=usage.ModeCommand, modes=MODES)
 @options.input_arg
 @click.option("--bits", "code_bits", type=int, default=None,
               help="Bits n of the encoder code (default: from the model's rig, e.g. 23).")
@@ -41,8 +51,9 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
 @click.option("--sample", type=click.Choice(["centre", "start"]), default=None,
               help="Evaluate at the centre or the start of each address's codes "
                    "(default: centre; start for acs and siemens tables).")
-@click.option("--target", type=click.Choice(TARGETS), default=None,
-              help="Table format (default: from -o's extension; no -o: a rom stream on stdout).")
+@click.option("--target", type=options.LazyChoice(targets), default=None,
+              help="Table format (default: from -o's extension; no -o: a rom stream on "
+                   "stdout); the formats registered (enc-make-rom(1), Formats).")
 @click.option("--endian", type=click.Choice(["little", "big"]), default="little", show_default=True,
               help="bin and ihex: byte order of the words.")
 @click.option("--curve", default=None, metavar="NAME",
@@ -70,8 +81,8 @@ APPLIES = {**dict.fromkeys(("code_bits", "address_bits", "width", "lsb", "sample
               help="Controls: points of the table over the turn, both ends included.")
 @click.option("--detection-unit", type=float, default=1e-3, show_default=True,
               help="fanuc: the axis's detection unit [deg].")
-@click.option("--ref-point", type=int, default=0, show_default=True,
-              help="fanuc: compensation point number of the reference position.")
+@click.option("--home-point", type=int, default=0, show_default=True,
+              help="fanuc: compensation point number of the reference (home) position.")
 @click.option("--outside", type=click.Choice(["zero", "hold"]), default=None,
               help="Where the source's targets do not cover the turn: zero correction, or "
                    "hold the nearer end's (default: refused).")
@@ -95,42 +106,45 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             axis: str | None, zone: int, array_name: str, max_entries: int | None,
             bidirectional: bool,
             sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
-            detection_unit: float, ref_point: int, outside: str | None, verify: bool,
+            detection_unit: float, home_point: int, outside: str | None, verify: bool,
             allow_no_gain: bool, allow_coarse: bool, output: str | None, force: bool,
             fmt: str | None, as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
     entry is the correction to add to the code, -deviation in LSBs of --lsb counts,
-    rounded (quantisation error <= 1/2 LSB). Formats: raw binary, Intel HEX, Altera
-    MIF, Xilinx COE, Verilog $readmemh, CSV, an ACS SPiiPlus ERRORMAP1D program, a
-    SINUMERIK $AA_ENC_COMP table. A summary (entries, range, largest quantisation
-    error, CRC-32, size) goes to stderr. What a target cannot hold is refused.
+    rounded (quantisation error <= 1/2 LSB), in a format of --target (enc-make-rom(1),
+    Formats). A summary (entries, range, largest quantisation error, CRC-32, size) goes
+    to stderr. What a target cannot hold is refused.
 
-    The controls' tables (linuxcnc, twincat, fanuc, heidenhain) are also built from a
-    points stream (a step run, per target and direction): a grid over the turn at the
-    control's resolution, with the interpolation error it costs in the summary.
+    A control's table is also built from a points stream (a step run, per target and
+    direction): a grid over the turn at the control's resolution, with the
+    interpolation error it costs in the summary.
     """
     import time
 
     from enctools.cli.summary import check_json, emit
     from enctools.data import streams
     from enctools.models import rom, romformats
+    from enctools.models.romformats import registry
 
     target, path = _target(target, output, force, fmt)
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
-    _check_applies(target)
-    if target in romformats.CONTROLS:
-        _control(input, curve, _control_settings(target, bidirectional, sign, comp_type, points,
-                                                 max_entries, axis, detection_unit, ref_point),
-                 str(path), (force, verify, outside), as_json, unit, (allow_no_gain, allow_coarse))
+    family = _check_applies(target)
+    if family == registry.CONTROL:
+        control = _control_settings(target=target, bidirectional=bidirectional, sign=sign,
+                                    comp_type=comp_type, points=points,
+                                    max_entries=max_entries, axis=axis,
+                                    detection_unit_deg=detection_unit, home_point=home_point)
+        _control(input, curve, control, str(path), (force, verify, outside), as_json, unit,
+                 (allow_no_gain, allow_coarse))
         return
-    kinds = ("model", "deviations") + (("points",) if target in romformats.CONTROLLER else ())
-    src = streams.open_input(input, kinds)
-    evaluate, extent = _measured_model(src, curve, outside)
-    settings = rom.Settings(_bits_from_rig(src.header.meta) if code_bits is None else code_bits,
-                            address_bits, width, lsb, sample, target, endian, axis, zone,
-                            array_name, max_entries, resolution_deg, sign)
+    src, evaluate, extent = _measured_model(input, family, curve, outside)
+    settings = rom.Settings(
+        _bits_from_rig(src.header.meta) if code_bits is None else code_bits,
+        address_bits=address_bits, width=width, lsb=lsb, sample=sample, target=target,
+        endian=endian, axis=axis, zone=zone, array_name=array_name, max_entries=max_entries,
+        resolution_deg=resolution_deg, sign=sign)
     _before_work(path, force, src.header.meta, allow_no_gain)
     t0 = time.monotonic()
     table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
@@ -146,22 +160,28 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
                                       table.file_comment() + _range_line(summary))
         if verify:
             romformats.verify_table(path, table.values, settings.table)
-    emit(_summary(summary, size, output, time.monotonic() - t0, verify and size is not None),
-         as_json, unit)
+    emit(_summary(summary, size, output, time.monotonic() - t0, verify), as_json, unit)
 
 
-def _measured_model(src: InputStream, curve: str | None, outside: str | None
-                    ) -> tuple[Callable[[np.ndarray], np.ndarray], dict[str, Any]]:
-    """The deviation [arcsec] at angles [deg] a memory table is built from, restricted to
-    the range its source measured (refused over a partial one without ``outside``), and
-    what the summary says of that range."""
+def _measured_model(input: str | None, family: str | None, curve: str | None,
+                    outside: str | None
+                    ) -> tuple[InputStream, Callable[[np.ndarray], np.ndarray], dict[str, Any]]:
+    """The input opened (a controller's table is built from a step run too), the deviation
+    [arcsec] at angles [deg] a memory table is built from, restricted to the range its
+    source measured (refused over a partial one without ``outside``), and what the summary
+    says of that range."""
+    from enctools.data import streams
     from enctools.models import domain, rom
+    from enctools.models.romformats import registry
+
+    kinds = ("model", "deviations") + (("points",) if family == registry.CONTROLLER else ())
+    src = streams.open_input(input, kinds)
 
     rows = src.read_all()
     measured = domain.measured_of(src.header, rows, src.source)
     evaluate = domain.restrict(rom.deviation_model(src.header, rows, src.source, curve),
                                measured, outside, src.source)
-    return evaluate, domain.summary(measured, outside)
+    return src, evaluate, domain.summary(measured, outside)
 
 
 def _rom_summary(table: Rom, header: Header, curve: str | None,
@@ -169,11 +189,11 @@ def _rom_summary(table: Rom, header: Header, curve: str | None,
                  ) -> dict[str, Any]:
     """The table's summary, the model it came from and, for a controller's table, what
     the control's interpolation between its points costs [arcsec]."""
-    from enctools.models import rom, romformats
+    from enctools.models import rom
 
     summary: dict[str, Any] = table.summary()
     summary["model"] = header.meta.get("model", {"kind": header.kind, "curve": curve})
-    if settings.target in romformats.CONTROLLER:
+    if settings.controller:
         summary["interpolation_error_arcsec"] = rom.interpolation_error(evaluate, settings.spec)
     return summary
 
@@ -199,32 +219,43 @@ def _guard(what: str, subject: Any, allowed: bool) -> None:
     option = g.ALLOW_NO_GAIN if what == "gain" else g.ALLOW_COARSE
     warning = g.enforce(check(subject), allowed, option)
     if warning is not None:
-        runner.log.warning("%s", warning)
+        runner.log.warning("%s", _words(warning))
 
 
-def _check_applies(target: str) -> None:
-    """Refuse (one line) an option given that the target does not take."""
-    import click
-
+def _check_applies(target: str) -> str | None:
+    """Refuse (one line) an option of one kind of table (:data:`MODES`) given for a format
+    whose record does not take it; the target's family (None: a rom stream)."""
     from enctools.errors import UsageError
+    from enctools.models.romformats import registry
 
     ctx = click.get_current_context()
-    for name, targets in APPLIES.items():
-        if (target not in targets
-                and ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE):
-            opt = next(p for p in ctx.command.params if p.name == name).opts[0]
-            some = "the memories' tables, acs and siemens" if targets == ROM_PATH else \
-                ", ".join(targets)
-            msg = f"{opt} applies to {some}, not --target {target}"
-            raise UsageError(msg)
+    fmt = None if target == "stream" else registry.get(target)
+    takes = registry.ADDRESSED_SETTINGS if fmt is None else fmt.accepts
+    for name in (n for names in MODES.values() for n in names if n != "fmt"):
+        if name in takes or \
+                ctx.get_parameter_source(name) != click.core.ParameterSource.COMMANDLINE:
+            continue
+        opt = next(p for p in ctx.command.params if p.name == name).opts[0]
+        msg = f"{opt} applies to {_formats_taking(name)}, not --target {target}"
+        raise UsageError(msg)
+    return None if fmt is None else fmt.family
 
 
-def _control_settings(*options: Any) -> ControlSettings:
-    """A control's table settings from the options (the controls' modules imported here:
-    a memory table never needs them)."""
+def _formats_taking(name: str) -> str:
+    """The formats whose records take the setting ``name``, as a message names them."""
+    from enctools.models.romformats import registry
+
+    if name in registry.ADDRESSED_SETTINGS:
+        return "the memories' tables, " + " and ".join(registry.names(registry.CONTROLLER))
+    return ", ".join(r.name for r in registry.records() if name in r.accepts)
+
+
+def _control_settings(**settings: Any) -> ControlSettings:
+    """A control's table settings (the controls' modules imported here: a memory table
+    never needs them)."""
     from enctools.models.romformats.controls import ControlSettings
 
-    return ControlSettings(*options)
+    return ControlSettings(**settings)
 
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
@@ -296,9 +327,9 @@ def _is_stream_path(path: str) -> bool:
     from pathlib import Path
 
     from enctools.data.streams import EXTENSIONS
-    from enctools.models import romformats
+    from enctools.models.romformats import registry
     ext = Path(path).suffix.lower()  # .csv is a table format's (address,correction)
-    return ext in EXTENSIONS and ext not in romformats.EXTENSIONS
+    return ext in EXTENSIONS and registry.by_extension(ext) is None
 
 
 def _bits_from_rig(meta: dict) -> int:
@@ -324,6 +355,14 @@ def _summary(s: dict, size: int | None, output: str | None, seconds: float,
            "crc32": {"value": s["crc32"], "of": s["crc32_of"], "image_bytes": s["image_bytes"]},
            "output": output or "-", "elapsed_s": round(seconds, 3)}
     out |= {k: s[k] for k in ("measured_range", "outside") if k in s}
-    if size is not None:
+    if size is not None:  # a table file, verified or not (a stream is not)
         out |= {"file_bytes": size, "verified": verified}
     return out
+
+
+def _words(text: str) -> str:
+    """A library's line naming settings by their fields, as this command's options."""
+    from enctools.cli import usage
+    from enctools.errors import EncError
+
+    return usage.message(EncError(text), click.get_current_context().command, "make-rom")

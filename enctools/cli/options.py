@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import click
@@ -318,3 +318,20 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
                          help=f"Table column of {what} (title or number; default: found by "
                               "its title).")(g)
     return g
+
+
+class LazyChoice(click.Choice):
+    """A choice whose values are read each time they are asked for (a library registry's
+    names: one registered later is a choice too)."""
+
+    def __init__(self, values: Callable[[], Sequence[str]]) -> None:
+        self._values = values
+        super().__init__(())
+
+    @property
+    def choices(self) -> tuple[str, ...]:
+        return tuple(self._values())
+
+    @choices.setter
+    def choices(self, _: Any) -> None:
+        """Set by click.Choice's constructor: the values are read from ``values``."""

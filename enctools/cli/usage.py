@@ -35,6 +35,9 @@ FIELD_FLAGS: dict[str, dict[str, str]] = {
     # options every command (that writes, or reports) has
     "*": {"force": "--force", "fmt": "--format", "format": "--format", "unit": "--unit",
           "as_json": "--json"},
+    "make-rom": {"detection_unit_deg": "--detection-unit"},
+    "correct": {"fmt": "--target"},
+    "fit-rbf": {"goal_arcsec": "--goal", "allow_no_gain": "--allow-no-gain"},
 }
 
 #: the old spellings still accepted, with a warning: (command, old) -> new

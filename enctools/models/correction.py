@@ -5,19 +5,21 @@ A correction is what an FPGA or a motion controller adds to the encoder's indica
 angle; it is the negative of the error model's deviation (indicated minus true). Each
 family applies it its own way:
 
-- :class:`MemoryTable` (bin, ihex, mif, coe, mem, csv, a ``rom`` stream): the FPGA looks
+- :class:`MemoryTable` (the memory family: bin, ihex, mif, coe, mem, csv; a ``rom``
+  stream): the FPGA looks
   the code c up by its top m bits, ``address = c >> (n - m)``, and adds the stored
   signed integer times ``lsb`` counts: ``c + table[address] * lsb`` (seed 001 sec. 4.2).
   No interpolation, no other rounding than the table's own.
-- :class:`ControlTable` (a motion control's table: linuxcnc, twincat, fanuc, heidenhain,
-  siemens, acs): the control interpolates linearly between points at given positions of
-  its axis, modulo 360 deg where it wraps; a bidirectional table holds one correction
-  per direction. Read by each control's own reader (:mod:`.romformats.controlreaders`).
+- :class:`ControlTable` (the controller and control families: acs, siemens, linuxcnc,
+  twincat, fanuc, heidenhain): the control interpolates linearly between points at given
+  positions of its axis, modulo 360 deg where it wraps; a bidirectional table holds one correction
+  per direction. Read by its format record's own reader (``read_points``).
 - :class:`ModelCorrection` (a model stream of enc fit-rbf, a deviations curve): minus
   the model at the indicated angle, unquantised: what a perfect table would add.
 
-A new control's format plugs in through :func:`romformats.read_control_table`: its
-reader returns a :class:`~enctools.models.romformats.points.PointTable`.
+A new format is a record of :mod:`enctools.models.romformats.registry`: a control's
+reader (``read_points``) returns a :class:`~enctools.models.romformats.points.PointTable`,
+applied here as a :class:`ControlTable`, a memory's words a :class:`MemoryTable`.
 """
 
 from __future__ import annotations
@@ -29,21 +31,17 @@ from typing import Any, Protocol
 import numpy as np
 
 from enctools.data.files import read_bytes
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
 from enctools.models import romformats
 from enctools.models.rom import LSB_COUNTS, MAX_ADDRESS_BITS
-from enctools.models.romformats import headers
+from enctools.models.romformats import headers, registry
 from enctools.models.romformats.points import PointTable
 from enctools.units import ARCSEC, DEG, TWO_PI, factor
 
 #: the first comment line enc make-rom writes in a text table (mif, coe, mem, acs, siemens)
 COMMENT = headers.COMMENT
-#: bits of the code a table may be built for (enc make-rom --bits)
+#: bits of the code a table may be built for (enc make-rom's ``code_bits``)
 MAX_CODE_BITS = 40
-#: the formats of an FPGA's memory: looked up by the code's top bits
-MEMORY_FORMATS = ("bin", "ihex", "mif", "coe", "mem", "csv")
-#: the formats of a motion control: interpolated between their points
-CONTROL_FORMATS = (*romformats.CONTROLS, *romformats.CONTROLLER)
 
 
 class Correction(Protocol):
@@ -150,8 +148,8 @@ class TableSettings:
     states (enc make-rom writes its layout in a comment of mif, coe, mem, acs and siemens
     tables, in a sidecar of csv and ihex tables), else the default.
 
-    fmt : a format of :mod:`enctools.models.romformats` (None: from the extension, else
-        the content).
+    fmt : a format of :mod:`enctools.models.romformats.registry` (None: from the
+        extension, else the content).
     code_bits : n, bits of the code (None: stated by the file, else the rig's code of the
         stream corrected; a raw image states none).
     address_bits : m, the code's top bits addressing the table (default: from its size).
@@ -177,23 +175,24 @@ class TableSettings:
 
     def __post_init__(self) -> None:
         if self.code_bits is not None and not 1 <= self.code_bits <= MAX_CODE_BITS:
-            msg = f"--bits must be 1..{MAX_CODE_BITS}, not {self.code_bits}"
-            raise UsageError(msg)
+            msg = f"`code_bits` must be 1..{MAX_CODE_BITS}, not {self.code_bits}"
+            raise SettingsError(msg)
         if self.address_bits is not None and not 1 <= self.address_bits <= MAX_ADDRESS_BITS:
-            msg = f"--address-bits must be 1..{MAX_ADDRESS_BITS}, not {self.address_bits}"
-            raise UsageError(msg)
+            msg = f"`address_bits` must be 1..{MAX_ADDRESS_BITS}, not {self.address_bits}"
+            raise SettingsError(msg)
         if self.width is not None and not 2 <= self.width <= 32:
-            msg = f"--width must be 2..32 bits, not {self.width}"
-            raise UsageError(msg)
+            msg = f"`width` must be 2..32 bits, not {self.width}"
+            raise SettingsError(msg)
         if self.lsb is not None and not LSB_COUNTS[0] <= self.lsb <= LSB_COUNTS[1]:
-            msg = f"--lsb must be a positive number of counts, 1e-06..1099511627776, not {self.lsb}"
-            raise UsageError(msg)
+            msg = f"`lsb` must be a positive number of counts, 1e-06..1099511627776, not {self.lsb}"
+            raise SettingsError(msg)
 
     def given(self) -> dict[str, Any]:
-        """The table options given, by option name."""
-        return {k: v for k, v in (("--bits", self.code_bits), ("--address-bits", self.address_bits),
-                                  ("--width", self.width), ("--lsb", self.lsb),
-                                  ("--endian", self.endian)) if v is not None}
+        """The layout settings given, by field between backticks (as a message names them)."""
+        return {k: v for k, v in (("`code_bits`", self.code_bits),
+                                  ("`address_bits`", self.address_bits),
+                                  ("`width`", self.width), ("`lsb`", self.lsb),
+                                  ("`endian`", self.endian)) if v is not None}
 
 
 @dataclass(frozen=True)
@@ -218,9 +217,9 @@ def file_layout(path: str, data: bytes, settings: TableSettings, fmt: str,
                 rig_bits: int | None = None) -> Layout:
     """The layout of a table file: what it states (its sidecar, else its make-rom comment),
     else the options given, else the code's bits ``rig_bits`` of the rig of the stream
-    corrected and the defaults; UsageError when an option contradicts what it states."""
+    corrected and the defaults; SettingsError when a setting contradicts what it states."""
     stated, where = None, "its sidecar"
-    if fmt in headers.SIDECAR_FORMATS:
+    if headers.has_sidecar(fmt):
         stated = headers.from_sidecar(path)
     if stated is None:
         stated, where = headers.from_comment(data[:4096].decode("utf-8", "replace")), \
@@ -230,16 +229,16 @@ def file_layout(path: str, data: bytes, settings: TableSettings, fmt: str,
             rig_bits is None else (rig_bits, "rig")
         return Layout(bits, settings.width or 16, settings.lsb or 1.0,
                       settings.endian or "little", by)
-    check_given(settings, {"--bits": stated.code_bits, "--width": stated.width,
-                           "--lsb": stated.lsb, "--address-bits": stated.address_bits,
-                           "--endian": stated.endian}, path, where)
+    check_given(settings, {"`code_bits`": stated.code_bits, "`width`": stated.width,
+                           "`lsb`": stated.lsb, "`address_bits`": stated.address_bits,
+                           "`endian`": stated.endian}, path, where)
     return Layout(stated.code_bits, stated.width, stated.lsb,
                   stated.endian or settings.endian or "little", where.split()[1],
                   stated.sample)
 
 
 def check_given(settings: TableSettings, found: dict[str, Any], path: str, where: str) -> None:
-    """UsageError when an option given contradicts what the table itself states."""
+    """SettingsError when a setting given contradicts what the table itself states."""
     for option, value in settings.given().items():
         stated = found.get(option)
         if stated is None:
@@ -253,7 +252,7 @@ def check_given(settings: TableSettings, found: dict[str, Any], path: str, where
             given = value if isinstance(value, str) else f"{value:.10g}"
             msg = (f"{path}: {where} says the table was made with {option} "
                    f"{shown}, not {given}; leave {option} out")
-            raise UsageError(msg)
+            raise SettingsError(msg)
 
 
 def _read_values(path: str, settings: TableSettings, fmt: str, layout: Layout,
@@ -265,8 +264,8 @@ def _read_values(path: str, settings: TableSettings, fmt: str, layout: Layout,
 
 
 #: what a table's error adds about the options of a file without a stated layout
-LAYOUT_OPTIONS = ("give --bits N (the code's bits), and --width, --lsb, --endian as make-rom "
-                  "was given them when not 16, 1, little")
+LAYOUT_OPTIONS = ("give `code_bits` N (the code's bits), and `width`, `lsb`, `endian` as "
+                  "make-rom was given them when not 16, 1, little")
 
 
 def memory_table(path: str, data: bytes, settings: TableSettings, fmt: str,
@@ -274,13 +273,14 @@ def memory_table(path: str, data: bytes, settings: TableSettings, fmt: str,
     """A memory table (bin, ihex, mif, coe, mem, csv) and its layout, its size checked."""
     layout = file_layout(path, data, settings, fmt, rig_bits)
     if layout.code_bits is None:
-        place = "sidecar" if fmt in headers.SIDECAR_FORMATS else "comment"
-        where = "a raw image has no place for its layout" if fmt == "bin" else \
+        place = registry.get(fmt).layout_in
+        where = "a raw image has no place for its layout" if place is None else \
             f"a {fmt} table without its make-rom {place}"
         msg = f"{path}: {where}, and the input names no 2^n-count code; {LAYOUT_OPTIONS}"
-        raise UsageError(msg)
+        raise SettingsError(msg)
     values = _read_values(path, settings, fmt, layout, 1.0)
-    stated = layout.describe() | ({"endian": layout.endian} if fmt in ("bin", "ihex") else {})
+    binary = registry.get(fmt).binary
+    stated = layout.describe() | ({"endian": layout.endian} if binary else {})
     return checked_memory(values, layout.code_bits, settings.address_bits, layout.lsb, path,
                           fmt, layout.width, stated)
 
@@ -288,27 +288,27 @@ def memory_table(path: str, data: bytes, settings: TableSettings, fmt: str,
 def checked_memory(values: np.ndarray, code_bits: int, address_bits: int | None, lsb: float,
                    path: str, fmt: str, width: int | None = None,
                    stated: dict[str, Any] | None = None) -> MemoryTable:
-    """A memory table once its size is 2**m entries, m <= n (and m = --address-bits)."""
+    """A memory table once its size is 2**m entries, m <= n (and m = ``address_bits``)."""
     n = values.size
     m = n.bit_length() - 1
     if n == 0 or n != 1 << m or m > code_bits:
+        record = registry.find(fmt)  # a rom stream has none
         msg = (f"{path}: {n} entries do not address a {code_bits}-bit code "
-               f"(a table holds 2^m entries, m <= {code_bits}); check --bits"
-               + (", --width" if fmt in ("bin", "ihex") else ""))
+               f"(a table holds 2^m entries, m <= {code_bits}); check `code_bits`"
+               + (", `width`" if record is not None and record.binary else ""))
         raise DataError(msg)
     if address_bits is not None and address_bits != m:
         msg = (f"{path}: {n} entries = 2^{m}, not the 2^{address_bits} of "
-               f"--address-bits {address_bits}")
+               f"`address_bits` {address_bits}")
         raise DataError(msg)
     return MemoryTable(values, code_bits, lsb, fmt, width, stated)
 
 
 def control_table(path: str, settings: TableSettings, fmt: str) -> ControlTable:
     """A motion control's table file (enc-make-rom(1), CONTROLS), read as its control
-    reads it (:func:`~enctools.models.romformats.read_control_table`)."""
-    table = romformats.read_control_table(path, fmt, settings.sign, settings.comp_type,
-                                          settings.axis, settings.array_name)
-    return ControlTable(table, fmt)
+    reads it (:func:`~enctools.models.romformats.read_points`; ``settings`` say what the
+    file does not: sign, comp_type, axis, array_name)."""
+    return ControlTable(romformats.read_points(path, fmt, settings), fmt)
 
 
 def read_file(path: str, settings: TableSettings, fmt: str | None = None,
@@ -317,7 +317,7 @@ def read_file(path: str, settings: TableSettings, fmt: str | None = None,
     its format, None: :func:`source_format`'s); ``rig_bits``: the code's bits of the rig of
     the stream corrected, for a memory table that states none."""
     fmt = fmt or romformats.format_for(path, settings.fmt)
-    if fmt in CONTROL_FORMATS:  # its reader reads the file
+    if registry.get(fmt).points:  # a controller's: its reader reads the file
         return control_table(path, settings, fmt)
     return memory_table(path, read_bytes(path), settings, fmt, rig_bits)
 
@@ -331,7 +331,7 @@ def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,
     bits = rom.get("code_bits", settings.code_bits)
     lsb = rom.get("lsb_counts", settings.lsb or 1.0)
     if not isinstance(bits, int) or isinstance(bits, bool) or not 1 <= bits <= MAX_CODE_BITS:
-        msg = f"{source}: the rom stream names no code_bits 1..{MAX_CODE_BITS}; give --bits"
+        msg = f"{source}: the rom stream names no code_bits 1..{MAX_CODE_BITS}; give `code_bits`"
         raise DataError(msg)
     if isinstance(lsb, bool) or not isinstance(lsb, (int, float)) or \
             not LSB_COUNTS[0] <= lsb <= LSB_COUNTS[1]:
@@ -340,8 +340,8 @@ def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,
     if not np.array_equal(address, np.arange(address.size)):
         msg = f"{source}: addresses are not 0, 1, 2, ... without gaps"
         raise DataError(msg)
-    check_given(settings, {"--bits": bits, "--lsb": lsb, "--width": rom.get("width_bits"),
-                           "--address-bits": rom.get("address_bits")}, source, "its metadata")
+    check_given(settings, {"`code_bits`": bits, "`lsb`": lsb, "`width`": rom.get("width_bits"),
+                           "`address_bits`": rom.get("address_bits")}, source, "its metadata")
     return checked_memory(np.asarray(values, dtype=np.int64), bits, settings.address_bits,
                           float(lsb), source, "stream", rom.get("width_bits"))
 
@@ -364,11 +364,11 @@ STREAM = "stream"
 
 def source_format(path: str, fmt: str | None) -> str:
     """What ``path`` holds, by the order of authority (enc-streams(5), FORMATS): ``fmt``
-    (--target) if given; else a known extension (a table format's, or a stream's: .csv is
+    if given; else a known extension (a table format's, or a stream's: .csv is
     a stream when its sidecar is a stream's, else a make-rom table); else the content:
     a stream's unambiguous signature or an Arrow stream's marker, a table format's own
     content (:func:`~enctools.models.romformats.headers.identify`). :data:`STREAM` or a
-    table format; UsageError when nothing says."""
+    table format; SettingsError when nothing says."""
     import os
     from pathlib import Path
 
@@ -380,12 +380,13 @@ def source_format(path: str, fmt: str | None) -> str:
     if ext == ".csv":
         doc = headers.sidecar_doc(path)
         return STREAM if doc is not None and not headers.is_table_sidecar(doc) else "csv"
-    if ext in romformats.EXTENSIONS:
-        return romformats.EXTENSIONS[ext]
+    named = registry.by_extension(ext)
+    if named is not None:
+        return named.name
     doc = headers.sidecar_doc(path)
     if headers.is_table_sidecar(doc) and doc is not None:  # a table's sidecar names it
         stated = doc["enctools"]["table"].get("format")
-        return stated if stated in headers.SIDECAR_FORMATS else "csv"
+        return stated if isinstance(stated, str) and headers.has_sidecar(stated) else "csv"
     if formats.by_name(path) is not None or not os.path.isfile(path):
         return STREAM  # a missing file: opening it says so
     try:
@@ -395,8 +396,8 @@ def source_format(path: str, fmt: str | None) -> str:
     found = STREAM if formats.content_format(head, tail[-8:]) else headers.identify(head)
     if found is None:
         msg = (f"{path}: cannot tell the table's format from its name or content; give "
-               f"--target ({', '.join(romformats.FORMATS + romformats.CONTROLS)})")
-        raise UsageError(msg)
+               f"`fmt` ({', '.join(registry.names())})")
+        raise SettingsError(msg)
     return found
 
 
@@ -407,13 +408,13 @@ def load(path: str, settings: TableSettings, curve: str | None = None,
     ``rig_bits``: the bits of the code of the stream corrected (a 2^n-count encoder's n),
     for a memory table that states none (a raw image)."""
     if path == "-":
-        msg = "--table must name a file (the input is read from stdin)"
-        raise UsageError(msg)
+        msg = "`table_path` must name a file (the input is read from stdin)"
+        raise SettingsError(msg)
     fmt = source_format(path, settings.fmt)
     if fmt != STREAM:
         if curve is not None:
-            msg = f"--curve chooses a curve of a deviations stream; {path} is a table file"
-            raise UsageError(msg)
+            msg = f"`curve` chooses a curve of a deviations stream; {path} is a table file"
+            raise SettingsError(msg)
         return read_file(path, settings, fmt, rig_bits)
     import os
 
@@ -424,14 +425,14 @@ def load(path: str, settings: TableSettings, curve: str | None = None,
         src = streams.open_input(path, ("rom", "model", "deviations"))
     except DataError as exc:
         if formats.by_name(path) is None and os.path.isfile(path):  # known by its content
-            msg = f"{exc}; if it is a table file, give its format with --target"
+            msg = f"{exc}; if it is a table file, give its format with `fmt`"
             raise DataError(msg) from None
         raise
     table = src.read_all()
     if src.header.kind != "rom" and settings.given():
         option = next(iter(settings.given()))
         msg = f"{option} describes a table; {src.source} is a {src.header.kind} stream"
-        raise UsageError(msg)
+        raise SettingsError(msg)
     if src.header.kind == "rom":
         if table.column("address").null_count or table.column("correction").null_count:
             msg = f"{src.source}: the rom stream has empty addresses or corrections"

@@ -24,7 +24,7 @@ from enctools.data.arrays import arrow_array
 from enctools.data.columns import column, declared_unit
 from enctools.data.limits import MAX_MODEL_TERMS
 from enctools.data.schemas import column_with_role, make_field
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
 from enctools.models.fourier import COND_LIMIT, FourierModel
 from enctools.models.rbf import SPREAD_FACTOR, RBFModel
 from enctools.units import TWO_PI, factor
@@ -105,9 +105,9 @@ def from_stream(header: Any, table: pa.Table, source: str = "input",
     if header.kind == "deviations":
         return curve_model(header, table, source, curve)
     if curve is not None:
-        msg = (f"--curve {curve} chooses a curve of a deviations stream; {source} is a "
-               f"{header.kind} stream (leave --curve out)")
-        raise UsageError(msg)
+        msg = (f"`curve` {curve} chooses a curve of a deviations stream; {source} is a "
+               f"{header.kind} stream (leave `curve` out)")
+        raise SettingsError(msg)
     m = header.meta.get("model", {})
     kernel = m.get("kernel") if isinstance(m, dict) else None
     if table.num_rows == 0:
@@ -139,7 +139,7 @@ def from_stream(header: Any, table: pa.Table, source: str = "input",
 def curve_model(header: Any, table: pa.Table, source: str, curve: str | None) -> CurveModel:
     """A deviations curve as a model: periodic linear interpolation of its values [arcsec]
     on its grid (theta [rad], kept in deg); NaN points are bridged with a warning."""
-    curve = column_with_role(header.schema, "deviation", curve, source, "--curve")
+    curve = column_with_role(header.schema, "deviation", curve, source, "`curve`")
     theta = column(table, "theta", "rad", source)
     values = column(table, curve, "arcsec", source)
     ok = np.isfinite(theta) & np.isfinite(values)

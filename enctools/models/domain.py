@@ -5,7 +5,7 @@ last target and the first when the targets do not cover the turn
 (:func:`enctools.methods.targets.measured_range`): a table over the whole turn would
 hold corrections there that were never measured (the periodic interpolation or the
 model's extrapolation across the gap). enc make-rom refuses such a source unless
-``--outside`` says what the table holds outside the measured range:
+``outside`` says what the table holds outside the measured range:
 
 - ``zero``: no correction (deviation 0) outside;
 - ``hold``: the value at the nearer end of the range (each half of the gap holds the
@@ -60,7 +60,7 @@ def check(measured: MeasuredRange | None, outside: str | None, source: str) -> N
         return
     msg = (f"{source}: the targets measure {measured.text()} only (a gap of "
            f"{measured.gap_deg:.6g} deg, the step {measured.step_deg:.6g} deg): a table over the "
-           "turn would hold corrections never measured; give --outside zero or --outside hold")
+           "turn would hold corrections never measured; give `outside` zero or `outside` hold")
     raise DataError(msg)
 
 

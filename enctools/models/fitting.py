@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from enctools.data.statistics import figures_or_nan
-from enctools.errors import UsageError
+from enctools.errors import SettingsError
 from enctools.methods.points import figures_meta
 from enctools.models import gain as gains
 from enctools.models.fourier import (
@@ -59,25 +59,26 @@ class Settings:
 
     def __post_init__(self) -> None:
         if self.kernel not in KERNELS:
-            msg = f"--kernel must be one of {', '.join(KERNELS)}, not {self.kernel!r}"
-            raise UsageError(msg)
+            msg = f"`kernel` must be one of {', '.join(KERNELS)}, not {self.kernel!r}"
+            raise SettingsError(msg)
         if self.goal_arcsec is not None and not GOAL_ARCSEC[0] <= self.goal_arcsec <= \
                 GOAL_ARCSEC[1]:
-            msg = f"--goal must be 0..3600 arcsec, not {self.goal_arcsec}"
-            raise UsageError(msg)
+            msg = f"`goal_arcsec` must be 0..3600 arcsec, not {self.goal_arcsec}"
+            raise SettingsError(msg)
         if self.spread_deg is not None and not SPREAD_DEG[0] <= self.spread_deg <= SPREAD_DEG[1]:
-            msg = f"--spread must be 0.001..360 deg, not {self.spread_deg}"
-            raise UsageError(msg)
+            msg = f"`spread_deg` must be 0.001..360 deg, not {self.spread_deg}"
+            raise SettingsError(msg)
         if self.harmonics is not None and not 0 <= self.harmonics <= MAX_HARMONICS:
-            msg = f"--band must be 0..{MAX_HARMONICS}, not {self.harmonics}"
-            raise UsageError(msg)
+            msg = f"`harmonics` must be 0..{MAX_HARMONICS}, not {self.harmonics}"
+            raise SettingsError(msg)
         if self.kernel == "rbf" and self.harmonics is not None:
-            msg = "--band applies to --kernel fourier (the rbf kernel: --spread, --goal)"
-            raise UsageError(msg)
+            msg = ("`harmonics` applies to `kernel` fourier (the rbf kernel: `spread_deg`, "
+                   "`goal_arcsec`)")
+            raise SettingsError(msg)
         if self.kernel == "fourier" and (self.spread_deg, self.goal_arcsec) != (None, None):
-            which = "--spread" if self.spread_deg is not None else "--goal"
-            msg = f"{which} applies to --kernel rbf (the fourier kernel: --band)"
-            raise UsageError(msg)
+            which = "`spread_deg`" if self.spread_deg is not None else "`goal_arcsec`"
+            msg = f"{which} applies to `kernel` rbf (the fourier kernel: `harmonics`)"
+            raise SettingsError(msg)
 
     def to_meta(self) -> dict[str, Any]:
         """The ``settings`` metadata of the model stream."""
@@ -209,7 +210,7 @@ def _gain_notes(g: gains.Gain | None) -> list[str]:
     notes = []
     if not g.helps:
         notes.append(f"no gain: {g.why_not()}; enc make-rom refuses this model unless "
-                     "given --allow-no-gain")
+                     "given `allow_no_gain`")
     if g.edges:
         notes.append("the search ended on the edge of its grid (" + "; ".join(g.edges)
                      + "): a better model may lie beyond it")
@@ -219,7 +220,7 @@ def _gain_notes(g: gains.Gain | None) -> list[str]:
         if worst < ALTERNATIVE_BETTER * g.model.worst:
             notes.append(f"a Fourier series of order {alt['n_harmonics']} predicts better: "
                          f"{worst:.4g} arcsec against {g.model.worst:.4g} "
-                         f"(--kernel fourier --band {alt['n_harmonics']})")
+                         f"(`kernel` fourier `harmonics` {alt['n_harmonics']})")
     return notes
 
 
@@ -232,22 +233,22 @@ def _notes(fit: Fit, settings: Settings, n: int) -> list[str]:
         worst = fit.training["max_abs_arcsec"]
         loo, best = fit.loo["rms_arcsec"], fit.choice["best_leave_one_out_rms_arcsec"]
         if worst > goal:
-            notes.append(f"--goal {goal:g} arcsec is not reached: no spread and smoothing of "
-                         f"{model.centres_deg.size} units (with weights a model stream holds) "
-                         f"gets every training residual within it; the network that predicts "
-                         f"best leaves {worst:.4g} arcsec")
+            notes.append(f"`goal_arcsec` {goal:g} arcsec is not reached: no spread and "
+                         f"smoothing of {model.centres_deg.size} units (with weights a model "
+                         f"stream holds) gets every training residual within it; the network "
+                         f"that predicts best leaves {worst:.4g} arcsec")
         elif n > 2 and loo > 1.1 * best:
-            notes.append(f"--goal {goal:g} arcsec is reached by fitting the noise: "
+            notes.append(f"`goal_arcsec` {goal:g} arcsec is reached by fitting the noise: "
                          f"{fit.choice['effective_parameters']:.4g} effective parameters for "
                          f"{n} points, leave-one-out rms {loo:.4g} arcsec against {best:.4g} "
-                         "for the network that predicts best (without --goal)")
+                         "for the network that predicts best (without `goal_arcsec`)")
     tried, ceiling = fit.choice.get("highest_order_tried"), fit.choice.get("order_ceiling")
     if tried is not None and ceiling is not None and tried < ceiling:
         notes.append(f"orders {tried + 1}..{ceiling} are past the condition limit of these "
                      f"positions (condition number {COND_LIMIT:g}): not tried")
     if n > 2 and not np.isfinite(fit.loo["rms_arcsec"]):
         notes.append(f"no leave-one-out residuals: the {n} points each fix a term of the "
-                     "series (it interpolates them); a lower --band leaves some to check it")
+                     "series (it interpolates them); a lower `harmonics` leaves some to check it")
     if isinstance(model, FourierModel):
         for what, names in (("undetermined by these positions", model.undetermined),
                             (f"past the condition limit (order {model.limit}, condition "
@@ -275,7 +276,7 @@ def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
                "smoothing": choice.smoothing, "effective_parameters": choice.effective,
                "spread_range": choice.spread_range}
         if choice.reached is not None:
-            how |= {"selection": "leave-one-out among those within --goal",
+            how |= {"selection": "leave-one-out among those within the goal",
                     "goal_reached": choice.reached,
                     "best_leave_one_out_rms_arcsec": choice.best_rms}
         return network, (choice.loo if n > 2 else np.full(n, np.nan)), how
@@ -287,9 +288,9 @@ def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
     else:
         k = int(settings.harmonics)
         if k > n:
-            msg = (f"--band {k}: more harmonics than the {n} distinct positions can determine "
+            msg = (f"`harmonics` {k}: more harmonics than the {n} distinct positions can determine "
                    f"(at most {n})")
-            raise UsageError(msg)
+            raise SettingsError(msg)
         model, loo = fit_with_loo(x, y, k)
-        how = {"selection": "--band"}
+        how = {"selection": "the order given"}
     return model, (loo if n > 2 else np.full(n, np.nan)), how

@@ -23,10 +23,10 @@ and its leave-one-out residuals need N trainings.
 enc fit-rbf fits :func:`choose_network` instead: min(N, 256) units on a uniform grid of
 centres, an unpenalised bias and ridge-penalised weights, with the spread and the
 smoothing chosen by the smallest leave-one-out residual, computed in closed form from
-one SVD a spread (a linear smoother: ``e_i = r_i / (1 - H_ii)``); ``--goal`` keeps only
-the networks within it. With little noise the search keeps the smoothing at rounding
-level and the network interpolates, as the paper's does (seed 001 table 1: 24 units
-through the 24 points).
+one SVD a spread (a linear smoother: ``e_i = r_i / (1 - H_ii)``); a goal
+(``goal_arcsec``) keeps only the networks within it. With little noise the search
+keeps the smoothing at rounding level and the network interpolates, as the paper's
+does (seed 001 table 1: 24 units through the 24 points).
 """
 
 from __future__ import annotations

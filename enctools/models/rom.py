@@ -31,19 +31,20 @@ from enctools.data import streams
 from enctools.data.arrays import arrow_array
 from enctools.data.header import Header, history_line
 from enctools.data.schemas import make_field
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
 from enctools.models import romformats
+from enctools.models.romformats import registry
 from enctools.units import TWO_PI, factor
 
 #: the largest table this module builds (2**28 entries, 512 MiB of int16)
 MAX_ADDRESS_BITS = 28
-#: --lsb [counts of the code per LSB]: finer makes every correction a number of
+#: ``lsb`` [counts of the code per LSB]: finer makes every correction a number of
 #: hundreds of digits, coarser than 2^40 counts rounds every correction to 0
 LSB_COUNTS = (1e-6, float(1 << 40))
-#: --zone: a controller's zone or measuring-system index is a 32-bit integer
+#: ``zone``: a controller's zone or measuring-system index is a 32-bit integer
 MAX_ZONE = (1 << 31) - 1
 CHUNK = 1 << 20
-#: --resolution [deg]: the controllers' resolutions enctools writes (powers of ten)
+#: ``resolution_deg`` [deg]: the controllers' resolutions enctools writes (powers of ten)
 RESOLUTION_DEG = (1e-9, 0.1)
 #: threads quantising chunks at once (at most 2: the evaluation itself may use BLAS threads)
 THREADS = min(2, os.cpu_count() or 1)
@@ -95,30 +96,30 @@ class RomSpec:
         return -(1 << (self.width - 1)), (1 << (self.width - 1)) - 1
 
     def check(self) -> None:
-        """Refuse, with one line naming the option, what cannot be built."""
+        """Refuse, with one line naming the setting, what cannot be built."""
         if not 1 <= self.code_bits <= 40:
-            msg = f"--bits must be 1..40, not {self.code_bits}"
-            raise UsageError(msg)
+            msg = f"`code_bits` must be 1..40, not {self.code_bits}"
+            raise SettingsError(msg)
         if not 1 <= self.m <= self.code_bits:
-            msg = f"--address-bits must be 1..{self.code_bits} (--bits), not {self.m}"
-            raise UsageError(msg)
+            msg = f"`address_bits` must be 1..{self.code_bits} (`code_bits`), not {self.m}"
+            raise SettingsError(msg)
         if self.m > MAX_ADDRESS_BITS:
             msg = (f"2^{self.m} = {self.entries} entries requested: more than the "
-                   f"2^{MAX_ADDRESS_BITS} a table may have; use --address-bits "
+                   f"2^{MAX_ADDRESS_BITS} a table may have; use `address_bits` "
                    f"{MAX_ADDRESS_BITS} or fewer (the code's top bits)")
-            raise UsageError(msg)
+            raise SettingsError(msg)
         if not 2 <= self.width <= 32:
-            msg = f"--width must be 2..32 bits, not {self.width}"
-            raise UsageError(msg)
+            msg = f"`width` must be 2..32 bits, not {self.width}"
+            raise SettingsError(msg)
         if not (self.lsb > 0 and np.isfinite(self.lsb)):
-            msg = f"--lsb must be a positive number of counts, not {self.lsb}"
-            raise UsageError(msg)
+            msg = f"`lsb` must be a positive number of counts, not {self.lsb}"
+            raise SettingsError(msg)
         if not LSB_COUNTS[0] <= self.lsb <= LSB_COUNTS[1]:
-            msg = f"--lsb must be a positive number of counts, 1e-06..1099511627776, not {self.lsb}"
-            raise UsageError(msg)
+            msg = f"`lsb` must be a positive number of counts, 1e-06..1099511627776, not {self.lsb}"
+            raise SettingsError(msg)
         if self.sample not in ("centre", "start"):
-            msg = f"--sample must be centre or start, not {self.sample!r}"
-            raise UsageError(msg)
+            msg = f"`sample` must be centre or start, not {self.sample!r}"
+            raise SettingsError(msg)
 
     def grid_deg(self) -> tuple[float, float]:
         """First angle and step [deg] of the addresses: address k is at first + k * step."""
@@ -168,47 +169,57 @@ class Settings:
     sign: str | None = None
 
     def __post_init__(self) -> None:
-        if self.target != "stream" and self.target not in romformats.FORMATS:
-            msg = (f"--target must be one of {', '.join(romformats.FORMATS)} or stream, "
-                   f"not {self.target!r}")
-            raise UsageError(msg)
+        addressed = registry.names(registry.MEMORY, registry.CONTROLLER)
+        if self.target != "stream" and self.target not in addressed:
+            msg = f"`target` must be one of {', '.join(addressed)} or stream, not {self.target!r}"
+            raise SettingsError(msg)
         self._check_controller_options()
         self.spec.check()
         if self.target != "stream":
             romformats.check_capacity(self.table, self.spec.entries)
 
     def _check_controller_options(self) -> None:
-        """--zone and --max-entries in their ranges; --axis and --max-entries only where a
+        """``zone`` and ``max_entries`` in their ranges; ``axis`` and ``max_entries`` only where a
         controller's table takes them (elsewhere they would be silently ignored)."""
         if not 0 <= self.zone <= MAX_ZONE:
-            msg = f"--zone must be 0..{MAX_ZONE}, not {self.zone}"
-            raise UsageError(msg)
+            msg = f"`zone` must be 0..{MAX_ZONE}, not {self.zone}"
+            raise SettingsError(msg)
         if self.max_entries is not None and not 1 <= self.max_entries <= 1 << MAX_ADDRESS_BITS:
-            msg = f"--max-entries must be 1..{1 << MAX_ADDRESS_BITS}, not {self.max_entries}"
-            raise UsageError(msg)
-        if self.target not in romformats.CONTROLLER:
-            given = [f for f, v in (("--axis", self.axis), ("--max-entries", self.max_entries),
-                                    ("--resolution", self.resolution_deg), ("--sign", self.sign))
+            msg = f"`max_entries` must be 1..{1 << MAX_ADDRESS_BITS}, not {self.max_entries}"
+            raise SettingsError(msg)
+        if not self.controller:
+            given = [f for f, v in (("`axis`", self.axis), ("`max_entries`", self.max_entries),
+                                    ("`resolution_deg`", self.resolution_deg),
+                                    ("`sign`", self.sign))
                      if v is not None]
             if given:
                 msg = (f"{given[0]} applies to the controllers' targets, "
-                       f"not --target {self.target}")
-                raise UsageError(msg)
+                       f"not `target` {self.target}")
+                raise SettingsError(msg)
             return
-        _check_resolution(self.target, self.resolution_deg)
-        if self.target == "acs" and self.sign not in ("correction", "error"):
-            msg = ("acs: the sign of an ERRORMAP1D value (correction added, or error measured) "
-                   "is not confirmed from ACS's documentation; give --sign correction or "
-                   "--sign error as your controller's manual says")
-            raise UsageError(msg)
-        if self.target == "siemens" and self.sign is not None:
-            msg = "--sign applies to acs, fanuc and heidenhain, not siemens (documented)"
-            raise UsageError(msg)
+        fmt = registry.get(self.target)
+        _check_resolution(fmt, self.resolution_deg)
+        if fmt.sign is None and self.sign not in ("correction", "error"):
+            msg = (f"{self.target}: the sign of a stored value (correction added, or error "
+                   f"measured) is not confirmed from the controller's documentation; give "
+                   "`sign` correction or `sign` error as your controller's manual says")
+            raise SettingsError(msg)
+        if fmt.sign is not None and self.sign is not None:
+            unsure = ", ".join(r.name for r in registry.records() if r.points and r.sign is None)
+            msg = f"`sign` applies to {' and '.join(unsure.rsplit(', ', 1))}, not " \
+                  f"{self.target} (documented)"
+            raise SettingsError(msg)
+
+    @property
+    def controller(self) -> bool:
+        """Whether the target is a controller's addressed table (its points interpolated)."""
+        fmt = registry.find(self.target)
+        return fmt is not None and fmt.family == registry.CONTROLLER
 
     @property
     def spec(self) -> RomSpec:
         """The table to build."""
-        controller = self.target in romformats.CONTROLLER
+        controller = self.controller
         lsb = self.lsb
         if controller and self.resolution_deg is not None:  # the LSB is the control's step
             lsb = self.resolution_deg / (360.0 / 2.0 ** self.code_bits)
@@ -223,7 +234,7 @@ class Settings:
             raise ValueError(msg)
         count_deg = self.spec.lsb_arcsec * factor("arcsec", "deg")
         decimals = None
-        if self.target in romformats.CONTROLLER and self.resolution_deg is not None:
+        if self.controller and self.resolution_deg is not None:
             count_deg = self.resolution_deg
             decimals = round(-math.log10(self.resolution_deg))
         return romformats.Target(self.target, self.width, self.endian, count_deg=count_deg,
@@ -232,11 +243,14 @@ class Settings:
                                  sign=-1 if self.sign == "error" else 1, decimals=decimals)
 
     def _axis(self) -> str:
-        """The axis as the program names it: acs a number (leading zeros dropped), siemens a
-        name; checked by :func:`romformats.check_names`."""
+        """The axis as the program names it: the format's default when none is given; a
+        number (leading zeros dropped) where the format numbers its axes; checked by the
+        format's record (:func:`romformats.check_capacity`)."""
+        fmt = registry.find(self.target)
+        default = fmt.default_axis if fmt is not None else ""
         if self.axis is None:
-            return "0" if self.target == "acs" else "AX1"
-        if self.target == "acs" and self.axis.isascii() and self.axis.isdigit():
+            return default
+        if default.isdigit() and self.axis.isascii() and self.axis.isdigit():
             return str(int(self.axis))
         return self.axis
 
@@ -248,24 +262,19 @@ class Settings:
                 "endian": self.endian}
 
 
-#: where each control keeps the resolution --resolution asks for
-_RESOLUTION_SOURCE = {"siemens": "SINUMERIK: 1 / MD10210 $MN_INT_INCR_PER_DEG",
-                      "acs": "ACS: the axis' position step in degrees, as its user units give it"}
-
-
-def _check_resolution(target: str, resolution_deg: float | None) -> None:
+def _check_resolution(fmt: registry.TableFormat, resolution_deg: float | None) -> None:
     """Refuse (one line) a controller table without a resolution that is a power of ten
     in RESOLUTION_DEG: the control's step, which is not in any file enctools reads."""
     if resolution_deg is None:
-        msg = (f"{target}: give --resolution, the control's resolution [deg] (a power of ten; "
-               f"{_RESOLUTION_SOURCE.get(target, 'the control')})")
-        raise UsageError(msg)
+        msg = (f"{fmt.name}: give `resolution_deg`, the control's resolution [deg] (a power of "
+               f"ten; {fmt.resolution_source or 'the control'})")
+        raise SettingsError(msg)
     d = round(-math.log10(resolution_deg)) if resolution_deg > 0 else 0
     if not (RESOLUTION_DEG[0] <= resolution_deg <= RESOLUTION_DEG[1]
             and abs(10.0 ** -d - resolution_deg) <= 1e-12 * resolution_deg):
-        msg = (f"--resolution must be a power of ten {RESOLUTION_DEG[0]!r}..{RESOLUTION_DEG[1]!r}"
-               f" deg, not {resolution_deg!r}")
-        raise UsageError(msg)
+        msg = (f"`resolution_deg` must be a power of ten "
+               f"{RESOLUTION_DEG[0]!r}..{RESOLUTION_DEG[1]!r} deg, not {resolution_deg!r}")
+        raise SettingsError(msg)
 
 
 @dataclass
@@ -347,8 +356,8 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     lo, hi = spec.word_range
     if vmin < lo or vmax > hi:
         msg = (f"corrections reach {vmin:.0f}..{vmax:.0f} LSB, beyond the {spec.width}-bit "
-               f"range {lo}..{hi}; use --width {_bits_needed(vmin, vmax)} or more, or a "
-               f"coarser --lsb")
+               f"range {lo}..{hi}; use `width` {_bits_needed(vmin, vmax)} or more, or a "
+               f"coarser `lsb`")
         raise DataError(msg)
     le = values.astype(values.dtype.newbyteorder("<"), copy=False)
     crc = zlib.crc32(le.data if le.flags.c_contiguous else le.tobytes())
@@ -454,8 +463,8 @@ def control_source(header: Header, table: pa.Table, source: str, curve: str | No
     if header.kind != "points":
         return steprun.from_model(from_stream(header, table, source, curve))
     if curve is not None:
-        msg = f"--curve chooses a curve of a deviations stream; {source} is a points stream"
-        raise UsageError(msg)
+        msg = f"`curve` chooses a curve of a deviations stream; {source} is a points stream"
+        raise SettingsError(msg)
     position = column(table, "position", "deg", source,
                       declared_unit("points", header.meta, "position"))
     deviation = column(table, "deviation", "arcsec", source)

@@ -26,8 +26,9 @@ from enctools.units import factor
 #: the largest RMS quantisation error a table may carry, as a fraction of the RMS of the
 #: correction it stores (dimensionless)
 QUANTISATION_LIMIT = 0.25
-ALLOW_NO_GAIN = "--allow-no-gain"
-ALLOW_COARSE = "--allow-coarse"
+#: the settings that let a refused table be written, as a message names them
+ALLOW_NO_GAIN = "`allow_no_gain`"
+ALLOW_COARSE = "`allow_coarse`"
 
 
 def enforce(problem: str | None, allowed: bool, option: str) -> str | None:

@@ -3,7 +3,7 @@
 A table file as this project writes it has one entry a line, every line of the
 same length, so a field sits at the same columns of every line. Such lines are
 read as strided words straight from the file's bytes, a block of 2^20 lines at a
-time (work arrays stay small: the --verify of a 2^26-entry MIF stays under 2 GB),
+time (work arrays stay small: the verification of a 2^26-entry MIF stays under 2 GB),
 and hex digits are decoded two at a time by one table look-up.
 """
 

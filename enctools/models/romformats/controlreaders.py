@@ -16,6 +16,7 @@ import numpy as np
 
 from enctools.errors import DataError
 from enctools.models.romformats.points import PointTable
+from enctools.models.romformats.record import PointOptions
 from enctools.units import DEG
 
 #: LinuxCNC: EMCMOT_COMP_SIZE, the entries of a joint's compensation table
@@ -25,7 +26,7 @@ _STRTOD = r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[-+]?(?:inf(?:inity)?|
 _TRIPLET = re.compile(_STRTOD * 3, re.IGNORECASE)
 
 
-def read_linuxcnc(data: bytes, src: str, comp_type: int = 0) -> PointTable:
+def read_linuxcnc(data: bytes, src: str, options: PointOptions) -> PointTable:
     """A joint compensation file as ``usrmotLoadComp`` and ``EMCMOT_SET_JOINT_COMP`` read it:
     lines of three numbers until the first line that is not; type 0 forward and reverse
     are positions (trim = nominal - position), type 1 trims; trims are stored as float
@@ -51,7 +52,7 @@ def read_linuxcnc(data: bytes, src: str, comp_type: int = 0) -> PointTable:
         msg = f"{src}: nominal positions must increase (LinuxCNC refuses the entry)"
         raise DataError(msg)
     nominal = a[:, 0]
-    trims = (nominal[:, None] - a[:, 1:]) if comp_type == 0 else a[:, 1:]
+    trims = (nominal[:, None] - a[:, 1:]) if options.comp_type == 0 else a[:, 1:]
     trims = trims.astype(np.float32).astype(np.float64)
     forward, reverse = -trims[:, 0] * DEG, -trims[:, 1] * DEG
     return PointTable(nominal * DEG, forward,
@@ -88,7 +89,7 @@ def _integer(keys: dict[str, str], name: str, src: str) -> int:
         raise DataError(msg) from None
 
 
-def read_twincat(data: bytes, src: str) -> PointTable:
+def read_twincat(data: bytes, src: str, options: PointOptions) -> PointTable:
     """A TwinCAT CNC compensation value list's leadscrew error compensation (kw.ssfk.*):
     unit 1 (rotary axis: 0.0001 deg), equidistant points (interval, kw_startpos) or
     setpoints (interval 0), kw_nr_max entries of table[i].pos and, bilateral, .neg,
@@ -126,14 +127,14 @@ def read_twincat(data: bytes, src: str) -> PointTable:
 _FANUC_LINE = re.compile(r"(PARAMETER\s+(\d+)\s+AXIS\s+\d+|PITCH\s+(\d+))\s+VALUE\s+([-+]?\d+)")
 
 
-def read_fanuc(data: bytes, src: str, sign: str) -> PointTable:
+def read_fanuc(data: bytes, src: str, options: PointOptions) -> PointTable:
     """A Fanuc pitch error setting sheet of a rotary axis: parameters 3620 (reference
     point), 3621 (= 3620 on a rotary axis), 3622, 3623 (magnification), 3624 (interval),
     3625 (travel per rotation) [detection units], and per point the increment over the
     section ending there (points 3621+1..3622, summing to 0; point 3620 repeats the last).
     The compensation is the sum of the increments from the reference position (0 deg),
-    x magnification x detection unit; ``sign`` says whether it is the correction or the
-    error (minus the correction)."""
+    x magnification x detection unit; ``options.sign`` says whether it is the correction
+    or the error (minus the correction)."""
     params: dict[int, int] = {}
     pitch: dict[int, int] = {}
     du = None
@@ -166,14 +167,16 @@ def read_fanuc(data: bytes, src: str, sign: str) -> PointTable:
         raise DataError(msg)
     absolute = np.r_[0, np.cumsum(inc)] * mag * du * DEG
     positions = np.arange(sections + 1) * interval * du * DEG
-    return PointTable(positions, absolute if sign == "correction" else -absolute,
+    return PointTable(positions, absolute if options.sign == "correction" else -absolute,
                       modulo_rad=turn * du * DEG)
 
 
-def read_heidenhain(data: bytes, src: str, sign: str, axis: str = "C") -> PointTable:
+def read_heidenhain(data: bytes, src: str, options: PointOptions) -> PointTable:
     """A HEIDENHAIN compensation value table (.COM): ``BEGIN`` line, a header naming the
     columns (each field starts under its name), rows, ``[END]``; AXISPOS [deg] and the
-    axis's column [deg]; ``sign`` says whether the value is the correction or the error."""
+    axis's column [deg] (``options.axis``, else C); ``options.sign`` says whether the value
+    is the correction or the error."""
+    axis = options.axis or "C"
     lines = data.decode("latin-1").splitlines()
     if len(lines) < 4 or not lines[0].startswith("BEGIN") or lines[-1].strip() != "[END]":
         msg = f"{src}: not a HEIDENHAIN table (BEGIN line, header, rows, [END])"
@@ -199,11 +202,11 @@ def read_heidenhain(data: bytes, src: str, sign: str, axis: str = "C") -> PointT
         msg = f"{src}: {len(pos)} compensation points; a table holds 256"
         raise DataError(msg)
     modulo = 360.0 * DEG if pos[0] == 0.0 and pos[-1] == 360.0 else None
-    return PointTable(pos * DEG, (val if sign == "correction" else -val) * DEG,
+    return PointTable(pos * DEG, (val if options.sign == "correction" else -val) * DEG,
                       modulo_rad=modulo)
 
 
-def read_siemens(data: bytes, src: str) -> PointTable:
+def read_siemens(data: bytes, src: str, options: PointOptions) -> PointTable:
     """A SINUMERIK ``$AA_ENC_COMP`` table: the points MIN + i x STEP [deg], each value the
     compensation added to the measuring system's actual value (K3, MSEC: a positive value
     moves the axis in the negative direction), i.e. the correction; modulo MAX - MIN
@@ -219,14 +222,15 @@ def read_siemens(data: bytes, src: str) -> PointTable:
                       modulo_rad=(hi - lo) * DEG if modulo == 1 else None)
 
 
-def read_acs(data: bytes, src: str, sign: str, name: str = "ENC_COMP") -> PointTable:
+def read_acs(data: bytes, src: str, options: PointOptions) -> PointTable:
     """An ACS program's ERRORMAP1D map: points base + i x step [deg], values [deg];
-    ``sign`` says whether a value is the correction or the error. No wrap is assumed."""
+    ``options.sign`` says whether a value is the correction or the error, its array is
+    ``options.array_name``. No wrap is assumed."""
     from enctools.models.romformats.readers import acs_map
 
-    base, step, vals = acs_map(data, name, src)
+    base, step, vals = acs_map(data, options.array_name, src)
     if not (step > 0 and np.all(np.isfinite(vals))):
         msg = f"{src}: the map's step must be > 0 and every value a finite number"
         raise DataError(msg)
     positions = base + step * np.arange(vals.size)
-    return PointTable(positions * DEG, (vals if sign == "correction" else -vals) * DEG)
+    return PointTable(positions * DEG, (vals if options.sign == "correction" else -vals) * DEG)

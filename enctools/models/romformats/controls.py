@@ -9,7 +9,7 @@ the interpolation error of the control's linear interpolation between its points
 against the source (the step run's targets, or the model on a fine grid).
 
 The sources of each rule are cited in enc-make-rom(1), CONTROLS; what is not
-confirmed there is refused (:class:`~enctools.errors.UsageError`) rather than guessed.
+confirmed there is refused (:class:`~enctools.errors.SettingsError`) rather than guessed.
 """
 
 from __future__ import annotations
@@ -20,74 +20,40 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from enctools.errors import DataError, UsageError
+from enctools.errors import DataError, SettingsError
+from enctools.models.romformats import registry
 from enctools.units import factor
 
 if TYPE_CHECKING:
     from enctools.methods.targets import MeasuredRange
+    from enctools.models.romformats.record import Control, TableFormat
 
 ARCSEC_PER_DEG = factor("deg", "arcsec")
 #: grid spacings that are whole multiples of 0.0001 deg divide this many steps of a turn
 TURN_STEPS = 3_600_000
-#: Fanuc: pitch error compensation point numbers 0..FANUC_LAST_POINT
-FANUC_LAST_POINT = 1023
-#: Fanuc: largest |compensation value| of one point, in units of magnification x
-#: detection unit (the conservative limit; see enc-make-rom(1))
-FANUC_MAX_STEP = 7
-FANUC_MAX_MAGNIFICATION = 100
+#: an incremental table's (Fanuc's parameter 3623) largest magnification
+MAX_MAGNIFICATION = 100
 #: a step run's targets within this of m equal steps over the turn [deg] are taken as
 #: those steps (measured positions scatter about the commanded ones)
 SPACED_DEG = 0.01
 
 
 @dataclass(frozen=True)
-class Control:
-    """The rules of one control's compensation table.
-
-    resolution_deg : step of a stored value [deg] (Fanuc: per detection unit, times the
-        magnification chosen).
-    max_points : points a table holds at most (before --max-entries).
-    sign : ``correction`` (value added to the indicated angle), ``error`` (value added
-        to the command: minus the correction), ``position`` (LinuxCNC type 0) or None:
-        not confirmed, --sign must say.
-    bidirectional : whether separate forward and backward tables are written.
-    value_range : smallest and largest stored value [resolution steps], or None.
-    exact_spacing : whether the spacing must be a whole number of 0.0001 deg.
-    """
-
-    name: str
-    resolution_deg: float
-    max_points: int
-    sign: str | None
-    bidirectional: bool
-    value_range: tuple[int, int] | None = None
-    exact_spacing: bool = True
-
-
-SPECS = {
-    "linuxcnc": Control("linuxcnc", 1e-6, 256, "error", True, None, exact_spacing=False),
-    "twincat": Control("twincat", 1e-4, 1500, "correction", True, (-(1 << 31), (1 << 31) - 1)),
-    "fanuc": Control("fanuc", 1e-3, FANUC_LAST_POINT + 1, None, False,
-                     (-FANUC_MAX_STEP, FANUC_MAX_STEP)),
-    "heidenhain": Control("heidenhain", 1e-4, 256, None, False, None),
-}
-
-
-@dataclass(frozen=True)
 class ControlSettings:
     """How a control's table is built, checked when made.
 
-    target : one of :data:`~enctools.models.romformats.CONTROLS`.
+    target : a format of the control family (:mod:`~enctools.models.romformats.registry`).
     bidirectional : separate forward and backward tables (the source must have both
         directions; the control must take them).
     sign : ``correction`` or ``error`` where the control's convention is not confirmed
-        (fanuc, heidenhain); elsewhere None or the control's own.
+        (the format's record says none); elsewhere None or the control's own.
     comp_type : LinuxCNC COMP_FILE_TYPE, 0 or 1.
     points : points of the grid including both ends (None: chosen).
     max_entries : points the control is configured for (None: the documented default).
-    axis : the axis as the file names it (twincat, fanuc: a number; heidenhain: a name).
-    detection_unit_deg : Fanuc: the axis's detection unit [deg].
-    ref_point : Fanuc: the compensation point number of the reference position.
+    axis : the axis as the file names it (checked by the format's record).
+    detection_unit_deg : an incremental table's detection unit of the axis [deg].
+    home_point : an incremental table's compensation point number of the home
+        (reference) position.
     """
 
     target: str
@@ -98,70 +64,65 @@ class ControlSettings:
     max_entries: int | None = None
     axis: str | None = None
     detection_unit_deg: float = 1e-3
-    ref_point: int = 0
+    home_point: int = 0
 
     def __post_init__(self) -> None:
-        spec = SPECS[self.target]
+        fmt, spec = self.format, self.spec
         if self.bidirectional and not spec.bidirectional:
             msg = (f"{self.target}: a bidirectional table is not written: the control's "
                    "backward-direction table is not confirmed (enc-make-rom(1), CONTROLS); "
-                   "leave out --bidirectional")
-            raise UsageError(msg)
-        if spec.sign is None and self.sign is None:
+                   "leave out `bidirectional`")
+            raise SettingsError(msg)
+        if fmt.sign is None and self.sign is None:
             msg = (f"{self.target}: the sign of a stored value (correction added, or error "
                    "measured) is not confirmed from the control's documentation; give "
-                   "--sign correction or --sign error as your control's manual says")
-            raise UsageError(msg)
-        if spec.sign is not None and self.sign is not None:
-            msg = (f"--sign applies to the fanuc and heidenhain targets, not {self.target} "
+                   "`sign` correction or `sign` error as your control's manual says")
+            raise SettingsError(msg)
+        if fmt.sign is not None and self.sign is not None:
+            unsure = ", ".join(r.name for r in registry.records(registry.CONTROL)
+                               if r.sign is None).rsplit(", ", 1)
+            msg = (f"`sign` applies to the {' and '.join(unsure)} targets, not {self.target} "
                    "(whose convention is documented)")
-            raise UsageError(msg)
-        if self.comp_type not in (0, 1):
-            msg = f"--comp-type must be 0 or 1, not {self.comp_type}"
-            raise UsageError(msg)
-        if not (0 < self.detection_unit_deg <= 1 and np.isfinite(self.detection_unit_deg)):
-            msg = f"--detection-unit must be in (0, 1] deg, not {self.detection_unit_deg}"
-            raise UsageError(msg)
-        if self.max_entries is not None and not 3 <= self.max_entries <= 1 << 28:
-            msg = f"--max-entries must be 3..{1 << 28}, not {self.max_entries}"
-            raise UsageError(msg)
-        if not 0 <= self.ref_point < FANUC_LAST_POINT:
-            msg = f"--ref-point must be 0..{FANUC_LAST_POINT - 1}, not {self.ref_point}"
-            raise UsageError(msg)
-        self.check_axis()
+            raise SettingsError(msg)
+        self._check_ranges()
+        if fmt.check is not None:
+            fmt.check(self, None)
         if self.points is not None:  # before any work
             why = self.allows(self.points - 1) if self.points >= 3 else "fewer than 3"
             if why:
-                msg = f"--points {self.points}: {self.target}: {why}"
-                raise UsageError(msg)
+                msg = f"`points` {self.points}: {self.target}: {why}"
+                raise SettingsError(msg)
 
-    def check_axis(self) -> None:
-        """Refuse an axis the file cannot name: twincat and fanuc take a number 0..32,
-        heidenhain a name of letters and digits (at most 8); linuxcnc names none (the
-        joint's INI section names the file)."""
-        import re
-        if self.axis is None:
-            return
-        if self.target == "linuxcnc":
-            msg = "--axis: a LinuxCNC compensation file names no joint ([JOINT_n] COMP_FILE does)"
-            raise UsageError(msg)
-        if self.target == "heidenhain":
-            if not re.fullmatch(r"[A-Z][A-Z0-9]{0,7}", self.axis):
-                msg = (f"--axis must be a HEIDENHAIN axis name (an upper-case letter, then "
-                       f"letters or digits, at most 8), not {self.axis!r}")
-                raise UsageError(msg)
-        elif not (re.fullmatch(r"[0-9]{1,2}", self.axis) and int(self.axis) <= 32):
-            msg = f"--axis must be an axis number 0..32 for {self.target}, not {self.axis!r}"
-            raise UsageError(msg)
+    def _check_ranges(self) -> None:
+        if self.comp_type not in (0, 1):
+            msg = f"`comp_type` must be 0 or 1, not {self.comp_type}"
+            raise SettingsError(msg)
+        if not (0 < self.detection_unit_deg <= 1 and np.isfinite(self.detection_unit_deg)):
+            msg = f"`detection_unit_deg` must be in (0, 1] deg, not {self.detection_unit_deg}"
+            raise SettingsError(msg)
+        if self.max_entries is not None and not 3 <= self.max_entries <= 1 << 28:
+            msg = f"`max_entries` must be 3..{1 << 28}, not {self.max_entries}"
+            raise SettingsError(msg)
+
+    @property
+    def format(self) -> TableFormat:
+        """The format's record."""
+        fmt = registry.get(self.target)
+        if fmt.control is None:
+            msg = f"{self.target} is not a control's table (`target`)"
+            raise SettingsError(msg)
+        return fmt
 
     @property
     def spec(self) -> Control:
-        return SPECS[self.target]
+        control = self.format.control
+        assert control is not None  # checked by format
+        return control
 
     @property
     def stored_sign(self) -> float:
         """+1 if a stored value is the correction, -1 if it is minus the correction."""
-        sign = self.sign if self.spec.sign is None else self.spec.sign
+        sign = self.sign if self.format.sign is None else self.format.sign
         return 1.0 if sign == "correction" else -1.0
 
     @property
@@ -176,15 +137,8 @@ class ControlSettings:
         if self.spec.exact_spacing and TURN_STEPS % sections:
             return (f"a spacing of 360/{sections} deg is not a whole number of "
                     "0.0001 deg")
-        if self.target == "fanuc":
-            per_turn = round(360.0 / self.detection_unit_deg)
-            if abs(per_turn * self.detection_unit_deg - 360.0) > 1e-9 or per_turn % sections:
-                return (f"a spacing of 360/{sections} deg is not a whole number of "
-                        f"detection units ({self.detection_unit_deg!r} deg)")
-            if self.ref_point + sections > FANUC_LAST_POINT:
-                return (f"points {self.ref_point}..{self.ref_point + sections} pass the "
-                        f"last point number {FANUC_LAST_POINT}")
-        return None
+        rule = self.spec.grid_rule
+        return None if rule is None else rule(self, sections)
 
 
 @dataclass
@@ -219,7 +173,7 @@ class ControlTable:
 
 
 def choose_sections(settings: ControlSettings, source: Source) -> int:
-    """The grid's sections over the turn: --points if given (refused if the control does
+    """The grid's sections over the turn: ``points`` if given (refused if the control does
     not allow it), else the step run's targets if the control allows them (or the fewest
     multiple of them it does), else the most the control allows."""
     if settings.points is not None:  # checked when the settings were made
@@ -234,7 +188,7 @@ def choose_sections(settings: ControlSettings, source: Source) -> int:
         if TURN_STEPS % k == 0 and settings.allows(k) is None:
             return k
     msg = f"{settings.target}: no grid over the turn fits the control's rules"
-    raise UsageError(msg)
+    raise SettingsError(msg)
 
 
 def _equally_spaced(targets_deg: np.ndarray) -> bool:
@@ -251,7 +205,7 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
     lacks the backward direction a bidirectional table needs.
     """
     if settings.bidirectional and source.backward is None:
-        msg = ("--bidirectional needs a step run with both directions "
+        msg = ("`bidirectional` needs a step run with both directions "
                "(a points stream with direction +1 and -1)")
         raise DataError(msg)
     k = choose_sections(settings, source)
@@ -265,7 +219,7 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
         msg = "the source gives NaN or infinite deviations"
         raise DataError(msg)
     offset = 0.0
-    if settings.target == "fanuc":  # the compensation is 0 at the reference position
+    if settings.spec.incremental:  # the compensation is 0 at the home position
         offset = float(fwd[0])
         fwd = fwd - offset
     table = _quantise(settings, grid, fwd, bwd)
@@ -280,13 +234,13 @@ def _quantise(settings: ControlSettings, grid: np.ndarray, fwd: np.ndarray,
     sign = settings.stored_sign
     magnification = 1
     resolution = spec.resolution_deg
-    if settings.target == "fanuc":
-        magnification, resolution = _fanuc_magnification(settings, fwd)
+    if spec.incremental:
+        magnification, resolution = _magnification(settings, fwd)
     step_arcsec = resolution * ARCSEC_PER_DEG
 
     def stored(corr: np.ndarray) -> np.ndarray:
         q = np.rint(sign * corr / step_arcsec)
-        values = np.diff(q) if settings.target == "fanuc" else q
+        values = np.diff(q) if spec.incremental else q
         if spec.value_range is not None:
             lo, hi = spec.value_range
             if values.min() < lo or values.max() > hi:
@@ -302,16 +256,17 @@ def _quantise(settings: ControlSettings, grid: np.ndarray, fwd: np.ndarray,
                         None if bwd is None else bwd * rad, magnification)
 
 
-def _fanuc_magnification(settings: ControlSettings, fwd: np.ndarray) -> tuple[int, float]:
-    """The smallest magnification (parameter 3623) whose increments fit +-FANUC_MAX_STEP,
-    and the resolution [deg] it gives (magnification x detection unit)."""
+def _magnification(settings: ControlSettings, fwd: np.ndarray) -> tuple[int, float]:
+    """The smallest magnification (Fanuc: parameter 3623) whose increments fit the
+    control's range, and the resolution [deg] it gives (magnification x detection unit)."""
     du = settings.detection_unit_deg
-    for mag in range(1, FANUC_MAX_MAGNIFICATION + 1):
+    top = (settings.spec.value_range or (-1, 1))[1]
+    for mag in range(1, MAX_MAGNIFICATION + 1):
         q = np.rint(settings.stored_sign * fwd / (mag * du * ARCSEC_PER_DEG))
-        if np.abs(np.diff(q)).max(initial=0) <= FANUC_MAX_STEP:
+        if np.abs(np.diff(q)).max(initial=0) <= top:
             return mag, mag * du
-    msg = (f"fanuc: the correction changes by more than {FANUC_MAX_STEP} x "
-           f"{FANUC_MAX_MAGNIFICATION} x {du!r} deg between points; use more --points")
+    msg = (f"{settings.target}: the correction changes by more than {top} x "
+           f"{MAX_MAGNIFICATION} x {du!r} deg between points; use more `points`")
     raise DataError(msg)
 
 
@@ -341,7 +296,7 @@ def _summary(t: ControlTable, source: Source, fwd: np.ndarray, bwd: np.ndarray |
         "spacing_deg": t.spacing_deg, "resolution_arcsec": step,
         "direction": "bidirectional" if t.backward is not None else "unidirectional",
         "max_quantisation_error_arcsec": quant, "interpolation_error_arcsec": err}
-    if t.settings.target == "fanuc":
+    if t.settings.spec.incremental:
         out |= {"magnification": t.magnification, "offset_removed_arcsec": offset}
     if source.reversal_arcsec is not None:
         b = source.reversal_arcsec

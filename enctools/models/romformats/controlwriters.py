@@ -83,7 +83,7 @@ def write_fanuc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
     du = s.detection_unit_deg
     sections = t.grid_deg.size - 1
     per_turn = round(360.0 / du)
-    r = s.ref_point
+    r = s.home_point
     params = [(3620, r, "compensation point of the reference position"),
               (3621, r, "farthest point on the - side"),
               (3622, r + sections, "farthest point on the + side"),
@@ -112,6 +112,3 @@ def write_heidenhain(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
     out.append("[END]\n")
     f.write("".join(out).encode("ascii"))
 
-
-WRITERS = {"linuxcnc": write_linuxcnc, "twincat": write_twincat, "fanuc": write_fanuc,
-           "heidenhain": write_heidenhain}

@@ -30,8 +30,6 @@ from enctools.data.limits import MAX_METADATA_BYTES
 from enctools.errors import DataError
 from enctools.units import TWO_PI, factor
 
-#: the formats whose layout is in a sidecar beside the file
-SIDECAR_FORMATS = ("csv", "ihex")
 #: the first comment line (older files end after ``arcsec``)
 COMMENT = re.compile(r"enctools make-rom: (\d+) entries, (\d+)-bit signed corrections to add "
                      r"to a (\d+)-bit code, LSB ([-+0-9.eE]+) arcsec"
@@ -149,26 +147,23 @@ def from_sidecar(path: str) -> Layout | None:
     return layout
 
 
-#: content only one format has, checked in this order on a file's first 4 KiB
-SIGNATURES = (
-    ("siemens", re.compile(rb"^\s*\$AA_ENC_COMP\[", re.MULTILINE)),
-    ("acs", re.compile(rb"^\s*ERRORMAP1D\s", re.MULTILINE)),
-    ("coe", re.compile(rb"^\s*memory_initialization_radix\s*=", re.MULTILINE | re.IGNORECASE)),
-    ("mif", re.compile(rb"^\s*DEPTH\s*=\s*\d+\s*;", re.MULTILINE)),
-    ("csv", re.compile(rb"\Aaddress,correction\r?\n")),
-    ("mem", re.compile(rb"\A(?://[^\n]*\n)+@0+\s*\n")),
-    ("ihex", re.compile(rb"\A:[0-9A-F]{10,}\r?\n(?::[0-9A-F]{10,}\r?\n)*(?::00000001FF\s*)?\Z"
-                        rb"|\A(?::[0-9A-F]{10,}\r?\n){4}")),
-)
+def has_sidecar(fmt: str) -> bool:
+    """Whether a table of format ``fmt`` states its layout in a sidecar beside it."""
+    from enctools.models.romformats import registry
+
+    found = registry.find(fmt)
+    return found is not None and found.layout_in == "sidecar"
 
 
 def identify(head: bytes) -> str | None:
-    """The table format whose content a file's first bytes (``head``, up to 4 KiB) have,
-    or None: SINUMERIK's ``$AA_ENC_COMP[``, ACS's ``ERRORMAP1D``, COE's
+    """The table format whose content a file's first bytes (``head``, up to 4 KiB) have
+    (its record's ``signature``: SINUMERIK's ``$AA_ENC_COMP[``, ACS's ``ERRORMAP1D``, COE's
     ``memory_initialization_radix``, MIF's ``DEPTH=``, the CSV header
     ``address,correction``, ``$readmemh`` text headed by ``//`` comments and ``@0``, Intel
-    HEX records. A raw image has no content of its own."""
-    for fmt, pattern in SIGNATURES:
-        if pattern.search(head):
-            return fmt
+    HEX records), or None. A raw image has no content of its own."""
+    from enctools.models.romformats import registry
+
+    for fmt in registry.records():
+        if fmt.signature is not None and fmt.signature.search(head):
+            return fmt.name
     return None

@@ -23,7 +23,7 @@ class Target:
     width: int = 16
     endian: str = "little"
     count_deg: float = 360.0 / 2 ** 23  # one LSB of the stored value [deg] (controllers)
-    axis: str = ""  # siemens axis name, or ACS axis number ("": AX1, or 0 for acs)
+    axis: str = ""  # the axis as the program names it ("": its format's default_axis)
     zone: int = 0  # ACS zone / SINUMERIK measuring system index
     name: str = "ENC_COMP"  # ACS array name
     max_entries: int | None = None
@@ -32,7 +32,10 @@ class Target:
 
     def __post_init__(self) -> None:
         if not self.axis:
-            object.__setattr__(self, "axis", "0" if self.fmt == "acs" else "AX1")
+            from enctools.models.romformats import registry
+
+            fmt = registry.find(self.fmt)
+            object.__setattr__(self, "axis", fmt.default_axis if fmt is not None else "")
 
     @property
     def storage_bytes(self) -> int:

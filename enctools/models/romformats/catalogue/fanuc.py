@@ -1,0 +1,53 @@
+"""Fanuc pitch error compensation setting sheet for a rotary axis: parameters 3620-3625
+and one incremental value per compensation point from the home (reference) point."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from enctools.errors import SettingsError
+from enctools.models.romformats import registry
+from enctools.models.romformats.record import (
+    CONTROL,
+    Control,
+    TableFormat,
+    check_axis_number,
+    lazy,
+)
+
+#: pitch error compensation point numbers 0..FANUC_LAST_POINT
+FANUC_LAST_POINT = 1023
+#: largest |compensation value| of one point, in units of magnification x detection unit
+#: (the conservative limit; see enc-make-rom(1))
+FANUC_MAX_STEP = 7
+
+
+def check(settings: Any, entries: int | None) -> None:
+    """The home point a point number, the axis a number 0..32."""
+    if not 0 <= settings.home_point < FANUC_LAST_POINT:
+        msg = f"`home_point` must be 0..{FANUC_LAST_POINT - 1}, not {settings.home_point}"
+        raise SettingsError(msg)
+    check_axis_number(settings)
+
+
+def grid(settings: Any, sections: int) -> str | None:
+    """A whole number of detection units between points, the point numbers within
+    0..FANUC_LAST_POINT."""
+    du = settings.detection_unit_deg
+    per_turn = round(360.0 / du)
+    if abs(per_turn * du - 360.0) > 1e-9 or per_turn % sections:
+        return (f"a spacing of 360/{sections} deg is not a whole number of "
+                f"detection units ({du!r} deg)")
+    if settings.home_point + sections > FANUC_LAST_POINT:
+        return (f"points {settings.home_point}..{settings.home_point + sections} pass the "
+                f"last point number {FANUC_LAST_POINT}")
+    return None
+
+
+FANUC = registry.register(TableFormat(
+    "fanuc", "Fanuc pitch error compensation sheet", CONTROL,
+    write_table=lazy(".controlwriters", "write_fanuc"),
+    read_points=lazy(".controlreaders", "read_fanuc"),
+    control=Control(1e-3, FANUC_LAST_POINT + 1, False, (-FANUC_MAX_STEP, FANUC_MAX_STEP),
+                    incremental=True, grid_rule=grid),
+    sign=None, settings=frozenset({"detection_unit", "home_point"}), check=check, rank=30))
