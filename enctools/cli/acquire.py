@@ -109,7 +109,7 @@ def _kinds(role: str) -> str:
 @options.verbosity
 def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool,
             timeout_s: float | None, retries: int | None, tee_path: str | None,
-            as_json: bool, output: str | None, force: bool, fmt: str | None,
+            as_json: bool, unit: str, output: str | None, force: bool, fmt: str | None,
             **given: Any) -> None:
     """Acquire readings from a rig and write them as a readings stream.
 
@@ -139,7 +139,7 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
         header.meta["settings"] = dict(header.meta.get("settings", {}), replayed=replay_path,
                                        pace=pace)
         rows = recording.record(replay(source, pace),
-                                recording.open_outputs(header, targets, force))
+                                recording.open_outputs(header, targets, force, unit))
         _summary("replay", rows, time.monotonic() - start, output, tee_path, as_json)
         return
 
@@ -152,13 +152,14 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     rig_ = load_rig(rig)
     settings = acq.resolve(rig_, given)
     streams.check_output(output, force, fmt)
-    unit = "samples" if settings.mode == "continuous" else "positions"
+    counted = "samples" if settings.mode == "continuous" else "positions"
     if realtime:
         settings.extra["realtime"] = True
     with open_session(rig_, seed=settings.seed, signals=bool(settings.signals),
                       realtime=realtime, timeout_s=timeout_s, retries=retries) as session:
-        header, batches = acq.acquire(rig_, session, settings, runner.Progress(settings.mode, unit))
-        outs = recording.open_outputs(streams.with_history(header), targets, force)
+        progress = runner.Progress(settings.mode, counted)
+        header, batches = acq.acquire(rig_, session, settings, progress)
+        outs = recording.open_outputs(streams.with_history(header), targets, force, unit)
         rows = recording.record(batches, outs)
     _summary(settings.mode, rows, time.monotonic() - start, output, tee_path, as_json)
 

@@ -37,7 +37,7 @@ def _groups(ctx: click.Context, param: click.Parameter,
 @options.outputs
 @options.verbosity
 def command(input: str | None, groups: list[tuple[str | None, list[str]]], band: int, drop: bool,
-            as_json: bool, output: str | None, force: bool, fmt: str | None) -> None:
+            as_json: bool, unit: str, output: str | None, force: bool, fmt: str | None) -> None:
     """Add the mean of selected heads as a new head channel to a readings stream.
 
     H = mean(H1..H4) of four equally spaced heads keeps only the multiples of 4 of
@@ -56,7 +56,8 @@ def command(input: str | None, groups: list[tuple[str | None, list[str]]], band:
     header, batches = heads.run(source, settings)
     progress = runner.Progress("rows", "rows").every(runner.expected_rows(source.meta))
     rows = 0
-    with streams.OutputStream(output, streams.with_history(header), force, fmt) as out:
+    with streams.OutputStream(output, streams.with_history(header), force, fmt,
+                              unit=unit) as out:
         for b in batches:
             out.write(b)
             rows += b.num_rows

@@ -55,7 +55,8 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
                                                 src.source)
     header = with_history(header)
     with files.OutputGroup() as group:
-        streams.write_table(output, header, found.table(), force, fmt, group=group)
+        streams.write_table(output, header, found.table(), force, fmt, group=group,
+                            unit=unit)
         if faces_out is not None:
             text = polygon.certificate_text(
                 sep.face_error, np.full(sep.faces, sep.u_face), f"closure {src.source}",

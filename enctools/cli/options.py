@@ -95,30 +95,10 @@ def verbosity(f: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def outputs(f: Callable[..., Any]) -> Callable[..., Any]:
-    """-o/--output, --force, --format; the command's --unit (:data:`unit`, stacked with it)
-    also sets the unit of the angle errors in a CSV or TSV output.
-
-    The unit holds for the command's run (``csvio.set_error_unit``); a command without
-    --unit writes arcsec. The command function receives ``unit`` if it takes it (its
-    summary's unit).
-    """
-    import inspect
-
-    takes_unit = "unit" in inspect.signature(f).parameters
-
-    @functools.wraps(f)
-    def with_csv_unit(*args: Any, **kwargs: Any) -> Any:
-        from enctools.data import csvio
-
-        before = csvio.error_unit()
-        chosen = kwargs.get("unit") if takes_unit else kwargs.pop("unit", None)
-        csvio.set_error_unit(chosen or before)
-        try:
-            return f(*args, **kwargs)
-        finally:  # a command run in-process leaves the library as it found it
-            csvio.set_error_unit(before)
-
-    return output(force(out_format(with_csv_unit)))
+    """-o/--output, --force, --format. A command's --unit (:data:`unit`) is also the unit of
+    the angle errors of a CSV or TSV output: the command passes it to what it writes
+    (``streams.write_table(..., unit=unit)``)."""
+    return output(force(out_format(f)))
 
 
 # Ideas several commands share: one spelling, one metavar, one check.

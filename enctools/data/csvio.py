@@ -17,8 +17,8 @@ A stream written as CSV (``x.csv``) or TSV (``x.tsv``) is two files:
   name, Arrow type and field metadata, and the stream's metadata (rig, settings, truth,
   history). Reading the table with its sidecar gives back the same stream.
 
-The angle errors (columns whose field unit is arcsec) are written in the unit chosen
-with :func:`set_error_unit` (the unit the command reports in) and read back into arcsec; other
+The angle errors (columns whose field unit is arcsec) are written in the unit the writer is
+given (the unit the command reports in, its ``--unit``) and read back into arcsec; other
 columns keep their stream's unit. On stdout a table goes without its sidecar: the
 metadata is then nowhere.
 """
@@ -37,7 +37,7 @@ import pyarrow as pa
 from enctools.data import files, limits
 from enctools.data.header import META_KEY, Header, load_metadata
 from enctools.data.text import first_line, printable
-from enctools.errors import DataError, OutputError
+from enctools.errors import DataError, OutputError, SettingsError
 from enctools.units import ANGLE_UNITS, DISPLAY_UNITS, factor
 
 FORMATS = ("csv", "tsv")
@@ -46,7 +46,7 @@ EXTENSIONS = {".csv": "csv", ".tsv": "tsv"}
 #: appended to the table's name to name its sidecar (CSVW's ``{+url}-metadata.json``)
 SIDECAR_SUFFIX = "-metadata.json"
 CSVW_CONTEXT = "http://www.w3.org/ns/csvw"
-#: the unit of the angle errors in the stream (the field unit converted by set_error_unit)
+#: the unit of the angle errors in the stream, and in a table unless told another
 ERROR_UNIT = "arcsec"
 
 #: Arrow type -> CSVW (XML Schema) datatype, for the types a stream's columns may have
@@ -54,24 +54,6 @@ _DATATYPES = {"double": "double", "float": "float", "int8": "byte", "int16": "sh
               "int32": "int", "int64": "long", "uint8": "unsignedByte",
               "uint16": "unsignedShort", "uint32": "unsignedInt", "uint64": "unsignedLong",
               "string": "string"}
-
-_error_unit = ERROR_UNIT
-
-
-def set_error_unit(unit: str) -> None:
-    """The unit the angle errors (field unit arcsec) of the CSV and TSV outputs this
-    process writes are in, from now on (the command's unit: one of DISPLAY_UNITS)."""
-    global _error_unit
-    if unit not in DISPLAY_UNITS:
-        msg = f"not a unit for angle errors: {unit!r} (one of {', '.join(DISPLAY_UNITS)})"
-        raise ValueError(msg)
-    _error_unit = unit
-
-
-def error_unit() -> str:
-    """The unit of the angle errors in CSV and TSV outputs (see :func:`set_error_unit`)."""
-    return _error_unit
-
 
 def sidecar_path(path: str | os.PathLike[str]) -> str:
     """The sidecar of a table file: ``x.csv`` -> ``x.csv-metadata.json``."""
@@ -108,16 +90,21 @@ class TableWriter:
     """Writes a stream as a CSV or TSV table into ``target`` (a path, or a binary file
     such as stdout), header line first; the writer protocol of ``streams.OutputStream``.
 
-    ``sidecar(url)`` gives the sidecar's bytes once every row is written.
+    ``errors``: the unit the angle errors (field unit arcsec) are written in, one of
+    ``DISPLAY_UNITS`` (the command's ``--unit``). ``sidecar(url)`` gives the sidecar's
+    bytes once every row is written.
     """
 
     def __init__(self, target: str | IO[bytes], header: Header, fmt: str,
-                 errors: str | None = None) -> None:
+                 errors: str = ERROR_UNIT) -> None:
+        if errors not in DISPLAY_UNITS:
+            msg = (f"`unit` {errors!r} is not a unit of angle errors "
+                   f"(one of {', '.join(DISPLAY_UNITS)})")
+            raise SettingsError(msg)
         self.fmt = fmt
         self.header = header
         self.rows = 0
         self._delimiter = DELIMITERS[fmt]
-        errors = _error_unit if errors is None else errors
         self._units = [written_unit(f, errors) for f in header.schema]
         self._scale = [factor(_unit_of(f), u) if u != _unit_of(f) else 1.0
                        for f, u in zip(header.schema, self._units)]

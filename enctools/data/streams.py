@@ -417,8 +417,10 @@ class OutputStream:
 
     def __init__(self, path: str | None, header: Header, force: bool = False,
                  fmt: str | None = None, stdout: IO[bytes] | None = None,
-                 keep_partial: bool = False, group: files.OutputGroup | None = None) -> None:
+                 keep_partial: bool = False, group: files.OutputGroup | None = None,
+                 unit: str | None = None) -> None:
         check_output(path, force, fmt, stdout)
+        self.unit = unit or csvio.ERROR_UNIT  # of the angle errors in a CSV or TSV table
         self.path = None if path in (None, "-") else str(path)
         # what a command writes, enctools reads back: the header fits its kind
         validate(header.schema, {**header.meta, "kind": header.kind}, header.kind,
@@ -452,7 +454,7 @@ class OutputStream:
         target = self._tmp if self._tmp is not None else self._sink
         try:
             if self.format in csvio.FORMATS:
-                return csvio.TableWriter(target, self.header, self.format)
+                return csvio.TableWriter(target, self.header, self.format, self.unit)
             if self.format == "arrows":
                 return pa.ipc.new_stream(target, self._schema)
             if self.format == "arrow":
@@ -580,7 +582,9 @@ class OutputStream:
 
 
 def write_table(path: str | None, header: Header, table: pa.Table, force: bool = False,
-                fmt: str | None = None, group: files.OutputGroup | None = None) -> None:
-    """Write a whole table as one stream (a named file renamed with ``group``'s others)."""
-    with OutputStream(path, header, force=force, fmt=fmt, group=group) as out:
+                fmt: str | None = None, group: files.OutputGroup | None = None,
+                unit: str | None = None) -> None:
+    """Write a whole table as one stream (a named file renamed with ``group``'s others;
+    the angle errors of a CSV or TSV table in ``unit``, arcsec unless given)."""
+    with OutputStream(path, header, force=force, fmt=fmt, group=group, unit=unit) as out:
         out.write(table)

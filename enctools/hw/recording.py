@@ -29,13 +29,14 @@ log = logging.getLogger("enctools")
 
 
 def open_outputs(header: Header, targets: Sequence[tuple[str | None, str | None]],
-                 force: bool = False) -> list[OutputStream]:
+                 force: bool = False, unit: str | None = None) -> list[OutputStream]:
     """The outputs of a run, each ``(path, format)`` (path None: stdout; format None: by
-    the extension), kept whole however the run ends; none is left if one cannot open."""
+    the extension), kept whole however the run ends; none is left if one cannot open.
+    ``unit``: of the angle errors in a CSV or TSV output (arcsec unless given)."""
     outs: list[OutputStream] = []
     try:
         for path, fmt in targets:
-            outs.append(OutputStream(path, header, force, fmt, keep_partial=True))
+            outs.append(OutputStream(path, header, force, fmt, keep_partial=True, unit=unit))
     except BaseException:
         for o in outs:
             o.abort(False)
