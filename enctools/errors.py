@@ -48,12 +48,6 @@ class CheckFailed(EncError):
     exit_code = 1
 
 
-class UsageError(EncError):
-    """Bad options or option values: exit 2."""
-
-    exit_code = 2
-
-
 class SettingsError(EncError):
     """Settings that are out of range or do not go together: exit 2.
 

@@ -2,7 +2,7 @@
 """Coverage-guided fuzzing (atheris) of rig files: ``load_rig`` on arbitrary bytes.
 
 Run by ``make fuzz``. A rig file is data received from elsewhere: every input must load
-or raise a one-line UsageError/DataError; anything else (a crash, RecursionError,
+or raise a one-line SettingsError/DataError; anything else (a crash, RecursionError,
 MemoryError, an exception of another type, a multi-line message) is a finding, written
 to ``fuzz-out/crash-*``. Once understood, a finding becomes a row of the adversarial
 catalogue (tests/adversarial/cases/rigs.toml), ``pending`` until fixed.
@@ -19,7 +19,7 @@ import atheris
 
 with atheris.instrument_imports():
     from enctools.data.rig import load_rig
-    from enctools.errors import DataError, UsageError
+    from enctools.errors import DataError, SettingsError
 
 FOLDER = Path(tempfile.mkdtemp(prefix="fuzz-rigs-"))
 RIG = FOLDER / "rig.toml"
@@ -29,7 +29,7 @@ def one_input(data: bytes) -> None:
     RIG.write_bytes(data)
     try:
         load_rig(str(RIG))
-    except (DataError, UsageError) as exc:
+    except (DataError, SettingsError) as exc:
         if "\n" in str(exc):
             raise AssertionError(f"multi-line error: {exc!r}") from None
 

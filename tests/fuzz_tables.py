@@ -4,7 +4,7 @@
 every format (models/romformats: the fast and the general reader of each).
 
 Run by ``make fuzz``. Every input must read or raise a one-line DataError (SettingsError
-or UsageError for what an option set); anything else is a finding, written to ``fuzz-out/crash-*``.
+for what an option set); anything else is a finding, written to ``fuzz-out/crash-*``.
 Once understood, a finding becomes a row of the adversarial catalogue, ``pending``
 until fixed. The first byte of an input chooses the reader, the rest is the file.
 """
@@ -18,7 +18,7 @@ from pathlib import Path
 import atheris
 
 with atheris.instrument_imports():
-    from enctools.errors import DataError, SettingsError, UsageError
+    from enctools.errors import DataError, SettingsError
     from enctools.methods.points import points_from_csv
     from enctools.models import romformats as rf
     from enctools.models.romformats.words import Target
@@ -48,7 +48,7 @@ def one_input(data: bytes) -> None:
     which = READERS[data[0] % len(READERS)]
     try:
         _read(which, data[1:])
-    except (DataError, SettingsError, UsageError) as exc:
+    except (DataError, SettingsError) as exc:
         if "\n" in str(exc):
             raise AssertionError(f"{which}: multi-line error: {exc!r}") from None
 

@@ -94,7 +94,7 @@ def test_full_tmpfs_keeps_the_other_output(tmp_path: Path) -> None:
 
 
 def _endings() -> list[Any]:
-    from enctools.errors import DataError, DeviceError, Interrupted, OutputError, UsageError
+    from enctools.errors import DataError, DeviceError, Interrupted, OutputError, SettingsError
 
     return [(DeviceError("instrument x: read failed"), True),
             (KeyboardInterrupt(), True),
@@ -103,7 +103,7 @@ def _endings() -> list[Any]:
             (OutputError("output other.parquet: No space left on device", "other.parquet"), True),
             (ConnectionResetError(104, "Connection reset by peer"), True),
             (RuntimeError("a bug"), True),
-            (UsageError("--heads: no head 'X'"), False),
+            (SettingsError("`heads`: no head 'X'"), False),
             (DataError("replay.arrows: truncated"), False),
             (OutputError("output SELF: No space left on device", "SELF"), False)]
 

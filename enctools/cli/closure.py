@@ -36,10 +36,10 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     import numpy as np
 
     from enctools.cli.summary import check_json, emit
+    from enctools.cli.usage import UsageError
     from enctools.data import files, polygon, streams
     from enctools.data.streams import with_history
     from enctools.data.summaries import from_meta
-    from enctools.errors import UsageError
     from enctools.methods import closure, points
 
     check_json(as_json, output)

@@ -137,8 +137,8 @@ def _apply(input: str | None, table_for: TableFor, readings: ReadingsSettings,
            mapping: Mapping) -> tuple[Any, Applied]:
     """The input's header and the table applied to it (``models.applied``): its points,
     or a continuous run's readings; readings' options refused for points."""
+    from enctools.cli.usage import UsageError
     from enctools.data import streams
-    from enctools.errors import UsageError
     from enctools.methods.points import check_points, from_table, is_table_file, read_points
     from enctools.models import applied
 

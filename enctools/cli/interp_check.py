@@ -118,9 +118,9 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     output's metadata.
     """
     from enctools.cli.summary import check_json, emit
+    from enctools.cli.usage import UsageError
     from enctools.data import streams
     from enctools.data.files import OutputGroup
-    from enctools.errors import UsageError
     from enctools.methods.interp import Settings, check
 
     settings = Settings(

@@ -59,7 +59,7 @@ def command(inputs: tuple[str, ...], bits: int | None, delay_s: float | None,
     heads against a reference (the simulator's truth or another encoder's heads),
     then the same figures from it.
     """
-    from enctools.errors import UsageError
+    from enctools.cli.usage import UsageError
     from enctools.methods import latency as lat
 
     out: dict = {}

@@ -202,7 +202,7 @@ def _before_work(path: str | None, force: bool, meta: dict, allow_no_gain: bool)
     """Refuse an existing table file without --force, then a model without gain."""
     from pathlib import Path
 
-    from enctools.errors import UsageError
+    from enctools.cli.usage import UsageError
 
     if path is not None and not force and Path(path).exists():
         msg = f"output {path} exists; use --force to replace it"
@@ -225,7 +225,7 @@ def _guard(what: str, subject: Any, allowed: bool) -> None:
 def _check_applies(target: str) -> str | None:
     """Refuse (one line) an option of one kind of table (:data:`MODES`) given for a format
     whose record does not take it; the target's family (None: a rom stream)."""
-    from enctools.errors import UsageError
+    from enctools.cli.usage import UsageError
     from enctools.models.romformats import registry
 
     ctx = click.get_current_context()
@@ -304,8 +304,8 @@ def _target(target: str | None, output: str | None, force: bool, fmt: str | None
             ) -> tuple[str, str | None]:
     """The table format (from --target or -o's extension) or ``stream``, and the table
     file's path (None for a stream), with -o and --format checked."""
+    from enctools.cli.usage import UsageError
     from enctools.data import streams
-    from enctools.errors import UsageError
     from enctools.models import romformats
 
     if target is None:
@@ -333,8 +333,8 @@ def _is_stream_path(path: str) -> bool:
 
 
 def _bits_from_rig(meta: dict) -> int:
+    from enctools.cli.usage import UsageError
     from enctools.data.readings import rig_encoders
-    from enctools.errors import UsageError
     for e in rig_encoders(meta):
         cpr = e.counts_per_rev
         if cpr > 0 and cpr & (cpr - 1) == 0:

@@ -147,7 +147,7 @@ def distinct_outputs(paths: dict[str, str | None]) -> None:
     are left out, as are two paths that only differ by spelling the same file."""
     import os
 
-    from enctools.errors import UsageError
+    from enctools.cli.usage import UsageError
 
     seen: dict[str, str] = {}
     for flag, path in paths.items():

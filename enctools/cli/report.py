@@ -99,7 +99,7 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     certificate.
     """
     from enctools.cli.tuning import collect_less
-    from enctools.errors import UsageError
+    from enctools.cli.usage import UsageError
 
     click.get_current_context().with_resource(collect_less())  # until the command ends
     from enctools.report.output import check_paths, run_report

@@ -35,7 +35,7 @@ TEXT_OMIT = frozenset({"role", "phase_rad", "u_amplitude_arcsec", "u_amplitude_n
 
 def check_json(as_json: bool, output: str | None, what: str = "-o FILE") -> None:
     """UsageError when ``--json`` would share stdout with the command's stream."""
-    from enctools.errors import UsageError
+    from enctools.cli.usage import UsageError
 
     if as_json and (output is None or output == "-"):
         msg = f"--json prints the summary on stdout, where the stream goes: give {what}"

@@ -24,10 +24,17 @@ from typing import Any
 import click
 from click.core import ParameterSource
 
-from enctools.errors import EncError, UsageError
+from enctools.errors import EncError
 
 __all__ = ["FIELD_FLAGS", "RENAMED", "ModeCommand", "UsageError", "flag_for", "message",
            "renamed", "take_deferred"]
+
+class UsageError(EncError):
+    """Bad options or option values, said in the command line's words: exit 2. Only the
+    commands raise it; the library names its settings by field (``SettingsError``)."""
+
+    exit_code = 2
+
 
 #: fields whose option is not spelt as the field: command name ("*": every command) ->
 #: field -> the option (or words) that sets it

@@ -18,7 +18,7 @@ A stream written as CSV (``x.csv``) or TSV (``x.tsv``) is two files:
   history). Reading the table with its sidecar gives back the same stream.
 
 The angle errors (columns whose field unit is arcsec) are written in the unit the writer is
-given (the unit the command reports in, its ``--unit``) and read back into arcsec; other
+given (the unit the command reports in) and read back into arcsec; other
 columns keep their stream's unit. On stdout a table goes without its sidecar: the
 metadata is then nowhere.
 """
@@ -91,7 +91,7 @@ class TableWriter:
     such as stdout), header line first; the writer protocol of ``streams.OutputStream``.
 
     ``errors``: the unit the angle errors (field unit arcsec) are written in, one of
-    ``DISPLAY_UNITS`` (the command's ``--unit``). ``sidecar(url)`` gives the sidecar's
+    ``DISPLAY_UNITS`` (the unit the command reports in). ``sidecar(url)`` gives the sidecar's
     bytes once every row is written.
     """
 
