@@ -18,8 +18,9 @@ from pathlib import Path
 import atheris
 
 with atheris.instrument_imports():
+    from enctools.data.usertables import read
     from enctools.errors import DataError, SettingsError
-    from enctools.methods.points import points_from_csv
+    from enctools.methods.points import points_from_table
     from enctools.models import romformats as rf
     from enctools.models.romformats.words import Target
 
@@ -32,7 +33,7 @@ READERS = ["points-csv"] + [f"{fmt}:{w}" for fmt in rf.FORMATS for w in (8, 16)]
 def _read(which: str, body: bytes) -> None:
     if which == "points-csv":
         CSV.write_bytes(body)
-        points_from_csv(CSV)
+        points_from_table(read(str(CSV)))
         return
     fmt, width = which.split(":")
     target = Target(fmt, int(width))

@@ -14,6 +14,7 @@ from enctools.data.columns import column
 from enctools.data.statistics import curve_figures
 from enctools.data.streams import read_table
 from enctools.data.truth import Truth, interpolation_error
+from enctools.data.usertables import read
 from enctools.methods.points import distinct, from_table
 from enctools.units import DEG
 
@@ -162,7 +163,7 @@ def test_points_settings_refuse_in_process(tmp_path):
     assert re.match(r"^--heads, --faces: for a steps run; t.csv is a table", shown(err))
     Settings().check_table("t.csv")
     with pytest.raises(SettingsError) as err:
-        make_points(str(DATA / "seed001_table1.csv"), Settings(autocollimator="AC"))
+        make_points(read(str(DATA / "seed001_table1.csv")), Settings(autocollimator="AC"))
     assert "--autocollimator: for a steps run" in shown(err)
     assert given.to_meta() == {"heads": ["F1"], "autocollimator": None, "faces": 3}
 
@@ -170,7 +171,7 @@ def test_points_settings_refuse_in_process(tmp_path):
 def test_make_points_header_carries_settings_and_figures():
     from enctools.methods.points import Settings, make_points
 
-    header, pts = make_points(str(DATA / "seed001_table1.csv"), Settings())
+    header, pts = make_points(read(str(DATA / "seed001_table1.csv")), Settings())
     assert len(pts) == 25 and header.meta["settings"] == Settings().to_meta()
     fig = header.meta["figures"]
     assert fig["n"] == 24 and fig["peak_to_peak_arcsec"] == pytest.approx(5.46, abs=1e-9)

@@ -9,7 +9,8 @@ from conftest import DATA, ROOT, run
 from enctools.data import streams
 from enctools.data.readings import head_angle, head_info
 from enctools.data.truth import Motion
-from enctools.methods.points import distinct, points_from_csv
+from enctools.data.usertables import read
+from enctools.methods.points import distinct, points_from_table
 from enctools.models.curve_model import from_stream
 from enctools.models.fourier import fit_fourier
 from enctools.models.rbf import design_matrix, fit_rbf
@@ -18,7 +19,7 @@ from enctools.units import ARCSEC, DEG
 
 @pytest.fixture(scope="module")
 def table1():
-    return distinct(points_from_csv(DATA / "seed001_table1.csv"))[:2]
+    return distinct(points_from_table(read(str(DATA / "seed001_table1.csv")))[0])[:2]
 
 
 def test_gaussian_unit_is_one_half_at_the_spread():
@@ -60,7 +61,7 @@ def test_fit_rbf_command_on_table1(tmp_path):
         assert 'p-p 5.46"' in err and 'Bessel s 1.2674"' in err
         header, table = streams.read_table(str(out), "model")
         model = from_stream(header, table)
-        x, y = distinct(points_from_csv(DATA / "seed001_table1.csv"))[:2]
+        x, y = distinct(points_from_table(read(str(DATA / "seed001_table1.csv")))[0])[:2]
         assert np.abs(y - model(x)).max() < 1e-6  # evaluated from the stream
         res = header.meta["residuals"]
         assert res["training"]["max_abs_arcsec"] < 1e-6

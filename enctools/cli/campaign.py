@@ -33,7 +33,8 @@ def polygon_check(rig: str, folder: Path, run_id: str) -> None:
                                       force=True)
         recording.record(batches, outs)
     try:
-        header, found = points.make_points(str(readings), points.Settings())
+        header, found = points.make_points(streams.open_input(str(readings), "readings"),
+                                           points.Settings())
         streams.write_table(str(folder / RESULT), streams.with_history(header), found.table(),
                             force=True)
     finally:

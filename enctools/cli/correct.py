@@ -138,14 +138,14 @@ def _apply(input: str | None, table_for: TableFor, readings: ReadingsSettings,
     """The input's header and the table applied to it (``models.applied``): its points,
     or a continuous run's readings; readings' options refused for points."""
     from enctools.cli.usage import UsageError
-    from enctools.data import streams
+    from enctools.data import streams, usertables
     from enctools.methods.points import check_points, from_table, is_table_file, read_points
     from enctools.models import applied
 
     given = [o for o, v in (("--heads", readings.heads), ("--reference", readings.reference))
              if v is not None]
     if input is not None and is_table_file(input):
-        header, pts = read_points(input, mapping)
+        header, pts = read_points(usertables.read(input), mapping)
         source = input
     else:
         if mapping.given():

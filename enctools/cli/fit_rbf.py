@@ -54,7 +54,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     residuals.
     """
     from enctools.cli.summary import check_json, emit
-    from enctools.data import streams
+    from enctools.data import streams, usertables
     from enctools.data.streams import with_history
     from enctools.errors import CheckFailed, EncError
     from enctools.methods.points import distinct, read_points, target_means
@@ -64,14 +64,14 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     settings = fitting.Settings(kernel, spread_deg, goal, harmonics, holdout_path)
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
-    header, pts = read_points(input, mapping)
+    header, pts = read_points(usertables.open_input(input, "points"), mapping)
     means = target_means(pts, header.meta.get("source", "input"), header.meta)
     if means.spread > 0:
         runner.log.info("visits of one target differ by up to %.4f arcsec; fitted the mean per "
                         "target", means.spread)
     hold = None
     if holdout_path is not None:
-        hh, hp = read_points(holdout_path, mapping)
+        hh, hp = read_points(usertables.open_input(holdout_path, "points"), mapping)
         hold = distinct(hp, holdout_path, hh.meta)[:2]
     fit = fitting.fit_points(means.position_deg, means.mean, settings, hold,
                              runner.Progress("spread search", "spreads"))

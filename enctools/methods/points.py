@@ -24,16 +24,15 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyarrow as pa
 
-from enctools.data import limits, usertables
+from enctools.data import limits
 from enctools.data.arrays import arrow_array
 from enctools.data.columns import column, declared_unit
-from enctools.data.polygon import Certificate, read_certificate
+from enctools.data.polygon import Certificate
 from enctools.data.readings import head_angle, head_info, measuring_heads
 from enctools.data.riglimits import RANGES
 from enctools.data.schemas import column_with_role, make_field
@@ -361,25 +360,18 @@ def _polygon_deviation(angle: np.ndarray, ac: np.ndarray, run: np.ndarray, faces
 # --------------------------------------------------------------------- from a table
 
 
-def points_from_table(table: str | Path | UserTable, mapping: Mapping | None = None
+def points_from_table(table: UserTable, mapping: Mapping | None = None
                       ) -> tuple[Points, TablePoints]:
-    """Points from a user's table (text, or Parquet/Arrow/HDF5 without enctools
-    metadata; as read by :func:`enctools.data.usertables.read`, or its path, which that
-    reads) mapped by ``mapping`` (:mod:`enctools.data.tablemap`): positions at the
-    indicated angle [deg], the reference angle beside them, deviations [arcsec]."""
+    """Points from a user's table (text with ``#`` comments and any header, e.g.
+    ``position_deg,deviation_arcsec[,direction,run]`` as seed 001's table 1 or a
+    comparator's ``Reference Angle [degree],Measured Angle [degree]``; or Parquet/Arrow/
+    HDF5 without enctools metadata), as read by :func:`enctools.data.usertables.read`,
+    mapped by ``mapping`` (:mod:`enctools.data.tablemap`): positions at the indicated
+    angle [deg], the reference angle beside them, deviations [arcsec]."""
     from enctools.data.tablemap import map_table
 
-    if not isinstance(table, UserTable):
-        table = usertables.read(str(table))
     tp = map_table(table.raw, mapping or Mapping())
     return Points(tp.position_deg, tp.deviation, tp.direction, tp.run, tp.reference_deg), tp
-
-
-def points_from_csv(path: str | Path, mapping: Mapping | None = None) -> Points:
-    """Points from a text table (``#`` comments, any header: :func:`points_from_table`),
-    e.g. ``position_deg,deviation_arcsec[,direction,run]`` (seed 001 table 1) or a
-    comparator's ``Reference Angle [degree],Measured Angle [degree]``."""
-    return points_from_table(path, mapping)[0]
 
 
 def check_points(points: Points, source: str) -> Points:
@@ -432,27 +424,18 @@ def _table_header(path: str, mapping: Mapping, tp: TablePoints) -> Header:
     return streams.Header("points", points_schema(), meta)
 
 
-def read_points(given: str | None | UserTable | InputStream, mapping: Mapping | None = None
+def read_points(src: UserTable | InputStream, mapping: Mapping | None = None
                 ) -> tuple[Header, Points]:
     """Points from a user's table mapped by ``mapping`` (:func:`points_from_table`) or a
-    points stream (a mapping's fields are then refused): as opened by
-    :func:`enctools.data.usertables.open_input`, or its path (None: stdin), which that
-    opens."""
+    points stream (a mapping's fields are then refused), as opened by
+    :func:`enctools.data.usertables.open_input`."""
     mapping = mapping or Mapping()
-    src = _opened(given, "points")
     if isinstance(src, UserTable):
         points, tp = points_from_table(src, mapping)
         return _table_header(src.source, mapping, tp), check_points(points, src.source)
     _no_mapping(mapping, src.source)
     return src.header, check_points(from_table(src.read_all(), src.source, src.header.meta),
                                      src.source)
-
-
-def _opened(given: str | None | UserTable | InputStream, kind: str) -> UserTable | InputStream:
-    """``given`` as opened: a path (None: stdin) opened by :mod:`enctools.data.usertables`."""
-    if given is None or isinstance(given, str | Path):
-        return usertables.open_input(None if given is None else str(given), kind)
-    return given
 
 
 def _no_mapping(mapping: Mapping, source: str | None) -> None:
@@ -462,30 +445,27 @@ def _no_mapping(mapping: Mapping, source: str | None) -> None:
         raise SettingsError(msg)
 
 
-def make_points(given: str | None | UserTable | InputStream, settings: Settings,
+def make_points(src: UserTable | InputStream, settings: Settings,
                 mapping: Mapping | None = None, certificate: Certificate | None = None
                 ) -> tuple[Header, Points]:
     """The points of enc points and the header of their stream.
 
-    ``given``: a user's table or a steps-mode readings stream as opened by
-    :func:`enctools.data.usertables.open_input` (or its path, None: stdin, which that
-    opens); ``certificate``: the polygon's certificate ``settings.certificate`` names,
-    as read (None: read by :func:`enctools.data.polygon.read_certificate`). From a
+    ``src``: a user's table or a steps-mode readings stream as opened by
+    :func:`enctools.data.usertables.open_input`; ``certificate``: the polygon's
+    certificate ``settings.certificate`` names, as read by
+    :func:`enctools.data.polygon.read_certificate` (None: no certificate). From a
     table (:func:`read_points`; the step run's settings are refused) or a stream
     (:func:`points_from_steps`; the table's column fields are refused). The header
     carries the settings, the targets the points visit (:func:`target_means`:
     ``targets``) and the figures of their mean deviations [arcsec] (``figures``).
     """
     mapping = mapping or Mapping()
-    src = _opened(given, "readings")
     if isinstance(src, UserTable):
         settings.check_table(src.source)
         header, points = read_points(src, mapping)
     else:
         _no_mapping(mapping, src.source)
         cert = certificate
-        if cert is None and settings.certificate is not None:
-            cert = read_certificate(settings.certificate, None, settings.certificate_unit)
         points = check_points(points_from_steps(src.header, src.read_all(), settings, src.source,
                                                 cert), src.source)
         header = src.header.derive("points", points_schema(), source=f"steps run {src.source}")

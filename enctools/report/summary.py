@@ -47,9 +47,10 @@ def build_report(inputs: Sequence[str | None], opts: Options = DEFAULT_OPTIONS,
 
 def _open(path: str | None, mapping: Any) -> InputStream:
     """A stream, or a user's table as a points stream (enc-points(1), TABLES)."""
-    from enctools.methods.points import is_table_file, read_points
+    from enctools.data import usertables
+    from enctools.methods.points import read_points
 
-    if path is None or not is_table_file(path):
+    if path is None or not usertables.is_table_file(path):
         return open_input(path)
-    header, points = read_points(path, mapping)
+    header, points = read_points(usertables.read(path), mapping)
     return InputStream(header, iter(points.table().to_batches()), path, "table")
