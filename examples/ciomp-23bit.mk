@@ -69,8 +69,8 @@ $(OUT)/joint.comp: $(OUT)/points.parquet
 #     same corrected turn as the MIF's
 $(OUT)/residual.parquet: $(OUT)/correction.mif $(OUT)/correction.bin
 	$(ENC) acquire --rig $(RIG) --mode continuous --revolutions 1 -o $(OUT)/dense.parquet --force
-	$(ENC) correct $(OUT)/dense.parquet --table $< --ref $(REF) --max-std $(MAX_STD) -o $@ --force
-	$(ENC) correct $(OUT)/dense.parquet --table $(OUT)/correction.bin --ref $(REF) \
+	$(ENC) correct $(OUT)/dense.parquet --table $< --reference $(REF) --max-std $(MAX_STD) -o $@ --force
+	$(ENC) correct $(OUT)/dense.parquet --table $(OUT)/correction.bin --reference $(REF) \
 	    --max-std $(MAX_STD) -o $(OUT)/residual-bin.parquet --force
 
 # 7. The calibration certificate: text on stdout, HTML and A4 PDF for the customer
