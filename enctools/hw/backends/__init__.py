@@ -16,13 +16,12 @@ is one more module here, or one :func:`register` call before the session is open
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from enctools.errors import DataError, SettingsError
+from enctools.registry import Registry
 
 if TYPE_CHECKING:
     from enctools.data.rig import Rig
@@ -98,39 +97,17 @@ class Backend:
 #: the transport of an instrument whose kind is neither given nor the rig's backend's
 DEFAULT_PORT = "visa"
 
-_RECORDS: dict[str, Backend] = {}
-_FOUND = False
-
-
-def register(backend: Backend, replace: bool = False) -> Backend:
-    """Add ``backend`` to the registry (a kind registered twice is an error unless
-    ``replace``); the record itself, for a module to keep."""
-    if backend.kind in _RECORDS and not replace and _RECORDS[backend.kind] is not backend:
-        msg = f"backend kind {backend.kind!r} is registered already"
-        raise ValueError(msg)
-    _RECORDS[backend.kind] = backend
-    return backend
-
-
-def unregister(kind: str) -> None:
-    """Remove the record of ``kind`` (a backend registered for a while, as a test does)."""
-    _RECORDS.pop(kind, None)
-
-
-def _discover() -> None:
-    """Import the records of this package's modules, once."""
-    global _FOUND
-    if _FOUND:
-        return
-    _FOUND = True
-    for info in pkgutil.iter_modules(__path__):
-        importlib.import_module(f"{__name__}.{info.name}")
+#: the backends, registered by the modules of this package
+_BACKENDS: Registry[Backend] = Registry("backend kind", lambda b: b.kind, __name__)
+#: add a backend (a kind registered twice is an error unless ``replace``); the record
+register = _BACKENDS.register
+#: remove the record of ``kind`` (a backend registered for a while, as a test does)
+unregister = _BACKENDS.unregister
 
 
 def records() -> list[Backend]:
     """Every registered backend, in the order they are listed."""
-    _discover()
-    return sorted(_RECORDS.values(), key=lambda b: (b.rank, b.kind))
+    return sorted(_BACKENDS.values(), key=lambda b: (b.rank, b.kind))
 
 
 def kinds(role: str | None = None) -> tuple[str, ...]:
@@ -142,8 +119,7 @@ def kinds(role: str | None = None) -> tuple[str, ...]:
 
 def find(kind: str) -> Backend | None:
     """The record of ``kind``, or None."""
-    _discover()
-    return _RECORDS.get(kind)
+    return _BACKENDS.find(kind)
 
 
 def get(kind: str) -> Backend:

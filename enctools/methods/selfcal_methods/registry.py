@@ -9,51 +9,25 @@ lists the methods without it.
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-
 from enctools.errors import SettingsError
 from enctools.methods.selfcal_methods.base import SelfcalMethod
+from enctools.registry import Registry
 
 __all__ = ["default", "find", "get", "names", "records", "register", "unregister"]
 
-_RECORDS: dict[str, SelfcalMethod] = {}
-_FOUND = False
-#: the modules of the package that are not methods
-_NOT_METHODS = frozenset({"base", "registry"})
-
-
-def register(method: SelfcalMethod, replace: bool = False) -> SelfcalMethod:
-    """Add ``method`` (a name registered twice is an error unless ``replace``); the
-    record itself, for its module to keep."""
-    if method.name in _RECORDS and not replace and _RECORDS[method.name] is not method:
-        msg = f"self-calibration method {method.name!r} is registered already"
-        raise ValueError(msg)
-    _RECORDS[method.name] = method
-    return method
-
-
-def unregister(name: str) -> None:
-    """Remove the method ``name`` (one registered for a while, as a test does)."""
-    _RECORDS.pop(name, None)
-
-
-def _discover() -> None:
-    """Import the methods of this package's modules, once."""
-    global _FOUND
-    if _FOUND:
-        return
-    _FOUND = True
-    package = __name__.rpartition(".")[0]
-    for info in pkgutil.iter_modules(importlib.import_module(package).__path__):
-        if info.name not in _NOT_METHODS:
-            importlib.import_module(f"{package}.{info.name}")
+#: the methods, registered by the modules of this package (its others are not methods)
+_METHODS: Registry[SelfcalMethod] = Registry(
+    "self-calibration method", lambda m: m.name, __name__.rpartition(".")[0],
+    skip=frozenset({"base", "registry"}))
+#: add a method (a name registered twice is an error unless ``replace``); the record
+register = _METHODS.register
+#: remove the method ``name`` (one registered for a while, as a test does)
+unregister = _METHODS.unregister
 
 
 def records(command: str) -> list[SelfcalMethod]:
     """The methods ``command`` (``"selfcal"``, ``"design"``) offers, in its order."""
-    _discover()
-    return sorted((m for m in _RECORDS.values() if command in m.listed),
+    return sorted((m for m in _METHODS.values() if command in m.listed),
                   key=lambda m: (m.listed[command], m.name))
 
 
@@ -64,8 +38,7 @@ def names(command: str) -> tuple[str, ...]:
 
 def find(name: str | None, command: str) -> SelfcalMethod | None:
     """The method ``name`` if ``command`` offers it, else None."""
-    _discover()
-    found = _RECORDS.get(name or "")
+    found = _METHODS.find(name or "")
     return found if found is not None and command in found.listed else None
 
 
