@@ -10,7 +10,7 @@ own seeds; ``--seed`` changes the noise, the jitter of the readings and the posi
     .venv/bin/python benchmarks/accuracy.py              # 20 seeds, the README's sizes
     .venv/bin/python benchmarks/accuracy.py --seeds 40 --jobs 2
 
-tests/test_accuracy.py runs the same functions over 20 seeds on smaller runs.
+tests/lib/methods/test_accuracy.py runs the same functions over 20 seeds on smaller runs.
 
 Units: arcsec for angle errors, nm for radial motion.
 """

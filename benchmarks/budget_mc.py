@@ -16,7 +16,7 @@ the test takes one point per run (a random face other than the datum).
     .venv/bin/python benchmarks/budget_mc.py            # 2000 runs (make bench)
     .venv/bin/python benchmarks/budget_mc.py --runs 500
 
-tests/test_budget.py runs the same function on fewer runs. Units: arcsec.
+tests/lib/methods/test_budget.py runs the same function on fewer runs. Units: arcsec.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@
 Run with ``make fuzz`` (FUZZ_SECONDS=300 by default). Every input must either read or
 raise a one-line DataError; anything else is a finding. Findings are written to
 ``fuzz-out/crash-*``; once fixed, add them to tests/data/fuzz/ where
-tests/test_streams_property.py replays them on every ``make test``.
+tests/lib/data/test_streams_property.py replays them on every ``make test``.
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ for a network that interpolates a few points): with N points the model must do b
 than ``1 - min(MAX_MARGIN, MARGIN_POINTS / N)`` of the constant (0.6 at 24 points: 4 %
 of tables of pure noise do better), which refuses 96 to 100 % of tables of pure noise
 of 24 to 200 points and accepts a 5" harmonic error under 0.3" noise at every seed
-(tests/test_gain.py).
+(tests/lib/models/test_gain.py).
 """
 
 from __future__ import annotations

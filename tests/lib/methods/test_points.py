@@ -116,7 +116,7 @@ def test_points_need_a_readings_stream(ciomp_steps, tmp_path):
     assert b"is a points stream" in r.stderr
 
 
-MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
+MAGALPHA = Path(__file__).resolve().parents[4] / "shared" / "data" / "magalpha"
 
 
 @pytest.mark.skipif(not MAGALPHA.is_dir(), reason="../shared/data/magalpha is not beside the clone")

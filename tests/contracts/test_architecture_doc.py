@@ -7,7 +7,7 @@ import ast
 import re
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "enctools"
 DOC = ROOT / "docs" / "ARCHITECTURE.md"
 
@@ -26,7 +26,7 @@ NOT_CODE = {
 GONE = {"INSTRUMENT_KINDS", "BACKENDS"}
 #: where a file the page names may be, relative to its layer or the project
 BASES = (ROOT, PACKAGE, *(p for p in PACKAGE.rglob("*") if p.is_dir()), ROOT / "tests",
-         ROOT / "benchmarks")
+         *(p for p in (ROOT / "tests").glob("*/**") if p.is_dir()), ROOT / "benchmarks")
 
 
 def _definitions() -> tuple[set[str], set[str]]:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parent.parent / "enctools"
+PACKAGE = Path(__file__).resolve().parents[2] / "enctools"
 
 #: layer -> the layers it may import (itself included). ``core`` is the package's own
 #: top-level modules (version, errors, units). hw and methods/models are siblings: the

@@ -9,7 +9,7 @@
   angles every revolution; the U of such a run still covers its truth.
 
 How often U covers the simulator's truth on 2, 3 and 5 revolutions over 20 seeds:
-tests/test_accuracy.py. Units: arcsec, nm.
+tests/lib/methods/test_accuracy.py. Units: arcsec, nm.
 """
 
 from __future__ import annotations

@@ -36,7 +36,7 @@ from enctools.methods.revolutions import RunningMean
 from enctools.methods.selfcal import Method, esa_transfer, esa_weights, fourier_solve
 
 K = 100
-RIGS = Path(__file__).resolve().parent.parent / "enctools" / "rigs"
+RIGS = Path(__file__).resolve().parents[3] / "enctools" / "rigs"
 
 
 def quiet_rig(tmp: Path, angles: dict[str, float] | None = None, radial: bool = True,

@@ -26,7 +26,7 @@ from enctools.units import ARCSEC
 
 K = 100
 BLIND = [35, 36, 37, 71, 72, 73]
-RIGS = Path(__file__).resolve().parent.parent / "enctools" / "rigs"
+RIGS = Path(__file__).resolve().parents[3] / "enctools" / "rigs"
 ANGLES = {"H5": 50.0, "H6": 130.0, "H7": 250.0}
 
 

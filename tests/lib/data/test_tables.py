@@ -20,7 +20,7 @@ from test_adversarial import CASES, base, run_case  # noqa: F401  (base: a fixtu
 
 from enctools.data.streams import read_table
 
-MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
+MAGALPHA = Path(__file__).resolve().parents[4] / "shared" / "data" / "magalpha"
 FILES = ["calibration_data_input_example.csv", "calibration_data_input_example_add_75.csv",
          "calibration_data_input_example_add_260.csv"]
 #: the documented options for these files (README, "Your own table")

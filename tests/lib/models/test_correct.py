@@ -22,7 +22,7 @@ from enctools.data.header import Header
 from enctools.data.truth import Motion
 
 TURN_ARCSEC = 1_296_000.0
-MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
+MAGALPHA = Path(__file__).resolve().parents[4] / "shared" / "data" / "magalpha"
 
 
 def rom_words(path: Path) -> np.ndarray:

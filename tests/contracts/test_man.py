@@ -11,7 +11,7 @@ import pytest
 
 from enctools.cli.main import COMMANDS, _available, cli
 
-MAN = Path(__file__).resolve().parent.parent / "man"
+MAN = Path(__file__).resolve().parents[2] / "man"
 PAGES = sorted(MAN.glob("*.[15]"))
 
 

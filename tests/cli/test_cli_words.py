@@ -19,7 +19,7 @@ from click.testing import CliRunner
 from enctools.cli import options, usage
 from enctools.errors import SettingsError
 
-ROOT = Path(__file__).resolve().parent.parent / "enctools"
+ROOT = Path(__file__).resolve().parents[2] / "enctools"
 LAYERS = ("core", "data", "methods", "models", "hw", "report")
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
 

@@ -111,7 +111,7 @@ def test_truncated_or_flipped_valid_files(valid_files, ext, cut, flip):
     _read_bytes(bytes(b))
 
 
-FUZZ = Path(__file__).resolve().parent / "data" / "fuzz"
+FUZZ = Path(__file__).resolve().parents[2] / "data" / "fuzz"
 
 
 @pytest.mark.parametrize("path", sorted(FUZZ.glob("*")), ids=lambda p: p.name)

@@ -17,7 +17,7 @@ from conftest import DATA, run
 
 from enctools.data import streams
 
-MAGALPHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "magalpha"
+MAGALPHA = Path(__file__).resolve().parents[4] / "shared" / "data" / "magalpha"
 FILES = sorted(p.name for p in MAGALPHA.glob("*.csv")) if MAGALPHA.is_dir() else []
 needs_magalpha = pytest.mark.skipif(not FILES, reason="../shared/data/magalpha is not beside "
                                     "the clone")
