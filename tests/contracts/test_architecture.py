@@ -7,6 +7,7 @@ functions alike), so a lazy import cannot hide a wrong direction.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -71,12 +72,18 @@ def _imports(path: Path) -> set[str]:
 
 FILES = sorted(PACKAGE.rglob("*.py"))
 MODULES = {_module_name(p) for p in FILES}
-GRAPH = {_module_name(p): _imports(p) for p in FILES}
+
+
+@functools.cache
+def graph() -> dict[str, set[str]]:
+    """module -> the enctools modules it imports (read when a test asks, not at
+    collection: every worker collects)."""
+    return {_module_name(p): _imports(p) for p in FILES}
 
 
 def test_every_import_points_down_the_layers():
     wrong = [f"{src} ({_layer(src)}) imports {dst} ({_layer(dst)})"
-             for src, targets in GRAPH.items() for dst in sorted(targets)
+             for src, targets in graph().items() for dst in sorted(targets)
              if _layer(dst) not in ALLOWED[_layer(src)]]
     assert not wrong, "\n".join(wrong)
 
@@ -86,21 +93,22 @@ def test_the_layer_test_can_fail():
     assert "hw" not in ALLOWED["methods"] and "cli" not in ALLOWED["report"]
     assert _layer("enctools.methods.selfcal") == "methods"
     assert _layer("enctools.errors") == "core"
-    assert "enctools.data.streams" in GRAPH["enctools.methods.heads"]
+    assert "enctools.data.streams" in graph()["enctools.methods.heads"]
 
 
 def test_no_import_cycles():
     # Package __init__ modules are left out: importing enctools.hw.sim runs
     # enctools/hw/__init__.py first, which is not an edge of the design.
-    graph = {m: {t for t in ts if t in GRAPH and not (PACKAGE.parent / (t.replace(".", "/"))
-                                                        / "__init__.py").exists()}
-             for m, ts in GRAPH.items()}
+    whole = graph()
+    edges = {m: {t for t in ts if t in whole and not (PACKAGE.parent / (t.replace(".", "/"))
+                                                      / "__init__.py").exists()}
+             for m, ts in whole.items()}
     state: dict[str, int] = {}
     cycles: list[str] = []
 
     def visit(node: str, stack: list[str]) -> None:
         state[node] = 1
-        for nxt in sorted(graph[node]):
+        for nxt in sorted(edges[node]):
             if state.get(nxt) == 1:
                 cycles.append(" -> ".join(stack[stack.index(nxt):] + [node, nxt])
                               if nxt in stack else f"{node} -> {nxt}")
@@ -108,7 +116,7 @@ def test_no_import_cycles():
                 visit(nxt, stack + [node])
         state[node] = 2
 
-    for m in sorted(graph):
+    for m in sorted(edges):
         if m not in state:
             visit(m, [])
     assert not cycles, "\n".join(cycles)
