@@ -82,11 +82,28 @@ class DeviceError(EncError):
     exit_code = 3
 
 
+#: the signals whose default action ends the process (SIGINT aside, which Python makes a
+#: KeyboardInterrupt): each is turned into :class:`Interrupted`, so that a command's
+#: outputs end as on any other ending (whole, or not at all) and its exit status is the
+#: shell's 128 + the signal's number
+ENDING_SIGNALS = ("SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGALRM")
+
+
 class Interrupted(EncError):
-    """Stopped by SIGINT (exit 130) or SIGTERM (exit 143)."""
+    """Stopped by a signal: SIGINT (exit 130), SIGTERM (exit 143), or another of
+    :data:`ENDING_SIGNALS` (exit 128 + its number)."""
 
     exit_code = 130
 
     def __init__(self, message: str = "interrupted", exit_code: int = 130) -> None:
         super().__init__(message)
         self.exit_code = exit_code
+
+    @classmethod
+    def by_signal(cls, signum: int) -> Interrupted:
+        """The ending of signal ``signum``: "terminated" for SIGTERM (exit 143), "stopped
+        by SIGHUP" and the like for the others (exit 128 + the number)."""
+        import signal
+
+        name = signal.Signals(signum).name
+        return cls("terminated" if name == "SIGTERM" else f"stopped by {name}", 128 + signum)

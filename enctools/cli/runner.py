@@ -174,7 +174,7 @@ def end_progress() -> None:
 
 
 def _terminate(signum: int, frame: Any) -> NoReturn:
-    raise Interrupted("terminated", exit_code=143)
+    raise Interrupted.by_signal(signum)
 
 
 def is_quiet() -> bool:
@@ -202,10 +202,15 @@ def log_warning(text: str) -> None:
 
 
 def install_sigterm() -> None:
-    """Turn SIGTERM into an Interrupted exception so outputs close cleanly (exit 143)."""
+    """Turn SIGTERM (exit 143) and the other signals that end a process by default
+    (``errors.ENDING_SIGNALS``: SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM; exit 128 + the
+    number) into an Interrupted exception, so that outputs end whole or not at all."""
     import signal
 
-    signal.signal(signal.SIGTERM, _terminate)
+    from enctools.errors import ENDING_SIGNALS
+
+    for name in ENDING_SIGNALS:
+        signal.signal(getattr(signal, name), _terminate)
 
 
 def _quiet_stdout() -> None:
@@ -310,7 +315,8 @@ def run(invoke: Callable[[], Any], debug: bool) -> int:
         where = f" ({exc.filename})" if exc.filename else ""
         error(f"{exc.strerror or exc}{where}")
         return 2 if exc.errno in (errno.ENOENT, errno.EACCES, errno.EISDIR, errno.ENOSPC,
-                                  errno.EROFS, errno.ENOTDIR) else 3
+                                  errno.EROFS, errno.ENOTDIR, errno.ENAMETOOLONG,
+                                  errno.ELOOP) else 3
     except Exception as exc:  # noqa: BLE001 - a bug: one line unless --debug
         stop = _interruption(exc)
         if stop is not None:  # SIGINT/SIGTERM wrapped by the code it landed in

@@ -23,7 +23,7 @@ from typing import Any
 import pyarrow as pa
 
 from enctools.data.streams import Header, OutputStream
-from enctools.errors import Interrupted, OutputError
+from enctools.errors import ENDING_SIGNALS, Interrupted, OutputError
 
 log = logging.getLogger("enctools")
 
@@ -147,8 +147,9 @@ def _output_failure(failed: dict[OutputStream, BaseException], kept: list[str],
 
 
 class _SignalGuard:
-    """SIGINT -> KeyboardInterrupt (130), SIGTERM -> Interrupted (143); held (deferred)
-    except inside :meth:`released`. Outside the main thread, signals are left alone."""
+    """SIGINT -> KeyboardInterrupt (130), SIGTERM and the other ``ENDING_SIGNALS`` ->
+    Interrupted (128 + the number); held (deferred) except inside :meth:`released`.
+    Outside the main thread, signals are left alone."""
 
     def __init__(self) -> None:
         self._held = True
@@ -157,7 +158,7 @@ class _SignalGuard:
 
     def __enter__(self) -> _SignalGuard:
         if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
+            for sig in (signal.SIGINT, *(getattr(signal, n) for n in ENDING_SIGNALS)):
                 self._old[sig] = signal.signal(sig, self._handle)
         return self
 
@@ -167,9 +168,9 @@ class _SignalGuard:
 
     def interruption(self) -> BaseException:
         """The exception of the signal received."""
-        if self.pending == signal.SIGTERM:
-            return Interrupted("terminated", exit_code=143)
-        return KeyboardInterrupt()
+        if self.pending is None or self.pending == signal.SIGINT:
+            return KeyboardInterrupt()
+        return Interrupted.by_signal(self.pending)
 
     def _handle(self, signum: int, frame: Any) -> None:
         if self.pending is None:
