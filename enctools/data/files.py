@@ -89,9 +89,14 @@ def read_small_text(path: str | Path, what: str, max_bytes: int, noun: str) -> s
 
 
 def check_new_file(path: str, force: bool) -> None:
-    """OutputError naming ``path`` unless it can be written: not a folder nor any other
-    non-regular file, absent or ``force``, in a folder that exists and is writable."""
+    """OutputError naming ``path`` unless it can be written: a name of at most
+    :data:`NAME_MAX` bytes, not a folder nor any other non-regular file, absent or
+    ``force``, in a folder that exists and is writable."""
     p = Path(path)
+    if len(os.fsencode(p.name)) > NAME_MAX:
+        msg = (f"output {path}: its name is {len(os.fsencode(p.name))} bytes, over the "
+               f"{NAME_MAX} a file name may have")
+        raise OutputError(msg, path)
     if p.is_dir():
         msg = f"output {path}: is a directory; give a file name"
         raise OutputError(msg, path)
@@ -138,17 +143,37 @@ def _host() -> str:
     return re.sub(r"[^A-Za-z0-9.-]", "_", socket.gethostname())[:64] or "host"
 
 
+#: the longest file name [bytes] (POSIX NAME_MAX of Linux's file systems)
+NAME_MAX = 255
+#: the longest output name [bytes] a temporary's name holds whole; a longer one (up to
+#: NAME_MAX) is held as ``~`` and a digest of it, so the temporary stays within NAME_MAX
+#: whatever the host's name
+_WHOLE_NAME_MAX = 150
+
+
+def _stem(name: str) -> str:
+    """What stands for the output ``name`` in its temporaries' names: the name, or when
+    it is longer than ``_WHOLE_NAME_MAX`` bytes ``~`` and 32 hex digits of its SHA-256."""
+    raw = os.fsencode(name)
+    if len(raw) <= _WHOLE_NAME_MAX:
+        return name
+    import hashlib
+
+    return "~" + hashlib.sha256(raw).hexdigest()[:32]
+
+
 def new_temporary(path: str | Path) -> tuple[int, str]:
     """A new empty temporary file beside ``path`` (after removing stale ones): its open
-    descriptor and its name ``.NAME.PID@HOST.RANDOM.tmp``."""
+    descriptor and its name ``.NAME.PID@HOST.RANDOM.tmp`` (NAME: :func:`_stem`), within
+    NAME_MAX for any legal ``path``."""
     import tempfile  # here: a command that writes to a pipe never needs it
 
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     remove_stale_temporaries(p)
-    prefix = f".{p.name}.{writer_tag()}."
-    if len(os.fsencode(prefix)) > 240:  # keep within NAME_MAX: the name without the writer
-        prefix = f".{p.name}."
+    prefix = f".{_stem(p.name)}.{writer_tag()}."
+    if len(os.fsencode(prefix)) > 240:  # a host's name of 64 bytes: the name without it
+        prefix = f".{_stem(p.name)}."
     return tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=str(folder))
 
 
@@ -200,7 +225,7 @@ def remove_stale_temporaries(path: str | Path) -> list[str]:
     """
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
-    pattern = _pattern(p.name)
+    pattern = _pattern(_stem(p.name))
     removed: list[str] = []
     uid = os.geteuid()
     now = time.time()
@@ -208,7 +233,7 @@ def remove_stale_temporaries(path: str | Path) -> list[str]:
         entries = list(os.scandir(folder))
     except OSError:
         return removed
-    start = f".{p.name}."
+    start = f".{_stem(p.name)}."
     for entry in entries:
         m = pattern.fullmatch(entry.name) if entry.name.startswith(start) else None
         if m is None:
