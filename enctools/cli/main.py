@@ -101,6 +101,8 @@ def main(argv: list[str] | None = None) -> None:
     args = sys.argv[1:] if argv is None else argv
     if "_ENC_COMPLETE" in os.environ:  # shell completion: click's own entry point
         cli.main(args=args, prog_name="enc", complete_var="_ENC_COMPLETE")
+    if argv is None:  # the enc process itself: started with a standard stream closed?
+        runner.standard_streams()
     debug = "--debug" in args or os.environ.get("ENC_DEBUG", "") not in ("", "0")
     from enctools.cli.tuning import one_blas_thread, without_pandas
 

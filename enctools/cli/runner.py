@@ -10,6 +10,7 @@ the command quietly with 0.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import sys
@@ -42,6 +43,7 @@ def setup_logging(verbose: int = 0, quiet: int = 0) -> None:
     root.handlers[:] = [handler]
     root.setLevel(max(logging.DEBUG, min(logging.CRITICAL, level)))
     root.propagate = False
+    logging.raiseExceptions = False  # a message stderr cannot take (full) is dropped, not a failure
     # the libraries' own loggers (matplotlib, ...), which have no handler: the same
     # one-line form, warnings and errors only (errors only with -q)
     others = logging.StreamHandler(sys.stderr)
@@ -222,6 +224,24 @@ def _quiet_stdout() -> None:
         pass
 
 
+def standard_streams() -> None:
+    """Make the process safe when it was started with stdin, stdout or stderr closed
+    (``<&-``, ``>&-``, ``2>&-``): each closed descriptor gets /dev/null, so no file the
+    command opens takes its number. A closed stdin or stdout stays None as Python set it
+    (reading or writing a stream there is refused in one line); a closed stderr becomes
+    /dev/null, so a command that succeeds still succeeds, its messages unread."""
+    for fd in (0, 1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+    if sys.stderr is None:
+        sys.stderr = open(2, "w", closefd=False)  # noqa: SIM115 - the process's own
+
+
 def exit_now(status: int) -> NoReturn:
     """End the process with ``status`` once stdout and stderr are flushed, without the
     interpreter's teardown: every output is closed when a command returns, and tearing
@@ -229,8 +249,9 @@ def exit_now(status: int) -> NoReturn:
     its CPU."""
     for stream in (sys.stdout, sys.stderr):
         try:
-            stream.flush()
-        except (OSError, ValueError):  # a closed pipe downstream: nothing more to say
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):  # a closed pipe downstream, a full stderr
             pass
     os._exit(status)
 
@@ -245,8 +266,9 @@ def error(message: str) -> None:
 
     first = printable(" ".join(str(message).split())) or "error"
     end_progress()
-    sys.stderr.write(f"{command_name()}: error: {first}\n")
-    sys.stderr.flush()
+    with contextlib.suppress(OSError, ValueError):  # stderr full (2>/dev/full): the status says it
+        sys.stderr.write(f"{command_name()}: error: {first}\n")
+        sys.stderr.flush()
 
 
 def _interruption(exc: BaseException) -> BaseException | None:

@@ -40,6 +40,8 @@ def check_json(as_json: bool, output: str | None, what: str = "-o FILE") -> None
     if as_json and (output is None or output == "-"):
         msg = f"--json prints the summary on stdout, where the stream goes: give {what}"
         raise UsageError(msg)
+    if as_json and sys.stdout is None:  # checked before the work, not after its outputs
+        raise UsageError("stdout is closed: --json has nowhere to print the summary")
 
 
 def emit(summary: dict[str, Any], as_json: bool = False, unit: str = "arcsec") -> None:
@@ -47,7 +49,10 @@ def emit(summary: dict[str, Any], as_json: bool = False, unit: str = "arcsec") -
     (angles in ``unit``) unless the command was given -q."""
     if as_json:
         from enctools.data.summaries import to_json
+        from enctools.errors import OutputError
 
+        if sys.stdout is None:
+            raise OutputError("stdout is closed: the --json summary cannot be printed")
         sys.stdout.write(to_json(summary) + "\n")
         sys.stdout.flush()
         return
@@ -55,9 +60,12 @@ def emit(summary: dict[str, Any], as_json: bool = False, unit: str = "arcsec") -
         return
     runner.end_progress()
     name = runner.command_name()
-    for line in text_lines(summary, unit):
-        sys.stderr.write(f"{name}: {line}\n")
-    sys.stderr.flush()
+    try:
+        for line in text_lines(summary, unit):
+            sys.stderr.write(f"{name}: {line}\n")
+        sys.stderr.flush()
+    except OSError:  # stderr full (2>/dev/full): the summary is lost, not the work
+        pass
 
 
 def text_lines(summary: dict[str, Any], unit: str = "arcsec") -> list[str]:

@@ -188,6 +188,9 @@ def open_input(path: str | os.PathLike[str] | None, expect: str | tuple[str, ...
     ``expect``: the kind(s) the caller reads; anything else is a one-line DataError.
     """
     if path is None or str(path) == "-":
+        if stdin is None and sys.stdin is None:
+            msg = "no input: stdin is closed; give an input file"
+            raise SettingsError(msg)
         if stdin is None and sys.stdin.isatty():
             msg = "no input: give an input file, or pipe a stream into the command"
             raise SettingsError(msg)
@@ -395,6 +398,9 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
             msg = f"{fmt} cannot be written to a pipe (it needs seeking); use -o FILE"
             raise SettingsError(msg)
         out = stdout if stdout is not None else sys.stdout
+        if out is None:
+            raise OutputError("stdout is closed: the stream cannot be written there; "
+                              "give an output file")
         if fmt not in csvio.FORMATS and hasattr(out, "isatty") and out.isatty():
             msg = "refusing to write binary data to a terminal; use -o FILE or a pipe"
             raise SettingsError(msg)

@@ -7,7 +7,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from enctools.data.files import OutputGroup, check_new_file
-from enctools.errors import CheckFailed
+from enctools.errors import CheckFailed, OutputError
 from enctools.report.display import in_unit
 from enctools.report.sections import Options
 from enctools.report.summary import build_report
@@ -42,6 +42,9 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     ``words``: a threshold's field -> the words that name it (a command: its option;
     None: the field).
     """
+    if sys.stdout is None:  # started with stdout closed: nowhere to print the report
+        msg = "stdout is closed: the report cannot be printed; give it a stdout (> FILE)"
+        raise OutputError(msg)
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
     def step(done: int) -> None:
