@@ -55,6 +55,19 @@ _DATATYPES = {"double": "double", "float": "float", "int8": "byte", "int16": "sh
               "uint16": "unsignedShort", "uint32": "unsignedInt", "uint64": "unsignedLong",
               "string": "string"}
 
+def checked_sidecar_path(path: str) -> str:
+    """The sidecar's path of the table ``path``; OutputError when its name would be
+    longer than a file name may be (``files.NAME_MAX`` bytes)."""
+    sidecar = sidecar_path(path)
+    size = len(os.fsencode(Path(sidecar).name))
+    if size > files.NAME_MAX:
+        msg = (f"output {path}: its CSVW sidecar's name would be {size} bytes, over the "
+               f"{files.NAME_MAX} a file name may have; give a name of at most "
+               f"{files.NAME_MAX - len(SIDECAR_SUFFIX)} bytes")
+        raise OutputError(msg, path)
+    return sidecar
+
+
 def sidecar_path(path: str | os.PathLike[str]) -> str:
     """The sidecar of a table file: ``x.csv`` -> ``x.csv-metadata.json``."""
     return os.fspath(path) + SIDECAR_SUFFIX

@@ -407,14 +407,7 @@ def check_output(path: str | None, force: bool = False, fmt: str | None = None,
         return
     files.check_new_file(path, force)
     if format_for_path(path, fmt) in csvio.FORMATS:  # its sidecar is written with it
-        sidecar = csvio.sidecar_path(path)
-        size = len(os.fsencode(Path(sidecar).name))
-        if size > files.NAME_MAX:
-            msg = (f"output {path}: its CSVW sidecar's name would be {size} bytes, over the "
-                   f"{files.NAME_MAX} a file name may have; give a name of at most "
-                   f"{files.NAME_MAX - len(csvio.SIDECAR_SUFFIX)} bytes")
-            raise OutputError(msg, path)
-        files.check_new_file(sidecar, force)
+        files.check_new_file(csvio.checked_sidecar_path(path), force)
 
 
 class OutputStream:

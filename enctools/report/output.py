@@ -22,6 +22,13 @@ def check_paths(paths: Sequence[str | None], force: bool) -> None:
             check_new_file(p, force)
 
 
+def _check_stdout() -> None:
+    """OutputError when the process was started with stdout closed: nowhere to print."""
+    if sys.stdout is None:
+        msg = "stdout is closed: the report cannot be printed; give it a stdout (> FILE)"
+        raise OutputError(msg)
+
+
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
@@ -35,16 +42,13 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
     and PDF show angle errors in ``unit`` (:func:`~enctools.report.display.in_unit`);
     the JSON summary and the thresholds keep arcsec. ``history_filter``: the ``rig`` and
-    ``since`` of the history's runs to read. ``progress(done, total)`` counts
-    the inputs read and the HTML and PDF renderings. ``mapping``: how a user's table
-    maps to points (``data.tablemap.Mapping``). ``cert``: the laboratory's fields
-    (``certificate.Certificate``; None: the HTML and PDF are a calibration report).
-    ``words``: a threshold's field -> the words that name it (a command: its option;
-    None: the field).
+    ``since`` of the history's runs to read. ``progress(done, total)``: the inputs read
+    and the HTML and PDF renderings. ``mapping``: how a user's table maps to points
+    (``data.tablemap.Mapping``). ``cert``: the laboratory's fields (``certificate.
+    Certificate``; None: a calibration report). ``words``: a threshold's field -> the
+    words that name it (a command: its option; None: the field).
     """
-    if sys.stdout is None:  # started with stdout closed: nowhere to print the report
-        msg = "stdout is closed: the report cannot be printed; give it a stdout (> FILE)"
-        raise OutputError(msg)
+    _check_stdout()
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
     def step(done: int) -> None:
