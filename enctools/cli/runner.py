@@ -185,7 +185,8 @@ def is_quiet() -> bool:
 
 
 def prologue(verbose: int = 0, quiet: int = 0) -> None:
-    """What every command does first: logging (-v/-q), streaming tuning, SIGTERM -> 143."""
+    """What every command does first: logging (-v/-q) with the warnings found while the
+    options were parsed, streaming tuning, the ending signals (SIGTERM -> 143, ...)."""
     from enctools.cli.tuning import tune_for_streaming
     from enctools.cli.usage import take_deferred
 

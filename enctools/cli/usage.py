@@ -29,6 +29,7 @@ from enctools.errors import EncError
 __all__ = ["FIELD_FLAGS", "RENAMED", "ModeCommand", "UsageError", "flag_for", "message",
            "renamed", "take_deferred"]
 
+
 class UsageError(EncError):
     """Bad options or option values, said in the command line's words: exit 2. Only the
     commands raise it; the library names its settings by field (``SettingsError``)."""
