@@ -22,6 +22,15 @@ import click
 
 from enctools.errors import EncError, Interrupted
 
+#: errors of this machine's files and resources, not of a device: exit 2 (a missing or
+#: unreadable file, a full disk, a file-size limit, a quota, too many open files, a name
+#: too long)
+LOCAL_ERRORS = frozenset({
+    errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENOTDIR, errno.EROFS,
+    errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EMFILE, errno.ENFILE,
+    errno.ENAMETOOLONG, errno.ELOOP, errno.ETXTBSY, errno.EEXIST,
+})
+
 
 def __getattr__(name: str) -> Any:
     """``runner.log``: the "enctools" logger, imported on first use (not by ``--help``)."""
@@ -337,9 +346,7 @@ def run(invoke: Callable[[], Any], debug: bool) -> int:
             traceback.print_exc()
         where = f" ({exc.filename})" if exc.filename else ""
         error(f"{exc.strerror or exc}{where}")
-        return 2 if exc.errno in (errno.ENOENT, errno.EACCES, errno.EISDIR, errno.ENOSPC,
-                                  errno.EROFS, errno.ENOTDIR, errno.ENAMETOOLONG,
-                                  errno.ELOOP) else 3
+        return 2 if exc.errno in LOCAL_ERRORS else 3
     except Exception as exc:  # noqa: BLE001 - a bug: one line unless --debug
         stop = _interruption(exc)
         if stop is not None:  # SIGINT/SIGTERM wrapped by the code it landed in

@@ -294,15 +294,33 @@ def _write_temporary(p: Path, data: bytes | Callable[[BinaryIO], None], durable:
                 f.write(data)
             else:
                 data(f)
+            f.flush()
+            _check_complete(f, p)
             if durable:
-                f.flush()
                 os.fsync(f.fileno())
         os.chmod(tmp, 0o666 & ~umask() if mode is None else mode)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if exc.filename not in (None, tmp):  # another file's error (an input's)
+            raise
+        msg = f"output {p}: {exc.strerror or exc}"
+        raise OutputError(msg, str(p)) from None
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
     return tmp
+
+
+def _check_complete(f: BinaryIO, p: Path) -> None:
+    """OSError unless every byte written to ``f`` reached the file: a writer that goes
+    around the file object (a C library's own buffered stream, as numpy's ``tofile``)
+    can lose the error of a full disk or a file-size limit."""
+    written, size = f.tell(), os.fstat(f.fileno()).st_size
+    if size < written:
+        msg = f"{size} of {written} bytes reached the file (disk full or file-size limit?)"
+        raise OSError(msg)
 
 
 def umask() -> int:

@@ -9,9 +9,13 @@ batch by batch without holding it whole.
 
 from __future__ import annotations
 
+import contextlib
 import errno
+import io
 import json
 import os
+import resource
+import stat
 from collections.abc import Callable, Iterator
 from typing import IO, Any
 
@@ -28,10 +32,16 @@ _MARGIN = 4 << 20  # bytes kept free for HDF5's metadata when the file is closed
 
 
 def _ensure_space(path: str, nbytes: int) -> None:
-    """Raise ENOSPC before HDF5 meets a full disk: its failed writes can crash the process."""
+    """Raise ENOSPC (EFBIG) before HDF5 meets a full disk (the process's file-size limit,
+    ``ulimit -f``): its failed writes can crash the process."""
     st = os.statvfs(os.path.dirname(os.path.abspath(path)))
     if st.f_bavail * st.f_frsize < nbytes + _MARGIN:
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if limit != resource.RLIM_INFINITY:
+        size = os.path.getsize(path) if os.path.exists(path) else 0
+        if size + nbytes + _MARGIN > limit:
+            raise OSError(errno.EFBIG, os.strerror(errno.EFBIG), path)
 
 
 def _arrow_type_name(t: pa.DataType) -> str:
@@ -159,7 +169,7 @@ def open_table(f: IO[bytes], source: str,
 
     from enctools.data.header import Header
 
-    h5 = h5py.File(f, "r")
+    h5 = h5py.File(_by_name(f), "r")
     try:
         name = _table_name(h5, source, kind)
         g = h5[name]
@@ -169,6 +179,18 @@ def open_table(f: IO[bytes], source: str,
         raise
     header = Header(str(meta["kind"]), schema, meta)
     return header, _batches(g, schema, total), h5.close
+
+
+def _by_name(f: IO[bytes]) -> IO[bytes] | bytes:
+    """A regular file's name, for HDF5's own driver; else the file object itself (a
+    pipe's bytes held in memory). HDF5 reading through a Python file object calls back
+    into Python, as late as the interpreter's exit when an open failed half-way."""
+    name = getattr(f, "name", None)
+    if isinstance(name, str) and not isinstance(f, io.BytesIO):
+        with contextlib.suppress(OSError):
+            if stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                return os.fsencode(name)
+    return f
 
 
 def _table_name(h5: Any, source: str, kind: str | None) -> str:

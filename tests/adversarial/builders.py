@@ -210,6 +210,40 @@ def stale_temporary(folder: Path, base: Path, name: str, age_s: float = 7200) ->
     os.utime(t, (then, then))
 
 
+class Unsupported(Exception):
+    """This machine cannot build the case's input (a mount without the privilege): the
+    case is skipped, saying why."""
+
+
+def full_disk(folder: Path, base: Path, to: str, size_kib: int = 256, free: int = 0) -> None:
+    """A file system of ``size_kib`` KiB mounted at ``to`` (a tmpfs), filled until only
+    ``free`` bytes are left: a full disk. Needs the privilege to mount (root in the
+    sandbox the suite runs in); :func:`unmount_all` removes it after the case."""
+    where = folder / to
+    where.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size_kib}k,mode=1777", "tmpfs",
+                        str(where)], capture_output=True, text=True, check=False)
+    if r.returncode != 0:
+        where.rmdir()
+        msg = f"cannot mount a small file system here: {r.stderr.strip() or r.returncode}"
+        raise Unsupported(msg)
+    st = os.statvfs(where)
+    left = st.f_bavail * st.f_frsize - free
+    with open(where / ".fill", "wb") as f:
+        while left > 0:
+            n = f.write(b"\0" * min(left, 1 << 16))
+            left -= n
+
+
+def unmount_all(folder: Path) -> None:
+    """Unmount what :func:`full_disk` mounted below ``folder``."""
+    with open("/proc/self/mounts", encoding="utf-8") as f:
+        points = [line.split()[1] for line in f]
+    mine = [p for p in points if p.startswith(f"{folder}/")]
+    for p in sorted(mine, reverse=True):
+        subprocess.run(["umount", "-l", p], capture_output=True, check=False)
+
+
 # ------------------------------------------------------------------ streams
 
 def _read(path: Path) -> Any:
@@ -348,6 +382,50 @@ def set_values(folder: Path, base: Path, src: str, to: str, column: str, value: 
     _write(pa.Table.from_arrays(cols, schema=table.schema), folder / to)
 
 
+def concatenated(folder: Path, base: Path, src: str, to: str, times: int = 2,
+                 tail: str = "") -> None:
+    """``src``'s bytes ``times`` times over, then ``tail`` (text): two streams in one
+    file, or a stream followed by garbage."""
+    data = _source(base, src).read_bytes()
+    (folder / to).write_bytes(data * times + tail.encode())
+
+
+def extreme_value(folder: Path, base: Path, src: str, to: str, column: str) -> None:
+    """``column``'s middle row at the end of its type's range: +inf in a float column,
+    the largest int64 in an integer one."""
+    import pyarrow as pa
+
+    f = _read(_source(base, src)).schema.field(column)
+    value = "inf" if pa.types.is_floating(f.type) else "int64max"
+    set_values(folder, base, src, to, column, value, rows="middle")
+
+
+def null_column(folder: Path, base: Path, src: str, to: str, column: str,
+                how: str = "typed") -> None:
+    """``column`` of Arrow's null type (``how = "typed"``: a column that holds nothing),
+    or of its own type with its middle row missing (``"one"``: a validity bitmap)."""
+    import numpy as np
+    import pyarrow as pa
+
+    table = _read(_source(base, src))
+    i = table.schema.get_field_index(column)
+    f = table.schema.field(i)
+    if how == "typed":
+        col, field = pa.nulls(table.num_rows), pa.field(column, pa.null(), metadata=f.metadata)
+    else:
+        mask = np.arange(table.num_rows) == table.num_rows // 2
+        col = pa.array(table.column(i).to_numpy(zero_copy_only=False), type=f.type, mask=mask)
+        field = f
+    _write(table.set_column(i, field, col), folder / to)
+
+
+def duplicate_column(folder: Path, base: Path, src: str, to: str, column: str) -> None:
+    """A stream holding ``column`` twice (the second a copy of the first)."""
+    table = _read(_source(base, src))
+    i = table.schema.get_field_index(column)
+    _write(table.append_column(table.schema.field(i), table.column(i)), folder / to)
+
+
 def h5_claims_rows(folder: Path, base: Path, src: str, to: str, rows: int) -> None:
     """An HDF5 copy of a stream whose every column dataset claims ``rows`` rows: chunked,
     never written (a few kB on disk)."""
@@ -434,7 +512,9 @@ BUILDERS: dict[str, Callable[..., None]] = {
                             csv_rows, fifo, mkdir, symlink, stale_temporary, drop_column,
                             field_meta, stream_meta, raw_meta, deep_json_meta, nasty_meta,
                             nasty_column, set_values, h5_claims_rows, many_rows, rig,
-                            deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar)
+                            deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar,
+                            full_disk, concatenated, extreme_value, null_column,
+                            duplicate_column)
 }
 
 

@@ -22,13 +22,13 @@ CASE_KEYS: dict[str, type | tuple[type, ...]] = {
     "env": dict, "exit": (int, list), "files": list, "absent": list, "unchanged": list,
     "readable": list, "stderr": str, "stdout_lacks": list, "file_lacks": list,
     "signal": dict, "timeout": (int, float), "pending": str, "error_cmd": str,
-    "why": str,
+    "why": str, "limits": dict,
 }
 READER_KEYS = {"name", "argv", "valid", "other_kind", "column", "stdin", "pending", "outputs",
                "setup"}
 HOSTILE_IN_KEYS = {"id", "setup", "stdin", "exit", "why"}
 WRITER_KEYS = {"name", "argv", "ext", "setup", "pending", "timeout", "not_for"}
-HOSTILE_OUT_KEYS = {"id", "setup", "out", "force", "exit", "unchanged", "files", "why"}
+HOSTILE_OUT_KEYS = {"id", "setup", "out", "force", "exit", "unchanged", "files", "why", "limits"}
 
 
 @dataclass
@@ -49,6 +49,7 @@ class Case:
     stdout_lacks: list[str] = field(default_factory=list)
     file_lacks: list[dict[str, str]] = field(default_factory=list)
     signal: dict[str, Any] | None = None
+    limits: dict[str, int] = field(default_factory=dict)
     timeout: float = 10.0
     pending: str | None = None
     error_cmd: str | None = None
@@ -154,6 +155,7 @@ def _writers(doc: dict[str, Any], source: str) -> list[Case]:
                 setup=[*w.get("setup", []), *_fill(h.get("setup", []), subs)], argv=argv,
                 exit=[h.get("exit", 2)], unchanged=_fill(h.get("unchanged", []), subs),
                 files=_fill(h.get("files", []), subs),
+                limits=h.get("limits", {}),
                 pending=w.get("pending", {}).get(h["id"]), why=h.get("why", ""),
                 timeout=w.get("timeout", 10.0), source=source, matrix=True))
     return out

@@ -27,6 +27,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -79,8 +80,18 @@ def command_line(case: Case, folder: Path, base: Path) -> list[str]:
     return argv
 
 
-def _limits() -> None:
-    resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_LIMIT, ADDRESS_LIMIT))
+#: a case's ``limits`` keys: the resource limit each sets in the command's process
+LIMITS = {"fsize": resource.RLIMIT_FSIZE, "nofile": resource.RLIMIT_NOFILE}
+
+
+def _limits(case: Case) -> Callable[[], None]:
+    """What the child runs before the command: the address-space limit, and the case's
+    own (``limits = {fsize = BYTES, nofile = N}``, as ``ulimit -f``/``-n`` set them)."""
+    def apply() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_LIMIT, ADDRESS_LIMIT))
+        for key, value in case.limits.items():
+            resource.setrlimit(LIMITS[key], (value, value))
+    return apply
 
 
 def _send_signal(case: Case, proc: subprocess.Popen, folder: Path) -> None:
@@ -105,7 +116,7 @@ def run(case: Case, folder: Path, base: Path) -> Result:
         proc = subprocess.Popen([sys.executable, "-I", "-S", str(PEAK), str(write_end),
                                  *command_line(case, folder, base)], cwd=folder,
                                 env=_env(case), stdin=stdin, stdout=out, stderr=err,
-                                preexec_fn=_limits, start_new_session=True,
+                                preexec_fn=_limits(case), start_new_session=True,
                                 pass_fds=(write_end,))
         os.close(write_end)
         timed_out = threading.Event()

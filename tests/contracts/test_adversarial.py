@@ -48,7 +48,18 @@ def run_case(case: catalogue.Case, base: Path, tmp_path: Path, record_property) 
     """Build the case's inputs, run it, record its figures, check its promises."""
     folder = tmp_path / "case"
     folder.mkdir()
-    builders.build(folder, base, case.setup)
+    try:
+        builders.build(folder, base, case.setup)
+    except builders.Unsupported as exc:
+        builders.unmount_all(folder)
+        pytest.skip(str(exc))
+    try:
+        _run_and_check(case, base, folder, record_property)
+    finally:
+        builders.unmount_all(folder)
+
+
+def _run_and_check(case: catalogue.Case, base: Path, folder: Path, record_property) -> None:
     before = runner.snapshot(folder)
     kept = runner.digests(folder, case.unchanged)
     r = runner.run(case, folder, base)
