@@ -79,6 +79,8 @@ MAX_ABS_RAD = MAX_ABS_DEG * DEG
 MAX_ABS_SECONDS = 1e9
 #: largest magnitude of a displacement (a probe reading, a radial error) [m]
 MAX_ABS_METRES = 1.0
+#: largest magnitude of a raw quadrature signal sample (and of an ADC's rail) [V]
+MAX_ABS_VOLTS = 1e12
 
 #: the values each column of a kind may hold, by column name or by role: (min, max,
 #: unit), both inclusive; infinities are refused too, and NaN but in the columns of
@@ -90,6 +92,7 @@ VALUE_RANGES: dict[str, dict[str, tuple[float, float, str]]] = {
         "head": (-MAX_ABS_COUNT, MAX_ABS_COUNT, "count"),
         "autocollimator": (-MAX_ABS_ARCSEC, MAX_ABS_ARCSEC, "arcsec"),
         "probe": (-MAX_ABS_METRES, MAX_ABS_METRES, "m"),
+        "signal": (-MAX_ABS_VOLTS, MAX_ABS_VOLTS, "V"),
         "target": (-MAX_ABS_RAD, MAX_ABS_RAD, "rad"),
     },
     "deviations": {
@@ -163,8 +166,8 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
         "head": Range("text"),
         "component": Range("text", choices=("cos", "sin")),
         # the ADC's rails of the channel (optional): the bound of a signal sample
-        "rail_low_v": Range("float", -1e12, 1e12, "V"),
-        "rail_high_v": Range("float", -1e12, 1e12, "V"),
+        "rail_low_v": Range("float", -MAX_ABS_VOLTS, MAX_ABS_VOLTS, "V"),
+        "rail_high_v": Range("float", -MAX_ABS_VOLTS, MAX_ABS_VOLTS, "V"),
     },
 }
 
@@ -191,6 +194,20 @@ def value_checks(kind: str, schema: Any) -> list[tuple[str, float, float, str, b
                 lo, hi, unit = lo * k, hi * k, have
             out.append((f.name, lo, hi, unit, (kind, key) in NAN_ALLOWED))
     return out
+
+
+def check_missing(batch: Any, source: str) -> None:
+    """No value of a record batch (or a table) missing: a null is refused in every column
+    (a stream marks a missing reading with NaN, in the columns that allow one); a
+    DataError naming the column and the count."""
+    from enctools.errors import DataError
+
+    for name, col in zip(batch.schema.names, batch.columns, strict=True):
+        if col.null_count:
+            msg = (f"{source}: column {name!r} has {col.null_count} missing value(s) (null); "
+                   "a stream marks a missing reading with NaN where its column allows one "
+                   "(enc-streams(5), LIMITS)")
+            raise DataError(msg)
 
 
 def check_batch(batch: Any, checks: list[tuple[str, float, float, str, bool]],

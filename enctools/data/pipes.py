@@ -4,6 +4,7 @@
   and the rest of a pipe; it can be told to stop waiting on a quiet pipe.
 - :class:`ReadAhead`: iterate on a daemon thread a few items ahead of the caller, so
   reading (which releases the GIL) overlaps the caller's work.
+- :func:`one_stream`: the batches of an Arrow IPC stream, and nothing after its end.
 - :func:`enlarge_pipe`: ask the kernel for a larger pipe buffer (Linux).
 """
 
@@ -13,6 +14,8 @@ import io
 import os
 from collections.abc import Iterator
 from typing import IO, Any
+
+from enctools.errors import DataError
 
 
 class Cancelled(Exception):
@@ -70,6 +73,17 @@ def read_fully(f: IO[bytes], n: int) -> bytes:
             break
         out += chunk
     return out
+
+
+def one_stream(reader: Any, f: IO[bytes], source: str) -> Iterator[Any]:
+    """The record batches of the Arrow IPC stream ``reader`` reads from ``f``, then a
+    check that ``f`` ends there: a second stream concatenated after the first one's
+    end-of-stream marker, or any other bytes, are a DataError, not silently dropped."""
+    yield from reader
+    if f.read(1):
+        msg = (f"{source}: more bytes follow the end of the Arrow stream (a second stream "
+               "or other data); a command reads one stream")
+        raise DataError(msg)
 
 
 class _Failed:

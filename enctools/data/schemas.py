@@ -126,6 +126,10 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
         msg = f"{source}: {len(schema)} columns; at most {limits.MAX_COLUMNS} are read"
         raise DataError(msg)
     names = set(schema.names)
+    if len(names) < len(schema):
+        twice = next(n for n in schema.names if schema.names.count(n) > 1)
+        msg = f"{source}: column {twice!r} appears twice; which one is meant cannot be told"
+        raise DataError(msg)
     for col in spec.columns:
         if col.required and col.name not in names:
             msg = f"{source}: {kind} stream lacks the required column {col.name!r}"

@@ -33,7 +33,7 @@ from typing import IO, Any
 
 import pyarrow as pa
 
-from enctools.data import csvio, files, limits, pipes
+from enctools.data import csvio, extent, files, h5io, limits, pipes
 from enctools.data.formats import EXTENSIONS, FORMATS, MAGIC, detect_format, file_format
 from enctools.data.formats import ends as file_ends
 from enctools.data.formats import mismatch as format_mismatch
@@ -137,8 +137,9 @@ class InputStream:
             self.close()
 
     def _checked(self, batch: Any, checks: list) -> Any:
-        """The batch (or table), once its values are within
+        """The batch (or table), once none of its values is missing and all are within
         :data:`~enctools.data.limits.VALUE_RANGES`."""
+        limits.check_missing(batch, self.source)
         if checks:
             limits.check_batch(batch, checks, self.source)
         return batch
@@ -300,8 +301,9 @@ def _open_arrows(f: IO[bytes], source: str) -> InputStream:
     except _DECODE_ERRORS as exc:
         msg = f"{source}: truncated or corrupt Arrow stream ({first_line(exc)})"
         raise DataError(msg) from None
-    header = header_from_arrow(reader.schema, source)
-    return InputStream(header, iter(reader), source, "Arrow IPC stream", f.close)
+    batches = pipes.one_stream(reader, f, source)
+    return InputStream(header_from_arrow(reader.schema, source), batches, source,
+                       "Arrow IPC stream", f.close)
 
 
 def _open_seekable(f: IO[bytes], fmt: str, source: str) -> InputStream:
@@ -345,6 +347,7 @@ def _open_parquet(f: IO[bytes], source: str) -> InputStream:
             msg = (f"{source}: a Parquet row group of {largest} rows; at most "
                    f"{limits.MAX_ROW_GROUP_ROWS} are read (rewrite it with smaller row groups)")
             raise DataError(msg)
+        extent.check_parquet(f, pf.metadata, source)
     except BaseException:
         native.close()
         raise
@@ -359,6 +362,7 @@ def _open_arrow_file(f: IO[bytes], source: str) -> InputStream:
     try:
         reader = pa.ipc.open_file(native)
         header = header_from_arrow(reader.schema, source)
+        extent.check_arrow_file(f, source)
     except BaseException:
         native.close()
         raise
@@ -367,8 +371,7 @@ def _open_arrow_file(f: IO[bytes], source: str) -> InputStream:
 
 
 def _open_hdf5(f: IO[bytes], source: str) -> InputStream:
-    from enctools.data import h5io
-
+    extent.check_hdf5(f, source)
     header, batches, closer = h5io.open_table(f, source)
     return InputStream(header, batches, source, "HDF5", lambda: (closer(), f.close()))
 
@@ -468,7 +471,6 @@ class OutputStream:
             if self.format == "parquet":
                 import pyarrow.parquet as pq
                 return pq.ParquetWriter(target, self._schema)
-            from enctools.data import h5io
             return h5io.TableWriter(target, self._schema)
         except OSError as exc:
             self._discard()

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from enctools.data import limits
+from enctools.data import extent, limits, pipes
 from enctools.data.text import first_line, printable
 from enctools.errors import DataError
 from enctools.units import COLUMN_UNITS
@@ -246,12 +246,21 @@ def _arrow_columns(path: str, fmt: str) -> dict[str, np.ndarray]:
     if fmt == "parquet":
         import pyarrow.parquet as pq
 
-        _check_rows(path, pq.ParquetFile(path).metadata.num_rows)
+        metadata = pq.ParquetFile(path).metadata
+        _check_rows(path, metadata.num_rows)
+        with open(path, "rb") as raw:
+            extent.check_parquet(raw, metadata, path)
         table = pq.read_table(path, use_threads=False)
     else:
         with pa.OSFile(path) as f:
-            reader = pa.ipc.open_file(f) if fmt == "arrow" else pa.ipc.open_stream(f)
-            table = reader.read_all()
+            if fmt == "arrow":
+                with open(path, "rb") as raw:
+                    extent.check_arrow_file(raw, path)
+                table = pa.ipc.open_file(f).read_all()
+            else:
+                reader = pa.ipc.open_stream(f)
+                table = pa.Table.from_batches(list(pipes.one_stream(reader, f, path)),
+                                              schema=reader.schema)
     _check_rows(path, table.num_rows)
     return {name: _numbers(table.column(name).to_numpy(zero_copy_only=False))
             for name in table.column_names if not name.startswith("__index_level_")}
@@ -267,6 +276,8 @@ def _hdf5_columns(path: str) -> dict[str, np.ndarray]:
 
     from enctools.data.h5io import members
 
+    with open(path, "rb") as raw:
+        extent.check_hdf5(raw, path)
     with h5py.File(path, "r") as h5:
         top = members(h5, path)
         groups = [v for v in top.values() if isinstance(v, h5py.Group)]
