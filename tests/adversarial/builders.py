@@ -304,9 +304,13 @@ def _set_path(meta: dict[str, Any], path: str, value: Any) -> None:
         node[keys[-1]] = value
 
 
-def stream_meta(folder: Path, base: Path, src: str, to: str, path: str, value: Any) -> None:
+def stream_meta(folder: Path, base: Path, src: str, to: str, path: str, value: Any = None,
+                repeat: int = 1) -> None:
     """A stream whose ``enctools`` metadata has ``value`` at the dotted ``path``
-    (``rig.polygon.faces``, ``rig``)."""
+    (``rig.polygon.faces``, ``rig``); a text ``value`` ``repeat`` times over (a long
+    description)."""
+    if isinstance(value, str):
+        value *= repeat
     table = _read(_source(base, src))
     meta = json.loads(table.schema.metadata[b"enctools"])
     _set_path(meta, path, value)
