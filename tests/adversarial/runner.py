@@ -103,8 +103,8 @@ def _send_signal(case: Case, proc: subprocess.Popen, folder: Path) -> None:
     while when and not list(folder.glob(when)) and time.monotonic() < deadline:
         time.sleep(0.02)
     time.sleep(float(case.signal.get("delay", 0.0)))
-    with contextlib.suppress(ProcessLookupError):
-        proc.send_signal(getattr(signal, f"SIG{case.signal['sig']}"))
+    with contextlib.suppress(ProcessLookupError):  # not send_signal: it reaps an ended child
+        os.kill(proc.pid, getattr(signal, f"SIG{case.signal['sig']}"))
 
 
 def run(case: Case, folder: Path, base: Path) -> Result:
