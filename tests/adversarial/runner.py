@@ -31,6 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from adversarial import zygote_client as zygote
 from adversarial.builders import DATA, RIGS, ROOT
 from adversarial.catalogue import Case
 
@@ -94,9 +95,9 @@ def _limits(case: Case) -> Callable[[], None]:
     return apply
 
 
-def _send_signal(case: Case, proc: subprocess.Popen, folder: Path) -> None:
+def _send_signal(case: Case, pid: int, folder: Path) -> None:
     """Once the signal's ``when`` glob matches in the folder (or at once), wait ``delay``
-    seconds and send it."""
+    seconds and send it to ``pid`` (which passes it on to the command)."""
     assert case.signal is not None
     deadline = time.monotonic() + case.timeout / 2
     when = case.signal.get("when")
@@ -104,48 +105,69 @@ def _send_signal(case: Case, proc: subprocess.Popen, folder: Path) -> None:
         time.sleep(0.02)
     time.sleep(float(case.signal.get("delay", 0.0)))
     with contextlib.suppress(ProcessLookupError):  # not send_signal: it reaps an ended child
-        os.kill(proc.pid, getattr(signal, f"SIG{case.signal['sig']}"))
+        os.kill(pid, getattr(signal, f"SIG{case.signal['sig']}"))
+
+
+def forked(case: Case) -> bool:
+    """Whether the case's command is forked from the zygote: an ``enc`` command, unless
+    ``ENC_CATALOGUE_EXEC=1`` asks for every command to be started by exec."""
+    return (case.argv is not None and case.argv[0] == "enc"
+            and os.environ.get("ENC_CATALOGUE_EXEC", "") in ("", "0"))
 
 
 def run(case: Case, folder: Path, base: Path) -> Result:
     """Run the case's command in ``folder`` and wait for it (killed at its timeout)."""
-    stdin = open(folder / case.stdin, "rb") if case.stdin else subprocess.DEVNULL  # noqa: SIM115
+    stdin = open(folder / case.stdin, "rb") if case.stdin else open(os.devnull, "rb")  # noqa: SIM115
     report, write_end = os.pipe()
-    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err, stdin:
         start = time.monotonic()
-        proc = subprocess.Popen([sys.executable, "-I", "-S", str(PEAK), str(write_end),
-                                 *command_line(case, folder, base)], cwd=folder,
-                                env=_env(case), stdin=stdin, stdout=out, stderr=err,
-                                preexec_fn=_limits(case), start_new_session=True,
-                                pass_fds=(write_end,))
+        argv = command_line(case, folder, base)
+        if forked(case):
+            pid = zygote.start(argv, folder, _env(case), {"as": ADDRESS_LIMIT, **case.limits},
+                               [stdin.fileno(), out.fileno(), err.fileno(), write_end])
+        else:
+            pid = subprocess.Popen([sys.executable, "-I", "-S", str(PEAK), str(write_end),
+                                    *argv], cwd=folder, env=_env(case), stdin=stdin, stdout=out,
+                                   stderr=err, preexec_fn=_limits(case), start_new_session=True,
+                                   pass_fds=(write_end,)).pid
         os.close(write_end)
-        timed_out = threading.Event()
-
-        def kill() -> None:
-            timed_out.set()
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.pid, signal.SIGKILL)
-
-        timer = threading.Timer(case.timeout, kill)
-        timer.start()
-        try:
-            if case.signal:
-                _send_signal(case, proc, folder)
-            _, status, _ = os.wait4(proc.pid, 0)
-            with os.fdopen(report, "rb") as f:
-                peak_kib, cpu_s = (float(x) for x in (f.read().split() or [0, 0]))
-        finally:
-            timer.cancel()
-            if not isinstance(stdin, int):
-                stdin.close()
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGKILL)  # what the command left running
+        code, peak_kib, cpu_s, timed_out = _wait(case, pid, report, folder, not forked(case))
         seconds = time.monotonic() - start
         out.seek(0)
         err.seek(0)
-        return Result(proc.returncode, out.read(), err.read(), peak_kib / 1024, seconds,
-                      timed_out.is_set(), cpu_s)
+        return Result(code, out.read(), err.read(), peak_kib / 1024, seconds, timed_out, cpu_s)
+
+
+def _wait(case: Case, pid: int, report: int, folder: Path,
+          child: bool) -> tuple[int, float, float, bool]:
+    """Wait for the minder ``pid`` (peak.py, our ``child``; or the zygote's) to report the
+    command's peak [KiB], CPU [s] (and, the zygote's, its wait status), killing the
+    minder's group at the case's timeout."""
+    timed_out = threading.Event()
+
+    def kill() -> None:
+        timed_out.set()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(pid, signal.SIGKILL)
+
+    timer = threading.Timer(case.timeout, kill)
+    timer.start()
+    try:
+        if case.signal:
+            _send_signal(case, pid, folder)
+        with os.fdopen(report, "rb") as f:
+            words = f.read().split()
+        if child:
+            _, status, _ = os.wait4(pid, 0)
+            code = os.waitstatus_to_exitcode(status)
+        else:  # killed at the timeout: no report
+            code = os.waitstatus_to_exitcode(int(words[2])) if len(words) == 3 else -9
+    finally:
+        timer.cancel()
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(pid, signal.SIGKILL)  # what the command left running
+    peak_kib, cpu_s = (float(x) for x in (words[:2] or [0, 0]))
+    return code, peak_kib, cpu_s, timed_out.is_set()
 
 
 # ------------------------------------------------------------------ the folder

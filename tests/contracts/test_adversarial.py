@@ -124,3 +124,33 @@ def test_peak_memory_is_the_commands_own_not_the_test_processs(tmp_path: Path) -
     assert small.peak_mb < 100 and small.code == 0
     assert big.peak_mb > 300 and big.code == 3
     assert killed.code == -15
+
+
+#: cases run both ways in test_a_forked_command_is_an_execd_one: one per kind of ending
+SAME_EITHER_WAY = ["points-truncated-8", "selfcal-stdin-concatenated", "sigterm-make-rom-force",
+                   "report-15mb-description", "make-rom-mif-file-size-limit"]
+
+
+@pytest.mark.parametrize("case_id", SAME_EITHER_WAY)
+def test_a_forked_command_is_an_execd_one(case_id: str, base: Path, tmp_path: Path,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """The zygote (adversarial/zygote.py) forks an ``enc`` command instead of starting
+    it: the same case gives the same status and the same error line either way, and
+    its peak memory is the command's (within what the zygote's imports add)."""
+    case = next(c for c in CASES if c.id == case_id)
+    results = []
+    for exec_ in ("1", "0"):
+        monkeypatch.setenv("ENC_CATALOGUE_EXEC", exec_)
+        assert runner.forked(case) is (exec_ == "0")
+        folder = tmp_path / f"exec{exec_}"
+        folder.mkdir()
+        try:
+            builders.build(folder, base, case.setup)
+            results.append(runner.run(case, folder, base))
+        finally:
+            builders.unmount_all(folder)
+    execd, forked = results
+    assert forked.code == execd.code, (execd.stderr, forked.stderr)
+    lines = [[ln for ln in r.stderr.decode().splitlines() if "error:" in ln] for r in results]
+    assert [ln.split(": ")[:2] for ln in lines[0]] == [ln.split(": ")[:2] for ln in lines[1]]
+    assert abs(forked.peak_mb - execd.peak_mb) < 150
