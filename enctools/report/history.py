@@ -107,7 +107,7 @@ def append_run(folder: str | os.PathLike[str], record: dict[str, Any]) -> Path:
     table = pa.table({f.name: pa.array([rec.get(f.name)], f.type) for f in FILE_SCHEMA},
                      schema=FILE_SCHEMA)
     final = part / f"run-{rec['run_id']}.parquet"
-    write_atomic(final, lambda f: pq.write_table(table, f), durable=True, mode=0o644)
+    write_atomic(final, lambda f: pq.write_table(table, f), durable=True)
     return final
 
 
@@ -152,8 +152,7 @@ def migrate_flat_files(d: Path) -> int:
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError, KeyError, DataError):
             continue
         part.mkdir(parents=True, exist_ok=True)
-        write_atomic(part / p.name, functools.partial(_write_rows, rows), durable=True,
-                     mode=0o644)
+        write_atomic(part / p.name, functools.partial(_write_rows, rows), durable=True)
         p.unlink(missing_ok=True)
         moved += 1
     if moved:
