@@ -47,11 +47,13 @@ RESULT = "result.parquet"
 
 class CampaignFailed(EncError):
     """A campaign that ended with a failing exit status of its own (1, 3, or another:
-    exit 2)."""
+    exit 2); ``status``: the night's in the history (``error``, or ``timeout`` for one
+    stopped at its time limit)."""
 
-    def __init__(self, message: str, exit_code: int = 2) -> None:
+    def __init__(self, message: str, exit_code: int = 2, status: str = "error") -> None:
         super().__init__(message)
         self.exit_code = exit_code
+        self.status = status
 
 
 @dataclass(frozen=True)
@@ -106,7 +108,7 @@ class Night:
     in them (a field between backticks) is said in ``words`` (None: the field)."""
 
     code: int = 2
-    status: str = "error"          # ok, drift or error
+    status: str = "error"          # ok, drift, error, interrupted (a signal) or timeout
     summary: str | None = None
     messages: list[tuple[str, str]] = field(default_factory=list)
     words: Callable[[str], str] | None = None
@@ -116,11 +118,12 @@ class Night:
         return EncError(text).render(self.words or (lambda name: name))
 
     def fail(self, why: str, code: int, record: dict[str, Any],
-             summary: str | None = None) -> None:
-        """End the run with an error: say why, keep it (or ``summary``) for the history."""
+             summary: str | None = None, status: str = "error") -> None:
+        """End the run with an error: say why, keep it (or ``summary``) and ``status`` for
+        the history."""
         why = self.say(why)
         self.messages.append(("error", why))
-        self.code = code
+        self.code, self.status = code, status
         if record:  # else the row is written already
             record["summary_json"] = json.dumps({"error": summary or why})
 
@@ -175,9 +178,11 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
     ``words``: a setting's field -> the words that name it in the night's messages (a
     command: its option).
 
-    SIGINT and SIGTERM end the night as a failure (exit 130, 143) that is recorded like
-    any other; they wait while the row is written and the work folder removed, so a
-    signal never leaves half of either. An OS error (a full disk, no permission, a
+    SIGINT, SIGTERM and the other signals that end a process (``errors.ENDING_SIGNALS``,
+    once the command has turned them into :class:`~enctools.errors.Interrupted`) end the
+    night as a failure (exit 128 + the signal's number) recorded with the status
+    ``interrupted``; they wait while the row is written and the work folder removed, so
+    a signal never leaves half of either. An OS error (a full disk, no permission, a
     read-only file system) is one message naming the file, exit 2.
     """
     night = Night(words=words)
@@ -193,17 +198,18 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
             record["run_id"] = new_run_id()
             work = _work_folder(s)
         _recheck(s, work, record, night)
-    except EncError as exc:  # SIGTERM too (Interrupted, exit 143)
+    except Interrupted as exc:  # SIGTERM (exit 143), SIGHUP (129)...
+        night.fail(exc.template, exc.exit_code, record, status="interrupted")
+    except EncError as exc:
         night.fail(exc.template, exc.exit_code, record)
     except KeyboardInterrupt:
-        night.fail("interrupted", 130, record)
+        night.fail("interrupted", 130, record, status="interrupted")
     except OSError as exc:  # a folder that cannot be made, a full disk: one line, exit 2
         night.fail(os_message(exc), 2, record)
     finally:  # a run that failed early is recorded too
         with signals_held():
             if record:
-                record |= {"status": night.status if night.code in (0, 1) else "error",
-                           "exit_code": night.code}
+                record |= {"status": night.status, "exit_code": night.code}
                 _record_row(s, record, night)
             if work is not None and not s.keep:
                 shutil.rmtree(work, ignore_errors=True)
@@ -281,10 +287,13 @@ def remove_stale_work_folders(folder: str | None = None) -> list[str]:
 
 @contextlib.contextmanager
 def signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM until the block is done, then act on the first one held
-    as its handler would have (from the main thread; elsewhere nothing is held)."""
+    """Hold SIGINT and the signals that end a process (``errors.ENDING_SIGNALS``: SIGTERM,
+    SIGHUP...) until the block is done, then act on the first one held as its handler
+    would have (from the main thread; elsewhere nothing is held)."""
     import signal
     import threading
+
+    from enctools.errors import ENDING_SIGNALS
 
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -294,7 +303,8 @@ def signals_held() -> Iterator[None]:
     def hold(signum: int, frame: Any) -> None:
         held.append(signum)
 
-    before = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+    before = {sig: signal.signal(sig, hold)
+              for sig in (signal.SIGINT, *(getattr(signal, name) for name in ENDING_SIGNALS))}
     try:
         yield
     finally:
@@ -356,7 +366,8 @@ def _run_campaign(s: Settings, work: Path, record: dict[str, Any], night: Night)
     except Interrupted:
         raise
     except CampaignFailed as exc:
-        night.fail(exc.template, exc.exit_code if exc.exit_code in (1, 3) else 2, record)
+        night.fail(exc.template, exc.exit_code if exc.exit_code in (1, 3) else 2, record,
+                   status=exc.status)
         return None
     except EncError as exc:  # the library's, in this process
         code = exc.exit_code

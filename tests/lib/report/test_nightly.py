@@ -285,7 +285,8 @@ def test_terminated_night_is_recorded(tmp_path, enc, sig, code, why):
     assert p.returncode == code, err
     assert err.decode().strip().splitlines()[-1] == f"enc-nightly: error: {why}"
     h = read_history(hist)
-    assert h.runs == 1 and h.column("status")[0] == "error" and h.column("exit_code")[0] == code
+    assert h.runs == 1 and h.column("status")[0] == "interrupted" \
+        and h.column("exit_code")[0] == code
 
 
 def test_settings_and_drift_in_process():
@@ -366,7 +367,7 @@ def test_sigterm_at_any_point_records_the_night_or_leaves_history_unchanged(tmp_
         if h.runs == runs + 1:
             recorded += 1
             last = (h.column("status")[-1], h.column("exit_code")[-1])
-            assert last in (("error", 143), ("ok", 0)), last   # the row was being written
+            assert last in (("interrupted", 143), ("ok", 0)), last  # the row was being written
         runs = h.runs
     assert recorded >= 3   # most signals land in the night itself
 
@@ -598,7 +599,56 @@ def test_a_campaign_script_past_its_time_limit_is_stopped(tmp_path, enc):
     time.sleep(3)
     assert not mark.exists()
     h = read_history(hist)
-    assert h.runs == 1 and h.column("exit_code")[0] == 3
+    assert h.runs == 1 and h.column("exit_code")[0] == 3 and h.column("status")[0] == "timeout"
     r = nightly(hist, cal, "--campaign-timeout", "1")
     assert r.returncode == 2 and "--campaign-timeout limits a --campaign script" in \
         r.stderr.decode()
+
+
+def _group_gone(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ending", ["success", "SIGTERM", "SIGHUP", "deadline"])
+def test_no_process_of_the_campaign_outlives_the_night(tmp_path, enc, ending):
+    """A campaign that ignores SIGTERM and leaves a process of its own running, itself
+    ignoring SIGTERM and holding the campaign's stderr: whether the night succeeds, is
+    signalled or reaches --campaign-timeout, it returns within the grace (5 s) and a few
+    seconds, with its status, the night recorded, and no process of the group left."""
+    import time
+    hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
+    tmp.mkdir()
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    script = (f'trap "" TERM; echo $$ > {tmp_path}/pgid; (sleep 60) & echo $! > {tmp_path}/bg; '
+              + ('enc points "$DATA/seed001_table1.csv" -o "$OUT/result.parquet"'
+                 if ending == "success" else "sleep 60"))
+    env = dict(_nightly_env(enc, tmp), DATA=str(DATA))
+    args = ["--campaign-timeout", "1"] if ending == "deadline" else []
+    p = subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
+                          "--calibration", str(cal), *args, "--campaign", script],
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "bg").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    time.sleep(0.3)
+    start = time.monotonic()
+    if ending.startswith("SIG"):
+        p.send_signal(getattr(signal, ending))
+    _, err = p.communicate(timeout=60)
+    took = time.monotonic() - start
+    pgid, bg = (int((tmp_path / n).read_text()) for n in ("pgid", "bg"))
+    assert _group_gone(pgid), ending
+    with pytest.raises(ProcessLookupError):
+        os.kill(bg, 0)
+    code, status = {"success": (0, "ok"), "SIGTERM": (143, "interrupted"),
+                    "SIGHUP": (129, "interrupted"), "deadline": (3, "timeout")}[ending]
+    assert p.returncode == code, err
+    assert took < 10, took   # the grace of 5 s, and the night's own work
+    h = read_history(hist)
+    assert h.runs == 2 and (h.column("status")[-1], h.column("exit_code")[-1]) == (status, code)
+    assert list(tmp.iterdir()) == []
