@@ -249,15 +249,29 @@ WORK_PREFIX = "enc-nightly-"
 
 def _work_folder(s: Settings) -> Path:
     """The campaign's folder: ``keep``, or a new temporary folder named after this
-    process (``enc-nightly-PID@HOST-RANDOM``), once those of killed runs are removed."""
+    process (``enc-nightly-PID@HOST-RANDOM``) in :func:`temporary_root`, once those of
+    killed runs are removed."""
     if s.keep:
         work = Path(s.keep)
         work.mkdir(parents=True, exist_ok=True)
         return work
     from enctools.data.files import writer_tag
 
-    remove_stale_work_folders()
-    return Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{writer_tag()}-"))
+    root = temporary_root()
+    remove_stale_work_folders(root)
+    return Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{writer_tag()}-", dir=root))
+
+
+def temporary_root() -> str:
+    """The folder the campaign's folder is made in: ``$TMPDIR`` (or ``$TEMP``, ``$TMP``) as
+    set, else /tmp; never another in its place. (``tempfile.gettempdir()`` takes the next
+    of /tmp, /var/tmp and the current folder when the one set cannot be written: a night
+    whose TMPDIR is full or missing ran elsewhere and was recorded ok.)"""
+    for name in ("TMPDIR", "TEMP", "TMP"):
+        folder = os.environ.get(name)
+        if folder:
+            return folder
+    return "/tmp"
 
 
 def remove_stale_work_folders(folder: str | None = None) -> list[str]:
@@ -268,7 +282,7 @@ def remove_stale_work_folders(folder: str | None = None) -> list[str]:
     pattern = re.compile(rf"{WORK_PREFIX}(\d+)@([A-Za-z0-9._-]+)-[A-Za-z0-9_]+")
     removed: list[str] = []
     try:
-        entries = list(os.scandir(folder or tempfile.gettempdir()))
+        entries = list(os.scandir(folder or temporary_root()))
     except OSError:
         return removed
     for entry in entries:

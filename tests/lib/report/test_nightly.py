@@ -652,3 +652,26 @@ def test_no_process_of_the_campaign_outlives_the_night(tmp_path, enc, ending):
     h = read_history(hist)
     assert h.runs == 2 and (h.column("status")[-1], h.column("exit_code")[-1]) == (status, code)
     assert list(tmp.iterdir()) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("campaign", ["default", "script"])
+def test_a_full_tmpdir_is_a_failed_night_with_its_reason(tmp_path, full_tmpfs, enc, campaign):
+    """TMPDIR on a full disk: the campaign's outputs cannot be written there, and the night
+    is recorded as failed with the reason, exit 2 (before: Python's tempfile took /tmp in
+    its place and the night was recorded ok)."""
+    import json
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    rig = "ciomp-23bit"
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    args = [] if campaign == "default" else ["--campaign", csv_campaign(1)]
+    r = subprocess.run([NIGHTLY, "--rig", rig, "--history", str(hist), "--calibration",
+                        str(cal), *args], env=_nightly_env(enc, full_tmpfs),
+                       capture_output=True)
+    line = one_error_line(r, 2, "enc-nightly")
+    assert "No space left on device" in line and str(full_tmpfs) in line, line
+    assert b"ok" not in r.stdout
+    h = read_history(hist)
+    assert h.runs == 2 and h.column("status")[-1] == "error"
+    assert "No space left on device" in json.loads(h.column("summary_json")[-1])["error"]
+    assert sorted(f.name for f in full_tmpfs.iterdir()) == ["fill", "h"]
