@@ -189,6 +189,7 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
     record: dict[str, Any] = {"run_id": "", "rig": s.rig, "tolerance": s.tolerance,
                               "campaign": s.campaign.text if s.campaign else ""}
     work: Path | None = None
+    lock: int | None = None
     try:
         with signals_held():  # a signal inside an import would leave numpy unusable for the row
             import pyarrow.parquet  # noqa: F401 - what append_run needs, imported whole
@@ -196,7 +197,7 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
             from enctools.report.history import new_run_id
 
             record["run_id"] = new_run_id()
-            work = _work_folder(s)
+            work, lock = _work_folder(s)
         _recheck(s, work, record, night)
     except Interrupted as exc:  # SIGTERM (exit 143), SIGHUP (129)...
         night.fail(exc.template, exc.exit_code, record, status="interrupted")
@@ -213,6 +214,8 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
                 _record_row(s, record, night)
             if work is not None and not s.keep:
                 shutil.rmtree(work, ignore_errors=True)
+            if lock is not None:
+                os.close(lock)
     return night
 
 
@@ -245,21 +248,51 @@ def _record_row(s: Settings, record: dict[str, Any], night: Night) -> bool:
 
 
 WORK_PREFIX = "enc-nightly-"
+#: the lock file in a night's folder: held (flock) by the night while it runs
+WORK_LOCK = ".enc-nightly.lock"
 
 
-def _work_folder(s: Settings) -> Path:
+def _work_folder(s: Settings) -> tuple[Path, int | None]:
     """The campaign's folder: ``keep``, or a new temporary folder named after this
     process (``enc-nightly-PID@HOST-RANDOM``) in :func:`temporary_root`, once those of
-    killed runs are removed."""
+    killed runs are removed; with the descriptor of its lock, held until it is closed
+    (None for ``keep``)."""
     if s.keep:
         work = Path(s.keep)
         work.mkdir(parents=True, exist_ok=True)
-        return work
+        return work, None
     from enctools.data.files import writer_tag
 
     root = temporary_root()
     remove_stale_work_folders(root)
-    return Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{writer_tag()}-", dir=root))
+    work = Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{writer_tag()}-", dir=root))
+    try:
+        return work, _hold_lock(work)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+
+
+def _hold_lock(work: Path) -> int:
+    """Take the lock of the folder ``work`` (:data:`WORK_LOCK`, ``PID@HOST`` in it): made
+    under another name, locked, then renamed, so that no lock file is ever seen unheld
+    while its night runs. The kernel lets it go when the process ends, ``kill -9`` too."""
+    import fcntl
+
+    from enctools.data.files import writer_tag
+
+    new = work / f"{WORK_LOCK}.new"
+    fd = os.open(new, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC,
+                 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with contextlib.suppress(OSError):  # for whoever looks; a full disk leaves it empty
+            os.write(fd, f"{writer_tag()}\n".encode())
+        os.rename(new, work / WORK_LOCK)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
 
 
 def temporary_root() -> str:
@@ -276,10 +309,12 @@ def temporary_root() -> str:
 
 def remove_stale_work_folders(folder: str | None = None) -> list[str]:
     """Remove the temporary folders of nightly runs killed without a chance to clean up
-    (``kill -9``): those of this user whose process no longer runs on this host."""
-    from enctools.data.files import process_gone
+    (``kill -9``, a power cut): those of this user and host whose night no longer runs
+    (:func:`_night_over`)."""
+    from enctools.data.files import writer_tag
 
     pattern = re.compile(rf"{WORK_PREFIX}(\d+)@([A-Za-z0-9._-]+)-[A-Za-z0-9_]+")
+    host = writer_tag().split("@", 1)[1]
     removed: list[str] = []
     try:
         entries = list(os.scandir(folder or temporary_root()))
@@ -288,15 +323,42 @@ def remove_stale_work_folders(folder: str | None = None) -> list[str]:
     for entry in entries:
         m = pattern.fullmatch(entry.name)
         try:
-            if m is None or not entry.is_dir(follow_symlinks=False) \
+            if m is None or m.group(2) != host or not entry.is_dir(follow_symlinks=False) \
                     or entry.stat(follow_symlinks=False).st_uid != os.geteuid() \
-                    or not process_gone(int(m.group(1)), m.group(2)):
+                    or not _night_over(entry.path, int(m.group(1)), host):
                 continue
         except OSError:
             continue
         shutil.rmtree(entry.path, ignore_errors=True)
         removed.append(entry.path)
     return removed
+
+
+def _night_over(path: str, pid: int, host: str) -> bool:
+    """Whether the night of the folder ``path`` (made by process ``pid`` of ``host``) is
+    over: its lock is free, whatever process now has that id (a reused one, another pid
+    namespace's). A folder without its lock (made by an older version, or killed before
+    the lock was in place) or on a file system without locks: over once no process has
+    ``pid`` on this host."""
+    import fcntl
+
+    from enctools.data.files import process_gone
+
+    try:
+        fd = os.open(os.path.join(path, WORK_LOCK), os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except FileNotFoundError:
+        return process_gone(pid, host)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:  # held: its night runs
+        return False
+    except OSError:
+        return process_gone(pid, host)
+    finally:
+        os.close(fd)
+    return True
 
 
 @contextlib.contextmanager

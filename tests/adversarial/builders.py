@@ -210,6 +210,20 @@ def stale_temporary(folder: Path, base: Path, name: str, age_s: float = 7200) ->
     os.utime(t, (then, then))
 
 
+def nightly_folder(folder: Path, base: Path, pid: int, to: str = "tmp", lock: bool = True,
+                   name: str = "k9x") -> None:
+    """What a killed enc-nightly leaves in its TMPDIR ``to``: ``enc-nightly-PID@HOST-NAME``
+    with a result in it, and its lock file (unheld) unless ``lock`` is false."""
+    from enctools.data.files import writer_tag
+
+    host = writer_tag().split("@", 1)[1]
+    d = folder / to / f"enc-nightly-{pid}@{host}-{name}"
+    d.mkdir(parents=True)
+    (d / "result.parquet").write_bytes(b"PAR1 partial")
+    if lock:
+        (d / ".enc-nightly.lock").write_text(f"{pid}@{host}\n")
+
+
 # ------------------------------------------------------------------ streams
 
 def _read(path: Path) -> Any:
@@ -434,7 +448,7 @@ BUILDERS: dict[str, Callable[..., None]] = {
                             csv_rows, fifo, mkdir, symlink, stale_temporary, drop_column,
                             field_meta, stream_meta, raw_meta, deep_json_meta, nasty_meta,
                             nasty_column, set_values, h5_claims_rows, many_rows, rig,
-                            deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar)
+                            deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar, nightly_folder)
 }
 
 

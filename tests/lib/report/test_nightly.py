@@ -675,3 +675,63 @@ def test_a_full_tmpdir_is_a_failed_night_with_its_reason(tmp_path, full_tmpfs, e
     assert h.runs == 2 and h.column("status")[-1] == "error"
     assert "No space left on device" in json.loads(h.column("summary_json")[-1])["error"]
     assert sorted(f.name for f in full_tmpfs.iterdir()) == ["fill", "h"]
+
+
+def test_a_folder_is_stale_once_its_lock_is_free(tmp_path):
+    """The lock decides, whatever process has the id in the folder's name: free (a reused
+    id, pid 1 here) -> removed; held (a night of another pid namespace, no such id here)
+    -> kept. Without a lock file, the id decides (an older version's folder)."""
+    import fcntl
+
+    from enctools.data.files import writer_tag
+    from enctools.report.nightly import WORK_LOCK, remove_stale_work_folders
+    host = writer_tag().split("@", 1)[1]
+    dead = 2**22 + 7
+    names = {"reused": f"enc-nightly-1@{host}-abc", "held": f"enc-nightly-{dead}@{host}-abc",
+             "old-dead": f"enc-nightly-{dead}@{host}-def", "old-live": f"enc-nightly-1@{host}-def"}
+    for key, n in names.items():
+        (tmp_path / n).mkdir()
+        if not key.startswith("old"):
+            (tmp_path / n / WORK_LOCK).write_text("x")
+    fd = os.open(tmp_path / names["held"] / WORK_LOCK, os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    try:
+        removed = remove_stale_work_folders(str(tmp_path))
+    finally:
+        os.close(fd)
+    assert sorted(removed) == sorted(str(tmp_path / names[k]) for k in ("reused", "old-dead"))
+    assert sorted(f.name for f in tmp_path.iterdir()) == sorted([names["held"],
+                                                                 names["old-live"]])
+
+
+@pytest.mark.slow
+def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
+    """kill -9 of enc-nightly alone (its campaign orphaned): the next night removes its
+    folder; a night started meanwhile in the same TMPDIR is left alone and ends ok."""
+    import time
+    hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
+    tmp.mkdir()
+    env = _nightly_env(enc, tmp)
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+
+    def night(campaign: str) -> subprocess.Popen:
+        return subprocess.Popen([NIGHTLY, "--rig", "r", "--history", str(hist),
+                                 "--calibration", str(cal), "--campaign", campaign], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    killed = night('touch "$OUT/started"; exec sleep 3')
+    deadline = time.monotonic() + 60
+    while not list(tmp.glob("*/started")) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    killed.kill()
+    killed.wait(timeout=30)
+    left = [f.name for f in tmp.iterdir()]
+    slow = night(f'touch "$OUT/slow"; sleep 2; {csv_campaign(1)}')
+    while len(list(tmp.glob("*/slow"))) < 1 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    r = subprocess.run([NIGHTLY, "--rig", "r", "--history", str(hist), "--calibration",
+                        str(cal), "--campaign", csv_campaign(1)], env=env, capture_output=True)
+    assert r.returncode == 0, r.stderr
+    assert not set(left) & {f.name for f in tmp.iterdir()}   # the killed night's: removed
+    assert list(tmp.glob("*/slow"))                           # the running night's: kept
+    assert slow.wait(timeout=60) == 0
+    assert list(tmp.iterdir()) == []
