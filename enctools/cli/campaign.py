@@ -8,7 +8,14 @@ import os
 import subprocess
 from pathlib import Path
 
-from enctools.report.nightly import RESULT, Campaign, CampaignFailed, signals_held
+from enctools.report.nightly import (
+    RESULT,
+    WORK_LOCK,
+    Campaign,
+    CampaignFailed,
+    record_campaign,
+    signals_held,
+)
 
 #: what the default campaign does, said as the pipeline it stands for (the history's
 #: ``campaign`` of a night that ran it)
@@ -51,7 +58,8 @@ def script(command: str, timeout_s: float | None = None) -> Campaign:
     is (a signal) or after ``timeout_s`` [s] (None: no limit): :func:`run_script`."""
     def run(rig: str, folder: Path, run_id: str) -> None:
         env = dict(os.environ, RIG=rig, OUT=str(folder), ENC_NIGHTLY_RUN=run_id)
-        code, err = run_script(command, env, timeout_s)
+        lock = folder / WORK_LOCK
+        code, err = run_script(command, env, timeout_s, lock if lock.exists() else None)
         if code:
             last = (err.decode(errors="replace").strip().splitlines() or ["-"])[-1]
             raise CampaignFailed(f"campaign failed with exit {code}: {last}", code)
@@ -65,8 +73,8 @@ GRACE_S = 5.0
 STDERR_TAIL = 1 << 16
 
 
-def run_script(command: str, env: dict[str, str], timeout_s: float | None = None
-               ) -> tuple[int, bytes]:
+def run_script(command: str, env: dict[str, str], timeout_s: float | None = None,
+               lock: Path | None = None) -> tuple[int, bytes]:
     """Run a shell command in a process group of its own; its status and (the end of) its
     stderr.
 
@@ -76,8 +84,9 @@ def run_script(command: str, env: dict[str, str], timeout_s: float | None = None
     group, every process of its pipelines and what they left running: SIGTERM, then
     SIGKILL for those still there after :data:`GRACE_S`. A timeout is a
     :class:`CampaignFailed` of exit 3 (a device that no longer answers, most often).
+    ``lock``: the night's lock file, told the group (a ``kill -9`` of the night leaves it
+    for the next night to stop).
     """
-    adopt_orphans()
     proc: subprocess.Popen[bytes] | None = None
     tail: StderrTail | None = None
     try:
@@ -86,6 +95,8 @@ def run_script(command: str, env: dict[str, str], timeout_s: float | None = None
                                     stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                     stderr=subprocess.PIPE, start_new_session=True)
             tail = StderrTail(proc)
+            if lock is not None:
+                record_campaign(lock, proc.pid)
         code: int | None = proc.wait(timeout=timeout_s)
     except subprocess.TimeoutExpired:
         code = None
@@ -164,7 +175,8 @@ def adopt_orphans() -> None:
     a process a campaign left running becomes this process's child when its parent ends,
     so that once stopped it is reaped here, not left a zombie of a process 1 that reaps
     nothing (a container's), which would keep its group counted as alive. Elsewhere,
-    nothing."""
+    nothing. For enc-nightly's own process only: in a program that calls the library,
+    every orphan of its other children would come to it too."""
     if _ADOPTING or not os.path.exists("/proc/self"):
         return
     import ctypes

@@ -110,6 +110,9 @@ def main(argv: list[str] | None = None) -> None:
     args = sys.argv[1:] if argv is None else argv
     if argv is None:  # the process itself: started with a standard stream closed? (as enc)
         runner.standard_streams()
+        from enctools.cli.campaign import adopt_orphans
+
+        adopt_orphans()  # what a campaign leaves running is reaped here once stopped
     _enc_on_path()
     runner.set_program(PROG, command)
     runner.prologue()

@@ -329,9 +329,57 @@ def remove_stale_work_folders(folder: str | None = None) -> list[str]:
                 continue
         except OSError:
             continue
+        stop_left_campaign(entry.path)
         shutil.rmtree(entry.path, ignore_errors=True)
         removed.append(entry.path)
     return removed
+
+
+def process_start(pid: int) -> str | None:
+    """When process ``pid`` started (clock ticks since boot, /proc/PID/stat), None when
+    there is no such process or no /proc: with the id, who a process is (an id is
+    reused, not both)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    fields = stat[stat.rfind(")") + 2:].split()  # after the command's name, which may hold spaces
+    return fields[19] if len(fields) > 19 else None
+
+
+def record_campaign(lock: Path, pgid: int) -> None:
+    """Add the campaign's process group to the night's lock file ``lock``: its id and its
+    leader's start, for :func:`stop_left_campaign` after a ``kill -9`` of the night."""
+    start = process_start(pgid)
+    if start is not None:
+        with contextlib.suppress(OSError), open(lock, "a", encoding="ascii") as f:
+            f.write(f"campaign {pgid} {start}\n")
+
+
+def stop_left_campaign(folder: str, grace_s: float = 5.0) -> None:
+    """Stop the campaign a killed night left running (its lock file says which group),
+    when the group's leader is still that process (same id, same start): SIGTERM, then
+    SIGKILL after ``grace_s`` [s]. A group whose leader has gone is left alone (its id
+    can no longer be told from another's)."""
+    import signal
+    import time
+
+    try:
+        lines = Path(folder, WORK_LOCK).read_text(encoding="ascii").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return
+    for line in lines:
+        words = line.split()
+        if len(words) != 3 or words[0] != "campaign" or not words[1].isdigit() \
+                or int(words[1]) <= 1 or process_start(int(words[1])) != words[2]:
+            continue
+        pgid = int(words[1])
+        with contextlib.suppress(OSError):
+            os.killpg(pgid, signal.SIGTERM)
+            deadline = time.monotonic() + grace_s
+            while time.monotonic() < deadline and process_start(pgid) == words[2]:
+                time.sleep(0.05)
+            os.killpg(pgid, signal.SIGKILL)
 
 
 def _night_over(path: str, pid: int, host: str) -> bool:

@@ -706,8 +706,9 @@ def test_a_folder_is_stale_once_its_lock_is_free(tmp_path):
 
 @pytest.mark.slow
 def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
-    """kill -9 of enc-nightly alone (its campaign orphaned): the next night removes its
-    folder; a night started meanwhile in the same TMPDIR is left alone and ends ok."""
+    """kill -9 of enc-nightly alone: the next night stops the campaign it left running
+    and removes its folder; a night started meanwhile in the same TMPDIR is left alone
+    and ends ok."""
     import time
     hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
     tmp.mkdir()
@@ -718,7 +719,7 @@ def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
         return subprocess.Popen([NIGHTLY, "--rig", "r", "--history", str(hist),
                                  "--calibration", str(cal), "--campaign", campaign], env=env,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    killed = night('touch "$OUT/started"; exec sleep 3')
+    killed = night(f'echo $$ > {tmp_path}/pgid; touch "$OUT/started"; exec sleep 60')
     deadline = time.monotonic() + 60
     while not list(tmp.glob("*/started")) and time.monotonic() < deadline:
         time.sleep(0.02)
@@ -732,6 +733,10 @@ def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
                         str(cal), "--campaign", csv_campaign(1)], env=env, capture_output=True)
     assert r.returncode == 0, r.stderr
     assert not set(left) & {f.name for f in tmp.iterdir()}   # the killed night's: removed
+    pgid = int((tmp_path / "pgid").read_text())
+    while Path(f"/proc/{pgid}").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)                                      # reaped by process 1
+    assert _group_gone(pgid)                                  # and its campaign stopped
     assert list(tmp.glob("*/slow"))                           # the running night's: kept
     assert slow.wait(timeout=60) == 0
     assert list(tmp.iterdir()) == []
