@@ -8,12 +8,19 @@ import os
 import signal
 import sys
 
-if __name__ == "__main__":  # SIGTERM is exit 143 from here on, before the imports below
-    def _terminated(signum: int, frame: object) -> None:
-        sys.stderr.write("enc-nightly: error: terminated\n")
-        raise SystemExit(143)
+if __name__ == "__main__":  # a signal ends the process as documented from here on, before
+    # the imports below (runner.prologue then puts its own handlers)
+    def _ended(signum: int, frame: object) -> None:
+        name = signal.Signals(signum).name
+        why = "terminated" if name == "SIGTERM" else f"stopped by {name}"
+        if sys.stderr is not None:
+            sys.stderr.write(f"enc-nightly: error: {why}\n")
+        raise SystemExit(128 + signum)
 
-    signal.signal(signal.SIGTERM, _terminated)
+    from enctools.errors import ENDING_SIGNALS  # light: re and the exceptions
+
+    for _name in ENDING_SIGNALS:
+        signal.signal(getattr(signal, _name), _ended)
 from pathlib import Path
 
 import click
@@ -56,8 +63,9 @@ def command(rig: str, history_dir: str, calibration: str, init: bool, campaign: 
     """Nightly recheck: re-acquire, run the campaign, compare, append to the history.
 
     Exit status: 0 within tolerance, 1 drift beyond it, 2 bad usage or input or a file
-    that cannot be written (full disk, permission), 3 device fault in the campaign, 130
-    interrupted, 143 terminated.
+    that cannot be written (full disk, permission), 3 device fault in the campaign or
+    --campaign-timeout run out, 128 + n stopped by signal n (130 SIGINT, 143 SIGTERM,
+    129 SIGHUP).
     """
     import functools
 
@@ -100,6 +108,11 @@ def main(argv: list[str] | None = None) -> None:
     """Entry point of bin/enc-nightly and of the installed enc-nightly: the prologue and the
     error handling of every command."""
     args = sys.argv[1:] if argv is None else argv
+    if argv is None:  # the process itself: started with a standard stream closed? (as enc)
+        runner.standard_streams()
+        from enctools.cli.campaign import adopt_orphans
+
+        adopt_orphans()  # what a campaign leaves running is reaped here once stopped
     _enc_on_path()
     runner.set_program(PROG, command)
     runner.prologue()
@@ -113,7 +126,8 @@ def main(argv: list[str] | None = None) -> None:
     with without_pandas():  # as in enc: pyarrow would import pandas to ask about each array
         code = runner.run(invoke, debug=os.environ.get("ENC_DEBUG", "") not in ("", "0"))
     try:  # a full disk under a redirected stdout fails here: one line, not a traceback
-        sys.stdout.flush()
+        if sys.stdout is not None:  # None: started with stdout closed, the summary unread
+            sys.stdout.flush()
     except OSError as exc:
         runner.error(f"stdout: {exc.strerror or exc}")
         code = code if code not in (0, 1) else 2
@@ -121,8 +135,10 @@ def main(argv: list[str] | None = None) -> None:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     # the night is over and told: a signal now would only turn its status into -15
     # (the interpreter's shutdown puts the default handlers back)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from enctools.errors import ENDING_SIGNALS
+
+    for name in ("SIGINT", *ENDING_SIGNALS):
+        signal.signal(getattr(signal, name), signal.SIG_IGN)
     sys.exit(code)
 
 

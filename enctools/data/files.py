@@ -21,6 +21,7 @@ left as it was (what a rename does).
 from __future__ import annotations
 
 import contextlib
+import errno
 import logging
 import os
 import re
@@ -165,8 +166,13 @@ def _stem(name: str) -> str:
 def new_temporary(path: str | Path) -> tuple[int, str]:
     """A new empty temporary file beside ``path`` (after removing stale ones): its open
     descriptor and its name ``.NAME.PID@HOST.RANDOM.tmp`` (NAME: :func:`_stem`), within
-    NAME_MAX for any legal ``path``."""
-    import tempfile  # here: a command that writes to a pipe never needs it
+    NAME_MAX for any legal ``path``.
+
+    The file is made with the mode ``open`` gives a new file, 0o666 less the umask, which
+    the rename keeps: every output has the mode the user's umask says (``mkstemp``'s 0o600
+    would have to be undone output by output, and a mode set by the writer ignores it).
+    """
+    import secrets
 
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
@@ -174,7 +180,14 @@ def new_temporary(path: str | Path) -> tuple[int, str]:
     prefix = f".{_stem(p.name)}.{writer_tag()}."
     if len(os.fsencode(prefix)) > 240:  # a host's name of 64 bytes: the name without it
         prefix = f".{_stem(p.name)}."
-    return tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=str(folder))
+    flags = os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+    for _ in range(100):  # as mkstemp: another name when one is taken
+        name = os.path.abspath(folder / f"{prefix}{secrets.token_hex(4)}.tmp")
+        try:
+            return os.open(name, flags, 0o666), name
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no unused temporary file name", str(folder))
 
 
 def _pattern(name: str) -> re.Pattern[str]:
@@ -263,16 +276,16 @@ def rename_into_place(tmp: str, path: str | Path, force: bool = True) -> None:
 
 
 def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
-                 durable: bool = False, mode: int | None = None) -> None:
+                 durable: bool = False) -> None:
     """Write ``data`` (bytes, or a function writing to a binary file) to ``path`` atomically.
 
-    The file gets ``mode`` (default: 0o666 less the umask, as ``open`` would give).
+    The file gets the mode ``open`` would give (0o666 less the umask: :func:`new_temporary`).
     ``durable``: fsync the file and its folder, so the file survives a power cut once
     this returns (history records). A ``path`` that is not a regular file is refused
     (:func:`check_replaceable`).
     """
     p = Path(path)
-    tmp = _write_temporary(p, data, durable, mode)
+    tmp = _write_temporary(p, data, durable)
     try:
         rename_into_place(tmp, p)
     except BaseException:
@@ -283,8 +296,7 @@ def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
         _sync_folder(p)
 
 
-def _write_temporary(p: Path, data: bytes | Callable[[BinaryIO], None], durable: bool,
-                     mode: int | None) -> str:
+def _write_temporary(p: Path, data: bytes | Callable[[BinaryIO], None], durable: bool) -> str:
     """``data`` written whole into a new temporary beside ``p``; its name."""
     check_replaceable(p)
     fd, tmp = new_temporary(p)
@@ -295,10 +307,9 @@ def _write_temporary(p: Path, data: bytes | Callable[[BinaryIO], None], durable:
             else:
                 data(f)
             f.flush()
-            _check_complete(f, p)
+            _check_complete(f)
             if durable:
                 os.fsync(f.fileno())
-        os.chmod(tmp, 0o666 & ~umask() if mode is None else mode)
     except OSError as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
@@ -313,7 +324,7 @@ def _write_temporary(p: Path, data: bytes | Callable[[BinaryIO], None], durable:
     return tmp
 
 
-def _check_complete(f: BinaryIO, p: Path) -> None:
+def _check_complete(f: BinaryIO) -> None:
     """OSError unless every byte written to ``f`` reached the file: a writer that goes
     around the file object (a C library's own buffered stream, as numpy's ``tofile``)
     can lose the error of a full disk or a file-size limit."""
@@ -321,13 +332,6 @@ def _check_complete(f: BinaryIO, p: Path) -> None:
     if size < written:
         msg = f"{size} of {written} bytes reached the file (disk full or file-size limit?)"
         raise OSError(msg)
-
-
-def umask() -> int:
-    """The process's umask (read by setting it and back)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _sync_folder(p: Path) -> None:
@@ -363,11 +367,11 @@ class OutputGroup:
         self._staged.append((tmp, str(path), force))
 
     def write(self, path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
-              mode: int | None = None, force: bool = True) -> None:
+              force: bool = True) -> None:
         """Write ``data`` (as :func:`write_atomic` takes it) into a temporary for ``path``;
         OutputError naming ``path`` when it cannot be written."""
         try:
-            tmp = _write_temporary(Path(path), data, False, mode)
+            tmp = _write_temporary(Path(path), data, False)
         except OSError as exc:
             msg = f"output {path}: {exc.strerror or exc}"
             raise OutputError(msg, str(path)) from None

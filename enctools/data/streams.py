@@ -516,7 +516,6 @@ class OutputStream:
             raise self._write_error(exc) from None
         if self._tmp is not None:
             assert self.path is not None  # a temporary file is made for a named output only
-            os.chmod(self._tmp, 0o666 & ~files.umask())
             if isinstance(writer, csvio.TableWriter):  # the table and its sidecar together
                 tmp, self._tmp = self._tmp, None
                 csvio.stage(tmp, self.path, writer.sidecar(Path(self.path).name), self.force,

@@ -19,10 +19,11 @@ The layout before partitions (every ``run-*.parquet`` directly in the folder, wi
 next run appended.
 
 Columns (one row per run): ``run_id``, ``time`` (UTC), ``host``, ``rig`` (the partition),
-``status`` (ok / drift / error), ``exit_code``, figures of the run's main curve [arcsec]
-(``pp``, ``std`` Bessel, ``mean``, ``max_abs``), drift against the stored calibration
-[arcsec] (``drift_pp``, ``drift_max``: largest |current - stored| after removing the
-mean offset), ``tolerance``, the campaign command and the whole summary as JSON; and
+``status`` (ok / drift / error / interrupted: a signal / timeout: the campaign's time
+limit), ``exit_code``, figures of the run's main curve [arcsec] (``pp``, ``std``
+Bessel, ``mean``, ``max_abs``), drift against the stored calibration [arcsec]
+(``drift_pp``, ``drift_max``: largest |current - stored| after removing the mean
+offset), ``tolerance``, the campaign command and the whole summary as JSON; and
 ``year`` (the partition: the UTC year of ``time``) for the engines that read the folders.
 """
 
@@ -107,7 +108,7 @@ def append_run(folder: str | os.PathLike[str], record: dict[str, Any]) -> Path:
     table = pa.table({f.name: pa.array([rec.get(f.name)], f.type) for f in FILE_SCHEMA},
                      schema=FILE_SCHEMA)
     final = part / f"run-{rec['run_id']}.parquet"
-    write_atomic(final, lambda f: pq.write_table(table, f), durable=True, mode=0o644)
+    write_atomic(final, lambda f: pq.write_table(table, f), durable=True)
     return final
 
 
@@ -152,8 +153,7 @@ def migrate_flat_files(d: Path) -> int:
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError, KeyError, DataError):
             continue
         part.mkdir(parents=True, exist_ok=True)
-        write_atomic(part / p.name, functools.partial(_write_rows, rows), durable=True,
-                     mode=0o644)
+        write_atomic(part / p.name, functools.partial(_write_rows, rows), durable=True)
         p.unlink(missing_ok=True)
         moved += 1
     if moved:
@@ -223,14 +223,14 @@ class History:
                  + (f", {len(self.skipped)} unreadable file(s) skipped" if self.skipped else "")]
         if not self.runs:
             return lines
-        lines.append(f"  {'time (UTC)':<20} {'rig':<12} {'status':<7} {'p-p':>7} {'s':>7} "
+        lines.append(f"  {'time (UTC)':<20} {'rig':<12} {'status':<11} {'p-p':>7} {'s':>7} "
                      f"{'drift':>7} {'tol':>7}  [{self.unit}]")
         for r in self.to_records():
             def g(v: Any) -> str:
                 return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) \
                     else f"{v:.3f}"
             lines.append(f"  {r['time'] or '-':<20} {(r['rig'] or '-'):<12} "
-                         f"{(r['status'] or '-'):<7} {g(r['pp']):>7} {g(r['std']):>7} "
+                         f"{(r['status'] or '-'):<11} {g(r['pp']):>7} {g(r['std']):>7} "
                          f"{g(r['drift_max']):>7} {g(r['tolerance']):>7}")
         drift = [v for v in self.column("drift_max") if v is not None and np.isfinite(v)]
         if len(drift) >= 2:

@@ -47,11 +47,13 @@ RESULT = "result.parquet"
 
 class CampaignFailed(EncError):
     """A campaign that ended with a failing exit status of its own (1, 3, or another:
-    exit 2)."""
+    exit 2); ``status``: the night's in the history (``error``, or ``timeout`` for one
+    stopped at its time limit)."""
 
-    def __init__(self, message: str, exit_code: int = 2) -> None:
+    def __init__(self, message: str, exit_code: int = 2, status: str = "error") -> None:
         super().__init__(message)
         self.exit_code = exit_code
+        self.status = status
 
 
 @dataclass(frozen=True)
@@ -106,7 +108,7 @@ class Night:
     in them (a field between backticks) is said in ``words`` (None: the field)."""
 
     code: int = 2
-    status: str = "error"          # ok, drift or error
+    status: str = "error"          # ok, drift, error, interrupted (a signal) or timeout
     summary: str | None = None
     messages: list[tuple[str, str]] = field(default_factory=list)
     words: Callable[[str], str] | None = None
@@ -116,11 +118,12 @@ class Night:
         return EncError(text).render(self.words or (lambda name: name))
 
     def fail(self, why: str, code: int, record: dict[str, Any],
-             summary: str | None = None) -> None:
-        """End the run with an error: say why, keep it (or ``summary``) for the history."""
+             summary: str | None = None, status: str = "error") -> None:
+        """End the run with an error: say why, keep it (or ``summary``) and ``status`` for
+        the history."""
         why = self.say(why)
         self.messages.append(("error", why))
-        self.code = code
+        self.code, self.status = code, status
         if record:  # else the row is written already
             record["summary_json"] = json.dumps({"error": summary or why})
 
@@ -175,15 +178,18 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
     ``words``: a setting's field -> the words that name it in the night's messages (a
     command: its option).
 
-    SIGINT and SIGTERM end the night as a failure (exit 130, 143) that is recorded like
-    any other; they wait while the row is written and the work folder removed, so a
-    signal never leaves half of either. An OS error (a full disk, no permission, a
+    SIGINT, SIGTERM and the other signals that end a process (``errors.ENDING_SIGNALS``,
+    once the command has turned them into :class:`~enctools.errors.Interrupted`) end the
+    night as a failure (exit 128 + the signal's number) recorded with the status
+    ``interrupted``; they wait while the row is written and the work folder removed, so
+    a signal never leaves half of either. An OS error (a full disk, no permission, a
     read-only file system) is one message naming the file, exit 2.
     """
     night = Night(words=words)
     record: dict[str, Any] = {"run_id": "", "rig": s.rig, "tolerance": s.tolerance,
                               "campaign": s.campaign.text if s.campaign else ""}
     work: Path | None = None
+    lock: int | None = None
     try:
         with signals_held():  # a signal inside an import would leave numpy unusable for the row
             import pyarrow.parquet  # noqa: F401 - what append_run needs, imported whole
@@ -191,22 +197,25 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
             from enctools.report.history import new_run_id
 
             record["run_id"] = new_run_id()
-            work = _work_folder(s)
+            work, lock = _work_folder(s)
         _recheck(s, work, record, night)
-    except EncError as exc:  # SIGTERM too (Interrupted, exit 143)
+    except Interrupted as exc:  # SIGTERM (exit 143), SIGHUP (129)...
+        night.fail(exc.template, exc.exit_code, record, status="interrupted")
+    except EncError as exc:
         night.fail(exc.template, exc.exit_code, record)
     except KeyboardInterrupt:
-        night.fail("interrupted", 130, record)
+        night.fail("interrupted", 130, record, status="interrupted")
     except OSError as exc:  # a folder that cannot be made, a full disk: one line, exit 2
         night.fail(os_message(exc), 2, record)
     finally:  # a run that failed early is recorded too
         with signals_held():
             if record:
-                record |= {"status": night.status if night.code in (0, 1) else "error",
-                           "exit_code": night.code}
+                record |= {"status": night.status, "exit_code": night.code}
                 _record_row(s, record, night)
             if work is not None and not s.keep:
                 shutil.rmtree(work, ignore_errors=True)
+            if lock is not None:
+                os.close(lock)
     return night
 
 
@@ -239,52 +248,176 @@ def _record_row(s: Settings, record: dict[str, Any], night: Night) -> bool:
 
 
 WORK_PREFIX = "enc-nightly-"
+#: the lock file in a night's folder: held (flock) by the night while it runs
+WORK_LOCK = ".enc-nightly.lock"
 
 
-def _work_folder(s: Settings) -> Path:
+def _work_folder(s: Settings) -> tuple[Path, int | None]:
     """The campaign's folder: ``keep``, or a new temporary folder named after this
-    process (``enc-nightly-PID@HOST-RANDOM``), once those of killed runs are removed."""
+    process (``enc-nightly-PID@HOST-RANDOM``) in :func:`temporary_root`, once those of
+    killed runs are removed; with the descriptor of its lock, held until it is closed
+    (None for ``keep``)."""
     if s.keep:
         work = Path(s.keep)
         work.mkdir(parents=True, exist_ok=True)
-        return work
+        return work, None
     from enctools.data.files import writer_tag
 
-    remove_stale_work_folders()
-    return Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{writer_tag()}-"))
+    root = temporary_root()
+    remove_stale_work_folders(root)
+    work = Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{writer_tag()}-", dir=root))
+    try:
+        return work, _hold_lock(work)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+
+
+def _hold_lock(work: Path) -> int:
+    """Take the lock of the folder ``work`` (:data:`WORK_LOCK`, ``PID@HOST`` in it): made
+    under another name, locked, then renamed, so that no lock file is ever seen unheld
+    while its night runs. The kernel lets it go when the process ends, ``kill -9`` too."""
+    import fcntl
+
+    from enctools.data.files import writer_tag
+
+    new = work / f"{WORK_LOCK}.new"
+    fd = os.open(new, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC,
+                 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with contextlib.suppress(OSError):  # for whoever looks; a full disk leaves it empty
+            os.write(fd, f"{writer_tag()}\n".encode())
+        os.rename(new, work / WORK_LOCK)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def temporary_root() -> str:
+    """The folder the campaign's folder is made in: ``$TMPDIR`` (or ``$TEMP``, ``$TMP``) as
+    set, else /tmp; never another in its place. (``tempfile.gettempdir()`` takes the next
+    of /tmp, /var/tmp and the current folder when the one set cannot be written: a night
+    whose TMPDIR is full or missing ran elsewhere and was recorded ok.)"""
+    for name in ("TMPDIR", "TEMP", "TMP"):
+        folder = os.environ.get(name)
+        if folder:
+            return folder
+    return "/tmp"
 
 
 def remove_stale_work_folders(folder: str | None = None) -> list[str]:
     """Remove the temporary folders of nightly runs killed without a chance to clean up
-    (``kill -9``): those of this user whose process no longer runs on this host."""
-    from enctools.data.files import process_gone
+    (``kill -9``, a power cut): those of this user and host whose night no longer runs
+    (:func:`_night_over`)."""
+    from enctools.data.files import writer_tag
 
     pattern = re.compile(rf"{WORK_PREFIX}(\d+)@([A-Za-z0-9._-]+)-[A-Za-z0-9_]+")
+    host = writer_tag().split("@", 1)[1]
     removed: list[str] = []
     try:
-        entries = list(os.scandir(folder or tempfile.gettempdir()))
+        entries = list(os.scandir(folder or temporary_root()))
     except OSError:
         return removed
     for entry in entries:
         m = pattern.fullmatch(entry.name)
         try:
-            if m is None or not entry.is_dir(follow_symlinks=False) \
+            if m is None or m.group(2) != host or not entry.is_dir(follow_symlinks=False) \
                     or entry.stat(follow_symlinks=False).st_uid != os.geteuid() \
-                    or not process_gone(int(m.group(1)), m.group(2)):
+                    or not _night_over(entry.path, int(m.group(1)), host):
                 continue
         except OSError:
             continue
+        stop_left_campaign(entry.path)
         shutil.rmtree(entry.path, ignore_errors=True)
         removed.append(entry.path)
     return removed
 
 
+def process_start(pid: int) -> str | None:
+    """When process ``pid`` started (clock ticks since boot, /proc/PID/stat), None when
+    there is no such process or no /proc: with the id, who a process is (an id is
+    reused, not both)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    fields = stat[stat.rfind(")") + 2:].split()  # after the command's name, which may hold spaces
+    return fields[19] if len(fields) > 19 else None
+
+
+def record_campaign(lock: Path, pgid: int) -> None:
+    """Add the campaign's process group to the night's lock file ``lock``: its id and its
+    leader's start, for :func:`stop_left_campaign` after a ``kill -9`` of the night."""
+    start = process_start(pgid)
+    if start is not None:
+        with contextlib.suppress(OSError), open(lock, "a", encoding="ascii") as f:
+            f.write(f"campaign {pgid} {start}\n")
+
+
+def stop_left_campaign(folder: str, grace_s: float = 5.0) -> None:
+    """Stop the campaign a killed night left running (its lock file says which group),
+    when the group's leader is still that process (same id, same start): SIGTERM, then
+    SIGKILL after ``grace_s`` [s]. A group whose leader has gone is left alone (its id
+    can no longer be told from another's)."""
+    import signal
+    import time
+
+    try:
+        lines = Path(folder, WORK_LOCK).read_text(encoding="ascii").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return
+    for line in lines:
+        words = line.split()
+        if len(words) != 3 or words[0] != "campaign" or not words[1].isdigit() \
+                or int(words[1]) <= 1 or process_start(int(words[1])) != words[2]:
+            continue
+        pgid = int(words[1])
+        with contextlib.suppress(OSError):
+            os.killpg(pgid, signal.SIGTERM)
+            deadline = time.monotonic() + grace_s
+            while time.monotonic() < deadline and process_start(pgid) == words[2]:
+                time.sleep(0.05)
+            os.killpg(pgid, signal.SIGKILL)
+
+
+def _night_over(path: str, pid: int, host: str) -> bool:
+    """Whether the night of the folder ``path`` (made by process ``pid`` of ``host``) is
+    over: its lock is free, whatever process now has that id (a reused one, another pid
+    namespace's). A folder without its lock (made by an older version, or killed before
+    the lock was in place) or on a file system without locks: over once no process has
+    ``pid`` on this host."""
+    import fcntl
+
+    from enctools.data.files import process_gone
+
+    try:
+        fd = os.open(os.path.join(path, WORK_LOCK), os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except FileNotFoundError:
+        return process_gone(pid, host)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:  # held: its night runs
+        return False
+    except OSError:
+        return process_gone(pid, host)
+    finally:
+        os.close(fd)
+    return True
+
+
 @contextlib.contextmanager
 def signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM until the block is done, then act on the first one held
-    as its handler would have (from the main thread; elsewhere nothing is held)."""
+    """Hold SIGINT and the signals that end a process (``errors.ENDING_SIGNALS``: SIGTERM,
+    SIGHUP...) until the block is done, then act on the first one held as its handler
+    would have (from the main thread; elsewhere nothing is held)."""
     import signal
     import threading
+
+    from enctools.errors import ENDING_SIGNALS
 
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -294,7 +427,8 @@ def signals_held() -> Iterator[None]:
     def hold(signum: int, frame: Any) -> None:
         held.append(signum)
 
-    before = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+    before = {sig: signal.signal(sig, hold)
+              for sig in (signal.SIGINT, *(getattr(signal, name) for name in ENDING_SIGNALS))}
     try:
         yield
     finally:
@@ -356,7 +490,8 @@ def _run_campaign(s: Settings, work: Path, record: dict[str, Any], night: Night)
     except Interrupted:
         raise
     except CampaignFailed as exc:
-        night.fail(exc.template, exc.exit_code if exc.exit_code in (1, 3) else 2, record)
+        night.fail(exc.template, exc.exit_code if exc.exit_code in (1, 3) else 2, record,
+                   status=exc.status)
         return None
     except EncError as exc:  # the library's, in this process
         code = exc.exit_code

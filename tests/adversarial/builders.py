@@ -244,6 +244,20 @@ def unmount_all(folder: Path) -> None:
         subprocess.run(["umount", "-l", p], capture_output=True, check=False)
 
 
+def nightly_folder(folder: Path, base: Path, pid: int, to: str = "tmp", lock: bool = True,
+                   name: str = "k9x") -> None:
+    """What a killed enc-nightly leaves in its TMPDIR ``to``: ``enc-nightly-PID@HOST-NAME``
+    with a result in it, and its lock file (unheld) unless ``lock`` is false."""
+    from enctools.data.files import writer_tag
+
+    host = writer_tag().split("@", 1)[1]
+    d = folder / to / f"enc-nightly-{pid}@{host}-{name}"
+    d.mkdir(parents=True)
+    (d / "result.parquet").write_bytes(b"PAR1 partial")
+    if lock:
+        (d / ".enc-nightly.lock").write_text(f"{pid}@{host}\n")
+
+
 # ------------------------------------------------------------------ streams
 
 def _read(path: Path) -> Any:
@@ -518,7 +532,7 @@ BUILDERS: dict[str, Callable[..., None]] = {
                             nasty_column, set_values, h5_claims_rows, many_rows, rig,
                             deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar,
                             full_disk, concatenated, extreme_value, null_column,
-                            duplicate_column)
+                            duplicate_column, nightly_folder)
 }
 
 

@@ -22,7 +22,7 @@ CASE_KEYS: dict[str, type | tuple[type, ...]] = {
     "env": dict, "exit": (int, list), "files": list, "absent": list, "unchanged": list,
     "readable": list, "stderr": str, "stdout_lacks": list, "file_lacks": list,
     "signal": dict, "timeout": (int, float), "pending": str, "error_cmd": str,
-    "why": str, "limits": dict,
+    "why": str, "limits": dict, "check": str,
 }
 READER_KEYS = {"name", "argv", "valid", "other_kind", "column", "stdin", "pending", "outputs",
                "setup"}
@@ -53,6 +53,7 @@ class Case:
     timeout: float = 10.0
     pending: str | None = None
     error_cmd: str | None = None
+    check: str | None = None
     why: str = ""
     source: str = ""
     matrix: bool = False

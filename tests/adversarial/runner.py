@@ -198,7 +198,7 @@ def digests(folder: Path, names: list[str]) -> dict[str, str]:
 # ------------------------------------------------------------------ the checks
 
 def problems(case: Case, r: Result, folder: Path, before: dict[str, str],
-             kept: dict[str, str]) -> list[str]:
+             kept: dict[str, str], base: Path | None = None) -> list[str]:
     """What the case promised and the run did not do (empty: it passed)."""
     err = r.stderr.decode("utf-8", "replace")
     bad = []
@@ -218,6 +218,8 @@ def problems(case: Case, r: Result, folder: Path, before: dict[str, str],
     if case.stderr and not re.search(case.stderr, err):
         bad.append(f"stderr does not match {case.stderr!r}")
     bad += _file_problems(case, r, folder, before, kept)
+    if case.check:
+        bad += _check(case, folder, base)
     for s in case.stdout_lacks:
         if s.encode() in r.stdout or s.encode() in r.stderr:
             bad.append(f"the output holds {s!r}")
@@ -248,6 +250,23 @@ def _file_problems(case: Case, r: Result, folder: Path, before: dict[str, str],
         if p.exists() and re.search(rule["regex"], p.read_text("utf-8", "replace"), re.M):
             bad.append(f"{rule['file']} holds a line matching {rule['regex']!r}")
     return bad
+
+
+def _check(case: Case, folder: Path, base: Path | None) -> list[str]:
+    """The row's ``check``, a bash command run in the folder right after the case: what
+    the command left (a process it should have stopped, a file's mode, the history's
+    status) told by its exit status."""
+    assert case.check is not None
+    script = _subs(case.check, folder, base or folder)
+    try:
+        r = subprocess.run(["/bin/bash", "-o", "pipefail", "-c", script], cwd=folder,
+                           env=_env(case), capture_output=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        return [f"check {case.check!r} timed out"]
+    if r.returncode != 0:
+        said = (r.stdout + r.stderr).decode("utf-8", "replace").strip()[-300:]
+        return [f"check {case.check!r} failed (exit {r.returncode}){': ' + said if said else ''}"]
+    return []
 
 
 def _exists(folder: Path, name: str) -> bool:

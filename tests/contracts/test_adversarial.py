@@ -68,7 +68,7 @@ def _run_and_check(case: catalogue.Case, base: Path, folder: Path, record_proper
     record_property("adv_peak_mb", round(r.peak_mb, 1))
     record_property("adv_seconds", round(r.seconds, 2))
     record_property("adv_cpu_s", round(r.cpu_s, 2))
-    bad = runner.problems(case, r, folder, before, kept)
+    bad = runner.problems(case, r, folder, before, kept, base)
     assert not bad, (f"{case.id} ({case.source}): " + "; ".join(bad)
                      + f"\nexit {r.code}, {r.seconds:.1f} s, {r.peak_mb:.0f} MB"
                      + f"\nstderr: {r.stderr.decode('utf-8', 'replace')[-2000:]}")

@@ -74,3 +74,48 @@ def test_output_folder_missing(tmp_path):
 
 def test_cannot_create_in_folder():
     _fails_cleanly(acquire(0.01, "/proc/x.parquet"), "cannot create a file in /proc")
+
+
+@pytest.mark.parametrize("mask", [0o077, 0o022, 0o027])
+def test_every_output_has_the_mode_the_umask_gives(tmp_path, mask):
+    """Streams of each format, a CSV's sidecar, a file written whole, a group's files and
+    the nightly history's: 0o666 less the umask, as ``open`` gives (before: the history's
+    files were 0o644 under umask 077; each writer set a mode of its own)."""
+    import os
+    import stat
+
+    from enctools.data import files, streams
+    from enctools.data.csvio import sidecar_path
+    from enctools.report.history import append_run
+
+    header, table = _a_points_stream(tmp_path)
+    before = os.umask(mask)
+    try:
+        names = [tmp_path / f"p{ext}" for ext in (".parquet", ".h5", ".arrow", ".csv")]
+        for name in names:
+            streams.write_table(str(name), header, table)
+        names.append(Path(sidecar_path(names[-1])))
+        files.write_atomic(tmp_path / "whole.txt", b"x", durable=True)
+        with files.OutputGroup() as group:
+            group.write(tmp_path / "a.txt", b"a")
+            streams.write_table(str(tmp_path / "g.parquet"), header, table, group=group)
+        names += [tmp_path / "whole.txt", tmp_path / "a.txt", tmp_path / "g.parquet",
+                  append_run(tmp_path / "hist", {"rig": "r", "status": "ok"})]
+    finally:
+        os.umask(before)
+    modes = {p.name: oct(stat.S_IMODE(p.stat().st_mode)) for p in names}
+    assert modes == dict.fromkeys(modes, oct(0o666 & ~mask))
+    assert not list(tmp_path.rglob(".*.tmp"))
+
+
+def _a_points_stream(folder: Path):
+    """A small points stream (header, table): seed 001's table 1 through enc points."""
+    import pyarrow as pa
+
+    from enctools.data import streams
+
+    src = folder / "src.parquet"
+    data = Path(__file__).parents[2] / "data" / "seed001_table1.csv"
+    assert run_in_process(f"enc points {data} -o {src}").returncode == 0
+    with streams.open_input(str(src)) as s:
+        return s.header, pa.Table.from_batches(list(s.batches()), s.header.arrow_schema())

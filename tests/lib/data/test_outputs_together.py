@@ -52,13 +52,13 @@ def _full_disk_at(monkeypatch: pytest.MonkeyPatch, failing: Path) -> None:
             raise self._write_error(ENOSPC)
         return write_batch(self, batch)
 
-    def temporary(p, data, durable, mode):
+    def temporary(p, data, durable):
         if str(p) == str(failing):
             def part(f):
                 f.write(b"part of it")
                 raise ENOSPC
-            return write_temporary(p, part, durable, mode)
-        return write_temporary(p, data, durable, mode)
+            return write_temporary(p, part, durable)
+        return write_temporary(p, data, durable)
 
     monkeypatch.setattr(streams.OutputStream, "write", stream_write)
     monkeypatch.setattr(files, "_write_temporary", temporary)

@@ -285,7 +285,8 @@ def test_terminated_night_is_recorded(tmp_path, enc, sig, code, why):
     assert p.returncode == code, err
     assert err.decode().strip().splitlines()[-1] == f"enc-nightly: error: {why}"
     h = read_history(hist)
-    assert h.runs == 1 and h.column("status")[0] == "error" and h.column("exit_code")[0] == code
+    assert h.runs == 1 and h.column("status")[0] == "interrupted" \
+        and h.column("exit_code")[0] == code
 
 
 def test_settings_and_drift_in_process():
@@ -366,7 +367,7 @@ def test_sigterm_at_any_point_records_the_night_or_leaves_history_unchanged(tmp_
         if h.runs == runs + 1:
             recorded += 1
             last = (h.column("status")[-1], h.column("exit_code")[-1])
-            assert last in (("error", 143), ("ok", 0)), last   # the row was being written
+            assert last in (("interrupted", 143), ("ok", 0)), last  # the row was being written
         runs = h.runs
     assert recorded >= 3   # most signals land in the night itself
 
@@ -598,7 +599,144 @@ def test_a_campaign_script_past_its_time_limit_is_stopped(tmp_path, enc):
     time.sleep(3)
     assert not mark.exists()
     h = read_history(hist)
-    assert h.runs == 1 and h.column("exit_code")[0] == 3
+    assert h.runs == 1 and h.column("exit_code")[0] == 3 and h.column("status")[0] == "timeout"
     r = nightly(hist, cal, "--campaign-timeout", "1")
     assert r.returncode == 2 and "--campaign-timeout limits a --campaign script" in \
         r.stderr.decode()
+
+
+def _group_gone(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ending", ["success", "SIGTERM", "SIGHUP", "deadline"])
+def test_no_process_of_the_campaign_outlives_the_night(tmp_path, enc, ending):
+    """A campaign that ignores SIGTERM and leaves a process of its own running, itself
+    ignoring SIGTERM and holding the campaign's stderr: whether the night succeeds, is
+    signalled or reaches --campaign-timeout, it returns within the grace (5 s) and a few
+    seconds, with its status, the night recorded, and no process of the group left."""
+    import time
+    hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
+    tmp.mkdir()
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    script = (f'trap "" TERM; echo $$ > {tmp_path}/pgid; (sleep 60) & echo $! > {tmp_path}/bg; '
+              + ('enc points "$DATA/seed001_table1.csv" -o "$OUT/result.parquet"'
+                 if ending == "success" else "sleep 60"))
+    env = dict(_nightly_env(enc, tmp), DATA=str(DATA))
+    args = ["--campaign-timeout", "1"] if ending == "deadline" else []
+    p = subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
+                          "--calibration", str(cal), *args, "--campaign", script],
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "bg").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    time.sleep(0.3)
+    start = time.monotonic()
+    if ending.startswith("SIG"):
+        p.send_signal(getattr(signal, ending))
+    _, err = p.communicate(timeout=60)
+    took = time.monotonic() - start
+    pgid, bg = (int((tmp_path / n).read_text()) for n in ("pgid", "bg"))
+    assert _group_gone(pgid), ending
+    with pytest.raises(ProcessLookupError):
+        os.kill(bg, 0)
+    code, status = {"success": (0, "ok"), "SIGTERM": (143, "interrupted"),
+                    "SIGHUP": (129, "interrupted"), "deadline": (3, "timeout")}[ending]
+    assert p.returncode == code, err
+    assert took < 10, took   # the grace of 5 s, and the night's own work
+    h = read_history(hist)
+    assert h.runs == 2 and (h.column("status")[-1], h.column("exit_code")[-1]) == (status, code)
+    assert list(tmp.iterdir()) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("campaign", ["default", "script"])
+def test_a_full_tmpdir_is_a_failed_night_with_its_reason(tmp_path, full_tmpfs, enc, campaign):
+    """TMPDIR on a full disk: the campaign's outputs cannot be written there, and the night
+    is recorded as failed with the reason, exit 2 (before: Python's tempfile took /tmp in
+    its place and the night was recorded ok)."""
+    import json
+    hist, cal = tmp_path / "hist", tmp_path / "cal.parquet"
+    rig = "ciomp-23bit"
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+    args = [] if campaign == "default" else ["--campaign", csv_campaign(1)]
+    r = subprocess.run([NIGHTLY, "--rig", rig, "--history", str(hist), "--calibration",
+                        str(cal), *args], env=_nightly_env(enc, full_tmpfs),
+                       capture_output=True)
+    line = one_error_line(r, 2, "enc-nightly")
+    assert "No space left on device" in line and str(full_tmpfs) in line, line
+    assert b"ok" not in r.stdout
+    h = read_history(hist)
+    assert h.runs == 2 and h.column("status")[-1] == "error"
+    assert "No space left on device" in json.loads(h.column("summary_json")[-1])["error"]
+    assert sorted(f.name for f in full_tmpfs.iterdir()) == ["fill", "h"]
+
+
+def test_a_folder_is_stale_once_its_lock_is_free(tmp_path):
+    """The lock decides, whatever process has the id in the folder's name: free (a reused
+    id, pid 1 here) -> removed; held (a night of another pid namespace, no such id here)
+    -> kept. Without a lock file, the id decides (an older version's folder)."""
+    import fcntl
+
+    from enctools.data.files import writer_tag
+    from enctools.report.nightly import WORK_LOCK, remove_stale_work_folders
+    host = writer_tag().split("@", 1)[1]
+    dead = 2**22 + 7
+    names = {"reused": f"enc-nightly-1@{host}-abc", "held": f"enc-nightly-{dead}@{host}-abc",
+             "old-dead": f"enc-nightly-{dead}@{host}-def", "old-live": f"enc-nightly-1@{host}-def"}
+    for key, n in names.items():
+        (tmp_path / n).mkdir()
+        if not key.startswith("old"):
+            (tmp_path / n / WORK_LOCK).write_text("x")
+    fd = os.open(tmp_path / names["held"] / WORK_LOCK, os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    try:
+        removed = remove_stale_work_folders(str(tmp_path))
+    finally:
+        os.close(fd)
+    assert sorted(removed) == sorted(str(tmp_path / names[k]) for k in ("reused", "old-dead"))
+    assert sorted(f.name for f in tmp_path.iterdir()) == sorted([names["held"],
+                                                                 names["old-live"]])
+
+
+@pytest.mark.slow
+def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
+    """kill -9 of enc-nightly alone: the next night stops the campaign it left running
+    and removes its folder; a night started meanwhile in the same TMPDIR is left alone
+    and ends ok."""
+    import time
+    hist, cal, tmp = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "tmp"
+    tmp.mkdir()
+    env = _nightly_env(enc, tmp)
+    assert nightly(hist, cal, "--init", campaign=csv_campaign(1)).returncode == 0
+
+    def night(campaign: str) -> subprocess.Popen:
+        return subprocess.Popen([NIGHTLY, "--rig", "r", "--history", str(hist),
+                                 "--calibration", str(cal), "--campaign", campaign], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    killed = night(f'echo $$ > {tmp_path}/pgid; touch "$OUT/started"; exec sleep 60')
+    deadline = time.monotonic() + 60
+    while not list(tmp.glob("*/started")) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    killed.kill()
+    killed.wait(timeout=30)
+    left = [f.name for f in tmp.iterdir()]
+    slow = night(f'touch "$OUT/slow"; sleep 2; {csv_campaign(1)}')
+    while len(list(tmp.glob("*/slow"))) < 1 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    r = subprocess.run([NIGHTLY, "--rig", "r", "--history", str(hist), "--calibration",
+                        str(cal), "--campaign", csv_campaign(1)], env=env, capture_output=True)
+    assert r.returncode == 0, r.stderr
+    assert not set(left) & {f.name for f in tmp.iterdir()}   # the killed night's: removed
+    pgid = int((tmp_path / "pgid").read_text())
+    while Path(f"/proc/{pgid}").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)                                      # reaped by process 1
+    assert _group_gone(pgid)                                  # and its campaign stopped
+    assert list(tmp.glob("*/slow"))                           # the running night's: kept
+    assert slow.wait(timeout=60) == 0
+    assert list(tmp.iterdir()) == []
