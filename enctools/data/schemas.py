@@ -150,24 +150,24 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
 
 
 #: the names and numbers of a stream's metadata (enc-streams(5)), as paths of keys ("*":
-#: every item of an array), and the field metadata that names a thing
+#: every item of an array), and the field metadata that names an encoder or a head (a
+#: column's own name is text a person may give, --name: shown escaped, not refused)
 _META_IDENTIFIERS = (("rig", "name"), ("rig", "encoders", "*", "name"),
                      ("rig", "encoders", "*", "model"),
                      ("rig", "encoders", "*", "heads", "*", "name"),
                      ("rig", "encoders", "*", "measure_heads", "*"),
                      ("rig", "probes", "*", "name"), ("rig", "autocollimator", "name"),
                      ("rig", "motion", "feedback"), ("polygon_certificate", "certificate"))
-_FIELD_IDENTIFIERS = ("encoder", "head", "of")
+_FIELD_IDENTIFIERS = ("encoder", "head")
 
 
 def check_identifiers(schema: pa.Schema, meta: dict[str, Any], source: str) -> None:
-    """The column names, the names in field metadata and the metadata's names and numbers
+    """The names in field metadata and the metadata's names and numbers
     (:data:`_META_IDENTIFIERS`) hold no character that reads other than it is
     (:func:`enctools.data.text.check_identifier`): a DataError naming the one found."""
     from enctools.data.text import check_identifier
 
-    for i, f in enumerate(schema):
-        check_identifier(f.name, f"{source}: the name of column {i + 1}")
+    for f in schema:
         fm = field_meta(f)
         for key in _FIELD_IDENTIFIERS:
             if key in fm:

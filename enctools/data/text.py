@@ -35,14 +35,19 @@ def _escape(code: int) -> str:
     return _NAMED.get(ch, f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}")
 
 
+#: the surrogates: no characters; U+DC80-U+DCFF are the bytes of a name that is not
+#: UTF-8 (a Latin-1 file name), as Python decodes it (PEP 383), shown as those bytes
+SURROGATES = range(0xD800, 0xE000)
 # every deceptive character -> its escape (the terminal's); the documents keep \n, \t
-_TABLE = {c: _escape(c) for c in DECEPTIVE}
+_TABLE = {c: _escape(c) for c in DECEPTIVE} | {
+    c: f"\\x{c - 0xDC00:02x}" if 0xDC80 <= c <= 0xDCFF else f"\\u{c:04x}" for c in SURROGATES}
 _DOCUMENT = {c: e for c, e in _TABLE.items() if chr(c) not in "\n\t"}
 
 
 def printable(s: str) -> str:
     """``s`` with every deceptive character (newline too) replaced by its escape
-    (``\\x1b``, ``\\u202e``).
+    (``\\x1b``, ``\\u202e``), and a byte of a name that is not UTF-8 as that byte
+    (``\\xe9``).
 
     For one line of text made of values read from a file (rig descriptions, history
     lines, column names, units) on a terminal: nothing in it can move the cursor, clear
@@ -76,8 +81,8 @@ def escaped_all(value: Any) -> Any:
 
 
 def first_deceptive(s: str) -> str | None:
-    """The first deceptive character of ``s``, or None."""
-    return next((ch for ch in s if ord(ch) in DECEPTIVE), None)
+    """The first deceptive character (or surrogate) of ``s``, or None."""
+    return next((ch for ch in s if ord(ch) in DECEPTIVE or ord(ch) in SURROGATES), None)
 
 
 def character_name(ch: str) -> str:
@@ -85,7 +90,10 @@ def character_name(ch: str) -> str:
     as ``U+001B (a control character)``."""
     import unicodedata
 
-    return f"U+{ord(ch):04X} ({unicodedata.name(ch, 'a control character')})"
+    code = ord(ch)
+    what = ("a byte that is not UTF-8" if 0xDC80 <= code <= 0xDCFF else "a surrogate"
+            if code in SURROGATES else unicodedata.name(ch, "a control character"))
+    return f"U+{code:04X} ({what})"
 
 
 def check_identifier(value: str, where: str) -> str:

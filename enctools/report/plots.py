@@ -40,6 +40,7 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
+    _escape_texts(fig)
     _fit_margins(fig)
     fig.set_dpi(dpi)
     for ax in fig.axes:
@@ -56,6 +57,20 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
     buf = io.BytesIO()
     indexed.save(buf, "png")
     return buf.getvalue()
+
+
+def _escape_texts(fig: Figure) -> None:
+    """Every text of the figure (titles, labels, legends: file and curve names) shown as
+    the documents show text: controls, line separators, bidi and zero-width characters
+    and the bytes of a name that is not UTF-8 escaped (:func:`enctools.data.text.escaped`)."""
+    from matplotlib.text import Text
+
+    from enctools.data.text import escaped
+
+    for text in fig.findobj(Text):
+        shown = escaped(text.get_text())
+        if shown != text.get_text():
+            text.set_text(shown)
 
 
 def _legend_width_in(ax: Any) -> float:
