@@ -247,7 +247,11 @@ def exit_now(status: int) -> NoReturn:
     """End the process with ``status`` once stdout and stderr are flushed, without the
     interpreter's teardown: every output is closed when a command returns, and tearing
     down numpy, pyarrow and the rest module by module costs a short command a third of
-    its CPU."""
+    its CPU. The functions registered with :mod:`atexit` run (a private folder of
+    matplotlib's removed, enctools.report.plots.matplotlib_ready)."""
+    import atexit
+
+    atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:
             if stream is not None:
