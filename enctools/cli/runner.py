@@ -60,11 +60,16 @@ def _fields_formatter() -> type[Any]:
 
     class Fields(logging.Formatter):
         """A log line whose settings, named by their fields between backticks as the
-        library names them in errors, are shown as the command's options."""
+        library names them in errors, are shown as the command's options, and whose text
+        from files (names, descriptions) is shown escaped, never obeyed
+        (:func:`enctools.data.text.printable`, line by line)."""
 
         def format(self, record: logging.LogRecord) -> str:
+            from enctools.data.text import printable
+
             text = super().format(record)
-            return _text(EncError(text)) if "`" in text else text
+            text = _text(EncError(text)) if "`" in text else text
+            return "\n".join(printable(line) for line in text.split("\n"))
 
     return Fields
 

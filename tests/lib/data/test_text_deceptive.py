@@ -119,3 +119,12 @@ def test_every_summary_line_is_escaped():
                         "note": "a\u2028b\x85c"})
     assert not any(ch in line for line in lines for ch in SAMPLES), lines
     assert "Tab\\u202ele" in lines[0] and lines[1].startswith("H\\u2066:")
+
+
+def test_every_log_line_is_escaped(capsys):
+    from enctools.cli import runner
+
+    runner.setup_logging()
+    runner.log_warning("curve H1\u202e: fake\u2028line\x1b[2J")
+    err = capsys.readouterr().err
+    assert err.endswith(": WARNING: curve H1\\u202e: fake\\u2028line\\x1b[2J\n"), err
