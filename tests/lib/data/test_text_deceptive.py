@@ -128,3 +128,16 @@ def test_every_log_line_is_escaped(capsys):
     runner.log_warning("curve H1\u202e: fake\u2028line\x1b[2J")
     err = capsys.readouterr().err
     assert err.endswith(": WARNING: curve H1\\u202e: fake\\u2028line\\x1b[2J\n"), err
+
+
+def test_a_polygon_certificate_number_is_an_identifier(tmp_path):
+    from enctools.data.polygon import read_certificate
+
+    faces = "".join(f"{i},{0.1 if i % 2 == 0 else -0.1},0.04\n" for i in range(24))
+    path = tmp_path / "cert.csv"
+    path.write_text(f"# certificate: PTB 0000 2025\n# k: 2\nface,error,U\n{faces}")
+    assert read_certificate(str(path)).number == "PTB 0000 2025"
+    path.write_text(f"# certificate: PTB\u2066 2025\n# k: 2\nface,error,U\n{faces}")
+    with pytest.raises(DataError, match=r"cert.csv: line 1: certificate holds the character "
+                                        r"U\+2066 \(LEFT-TO-RIGHT ISOLATE\)"):
+        read_certificate(str(path))
