@@ -61,3 +61,15 @@ def test_a_report_of_an_input_named_in_latin1(tmp_path):
     text = subprocess.run(["pdftotext", os.fsencode(tmp_path / f"r{E9}.pdf"), "-"],
                           capture_output=True, check=True).stdout.decode()
     assert "\\xe9.parquet" in page and "\\xe9.parquet" in text
+
+
+
+def test_a_text_option_in_latin1_is_one_line_naming_the_byte(tmp_path):
+    """A title is text, not a file name: its byte is named, nothing is written (was
+    written into the documents; a --name became a column's, an internal error)."""
+    _ok(["enc", "points", str(DATA / "seed001_table1.csv"), "-q", "-o", "p.parquet"], tmp_path)
+    r = run(["enc", "report", "p.parquet", "--title", f"T{E9}", "--html", "r.html"],
+            cwd=tmp_path)
+    line = one_error_line(r, 2, cmd="enc report")
+    assert "'--title': 'T\\xe9' holds the byte \\xe9, which is not UTF-8 text" in line
+    assert not (tmp_path / "r.html").exists()
