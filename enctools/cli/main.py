@@ -74,6 +74,9 @@ class LazyGroup(click.Group):
         module = importlib.import_module(f"enctools.cli.{COMMANDS[name][0]}")
         command: click.Command = module.command
         set_envvars(command, name)
+        from enctools.cli.options import text_options
+
+        text_options(command)
         runner.set_command(name, command)
         return command
 

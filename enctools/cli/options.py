@@ -20,6 +20,38 @@ from enctools.units import DISPLAY_UNITS
 FORMATS = ("arrows", "parquet", "arrow", "hdf5", "csv", "tsv")
 
 
+class Text(click.types.StringParamType):
+    """The value of a text option (a name, a title: no file name), refused when it holds a
+    byte that is not UTF-8 (an argument given in Latin-1): the byte is named, escaped
+    (``\\xe9``). A file name (``click.Path``) takes any bytes the file system does."""
+
+    name = "text"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        value = super().convert(value, param, ctx)
+        if isinstance(value, str) and any("\udc80" <= ch <= "\udcff" for ch in value):
+            from enctools.data.text import printable
+
+            bad = next(ch for ch in value if "\udc80" <= ch <= "\udcff")
+            self.fail(f"'{printable(value)}' holds the byte {printable(bad)}, which is not "
+                      "UTF-8 text", param, ctx)
+        return value
+
+
+def text_options(command: click.Command) -> None:
+    """Every text option and argument of ``command`` (and of its subcommands) a
+    :class:`Text`: a string that is no file name (not ``click.Path``, no FILE, PATH or
+    DIR in its metavar)."""
+    for sub in getattr(command, "commands", {}).values():
+        text_options(sub)
+    for p in command.params:
+        metavar = getattr(p, "metavar", None) or ""
+        if type(p.type) is click.types.StringParamType and not any(
+                word in metavar for word in ("FILE", "PATH", "DIR")):
+            p.type = Text()
+
+
 def _positive(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
     if value is not None and not value > 0:
         msg = f"must be > 0, not {value}"

@@ -69,11 +69,16 @@ def _fields_formatter() -> type[Any]:
 
     class Fields(logging.Formatter):
         """A log line whose settings, named by their fields between backticks as the
-        library names them in errors, are shown as the command's options."""
+        library names them in errors, are shown as the command's options, and whose text
+        from files (names, descriptions) is shown escaped, never obeyed
+        (:func:`enctools.data.text.printable`, line by line)."""
 
         def format(self, record: logging.LogRecord) -> str:
+            from enctools.data.text import printable
+
             text = super().format(record)
-            return _text(EncError(text)) if "`" in text else text
+            text = _text(EncError(text)) if "`" in text else text
+            return "\n".join(printable(line) for line in text.split("\n"))
 
     return Fields
 
@@ -256,7 +261,11 @@ def exit_now(status: int) -> NoReturn:
     """End the process with ``status`` once stdout and stderr are flushed, without the
     interpreter's teardown: every output is closed when a command returns, and tearing
     down numpy, pyarrow and the rest module by module costs a short command a third of
-    its CPU."""
+    its CPU. The functions registered with :mod:`atexit` run (a private folder of
+    matplotlib's removed, enctools.report.plots.matplotlib_ready)."""
+    import atexit
+
+    atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:
             if stream is not None:

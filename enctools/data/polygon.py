@@ -30,7 +30,7 @@ from enctools.data import limits
 from enctools.data.files import read_bytes
 from enctools.data.riglimits import RANGES
 from enctools.data.tables import ALIASES, RawTable, cell_unit, parse_text, title_unit
-from enctools.data.text import printable
+from enctools.data.text import check_identifier, printable
 from enctools.errors import DataError
 from enctools.units import ANGLE_UNITS, factor
 
@@ -159,6 +159,8 @@ def _keys(text: str, path: str) -> dict[str, str]:
         if m is None or m.group(1).lower() not in KEYS:
             continue
         key, value = m.group(1).lower(), printable(m.group(2))
+        if key == "certificate":   # a number: refused, not escaped (enctools.data.text)
+            check_identifier(m.group(2), f"{path}: line {n}: certificate")
         if key in out and out[key] != value:
             msg = f"{path}: line {n}: {key} is stated twice ({out[key]!r}, {value!r})"
             raise DataError(msg)

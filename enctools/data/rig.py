@@ -21,6 +21,7 @@ from typing import Any
 
 from enctools.data.files import read_small_text
 from enctools.data.riglimits import MAX_BYTES, MAX_DEPTH, check_value, depth
+from enctools.data.text import check_identifier
 from enctools.data.uncertainty import declarations
 from enctools.errors import DataError
 from enctools.units import DEG
@@ -68,6 +69,9 @@ _SPEC: dict[str, dict[str, tuple[type, ...]]] = {
                         "overshoot_deg": (int, float)},
     "backend": {"kind": (str,), "seed": (int,)},
 }
+#: the keys whose text is free (shown escaped, enctools.data.text); every other string
+#: of the tables above names a thing and holds no control, bidi or zero-width character
+FREE_TEXT = frozenset({"description"})
 # Tables whose contents belong to a backend and are checked by it, not here.
 _OPEN_TABLES = {"backend", "encoder.head.backend", "probe.backend", "autocollimator.backend",
                 "motion.backend"}
@@ -223,7 +227,9 @@ def _check(table: dict[str, Any], path: str, source: str, where: str) -> None:
             msg = f"rig file {source}: {loc} must be {want}, not {value!r}"
             raise DataError(msg)
         sub = f"{path}.{key}" if path else key
-        check_value(sub, value, source, f"{where}.{key}" if where else key)
+        loc = f"{where}.{key}" if where else key
+        check_value(sub, value, source, loc)
+        _check_names(key, value, source, loc)
         if sub in _OPEN_TABLES:
             continue
         if isinstance(value, dict) and sub in _SPEC:
@@ -234,6 +240,18 @@ def _check(table: dict[str, Any], path: str, source: str, where: str) -> None:
                     msg = f"rig file {source}: {sub} must be an array of tables ([[{sub}]])"
                     raise DataError(msg)
                 _check(item, sub, source, f"{where + '.' if where else ''}{key}[{i}]")
+
+
+def _check_names(key: str, value: Any, source: str, where: str) -> None:
+    """A name (a string, or the strings of an array of names) that reads as it is: one
+    line without control, bidi or zero-width characters (enc-rig(5), NAMES)."""
+    if key in FREE_TEXT:
+        return
+    names = value if isinstance(value, list) else [value]
+    for i, name in enumerate(names):
+        if isinstance(name, str):
+            at = f"{where}[{i}]" if isinstance(value, list) else where
+            check_identifier(name, f"rig file {source}: {at}")
 
 
 def _require(table: dict[str, Any], key: str, source: str, where: str) -> Any:

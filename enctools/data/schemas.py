@@ -125,6 +125,7 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
     if len(schema) > limits.MAX_COLUMNS:
         msg = f"{source}: {len(schema)} columns; at most {limits.MAX_COLUMNS} are read"
         raise DataError(msg)
+    check_identifiers(schema, meta, source)
     names = set(schema.names)
     if len(names) < len(schema):
         twice = next(n for n in schema.names if schema.names.count(n) > 1)
@@ -150,6 +151,49 @@ def validate(schema: pa.Schema, meta: dict[str, Any], expect: str | tuple[str, .
             raise DataError(msg)
     _check_meta_types(meta, source)
     return kind
+
+
+#: the names and numbers of a stream's metadata (enc-streams(5)), as paths of keys ("*":
+#: every item of an array), and the field metadata that names an encoder or a head (a
+#: column's own name is text a person may give, --name: shown escaped, not refused)
+_META_IDENTIFIERS = (("rig", "name"), ("rig", "encoders", "*", "name"),
+                     ("rig", "encoders", "*", "model"),
+                     ("rig", "encoders", "*", "heads", "*", "name"),
+                     ("rig", "encoders", "*", "measure_heads", "*"),
+                     ("rig", "probes", "*", "name"), ("rig", "autocollimator", "name"),
+                     ("rig", "motion", "feedback"), ("polygon_certificate", "certificate"))
+_FIELD_IDENTIFIERS = ("encoder", "head")
+
+
+def check_identifiers(schema: pa.Schema, meta: dict[str, Any], source: str) -> None:
+    """The names in field metadata and the metadata's names and numbers
+    (:data:`_META_IDENTIFIERS`) hold no character that reads other than it is
+    (:func:`enctools.data.text.check_identifier`): a DataError naming the one found."""
+    from enctools.data.text import check_identifier
+
+    for f in schema:
+        fm = field_meta(f)
+        for key in _FIELD_IDENTIFIERS:
+            if key in fm:
+                check_identifier(fm[key], f"{source}: column {f.name!r}: field metadata {key}")
+    for path in _META_IDENTIFIERS:
+        for where, value in _at(meta, path, "metadata "):
+            if isinstance(value, str):
+                check_identifier(value, f"{source}: {where}")
+
+
+def _at(node: Any, path: tuple[str, ...], where: str) -> list[tuple[str, Any]]:
+    """The values at ``path`` in ``node``, each with where it is (``rig.encoders[0].name``)."""
+    if not path:
+        return [(where, node)]
+    key, rest = path[0], path[1:]
+    if key == "*":
+        items = node if isinstance(node, list) else []
+        return [found for i, item in enumerate(items)
+                for found in _at(item, rest, f"{where}[{i}]")]
+    if not isinstance(node, dict) or key not in node:
+        return []
+    return _at(node[key], rest, f"{where}{'' if where.endswith(' ') else '.'}{key}")
 
 
 #: metadata keys whose values are JSON objects (tables of named values) in every kind

@@ -38,6 +38,7 @@ from enctools.data.formats import EXTENSIONS, FORMATS, MAGIC, detect_format, fil
 from enctools.data.formats import ends as file_ends
 from enctools.data.formats import mismatch as format_mismatch
 from enctools.data.header import Header, header_from_arrow, with_history
+from enctools.data.native import ArrowWriter, native_file
 from enctools.data.schemas import validate
 from enctools.data.text import first_line
 from enctools.errors import DataError, EncError, OutputError, SettingsError
@@ -327,7 +328,7 @@ def _native(f: IO[bytes]) -> pa.NativeFile:
     reading a Python file object, pyarrow may leave a read pending on one of its threads
     when opening a truncated file fails, and the process aborts at exit (SIGABRT)."""
     return (pa.BufferReader(f.getvalue()) if isinstance(f, io.BytesIO)
-            else pa.OSFile(os.fsencode(f.name)))  # bytes: any name the file system takes
+            else native_file(f.name))  # any name the file system takes
 
 
 def _open_parquet(f: IO[bytes], source: str) -> InputStream:
@@ -464,13 +465,8 @@ class OutputStream:
         try:
             if self.format in csvio.FORMATS:
                 return csvio.TableWriter(target, self.header, self.format, self.unit)
-            if self.format == "arrows":
-                return pa.ipc.new_stream(target, self._schema)
-            if self.format == "arrow":
-                return pa.ipc.new_file(target, self._schema)
-            if self.format == "parquet":
-                import pyarrow.parquet as pq
-                return pq.ParquetWriter(target, self._schema)
+            if self.format in ("arrows", "arrow", "parquet"):
+                return ArrowWriter(self.format, target, self._schema)
             return h5io.TableWriter(target, self._schema)
         except OSError as exc:
             self._discard()

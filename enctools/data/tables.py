@@ -202,11 +202,13 @@ def is_plain(path: str, fmt: str) -> bool:
 def _arrow_schema(path: str, fmt: str) -> Any:
     import pyarrow as pa
 
+    from enctools.data.native import native_file  # any name the file system takes
+
     if fmt == "parquet":  # pyarrow.parquet only then: it imports the file systems and ssl
         import pyarrow.parquet as pq
 
-        return pq.read_schema(path)
-    with pa.OSFile(path) as f:
+        return pq.read_schema(native_file(path))
+    with native_file(path) as f:
         reader = pa.ipc.open_file(f) if fmt == "arrow" else pa.ipc.open_stream(f)
         return reader.schema
 
@@ -243,16 +245,20 @@ def _check_rows(path: str, rows: int) -> None:
 def _arrow_columns(path: str, fmt: str) -> dict[str, np.ndarray]:
     import pyarrow as pa
 
+    from enctools.data.native import native_file
+
     if fmt == "parquet":
         import pyarrow.parquet as pq
 
-        metadata = pq.ParquetFile(path).metadata
+        with native_file(path) as f:
+            metadata = pq.ParquetFile(f).metadata
         _check_rows(path, metadata.num_rows)
         with open(path, "rb") as raw:
             extent.check_parquet(raw, metadata, path)
-        table = pq.read_table(path, use_threads=False)
+        with native_file(path) as f:
+            table = pq.read_table(f, use_threads=False)
     else:
-        with pa.OSFile(path) as f:
+        with native_file(path) as f:
             if fmt == "arrow":
                 with open(path, "rb") as raw:
                     extent.check_arrow_file(raw, path)

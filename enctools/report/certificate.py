@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from enctools.data.files import read_small_text
+from enctools.data.text import character_name, check_identifier
 from enctools.errors import DataError
 
 #: the largest certificate file read [bytes]
@@ -50,6 +51,15 @@ SCHEMA: dict[str, dict[str, str]] = {
                   "traceability": TEXT},
     "approval": {"name": TEXT, "function": TEXT},
 }
+#: the keys that name or number a thing (a serial number, a customer, a standard's
+#: certificate): one line, refused when they hold a character that reads other than it
+#: is (enctools.data.text.check_identifier); every other text key is free text, shown
+#: with such characters escaped (enc-certificate(5), TEXT)
+IDENTIFIERS = frozenset({
+    "[certificate] number", "[laboratory] name", "[laboratory] accreditation",
+    "[customer] name", "[customer] order", "[item] manufacturer", "[item] model",
+    "[item] serial", "[calibration] operator", "[reference] name", "[reference] serial",
+    "[reference] certificate", "[approval] name", "[approval] function", "number"})
 
 
 @dataclass
@@ -144,9 +154,13 @@ def _value(value: Any, kind: str, where: str, key: str) -> Any:
         if not isinstance(value, str):
             msg = f"{where}: {key} must be text, not a {_type(value)}"
             raise DataError(msg)
-        if len(value) > MAX_TEXT or any(ord(ch) < 32 and ch != "\n" for ch in value):
+        if key in IDENTIFIERS:
+            check_identifier(value, f"{where}: {key}")
+        control = next((ch for ch in value if ord(ch) < 32 and ch != "\n"), None)
+        if len(value) > MAX_TEXT or control is not None:
+            found = f" ({character_name(control)})" if control else ""
             msg = (f"{where}: {key}: at most {MAX_TEXT} characters, no control characters "
-                   "but line breaks")
+                   f"but line breaks{found}")
             raise DataError(msg)
         return value.strip()
     if kind == DATE:

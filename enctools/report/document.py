@@ -8,7 +8,9 @@ from it (:func:`render`), so they say the same thing.
 
 Every number passes through :func:`enctools.report.display.fmt` (the unit's
 resolution; no rounding noise); internal citations of the two papers ("seed 001") are
-replaced by their reference numbers.
+replaced by their reference numbers. Every text, whatever file it comes from, is shown
+with the characters that read other than they are escaped (``\u202e``;
+:func:`enctools.data.text.escaped`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import Any
 from enctools import __version__
 from enctools.data.header import output_time
 from enctools.data.readings import rig_encoders
+from enctools.data.text import escaped_all
 from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
 from enctools.report.display import fmt, label
@@ -354,7 +357,9 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         f" — {', '.join(dict.fromkeys(rigs))}" if rigs else "")
     if cert is not None and cert.get("certificate", "title"):
         default = cert.get("certificate", "title")
-    return {  # a certificate keeps its title; --title is then its subject line
+    # every text shown as it is: what reads other than it is (a bidi control, a line
+    # separator from a file) escaped, in the HTML, the PDF and its page headers alike
+    return escaped_all({  # a certificate keeps its title; --title is then its subject line
         "title": default if cert else title or default,
         "subtitle": title if cert and title else "", "number": cert.number if cert else "",
         "made": f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
@@ -372,7 +377,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
                    for s in report.sections],
         "unit": label(unit), "papers": citations.papers(),
         "approval": _approval(cert),
-    }
+    })
 
 
 @functools.cache

@@ -33,6 +33,9 @@ _FACES = {"": "DejaVuSans.ttf", "B": "DejaVuSans-Bold.ttf", "I": "DejaVuSans-Obl
 
 
 def _fonts_folder() -> Path:
+    from enctools.report.plots import matplotlib_ready
+
+    matplotlib_ready()
     import matplotlib
 
     return Path(matplotlib.get_data_path()) / "fonts" / "ttf"

@@ -8,17 +8,19 @@ motion [nm], signals [V], harmonic order [1/rev or 1/period], time [UTC].
 from __future__ import annotations
 
 import io
+import os
+import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal, cast
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from enctools.report.display import label
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.units import ANGLE_UNITS, DEG, TWO_PI
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
     from matplotlib.projections.polar import PolarAxes
 
 SIZE = (7.2, 3.4)
@@ -32,6 +34,56 @@ COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17
 MARGINS_IN = {"left": 0.8, "bottom": 0.5, "top": 0.32, "right": 0.15}
 
 
+def matplotlib_ready() -> None:
+    """Settle where matplotlib keeps its configuration and cache, before its first import.
+
+    Where its default folders (``$XDG_CONFIG_HOME`` or ``~/.config``, ``$XDG_CACHE_HOME``
+    or ``~/.cache``, each ``/matplotlib``) cannot be made or written (a read-only or
+    missing HOME), MPLCONFIGDIR is set to a private temporary folder, removed at exit:
+    matplotlib would otherwise warn on stderr and leave a folder of its own behind. A
+    MPLCONFIGDIR the user set is kept.
+    """
+    if "matplotlib" in sys.modules or os.environ.get("MPLCONFIGDIR") or _defaults_writable():
+        return
+    import atexit
+    import shutil
+    import tempfile
+
+    try:
+        folder = tempfile.mkdtemp(prefix="enctools-matplotlib-")
+    except OSError:  # no temporary folder either: matplotlib says so itself
+        return
+    os.environ["MPLCONFIGDIR"] = folder
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+
+
+def _defaults_writable() -> bool:
+    """Whether matplotlib's default configuration and cache folders are (or can be made)
+    writable folders."""
+    home = os.path.expanduser("~")
+    for variable, default in (("XDG_CONFIG_HOME", ".config"), ("XDG_CACHE_HOME", ".cache")):
+        base = os.environ.get(variable) or os.path.join(home, default)
+        if not os.path.isabs(base):       # no HOME and no password entry: "~"
+            return False
+        folder = os.path.join(base, "matplotlib")
+        try:
+            os.makedirs(folder, exist_ok=True)
+        except OSError:
+            return False
+        if not os.access(folder, os.W_OK):
+            return False
+    return True
+
+
+def new_figure(size: tuple[float, float] = SIZE) -> Figure:
+    """An empty figure of ``size`` [inch], matplotlib imported once its folders are
+    settled (:func:`matplotlib_ready`)."""
+    matplotlib_ready()
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=size)
+
+
 def to_png(fig: Figure, dpi: int = 110) -> bytes:
     """The figure as PNG bytes: its axes laid out within fixed margins and drawn once (a
     "tight" bounding box would draw every plot twice), on white, in 256 colours (a
@@ -40,6 +92,7 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
+    _escape_texts(fig)
     _fit_margins(fig)
     fig.set_dpi(dpi)
     for ax in fig.axes:
@@ -56,6 +109,20 @@ def to_png(fig: Figure, dpi: int = 110) -> bytes:
     buf = io.BytesIO()
     indexed.save(buf, "png")
     return buf.getvalue()
+
+
+def _escape_texts(fig: Figure) -> None:
+    """Every text of the figure (titles, labels, legends: file and curve names) shown as
+    the documents show text: controls, line separators, bidi and zero-width characters
+    and the bytes of a name that is not UTF-8 escaped (:func:`enctools.data.text.escaped`)."""
+    from matplotlib.text import Text
+
+    from enctools.data.text import escaped
+
+    for text in fig.findobj(Text):
+        shown = escaped(text.get_text())
+        if shown != text.get_text():
+            text.set_text(shown)
 
 
 def _legend_width_in(ax: Any) -> float:
@@ -128,7 +195,7 @@ def _unit_label(unit: str) -> str:
 
 def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
     """Deviation curves against angle with the U band (the curve's k) where known."""
-    fig = Figure(figsize=SIZE)
+    fig = new_figure()
     ax = fig.add_subplot()
     for i, c in enumerate(curves):
         x = _angle_deg(c)
@@ -201,7 +268,7 @@ def _last_significant(rows: Sequence[SpectrumRows]) -> int:
 
 def spectrum_plot(rows: Sequence[SpectrumRows], title: str, per: str = "rev") -> Figure:
     """Harmonic amplitudes [arcsec] against order, with U = k u as error bars."""
-    fig = Figure(figsize=SIZE)
+    fig = new_figure()
     ax = fig.add_subplot()
     width = 0.8 / max(1, len(rows))
     last = min(_last_significant(rows), max(int(sp.n.max()) for sp in rows))
@@ -251,7 +318,7 @@ def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:
     turns with the spindle, r = x cos(theta) + y sin(theta); a single curve is
     plotted as it is. Radial tick labels are nm of error (base circle = 0).
     """
-    fig = Figure(figsize=(4.8, 4.8))
+    fig = new_figure((4.8, 4.8))
     ax = cast("PolarAxes", fig.add_subplot(projection="polar"))
     byname = {c.name.lower(): c for c in curves}
     xs = [c for n, c in byname.items() if n.endswith("x")]
@@ -286,7 +353,7 @@ def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:
 
 def lissajous_plot(signals: dict[str, tuple[np.ndarray, np.ndarray]], title: str) -> Figure:
     """Raw quadrature signals: sin [V] against cos [V] for every head."""
-    fig = Figure(figsize=(4.8, 4.8))
+    fig = new_figure((4.8, 4.8))
     ax = fig.add_subplot()
     for i, (head, (c, s)) in enumerate(signals.items()):
         ax.plot(c, s, ".", ms=1.0, color=COLORS[i % len(COLORS)], label=head)
@@ -312,7 +379,7 @@ def _finish(ax: Any, xlabel: str, ylabel: str, title: str) -> None:
 def vdi_plot(vdi: Any, title: str) -> Figure:
     """VDI/DGQ 3441: mean position deviation x_j with the band +/-(U_j + Ps_j)/2 whose
     range is P, and the mean deviation of each direction."""
-    fig = Figure(figsize=SIZE)
+    fig = new_figure()
     ax = fig.add_subplot()
     o = np.argsort(vdi.positions)        # the 0 deg target may stand at 360 - epsilon
     ax.errorbar(vdi.positions[o], vdi.mean[o], yerr=((vdi.U + vdi.Ps) / 2)[o], fmt="o-", ms=3,
@@ -326,7 +393,7 @@ def vdi_plot(vdi: Any, title: str) -> Figure:
 
 def iso_plot(iso: Any, title: str) -> Figure:
     """ISO 230-2: mean positioning deviation per direction with the +/-2 s bands."""
-    fig = Figure(figsize=SIZE)
+    fig = new_figure()
     ax = fig.add_subplot()
     for d, name, color, shift in ((iso.up, "up (+)", COLORS[0], -0.4),
                                   (iso.down, "down (-)", COLORS[1], 0.4)):
@@ -342,7 +409,7 @@ def iso_plot(iso: Any, title: str) -> Figure:
 
 def compare_plot(pairs: Sequence[tuple[str, Curve]], title: str) -> Figure:
     """Curves of several inputs on one plot (before/after compensation)."""
-    fig = Figure(figsize=SIZE)
+    fig = new_figure()
     ax = fig.add_subplot()
     unit = label(pairs[0][1].unit)
     for i, (name, c) in enumerate(pairs):
@@ -361,7 +428,7 @@ def compare_plot(pairs: Sequence[tuple[str, Curve]], title: str) -> Figure:
 def history_plot(times: np.ndarray, series: dict[str, np.ndarray], title: str,
                  bad: np.ndarray | None = None, unit: str = "arcsec") -> Figure:
     """Figures of the nightly runs against time [UTC], drift runs marked."""
-    fig = Figure(figsize=SIZE)
+    fig = new_figure()
     ax = fig.add_subplot()
     for i, (name, y) in enumerate(series.items()):
         ax.plot(times, y, "o-", ms=3, lw=1, color=COLORS[i % len(COLORS)], label=name)

@@ -351,13 +351,14 @@ def deep_json_meta(folder: Path, base: Path, src: str, to: str, depth: int,
     _write(table.replace_schema_metadata(md), folder / to)
 
 
-def nasty_meta(folder: Path, base: Path, src: str, to: str, extra: str = "") -> None:
-    """A stream whose rig name, description and a history line carry terminal controls
-    (and ``extra``)."""
+def nasty_meta(folder: Path, base: Path, src: str, to: str, extra: str = "",
+               name: str = "rig") -> None:
+    """A stream whose rig description and a history line carry terminal controls (and
+    ``extra``), its rig named ``name``."""
     nasty = "\x1b[2J\x1b]0;title\x07\rerror: fake\x9b31m\x7f" + extra
     table = _read(_source(base, src))
     meta = json.loads(table.schema.metadata[b"enctools"])
-    meta["rig"] = {**(meta.get("rig") or {}), "name": "rig" + nasty,
+    meta["rig"] = {**(meta.get("rig") or {}), "name": name,
                    "description": "desc" + nasty + "\nsecond line"}
     meta["history"] = [*meta.get("history", []), "hist" + nasty]
     md = {**table.schema.metadata, b"enctools": json.dumps(meta).encode()}

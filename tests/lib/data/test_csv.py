@@ -54,7 +54,8 @@ def kind_table(kind: str, n: int) -> tuple[streams.Header, pa.Table]:
     ints = np.resize(np.array([0, 1, -1, (1 << 62), -(1 << 62), 12345], np.int64), n)
     with_nan = f.copy()
     with_nan[::3] = NAN
-    meta = {"rig": {"name": 'rig "x",\nnew', "note": "ü"}, "settings": {"a": 1.5},
+    meta = {"rig": {"name": 'rig "x", new', "description": 'rig "x",\nnew', "note": "ü"},
+            "settings": {"a": 1.5},
             "figures": {"bessel_std_arcsec": NAN}, "history": ["line one", "line,\ttwo"]}
     if kind == "readings":
         fields = [named(kind, "t", pa.float64()), _head("H1"), _head("P,2"),

@@ -18,11 +18,12 @@ FORBIDDEN = (b"\x1b", b"\x07", b"\r", b"\xc2\x9b", b"\x7f")
 
 
 def with_nasty_meta(src: Path, out: Path) -> Path:
-    """A copy of the stream ``src`` whose rig and history lines carry control sequences."""
+    """A copy of the stream ``src`` whose rig description and history lines carry control
+    sequences (its name is an identifier, refused with them: test_text_deceptive.py)."""
     table = pq.read_table(src)
     raw = table.schema.metadata
     meta = json.loads(raw[b"enctools"])
-    meta["rig"] = {**meta.get("rig", {}), "name": "rig" + NASTY,
+    meta["rig"] = {**meta.get("rig", {}), "name": "rig",
                    "description": "desc" + NASTY + "\nsecond line"}
     meta["history"] = [*meta.get("history", []), "hist" + NASTY]
     table = table.replace_schema_metadata({**raw, b"enctools": json.dumps(meta).encode()})
@@ -50,7 +51,7 @@ def test_info_shows_metadata_escaped(nasty: Path) -> None:
     for b in FORBIDDEN:
         assert b not in r.stdout, b
     text = r.stdout.decode()
-    assert "rig: rig" + SHOWN + " — desc" + SHOWN + "\\nsecond line\n" in text
+    assert "rig: rig — desc" + SHOWN + "\\nsecond line\n" in text
     assert "    hist" + SHOWN + "\n" in text
     assert not any(line.startswith("error:") for line in text.splitlines())
 
@@ -60,7 +61,7 @@ def test_report_shows_metadata_escaped(nasty: Path) -> None:
     assert r.returncode == 0, r.stderr.decode()
     for b in FORBIDDEN:
         assert b not in r.stdout, b
-    assert "rig rig" + SHOWN in r.stdout.decode()
+    assert "rig rig\n" in r.stdout.decode()
 
 
 def test_error_lines_escape_what_they_quote(tmp_path):
