@@ -172,8 +172,6 @@ def new_temporary(path: str | Path) -> tuple[int, str]:
     the rename keeps: every output has the mode the user's umask says (``mkstemp``'s 0o600
     would have to be undone output by output, and a mode set by the writer ignores it).
     """
-    import secrets
-
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     remove_stale_temporaries(p)
@@ -182,7 +180,8 @@ def new_temporary(path: str | Path) -> tuple[int, str]:
         prefix = f".{_stem(p.name)}."
     flags = os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
     for _ in range(100):  # as mkstemp: another name when one is taken
-        name = os.path.abspath(folder / f"{prefix}{secrets.token_hex(4)}.tmp")
+        # os.urandom, not secrets: that imports hashlib, which most commands never need
+        name = os.path.abspath(folder / f"{prefix}{os.urandom(4).hex()}.tmp")
         try:
             return os.open(name, flags, 0o666), name
         except FileExistsError:
