@@ -50,7 +50,9 @@ BASE: list[dict[str, list[str]]] = [
      "model.h5": ["fit-rbf", "points.parquet", "--spread", "15"],
      "dev.parquet": ["selfcal", "r2.parquet", "--spectrum", "spec.parquet"],
      "dev.arrows": ["compare", "r2.parquet", "--device", "H1", "--reference", "P1"],
-     "dev.csv": ["selfcal", "r2.parquet", "--spectrum", "spec.tsv"]},
+     "dev.csv": ["selfcal", "r2.parquet", "--spectrum", "spec.tsv"],
+     "r2.h5": ["acquire", "--replay", "r2.parquet"],
+     "r2.arrows": ["acquire", "--replay", "r2.parquet"]},
     # a table to be read, whatever it holds: the guards of enc-make-rom(1) waived
     {"rom.parquet": ["make-rom", "model.parquet", "--bits", "10", "--target", "stream",
                      "--allow-no-gain", "--allow-coarse"],
@@ -120,6 +122,31 @@ def truncate(folder: Path, base: Path, src: str, to: str, at: float) -> None:
     data = _source(base, src).read_bytes()
     n = int(len(data) * at) if 0 < at < 1 else int(at)
     (folder / to).write_bytes(data[:n])
+
+
+def corrupt(folder: Path, base: Path, src: str, to: str, at: float, count: int = 16,
+            seed: int = 0) -> None:
+    """A base input with ``count`` bytes flipped from ``at`` on (a fraction of the file;
+    negative: that part before the end): a sector gone bad, a copy over a noisy link.
+    Parquet and Arrow keep no checksum: what decodes may be read."""
+    data = bytearray(_source(base, src).read_bytes())
+    start = int(len(data) * (at if at >= 0 else 1 + at))
+    rng = _random.Random(seed)
+    for i in range(start, min(start + count, len(data))):
+        data[i] ^= rng.randrange(1, 256)
+    (folder / to).write_bytes(bytes(data))
+
+
+def cast_column(folder: Path, base: Path, src: str, to: str, column: str,
+                type: str = "string") -> None:  # noqa: A002 - as the row names it
+    """``column`` turned into another Arrow ``type`` (its field metadata kept)."""
+    import pyarrow as pa
+
+    table = _read(_source(base, src))
+    i = table.schema.get_field_index(column)
+    f = table.schema.field(i)
+    col = table.column(i).cast(pa.string()) if type == "string" else table.column(i).cast(type)
+    _write(table.set_column(i, pa.field(column, col.type, metadata=f.metadata), col), folder / to)
 
 
 def big_csv_field(folder: Path, base: Path, to: str, size: int = 200_000) -> None:
@@ -409,13 +436,15 @@ def concatenated(folder: Path, base: Path, src: str, to: str, times: int = 2,
     (folder / to).write_bytes(data * times + tail.encode())
 
 
-def extreme_value(folder: Path, base: Path, src: str, to: str, column: str) -> None:
+def extreme_value(folder: Path, base: Path, src: str, to: str, column: str,
+                  sign: int = 1) -> None:
     """``column``'s middle row at the end of its type's range: +inf in a float column,
-    the largest int64 in an integer one."""
+    the largest int64 in an integer one (``sign = -1``: -inf, the smallest int64)."""
     import pyarrow as pa
 
     f = _read(_source(base, src)).schema.field(column)
-    value = "inf" if pa.types.is_floating(f.type) else "int64max"
+    value = ("inf" if pa.types.is_floating(f.type) else "int64max") if sign > 0 else (
+        "-inf" if pa.types.is_floating(f.type) else "int64min")
     set_values(folder, base, src, to, column, value, rows="middle")
 
 
@@ -533,7 +562,7 @@ BUILDERS: dict[str, Callable[..., None]] = {
                             nasty_column, set_values, h5_claims_rows, many_rows, rig,
                             deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar,
                             full_disk, concatenated, extreme_value, null_column,
-                            duplicate_column, nightly_folder)
+                            duplicate_column, nightly_folder, corrupt, cast_column)
 }
 
 
