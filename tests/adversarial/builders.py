@@ -138,7 +138,7 @@ def corrupt(folder: Path, base: Path, src: str, to: str, at: float, count: int =
 
 
 def cast_column(folder: Path, base: Path, src: str, to: str, column: str,
-                type: str = "string") -> None:  # noqa: A002 - as the row names it
+                type: str = "string") -> None:
     """``column`` turned into another Arrow ``type`` (its field metadata kept)."""
     import pyarrow as pa
 
