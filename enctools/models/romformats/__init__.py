@@ -150,7 +150,7 @@ def read_table(path: str, target: Target) -> np.ndarray:
 
 def verify_table(path: str, values: np.ndarray, target: Target) -> None:
     """Read a written table back: CheckFailed unless it equals ``values`` [LSB] (an array,
-    or a table that gives its words a slice at a time: :class:`~enctools.models.rom.Words`),
+    or a table that gives its words a slice at a time: :class:`~.words.Words`),
     compared a block at a time where the file is in a layout this project writes."""
     import numpy as np
 

@@ -6,7 +6,7 @@ word a line, every line of one length; CSV ``address,correction``) is read from 
 first and last few KiB (the header, where the lines start and end), then a block of
 lines at a time: :func:`blocks` yields its words in address order. ``enc correct``
 reads a table so (:func:`read_words`, the words kept in the table's own word size), and
-``enc make-rom --verify`` compares each block with the table built (:func:`same_words`),
+``enc make-rom``'s verification compares each block with the table built (:func:`same_words`),
 so neither holds the file's text. A file in any other layout (ranges, comments between
 words, Intel HEX, a controller's program) is read whole by its format's readers, as
 before (:func:`~enctools.models.romformats.read_table`).
