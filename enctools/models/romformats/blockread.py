@@ -2,14 +2,15 @@
 read through one buffer of :data:`READ` bytes, never the whole file at once.
 
 A table as this project writes it (a binary image; MIF, COE, ``$readmemh`` text of one
-word a line, every line of one length; CSV ``address,correction``) is read from its
-first and last few KiB (the header, where the lines start and end), then a block of
-lines at a time: :func:`blocks` yields its words in address order. ``enc correct``
-reads a table so (:func:`read_words`, the words kept in the table's own word size), and
-``enc make-rom``'s verification compares each block with the table built (:func:`same_words`),
-so neither holds the file's text. A file in any other layout (ranges, comments between
-words, Intel HEX, a controller's program) is read whole by its format's readers, as
-before (:func:`~enctools.models.romformats.read_table`).
+word a line, every line of one length; CSV ``address,correction``; Intel HEX) is read
+from its first and last few KiB (the header, where the lines start and end), then a
+block of lines at a time (Intel HEX: of records in order): :func:`blocks` yields its
+words in address order. ``enc correct`` reads a table so (:func:`read_words`, the words
+kept in the table's own word size), and ``enc make-rom``'s verification compares each
+block with the table built (:func:`same_words`), so neither holds the file's text. A
+file in any other layout (ranges, comments between words, Intel HEX out of order, a
+controller's program) is read whole by its format's readers, as before
+(:func:`~enctools.models.romformats.read_table`).
 
 Before anything the size of is allocated, :func:`claimed_entries` reads what the file
 claims (a binary image's length in words, a MIF's ``DEPTH``) and :func:`check_entries`
@@ -29,14 +30,12 @@ import numpy as np
 
 from enctools.errors import DataError
 from enctools.models.romformats.columns import Rows
-from enctools.models.romformats.words import Target
+from enctools.models.romformats.words import MAX_TABLE_BITS, Target
 
 #: bytes read at once (a block of lines, whole lines only)
 READ = 1 << 24
 #: bytes of a file's start and end read to find its layout
 HEAD = 1 << 16
-#: the largest table enctools builds or reads: 2^28 entries (enc make-rom's `address_bits`)
-MAX_TABLE_BITS = 28
 
 
 class NotInLayout(Exception):
@@ -188,7 +187,7 @@ def blocks(path: str, t: Target) -> tuple[int, Iterator[np.ndarray]] | None:
     if t.fmt == "bin":
         return _bin_blocks(path, t)
     finder = {"mif": _mif_layout, "coe": _coe_layout, "mem": _mem_layout,
-              "csv": _csv_layout}.get(t.fmt)
+              "csv": _csv_layout, "ihex": _ihex_layout}.get(t.fmt)
     return None if finder is None else finder(path, t)
 
 
@@ -299,6 +298,23 @@ def _csv_layout(path: str, t: Target) -> tuple[int, Iterator[np.ndarray]] | None
     return lines - 1, _csv_words(path, t)
 
 
+def _pieces(path: str, skip_line: bool = False, size: int | None = None) -> Iterator[bytes]:
+    """The file's text a block of whole lines at a time (about ``size`` bytes, default
+    :data:`READ`), its first line left out if ``skip_line``."""
+    rest = b""
+    with _open(path) as f:
+        if skip_line:
+            f.readline()
+        while True:
+            chunk = f.read(size or READ)
+            text = rest + chunk
+            cut = text.rfind(b"\n") + 1 if chunk else len(text)
+            text, rest = text[:cut], text[cut:]
+            if not text:
+                return
+            yield text
+
+
 def _csv_words(path: str, t: Target) -> Iterator[np.ndarray]:
     """The corrections of a CSV table, a block of whole lines at a time, each block read by
     Arrow's CSV reader (its streaming reader holds far more than its block size)."""
@@ -309,25 +325,86 @@ def _csv_words(path: str, t: Target) -> Iterator[np.ndarray]:
     # one thread: Arrow's pool left running could abort the interpreter at exit
     read = pcsv.ReadOptions(use_threads=False, column_names=list(types))
     convert = pcsv.ConvertOptions(column_types=types)
-    done, rest = 0, b""
-    with _open(path) as f:
-        f.readline()  # the header, checked by the caller
-        while True:
-            chunk = f.read(READ)
-            text = rest + chunk
-            cut = text.rfind(b"\n") + 1 if chunk else len(text)
-            text, rest = text[:cut], text[cut:]
-            if not text:
-                break
-            try:
-                batch = pcsv.read_csv(pa.py_buffer(text), read, convert_options=convert)
-            except (pa.ArrowInvalid, ValueError):
-                raise NotInLayout from None
-            a = batch.column(0).to_numpy()
-            if batch.column(1).null_count or not np.array_equal(a, np.arange(done, done + a.size)):
-                raise NotInLayout
-            done += a.size
-            yield batch.column(1).to_numpy()
+    done = 0
+    # the header checked by the caller; a quarter block: Arrow's pool keeps what it freed
+    for text in _pieces(path, skip_line=True, size=max(1, READ // 4)):
+        try:
+            batch = pcsv.read_csv(pa.py_buffer(text), read, convert_options=convert)
+        except (pa.ArrowInvalid, ValueError):
+            raise NotInLayout from None
+        a = batch.column(0).to_numpy()
+        if batch.column(1).null_count or not np.array_equal(a, np.arange(done, done + a.size)):
+            raise NotInLayout
+        done += a.size
+        yield batch.column(1).to_numpy()
+
+
+def _ihex_layout(path: str, t: Target) -> tuple[int, Iterator[np.ndarray]] | None:
+    """Intel HEX that starts with an extended linear address record: its image's size from
+    the last data record after the last such record in the file's last 256 KiB."""
+    if not _head(path, 16).startswith(b":02000004"):
+        return None
+    at, tail = _tail(path, 1 << 18)
+    upper, end = None, None
+    for line in tail.split(b"\n")[1 if at else 0:]:
+        line = line.strip()
+        try:
+            rec = bytes.fromhex(line[1:].decode("ascii"))
+        except (ValueError, UnicodeDecodeError):
+            return None
+        if len(rec) < 5:
+            continue
+        if rec[3] == 4 and len(rec) == 7:
+            upper = int.from_bytes(rec[4:6], "big") << 16
+        elif rec[3] == 0 and upper is not None:
+            end = upper + ((rec[1] << 8) | rec[2]) + rec[0]
+    if end is None or end % t.storage_bytes:
+        return None
+    return end // t.storage_bytes, _ihex_words(path, t)
+
+
+def _ihex_words(path: str, t: Target) -> Iterator[np.ndarray]:
+    """The words of Intel HEX whose data records run in order without gaps (types 00, 04
+    and the end, 01, last), a block of whole records at a time."""
+    from enctools.models.romformats.readers import ihex_records
+
+    upper, expect, carry, ended = 0, 0, b"", False
+    for text in _pieces(path, size=max(1, READ // 4)):  # decoded in a few copies of it
+        found = ihex_records(text)
+        if found is None or ended:
+            raise NotInLayout
+        rec, off = found
+        length, rtype = rec[off].astype(np.int64), rec[off + 3]
+        eof = np.flatnonzero(rtype == 1)
+        ended = eof.size > 0
+        if not np.isin(rtype, (0, 1, 4)).all() or eof.size > 1 or \
+                (ended and eof[0] != rtype.size - 1):
+            raise NotInLayout
+        ext = np.flatnonzero(rtype == 4)
+        if (length[ext] != 2).any():
+            raise NotInLayout
+        high = np.full(rtype.size, upper, dtype=np.int64)
+        high[ext] = ((rec[off[ext] + 4].astype(np.int64) << 8) | rec[off[ext] + 5]) << 16
+        last = np.maximum.accumulate(np.where(rtype == 4, np.arange(rtype.size), -1))
+        high = np.where(last >= 0, high[np.maximum(last, 0)], upper)
+        if ext.size:
+            upper = int(high[ext[-1]])
+        data = np.flatnonzero(rtype == 0)
+        at = off[data]
+        addr = high[data] + ((rec[at + 1].astype(np.int64) << 8) | rec[at + 2])
+        n = length[data]
+        if data.size and (addr[0] != expect or (addr[1:] != addr[:-1] + n[:-1]).any()):
+            raise NotInLayout
+        expect += int(n.sum())
+        keep = np.zeros(rec.size + 1, dtype=np.int8)  # as readers.fast_ihex
+        keep[at + 4] = 1
+        keep[at + 4 + n] = -1
+        image = carry + rec[np.cumsum(keep[:-1], dtype=np.int8).astype(bool)].tobytes()
+        whole = len(image) - len(image) % t.storage_bytes
+        carry = image[whole:]
+        yield np.frombuffer(image[:whole], dtype=t.image_dtype)
+    if not ended or carry:
+        raise NotInLayout
 
 
 def _dtype(t: Target) -> np.dtype:

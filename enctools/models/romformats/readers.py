@@ -22,9 +22,14 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.errors import DataError
-from enctools.models.romformats.blockread import MAX_TABLE_BITS
 from enctools.models.romformats.columns import fixed_rows, hex_lines
-from enctools.models.romformats.words import HEX_DIGIT, Target, image_values, signed
+from enctools.models.romformats.words import (
+    HEX_DIGIT,
+    MAX_TABLE_BITS,
+    Target,
+    image_values,
+    signed,
+)
 
 #: MIF radix names and their bases
 RADIX = {b"HEX": 16, b"DEC": 10, b"UNS": 10, b"BIN": 2, b"OCT": 8}
@@ -38,7 +43,7 @@ def read_bin(data: bytes, t: Target, src: str) -> np.ndarray:
 # --------------------------------------------------------------------- Intel HEX
 
 
-def _ihex_records(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
+def ihex_records(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
     """Every record's bytes in one array and where each starts, or None if a line is unusual."""
     if b" " in data or b"\t" in data:
         return None
@@ -72,7 +77,7 @@ def fast_ihex(data: bytes, t: Target, src: str) -> np.ndarray | None:
     None when anything is unusual (blanks, unknown or misplaced records, gaps, records
     out of order).
     """
-    records = _ihex_records(data)
+    records = ihex_records(data)
     if records is None:
         return None
     rec, off = records

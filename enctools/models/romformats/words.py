@@ -17,6 +17,9 @@ import numpy as np
 
 from enctools.errors import DataError
 
+#: the largest table enctools builds or reads: 2^28 entries (enc make-rom's `address_bits`)
+MAX_TABLE_BITS = 28
+
 
 @dataclass(frozen=True)
 class Target:
