@@ -188,7 +188,10 @@ def blocks(path: str, t: Target) -> tuple[int, Iterator[np.ndarray]] | None:
         return _bin_blocks(path, t)
     finder = {"mif": _mif_layout, "coe": _coe_layout, "mem": _mem_layout,
               "csv": _csv_layout, "ihex": _ihex_layout}.get(t.fmt)
-    return None if finder is None else finder(path, t)
+    found = None if finder is None else finder(path, t)
+    # every entry takes a byte of the file at least: a size read from a record (Intel HEX's
+    # last address) is believed only that far
+    return None if found is None or found[0] > _size(path) else found
 
 
 def _bin_blocks(path: str, t: Target) -> tuple[int, Iterator[np.ndarray]]:

@@ -87,3 +87,15 @@ def test_block_reading_equals_the_whole_read(tmp_path: Path, fmt: str, width: in
     assert blockread.same_words(str(path), t, values)
     assert not blockread.same_words(str(path), t, np.r_[values[:-1], values[-1] ^ 1])
     romformats.verify_table(str(path), values, t)
+
+
+def test_an_intel_hex_end_address_beyond_its_file_is_not_believed(tmp_path: Path) -> None:
+    """A 4-line file whose last record sits at 0xFFFF0000: its image is not allocated from
+    that address (read whole, where the gap is refused before the image is made)."""
+    lines = [":020000040000FA", ":0100000001FE", ":02000004FFFFFC", ":01000000" + "01FE",
+             ":00000001FF"]
+    path = tmp_path / "t.hex"
+    path.write_text("\n".join(lines) + "\n")
+    assert blockread.blocks(str(path), Target("ihex", 8)) is None
+    with pytest.raises(DataError, match="gaps in the image"):
+        romformats.read_table(str(path), Target("ihex", 8))
