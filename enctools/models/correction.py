@@ -258,12 +258,10 @@ def _read_values(path: str, settings: TableSettings, fmt: str, layout: Layout,
                  count_deg: float) -> np.ndarray:
     """The signed values [LSB] of a table file, read by :func:`romformats.read_table` (in
     the table's word size), once the entries it claims fit the code's addresses."""
-    from enctools.models.romformats.blockread import check_entries
-
     target = romformats.Target(fmt, layout.width, layout.endian, count_deg=count_deg,
                                name=settings.array_name)
-    check_entries(path, target, layout.code_bits)  # before anything of its size is allocated
-    return romformats.read_table(path, target)
+    # its entries held to the code's addresses before anything of their size is allocated
+    return romformats.read_table(path, target, layout.code_bits)
 
 
 #: what a table's error adds about the options of a file without a stated layout

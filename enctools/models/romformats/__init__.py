@@ -118,10 +118,11 @@ def write_table(path: str, values: np.ndarray, target: Target, force: bool = Fal
     return Path(path).stat().st_size
 
 
-def read_table(path: str, target: Target) -> np.ndarray:
+def read_table(path: str, target: Target, code_bits: int | None = None) -> np.ndarray:
     """The signed values [LSB] of a table file (DataError, one line, when it is malformed).
 
-    The entries it claims are checked first (:func:`.blockread.check_entries`). A file in
+    The entries it claims are checked first (:func:`.blockread.check_entries`: against the
+    2^``code_bits`` addresses of its code, when given, and the largest table). A file in
     a layout this project writes is read a block at a time into words of the table's size
     (:func:`.blockread.read_words`); any other, whole: the format's fast reader is tried
     first; what it does not take, the general reader reads or refuses.
@@ -133,8 +134,8 @@ def read_table(path: str, target: Target) -> np.ndarray:
     if general is None:
         msg = f"{target.fmt} is not read as words (a control's table)"
         raise ValueError(msg)
-    blockread.check_entries(path, target, None)
-    words = blockread.read_words(path, target)
+    blockread.check_entries(path, target, code_bits)
+    words = blockread.read_words(path, target, code_bits)
     if words is not None:  # a layout this project writes: a block at a time
         return words
     data = read_bytes(path)

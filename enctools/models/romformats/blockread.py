@@ -71,8 +71,12 @@ def check_entries(path: str, t: Target, code_bits: int | None) -> None:
     claims more entries than a ``code_bits``-bit code has addresses, or than the
     2^:data:`MAX_TABLE_BITS` a table may have, before anything of that size is allocated."""
     n = claimed_entries(path, t)
-    if n is None:
-        return
+    if n is not None:
+        _check_count(path, t, n, code_bits)
+
+
+def _check_count(path: str, t: Target, n: int, code_bits: int | None) -> None:
+    """:func:`check_entries` of ``n`` entries, claimed or counted."""
     what = f"DEPTH={n} entries" if t.fmt == "mif" else f"{n} entries"
     if code_bits is not None and code_bits <= MAX_TABLE_BITS and n > 1 << code_bits:
         msg = (f"{path}: {what} do not address a {code_bits}-bit code, more than its "
@@ -414,16 +418,19 @@ def _dtype(t: Target) -> np.dtype:
     return np.dtype(f"i{t.storage_bytes}")
 
 
-def read_words(path: str, t: Target) -> np.ndarray | None:
+def read_words(path: str, t: Target, code_bits: int | None = None) -> np.ndarray | None:
     """The words [LSB] of a table file in a layout this project writes, read a block at a
     time into an array of the table's word size (1, 2 or 4 bytes an entry); None when the
-    file is in another layout (read it whole)."""
+    file is in another layout (read it whole). Its entries (a CSV's, COE's or MEM's lines
+    counted) are held to a ``code_bits``-bit code's addresses before they are allocated
+    (DataError, :func:`check_entries`)."""
     found = blocks(path, t)
     if found is None:
         return None
     n, words = found
-    if n < 0 or n > 1 << MAX_TABLE_BITS:
+    if n < 0:
         return None
+    _check_count(path, t, n, code_bits)
     dtype = _dtype(t)
     lo, hi = np.iinfo(dtype).min, np.iinfo(dtype).max
     out = np.empty(n, dtype=dtype)

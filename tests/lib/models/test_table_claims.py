@@ -99,3 +99,14 @@ def test_an_intel_hex_end_address_beyond_its_file_is_not_believed(tmp_path: Path
     assert blockread.blocks(str(path), Target("ihex", 8)) is None
     with pytest.raises(DataError, match="gaps in the image"):
         romformats.read_table(str(path), Target("ihex", 8))
+
+
+@pytest.mark.parametrize("fmt", ["csv", "coe", "mem", "ihex"])
+def test_counted_entries_are_held_to_the_code_before_they_are_allocated(
+        tmp_path: Path, fmt: str) -> None:
+    path = tmp_path / f"t.{fmt}"
+    t = Target(fmt, 16)
+    romformats.write_table(str(path), np.zeros(4096, np.int16), t)
+    with pytest.raises(DataError, match=f"{path}: 4096 entries do not address a 10-bit code"):
+        romformats.read_table(str(path), t, code_bits=10)
+    assert romformats.read_table(str(path), t, code_bits=12).size == 4096
