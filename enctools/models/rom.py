@@ -19,7 +19,8 @@ from __future__ import annotations
 import math
 import os
 import zlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator
+from contextlib import closing
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -364,14 +365,7 @@ def scan_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     spec.check()
     dtype = np.dtype({1: np.int8, 2: np.int16, 4: np.int32}[spec.storage_bytes])
     quantise = partial(_quantise, _on_grid(deviation, spec), spec, dtype)
-    kept = _Kept(dtype)
-    parts = []
-    crc = 0
-    for start, (part, words) in _each_chunk(quantise, spec.entries, progress):
-        parts.append(part)
-        if words is not None:
-            crc = zlib.crc32(words.astype(words.dtype.newbyteorder("<"), copy=False).data, crc)
-            kept.add(start // CHUNK, words)
+    parts, crc, kept = _scan(quantise, spec.entries, dtype, progress)
     vmin = min(p[0] for p in parts)
     vmax = max(p[1] for p in parts)
     worst = max(p[2] for p in parts)
@@ -393,6 +387,23 @@ def scan_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
 
     values = Words(spec.entries, dtype, CHUNK, chunk, int(vmin), int(vmax))
     return Rom(spec, values, worst, int(vmin), int(vmax), crc, rms_corr, rms_err, largest)
+
+
+def _scan(quantise: Callable[[int], Any], n: int, dtype: np.dtype,
+          progress: Callable[[int, int], None] | None) -> tuple[list, int, _Kept]:
+    """Every chunk's summary, in order, the CRC-32 of the words and the words kept."""
+    kept = _Kept(dtype)
+    parts = []
+    crc = 0
+    # closed on any ending: the chunks not yet started are dropped at once
+    with closing(_each_chunk(quantise, n, progress)) as chunks:
+        for start, (part, words) in chunks:
+            parts.append(part)
+            if words is not None:
+                crc = zlib.crc32(words.astype(words.dtype.newbyteorder("<"), copy=False).data,
+                                 crc)
+                kept.add(start // CHUNK, words)
+    return parts, crc, kept
 
 
 #: bytes of a table's words kept between its scan and its writing (run-length coded:
@@ -460,7 +471,8 @@ def _quantise(at: Callable[[int, int], np.ndarray], spec: RomSpec, dtype: np.dty
 
 
 def _each_chunk(quantise: Callable[[int], Any], n: int,
-                progress: Callable[[int, int], None] | None) -> Iterator[tuple[int, Any]]:
+                progress: Callable[[int, int], None] | None
+                ) -> Generator[tuple[int, Any], None, None]:
     """(start, ``quantise(start)``) of every chunk of n entries, in order, on THREADS
     threads, at most THREADS chunks ahead of the one handed out (memory stays flat)."""
     starts = range(0, n, CHUNK)
