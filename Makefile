@@ -85,6 +85,7 @@ test-min: $(VENV_MIN)/.installed  ## the whole suite on the oldest declared vers
 
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out
+	$(BIN)/python benchmarks/rom_writer.py command --out bench-out
 	$(BIN)/python benchmarks/fleet.py --out bench-out
 	$(BIN)/python benchmarks/interp_fit.py --out bench-out
 	$(BIN)/python benchmarks/acquire_steps.py --out bench-out

@@ -355,7 +355,8 @@ def _make_rom_row(d: Path, bits: int, fmt: str, ext: str, image: Path, repeat: i
                   before: dict[str, str] | None) -> dict:
     """One format at one size: the whole command, the writer alone, --verify, peak memory."""
     target, kept, dd_out = d / f"table.{ext}", d / f"before.{ext}", d / "dd.out"
-    run = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {target}{overrides(None)}"
+    # --force: a CSV table's sidecar stays when the table is removed between the runs
+    run = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q --force -o {target}{overrides(None)}"
     peak = timed(f"{gnu_time()} {run} --force")["peak_mb"]
     size = target.stat().st_size
     # the file's bytes exactly, in 1 MiB writes (the last shorter): not rounded to whole MiB
@@ -363,7 +364,7 @@ def _make_rom_row(d: Path, bits: int, fmt: str, ext: str, image: Path, repeat: i
     writer = f"{sys.executable} {ROOT}/benchmarks/rom_writer.py {image} {fmt} "
     shells = {"after": run, "dd": dd, "writer": writer + str(target)}
     if before is not None:
-        run_before = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q -o {kept}"
+        run_before = f"{ENC} make-rom {d}/model.arrows --bits {bits} -q --force -o {kept}"
         shells |= {"before": with_env(before, run_before + overrides(before)),
                    "writer before": with_env(before, writer + str(kept))}
     # dd and the writer three times a turn: on a shared machine the kernel's CPU seconds

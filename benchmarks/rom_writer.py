@@ -11,18 +11,22 @@ import on the way (pyarrow's CSV and compute modules) are imported first, so tha
 figure holds an import.
 
 Usage: rom_writer.py IMAGE FORMAT OUTPUT [--verify]
+
+``rom_writer.py command [--out DIR] [--bits 20,24,26] [--formats bin,mif,csv]
+[--before REV] [--repeat N]`` measures the whole ``enc make-rom`` command instead: at each
+size and format, this tree's and the ``before`` code's (main by default) run in turn with
+``dd`` writing the file's bytes into the same folder (the best of ``repeat`` turns, wall
+and CPU seconds; ratios to dd's), and the peak resident memory [MB] of make-rom, of
+make-rom ``--verify`` and of ``enc correct --table`` on the table, for both codes. Prints
+a Markdown table; writes DIR/rom-command.json.
 """
 
 from __future__ import annotations
 
+import os
 import resource
 import sys
-
-import numpy as np
-import pyarrow.compute
-import pyarrow.csv  # noqa: F401  (imported before the clock starts)
-
-from enctools.models import romformats
+from typing import Any
 
 
 def cpu() -> float:
@@ -31,6 +35,15 @@ def cpu() -> float:
 
 
 def main() -> None:
+    if sys.argv[1:2] == ["command"]:
+        command(sys.argv[2:])
+        return
+    import numpy as np
+    import pyarrow.compute
+    import pyarrow.csv  # noqa: F401  (imported before the clock starts)
+
+    from enctools.models import romformats
+
     image, fmt, output = sys.argv[1:4]
     values = np.fromfile(image, dtype="<i2").astype(np.int16)
     target = romformats.Target(fmt, 16)
@@ -42,6 +55,106 @@ def main() -> None:
         t0 = cpu()
         romformats.verify_table(output, values, target)
         print(f"{cpu() - t0:.6f}")
+
+
+#: extensions of the formats measured by ``command``
+EXT = {"bin": "bin", "mif": "mif", "csv": "csv", "coe": "coe", "mem": "mem", "ihex": "hex"}
+
+
+def command(argv: list[str]) -> None:
+    """The whole make-rom command against dd, and the peaks of make-rom, --verify, correct."""
+    import argparse
+    import json
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench
+
+    ap = argparse.ArgumentParser(prog="rom_writer.py command")
+    ap.add_argument("--out", default=str(bench.ROOT / "bench-out"))
+    ap.add_argument("--bits", default="20,24,26")
+    ap.add_argument("--formats", default="bin,mif,csv")
+    ap.add_argument("--before", default="main")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    d = out / "rom-command"
+    d.mkdir(parents=True, exist_ok=True)
+    before = bench.before_tree(args.before, out) if args.before else None
+    table1 = bench.ROOT / "tests" / "data" / "seed001_table1.csv"
+    bench.timed(f"{bench.ENC} fit-rbf {table1} -q -o {d}/model.arrows --force")
+    rows = [_command_row(d, int(bits), fmt, args.repeat, before)
+            for bits in args.bits.split(",") for fmt in args.formats.split(",")]
+    (out / "rom-command.json").write_text(json.dumps(
+        {"before": None if before is None else {k: before[k] for k in ("rev", "commit")},
+         "load": os.getloadavg(), "rows": rows}, indent=2))
+    print(_markdown(rows, before))
+
+
+def _command_row(d: Any, bits: int, fmt: str, repeat: int, before: dict | None) -> dict:
+    """One size and format: make-rom after and before, dd, in turn; the three peaks."""
+    import bench
+
+    target, kept, dd_out = d / f"table.{EXT[fmt]}", d / f"before.{EXT[fmt]}", d / "dd.out"
+    allow = " --allow-no-gain --allow-coarse --force"  # --force: a CSV's sidecar is left
+    run = f"{bench.ENC} make-rom {d}/model.arrows --bits {bits} -q{allow} -o "
+    peak = bench.timed(f"{bench.gnu_time()} {run}{target}")["peak_mb"]
+    size = target.stat().st_size
+    dd = f"dd if=/dev/zero of={dd_out} bs=1M count={size} iflag=count_bytes status=none"
+    shells = {"after": run + str(target), "dd": dd}
+    if before is not None:
+        shells["before"] = bench.with_env(before, run + str(kept))
+    t = bench.fresh_cpu(shells, {"after": target, "before": kept, "dd": dd_out}, repeat,
+                        times={"dd": 3})
+    row = {"bits": bits, "format": fmt, "bytes": size, "dd_seconds": t["dd"][0],
+           "dd_cpu_seconds": t["dd"][1], "seconds": t["after"][0],
+           "cpu_seconds": t["after"][1], "vs_dd_wall": t["after"][0] / t["dd"][0],
+           "vs_dd_cpu": t["after"][1] / t["dd"][1], "peak_mb": peak}
+    row |= _peaks(run, target, bits, d, None, "")
+    if before is not None:
+        row |= {"before_seconds": t["before"][0], "before_cpu_seconds": t["before"][1],
+                "before_vs_dd_wall": t["before"][0] / t["dd"][0],
+                "before_vs_dd_cpu": t["before"][1] / t["dd"][1]}
+        row["before_peak_mb"] = bench.timed(bench.with_env(
+            before, f"{bench.gnu_time()} {run}{kept}"))["peak_mb"]
+        row |= _peaks(run, kept, bits, d, before, "before_")
+    for f in (target, kept, dd_out):
+        f.unlink(missing_ok=True)
+    print(f"rom_writer: 2^{bits} {fmt} done", file=sys.stderr)
+    return row
+
+
+def _peaks(run: str, table: Any, bits: int, d: Any, env: dict | None, key: str) -> dict:
+    """The peak [MB] of make-rom --verify and of enc correct --table on its table."""
+    import bench
+
+    def peak(shell: str) -> float:
+        return float(bench.timed(bench.with_env(env, f"{bench.gnu_time()} {shell}"))["peak_mb"])
+
+    points = d / "points.arrows"
+    if not points.exists():
+        bench.timed(f"{bench.ENC} points {bench.ROOT}/tests/data/seed001_table1.csv -q -o {points}")
+    return {f"{key}verify_peak_mb": peak(f"{run}{table} --verify"),
+            f"{key}correct_peak_mb": peak(f"{bench.ENC} correct {points} --table {table} "
+                                          f"--bits {bits} -q")}
+
+
+def _markdown(rows: list[dict], before: dict | None) -> str:
+    """The rows as a Markdown table: CPU and wall ratios to dd, peaks, after (before)."""
+    def pair(r: dict, k: str, fmt: str) -> str:
+        b = r.get(f"before_{k}")
+        return format(r[k], fmt) + ("" if b is None else f" ({format(b, fmt)})")
+
+    head = ("| entries | format | MB written | make-rom / dd, CPU | make-rom / dd, wall | "
+            "peak MB | --verify peak MB | correct peak MB |\n|---|---|---|---|---|---|---|---|")
+    lines = [head] + [
+        f"| 2^{r['bits']} | {r['format']} | {r['bytes'] / 1e6:.0f} | {pair(r, 'vs_dd_cpu', '.2f')} "
+        f"| {pair(r, 'vs_dd_wall', '.2f')} | {pair(r, 'peak_mb', '.0f')} | "
+        f"{pair(r, 'verify_peak_mb', '.0f')} | {pair(r, 'correct_peak_mb', '.0f')} |"
+        for r in rows]
+    then = "" if before is None else \
+        f" (in brackets: the code of {before['rev']}, {before['commit']})"
+    return "\n".join(lines) + f"\n\nThis tree{then}; load {os.getloadavg()[0]:.1f}."
 
 
 if __name__ == "__main__":

@@ -147,7 +147,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         resolution_deg=resolution_deg, sign=sign)
     _before_work(path, force, src.header.meta, allow_no_gain)
     t0 = time.monotonic()
-    table = rom.build_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
+    table = rom.scan_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
     _guard("rom", table, allow_coarse)
     summary = _rom_summary(table, src.header, curve, evaluate, settings) | extent
     size = None

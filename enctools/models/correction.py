@@ -30,7 +30,6 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from enctools.data.files import read_bytes
 from enctools.errors import DataError, SettingsError
 from enctools.models import romformats
 from enctools.models.rom import LSB_COUNTS, MAX_ADDRESS_BITS
@@ -257,10 +256,12 @@ def check_given(settings: TableSettings, found: dict[str, Any], path: str, where
 
 def _read_values(path: str, settings: TableSettings, fmt: str, layout: Layout,
                  count_deg: float) -> np.ndarray:
-    """The signed values [LSB] of a table file, read by :func:`romformats.read_table`."""
+    """The signed values [LSB] of a table file, read by :func:`romformats.read_table` (in
+    the table's word size), once the entries it claims fit the code's addresses."""
     target = romformats.Target(fmt, layout.width, layout.endian, count_deg=count_deg,
                                name=settings.array_name)
-    return np.asarray(romformats.read_table(path, target), dtype=np.int64)
+    # its entries held to the code's addresses before anything of their size is allocated
+    return romformats.read_table(path, target, layout.code_bits)
 
 
 #: what a table's error adds about the options of a file without a stated layout
@@ -319,7 +320,10 @@ def read_file(path: str, settings: TableSettings, fmt: str | None = None,
     fmt = fmt or romformats.format_for(path, settings.fmt)
     if registry.get(fmt).points:  # a controller's: its reader reads the file
         return control_table(path, settings, fmt)
-    return memory_table(path, read_bytes(path), settings, fmt, rig_bits)
+    from enctools.models.romformats.blockread import head
+
+    # its layout is in its first 4 KiB: its words are read a block at a time
+    return memory_table(path, head(path, 4096), settings, fmt, rig_bits)
 
 
 def rom_stream(meta: dict[str, Any], address: np.ndarray, values: np.ndarray,

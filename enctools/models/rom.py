@@ -19,7 +19,8 @@ from __future__ import annotations
 import math
 import os
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Generator
+from contextlib import closing
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -282,7 +283,9 @@ class Rom:
     """A built table and its summary."""
 
     spec: RomSpec
-    values: np.ndarray  # signed integers, dtype int8/int16/int32 by width
+    #: signed integers, dtype int8/int16/int32 by width: an array, or (:func:`scan_rom`)
+    #: :class:`~enctools.models.romformats.words.Words` given a block at a time
+    values: Any
     max_quantisation_lsb: float
     min_value: int
     max_value: int
@@ -324,7 +327,17 @@ class Rom:
 
 def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
               progress: Callable[[int, int], None] | None = None) -> Rom:
-    """Evaluate a model at every address and quantise it to signed words.
+    """Evaluate a model at every address and quantise it to signed words, held whole:
+    :func:`scan_rom`'s table with its words in one array."""
+    rom = scan_rom(deviation, spec, progress)
+    rom.values = np.asarray(rom.values)
+    return rom
+
+
+def scan_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
+             progress: Callable[[int, int], None] | None = None) -> Rom:
+    """Evaluate a model at every address and quantise it to signed words, a block of
+    CHUNK addresses at a time, without holding the table.
 
     Parameters
     ----------
@@ -335,7 +348,11 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     spec : the table to build.
     progress : called with (entries done, entries) after each chunk of CHUNK entries.
 
-    Chunks are evaluated and quantised on THREADS threads (numpy releases the GIL).
+    Chunks are evaluated and quantised on THREADS threads (numpy releases the GIL), each
+    one's summary and CRC-32 taken in order, and its words kept run-length coded (a
+    table's values change slowly) within :data:`KEPT_BYTES`: the table's ``values`` are
+    :class:`~enctools.models.romformats.words.Words`, each block given again from what was
+    kept, or evaluated again as it was the first time (the same words).
 
     Returns
     -------
@@ -343,11 +360,12 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
     quantisation error [LSB] (<= 0.5), the value range and the CRC-32.
     Raises DataError when a value does not fit the word width or is not finite.
     """
+    from enctools.models.romformats.words import Words
+
     spec.check()
-    dtype = {1: np.int8, 2: np.int16, 4: np.int32}[spec.storage_bytes]
-    values = np.empty(spec.entries, dtype=dtype)
-    quantise = partial(_quantise, _on_grid(deviation, spec), values, spec)
-    parts = _each_chunk(quantise, spec.entries, progress)
+    dtype = np.dtype({1: np.int8, 2: np.int16, 4: np.int32}[spec.storage_bytes])
+    quantise = partial(_quantise, _on_grid(deviation, spec), spec, dtype)
+    parts, crc, kept = _scan(quantise, spec.entries, dtype, progress)
     vmin = min(p[0] for p in parts)
     vmax = max(p[1] for p in parts)
     worst = max(p[2] for p in parts)
@@ -359,9 +377,59 @@ def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
                f"range {lo}..{hi}; use `width` {_bits_needed(vmin, vmax)} or more, or a "
                f"coarser `lsb`")
         raise DataError(msg)
-    le = values.astype(values.dtype.newbyteorder("<"), copy=False)
-    crc = zlib.crc32(le.data if le.flags.c_contiguous else le.tobytes())
+
+    def chunk(k: int) -> np.ndarray:
+        got = kept.get(k)
+        if got is None:  # evaluated again: the words of the scan (it found them all in range)
+            got = quantise(k * CHUNK)[1]
+            assert got is not None
+        return got
+
+    values = Words(spec.entries, dtype, CHUNK, chunk, int(vmin), int(vmax))
     return Rom(spec, values, worst, int(vmin), int(vmax), crc, rms_corr, rms_err, largest)
+
+
+def _scan(quantise: Callable[[int], Any], n: int, dtype: np.dtype,
+          progress: Callable[[int, int], None] | None) -> tuple[list, int, _Kept]:
+    """Every chunk's summary, in order, the CRC-32 of the words and the words kept."""
+    kept = _Kept(dtype)
+    parts = []
+    crc = 0
+    # closed on any ending: the chunks not yet started are dropped at once
+    with closing(_each_chunk(quantise, n, progress)) as chunks:
+        for start, (part, words) in chunks:
+            parts.append(part)
+            if words is not None:
+                crc = zlib.crc32(words.astype(words.dtype.newbyteorder("<"), copy=False).data,
+                                 crc)
+                kept.add(start // CHUNK, words)
+    return parts, crc, kept
+
+
+#: bytes of a table's words kept between its scan and its writing (run-length coded:
+#: the table-1 model's 2^26 words, 1680 runs, take 10 KB); a block beyond is evaluated again
+KEPT_BYTES = 16 << 20
+
+
+class _Kept:
+    """The blocks of a table kept as runs (starts, words), while they fit KEPT_BYTES."""
+
+    def __init__(self, dtype: np.dtype) -> None:
+        self.dtype, self.left = dtype, KEPT_BYTES
+        self.blocks: dict[int, tuple[np.ndarray, np.ndarray, int]] = {}
+
+    def add(self, k: int, words: np.ndarray) -> None:
+        starts = np.flatnonzero(words[1:] != words[:-1]) + 1
+        cost = starts.size * (4 + words.itemsize) + 64
+        if cost * 4 <= words.nbytes and cost <= self.left:
+            self.left -= cost
+            self.blocks[k] = (starts.astype(np.int32), words[np.r_[0, starts]], words.size)
+
+    def get(self, k: int) -> np.ndarray | None:
+        if k not in self.blocks:
+            return None
+        starts, runs, n = self.blocks[k]
+        return np.repeat(runs, np.diff(np.r_[0, starts, n]))
 
 
 def _on_grid(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec
@@ -377,13 +445,14 @@ def _on_grid(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec
     return at
 
 
-def _quantise(at: Callable[[int, int], np.ndarray], values: np.ndarray, spec: RomSpec,
-              start: int) -> tuple[float, float, float, float, float, float]:
-    """Quantise addresses start..start+CHUNK-1 into ``values``.
+def _quantise(at: Callable[[int, int], np.ndarray], spec: RomSpec, dtype: np.dtype,
+              start: int) -> tuple[tuple[float, float, float, float, float, float],
+                                   np.ndarray | None]:
+    """Addresses start..start+CHUNK-1 quantised: their summary and words (``dtype``).
 
-    Returns (min, max, largest |quantisation error|, sum of squared corrections, sum of
-    squared quantisation errors, largest |correction|) [LSB, LSB^2]. A chunk beyond the
-    word width is not stored, but its range is returned, to name the width needed.
+    The summary is (min, max, largest |quantisation error|, sum of squared corrections,
+    sum of squared quantisation errors, largest |correction|) [LSB, LSB^2]. A chunk beyond
+    the word width has no words, but its range is returned, to name the width needed.
     """
     stop = min(spec.entries, start + CHUNK)
     corr = np.multiply(at(start, stop), -1.0 / spec.lsb_arcsec, dtype=np.float64)
@@ -394,35 +463,45 @@ def _quantise(at: Callable[[int, int], np.ndarray], values: np.ndarray, spec: Ro
         raise DataError(msg)
     lo, hi = spec.word_range
     if qmin < lo or qmax > hi:
-        return qmin, qmax, 0.0, 0.0, 0.0, 0.0
+        return (qmin, qmax, 0.0, 0.0, 0.0, 0.0), None
     sum_corr, largest = float(corr @ corr), float(np.max(np.abs(corr)))
     corr -= q
     err = max(-float(corr.min()), float(corr.max()))
-    values[start:stop] = q
-    return qmin, qmax, err, sum_corr, float(corr @ corr), largest
+    return (qmin, qmax, err, sum_corr, float(corr @ corr), largest), q.astype(dtype)
 
 
-def _each_chunk(quantise: Callable[[int], tuple[float, ...]], n: int,
-                progress: Callable[[int, int], None] | None) -> list[tuple[float, ...]]:
-    """``quantise(start)`` of every chunk of n entries, in order, on THREADS threads."""
+def _each_chunk(quantise: Callable[[int], Any], n: int,
+                progress: Callable[[int, int], None] | None
+                ) -> Generator[tuple[int, Any], None, None]:
+    """(start, ``quantise(start)``) of every chunk of n entries, in order, on THREADS
+    threads, at most THREADS chunks ahead of the one handed out (memory stays flat)."""
     starts = range(0, n, CHUNK)
-    parts = []
     if len(starts) > 1 and THREADS > 1:  # numpy releases the GIL: overlap the chunks
+        from collections import deque
         from concurrent.futures import ThreadPoolExecutor
         pool = ThreadPoolExecutor(THREADS)
         try:
-            for start, part in zip(starts, pool.map(quantise, starts), strict=True):
-                parts.append(part)
+            ahead: deque = deque()
+            todo = iter(starts)
+            for start in todo:
+                ahead.append((start, pool.submit(quantise, start)))
+                if len(ahead) > THREADS:
+                    break
+            while ahead:
+                start, future = ahead.popleft()
+                nxt = next(todo, None)
+                if nxt is not None:
+                    ahead.append((nxt, pool.submit(quantise, nxt)))
+                yield start, future.result()
                 if progress:
                     progress(min(n, start + CHUNK), n)
         finally:  # on an error or a signal, drop the chunks not yet started
             pool.shutdown(wait=True, cancel_futures=True)
-    else:
-        for start in starts:
-            parts.append(quantise(start))
-            if progress:
-                progress(min(n, start + CHUNK), n)
-    return parts
+        return
+    for start in starts:
+        yield start, quantise(start)
+        if progress:
+            progress(min(n, start + CHUNK), n)
 
 
 def _bits_needed(lo: float, hi: float) -> int:

@@ -116,6 +116,12 @@ def random_bytes(folder: Path, base: Path, to: str, size: int = 4096, seed: int 
     (folder / to).write_bytes(prefix.encode("latin-1") + rng.randbytes(size))
 
 
+def sparse(folder: Path, base: Path, to: str, size: int) -> None:
+    """A file of ``size`` zero bytes that takes no disk (a hole): a length to be believed."""
+    with (folder / to).open("wb") as f:
+        f.truncate(size)
+
+
 def truncate(folder: Path, base: Path, src: str, to: str, at: float) -> None:
     """A base input cut short: at byte ``at`` (negative: that many bytes before the end;
     a fraction between 0 and 1: that part of the file)."""
@@ -556,7 +562,7 @@ def deep_toml(folder: Path, base: Path, to: str, depth: int, how: str = "array")
 
 
 BUILDERS: dict[str, Callable[..., None]] = {
-    f.__name__: f for f in (copy, empty, text, random_bytes, truncate, big_csv_field,
+    f.__name__: f for f in (copy, empty, text, random_bytes, sparse, truncate, big_csv_field,
                             csv_rows, fifo, mkdir, symlink, stale_temporary, drop_column,
                             field_meta, stream_meta, raw_meta, deep_json_meta, nasty_meta,
                             nasty_column, set_values, h5_claims_rows, many_rows, rig,

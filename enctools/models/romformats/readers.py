@@ -16,13 +16,20 @@ string kernels) have one reader each. A reader takes the file's bytes, the
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 
 import numpy as np
 import pyarrow as pa
 
 from enctools.errors import DataError
 from enctools.models.romformats.columns import fixed_rows, hex_lines
-from enctools.models.romformats.words import HEX_DIGIT, Target, image_values, signed
+from enctools.models.romformats.words import (
+    HEX_DIGIT,
+    MAX_TABLE_BITS,
+    Target,
+    image_values,
+    signed,
+)
 
 #: MIF radix names and their bases
 RADIX = {b"HEX": 16, b"DEC": 10, b"UNS": 10, b"BIN": 2, b"OCT": 8}
@@ -36,7 +43,7 @@ def read_bin(data: bytes, t: Target, src: str) -> np.ndarray:
 # --------------------------------------------------------------------- Intel HEX
 
 
-def _ihex_records(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
+def ihex_records(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
     """Every record's bytes in one array and where each starts, or None if a line is unusual."""
     if b" " in data or b"\t" in data:
         return None
@@ -70,7 +77,7 @@ def fast_ihex(data: bytes, t: Target, src: str) -> np.ndarray | None:
     None when anything is unusual (blanks, unknown or misplaced records, gaps, records
     out of order).
     """
-    records = _ihex_records(data)
+    records = ihex_records(data)
     if records is None:
         return None
     rec, off = records
@@ -259,21 +266,46 @@ def read_mif(data: bytes, t: Target, src: str) -> np.ndarray:
     except (KeyError, ValueError):
         msg = f"{src}: WIDTH and DEPTH must be given before CONTENT"
         raise DataError(msg) from None
+    if not 0 < depth <= 1 << MAX_TABLE_BITS:
+        msg = f"{src}: DEPTH={depth}, not 1..{1 << MAX_TABLE_BITS} (2^{MAX_TABLE_BITS}) entries"
+        raise DataError(msg)
     arad = RADIX.get(keys.get(b"ADDRESS_RADIX", b"HEX"), 16)
     drad = RADIX.get(keys.get(b"DATA_RADIX", b"HEX"), 16)
-    addrs: list[int] = []
-    words: list[int] = []
-    for stmt in body.partition(b"BEGIN")[2].rpartition(b"END")[0].split(b";"):
-        if stmt.strip():
-            a, w = _mif_statement(stmt, arad, drad, src)
-            addrs.extend(a)
-            words.extend(v & ((1 << width) - 1) for v in w)  # negative decimals: two's complement
-    values = signed(np.array(words, dtype=np.uint64), width)
-    return _by_address(np.array(addrs, dtype=np.int64), values, depth, src)
+    statements = [_mif_statement(stmt, arad, drad, src)
+                  for stmt in body.partition(b"BEGIN")[2].rpartition(b"END")[0].split(b";")
+                  if stmt.strip()]
+    if any(a.start < 0 or a.stop > depth for a, _ in statements if len(a)):
+        msg = f"{src}: an address is outside DEPTH={depth}"
+        raise DataError(msg)
+    covered = sum(len(a) for a, _ in statements)
+    if covered > depth:  # before the values are spread over their addresses
+        msg = f"{src}: the content gives {covered} values, more than DEPTH={depth} addresses"
+        raise DataError(msg)
+    missing = depth - _union(a for a, _ in statements)
+    if missing:
+        msg = f"{src}: {missing} of {depth} addresses have no value"
+        raise DataError(msg)
+    # negative decimals: two's complement; a range's values repeated over it
+    addrs = [np.arange(a.start, a.stop, dtype=np.int64) for a, _ in statements]
+    words = [np.resize(np.array([v & ((1 << width) - 1) for v in w], dtype=np.uint64), len(a))
+             for a, w in statements]
+    values = signed(np.concatenate(words) if words else np.zeros(0, np.uint64), width)
+    return _by_address(np.concatenate(addrs) if addrs else np.zeros(0, np.int64), values,
+                       depth, src)
+
+
+def _union(ranges: Iterable[range]) -> int:
+    """How many addresses the ranges cover, each counted once."""
+    total, reach = 0, 0
+    for r in sorted((r for r in ranges if len(r)), key=lambda r: r.start):
+        total += max(0, r.stop - max(r.start, reach))
+        reach = max(reach, r.stop)
+    return total
 
 
 def _mif_statement(stmt: bytes, arad: int, drad: int, src: str) -> tuple[range, list[int]]:
-    """Addresses and values of one content statement (without its ``;``)."""
+    """Addresses and values of one content statement (without its ``;``): a range's
+    values as listed, to be repeated over it."""
     lhs, colon, rhs = stmt.partition(b":")
     words = [int(w, drad) for w in rhs.split()]
     if not (colon and words):
@@ -282,7 +314,7 @@ def _mif_statement(stmt: bytes, arad: int, drad: int, src: str) -> tuple[range, 
     lhs = lhs.strip()
     if lhs.startswith(b"["):
         a0, a1 = (int(x, arad) for x in lhs.strip(b"[]").split(b".."))
-        return range(a0, a1 + 1), [words[i % len(words)] for i in range(a1 + 1 - a0)]
+        return range(a0, a1 + 1), words
     a0 = int(lhs, arad)
     return range(a0, a0 + len(words)), words
 

@@ -3,16 +3,22 @@ two's complement both ways.
 
 A table value is a signed integer [LSB]; a file stores it as a word of ``width``
 bits in two's complement (``ceil(width / 4)`` hex digits in text formats), or as
-1, 2 or 4 bytes of a binary image in the target's byte order.
+1, 2 or 4 bytes of a binary image in the target's byte order. A table too large to
+hold is given to the writers as :class:`Words`, a block at a time.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from enctools.errors import DataError
+
+#: the largest table enctools builds or reads: 2^28 entries (enc make-rom's `address_bits`)
+MAX_TABLE_BITS = 28
 
 
 @dataclass(frozen=True)
@@ -109,3 +115,61 @@ HEX_DIGIT = np.full(256, 255, dtype=np.uint8)
 HEX_DIGIT[np.frombuffer(b"0123456789", np.uint8)] = np.arange(10)
 HEX_DIGIT[np.frombuffer(b"ABCDEF", np.uint8)] = np.arange(10, 16)
 HEX_DIGIT[np.frombuffer(b"abcdef", np.uint8)] = np.arange(10, 16)
+
+
+class Words:
+    """A table's words [LSB] given a block at a time, never held whole: sliced as an array
+    (``words[a:b]`` is an ndarray of those words), with its ``size``, ``dtype``, ``min()``
+    and ``max()`` known beforehand. ``chunk(k)`` gives words ``k * block ..``; the two
+    blocks used last are kept, so that a writer taking the table in order, in slices of any
+    size, has each block made once. ``np.asarray(words)`` makes the whole table (for the
+    small ones: a controller's points)."""
+
+    ndim = 1
+
+    def __init__(self, size: int, dtype: np.dtype | type, block: int,
+                 chunk: Callable[[int], np.ndarray], lo: int, hi: int) -> None:
+        self.size, self.dtype, self.block = size, np.dtype(dtype), block
+        self._chunk, self._lo, self._hi = chunk, lo, hi
+        self._recent: dict[int, np.ndarray] = {}
+
+    @property
+    def shape(self) -> tuple[int]:
+        return (self.size,)
+
+    def __len__(self) -> int:
+        return self.size
+
+    def min(self) -> int:
+        return self._lo
+
+    def max(self) -> int:
+        return self._hi
+
+    def _get(self, k: int) -> np.ndarray:
+        got = self._recent.get(k)
+        if got is None:
+            got = self._chunk(k)
+            if len(self._recent) >= 2:
+                self._recent.pop(next(iter(self._recent)))
+            self._recent[k] = got
+        return got
+
+    def __getitem__(self, key: slice) -> np.ndarray:
+        if not isinstance(key, slice):
+            msg = "a table's words are taken as slices"
+            raise TypeError(msg)
+        a, b, step = key.indices(self.size)
+        if step != 1:
+            msg = "a table's words are taken as slices of step 1"
+            raise ValueError(msg)
+        if b <= a:
+            return np.empty(0, self.dtype)
+        k0, k1 = a // self.block, (b - 1) // self.block
+        parts = [self._get(k)[max(a - k * self.block, 0):b - k * self.block]
+                 for k in range(k0, k1 + 1)]
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        whole = self[0:self.size]
+        return whole if dtype is None else whole.astype(dtype)

@@ -10,8 +10,9 @@ no address, find the runs of a span of :data:`~.blocks.SPAN` lines at once and w
 as one buffer of a few thousand of its lines listed as often as the run needs in one
 ``os.writev``; Intel HEX repeats a run of equal records' digits as
 one 32-byte item. Every write but a file's last ends at a whole page of the file
-(:class:`~.blocks.Gather`). Nothing grows with the table but the table (and a binary
-image or Intel HEX in the other byte order than the table's: its image). CSV is written
+(:class:`~.blocks.Gather`). Every writer takes the table in slices, in order, a block at
+a time, so a table given as :class:`~.words.Words` (enc make-rom's) is never held whole:
+nothing grows with the table. CSV is written
 by :mod:`.csvtext`; the controllers' tables are formatted by Arrow's string kernels, a
 block at a time. Every writer takes an open binary file (a real one: most write to its
 descriptor), the signed values [LSB] (one per address), the
@@ -21,6 +22,7 @@ where the format has comments.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import IO
 
 import numpy as np
@@ -77,9 +79,14 @@ def _comments(comment: list[str], prefix: str, ascii_only: bool = False,
     return "".join(f"{prefix}{comment_text(c, ascii_only, reserved)}\n" for c in comment)
 
 
+#: words of a binary image converted and written at once
+BIN_BLOCK = 1 << 20
+
+
 def write_bin(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Raw two's-complement words, 1, 2 or 4 bytes each, in the target's byte order."""
-    values.astype(t.image_dtype, copy=False).tofile(f)
+    for start in range(0, values.size, BIN_BLOCK):
+        values[start:start + BIN_BLOCK].astype(t.image_dtype, copy=False).tofile(f)
 
 
 #: Intel HEX: data bytes a record, a segment (the 64 KiB a type 04 record addresses), the
@@ -90,25 +97,34 @@ IHEX_DATA, IHEX_SEGMENT, IHEX_LINE, IHEX_EXT, IHEX_SEGMENTS = 16, 1 << 16, 44, 1
 
 def write_ihex(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
     """Intel HEX of the raw image: 16 data bytes a record, a type 04 record every 64 KiB."""
-    image = np.ascontiguousarray(values.astype(t.image_dtype, copy=False)).view(np.uint8)
-    full = image.size // IHEX_SEGMENT
+    size = t.storage_bytes
+    nbytes = values.size * size
+    full = nbytes // IHEX_SEGMENT
+    per = IHEX_SEGMENT * IHEX_SEGMENTS // size  # words of a block of whole segments
+
+    def image(a: int, b: int) -> np.ndarray:  # the image of words a..b-1
+        return np.ascontiguousarray(values[a:b].astype(t.image_dtype, copy=False)).view(np.uint8)
+
     if full:
-        _ihex_segments(f, image[:full * IHEX_SEGMENT])
+        last = full * IHEX_SEGMENT // size
+        _ihex_segments(f, (image(a, min(a + per, last)) for a in range(0, last, per)),
+                       min(IHEX_SEGMENTS, full))
     base = full * IHEX_SEGMENT
-    if base < image.size:  # the last segment, in part: its records one by one
+    if base < nbytes:  # the last segment, in part: its records one by one
         f.write(_ihex_record(4, 0, [(base >> 24) & 0xFF, (base >> 16) & 0xFF]))
-        rest = image[base:]
+        rest = image(base // size, values.size)
         f.write(b"".join(_ihex_record(0, a, rest[a:a + IHEX_DATA].tolist())
                          for a in range(0, rest.size, IHEX_DATA)))
     f.write(b":00000001FF\n")
 
 
-def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
-    """Whole 64 KiB segments of the image (uint8), IHEX_SEGMENTS a block: the records'
-    lengths, addresses, types and newlines are the same in every segment and set once."""
+def _ihex_segments(f: IO[bytes], images: Iterable[np.ndarray], segments: int) -> None:
+    """Whole 64 KiB segments of the image, given in ``images`` (uint8) of at most
+    ``segments`` segments (<= IHEX_SEGMENTS) each: the records' lengths, addresses, types
+    and newlines are the same in every segment and set once."""
     records = IHEX_SEGMENT // IHEX_DATA
     seg_text = IHEX_EXT + records * IHEX_LINE
-    block = np.empty((min(IHEX_SEGMENTS, image.size // IHEX_SEGMENT), seg_text), np.uint8)
+    block = np.empty((segments, seg_text), np.uint8)
     addr = np.arange(0, IHEX_SEGMENT, IHEX_DATA, dtype=np.uint32)
     for segment in block:
         lines = segment[IHEX_EXT:].reshape(-1, IHEX_LINE)  # a view: the row is contiguous
@@ -120,8 +136,9 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
     checks = ((-(IHEX_DATA + (addr >> 8) + (addr & 0xFF))) & 0xFF).astype(np.uint8)
     out = Gather(f)
     check_text: dict[int, np.ndarray] = {}
-    for base in range(0, image.size, IHEX_SEGMENT * block.shape[0]):
-        data = image[base:base + IHEX_SEGMENT * block.shape[0]].reshape(-1, records, IHEX_DATA)
+    base = 0
+    for image in images:
+        data = image.reshape(-1, records, IHEX_DATA)
         for j in range(data.shape[0]):
             at = base + j * IHEX_SEGMENT
             block[j, :IHEX_EXT] = np.frombuffer(
@@ -130,6 +147,7 @@ def _ihex_segments(f: IO[bytes], image: np.ndarray) -> None:
         _ihex_data(text, data, checks, check_text)
         out.add(text.reshape(-1).data)
         out.flush()  # before the block is used again
+        base += image.size
     out.flush(whole=True)
 
 
@@ -231,8 +249,9 @@ def write_coe(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     """Xilinx COE, radix 16: one ``value,`` a line, the last ``value;``."""
     head = _comments(comment, "; ")
     f.write((head + "memory_initialization_radix=16;\nmemory_initialization_vector=\n").encode())
-    _write_word_lines(f, values[:-1], t, b",\n")
-    f.write(f"{int(twos(values[-1:], t.width)[0]):0{t.hex_digits}X};\n".encode())
+    last = values.size - 1
+    _write_word_lines(f, values, t, b",\n", last)
+    f.write(f"{int(twos(values[last:last + 1], t.width)[0]):0{t.hex_digits}X};\n".encode())
 
 
 def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -> None:
@@ -247,19 +266,22 @@ def write_mem(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
 RUN_LINES = 4096
 
 
-def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes) -> None:
+def _write_word_lines(f: IO[bytes], values: np.ndarray, t: Target, end: bytes,
+                      stop: int | None = None) -> None:
     """The table's words in hex, each followed by ``end``, a span of :data:`SPAN` lines at
     a time: a span whose values change seldom as each run's text, :data:`RUN_LINES` lines
     of it formatted once and written as often as the run needs (``os.writev``), a span of
-    many runs a block of :data:`LINES` at a time, formatted line by line into one buffer."""
-    if not values.size:
+    many runs a block of :data:`LINES` at a time, formatted line by line into one buffer.
+    ``stop``: the words before it only (None: all)."""
+    n = values.size if stop is None else stop
+    if not n:
         return
     width = t.hex_digits + len(end)
-    lines = np.empty((min(values.size, LINES), width), np.uint8)
+    lines = np.empty((min(n, LINES), width), np.uint8)
     put_bytes(lines, t.hex_digits, end)
     out = Gather(f)
-    for start in range(0, values.size, SPAN):
-        u = twos(values[start:start + SPAN], t.width)
+    for start in range(0, n, SPAN):
+        u = twos(values[start:min(start + SPAN, n)], t.width)
         cuts = np.flatnonzero(u[1:] != u[:-1]) + 1
         if cuts.size * LONG_RUN < u.size:  # a table's values change slowly
             for k0, k1 in zip([0, *cuts.tolist()], [*cuts.tolist(), u.size], strict=True):
