@@ -300,13 +300,7 @@ def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     edges = np.flatnonzero(np.diff(bs)) + 1
     units = _Units(centres, spread)
     parts = _factor(units, xs, ys, bs, edges)
-    whole = _Part.empty(centres.size)
-    for p in parts.values():
-        whole = whole.join(p)
-    sol = _Solution(whole, centres.size)
-    scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
-    for start, stop in _blocks(xs.size, edges):
-        _score(sol, units(xs[start:stop]), ys[start:stop], scores)
+    sol, scores = _scored(units, parts, xs, ys, edges)
     if progress is not None:
         progress(total - 1, total)
     best, best_rms = _best(sol, scores, goal)
@@ -326,6 +320,20 @@ def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
                     len(spreads) * SMOOTHING.size, None if goal is None else not key[0],
                     best_rms, (spreads[0], spreads[-1]))
     return DenseFit(model, choice, blocked[back])
+
+
+def _scored(units: _Units, parts: dict[int, _Part], xs: np.ndarray, ys: np.ndarray,
+            edges: np.ndarray) -> tuple[_Solution, _Scores]:
+    """The network of every point and, from a pass over the blocks, the leave-one-out
+    and training figures of every smoothing."""
+    whole = _Part.empty(units.centres.size)
+    for p in parts.values():
+        whole = whole.join(p)
+    sol = _Solution(whole, units.centres.size)
+    scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
+    for start, stop in _blocks(xs.size, edges):
+        _score(sol, units(xs[start:stop]), ys[start:stop], scores)
+    return sol, scores
 
 
 def _factor(units: _Units, xs: np.ndarray, ys: np.ndarray, bs: np.ndarray,
