@@ -46,6 +46,11 @@ def units(x_deg: np.ndarray, centres_deg: np.ndarray, spread_deg: float) -> np.n
     return np.exp(-SPREAD_FACTOR ** 2 * chord ** 2 / width ** 2)
 
 
+def largest_squared(phi: np.ndarray) -> float:
+    """The largest squared singular value of the centred design."""
+    return float(np.linalg.norm(phi - phi.mean(axis=0), 2) ** 2)
+
+
 class Ridge:
     """min |y - b - Phi w|^2 + lambda |w|^2, lambda = smoothing x the largest squared
     singular value of the centred design, by the complete QR of the augmented system
@@ -53,15 +58,15 @@ class Ridge:
     the columns of Q past A's, and 1 - H_ii the squared norm of row i there (a sum of
     squares: accurate where the network nearly interpolates)."""
 
-    def __init__(self, x, y, centres, spread, smoothing):
-        phi = units(x, centres, spread)
-        lam = smoothing * np.linalg.norm(phi - phi.mean(axis=0), 2) ** 2
+    def __init__(self, x, y, centres, spread, smoothing, phi=None):
+        phi = units(x, centres, spread) if phi is None else phi
+        lam = smoothing * largest_squared(phi)
         n, m = phi.shape
         a = np.zeros((n + m, m + 1))
         a[:n, 0], a[:n, 1:], a[n:, 1:] = 1.0, phi, np.sqrt(lam) * np.eye(m)
         b = np.r_[y, np.zeros(m)]
         q, r = np.linalg.qr(a, mode="complete")
-        coef = np.linalg.lstsq(r[:m + 1], (q.T @ b)[:m + 1], rcond=None)[0]
+        coef = np.linalg.solve(r[:m + 1], (q.T @ b)[:m + 1])
         self.bias, self.w = coef[0], coef[1:]
         self.centres, self.spread = centres, spread
         outside = q[:, m + 1:]
@@ -86,8 +91,9 @@ def search(x, y, spreads, centres):
     """(spread, smoothing) of the smallest RMS leave-one-out residual."""
     best = None
     for spread in spreads:
+        phi = units(x, centres, spread)
         for smoothing in SMOOTHINGS:
-            fit = Ridge(x, y, centres, spread, smoothing)
+            fit = Ridge(x, y, centres, spread, smoothing, phi)
             if np.max(np.abs(fit.w)) > MAX_WEIGHT:
                 continue
             rms = np.sqrt(np.mean(fit.loo ** 2))
