@@ -23,6 +23,7 @@ from enctools.models.fourier import (
     fit_with_loo,
 )
 from enctools.models.rbf import SMOOTHING, RBFModel, choose_network, fit_smoothed
+from enctools.models.rbfdense import SEARCH_POINTS, choose_dense
 
 KERNELS = ("rbf", "fourier")
 #: the ranges of the options [deg], [arcsec], harmonic orders (bounds included): a
@@ -99,6 +100,9 @@ class Fit:
     notes: list[str] = field(default_factory=list)
     choice: dict[str, Any] = field(default_factory=dict)
     gain: gains.Gain | None = None
+    #: each point's residual against the model refitted without its block [arcsec], when
+    #: the fit computed them itself (a dense table's network: rbfdense)
+    blocked: np.ndarray | None = None
 
     def residuals(self) -> dict[str, Any]:
         """The ``residuals`` metadata of the model stream."""
@@ -132,12 +136,12 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
     """
     x = np.asarray(angle_deg, dtype=np.float64)
     y = np.asarray(error_arcsec, dtype=np.float64)
-    model, loo, choice = _model_and_loo(x, y, settings, progress)
+    model, loo, choice, blocked = _model_and_loo(x, y, settings, progress)
     train, left_out = figures_or_nan(y - model(x)), figures_or_nan(loo)
     fit = Fit(model, figures_meta(figures_or_nan(y)),
               {"max_abs_arcsec": train.max_abs, "rms_arcsec": train.rms},
               {"max_abs_arcsec": left_out.max_abs, "rms_arcsec": left_out.rms,
-               "bessel_std_arcsec": left_out.std}, choice=choice)
+               "bessel_std_arcsec": left_out.std}, choice=choice, blocked=blocked)
     if holdout is not None:
         hx, hy = (np.asarray(v, dtype=np.float64) for v in holdout)
         r = hy - model(hx)
@@ -168,7 +172,10 @@ def _gain(x: np.ndarray, y: np.ndarray, fit: Fit, settings: Settings, loo: np.nd
     alternative (a Fourier series of order <= LOW_ORDER), and where the search ended on
     the edge of its grid."""
     dense = gains.is_dense(x)
-    model = gains.figure(x, y, loo, _refit(fit.model, fit.choice.get("smoothing")), dense)
+    if fit.blocked is not None and dense:
+        model = gains.Figure(gains.rms(loo), gains.rms(fit.blocked))
+    else:
+        model = gains.figure(x, y, loo, _refit(fit.model, fit.choice.get("smoothing")), dense)
     baseline = gains.figure(x, y, (y - y.mean()) * x.size / (x.size - 1),
                             gains.constant_refit, dense)
     g = gains.Gain(model, baseline, int(x.size), edges=_edges(fit, settings))
@@ -265,21 +272,14 @@ def _names(names: list[str], most: int = 6) -> str:
 
 def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
                    progress: Callable[[int, int], object] | None = None
-                   ) -> tuple[RBFModel | FourierModel, np.ndarray, dict[str, Any]]:
+                   ) -> tuple[RBFModel | FourierModel, np.ndarray, dict[str, Any],
+                              np.ndarray | None]:
     """The model fitted to points [deg, arcsec], its leave-one-out residuals [arcsec]
-    (NaN for fewer than 3 points) and how it was chosen."""
+    (NaN for fewer than 3 points), how it was chosen, and the blocked hold-out residuals
+    [arcsec] when the fit gave them (a dense table's network, by blocks)."""
     n = x.size
     if settings.kernel == "rbf":
-        network, choice = choose_network(x, y, settings.spread_deg, progress,
-                                         settings.goal_arcsec)
-        how = {"selection": "leave-one-out, closed form", "tried": choice.tried,
-               "smoothing": choice.smoothing, "effective_parameters": choice.effective,
-               "spread_range": choice.spread_range}
-        if choice.reached is not None:
-            how |= {"selection": "leave-one-out among those within the goal",
-                    "goal_reached": choice.reached,
-                    "best_leave_one_out_rms_arcsec": choice.best_rms}
-        return network, (choice.loo if n > 2 else np.full(n, np.nan)), how
+        return _network(x, y, settings, progress)
     if settings.harmonics is None:
         model, loo = choose_order(x, y)
         ceiling = min(DEFAULT_MAX_ORDER, (n - 1) // 2)
@@ -293,4 +293,31 @@ def _model_and_loo(x: np.ndarray, y: np.ndarray, settings: Settings,
             raise SettingsError(msg)
         model, loo = fit_with_loo(x, y, k)
         how = {"selection": "the order given"}
-    return model, (loo if n > 2 else np.full(n, np.nan)), how
+    return model, (loo if n > 2 else np.full(n, np.nan)), how, None
+
+
+def _network(x: np.ndarray, y: np.ndarray, settings: Settings,
+             progress: Callable[[int, int], object] | None = None
+             ) -> tuple[RBFModel, np.ndarray, dict[str, Any], np.ndarray | None]:
+    """The rbf kernel's network: every point searched at once (choose_network) up to
+    rbfdense.SEARCH_POINTS points, by blocks beyond (rbfdense.choose_dense)."""
+    n, blocked = x.size, None
+    how: dict[str, Any]
+    if n > SEARCH_POINTS:
+        dense = choose_dense(x, y, settings.spread_deg, progress, settings.goal_arcsec)
+        network, choice, blocked = dense.model, dense.choice, dense.blocked
+        how = {"selection": "leave-one-out, closed form" + (
+            "" if settings.spread_deg is not None else
+            f" (the spread on an even {SEARCH_POINTS} of the {n} points)")}
+    else:
+        network, choice = choose_network(x, y, settings.spread_deg, progress,
+                                         settings.goal_arcsec)
+        how = {"selection": "leave-one-out, closed form"}
+    how |= {"tried": choice.tried, "smoothing": choice.smoothing,
+            "effective_parameters": choice.effective, "spread_range": choice.spread_range}
+    if choice.reached is not None:
+        how |= {"selection": how["selection"].replace(
+                    "leave-one-out, closed form", "leave-one-out among those within the goal"),
+                "goal_reached": choice.reached,
+                "best_leave_one_out_rms_arcsec": choice.best_rms}
+    return network, (choice.loo if n > 2 else np.full(n, np.nan)), how, blocked

@@ -144,7 +144,7 @@ def determined_terms(x_rad: np.ndarray, harmonics: int, cond_limit: float = COND
     :class:`Terms`, and Q (N x kept) and R of the kept columns in order.
     """
     a = design_matrix(x_rad, harmonics)
-    _, r = np.linalg.qr(a)
+    r = np.asarray(np.linalg.qr(a, mode="r"))   # R alone: no N x (2K+1) Q
     norms = np.linalg.norm(a, axis=0)
     diag = np.zeros(a.shape[1])
     diag[:min(r.shape)] = np.abs(np.diag(r))
@@ -246,10 +246,15 @@ def choose_order(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     top = max(0, min(int(most), (x.size - 1) // 2))
     terms, q, _ = determined_terms(x, top)
     qy = q.T @ y
-    fitted = np.cumsum(q * qy, axis=1)
-    h = np.cumsum(q * q, axis=1)
+    # order k's fit and leverage are the sums over Q's first columns: summed a column at
+    # a time (a few N-vectors, not N x (2K+1) arrays of each)
+    fitted, h = np.zeros(x.size), np.zeros(x.size)
+    press = np.empty(q.shape[1])
     with np.errstate(divide="ignore", invalid="ignore"):
-        press = np.sqrt(np.mean(((y[:, None] - fitted) / (1.0 - h)) ** 2, axis=0))
+        for j in range(q.shape[1]):
+            fitted += q[:, j] * qy[j]
+            h += q[:, j] * q[:, j]
+            press[j] = np.sqrt(np.mean(((y - fitted) / (1.0 - h)) ** 2))
     orders = _orders(terms.kept)
     last = np.r_[orders[1:] != orders[:-1], True]   # the last column of each order
     candidates = np.flatnonzero(last & np.isfinite(press))

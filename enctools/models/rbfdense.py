@@ -1,0 +1,387 @@
+"""The default RBF network on a dense table, in memory and time in proportion to the points.
+
+enc fit-rbf's network (:func:`enctools.models.rbf.choose_network`) has a fixed set of at
+most :data:`~enctools.models.rbf.MAX_UNITS` units, so every figure of its least squares
+comes from a small factor: the R of the QR decomposition of the columns ``[1, Phi, y]``
+(an unpenalised bias, the units of seed 001 eq. 6, the deviations), (m + 2) x (m + 2)
+words whatever the number of points N. That R is accumulated a block of
+:data:`BLOCK` points at a time (the blocks' R stacked and factored again, as a tall
+QR is done out of core), so the memory is a few blocks' worth and Python runs between
+blocks (a signal ends the fit there). From R:
+
+- the centred design's SVD ``P Phi = U S V^T`` (P removes the mean): ``S`` and ``V``
+  from the SVD of R's middle block, ``U^T y`` from its last column, to rounding as the
+  SVD of the whole design gives them (the QR is backward stable);
+- the weights and bias of any smoothing lambda, as :class:`~enctools.models.rbf._Ridge`;
+- in a second pass over the blocks, each point's leave-one-out residual
+  ``r_i / (1 - H_ii)`` for every smoothing at once, with
+  ``H_ii = 1/N + sum_j p_ij^2 / (S_j^2 + lambda)`` and ``p_i = V^T (phi_i - mean)``:
+  accurate to about 1e-10 of the deviations at the smallest smoothing tried (1e-12 of
+  the largest squared singular value), and to rounding where H_ii is not near 1, as in a
+  table of many more points than units;
+- the blocked hold-out (:mod:`enctools.models.gain`): the R of each 15-deg block is kept,
+  and the network without block k is the QR of the others' R (prefix and suffix
+  products, two merges a block), no refit over the points.
+
+The spread is chosen on an even subset of :data:`SEARCH_POINTS` points by the same
+closed-form criterion (the smallest RMS leave-one-out residual over spreads x
+smoothings); the smoothing is then chosen again over every point at that spread.
+Tables of at most SEARCH_POINTS points are searched over all of them by
+:func:`~enctools.models.rbf.choose_network` itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from itertools import pairwise
+
+import numpy as np
+
+from enctools.errors import DataError
+from enctools.models.gain import block_index
+from enctools.models.rbf import (
+    MAX_WEIGHT,
+    SMOOTHING,
+    SPREAD_FACTOR,
+    SPREAD_STEPS,
+    Choice,
+    RBFModel,
+    default_centres,
+    spread_chord,
+)
+from enctools.units import DEG
+
+#: points of the subset the spread is searched on: above this the spread search costs
+#: the same whatever the table's size (the default network has at most 256 units)
+SEARCH_POINTS = 2048
+#: points a block: the largest arrays are BLOCK x 258 words (4.2 MB)
+BLOCK = 2048
+
+
+class _Units:
+    """The units of one spread at fixed centres [deg] (seed 001 eq. 6)."""
+
+    def __init__(self, centres_deg: np.ndarray, spread_deg: float) -> None:
+        self.centres, self.spread = centres_deg, float(spread_deg)
+        self.cc, self.sc = np.cos(centres_deg * DEG), np.sin(centres_deg * DEG)
+        self.k2 = 2.0 * SPREAD_FACTOR ** 2 / spread_chord(spread_deg) ** 2
+        self.right = np.vstack([self.cc, self.sc, np.ones_like(self.cc)])
+
+    def __call__(self, x_deg: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """R_i(x), shape (len(x), m): exp(-k d^2) with d^2 = 2 - 2 cos(x - c), as
+        k (2 cos x cos c + 2 sin x sin c - 2): one product of (len(x) x 3) (3 x m), no
+        len(x) x m trigonometric call."""
+        xr = x_deg * DEG
+        left = np.empty((xr.size, 3))
+        left[:, 0], left[:, 1], left[:, 2] = np.cos(xr), np.sin(xr), -1.0
+        left *= self.k2
+        a = np.matmul(left, self.right, out=out)
+        return np.exp(a, out=a)
+
+
+def _r_factor(a: np.ndarray) -> np.ndarray:
+    """The R of the QR decomposition of ``a`` (Householder, LAPACK dgeqrf)."""
+    return np.asarray(np.linalg.qr(a, mode="r"))
+
+
+@dataclass
+class _Part:
+    """What a set of points contributes: the R factor of its columns [1, Phi, y] (at most
+    m + 2 rows), its count and sums."""
+
+    r: np.ndarray | None
+    n: int
+    phi_sum: np.ndarray
+    y_sum: float
+
+    @classmethod
+    def empty(cls, m: int) -> _Part:
+        return cls(None, 0, np.zeros(m), 0.0)
+
+    def add(self, units: _Units, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Points [deg, arcsec] added (a block): the QR of R stacked over their columns.
+        Returns their Phi (a view)."""
+        top = 0 if self.r is None else self.r.shape[0]
+        m = units.centres.size
+        a = np.empty((top + x.size, m + 2))
+        if self.r is not None:
+            a[:top] = self.r
+        phi = units(x, out=a[top:, 1:m + 1])
+        a[top:, 0], a[top:, m + 1] = 1.0, y
+        self.phi_sum += phi.sum(axis=0)
+        self.y_sum += float(y.sum())
+        self.n += x.size
+        self.r = _r_factor(a)
+        return phi
+
+    def join(self, other: _Part) -> _Part:
+        """The part of both sets of points."""
+        if self.r is None or other.r is None:
+            r = other.r if self.r is None else self.r
+        else:
+            r = _r_factor(np.vstack([self.r, other.r]))
+        return _Part(r, self.n + other.n, self.phi_sum + other.phi_sum,
+                     self.y_sum + other.y_sum)
+
+
+class _Solution:
+    """The ridge network of one spread from a :class:`_Part` (see :class:`rbf._Ridge`):
+    ``min |y - b - Phi w|^2 + lambda |w|^2``, lambda = smoothing x S_0^2."""
+
+    def __init__(self, part: _Part, m: int) -> None:
+        n = part.n
+        r = np.zeros((m + 2, m + 2))
+        if part.r is not None:
+            r[:part.r.shape[0]] = part.r
+        u, s, vt = np.linalg.svd(r[1:m + 1, 1:m + 1])
+        rank = int(np.sum(s > (s[0] if s.size else 0.0) * max(n, m) * np.finfo(float).eps))
+        self.n, self.s, self.vt = n, s[:rank], vt[:rank]
+        self.uy = u[:, :rank].T @ r[1:m + 1, m + 1]
+        self.mu = part.phi_sum / max(n, 1)
+        self.ybar = part.y_sum / max(n, 1)
+
+    def lam(self, smoothing: np.ndarray | float) -> np.ndarray:
+        return np.asarray(smoothing) * (float(self.s[0]) ** 2 if self.s.size else 0.0)
+
+    def weights(self, smoothing: float) -> np.ndarray:
+        """The output weights [arcsec] (as rbf._Ridge.weights)."""
+        s2 = self.s * self.s
+        g = s2 / (s2 + self.lam(smoothing)) if s2.size else s2
+        positive = self.s > 0
+        inverse = np.where(positive, g / np.where(positive, self.s, 1.0), 0.0)
+        return np.asarray(self.vt.T @ (inverse * self.uy))
+
+    def effective(self, smoothing: float) -> float:
+        s2 = self.s * self.s
+        return float(1.0 + (s2 / (s2 + self.lam(smoothing))).sum()) if s2.size else 1.0
+
+    def model(self, units: _Units, smoothing: float) -> RBFModel:
+        w = self.weights(smoothing)
+        return RBFModel(units.centres.copy(), w, self.ybar - float(self.mu @ w), units.spread)
+
+    def residuals(self, phi: np.ndarray, y: np.ndarray, smoothings: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """Training residuals [arcsec] and 1 - H_ii of points (their Phi, y), one column
+        a smoothing."""
+        p = phi @ self.vt.T
+        p -= self.mu @ self.vt.T
+        inv = 1.0 / (np.square(self.s)[:, None] + self.lam(smoothings)[None, :])
+        fit = p @ ((self.s * self.uy)[:, None] * inv)
+        lev = np.square(p) @ inv
+        return (y - self.ybar)[:, None] - fit, (1.0 - 1.0 / self.n) - lev
+
+
+def _blocks(n: int, edges: np.ndarray | None = None) -> Iterator[tuple[int, int]]:
+    """(start, stop) of runs of at most BLOCK points, cut at ``edges`` too."""
+    cuts = np.unique(np.concatenate([[0, n], [] if edges is None else edges])).astype(int)
+    for lo, hi in pairwise(cuts.tolist()):
+        for start in range(lo, hi, BLOCK):
+            yield start, min(start + BLOCK, hi)
+
+
+@dataclass
+class _Scores:
+    """Per smoothing: sum of squared leave-one-out residuals, largest |training
+    residual| [arcsec], and whether the weights fit a model stream."""
+
+    sumsq: np.ndarray
+    worst: np.ndarray
+    n: int = 0
+
+    def rms(self) -> np.ndarray:
+        return np.sqrt(self.sumsq / max(self.n, 1))
+
+
+def _score(sol: _Solution, phi: np.ndarray, y: np.ndarray, scores: _Scores) -> None:
+    res, one_minus_h = sol.residuals(phi, y, SMOOTHING)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        loo = res / one_minus_h
+        scores.sumsq += np.square(loo).sum(axis=0)
+    scores.worst = np.maximum(scores.worst, np.abs(res).max(axis=0, initial=0.0))
+    scores.n += y.size
+
+
+def _best(sol: _Solution, scores: _Scores, goal: float | None,
+          best: tuple[tuple[bool, float], float] | None = None
+          ) -> tuple[tuple[tuple[bool, float], float] | None, float]:
+    """The best smoothing by choose_network's rule: within the goal first, then the
+    smaller RMS leave-one-out residual (1e-9 of it a tie); weights a stream holds."""
+    rms_all, best_rms = scores.rms(), np.inf
+    for smoothing, rms, worst in zip(SMOOTHING, rms_all, scores.worst, strict=True):
+        if not np.max(np.abs(sol.weights(float(smoothing))), initial=0.0) <= MAX_WEIGHT:
+            continue
+        rms = float(rms)
+        if not np.isfinite(rms):
+            continue
+        best_rms = min(best_rms, rms)
+        key = (goal is not None and float(worst) > goal, rms)
+        if best is None or key[0] < best[0][0] or (key[0] == best[0][0]
+                                                   and rms < best[0][1] * (1 - 1e-9)):
+            best = (key, float(smoothing))
+    return best, best_rms
+
+
+def _even_subset(x: np.ndarray, most: int) -> np.ndarray:
+    """Indices of ``most`` points spread evenly over the turn (every N/most-th in angle)."""
+    order = np.argsort(x, kind="stable")
+    return order[(np.arange(most) * (x.size / most)).astype(np.int64)]
+
+
+def _search_spread(x: np.ndarray, y: np.ndarray, centres: np.ndarray, spreads: list[float],
+                   goal: float | None, progress: Callable[[int, int], object] | None) -> float:
+    """The spread [deg] whose best smoothing predicts the subset best (leave-one-out)."""
+    pick = _even_subset(x, SEARCH_POINTS)
+    xs, ys = x[pick], y[pick]
+    best: tuple[tuple[bool, float], float] | None = None
+    chosen = spreads[0]
+    for k, spread in enumerate(spreads):
+        units = _Units(centres, spread)
+        part = _Part.empty(centres.size)
+        phi = part.add(units, xs, ys)
+        sol = _Solution(part, centres.size)
+        scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
+        _score(sol, phi, ys, scores)
+        before = best
+        best, _ = _best(sol, scores, goal, best)
+        if best is not before:
+            chosen = spread
+        if progress is not None:
+            progress(k + 1, len(spreads) + 2)
+    if best is None:
+        msg = "no spread gives finite leave-one-out residuals"
+        raise DataError(msg)
+    return chosen
+
+
+@dataclass
+class DenseFit:
+    """The network, how it was chosen, and each point's blocked hold-out residual
+    [arcsec] (NaN where its block's refit was not possible)."""
+
+    model: RBFModel
+    choice: Choice
+    blocked: np.ndarray
+
+
+def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
+                 spread_deg: float | None = None,
+                 progress: Callable[[int, int], object] | None = None,
+                 goal: float | None = None) -> DenseFit:
+    """The default network of :func:`rbf.choose_network` on many points, by blocks.
+
+    Parameters
+    ----------
+    angle_deg, error_arcsec : distinct positions [deg] and deviations [arcsec].
+    spread_deg : a fixed spread [deg]; None searches :data:`rbf.SPREAD_STEPS` centre
+        spacings on an even subset of :data:`SEARCH_POINTS` points.
+    progress : ``progress(done, total)`` after each spread and each pass over the points.
+    goal : a training goal [arcsec], as choose_network's (the spread's on the subset).
+
+    Returns
+    -------
+    DenseFit: the network fitted to every point with the chosen spread and smoothing
+    (the smoothing chosen over every point), its :class:`rbf.Choice` with each point's
+    leave-one-out residual [arcsec] in the input order, and the blocked hold-out
+    residuals [arcsec] (:mod:`enctools.models.gain`, 24 blocks of 15 deg).
+    """
+    x = np.mod(np.asarray(angle_deg, dtype=np.float64), 360.0)
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    centres = default_centres(x.size)
+    spacing = 360.0 / centres.size
+    spreads = ([float(spread_deg)] if spread_deg is not None
+               else sorted({min(float(f) * spacing, 180.0) for f in SPREAD_STEPS}))
+    total = len(spreads) + 2 if spread_deg is None else 2
+    spread = (spreads[0] if spread_deg is not None or x.size <= 1
+              else _search_spread(x, y, centres, spreads, goal, progress))
+    block = block_index(x)
+    order = np.lexsort((x, block))
+    xs, ys, bs = x[order], y[order], block[order]
+    edges = np.flatnonzero(np.diff(bs)) + 1
+    units = _Units(centres, spread)
+    parts = _factor(units, xs, ys, bs, edges)
+    sol, scores = _scored(units, parts, xs, ys, edges)
+    if progress is not None:
+        progress(total - 1, total)
+    best, best_rms = _best(sol, scores, goal)
+    if best is None:
+        msg = "no spread gives finite leave-one-out residuals"
+        raise DataError(msg)
+    key, smoothing = best
+    held = _held_out(parts, units, smoothing)
+    loo, blocked, sse = _final(units, sol, held, smoothing, xs, ys, bs, edges)
+    if progress is not None:
+        progress(total, total)
+    back = np.empty_like(order)
+    back[order] = np.arange(order.size)
+    model = sol.model(units, smoothing)
+    model.sse = sse
+    choice = Choice(spread, smoothing, loo[back], sol.effective(smoothing),
+                    len(spreads) * SMOOTHING.size, None if goal is None else not key[0],
+                    best_rms, (spreads[0], spreads[-1]))
+    return DenseFit(model, choice, blocked[back])
+
+
+def _scored(units: _Units, parts: dict[int, _Part], xs: np.ndarray, ys: np.ndarray,
+            edges: np.ndarray) -> tuple[_Solution, _Scores]:
+    """The network of every point and, from a pass over the blocks, the leave-one-out
+    and training figures of every smoothing."""
+    whole = _Part.empty(units.centres.size)
+    for p in parts.values():
+        whole = whole.join(p)
+    sol = _Solution(whole, units.centres.size)
+    scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
+    for start, stop in _blocks(xs.size, edges):
+        _score(sol, units(xs[start:stop]), ys[start:stop], scores)
+    return sol, scores
+
+
+def _factor(units: _Units, xs: np.ndarray, ys: np.ndarray, bs: np.ndarray,
+            edges: np.ndarray) -> dict[int, _Part]:
+    """The :class:`_Part` of each 15-deg block of points sorted by block."""
+    parts: dict[int, _Part] = {}
+    for start, stop in _blocks(xs.size, edges):
+        part = parts.setdefault(int(bs[start]), _Part.empty(units.centres.size))
+        part.add(units, xs[start:stop], ys[start:stop])
+    return parts
+
+
+def _held_out(parts: dict[int, _Part], units: _Units, smoothing: float
+              ) -> dict[int, RBFModel | None]:
+    """For each block k, the network fitted with ``smoothing`` to every other block (None
+    where that is not possible): the part of the others as prefix and suffix products,
+    three merges a block. Empties ``parts``."""
+    m = units.centres.size
+    keys = sorted(parts)
+    prefix = [_Part.empty(m)]
+    for k in keys[:-1]:
+        prefix.append(prefix[-1].join(parts[k]))
+    suffix, out = _Part.empty(m), {}
+    for k in reversed(keys):
+        rest = prefix.pop().join(suffix)
+        try:
+            out[k] = _Solution(rest, m).model(units, smoothing) if rest.n >= 2 else None
+        except (ValueError, np.linalg.LinAlgError, ArithmeticError):
+            out[k] = None
+        suffix = parts.pop(k).join(suffix)
+    return out
+
+
+def _final(units: _Units, sol: _Solution, held: dict[int, RBFModel | None],
+           smoothing: float, xs: np.ndarray, ys: np.ndarray, bs: np.ndarray,
+           edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Each point's leave-one-out residual with the chosen smoothing and its residual
+    against the network fitted without its block [arcsec] (points sorted by block), and
+    the sum of the squared training residuals [arcsec^2]."""
+    loo, blocked = np.empty(xs.size), np.full(xs.size, np.nan)
+    lam, sse = np.array([smoothing]), 0.0
+    for start, stop in _blocks(xs.size, edges):
+        phi, y = units(xs[start:stop]), ys[start:stop]
+        res, one_minus_h = sol.residuals(phi, y, lam)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            loo[start:stop] = res[:, 0] / one_minus_h[:, 0]
+        sse += float(res[:, 0] @ res[:, 0])
+        fitted = held[int(bs[start])]
+        if fitted is not None:
+            blocked[start:stop] = y - (fitted.bias + phi @ fitted.weights)
+    return loo, blocked, sse
