@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import io
 import logging
 import os
 import re
@@ -46,8 +47,15 @@ _KINDS = ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device")
 def read_bytes(path: str | Path) -> bytes:
     """The whole of a small input file; DataError, one line naming the file, when it is
     missing or cannot be read."""
+    with open_to_read(path) as f:
+        return f.read()
+
+
+def open_to_read(path: str | Path) -> io.BufferedReader:
+    """An input file opened to read (binary); DataError, one line naming the file, when
+    it is missing or cannot be opened."""
     try:
-        return Path(path).read_bytes()
+        return open(path, "rb")  # closed by its caller's with
     except FileNotFoundError:
         msg = f"{path}: no such file"
         raise DataError(msg) from None

@@ -211,6 +211,20 @@ def default_centres(n_points: int) -> np.ndarray:
     return np.arange(m) * (360.0 / m)
 
 
+def search_grid(angle_deg: np.ndarray, error_arcsec: np.ndarray, spread_deg: float | None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[float]]:
+    """What a spread search works on: the angles [deg] within one turn, the errors
+    [arcsec], the default centres [deg] and the spreads [deg] to try (``spread_deg``
+    alone when given, else :data:`SPREAD_STEPS` centre spacings, at most 180 deg)."""
+    x = np.mod(np.asarray(angle_deg, dtype=np.float64), 360.0)
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    centres = default_centres(x.size)
+    spacing = 360.0 / centres.size
+    spreads = ([float(spread_deg)] if spread_deg is not None
+               else sorted({min(float(f) * spacing, 180.0) for f in SPREAD_STEPS}))
+    return x, y, centres, spreads
+
+
 @dataclass
 class Choice:
     """The network the leave-one-out search chose and its residuals.
@@ -339,12 +353,7 @@ def choose_network(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     The network fitted to every point with the chosen spread and smoothing, and the
     :class:`Choice` with its leave-one-out residuals [arcsec].
     """
-    x = np.mod(np.asarray(angle_deg, dtype=np.float64), 360.0)
-    y = np.asarray(error_arcsec, dtype=np.float64)
-    centres = default_centres(x.size)
-    spacing = 360.0 / centres.size
-    spreads = ([float(spread_deg)] if spread_deg is not None
-               else sorted({min(float(f) * spacing, 180.0) for f in SPREAD_STEPS}))
+    x, y, centres, spreads = search_grid(angle_deg, error_arcsec, spread_deg)
     best: tuple[tuple[bool, float], _Ridge, float, np.ndarray, float] | None = None
     best_rms = np.inf
     for k, spread in enumerate(spreads):

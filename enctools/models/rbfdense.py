@@ -44,10 +44,9 @@ from enctools.models.rbf import (
     MAX_WEIGHT,
     SMOOTHING,
     SPREAD_FACTOR,
-    SPREAD_STEPS,
     Choice,
     RBFModel,
-    default_centres,
+    search_grid,
     spread_chord,
 )
 from enctools.units import DEG
@@ -285,12 +284,7 @@ def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     leave-one-out residual [arcsec] in the input order, and the blocked hold-out
     residuals [arcsec] (:mod:`enctools.models.gain`, 24 blocks of 15 deg).
     """
-    x = np.mod(np.asarray(angle_deg, dtype=np.float64), 360.0)
-    y = np.asarray(error_arcsec, dtype=np.float64)
-    centres = default_centres(x.size)
-    spacing = 360.0 / centres.size
-    spreads = ([float(spread_deg)] if spread_deg is not None
-               else sorted({min(float(f) * spacing, 180.0) for f in SPREAD_STEPS}))
+    x, y, centres, spreads = search_grid(angle_deg, error_arcsec, spread_deg)
     total = len(spreads) + 2 if spread_deg is None else 2
     spread = (spreads[0] if spread_deg is not None or x.size <= 1
               else _search_spread(x, y, centres, spreads, goal, progress))

@@ -20,7 +20,6 @@ file and both figures.
 
 from __future__ import annotations
 
-import io
 import os
 import re
 from collections.abc import Iterator
@@ -28,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from enctools.data import files
 from enctools.errors import DataError
 from enctools.models.romformats.columns import Rows
 from enctools.models.romformats.words import MAX_TABLE_BITS, Target
@@ -89,21 +89,9 @@ def _check_count(path: str, t: Target, n: int, code_bits: int | None) -> None:
         raise DataError(msg)
 
 
-def _open(path: str) -> io.BufferedReader:
-    """The file opened to read; DataError, one line naming it, when it cannot be."""
-    try:
-        return open(path, "rb")  # closed by its caller's with
-    except FileNotFoundError:
-        msg = f"{path}: no such file"
-        raise DataError(msg) from None
-    except OSError as exc:
-        msg = f"{path}: cannot read: {exc.strerror or exc}"
-        raise DataError(msg) from None
-
-
 def head(path: str, size: int = HEAD) -> bytes:
     """The first ``size`` bytes of a file (DataError, one line, when it cannot be read)."""
-    with _open(path) as f:
+    with files.open_to_read(path) as f:
         return f.read(size)
 
 
@@ -111,13 +99,13 @@ _head = head
 
 
 def _size(path: str) -> int:
-    with _open(path) as f:
+    with files.open_to_read(path) as f:
         return os.fstat(f.fileno()).st_size
 
 
 def _tail(path: str, size: int = 4096) -> tuple[int, bytes]:
     """The offset of the file's last ``size`` bytes, and those bytes."""
-    with _open(path) as f:
+    with files.open_to_read(path) as f:
         end = f.seek(0, os.SEEK_END)
         at = max(0, end - size)
         f.seek(at)
@@ -151,7 +139,7 @@ def _lines(path: str, start: int, stop: int, width: int) -> Iterator[tuple[int, 
     n = (stop - start) // width
     per = max(1, READ // width)
     buf = bytearray(min(n, per) * width)
-    with _open(path) as f:
+    with files.open_to_read(path) as f:
         f.seek(start)
         for k in range(0, n, per):
             m = min(per, n - k)
@@ -204,7 +192,7 @@ def _bin_blocks(path: str, t: Target) -> tuple[int, Iterator[np.ndarray]]:
     def words() -> Iterator[np.ndarray]:
         per = READ // t.storage_bytes
         buf = np.empty(min(n, per), dtype=t.image_dtype)
-        with _open(path) as f:
+        with files.open_to_read(path) as f:
             for k in range(0, n, per):
                 part = buf[:min(per, n - k)]
                 if f.readinto(part.view(np.uint8).data) != part.nbytes:
@@ -299,7 +287,7 @@ def _csv_layout(path: str, t: Target) -> tuple[int, Iterator[np.ndarray]] | None
     if not _head(path, 64).startswith(b"address,correction\n"):
         return None
     lines = 0
-    with _open(path) as f:
+    with files.open_to_read(path) as f:
         while chunk := f.read(READ):
             lines += chunk.count(b"\n")
     return lines - 1, _csv_words(path, t)
@@ -309,7 +297,7 @@ def _pieces(path: str, skip_line: bool = False, size: int | None = None) -> Iter
     """The file's text a block of whole lines at a time (about ``size`` bytes, default
     :data:`READ`), its first line left out if ``skip_line``."""
     rest = b""
-    with _open(path) as f:
+    with files.open_to_read(path) as f:
         if skip_line:
             f.readline()
         while True:
