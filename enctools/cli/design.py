@@ -33,6 +33,10 @@ usage.FIELD_FLAGS["design"] = {"angles_deg": "--angles", "min_gap_deg": "--min-g
 @click.option("--min-gap", "min_gap", type=float, default=10.0, show_default=True,
               callback=options.bounded(0.0, 180.0, unit=" deg"),
               help="search: least angle between neighbouring heads [deg].")
+@click.option("--max-candidates", "max_candidates", type=int, default=2_000_000,
+              show_default=True, callback=options.bounded(1, 1e12),
+              help="search: the most arrangements scored, grid and refinement together; "
+                   "a search that may need more is refused before it starts.")
 @click.option("--criterion", type=click.Choice(["w", "gain"]), default="w", show_default=True,
               help="search (esa): maximise min |W(n)| (w, as Jiao 2017) or min |W|/noise norm.")
 @click.option("--tsv", "table", is_flag=True, default=False,
@@ -42,7 +46,8 @@ usage.FIELD_FLAGS["design"] = {"angles_deg": "--angles", "min_gap_deg": "--min-g
 @options.verbosity
 def command(angles: list[float] | None, method: str | None, band: int, min_transfer: float,
             mounting_error: float, search_heads: int | None, step_deg: float, min_gap: float,
-            criterion: str, table: bool, strict: bool, as_json: bool) -> None:
+            max_candidates: int, criterion: str, table: bool, strict: bool,
+            as_json: bool) -> None:
     """Transfer function |W(n)|, blind harmonics, noise gain and mounting sensitivity
     of a head arrangement; with --search, the arrangement that maximises min |W(n)|."""
     from enctools.methods import design
@@ -51,8 +56,8 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
                                method=method, band=band, min_transfer=min_transfer,
                                mounting_error_deg=mounting_error, search_heads=search_heads,
                                step_deg=step_deg, min_gap_deg=min_gap, criterion=criterion,
-                               strict=strict)
-    res = design.run(settings)
+                               strict=strict, max_candidates=max_candidates)
+    res = design.run(settings, _announce(settings))
     if as_json:
         from enctools.cli.summary import emit
 
@@ -72,6 +77,25 @@ def command(angles: list[float] | None, method: str | None, band: int, min_trans
     else:
         click.echo(design.report(a, mounting_error))
     design.refuse_or_warn(a, strict)
+
+
+def _announce(settings: Any) -> Any:
+    """Before a search: say on stderr (not with -q) how many arrangements it scores at most
+    and about how long that takes; the progress line to give it (None: no search)."""
+    from enctools.cli import runner
+    from enctools.methods import design
+
+    if settings.search_heads is None:
+        return None
+    method = settings.search_method
+    plan = design.plan_search(settings.search_heads, settings.band, method,
+                              settings.step_deg, settings.min_gap_deg)
+    if not runner.is_quiet():
+        seconds = design.estimate_seconds(plan, method, settings.criterion)
+        click.echo(f"{runner.command_name()}: scoring at most {plan.total} arrangements of "
+                   f"{plan.heads} heads ({plan.grid} on a {plan.step_deg:g} deg grid, at most "
+                   f"{plan.refine} refining), about {seconds:.0f} s at most", err=True)
+    return runner.Progress("search", "arrangements")
 
 
 def _summary(res: Any, mounting_error_deg: float, table: bool) -> dict[str, Any]:

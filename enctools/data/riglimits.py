@@ -20,6 +20,10 @@ MAX_BYTES = 1 << 20
 MAX_SEED = (1 << 63) - 1
 #: the deepest nesting of arrays and tables a rig may have (the deepest real one is 4)
 MAX_DEPTH = 8
+#: the greatest width or precision a command template's format spec may declare
+#: (``{deg:>12.6f}``): a command line is short, and ``{deg:>1500000000}`` would build
+#: a string of 1.5 GB
+MAX_TEMPLATE_WIDTH = 64
 
 _SEED = (0, MAX_SEED)
 _ARCSEC = (0.0, 3600.0)  # an error, a noise or a step of at most one degree [arcsec]

@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import string
 from pathlib import Path
 from typing import Any
 
 from enctools.data.rig import Rig
-from enctools.data.riglimits import fmt
+from enctools.data.riglimits import MAX_TEMPLATE_WIDTH, fmt
 from enctools.errors import DataError
 
 
@@ -70,6 +71,26 @@ def rig_dir(rig: Rig) -> Path:
     return Path(src).resolve().parent
 
 
+#: a format spec (Python's mini-language): [[fill]align][sign][z][#][0][width][grouping]
+#: [.precision][type]; the digits of width and precision are taken apart
+_SPEC = re.compile(r"(?:.?[<>=^])?[-+ ]?z?#?0?(?P<width>[0-9]*)[,_]?"
+                   r"(?:\.(?P<precision>[0-9]*))?[a-zA-Z%]?", re.DOTALL)
+
+
+def spec_size(spec: str) -> int:
+    """The larger of the width and the precision a format spec declares (0: none); a
+    spec that is not of the mini-language counts 0 (formatting it then fails)."""
+    m = _SPEC.fullmatch(spec)
+    if m is None:
+        return 0
+    return max(_digits(m["width"]), _digits(m["precision"]))
+
+
+def _digits(text: str | None) -> int:
+    """The number ``text`` spells (0 when empty), 10^18 for more than 18 digits."""
+    return int(text) if text and len(text) <= 18 else (10**18 if text else 0)
+
+
 def check_template(tpl: str, fields: dict[str, Any], rig: Rig, where: str) -> None:
     """Refuse a command template reaching beyond its plain fields (DataError, one line).
 
@@ -90,9 +111,15 @@ def check_template(tpl: str, fields: dict[str, Any], rig: Rig, where: str) -> No
     for _text, name, spec, conv in parts:
         if name is None:
             continue
+        bad = "{" + name + (f"!{conv}" if conv else "") + (f":{spec}" if spec else "") + "}"
         if name not in fields or conv is not None or "{" in (spec or ""):
-            bad = "{" + name + (f"!{conv}" if conv else "") + (f":{spec}" if spec else "") + "}"
             msg = f"{head} has the field {bad}; {rule}"
+            raise DataError(msg)
+        if spec_size(spec or "") > MAX_TEMPLATE_WIDTH:
+            size = spec_size(spec or "")
+            msg = (f"rig file {rig.source}: {where}: the field {bad[:40]!r} declares a width "
+                   f"or precision of {size if size < 10**18 else '10^18 or more'}, more "
+                   f"than {MAX_TEMPLATE_WIDTH}")
             raise DataError(msg)
     try:
         tpl.format(**fields)

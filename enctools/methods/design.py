@@ -19,7 +19,11 @@ n = 1 where W is always 0).
 from __future__ import annotations
 
 import logging
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import chain, combinations
+from math import comb
 
 import numpy as np
 
@@ -36,6 +40,17 @@ _BLIND = 1e-9
 MAX_SEARCH_BAND = 4096
 #: what a search scores by (see :func:`search`)
 CRITERIA = ("w", "gain")
+#: the most arrangements a search scores (grid and refinement together, its plan's
+#: upper bound) unless ``max_candidates`` says otherwise
+MAX_CANDIDATES = 2_000_000
+#: the grid is coarsened (its step times 1.5) until it has at most this many slots
+#: combinations: its candidates are held in memory (8 bytes an angle)
+GRID_MOST = 1_500_000
+#: refinement: the steps tried from each kept arrangement at one grid level, at most
+REFINE_STEPS = 6
+#: candidates scored in one call: at most this many angle-orders (heads x orders), so that
+#: a call takes well under a second and a few tens of MB, and a signal lands between calls
+SLICE_ELEMENTS = 1_000_000
 #: enc design's name in the registry of methods
 COMMAND = "design"
 
@@ -67,6 +82,7 @@ class Settings:
     min_gap_deg: float = 10.0
     criterion: str = "w"
     strict: bool = False
+    max_candidates: int = MAX_CANDIDATES
 
     def __post_init__(self) -> None:
         if self.angles_deg is None and self.search_heads is None:
@@ -81,6 +97,8 @@ class Settings:
                 msg = (f"`band` must be at most {MAX_SEARCH_BAND} with `search_heads` (each "
                        f"arrangement scored is an array of the band), not {self.band}")
                 raise SettingsError(msg)
+            plan_search(self.search_heads, self.band, self.search_method, self.step_deg,
+                        self.min_gap_deg).check(self.max_candidates)
         elif self.angles_deg is not None:
             arrangement_method(list(self.angles_deg), self.method)
 
@@ -196,8 +214,70 @@ class SearchResult:
     evaluated: int
 
 
+@dataclass(frozen=True)
+class SearchPlan:
+    """What a search will score: ``grid`` arrangements on a grid of ``step_deg`` [deg]
+    (after coarsening), then at most ``refine`` in the refinement; ``orders``: the
+    orders each is scored over, ``heads`` with the reference."""
+
+    heads: int
+    orders: int
+    step_deg: float
+    grid: int
+    refine: int
+
+    @property
+    def total(self) -> int:
+        """The most arrangements the search scores."""
+        return self.grid + self.refine
+
+    def check(self, max_candidates: int) -> None:
+        """SettingsError (one line) when the search may score more than
+        ``max_candidates`` arrangements."""
+        if not 1 <= max_candidates <= 10**12:
+            msg = f"`max_candidates` must be 1..1000000000000, not {max_candidates}"
+            raise SettingsError(msg)
+        if self.total > max_candidates:
+            msg = (f"the search would score up to {self.total} arrangements of {self.heads} "
+                   f"heads ({self.grid} on a {self.step_deg:g} deg grid, at most "
+                   f"{self.refine} refining), more than `max_candidates` {max_candidates}: "
+                   "give a larger `max_candidates` (or, for a smaller grid, a coarser "
+                   "`step_deg` or a larger `min_gap_deg`)")
+            raise SettingsError(msg)
+
+
+def plan_search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
+                min_gap_deg: float = 10.0, keep: int = 100) -> SearchPlan:
+    """How many arrangements :func:`search` scores at most, counted before any is built."""
+    check_search(heads, method, min_gap_deg)
+    m = heads - 1
+    step = _coarsened(m, float(step_deg))
+    grid = _grid_count(m, step, min_gap_deg)
+    refine, kept, h = 0, min(keep, grid), step
+    while h > 0.01:
+        h = max(h / 3.0, 0.01)
+        refine += kept * REFINE_STEPS * 3**m
+        kept = min(kept, max(4, keep // 4))
+    first = strategy(method).first
+    return SearchPlan(heads, max(band - first + 1, 1), step, grid, refine)
+
+
+def estimate_seconds(plan: SearchPlan, method: str, criterion: str = "w") -> float:
+    """About how long [s] the search of ``plan`` takes at most on this machine: a few
+    arrangements are scored and timed."""
+    chosen = strategy(method)
+    n = np.arange(chosen.first, chosen.first + plan.orders, dtype=np.float64)
+    rows = max(1, min(256, SLICE_ELEMENTS // (plan.heads * plan.orders)))
+    trial = np.tile(np.linspace(30.0, 300.0, plan.heads - 1), (rows, 1)) * DEG
+    t0 = time.perf_counter()
+    chosen.scores(trial, n, criterion)
+    return (time.perf_counter() - t0) / rows * plan.total
+
+
 def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
-           min_gap_deg: float = 10.0, criterion: str = "w", keep: int = 100) -> SearchResult:
+           min_gap_deg: float = 10.0, criterion: str = "w", keep: int = 100,
+           max_candidates: int = MAX_CANDIDATES,
+           progress: Callable[[int, int], None] | None = None) -> SearchResult:
     """The arrangement of ``heads`` heads (reference at 0 deg) maximising min |W(n)|.
 
     Over the method's orders ``first``..band, by its own scores
@@ -206,21 +286,26 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
     (|W| / noise norm); fourier: normalised |W| over 1..band. Every
     arrangement on a ``step_deg`` grid with neighbours at least ``min_gap_deg`` apart
     (head bodies need room) is scored (a coarser grid first when that is too many),
-    then the ``keep`` best are refined locally down to 0.01 deg.
+    then the ``keep`` best are refined locally down to 0.01 deg. SettingsError before
+    anything is scored when that may be more than ``max_candidates`` arrangements
+    (:func:`plan_search`); ``progress(done, most)`` is told the arrangements scored.
     """
-    check_search(heads, method, min_gap_deg)
+    plan = plan_search(heads, band, method, step_deg, min_gap_deg, keep)
+    plan.check(max_candidates)
     chosen = strategy(method)
     n = np.arange(chosen.first, band + 1, dtype=np.float64)
-    score = chosen.scores
-    m = heads - 1
-    step = float(step_deg)
-    while _count(m, step, min_gap_deg) > 1_500_000:
-        step *= 1.5
+    m, step = heads - 1, plan.step_deg
+    tick = progress or (lambda done, most: None)
+    per = max(1, SLICE_ELEMENTS // (heads * n.size))
     cand = _grid(m, step, min_gap_deg)
+    sc = np.empty(cand.shape[0])
+    for i0 in range(0, cand.shape[0], per):
+        sc[i0:i0 + per] = chosen.grid_scores(cand[i0:i0 + per], step, n, criterion)
+        tick(min(i0 + per, cand.shape[0]), plan.total)
     evaluated = cand.shape[0]
-    sc = chosen.grid_scores(cand, step, n, criterion)
     order = np.argsort(-sc)[:keep]
     best = [(float(sc[i]), cand[i]) for i in order]
+    del cand, sc
     h = step
     while h > 0.01:
         h = max(h / 3.0, 0.01)
@@ -228,12 +313,14 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
         refined = []
         for s0, a0 in best:
             pts = a0[None, :] + offsets
-            for _ in range(6):
+            for _ in range(REFINE_STEPS):
                 pts_ok = pts[_feasible(pts, min_gap_deg)]
                 if pts_ok.size == 0:
                     break
-                s = score(pts_ok * DEG, n, criterion)
+                s = np.concatenate([chosen.scores(pts_ok[i:i + per] * DEG, n, criterion)
+                                    for i in range(0, pts_ok.shape[0], per)])
                 evaluated += s.size
+                tick(evaluated, plan.total)
                 j = int(np.argmax(s))
                 if s[j] <= s0 + 1e-12:
                     break
@@ -241,6 +328,7 @@ def search(heads: int, band: int, method: str = "esa", step_deg: float = 1.0,
                 pts = a0[None, :] + offsets
             refined.append((s0, a0))
         best = sorted(refined, key=lambda p: -p[0])[: max(4, keep // 4)]
+    tick(evaluated, evaluated)
     s0, a0 = best[0]
     angles = (0.0, *(float(np.round(x, 2)) for x in a0))
     return SearchResult(angles, s0, criterion, evaluated)
@@ -256,20 +344,48 @@ def check_search(heads: int, method: str, min_gap_deg: float) -> None:
         raise SettingsError(f"`min_gap_deg` {min_gap_deg} deg leaves no room for {heads} heads")
 
 
-def _count(m: int, step: float, gap: float) -> int:
-    from math import comb
+def _coarsened(m: int, step: float) -> float:
+    """The grid step [deg]: ``step`` times 1.5 until the slots give at most
+    :data:`GRID_MOST` combinations of ``m``."""
+    while comb(max(int(360.0 / step), m), m) > GRID_MOST:
+        step *= 1.5
+    return step
 
-    slots = int(360.0 / step)
-    return comb(max(slots, m), m)
+
+def _spacing(m: int, step: float, gap: float) -> tuple[int, int]:
+    """(g, last): neighbours at least g slots apart, the last head at slot <= last, on
+    the ``step`` grid (slot k at k step deg, 0 < k < round(360 / step)), as
+    :func:`_feasible` has it with its tolerance."""
+    g = max(1, int(np.ceil((gap - 1e-9) / step)))
+    while g > 1 and (g - 1) * step >= gap - 1e-9:
+        g -= 1
+    while g * step < gap - 1e-9:
+        g += 1
+    last = round(360.0 / step) - 1
+    while last > 0 and 360.0 - last * step < gap - 1e-9:
+        last -= 1
+    return g, last
+
+
+def _grid_count(m: int, step: float, gap: float) -> int:
+    """How many rows :func:`_grid` has, counted without building them."""
+    g, last = _spacing(m, step, gap)
+    free = last - (m - 1) * (g - 1) - g + 1
+    return comb(free, m) if free >= m else 0
 
 
 def _grid(m: int, step: float, gap: float) -> np.ndarray:
-    """All increasing m-tuples of angles on the step grid in (0, 360) at least ``gap`` apart."""
-    from itertools import combinations
-
-    vals = np.arange(1, round(360.0 / step)) * step
-    rows = np.array(list(combinations(vals, m)), dtype=np.float64) if m > 0 else np.zeros((1, 0))
-    return rows[_feasible(rows, gap)]
+    """All increasing m-tuples of angles on the step grid in (0, 360) at least ``gap`` apart
+    (and from 0 and 360), in lexicographic order: tuples j of slots g..last - (m-1)(g-1),
+    spread to k_i = j_i + i (g - 1)."""
+    g, last = _spacing(m, step, gap)
+    count = _grid_count(m, step, gap)
+    if count == 0:
+        return np.zeros((0, m))
+    top = last - (m - 1) * (g - 1)
+    j = np.fromiter(chain.from_iterable(combinations(range(g, top + 1), m)), dtype=np.int64,
+                    count=count * m).reshape(count, m)
+    return (j + np.arange(m) * (g - 1)).astype(np.float64) * step
 
 
 def _feasible(rows: np.ndarray, gap: float) -> np.ndarray:
@@ -319,13 +435,15 @@ class Design:
     analysis: Analysis
 
 
-def run(settings: Settings) -> Design:
-    """Search (with ``settings.search_heads``) and analyse an arrangement of heads."""
+def run(settings: Settings, progress: Callable[[int, int], None] | None = None) -> Design:
+    """Search (with ``settings.search_heads``; ``progress(done, most)`` told the
+    arrangements scored) and analyse an arrangement of heads."""
     found = None
     angles = list(settings.angles_deg or ())
     if settings.search_heads is not None:
         found = search(settings.search_heads, settings.band, settings.search_method,
-                       settings.step_deg, settings.min_gap_deg, settings.criterion)
+                       settings.step_deg, settings.min_gap_deg, settings.criterion,
+                       max_candidates=settings.max_candidates, progress=progress)
         angles = list(found.angles_deg)
     return Design(found, analyse(angles, settings.band, settings.method, settings.min_transfer))
 
