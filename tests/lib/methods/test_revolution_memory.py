@@ -65,3 +65,15 @@ def test_a_revolution_beyond_the_bound_is_refused(monkeypatch: pytest.MonkeyPatc
     with pytest.raises(DataError, match=r"holds at least \d+ samples of 8 channels; at most "
                                         r"2400 values"):
         _cut(_batch(heads, 1200, 1000), heads)
+
+
+def test_selfcal_refuses_more_heads_than_its_spectra_can_hold() -> None:
+    """The moments of a revolution (heads x bins x terms) are checked before any reading."""
+    from enctools.methods.selfcal import check_width
+
+    check_width(7, 100, "in")
+    check_width(6, 2000, "in")
+    check_width(170, 100, "in")
+    with pytest.raises(DataError, match=r"in: 4000 heads up to harmonic 100 need 98304000 "
+                                        r"values a revolution .* give at most 170 `?heads"):
+        check_width(4000, 100, "in")
