@@ -51,8 +51,8 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
         files.check_new_file(faces_out, force)
     settings = points.Settings(None if heads is None else tuple(heads), autocollimator, faces)
     src = streams.open_input(input, "readings")
-    header, found, sep = closure.closure_points(src.header, src.read_all(), settings,
-                                                src.source)
+    run = closure.read_run(src, settings)
+    header, found, sep = closure.closure_points(src.header, run, settings, src.source)
     header = with_history(header)
     with files.OutputGroup() as group:
         streams.write_table(output, header, found.table(), force, fmt, group=group,

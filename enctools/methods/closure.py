@@ -38,7 +38,12 @@ from enctools.units import ARCSEC, DEG, TWO_PI
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from enctools.data.streams import Header
+    from enctools.data.streams import Header, InputStream
+
+#: one-reading batches gathered before they are joined into one array per column: a
+#: stream of many small batches (enc acquire writes one a reading) is held as a few
+#: contiguous arrays, not as every batch with its per-array overhead [batches]
+JOIN_EVERY = 4096
 
 
 @dataclass(frozen=True)
@@ -101,6 +106,14 @@ def separate(y: np.ndarray) -> Separation:
     return Separation(col - col[0], by_face, row + mean + col[0], residual, s, dof)
 
 
+def _require_closure(header: Header, source: str) -> None:
+    """DataError unless the readings are a closure run (enc acquire's closure mode)."""
+    if header.meta.get("mode") != "closure":
+        msg = (f"{source}: not a closure run (mode {header.meta.get('mode', 'continuous')!r}); "
+               "make one with enc acquire in closure mode")
+        raise DataError(msg)
+
+
 def closure_matrix(header: Header, table: pa.Table, settings: Settings, source: str
                    ) -> tuple[np.ndarray, np.ndarray]:
     """``y[s, j]`` [arcsec] of a closure run and the mean indicated angle of each table
@@ -110,10 +123,7 @@ def closure_matrix(header: Header, table: pa.Table, settings: Settings, source: 
     direction; the encoder reading is the mean of the measuring heads, the
     autocollimator's the mean of the position's readings.
     """
-    if header.meta.get("mode") != "closure":
-        msg = (f"{source}: not a closure run (mode {header.meta.get('mode', 'continuous')!r}); "
-               "make one with enc acquire in closure mode")
-        raise DataError(msg)
+    _require_closure(header, source)
     faces, (angle, ac, run, direction, step) = step_visits(header, table, settings, source)
     y = np.full((faces, faces), np.nan)
     indicated = np.full((faces, faces), np.nan)
@@ -132,6 +142,62 @@ def closure_matrix(header: Header, table: pa.Table, settings: Settings, source: 
         raise DataError(msg)
     mean_angle = np.angle(np.exp(1j * indicated).mean(axis=0))
     return y, np.mod(mean_angle / DEG, 360.0)
+
+
+def read_run(source: InputStream, settings: Settings) -> pa.Table:
+    """The columns a closure reads (the measuring heads, the autocollimator, run,
+    direction, step) of a readings stream, batch by batch, as one table of a few
+    contiguous arrays: some (heads + 4) x 8 bytes a row, at most
+    :data:`~enctools.data.limits.MAX_TABLE_ROWS` rows (DataError beyond, naming both).
+    A run that claims fewer rows than its faces squared is refused before it is read."""
+    import pyarrow as pa
+
+    from enctools.data import limits
+    from enctools.data.limits import MAX_TABLE_ROWS
+    from enctools.methods.points import steps_inputs
+
+    _require_closure(source.header, source.source)
+    infos, autocollimator, faces = steps_inputs(source.header, settings, source.source)
+    claimed = source.claimed_rows
+    if claimed is not None and claimed < faces * faces:
+        msg = (f"{source.source}: {claimed} rows; a closure of {faces} faces needs "
+               f"{faces} settings of {faces} positions, {faces * faces} readings or more")
+        raise DataError(msg)
+    names = list(dict.fromkeys([*(i.name for i in infos), autocollimator,
+                                *(c for c in ("run", "direction", "step")
+                                  if c in source.schema.names)]))
+    joined: dict[str, list[pa.Array]] = {n: [] for n in names}
+    pending: dict[str, list[pa.Array]] = {n: [] for n in names}
+    rows = 0
+    for b in source.batches(read_ahead=0, checked=False):  # checked once, joined
+        rows += b.num_rows
+        if rows > MAX_TABLE_ROWS:
+            msg = (f"{source.source}: over {rows} rows; a closure holds at most "
+                   f"{MAX_TABLE_ROWS} rows in memory (enc-streams(5), LIMITS)")
+            raise DataError(msg)
+        for n in names:
+            pending[n].append(b.column(n))
+        if len(pending[names[0]]) >= JOIN_EVERY:
+            _join(joined, pending)
+    _join(joined, pending)
+    schema = pa.schema([source.schema.field(n) for n in names])
+    table = pa.Table.from_arrays([pa.chunked_array(joined[f.name], f.type) for f in schema],
+                                schema=schema)
+    limits.check_missing(table, source.source)
+    checks = limits.value_checks(source.kind, schema)
+    if checks:
+        limits.check_batch(table, checks, source.source)
+    return table
+
+
+def _join(joined: dict[str, list[pa.Array]], pending: dict[str, list[pa.Array]]) -> None:
+    """Move the pending small arrays of each column into one array of ``joined``."""
+    import pyarrow as pa
+
+    for n, arrays in pending.items():
+        if arrays:
+            joined[n].append(pa.concat_arrays(arrays))
+            arrays.clear()
 
 
 def closure_points(header: Header, table: pa.Table, settings: Settings, source: str

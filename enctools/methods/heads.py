@@ -35,10 +35,23 @@ if TYPE_CHECKING:
 log = logging.getLogger("enctools")
 
 
+#: harmonics x heads of A(n) formed at once: 16 MB of complex128 [values]
+TRANSFER_BLOCK = 1 << 20
+
+
 def average_transfer(alphas: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """A(n) = mean_k exp(i n alpha_k) of the heads at ``alphas`` [rad] (seed 000 eq. (5))."""
+    """A(n) = mean_k exp(i n alpha_k) of the heads at ``alphas`` [rad] (seed 000 eq. (5)).
+
+    Formed a block of orders at a time (at most :data:`TRANSFER_BLOCK` orders x heads):
+    memory does not grow with the band times the heads.
+    """
     a = np.asarray(alphas, dtype=np.float64)
-    return np.exp(1j * np.outer(np.asarray(n, dtype=np.float64), a)).mean(axis=1)
+    orders = np.asarray(n, dtype=np.float64).ravel()
+    out = np.empty(orders.size, dtype=np.complex128)
+    step = max(1, TRANSFER_BLOCK // max(a.size, 1))
+    for i in range(0, orders.size, step):
+        out[i:i + step] = np.exp(1j * np.outer(orders[i:i + step], a)).mean(axis=1)
+    return out.reshape(np.shape(n))
 
 
 def radial_gain(alphas: np.ndarray) -> float:
@@ -180,6 +193,7 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
         raise SettingsError(f"`groups` {group.name}: the input already has a column {group.name!r}")
     n = len(infos)
     alphas = np.array([i.alpha for i in infos])
+    _check_text(group, alphas)
     s = summarize_average(alphas, band)
     i0 = infos[0]
     if n * i0.counts_per_rev > (1 << 62) // 1024:
@@ -193,6 +207,21 @@ def average_field(schema: pa.Schema, group: AverageGroup, band: int = 100,
                       average_alphas_deg=",".join(repr(float(a / DEG)) for a in alphas),
                       passes=format_orders(s.passed) or "none",
                       radial_gain=f"{s.radial_gain:.3g}" if s.radial_gain > 1e-12 else "0")
+
+
+def _check_text(group: AverageGroup, alphas: np.ndarray) -> None:
+    """SettingsError, before any summary is formed, when the average's field metadata
+    (the heads it averages and their angles) would be longer than a stream carries
+    (:data:`~enctools.data.limits.MAX_FIELD_TEXT`)."""
+    from enctools.data.limits import MAX_FIELD_TEXT
+
+    names = len(",".join(group.heads))
+    angles = len(",".join(repr(float(a / DEG)) for a in alphas))
+    if max(names, angles) > MAX_FIELD_TEXT:
+        msg = (f"`groups` {group.name}: an average of {len(group.heads)} heads; naming them "
+               f"and their angles takes {max(names, angles)} characters of field metadata, "
+               f"at most {MAX_FIELD_TEXT}: average fewer heads at once")
+        raise SettingsError(msg)
 
 
 def average_column(batch: pa.RecordBatch, group: AverageGroup) -> pa.Array:

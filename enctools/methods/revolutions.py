@@ -37,6 +37,11 @@ if TYPE_CHECKING:
 #: (index, coefficients (C, K + 1), bin averages (C, points) or None) of one revolution
 Spectra = tuple[int, np.ndarray, np.ndarray | None]
 
+#: values (channels x samples) of one revolution held at once: 32 MB of float64 a copy,
+#: so that the few copies its analysis makes stay well under 500 MB. A batch is cut
+#: into slices of at most half of it; a revolution beyond it is refused [values]
+MAX_REVOLUTION_VALUES = 1 << 22
+
 
 def require_continuous(source: InputStream, needs: str) -> None:
     """DataError unless the readings are a continuous run; ``needs`` ends the message."""
@@ -77,6 +82,11 @@ class RevolutionSplitter:
         self.index = 0
         self._u: list[np.ndarray] = []
         self._v: list[np.ndarray] = []
+
+    @property
+    def held(self) -> int:
+        """Samples buffered towards the revolution not yet complete."""
+        return sum(p.size for p in self._u)
 
     @property
     def pending(self) -> float:
@@ -338,6 +348,22 @@ class RevolutionCutter:
         self._spacing = np.inf
 
     def __call__(self, batch: pa.RecordBatch) -> list[Revolution]:
+        channels = 1 if self.spec.mean else len(self.spec.channels)
+        rows = max(1, MAX_REVOLUTION_VALUES // (2 * channels))
+        out: list[Revolution] = []
+        for start in range(0, batch.num_rows, rows):
+            out += self._cut(batch.slice(start, rows))
+            if self._splitter.held * channels > MAX_REVOLUTION_VALUES:
+                msg = (f"{self.source}: a revolution of the angle coordinate holds at least "
+                       f"{self._splitter.held} samples of {channels} channels; at most "
+                       f"{MAX_REVOLUTION_VALUES} values (channels x samples of a revolution) "
+                       "are analysed at once: give fewer `heads`, or record with a longer "
+                       "`interval_s`")
+                raise DataError(msg)
+        return out
+
+    def _cut(self, batch: pa.RecordBatch) -> list[Revolution]:
+        """The revolutions one slice of a batch completes (see :meth:`__call__`)."""
         b = batch_channels(batch, self.spec, self.source)
         if b is None:
             return []

@@ -460,6 +460,7 @@ def run(source: InputStream, settings: Settings,
     require_continuous(source, "self-calibration needs a continuous run "
                                "(enc acquire in continuous mode)")
     p = plan(source.schema, source.meta, settings, source.source)
+    check_width(len(p.heads), p.method.band, source.source)
     _refuse_or_warn(p.method, settings.strict)
     total = int(float((source.meta.get("settings") or {}).get("revolutions") or 0))
 
@@ -475,6 +476,31 @@ def run(source: InputStream, settings: Settings,
     log.info("%s: %d revolutions of %s, harmonics 1..%d", p.method.name, res.revolutions,
              "/".join(res.heads), res.band)
     return _outputs(source.header, p, res)
+
+
+#: most terms of the series the harmonic core sums a revolution's bins with (16 bins a
+#: harmonic: its first neglected term is then below the unit roundoff)
+_SERIES_TERMS = 12
+
+
+def check_width(heads: int, band: int, source: str) -> None:
+    """DataError, before anything is read, when the spectra of ``heads`` channels up to
+    harmonic ``band`` would need more than
+    :data:`~enctools.methods.revolutions.MAX_REVOLUTION_VALUES` values at once: the
+    harmonic core forms (terms x heads x bins) moments of each revolution, bins = 16 a
+    harmonic (:mod:`enctools.methods.harmonics`), some 200 KB a head at K = 100."""
+    from enctools.methods.harmonics import BINS_PER_HARMONIC
+    from enctools.methods.revolutions import MAX_REVOLUTION_VALUES
+
+    bins = 1 << max(3, (band * BINS_PER_HARMONIC - 1).bit_length())
+    need = heads * bins * _SERIES_TERMS
+    if need > MAX_REVOLUTION_VALUES:
+        most = max(MAX_REVOLUTION_VALUES // (bins * _SERIES_TERMS), 0)
+        msg = (f"{source}: {heads} heads up to harmonic {band} need {need} values a "
+               f"revolution ({heads} heads x {bins} bins x {_SERIES_TERMS} terms); at most "
+               f"{MAX_REVOLUTION_VALUES} are held: give at most {most} `heads`, or a "
+               "smaller `band`")
+        raise DataError(msg)
 
 
 def _refuse_or_warn(method: Method, strict: bool) -> None:

@@ -561,6 +561,70 @@ def deep_toml(folder: Path, base: Path, to: str, depth: int, how: str = "array")
     (folder / to).write_text(f'format = 1\nname = "deep"\ndescription = {value}\n')
 
 
+def wide_heads(folder: Path, base: Path, src: str, to: str, heads: int, like: str = "H1",
+               every: int = 1) -> None:
+    """``src`` with ``heads`` copies of head ``like`` (G0, G1, ...), each at its own nominal
+    angle 360 k / heads [deg] and its zero count that much larger (the same counts), so
+    that every copy reads as ``like`` does; every ``every``-th row of ``src``; the rig's
+    measuring heads of that encoder are the copies. Only t and the copies are written, as
+    an Arrow IPC stream."""
+    import pyarrow as pa
+
+    table = _read(_source(base, src))
+    table = table.take(list(range(0, table.num_rows, every)))
+    field = table.schema.field(like)
+    meta = dict(field.metadata or {})
+    cpr = int(meta[b"counts_per_rev"])
+    zero0 = int(meta[b"zero_count"])
+    counts = table.column(like).combine_chunks()
+    fields, cols = [table.schema.field("t")], [table.column("t").combine_chunks()]
+
+    for k in range(heads):
+        zero = (cpr * k) // heads
+        m = meta | {b"alpha_deg": repr(360.0 * zero / cpr).encode(),
+                    b"zero_count": str(zero0 + zero).encode()}
+        fields.append(pa.field(f"G{k}", pa.int64(), metadata=m))
+        cols.append(counts)
+    meta_json = json.loads(table.schema.metadata[b"enctools"])
+    for enc in meta_json["rig"]["encoders"]:
+        if enc["name"] == meta[b"encoder"].decode():
+            enc["measure_heads"] = [f"G{k}" for k in range(heads)]
+    smeta = {**table.schema.metadata, b"enctools": json.dumps(meta_json).encode()}
+    out = pa.Table.from_arrays(cols, schema=pa.schema(fields, smeta))
+    with pa.ipc.new_stream(folder / to, out.schema) as w:  # batches of 256 rows, as acquire's
+        w.write_table(out, max_chunksize=256)
+
+
+def closure_run(folder: Path, base: Path, src: str, to: str, faces: int,
+                readings: int = 1) -> None:
+    """A closure run of ``faces`` faces shaped as ``src`` (a closure run) records it: an
+    Arrow IPC stream of one batch a reading, as enc acquire writes it; faces x faces
+    positions, ``readings`` each, the heads exact and the autocollimator 0; the rig's
+    polygon has ``faces`` faces."""
+    import numpy as np
+    import pyarrow as pa
+
+    table = _read(_source(base, src))
+    meta = json.loads(table.schema.metadata[b"enctools"])
+    meta["rig"]["polygon"]["faces"] = faces
+    schema = table.schema.with_metadata({**table.schema.metadata,
+                                         b"enctools": json.dumps(meta).encode()})
+    n = faces * faces * readings
+    run = np.repeat(np.arange(faces, dtype=np.int32), faces * readings)
+    step = np.tile(np.repeat(np.arange(faces, dtype=np.int32), readings), faces)
+    cols: dict[str, Any] = {"t": np.arange(n) * 0.001, "target": step * (2 * np.pi / faces),
+                            "step": step, "run": run, "direction": np.ones(n, np.int8)}
+    for f in schema:
+        m = f.metadata or {}
+        if m.get(b"role") == b"head":
+            cpr = int(m[b"counts_per_rev"])
+            turns = step / faces + float(m[b"alpha_deg"]) / 360.0
+            cols[f.name] = np.round(cpr * turns).astype(np.int64) - int(m[b"zero_count"])
+    arrays = [pa.array(cols.get(f.name, np.zeros(n)), type=f.type) for f in schema]
+    with pa.ipc.new_stream(folder / to, schema) as w:
+        w.write_table(pa.Table.from_arrays(arrays, schema=schema), max_chunksize=1)
+
+
 BUILDERS: dict[str, Callable[..., None]] = {
     f.__name__: f for f in (copy, empty, text, random_bytes, sparse, truncate, big_csv_field,
                             csv_rows, fifo, mkdir, symlink, stale_temporary, drop_column,
@@ -568,7 +632,8 @@ BUILDERS: dict[str, Callable[..., None]] = {
                             nasty_column, set_values, h5_claims_rows, many_rows, rig,
                             deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar,
                             full_disk, concatenated, extreme_value, null_column,
-                            duplicate_column, nightly_folder, corrupt, cast_column)
+                            duplicate_column, nightly_folder, corrupt, cast_column,
+                            wide_heads, closure_run)
 }
 
 

@@ -202,3 +202,33 @@ def test_summed_counts_overflow_and_nulls() -> None:
     nulls = {"H1": [1, None, 3], "H2": [10, 20, None], "H3": [100, 200, 300]}
     got = average_column(batch(nulls), group)
     assert got.to_pylist() == [111, None, None]
+
+
+def test_transfer_in_blocks_is_the_direct_sum(monkeypatch) -> None:
+    """A(n) formed a few orders at a time equals the whole outer product of orders x heads."""
+    from enctools.methods import heads as hd
+
+    a = np.deg2rad([0.0, 60.0, 135.0, 228.0, 300.5])
+    n = np.arange(0, 301)
+    direct = np.exp(1j * np.outer(n, a)).mean(axis=1)
+    monkeypatch.setattr(hd, "TRANSFER_BLOCK", 7 * a.size)
+    np.testing.assert_allclose(hd.average_transfer(a, n), direct, rtol=0, atol=1e-15)
+    assert hd.average_transfer(a, np.array([[1, 2], [3, 4]])).shape == (2, 2)
+
+
+def test_an_average_too_wide_to_name_is_refused_before_its_summary() -> None:
+    """4000 heads: their names and angles exceed a field's metadata; refused in one line."""
+    import pyarrow as pa
+
+    from enctools.data.schemas import make_field
+    from enctools.errors import SettingsError
+    from enctools.methods.heads import AverageGroup, average_field
+
+    fields = [make_field(f"G{k}", pa.int64(), "count", "head", encoder="A",
+                         alpha_deg=repr(360.0 * k / 4000), counts_per_rev=1 << 20,
+                         periods_per_rev=1024, interpolation=1024, radius_m="0.1",
+                         zero_count=(1 << 20) * k // 4000) for k in range(4000)]
+    group = AverageGroup("G", tuple(f"G{k}" for k in range(4000)))
+    with pytest.raises(SettingsError, match=r"an average of 4000 heads; naming them and their "
+                                            r"angles takes \d+ characters .* at most 4096"):
+        average_field(pa.schema(fields), group, band=10_000)

@@ -202,3 +202,21 @@ def test_faces_out_and_output_must_differ(tmp_path):
     r = run_in_process(f"enc closure x.parquet -o {out} --faces-out {out}")
     assert "--faces-out and -o both name" in one_error_line(r, 2, "enc closure")
     assert not out.exists()
+
+
+def test_a_run_of_one_reading_batches_is_read_as_the_whole_table(tmp_path, monkeypatch):
+    """read_run joins the many small batches enc acquire writes into a few arrays (here
+    every 7 batches): the same points and face errors as the whole table read at once."""
+    path = tmp_path / "run.arrows"
+    run(["enc", "acquire", "--rig", "ciomp-23bit", "--mode", "closure", "--readings", "2",
+         "--settle", "0", "--seed", "3", "-o", str(path)])
+    monkeypatch.setattr(closure, "JOIN_EVERY", 7)
+    with streams.open_input(str(path)) as src:
+        joined = closure.read_run(src, Settings())
+        _, pts, sep = closure.closure_points(src.header, joined, Settings(), "run")
+    with streams.open_input(str(path)) as src:
+        _, pts0, sep0 = closure.closure_points(src.header, src.read_all(), Settings(), "run")
+    assert joined.num_rows == 24 * 24 * 2
+    np.testing.assert_array_equal(pts.deviation, pts0.deviation)
+    np.testing.assert_array_equal(sep.face_error, sep0.face_error)
+    assert sep.s == sep0.s
