@@ -316,7 +316,8 @@ def _text_rows(b: pa.RecordBatch) -> list[str]:
     """The text lines of a batch of runs (time, rig, status, p-p, s, drift, tolerance)."""
     import pyarrow.compute as pc
 
-    times = _texts(pc.strftime(b.column("time"), format="%Y-%m-%dT%H:%M:%SZ"))
+    seconds = b.column("time").cast(pa.timestamp("s", tz="UTC"), safe=False)
+    times = _texts(pc.strftime(seconds, format="%Y-%m-%dT%H:%M:%SZ"))
     cols = zip(times, _texts(b.column("rig")), _texts(b.column("status")),
                *(_figures(b.column(n)) for n in ("pp", "std", "drift_max", "tolerance")),
                strict=True)
@@ -420,7 +421,7 @@ def _row_groups(dataset: Any, wanted: Any, d: Path, skipped: list[str]) -> Any:
     """The row groups of the dataset's files (each read on its own: memory of one)."""
     for fragment in dataset.get_fragments(filter=wanted):
         try:
-            yield from fragment.split_by_row_group(filter=wanted)
+            yield from fragment.split_by_row_group(filter=wanted, schema=dataset.schema)
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError) as exc:
             skipped.append(f"{os.path.relpath(fragment.path, d)}\0{str(exc)[:120]}")
 
