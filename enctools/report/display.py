@@ -17,9 +17,7 @@ import math
 from typing import Any
 
 import numpy as np
-import pyarrow as pa
 
-from enctools.data.schemas import field_meta
 from enctools.report.iso230 import DirectionFigures, Iso230
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -114,12 +112,6 @@ def _iso(iso: Iso230, unit: str, k: float) -> Iso230:
 
 
 def _history(history: Any, unit: str, k: float) -> Any:
-    """The history with its columns in arcsec (by their field metadata) in ``unit``."""
-    table: pa.Table = history.table
-    for i, f in enumerate(table.schema):
-        if field_meta(f).get("unit") == STORED:
-            values = table.column(i).to_numpy(zero_copy_only=False).astype(np.float64) * k
-            meta = field_meta(f) | {"unit": unit}
-            table = table.set_column(i, pa.field(f.name, f.type, metadata=meta),
-                                     pa.array(values, f.type))
-    return dataclasses.replace(history, table=table, unit=unit)
+    """The history with its columns in arcsec (by their field metadata) in ``unit``: its
+    batches are converted as they are read."""
+    return dataclasses.replace(history, unit=unit, scale=history.scale * k)

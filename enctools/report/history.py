@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
+import itertools
 import logging
 import os
 import re
@@ -183,20 +184,56 @@ def _remove_stale(d: Path, age_s: float = 86400.0) -> None:
             pass
 
 
+#: the rows above which a history is read batch by batch rather than whole (when its
+#: files are in time order, each sorted and none overlapping the next: the layout's)
+STREAM_ROWS = 100_000
+#: the rows of one batch read [rows]
+BATCH_ROWS = 65_536
+
+
 @dataclass
 class History:
-    """The runs of a history folder, oldest first."""
+    """The runs of a history folder, oldest first.
+
+    Held whole (``_table``) or, for a large history whose files are in time order, as the
+    ordered file fragments read batch by batch (:meth:`batches`): memory then grows with
+    a batch, not with the runs. ``scale``: the factor from arcsec to ``unit``.
+    """
 
     folder: str
-    table: pa.Table
+    _table: pa.Table | None
     skipped: list[str] = field(default_factory=list)
     unit: str = "arcsec"  # of the figures (enc report --unit shows another)
     rig: str | None = None               # the rig read (None: every rig)
     since: _dt.datetime | None = None    # the earliest run read (None: every run)
+    scale: float = 1.0                   # arcsec -> unit
+    _fragments: list[Any] = field(default_factory=list)  # (fragment, schema, filter) in order
+    _runs: int = 0
 
     @property
     def runs(self) -> int:
-        return self.table.num_rows
+        return self._table.num_rows if self._table is not None else self._runs
+
+    @property
+    def table(self) -> pa.Table:
+        """Every run read whole (memory in proportion to the runs)."""
+        return pa.Table.from_batches(list(self.batches()), schema=SCHEMA_IN(self.unit))
+
+    def batches(self, columns: list[str] | None = None) -> Any:
+        """The runs oldest first as record batches of ``columns`` (default: all), their
+        arcsec figures in ``unit``."""
+        names = columns or SCHEMA.names
+        if self._table is not None:
+            for b in self._table.select(names).to_batches(BATCH_ROWS):
+                yield _scaled(b, self.scale, self.unit)
+            return
+        for fragment, schema, wanted in self._fragments:
+            for b in fragment.to_batches(schema=schema, filter=wanted, columns=names,
+                                         batch_size=BATCH_ROWS, batch_readahead=1,
+                                         fragment_readahead=1, use_threads=False):
+                if b.num_rows:
+                    yield _scaled(b.cast(pa.schema([SCHEMA.field(n) for n in names])),
+                                  self.scale, self.unit)
 
     def column(self, name: str) -> np.ndarray:
         return self.table.column(name).to_numpy(zero_copy_only=False)
@@ -207,10 +244,8 @@ class History:
             zero_copy_only=False)
 
     def to_records(self) -> list[dict[str, Any]]:
-        rows = self.table.drop_columns(["summary_json"]).to_pylist()
-        for r in rows:
-            r["time"] = r["time"].strftime("%Y-%m-%dT%H:%M:%SZ") if r["time"] else None
-        return rows
+        return [r for b in self.batches([n for n in SCHEMA.names if n != "summary_json"])
+                for r in _records(b)]
 
     def filters_text(self) -> str:
         """The rig and date read, as " (rig NAME, since TIME)", or nothing for every run."""
@@ -219,25 +254,83 @@ class History:
         return f" ({', '.join(said)})" if said else ""
 
     def text_lines(self) -> list[str]:
-        lines = [f"history {self.folder}{self.filters_text()}: {self.runs} run(s)"
-                 + (f", {len(self.skipped)} unreadable file(s) skipped" if self.skipped else "")]
+        return list(self.iter_text_lines())
+
+    def iter_text_lines(self) -> Any:
+        """The text of the history line by line, read batch by batch."""
+        yield (f"history {self.folder}{self.filters_text()}: {self.runs} run(s)"
+               + (f", {len(self.skipped)} unreadable file(s) skipped" if self.skipped else ""))
         if not self.runs:
-            return lines
-        lines.append(f"  {'time (UTC)':<20} {'rig':<12} {'status':<11} {'p-p':>7} {'s':>7} "
-                     f"{'drift':>7} {'tol':>7}  [{self.unit}]")
-        for r in self.to_records():
-            def g(v: Any) -> str:
-                return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) \
-                    else f"{v:.3f}"
-            lines.append(f"  {r['time'] or '-':<20} {(r['rig'] or '-'):<12} "
-                         f"{(r['status'] or '-'):<11} {g(r['pp']):>7} {g(r['std']):>7} "
-                         f"{g(r['drift_max']):>7} {g(r['tolerance']):>7}")
-        drift = [v for v in self.column("drift_max") if v is not None and np.isfinite(v)]
-        if len(drift) >= 2:
+            return
+        yield (f"  {'time (UTC)':<20} {'rig':<12} {'status':<11} {'p-p':>7} {'s':>7} "
+               f"{'drift':>7} {'tol':>7}  [{self.unit}]")
+
+        count, last, largest = 0, 0.0, -np.inf
+        for b in self.batches(["time", "rig", "status", "pp", "std", "drift_max", "tolerance"]):
+            yield from _text_rows(b)
+            drift = b.column("drift_max").to_numpy(zero_copy_only=False).astype(np.float64)
+            drift = drift[np.isfinite(drift)]
+            if drift.size:
+                count, last = count + drift.size, float(drift[-1])
+                largest = max(largest, float(drift.max()))
+        if count >= 2:
             mark = '"' if self.unit == "arcsec" else f" {self.unit}"
-            lines.append(f"  drift: last {drift[-1]:.3f}{mark}, largest {max(drift):.3f}{mark} "
-                         f"over {len(drift)} runs")
-        return lines
+            yield (f"  drift: last {last:.3f}{mark}, largest {largest:.3f}{mark} "
+                   f"over {count} runs")
+
+
+def SCHEMA_IN(unit: str) -> pa.Schema:
+    """:data:`SCHEMA` with its arcsec figures said to be in ``unit``."""
+    return pa.schema([f.with_metadata({"unit": unit}) if f.metadata else f for f in SCHEMA])
+
+
+def _scaled(batch: pa.RecordBatch, k: float, unit: str) -> pa.RecordBatch:
+    """``batch`` with its arcsec columns (by their field metadata) times ``k``, in ``unit``."""
+    if unit == "arcsec" and k == 1.0:
+        return batch
+    arrays, fields = [], []
+    for f, col in zip(batch.schema, batch.columns, strict=True):
+        if f.metadata and f.metadata.get(b"unit") == b"arcsec":
+            col = pa.array(col.to_numpy(zero_copy_only=False).astype(np.float64) * k, f.type)
+            f = f.with_metadata({"unit": unit})
+        arrays.append(col)
+        fields.append(f)
+    return pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields))
+
+
+def _texts(column: Any) -> list[str]:
+    """A column of strings as they show in the text: "-" for a null or empty one."""
+    return [v or "-" for v in column.to_pylist()]
+
+
+def _figures(column: Any) -> list[str]:
+    """A column of figures with 3 decimals, "-" for a missing or non-finite one."""
+    v = column.to_numpy(zero_copy_only=False).astype(np.float64)
+    ok = np.isfinite(v)
+    out = np.full(v.size, "-", dtype=object)
+    out[ok] = np.char.mod("%.3f", v[ok]).astype(object)
+    return [str(x) for x in out]
+
+
+def _text_rows(b: pa.RecordBatch) -> list[str]:
+    """The text lines of a batch of runs (time, rig, status, p-p, s, drift, tolerance)."""
+    import pyarrow.compute as pc
+
+    seconds = b.column("time").cast(pa.timestamp("s", tz="UTC"), safe=False)
+    times = _texts(pc.strftime(seconds, format="%Y-%m-%dT%H:%M:%SZ"))
+    cols = zip(times, _texts(b.column("rig")), _texts(b.column("status")),
+               *(_figures(b.column(n)) for n in ("pp", "std", "drift_max", "tolerance")),
+               strict=True)
+    return [f"  {t:<20} {r:<12} {s:<11} {pp:>7} {sd:>7} {d:>7} {tol:>7}"
+            for t, r, s, pp, sd, d, tol in cols]
+
+
+def _records(batch: pa.RecordBatch) -> list[dict[str, Any]]:
+    rows = batch.to_pylist()
+    if "time" in batch.schema.names:
+        for r in rows:
+            r["time"] = r["time"].strftime("%Y-%m-%dT%H:%M:%SZ") if r["time"] else None
+    return rows
 
 
 def read_history(folder: str | os.PathLike[str], rig: str | None = None,
@@ -245,6 +338,9 @@ def read_history(folder: str | os.PathLike[str], rig: str | None = None,
     """The runs of a history folder, sorted by time: all, or those of ``rig`` at or
     after ``since`` (timezone-aware; a naive one is taken as UTC).
 
+    Only the ``time`` column is read to order the files; a large history whose files
+    are each in time order and follow one another is then read batch by batch as the
+    report goes (:class:`History`), else whole and sorted.
     A missing folder is an error (exit 2); unreadable files are skipped with a warning.
     """
     d = Path(folder)
@@ -255,6 +351,15 @@ def read_history(folder: str | os.PathLike[str], rig: str | None = None,
         since = since.replace(tzinfo=_dt.UTC)
     skipped: list[str] = []
     flat = _read_flat(d, skipped)  # first: a file moved meanwhile is in a partition then
+    if flat is None:
+        probed: list[str] = []
+        ordered = _ordered_fragments(d, rig, since, probed)
+        if ordered is not None and ordered[1] > STREAM_ROWS:
+            for said in probed:  # name NUL why: a name holds no NUL
+                log.warning("history: skipping unreadable %s (%s)", *said.split("\0", 1))
+            skipped = [said.split("\0", 1)[0] for said in probed]
+            return History(str(folder), None, skipped, rig=rig, since=since,
+                           _fragments=ordered[0], _runs=ordered[1])
     parts = _read_partitions(d, rig, since, skipped)
     if flat is not None:
         ids = parts.column("run_id")
@@ -263,6 +368,38 @@ def read_history(folder: str | os.PathLike[str], rig: str | None = None,
         flat = flat.filter(pc.invert(pc.is_in(flat.column("run_id"), value_set=ids)))
         parts = pa.concat_tables([parts, flat.cast(SCHEMA)])
     return History(str(folder), parts.sort_by("time"), skipped, rig=rig, since=since)
+
+
+def _ordered_fragments(d: Path, rig: str | None, since: _dt.datetime | None,
+                       skipped: list[str]) -> tuple[list[Any], int] | None:
+    """The files of the runs wanted in time order, with the count of their runs, when each
+    file's runs are in time order and each file's last is no later than the next one's
+    first (the layout's: a file a run); else None. Reads the ``time`` column alone;
+    unreadable files are named in ``skipped``."""
+    dataset = _dataset(d, rig)
+    if dataset is None:
+        return [], 0
+    wanted = _wanted(rig, since)
+    spans = []
+    for fragment in _row_groups(dataset, wanted, d, skipped):
+        try:
+            t = fragment.to_table(schema=dataset.schema, filter=wanted, columns=["time"])
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError) as exc:
+            skipped.append(f"{os.path.relpath(fragment.path, d)}\0{str(exc)[:120]}")
+            continue
+        if not t.num_rows:
+            continue
+        us = t.column("time").cast(pa.timestamp("us", tz="UTC")).cast(pa.int64())
+        if us.null_count:
+            return None
+        v = us.to_numpy()
+        if v.size > 1 and not bool(np.all(v[1:] >= v[:-1])):
+            return None
+        spans.append((int(v[0]), int(v[-1]), v.size, fragment))
+    spans.sort(key=lambda x: (x[0], x[1]))
+    if any(a[1] > b[0] for a, b in itertools.pairwise(spans)):
+        return None
+    return [(f, dataset.schema, wanted) for *_, f in spans], sum(x[2] for x in spans)
 
 
 def _wanted(rig: str | None, since: _dt.datetime | None, with_year: bool = True) -> Any:
@@ -280,9 +417,17 @@ def _wanted(rig: str | None, since: _dt.datetime | None, with_year: bool = True)
     return wanted if wanted is not None else ds.scalar(True)
 
 
-def _read_partitions(d: Path, rig: str | None, since: _dt.datetime | None,
-                     skipped: list[str]) -> pa.Table:
-    """The partitioned runs, filtered by the dataset scan; one rig: its folder only."""
+def _row_groups(dataset: Any, wanted: Any, d: Path, skipped: list[str]) -> Any:
+    """The row groups of the dataset's files (each read on its own: memory of one)."""
+    for fragment in dataset.get_fragments(filter=wanted):
+        try:
+            yield from fragment.split_by_row_group(filter=wanted, schema=dataset.schema)
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError) as exc:
+            skipped.append(f"{os.path.relpath(fragment.path, d)}\0{str(exc)[:120]}")
+
+
+def _dataset(d: Path, rig: str | None) -> Any:
+    """The partitioned runs as a dataset (one rig: its folder only), or None."""
     import pyarrow.dataset as ds
 
     if rig is not None:
@@ -294,12 +439,20 @@ def _read_partitions(d: Path, rig: str | None, since: _dt.datetime | None,
         folders = sorted(p for p in d.glob("rig=*") if p.is_dir())
     folders = [p for p in folders if p.is_dir()]
     if not folders:
-        return SCHEMA.empty_table()
+        return None
     schema = pa.unify_schemas([FILE_SCHEMA, PARTITIONING])
     parts = [ds.dataset(str(p), format="parquet", schema=schema, partition_base_dir=str(d),
                         partitioning=ds.partitioning(PARTITIONING, flavor="hive"))
              for p in folders]
-    dataset = parts[0] if len(parts) == 1 else ds.dataset(parts, schema=schema)
+    return parts[0] if len(parts) == 1 else ds.dataset(parts, schema=schema)
+
+
+def _read_partitions(d: Path, rig: str | None, since: _dt.datetime | None,
+                     skipped: list[str]) -> pa.Table:
+    """The partitioned runs, filtered by the dataset scan; one rig: its folder only."""
+    dataset = _dataset(d, rig)
+    if dataset is None:
+        return SCHEMA.empty_table()
     wanted = _wanted(rig, since)
     try:
         table = dataset.to_table(filter=wanted, columns=SCHEMA.names)

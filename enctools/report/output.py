@@ -66,8 +66,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         from enctools.report.jsonout import to_json
         sys.stdout.write(to_json(report, failures if limits.any else None) + "\n")
     else:
-        from enctools.report.text import to_text
-        sys.stdout.write(to_text(shown) + "\n")
+        from enctools.report.text import write_text
+        write_text(shown, sys.stdout)
     sys.stdout.flush()
     with OutputGroup() as outputs:  # both reports, or neither
         done = len(sources)

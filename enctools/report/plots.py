@@ -193,6 +193,47 @@ def _unit_label(unit: str) -> str:
     return {"nm": "radial motion [nm]", "count": "correction [count]"}.get(unit, f"[{unit}]")
 
 
+#: pixel columns a plotted series is binned to: wider than a plot at the report's
+#: resolution (7.2 in at 110 dpi: 792 px); a longer series is drawn as the smallest and
+#: largest value of each column, so the envelope drawn is the data's exactly
+COLUMNS = 1024
+
+
+def _columns(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The column of each value of ``x`` (ascending) and where each column starts."""
+    edges = np.linspace(x[0], x[-1], COLUMNS + 1)
+    col = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, COLUMNS - 1)
+    return col, np.flatnonzero(np.r_[True, col[1:] != col[:-1]])
+
+
+def min_max_binned(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, y)`` (``x`` ascending) as at most 2 :data:`COLUMNS` points: each pixel
+    column's smallest and largest ``y`` in the order they occur (all points when there
+    are no more than that). Non-finite values are left out of a binned series."""
+    if x.size <= 2 * COLUMNS:
+        return x, y
+    ok = np.isfinite(y) & np.isfinite(x)
+    x, y = x[ok], y[ok]
+    if x.size <= 2 * COLUMNS:
+        return x, y
+    col, starts = _columns(x)
+    order = np.lexsort((y, col))                 # by column, then by value
+    ends = np.r_[starts[1:], x.size] - 1
+    lo, hi = order[starts], order[ends]
+    keep = np.sort(np.unique(np.concatenate([lo, hi])))
+    return x[keep], y[keep]
+
+
+def band_binned(x: np.ndarray, low: np.ndarray, high: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A band (``low`` .. ``high`` over ascending ``x``) as each pixel column's lowest
+    ``low`` and highest ``high`` at the column's first ``x`` (as it is when short)."""
+    if x.size <= 2 * COLUMNS:
+        return x, low, high
+    _, starts = _columns(x)
+    return x[starts], np.fmin.reduceat(low, starts), np.fmax.reduceat(high, starts)
+
+
 def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
     """Deviation curves against angle with the U band (the curve's k) where known."""
     fig = new_figure()
@@ -203,11 +244,11 @@ def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
         x, y = x[order], c.values[order]
         color = COLORS[i % len(COLORS)]
         sparse = c.values.size <= 100
-        ax.plot(x, y, "o-" if sparse else "-", ms=3.5, lw=1.2, color=color,
+        ax.plot(*min_max_binned(x, y), "o-" if sparse else "-", ms=3.5, lw=1.2, color=color,
                 label=f"{c.name} (p-p {c.figures.pp:.3g}, s {c.figures.std:.3g})")
         if c.u is not None:
             U = c.k * np.asarray(c.u)[order]
-            ax.fill_between(x, y - U, y + U, color=color, alpha=0.2, lw=0,
+            ax.fill_between(*band_binned(x, y - U, y + U), color=color, alpha=0.2, lw=0,
                             label=f"{c.name} ± U (k={c.k:.3g})")
     ax.axhline(0, color="0.6", lw=0.6)
     ax.set_xlabel(_angle_label(curves[0]))
@@ -337,7 +378,7 @@ def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:
         order = np.argsort(th)
         th_c = np.append(th[order], th[order][0] + 2 * np.pi)
         r = np.append(e[order], e[order][0]) - lo + base
-        ax.plot(th_c, r, color=COLORS[i % len(COLORS)], lw=1.0, label=name)
+        ax.plot(*min_max_binned(th_c, r), color=COLORS[i % len(COLORS)], lw=1.0, label=name)
     ax.plot(np.linspace(0, 2 * np.pi, 361), np.full(361, base), color="0.6", lw=0.6, ls="--")
     ticks = np.linspace(base, base + span, 3)
     ax.set_rticks(ticks)
@@ -415,7 +456,8 @@ def compare_plot(pairs: Sequence[tuple[str, Curve]], title: str) -> Figure:
     for i, (name, c) in enumerate(pairs):
         x = _angle_deg(c)
         order = np.argsort(x)
-        ax.plot(x[order], c.values[order], "o-" if c.values.size <= 100 else "-", ms=3, lw=1.1,
+        ax.plot(*min_max_binned(x[order], c.values[order]),
+                "o-" if c.values.size <= 100 else "-", ms=3, lw=1.1,
                 color=COLORS[i % len(COLORS)],
                 label=f"{name} (p-p {c.figures.pp:.3g} {unit}, s {c.figures.std:.3g} {unit})")
     ax.axhline(0, color="0.6", lw=0.6)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
 from enctools.report.display import fmt, mark
@@ -117,3 +119,21 @@ def to_text(report: Report) -> str:
         out += section_lines(s, top)
     out += history_lines(report)
     return printable_lines(out)  # names, notes and history come from files
+
+
+def write_text(report: Report, out: Any, block: int = 10_000) -> None:
+    """:func:`to_text` and a newline written to ``out`` a block of lines at a time: the
+    history's runs are read batch by batch, so memory does not grow with them."""
+    top = int(report.settings.get("top_harmonics", 5))
+    lines: list[str] = []
+    for s in report.sections:
+        lines += section_lines(s, top)
+    history = iter(()) if report.history is None else report.history.iter_text_lines()
+    wrote = False
+    for line in history:
+        lines.append(line)
+        if len(lines) >= block:
+            out.write(printable_lines(lines) + "\n")
+            lines, wrote = [], True
+    if lines or not wrote:
+        out.write(printable_lines(lines) + "\n")
