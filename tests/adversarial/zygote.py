@@ -18,6 +18,7 @@ read at import.
 
 from __future__ import annotations
 
+import atexit
 import json
 import os
 import resource
@@ -49,6 +50,10 @@ def _command(req: dict, fds: list[int]) -> None:
             signal.signal(sig, signal.SIG_DFL)
         signal.signal(signal.SIGINT, signal.default_int_handler)  # as Python starts
         sys.argv = list(req["argv"])
+        # what the libraries registered with atexit when the zygote imported them belongs
+        # to threads the fork did not copy (pyarrow 14's S3 finalizer joins an event loop
+        # thread: every command hung at its exit); the command's own functions are kept
+        atexit._clear()
         from enctools.cli.main import main
 
         main()  # ends the process (runner.exit_now) once the command has run
@@ -114,8 +119,7 @@ def main() -> None:
     one_blas_thread()  # before numpy, as enc does
     import h5py  # noqa: F401
     import numpy  # noqa: F401
-    import pyarrow
-    import pyarrow.parquet  # noqa: F401
+    import pyarrow  # noqa: F401  (not pyarrow.parquet: with pyarrow 14 it starts S3's thread)
 
     import enctools.cli.main  # noqa: F401
 
