@@ -232,7 +232,11 @@ class History:
                                          batch_size=BATCH_ROWS, batch_readahead=1,
                                          fragment_readahead=1, use_threads=False):
                 if b.num_rows:
-                    yield _scaled(b.cast(pa.schema([SCHEMA.field(n) for n in names])),
+                    # per column: RecordBatch.cast is pyarrow 16's, this runs on 14
+                    yield _scaled(pa.record_batch([b.column(n).cast(SCHEMA.field(n).type)
+                                                   for n in names],
+                                                  schema=pa.schema([SCHEMA.field(n)
+                                                                    for n in names])),
                                   self.scale, self.unit)
 
     def column(self, name: str) -> np.ndarray:

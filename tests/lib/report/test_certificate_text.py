@@ -72,10 +72,11 @@ def test_free_text_is_shown_escaped_in_the_html_and_the_pdf(tmp_path):
     page = html.read_text(encoding="utf-8")
     text = subprocess.run(["pdftotext", "-enc", "UTF-8", str(pdf), "-"], capture_output=True,
                           check=True).stdout.decode()
-    for name, document in (("html", page), ("pdf", " ".join(text.split()))):
+    # the PDF's lines break where its layout puts them: compared without white space
+    for name, document in (("html", page), ("pdf", "".join(text.split()))):
         found = [f"U+{ord(ch):04X}" for ch in DECEPTIVE if ch in document]
         assert not found, (name, found)
         for shown in ("Encoder\\u2028Serial: FAKE-1", "Lane 3\\u202e9001-32EA",
                       "ok\\x85NEL\\u2029PS", "zero\\u200bwidth\\ufeff\\u2060\\u200d",
                       "in\\u202efdp.parquet"):
-            assert shown in document, (name, shown)
+            assert (shown if name == "html" else "".join(shown.split())) in document, (name, shown)
