@@ -14,8 +14,12 @@ if __name__ == "__main__":  # a signal ends the process as documented from here 
         name = signal.Signals(signum).name
         why = "terminated" if name == "SIGTERM" else f"stopped by {name}"
         if sys.stderr is not None:
-            sys.stderr.write(f"enc-nightly: error: {why}\n")
-        raise SystemExit(128 + signum)
+            with contextlib.suppress(OSError, ValueError):
+                sys.stderr.write(f"enc-nightly: error: {why}\n")
+                sys.stderr.flush()
+        # not SystemExit: raised inside an import's class body, Python wraps it in a
+        # RuntimeError (a traceback, exit 1); nothing is open yet that needs closing
+        os._exit(128 + signum)
 
     from enctools.errors import ENDING_SIGNALS  # light: re and the exceptions
 
