@@ -89,6 +89,22 @@ class DeviceError(EncError):
 ENDING_SIGNALS = ("SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGALRM")
 
 
+def ending_signals(sigint: bool = True) -> tuple[int, ...]:
+    """The numbers of SIGINT (unless ``sigint`` is false) and :data:`ENDING_SIGNALS` that
+    this process does not ignore: the ones a command may catch.
+
+    A signal ignored when a command starts stays ignored, as POSIX has it for a shell's
+    background jobs (started with SIGINT and SIGQUIT ignored) and nohup(1) (SIGHUP):
+    catching it would let a terminal's Ctrl-C or hang-up end a job started not to end on
+    them. (Python itself leaves an ignored SIGINT ignored.)
+    """
+    import signal
+
+    names = ("SIGINT", *ENDING_SIGNALS) if sigint else ENDING_SIGNALS
+    numbers = (getattr(signal, name) for name in names)
+    return tuple(sig for sig in numbers if signal.getsignal(sig) != signal.SIG_IGN)
+
+
 class Interrupted(EncError):
     """Stopped by a signal: SIGINT (exit 130), SIGTERM (exit 143), or another of
     :data:`ENDING_SIGNALS` (exit 128 + its number)."""

@@ -31,6 +31,15 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 DATA = Path(__file__).resolve().parent / "data"
 
+# A shell starts a background job (CI's runner may be one) with SIGINT and SIGQUIT
+# ignored, and the commands keep a signal they were started with ignored (nohup, a
+# background job: errors.ending_signals). The suite's commands are stopped as from a
+# terminal: those signals go back to their defaults here, for the commands started below.
+for _sig in (signal.SIGINT, signal.SIGQUIT, signal.SIGHUP):
+    if signal.getsignal(_sig) == signal.SIG_IGN:
+        signal.signal(_sig, signal.default_int_handler if _sig == signal.SIGINT
+                      else signal.SIG_DFL)
+
 
 def enc_exe() -> str:
     """The enc executable of this environment (the venv's console script)."""
@@ -64,14 +73,17 @@ def run(cmd: str | list[str], cwd: Path | None = None, input: bytes | None = Non
 def _as_a_process(stdin: io.TextIOWrapper, stdout: io.TextIOWrapper,
                   stderr: io.TextIOWrapper, env: dict[str, str] | None,
                   cwd: Path | None) -> Iterator[None]:
-    """Standard streams, environment, cwd, SIGTERM handler, logging and warning filters as
-    a fresh ``enc`` process has them; everything put back afterwards."""
+    """Standard streams, environment, cwd, signal handlers, logging and warning filters as
+    a fresh ``enc`` process has them; everything put back afterwards (enc-nightly ends by
+    ignoring the ending signals: left so, the commands started later would inherit it)."""
     from enctools.cli import runner
+    from enctools.errors import ENDING_SIGNALS
 
     saved_streams = sys.stdin, sys.stdout, sys.stderr
     saved_env = dict(os.environ)
     saved_cwd = os.getcwd()
-    saved_sigterm = signal.getsignal(signal.SIGTERM)
+    saved_signals = {sig: signal.getsignal(sig) for sig in
+                     (signal.SIGINT, *(getattr(signal, name) for name in ENDING_SIGNALS))}
     saved_state = dict(getattr(runner, "_state", {}))
     log = logging.getLogger("enctools")
     saved_log = log.handlers[:], log.level, log.propagate
@@ -90,7 +102,8 @@ def _as_a_process(stdin: io.TextIOWrapper, stdout: io.TextIOWrapper,
         os.environ.clear()
         os.environ.update(saved_env)
         os.chdir(saved_cwd)
-        signal.signal(signal.SIGTERM, saved_sigterm)
+        for sig, handler in saved_signals.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
         if hasattr(runner, "_state"):
             runner._state.clear()
             runner._state.update(saved_state)

@@ -21,10 +21,10 @@ if __name__ == "__main__":  # a signal ends the process as documented from here 
         # RuntimeError (a traceback, exit 1); nothing is open yet that needs closing
         os._exit(128 + signum)
 
-    from enctools.errors import ENDING_SIGNALS  # light: re and the exceptions
+    from enctools.errors import ending_signals  # light: re and the exceptions
 
-    for _name in ENDING_SIGNALS:
-        signal.signal(getattr(signal, _name), _ended)
+    for _sig in ending_signals(sigint=False):  # an ignored one (nohup's SIGHUP) stays so
+        signal.signal(_sig, _ended)
 from pathlib import Path
 
 import click

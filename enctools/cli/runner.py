@@ -221,13 +221,15 @@ def log_warning(text: str) -> None:
 def install_sigterm() -> None:
     """Turn SIGTERM (exit 143) and the other signals that end a process by default
     (``errors.ENDING_SIGNALS``: SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM; exit 128 + the
-    number) into an Interrupted exception, so that outputs end whole or not at all."""
+    number) into an Interrupted exception, so that outputs end whole or not at all. A
+    signal the command was started with ignored (nohup, a background job) stays ignored
+    (``errors.ending_signals``)."""
     import signal
 
-    from enctools.errors import ENDING_SIGNALS
+    from enctools.errors import ending_signals
 
-    for name in ENDING_SIGNALS:
-        signal.signal(getattr(signal, name), _terminate)
+    for sig in ending_signals(sigint=False):
+        signal.signal(sig, _terminate)
 
 
 def _quiet_stdout() -> None:

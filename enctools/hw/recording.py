@@ -23,7 +23,7 @@ from typing import Any
 import pyarrow as pa
 
 from enctools.data.streams import Header, OutputStream
-from enctools.errors import ENDING_SIGNALS, Interrupted, OutputError
+from enctools.errors import Interrupted, OutputError, ending_signals
 
 log = logging.getLogger("enctools")
 
@@ -158,7 +158,7 @@ class _SignalGuard:
 
     def __enter__(self) -> _SignalGuard:
         if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, *(getattr(signal, n) for n in ENDING_SIGNALS)):
+            for sig in ending_signals():  # an ignored one stays ignored
                 self._old[sig] = signal.signal(sig, self._handle)
         return self
 

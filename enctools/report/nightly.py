@@ -417,7 +417,7 @@ def signals_held() -> Iterator[None]:
     import signal
     import threading
 
-    from enctools.errors import ENDING_SIGNALS
+    from enctools.errors import ending_signals
 
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -428,7 +428,7 @@ def signals_held() -> Iterator[None]:
         held.append(signum)
 
     before = {sig: signal.signal(sig, hold)
-              for sig in (signal.SIGINT, *(getattr(signal, name) for name in ENDING_SIGNALS))}
+              for sig in ending_signals()}  # an ignored one (nohup's SIGHUP) stays ignored
     try:
         yield
     finally:

@@ -99,3 +99,30 @@ def test_search_results_are_the_same_as_before() -> None:
     res = design.search(4, 100)
     assert res.angles_deg == (0.0, 112.3, 231.44, 292.42) and res.evaluated == 485696
     assert np.isclose(res.score, 1.1947573273300363)
+
+
+def test_a_signal_started_ignored_stays_ignored() -> None:
+    """nohup and a shell's background jobs start a command with SIGHUP, or SIGINT and
+    SIGQUIT, ignored: it keeps them ignored (errors.ending_signals), SIGTERM still ends it."""
+    import signal
+    import time
+
+    def ignore() -> None:
+        for sig in (signal.SIGINT, signal.SIGQUIT, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_IGN)
+
+    p = subprocess.Popen([enc_exe(), "design", "--search", "6", "--band", "2000",
+                          "--max-candidates", "100000000"], stderr=subprocess.PIPE,
+                         stdout=subprocess.PIPE, preexec_fn=ignore)
+    try:
+        time.sleep(2.0)
+        for sig in (signal.SIGINT, signal.SIGQUIT, signal.SIGHUP):
+            p.send_signal(sig)
+        time.sleep(1.0)
+        assert p.poll() is None
+        p.send_signal(signal.SIGTERM)
+        p.communicate(timeout=30)
+        assert p.returncode == 128 + signal.SIGTERM
+    finally:
+        p.kill()
+        p.wait()

@@ -268,8 +268,6 @@ def test_help_names_the_command():
                                                   (signal.SIGINT, 130, "interrupted")])
 def test_terminated_night_is_recorded(tmp_path, enc, sig, code, why):
     """SIGTERM as SIGINT: the campaign is stopped, the row lands, exit 143 (130)."""
-    if sig == signal.SIGINT and signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
-        pytest.skip("SIGINT is ignored here, and so in the command started")
     hist, cal, work = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "work"
     env = dict(os.environ, PATH=f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}")
     p = subprocess.Popen([NIGHTLY, "--rig", "ciomp-23bit", "--history", str(hist),
