@@ -264,9 +264,11 @@ def _check_dataset(ds: Any, name: str, source: str) -> None:
 
 
 def _batches(g: Any, schema: pa.Schema, total: int) -> Iterator[pa.RecordBatch]:
-    """The table's rows in batches of at most :data:`_CHUNK` rows."""
-    for start in range(0, total, _CHUNK):
-        stop = min(start + _CHUNK, total)
+    """The table's rows in batches of at most :data:`_CHUNK` rows (fewer for wide rows:
+    :func:`~enctools.data.limits.batch_rows`)."""
+    step = limits.batch_rows(schema, _CHUNK)
+    for start in range(0, total, step):
+        stop = min(start + step, total)
         arrays = []
         for fld in schema:
             data = g[fld.name][start:stop]

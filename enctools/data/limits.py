@@ -14,6 +14,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import pyarrow as pa
+
 from enctools.units import ANGLE_UNITS, DEG, factor
 
 # ------------------------------------------------------------------ the header
@@ -39,6 +41,43 @@ MAX_STREAM_ROWS = 1_000_000_000
 MAX_PIPE_BUFFER_BYTES = 256 << 20
 #: rows of one Parquet row group (read whole by the Parquet decoder) [rows]
 MAX_ROW_GROUP_ROWS = 4 << 20
+#: bytes of one Parquet row group decoded, as its footer gives them (the decoder holds a
+#: few times that): 4 Mi rows of 8 float64 columns [byte]
+MAX_ROW_GROUP_BYTES = 256 << 20
+#: bytes of one batch a stream is read in, and of one Parquet row group written: fewer
+#: rows than :data:`~enctools.data.streams.BATCH_ROWS` when the rows are wide (thousands of
+#: head columns) [byte]
+BATCH_BYTES = 8 << 20
+
+
+def batch_rows(schema: pa.Schema, most: int) -> int:
+    """Rows of a batch of ``schema`` within :data:`BATCH_BYTES` (at most ``most``): a
+    column of variable width counted as 16 bytes a row [rows]."""
+    width = 0
+    for field in schema:
+        try:
+            width += max(field.type.bit_width // 8, 1)
+        except ValueError:  # strings, lists: no fixed width
+            width += 16
+    return max(1, min(most, BATCH_BYTES // max(width, 1)))
+
+
+def check_row_groups(metadata: Any, source: str) -> None:
+    """DataError unless every row group is within the rows and decoded bytes the Parquet
+    decoder is let hold (it reads a row group's column chunks whole)."""
+    from enctools.errors import DataError
+
+    groups = [metadata.row_group(i) for i in range(metadata.num_row_groups)]
+    rows = max((g.num_rows for g in groups), default=0)
+    size = max((g.total_byte_size for g in groups), default=0)
+    for value, most, what in ((rows, MAX_ROW_GROUP_ROWS, "rows"),
+                              (size, MAX_ROW_GROUP_BYTES, "bytes decoded")):
+        if value > most:
+            msg = (f"{source}: a Parquet row group of {value} {what}; at most {most} are "
+                   "read (rewrite it with smaller row groups)")
+            raise DataError(msg)
+
+
 #: bytes of one HDF5 chunk once decoded (read whole by libhdf5) [byte]
 MAX_HDF5_CHUNK_BYTES = 16 << 20
 #: decoded bytes of an HDF5 column per byte it takes in the file, plus

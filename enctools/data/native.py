@@ -12,6 +12,10 @@ from typing import Any
 
 import pyarrow as pa
 
+from enctools.data.limits import BATCH_BYTES
+
+#: rows of a Parquet row group written (fewer when they are wide: BATCH_BYTES) [rows]
+GROUP_ROWS = 65536
 
 def native_file(path: str, mode: str = "r") -> pa.NativeFile:
     """``path`` opened as pyarrow's own file (``mode``: ``"r"`` or ``"w"``)."""
@@ -22,9 +26,13 @@ class ArrowWriter:
     """An Arrow IPC stream or file, or a Parquet file (``fmt``: ``arrows``, ``arrow`` or
     ``parquet``) written into the file named ``target`` (closed with the writer) or into
     the open file ``target`` (stdout, left open); the pyarrow writer protocol
-    (``write_batch``, ``close``)."""
+    (``write_batch``, ``close``). Parquet's row groups are of :data:`GROUP_ROWS` rows or
+    :data:`~enctools.data.limits.BATCH_BYTES` bytes, whatever the batches written."""
 
     def __init__(self, fmt: str, target: str | Any, schema: pa.Schema) -> None:
+        # Parquet: batches held until GROUP_ROWS rows or BATCH_BYTES bytes make a row group
+        self._groups: list[pa.RecordBatch] | None = [] if fmt == "parquet" else None
+        self._held = 0
         self._file = native_file(target, "w") if isinstance(target, str) else None
         try:
             self._writer = _writer(fmt, target if self._file is None else self._file, schema)
@@ -33,10 +41,25 @@ class ArrowWriter:
             raise
 
     def write_batch(self, batch: pa.RecordBatch) -> None:
-        self._writer.write_batch(batch)
+        if self._groups is None:
+            self._writer.write_batch(batch)
+            return
+        self._groups.append(batch)
+        self._held += batch.nbytes
+        if self._held >= BATCH_BYTES or sum(b.num_rows for b in self._groups) >= GROUP_ROWS:
+            self._flush()
+
+    def _flush(self) -> None:
+        """The batches held as one Parquet row group: a closure run written a reading a
+        batch would otherwise give a row group a row (129,600 and a 108 MB footer)."""
+        if self._groups:
+            groups, self._groups, self._held = self._groups, [], 0
+            table = pa.Table.from_batches(groups)
+            self._writer.write_table(table, row_group_size=table.num_rows)
 
     def close(self) -> None:
         try:
+            self._flush()
             self._writer.close()
         finally:
             self.close_file()

@@ -342,17 +342,13 @@ def _open_parquet(f: IO[bytes], source: str) -> InputStream:
         if rows > limits.MAX_STREAM_ROWS:
             msg = f"{source}: claims {rows} rows; at most {limits.MAX_STREAM_ROWS} are read"
             raise DataError(msg)
-        groups = (pf.metadata.row_group(i).num_rows for i in range(pf.metadata.num_row_groups))
-        largest = max(groups, default=0)
-        if largest > limits.MAX_ROW_GROUP_ROWS:
-            msg = (f"{source}: a Parquet row group of {largest} rows; at most "
-                   f"{limits.MAX_ROW_GROUP_ROWS} are read (rewrite it with smaller row groups)")
-            raise DataError(msg)
+        limits.check_row_groups(pf.metadata, source)
         extent.check_parquet(f, pf.metadata, source)
     except BaseException:
         native.close()
         raise
-    stream = InputStream(header, pf.iter_batches(batch_size=BATCH_ROWS), source, "Parquet",
+    batches = pf.iter_batches(batch_size=limits.batch_rows(pf.schema_arrow, BATCH_ROWS))
+    stream = InputStream(header, batches, source, "Parquet",
                          lambda: (native.close(), f.close()))
     stream.claimed_rows = rows
     return stream

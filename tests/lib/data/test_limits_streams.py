@@ -302,3 +302,52 @@ def _model(path: Path, rows: int, spread: object = 5.0) -> Path:
 def test_make_rom_model_limits(tmp_path, rows, spread, what):
     model = _model(tmp_path / "m.parquet", rows, spread)
     refused(f"enc make-rom {model} --bits 23 --address-bits 12 -o {tmp_path}/r.bin", what)
+
+
+def _wide(raw: Path, heads: int) -> pa.Table:
+    """``raw``'s t and ``heads`` copies of its head H1 (G0, G1, ...), its metadata kept."""
+    header, table = streams.read_table(str(raw))
+    field = header.schema.field("H1")
+    fields = [header.schema.field("t")] + [field.with_name(f"G{k}") for k in range(heads)]
+    cols = [table.column("t")] + [table.column("H1")] * heads
+    return pa.Table.from_arrays(cols, schema=pa.schema(fields, header.arrow_schema().metadata))
+
+
+def test_wide_rows_are_read_and_written_a_few_megabytes_at_a_time(raw, tmp_path):
+    """enc-streams(5) LIMITS: a batch read holds at most 8 MiB of rows, however many
+    columns (2000 heads: 512 rows, not 65536), and the Parquet row groups written are
+    of that size too, whether the batches written are one row each (a closure run) or wide."""
+    from enctools.data import limits
+    wide = _wide(raw, 2000)  # 16 kB a row
+    pq.write_table(wide, tmp_path / "one-group.parquet")
+    with streams.open_input(str(tmp_path / "one-group.parquet")) as s:
+        sizes = [(b.num_rows, b.nbytes) for b in s.batches()]
+    assert sum(n for n, _ in sizes) == wide.num_rows and len(sizes) > 1
+    assert max(nbytes for _, nbytes in sizes) <= limits.BATCH_BYTES * 1.05  # and bitmaps
+    assert sizes[0][0] == limits.BATCH_BYTES // (8 * 2001)
+    header, table = streams.read_table(str(raw))
+    for name, batches in (("narrow", table.to_batches(max_chunksize=1)),
+                          ("wide", wide.to_batches(max_chunksize=100))):
+        h = header if name == "narrow" else streams.Header(header.kind, wide.schema,
+                                                           header.meta)
+        with streams.OutputStream(str(tmp_path / f"{name}.parquet"), h) as out:
+            for b in batches:
+                out.write(b)
+        meta = pq.ParquetFile(tmp_path / f"{name}.parquet").metadata
+        groups = [meta.row_group(i) for i in range(meta.num_row_groups)]
+        assert sum(g.num_rows for g in groups) == table.num_rows
+        if name == "narrow":  # one row a batch: 65536 rows a group, not one
+            assert [g.num_rows for g in groups[:-1]] == [65536] * (len(groups) - 1)
+        else:
+            assert len(groups) > 1  # and each of some 8 MiB of batches (its pages' bytes more)
+            assert max(g.total_byte_size for g in groups) <= 2 * limits.BATCH_BYTES
+
+
+def test_a_row_group_of_too_many_bytes_is_refused(raw, tmp_path, monkeypatch):
+    from enctools.data import limits
+    from enctools.errors import DataError
+    pq.write_table(_wide(raw, 20), tmp_path / "w.parquet")
+    monkeypatch.setattr(limits, "MAX_ROW_GROUP_BYTES", 1 << 20)
+    with pytest.raises(DataError, match=r"a Parquet row group of \d+ bytes decoded; at most "
+                                        r"1048576 are read \(rewrite it with smaller"):
+        streams.open_input(str(tmp_path / "w.parquet"))
