@@ -92,7 +92,8 @@ def write_fanuc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
               (3625, per_turn, "travel per rotation [detection units]")]
     increments = np.diff(t.forward)
     out = [f"# {comment_text(c, ascii_only=True)}\n" for c in comment]
-    out.append(f"DETECTION_UNIT_DEG {du!r}\n")
+    system = f"  # increment system {s.increment_system}" if s.increment_system else ""
+    out.append(f"DETECTION_UNIT_DEG {du!r}{system}\n")
     out += [f"PARAMETER {n} AXIS {axis} VALUE {v}  # {what}\n" for n, v, what in params]
     out.append(f"PITCH {r} VALUE {increments[-1]:+d}  # the same as point {r + sections}\n")
     out += [f"PITCH {r + 1 + i} VALUE {v:+d}\n" for i, v in enumerate(increments.tolist())]

@@ -105,6 +105,8 @@ class Control:
         correction is 0 at the home position): Fanuc's pitch error compensation.
     grid_rule : why a grid of k sections over the turn is refused beyond the above:
         (settings, k) -> the reason, or None.
+    increment_systems : the control's named increment systems and the detection unit
+        [deg] each gives (an incremental table's unit: Fanuc's IS-A, IS-B, IS-C), or ().
     """
 
     resolution_deg: float
@@ -114,6 +116,7 @@ class Control:
     exact_spacing: bool = True
     incremental: bool = False
     grid_rule: Callable[[ControlSettings, int], str | None] | None = None
+    increment_systems: tuple[tuple[str, float], ...] = ()
 
 
 def lazy(module: str, name: str) -> Callable[..., Any]:

@@ -164,6 +164,38 @@ def test_fanuc_increments_sum_to_zero(step_run, tmp_path):
     assert "PARAMETER 3622 AXIS 4 VALUE 84" in text and "PARAMETER 3624 AXIS 4 VALUE 15000" in text
 
 
+@pytest.mark.parametrize("system, unit", [("IS-B", 1e-3), ("IS-C", 1e-4)])
+def test_fanuc_increment_system(step_run, tmp_path, system, unit):
+    """The increment system sets the detection unit: the table's resolution is the
+    magnification x that unit, read back and applied by enc correct within half of it
+    (IS-C: finer than IS-B's 3.6 arcsec, whose every value is +-1 unit)."""
+    points, intended = step_run
+    out, fixed = tmp_path / "f.txt", tmp_path / "fixed.parquet"
+    r = run(f"enc make-rom {points} --target fanuc --sign error --axis 4 "
+            f"--increment-system {system} --verify --json -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    s = json.loads(r.stdout)
+    assert s["increment_system"] == system and s["detection_unit_deg"] == unit
+    resolution = s["magnification"] * unit * 3600.0
+    assert s["resolution_arcsec"] == pytest.approx(resolution)
+    assert f"DETECTION_UNIT_DEG {unit!r}  # increment system {system}" in out.read_text()
+    if system == "IS-C":
+        assert resolution < 3.6
+    table = rf.read_control_table(str(out), "fanuc", "error")
+    mean = (intended[1] + intended[-1]) / 2.0
+    want = np.r_[mean, mean[0]] - mean[0]
+    got = table.correction(np.radians(np.arange(TARGETS + 1) * 15.0)) / ARCSEC
+    assert np.max(np.abs(got - want)) <= resolution / 2 * (1 + 1e-6)
+    r = run(f"enc correct {points} --table {out} --target fanuc --sign error -q -o {fixed}")
+    assert r.returncode == 0, r.stderr.decode()
+    t = pq.read_table(fixed)
+    k = np.rint(np.mod(np.degrees(t.column("position").to_numpy()), 360.0) / 15.0)
+    dev = t.column("deviation").to_numpy()
+    means = np.array([dev[k.astype(int) % TARGETS == j].mean() for j in range(TARGETS)])
+    # the table is 0 at the reference point: every target keeps the deviation there
+    assert np.max(np.abs(means + mean[0])) <= resolution / 2 + 0.01
+
+
 def test_beyond_range_is_one_line(step_run, tmp_path):
     """Fanuc: an increment beyond +-7 x magnification 100 x 0.001 deg is refused."""
     points, _ = step_run
@@ -190,6 +222,8 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
     ("--target mif --comp-type 1", "--comp-type"),
     ("--target twincat --comp-type 1", "--comp-type applies to linuxcnc"),
     ("--target linuxcnc --detection-unit 0.0001", "--detection-unit applies to fanuc"),
+    ("--target linuxcnc --increment-system IS-C", "--increment-system applies to fanuc"),
+    ("--target fanuc --sign error --increment-system IS-C --detection-unit 0.001", "not both"),
     ("--target linuxcnc --axis 2", "names no joint"),
     ("--target siemens --points 9 --bits 23 --address-bits 3 --resolution 0.0001",
      "--points applies to linuxcnc"),
