@@ -34,7 +34,7 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
           "resolution_deg"),
          "Controls' tables (a grid over the turn)":
          ("bidirectional", "points", "comp_type", "detection_unit", "increment_system",
-          "home_point"),
+          "home_point", "tnc"),
          "Rom streams (--target stream)": ("fmt",)}
 
 
@@ -88,6 +88,9 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
                    "(IS-A 0.01, IS-B 0.001, IS-C 0.0001 deg).")
 @click.option("--home-point", type=int, default=0, show_default=True,
               help="fanuc: compensation point number of the reference (home) position.")
+@click.option("--tnc", type=options.LazyChoice(lambda: _generations()), default=None,
+              help="heidenhain: the control's generation, whose rules the table follows "
+                   "(407: TNC 407/415/425; 620: MANUALplus 620 and its generation).")
 @click.option("--outside", type=click.Choice(["zero", "hold"]), default=None,
               help="Where the source's targets do not cover the turn: zero correction, or "
                    "hold the nearer end's (default: refused).")
@@ -111,9 +114,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             axis: str | None, zone: int, array_name: str, max_entries: int | None,
             bidirectional: bool, sign: str | None, resolution_deg: float | None,
             comp_type: int, points: int | None, detection_unit: float,
-            increment_system: str | None, home_point: int, outside: str | None, verify: bool,
-            allow_no_gain: bool, allow_coarse: bool, output: str | None, force: bool,
-            fmt: str | None, as_json: bool, unit: str) -> None:
+            increment_system: str | None, home_point: int, tnc: str | None,
+            outside: str | None, verify: bool, allow_no_gain: bool, allow_coarse: bool,
+            output: str | None, force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -140,7 +143,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         control = _control_settings(
             target=target, bidirectional=bidirectional, sign=sign, comp_type=comp_type,
             points=points, max_entries=max_entries, axis=axis, detection_unit_deg=detection_unit,
-            home_point=home_point, increment_system=_one_unit(increment_system))
+            home_point=home_point, increment_system=_one_unit(increment_system), tnc=tnc)
         _control(input, curve, control, str(path), (force, verify, outside), as_json, unit,
                  (allow_no_gain, allow_coarse))
         return
@@ -264,6 +267,13 @@ def _increment_systems() -> tuple[str, ...]:
                                for name, _ in r.control.increment_systems))
 
 
+def _generations() -> tuple[str, ...]:
+    """The HEIDENHAIN generations whose rules the heidenhain format knows."""
+    from enctools.models.romformats.catalogue.heidenhain import GENERATIONS
+
+    return tuple(GENERATIONS)
+
+
 def _one_unit(increment_system: str | None) -> str | None:
     """--increment-system, refused beside --detection-unit (each sets the detection unit)."""
     from enctools.cli.usage import UsageError
@@ -314,8 +324,10 @@ def _control(input: str | None, curve: str | None, settings: ControlSettings, pa
     size = romformats.write_control_table(path, table, force, comment + _range_line(extent))
     if verify:
         romformats.verify_control_table(path, table)
-    emit(table.summary | extent | {"output": path, "file_bytes": size, "verified": verify,
-                                   "elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
+    companion = romformats.companion_path(path, settings.target)
+    emit(table.summary | extent | {"output": path, "file_bytes": size, "verified": verify}
+         | ({} if companion is None else {"assignment": companion})
+         | {"elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
 
 
 def _range_line(summary: dict[str, Any]) -> list[str]:

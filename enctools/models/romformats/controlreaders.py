@@ -171,33 +171,56 @@ def read_fanuc(data: bytes, src: str, options: PointOptions) -> PointTable:
                       modulo_rad=turn * du * DEG)
 
 
+def _heidenhain_table(data: bytes, src: str, columns: tuple[str, ...]
+                      ) -> dict[str, list[str]]:
+    """A HEIDENHAIN table (``BEGIN`` line, a header naming the columns, rows, ``[END]``)
+    as its columns' fields, each field starting under its column's name and running to
+    the next column's start; DataError if a column of ``columns`` is missing."""
+    lines = data.decode("latin-1").splitlines()
+    if len(lines) < 3 or not lines[0].startswith("BEGIN") or lines[-1].strip() != "[END]":
+        msg = f"{src}: not a HEIDENHAIN table (BEGIN line, header, rows, [END])"
+        raise DataError(msg)
+    starts = {m.group(): m.start() for m in re.finditer(r"\S+", lines[1])}
+    missing = [c for c in columns if c not in starts]
+    if missing:
+        msg = f"{src}: no {' or '.join(missing)} column"
+        raise DataError(msg)
+    bounds = sorted(starts.values()) + [1 << 30]
+    return {name: [line[a:bounds[bounds.index(a) + 1]].strip() for line in lines[2:-1]]
+            for name, a in starts.items() if name in columns}
+
+
+def read_heidenhain_cma(data: bytes, src: str, axis: str) -> str:
+    """A HEIDENHAIN assignment table (.CMA): the .COM table named in the axis's column on
+    the one line marked active (``*`` in ACTIVE)."""
+    table = _heidenhain_table(data, src, (axis, "ACTIVE"))
+    active = [i for i, mark in enumerate(table["ACTIVE"]) if mark == "*"]
+    if len(active) != 1:
+        msg = f"{src}: {len(active)} lines marked active; the control takes one"
+        raise DataError(msg)
+    name = table[axis][active[0]]
+    if not name:
+        msg = f"{src}: the active line names no table for axis {axis}"
+        raise DataError(msg)
+    return name
+
+
 def read_heidenhain(data: bytes, src: str, options: PointOptions) -> PointTable:
     """A HEIDENHAIN compensation value table (.COM): ``BEGIN`` line, a header naming the
     columns (each field starts under its name), rows, ``[END]``; AXISPOS [deg] and the
     axis's column [deg] (``options.axis``, else C); ``options.sign`` says whether the value
     is the correction or the error."""
     axis = options.axis or "C"
-    lines = data.decode("latin-1").splitlines()
-    if len(lines) < 4 or not lines[0].startswith("BEGIN") or lines[-1].strip() != "[END]":
-        msg = f"{src}: not a HEIDENHAIN table (BEGIN line, header, rows, [END])"
-        raise DataError(msg)
-    header = lines[1]
-    starts = {m.group(): m.start() for m in re.finditer(r"\S+", header)}
-    if "AXISPOS" not in starts or axis not in starts:
-        msg = f"{src}: no AXISPOS or {axis} column"
-        raise DataError(msg)
-    bounds = sorted(starts.values()) + [1 << 30]
-
-    def field(line: str, name: str) -> float:
-        a = starts[name]
-        return float(line[a:bounds[bounds.index(a) + 1]])
-
+    table = _heidenhain_table(data, src, ("AXISPOS", axis))
     try:
-        pos = np.array([field(line, "AXISPOS") for line in lines[2:-1]])
-        val = np.array([field(line, axis) for line in lines[2:-1]])
+        pos = np.array([float(v) for v in table["AXISPOS"]])
+        val = np.array([float(v) for v in table[axis]])
     except ValueError:
         msg = f"{src}: a table field is not a number"
         raise DataError(msg) from None
+    if len(pos) < 2:
+        msg = f"{src}: fewer than 2 compensation points"
+        raise DataError(msg)
     if len(pos) > 256:
         msg = f"{src}: {len(pos)} compensation points; a table holds 256"
         raise DataError(msg)

@@ -59,6 +59,8 @@ class ControlSettings:
     increment_system : an incremental table's increment system by its control's name
         (Fanuc: IS-A, IS-B, IS-C), which sets ``detection_unit_deg`` (None: that unit as
         given).
+    tnc : a HEIDENHAIN control's generation, whose rules the table follows (``407``: TNC
+        407/415/425; ``620``: MANUALplus 620 and its generation), by its record's check.
     """
 
     target: str
@@ -71,6 +73,7 @@ class ControlSettings:
     detection_unit_deg: float = DEFAULT_DETECTION_UNIT_DEG
     home_point: int = 0
     increment_system: str | None = None
+    tnc: str | None = None
 
     def __post_init__(self) -> None:
         fmt, spec = self.format, self.spec

@@ -9,10 +9,12 @@ reaches the text). The layouts and their sources are in enc-make-rom(1), CONTROL
 
 from __future__ import annotations
 
+import re
 from typing import IO
 
 import numpy as np
 
+from enctools.errors import SettingsError
 from enctools.models.romformats.controls import ControlTable
 from enctools.models.romformats.words import comment_text
 
@@ -113,3 +115,19 @@ def write_heidenhain(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
     out.append("[END]\n")
     f.write("".join(out).encode("ascii"))
 
+
+
+def write_heidenhain_cma(f: IO[bytes], t: ControlTable, com_name: str) -> None:
+    """The HEIDENHAIN assignment table (.CMA) of the .COM table ``com_name``: a column
+    named for the axis holding the .COM file's name, the line marked active (``*`` in
+    ACTIVE), the fields starting under their column names as in the .COM."""
+    if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}", com_name):
+        msg = (f"heidenhain: the .CMA names the table by its file name, which must be "
+               f"letters, digits, _ . or - (at most 64), not {com_name!r}")
+        raise SettingsError(msg)
+    axis = t.settings.axis or "C"
+    width = max(16, len(com_name) + 2, len(axis) + 2)
+    cma = com_name.rsplit(".", 1)[0] + ".CMA"
+    out = [f"BEGIN {cma.upper()}\n", f"{'NR':<8}{axis:<{width}}ACTIVE\n",
+           f"{0:<8}{com_name:<{width}}*\n", "[END]\n"]
+    f.write("".join(out).encode("ascii"))

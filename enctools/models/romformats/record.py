@@ -150,6 +150,24 @@ def check_axis_number(settings: Any, entries: int | None = None) -> None:
         raise SettingsError(msg)
 
 
+#: a companion file written: (file, table, the table file's name as the companion names it)
+CompanionWriter = Callable[[IO[bytes], "ControlTable", str], None]
+#: a companion read: (bytes, file's name, the axis) -> the table file's name it makes
+#: active for the axis
+CompanionReader = Callable[[bytes, str, str], str]
+
+
+@dataclass(frozen=True)
+class Companion:
+    """A file a control needs beside its table (HEIDENHAIN's .CMA assigning the .COM to
+    the axis), written with it as one output and read back with it."""
+
+    #: its extension (lower case, with the dot), in the table file's case
+    extension: str
+    write: CompanionWriter
+    read: CompanionReader
+
+
 #: a memory's or a controller's words written: (file, words [LSB], how, comment lines)
 ValuesWriter = Callable[[IO[bytes], "np.ndarray", "Target", list[str]], None]
 #: its words read: (file's bytes, how, file's name) -> words; a fast one may give None
@@ -203,6 +221,8 @@ class TableFormat:
     signature: re.Pattern[bytes] | None = None
     #: where it is listed among the others (lower first; then by name)
     rank: int = 100
+    #: a file written beside the table, as one output with it (None: none)
+    companion: Companion | None = None
 
     def __post_init__(self) -> None:
         if self.family not in FAMILIES:

@@ -27,7 +27,7 @@ CASES = {
     "twincat": ("twincat", "--bidirectional --axis 3", 0.36, True),
     "twincat-uni": ("twincat", "", 0.36, False),
     "fanuc": ("fanuc", "--sign error --axis 4", 3.6, False),
-    "heidenhain": ("heidenhain", "--sign correction --axis C", 0.36, False),
+    "heidenhain": ("heidenhain", "--sign correction --axis C --tnc 620", 0.36, False),
 }
 
 
@@ -134,8 +134,9 @@ def test_sign_conventions(step_run, tmp_path):
     files = {}
     for name, target, opts in (("l0", "linuxcnc", "--comp-type 0"),
                                ("l1", "linuxcnc", "--comp-type 1"),
-                               ("tc", "twincat", ""), ("hc", "heidenhain", "--sign correction"),
-                               ("he", "heidenhain", "--sign error")):
+                               ("tc", "twincat", ""),
+                               ("hc", "heidenhain", "--sign correction --tnc 620"),
+                               ("he", "heidenhain", "--sign error --tnc 620")):
         files[name] = tmp_path / f"{name}.txt"
         r = run_in_process(f"enc make-rom {points} --target {target} {opts} -q "
                            f"-o {files[name]}")
@@ -196,6 +197,35 @@ def test_fanuc_increment_system(step_run, tmp_path, system, unit):
     assert np.max(np.abs(means + mean[0])) <= resolution / 2 + 0.01
 
 
+def test_heidenhain_assignment_table(step_run, tmp_path):
+    """The .COM is written with its .CMA (both or neither): the .CMA, parsed here as the
+    control reads it (fields under their column names, the one line marked * in ACTIVE),
+    makes the .COM the axis's active table; an existing .CMA is not replaced without
+    --force, and then neither file is written."""
+    points, _ = step_run
+    com, cma = tmp_path / "B.COM", tmp_path / "B.CMA"
+    r = run_in_process(f"enc make-rom {points} --target heidenhain --sign error --tnc 620 "
+                       f"--axis B --verify --json -o {com}")
+    assert r.returncode == 0, r.stderr.decode()
+    assert json.loads(r.stdout)["assignment"] == str(cma)
+    lines = cma.read_text(encoding="ascii").splitlines()
+    assert lines[0] == "BEGIN B.CMA" and lines[-1] == "[END]"
+    header = lines[1]
+    cols = {name: header.index(name) for name in header.split()}
+    assert cols["NR"] == 0 and set(cols) == {"NR", "B", "ACTIVE"}
+    rows = lines[2:-1]
+    assert [row[cols["ACTIVE"]:].strip() for row in rows] == ["*"]
+    assert rows[0][cols["B"]:cols["ACTIVE"]].strip() == "B.COM"
+    assert rf.read_control_table(str(com), "heidenhain", "error", axis="B").positions_rad.size \
+        == TARGETS + 1
+    com.unlink()
+    before = cma.read_bytes()
+    r = run_in_process(f"enc make-rom {points} --target heidenhain --sign error --tnc 620 "
+                       f"--axis B -o {com}")
+    assert "B.CMA" in one_error_line(r, 2, "enc make-rom")
+    assert not com.exists() and cma.read_bytes() == before
+
+
 def test_beyond_range_is_one_line(step_run, tmp_path):
     """Fanuc: an increment beyond +-7 x magnification 100 x 0.001 deg is refused."""
     points, _ = step_run
@@ -213,7 +243,10 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
 
 @pytest.mark.parametrize("opts, says", [
     ("--target fanuc", "not confirmed"),
-    ("--target heidenhain --sign error --bidirectional", "bidirectional"),
+    ("--target heidenhain --sign error --tnc 620 --bidirectional", "bidirectional"),
+    ("--target heidenhain --sign error", "name the control's generation with --tnc"),
+    ("--target heidenhain --sign error --tnc 407", "power of two"),
+    ("--target linuxcnc --tnc 620", "--tnc applies to heidenhain"),
     ("--target fanuc --sign error --bidirectional", "bidirectional"),
     ("--target twincat --points 8", "0.0001 deg"),
     ("--target linuxcnc --points 300", "256"),
@@ -260,7 +293,7 @@ def test_point_table_modulo_and_directions():
 
 @pytest.mark.parametrize("target, opts", [("linuxcnc", []), ("twincat", []),
                                           ("fanuc", ["--sign", "error"]),
-                                          ("heidenhain", ["--sign", "error"])])
+                                          ("heidenhain", ["--sign", "error", "--tnc", "620"])])
 def test_hostile_names_stay_in_comments(step_run, tmp_path, monkeypatch, target, opts):
     """The command line (with the output's name) lands only in '# ' comment lines, which
     the control's reader skips; the table reads back the same."""
@@ -269,6 +302,10 @@ def test_hostile_names_stay_in_comments(step_run, tmp_path, monkeypatch, target,
     args = ["make-rom", str(points), "--target", target, *opts, "-o", out, "--verify", "-q"]
     monkeypatch.setattr("sys.argv", ["enc", *args])
     r = run_in_process(args)
+    if target == "heidenhain":  # the .CMA names the .COM by its file name: refused
+        assert "letters, digits" in one_error_line(r, 2, "enc make-rom")
+        assert not list(tmp_path.iterdir())
+        return
     assert r.returncode == 0, r.stderr.decode()
     text = Path(out).read_text(encoding="ascii")
     assert all(c.isprintable() or c == "\n" for c in text)

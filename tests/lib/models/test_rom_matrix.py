@@ -32,7 +32,7 @@ OPTIONS = {"bin": "--bits 12", "ihex": "--bits 12", "mif": "--bits 12", "coe": "
            "mem": "--bits 12", "csv": "--bits 12", "stream": "--bits 12 --format parquet",
            "acs": "--address-bits 6 --resolution 0.0001 --sign correction",
            "siemens": "--address-bits 6 --resolution 0.0001", "linuxcnc": "", "twincat": "",
-           "fanuc": "--sign error", "heidenhain": "--sign error"}
+           "fanuc": "--sign error", "heidenhain": "--sign error --tnc 620"}
 TARGETS = targets()
 CONTROLS = rf.CONTROLS
 MEMORIES = tuple(t for t in TARGETS if t not in CONTROLS + rf.CONTROLLER)
