@@ -72,8 +72,8 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
               help="linuxcnc, twincat: one table per direction (default: one table of the mean "
                    "of both directions).")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
-              help="acs, fanuc, heidenhain: whether the control stores the correction or "
-                   "the error.")
+              help="acs, fanuc, heidenhain, twincat-nc: whether the control stores the "
+                   "correction or the error.")
 @click.option("--resolution", "resolution_deg", type=float, default=None,
               help="acs, siemens: the control's resolution [deg], a power of ten.")
 @click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,

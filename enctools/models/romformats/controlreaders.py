@@ -257,3 +257,72 @@ def read_acs(data: bytes, src: str, options: PointOptions) -> PointTable:
         raise DataError(msg)
     positions = base + step * np.arange(vals.size)
     return PointTable(positions * DEG, (vals if options.sign == "correction" else -vals) * DEG)
+
+
+#: IEC 61131-3 (TwinCAT 3) numbers: an LREAL literal or an integer
+_ST_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
+_ST_FIELD = re.compile(r"(\w+)\s*:=\s*([\w.+-]+)", re.IGNORECASE)
+_ST_DECLARATION = re.compile(r"(\w+)\s*:\s*(ARRAY\s*\[\s*(\d+)\s*\.\.\s*(\d+)\s*\]\s*OF\s*)?"
+                             r"(\w+)\s*:=\s*(\(.*?\)|\[.*?\])\s*;", re.IGNORECASE | re.DOTALL)
+
+
+def _st_fields(text: str, src: str) -> dict[str, str]:
+    """``name := value`` pairs of one structure initialiser, names upper-cased (Structured
+    Text is not case-sensitive); DataError on a name given twice."""
+    fields: dict[str, str] = {}
+    for name, value in _ST_FIELD.findall(text):
+        if name.upper() in fields:
+            msg = f"{src}: {name} is given twice in one initialiser"
+            raise DataError(msg)
+        fields[name.upper()] = value
+    return fields
+
+
+def _st_number(fields: dict[str, str], name: str, src: str) -> float:
+    value = fields.get(name.upper())
+    if value is None or not re.fullmatch(_ST_NUMBER, value):
+        msg = f"{src}: {name} is missing or not a number ({value!r})"
+        raise DataError(msg)
+    return float(value)
+
+
+def read_twincat_nc(data: bytes, src: str, options: PointOptions) -> PointTable:
+    """A TwinCAT PLC declaration of MC_TableBasedPositionCompensation's table as the PLC
+    compiles it: comments ``(* *)`` dropped; the one ST_PositionCompensationTableParameter
+    (MinPosition, MaxPosition, NoOfTableElements, Direction, Modulo) and the one ARRAY
+    [a..b] OF ST_PositionCompensationTableElement initialised element by element
+    (Position, Compensation [deg]); the table equidistant and increasing from MinPosition
+    to MaxPosition, its count the array's and NoOfTableElements; Direction both (a
+    one-direction table is not read); Modulo TRUE wraps MaxPosition - MinPosition.
+    ``options.sign`` says whether Compensation is the correction or the error."""
+    text = re.sub(r"\(\*.*?\*\)", " ", data.decode("latin-1"), flags=re.DOTALL)
+    decls = {m.group(5).upper(): m for m in _ST_DECLARATION.finditer(text)}
+    param = decls.get("ST_POSITIONCOMPENSATIONTABLEPARAMETER")
+    table = decls.get("ST_POSITIONCOMPENSATIONTABLEELEMENT")
+    if param is None or table is None or table.group(2) is None:
+        msg = (f"{src}: no initialised ST_PositionCompensationTableParameter and ARRAY OF "
+               "ST_PositionCompensationTableElement")
+        raise DataError(msg)
+    p = _st_fields(param.group(6), src)
+    lo, hi = _st_number(p, "MinPosition", src), _st_number(p, "MaxPosition", src)
+    count = int(_st_number(p, "NoOfTableElements", src))
+    if p.get("DIRECTION", "").upper().rsplit(".", 1)[-1] != "WORKDIRECTIONBOTH":
+        msg = f"{src}: Direction {p.get('DIRECTION')!r}: only a table for both directions is read"
+        raise DataError(msg)
+    elements = re.findall(r"\(([^()]*)\)", table.group(6))
+    rows = [_st_fields(e, src) for e in elements]
+    pos = np.array([_st_number(r, "Position", src) for r in rows])
+    val = np.array([_st_number(r, "Compensation", src) for r in rows])
+    bounds = int(table.group(4)) - int(table.group(3)) + 1
+    if not 2 <= count == pos.size == bounds:
+        msg = (f"{src}: NoOfTableElements {count}, {pos.size} elements initialised, "
+               f"ARRAY of {bounds}: they must agree (2 or more)")
+        raise DataError(msg)
+    step = np.diff(pos)
+    if pos[0] != lo or pos[-1] != hi or not (np.all(step > 0)
+                                            and np.ptp(step) <= 1e-9 * (hi - lo)):
+        msg = f"{src}: the positions must run equidistant from MinPosition to MaxPosition"
+        raise DataError(msg)
+    modulo = p.get("MODULO", "FALSE").upper() == "TRUE"
+    return PointTable(pos * DEG, (val if options.sign == "correction" else -val) * DEG,
+                      modulo_rad=(hi - lo) * DEG if modulo else None)

@@ -131,3 +131,30 @@ def write_heidenhain_cma(f: IO[bytes], t: ControlTable, com_name: str) -> None:
     out = [f"BEGIN {cma.upper()}\n", f"{'NR':<8}{axis:<{width}}ACTIVE\n",
            f"{0:<8}{com_name:<{width}}*\n", "[END]\n"]
     f.write("".join(out).encode("ascii"))
+
+
+#: the PLC names of the TwinCAT NC PTP table and its parameters
+TWINCAT_NC_TABLE = "aEncCompTable"
+TWINCAT_NC_PARAMETER = "stEncCompParameter"
+
+
+def write_twincat_nc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
+    """A TwinCAT PLC declaration (Structured Text) of the table MC_TableBasedPositionCompensation
+    reads: ``aEncCompTable`` (Position, Compensation [deg], equidistant and increasing,
+    0..360 deg) and ``stEncCompParameter`` (MinPosition 0, MaxPosition 360, the element
+    count, both directions, Modulo TRUE). Comments are ``(* *)`` with every ``*`` of the
+    text escaped, so none can close one."""
+    d = _decimals(t.resolution_deg)
+    n = t.grid_deg.size
+    out = [f"(* {comment_text(c, ascii_only=True, reserved='*')} *)\n" for c in comment]
+    out += ["VAR_GLOBAL\n",
+            f"    {TWINCAT_NC_PARAMETER} : ST_PositionCompensationTableParameter := (\n",
+            f"        MinPosition := {fixed(0, d)}, MaxPosition := {fixed(360 * 10 ** d, d)},\n",
+            f"        NoOfTableElements := {n}, "
+            "Direction := E_WorkDirection.WorkDirectionBoth, Modulo := TRUE);\n",
+            f"    {TWINCAT_NC_TABLE} : ARRAY[1..{n}] OF ST_PositionCompensationTableElement := [\n"]
+    rows = zip(_grid_steps(t, d).tolist(), t.forward.tolist(), strict=True)
+    out += [f"        (Position := {fixed(p, d)}, Compensation := {fixed(v, d)})"
+            f"{',' if i < n - 1 else ''}\n" for i, (p, v) in enumerate(rows)]
+    out += ["    ];\n", "END_VAR\n"]
+    f.write("".join(out).encode("ascii"))

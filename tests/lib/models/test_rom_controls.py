@@ -28,6 +28,7 @@ CASES = {
     "twincat-uni": ("twincat", "", 0.36, False),
     "fanuc": ("fanuc", "--sign error --axis 4", 3.6, False),
     "heidenhain": ("heidenhain", "--sign correction --axis C --tnc 620", 0.36, False),
+    "twincat-nc": ("twincat-nc", "--sign error", 0.0036, False),
 }
 
 
@@ -226,6 +227,35 @@ def test_heidenhain_assignment_table(step_run, tmp_path):
     assert not com.exists() and cma.read_bytes() == before
 
 
+def test_twincat_nc_plc_declaration(step_run, tmp_path, monkeypatch):
+    """The TwinCAT NC PTP table is a PLC declaration MC_TableBasedPositionCompensation's
+    inputs take: parsed here on its own (IEC 61131-3: comments dropped, the initialisers
+    read by name), it holds the parameter structure and an ARRAY[1..25] whose Position
+    runs 0..360 deg by 15 and whose Compensation at 90 deg is the correction in the sign
+    given; a hostile output name stays inside one comment."""
+    points, intended = step_run
+    corr90 = (intended[1][6] + intended[-1][6]) / 2.0 / 3600.0  # [deg]
+    out = str(tmp_path / "c*)\nVAR_GLOBAL x : INT := 1; END_VAR(*.st")
+    args = ["make-rom", str(points), "--target", "twincat-nc", "--sign", "correction",
+            "-o", out, "--verify", "-q"]
+    monkeypatch.setattr("sys.argv", ["enc", *args])
+    r = run_in_process(args)
+    assert r.returncode == 0, r.stderr.decode()
+    text = Path(out).read_text(encoding="ascii")
+    code = re.sub(r"\(\*.*?\*\)", "", text, flags=re.DOTALL)
+    assert "x : INT" not in code and code.count("VAR_GLOBAL") == 1
+    assert re.search(r"stEncCompParameter\s*:\s*ST_PositionCompensationTableParameter\s*:=", code)
+    fields = dict(re.findall(r"(\w+) := ([\w.]+)", code.split("aEncCompTable")[0]))
+    assert fields == {"MinPosition": "0.000000", "MaxPosition": "360.000000",
+                      "NoOfTableElements": "25",
+                      "Direction": "E_WorkDirection.WorkDirectionBoth", "Modulo": "TRUE"}
+    assert "ARRAY[1..25] OF ST_PositionCompensationTableElement" in code
+    rows = re.findall(r"\(Position := (\S+), Compensation := (\S+?)\)", code)
+    assert [float(p) for p, _ in rows] == [15.0 * i for i in range(25)]
+    assert float(rows[6][1]) == pytest.approx(corr90, abs=5e-7)
+    assert rows[0][1] == rows[-1][1]
+
+
 def test_beyond_range_is_one_line(step_run, tmp_path):
     """Fanuc: an increment beyond +-7 x magnification 100 x 0.001 deg is refused."""
     points, _ = step_run
@@ -323,7 +353,7 @@ def test_the_command_knows_the_controls():
 
 
 @pytest.mark.parametrize("target", ["linuxcnc", "twincat", "fanuc", "heidenhain", "siemens",
-                                    "acs"])
+                                    "acs", "twincat-nc"])
 @pytest.mark.parametrize("data", [b"", b"\xff\xfe\x00garbage\n", b"1 2 3\n1 2 3\n",
                                   b"DETECTION_UNIT_DEG x\nkw.ssfk.unit 1\n",
                                   b"BEGIN C.COM\nNR AXISPOS C\n0 +1 +x\n1 +0 +0\n[END]\n",
