@@ -256,6 +256,30 @@ def test_twincat_nc_plc_declaration(step_run, tmp_path, monkeypatch):
     assert rows[0][1] == rows[-1][1]
 
 
+@pytest.mark.parametrize("old, new, says", [
+    ("WorkDirectionBoth", "WorkDirectionPositive", "only a table for both directions"),
+    ("NoOfTableElements := 3", "NoOfTableElements := 4", "must agree"),
+    ("(Position := 180.0,", "(Position := 170.0,", "equidistant"),
+])
+def test_twincat_nc_reader_refuses_what_the_block_would_not_take(tmp_path, old, new, says):
+    """What MC_TableBasedPositionCompensation's documentation excludes (one direction is
+    not read here; a count that disagrees; positions not equidistant) is one DataError."""
+    from enctools.errors import DataError
+    text = ("VAR_GLOBAL\n p : ST_PositionCompensationTableParameter := (MinPosition := 0.0, "
+            "MaxPosition := 360.0, NoOfTableElements := 3, Direction := "
+            "E_WorkDirection.WorkDirectionBoth, Modulo := TRUE);\n"
+            " t : ARRAY[1..3] OF ST_PositionCompensationTableElement := [(Position := 0.0, "
+            "Compensation := 0.001), (Position := 180.0, Compensation := -0.002), "
+            "(Position := 360.0, Compensation := 0.001)];\nEND_VAR\n")
+    f = tmp_path / "t.st"
+    f.write_text(text)
+    table = rf.read_control_table(str(f), "twincat-nc", "correction")
+    assert table.correction(np.radians(540.0)) == pytest.approx(np.radians(-0.002))
+    f.write_text(text.replace(old, new))
+    with pytest.raises(DataError, match=says):
+        rf.read_control_table(str(f), "twincat-nc", "correction")
+
+
 def test_beyond_range_is_one_line(step_run, tmp_path):
     """Fanuc: an increment beyond +-7 x magnification 100 x 0.001 deg is refused."""
     points, _ = step_run
