@@ -53,8 +53,8 @@ MODES = {"Readings (a continuous run)": ("heads", "reference", "points"),
 @click.option("--array", "array_name", default="ENC_COMP", show_default=True,
               help="acs: name of the REAL array holding the map.")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
-              help="acs, fanuc, heidenhain: the file stores the correction or the error "
-                   "(as make-rom was given it).")
+              help="acs, fanuc, heidenhain, twincat-nc: the file stores the correction or "
+                   "the error (as make-rom was given it).")
 @click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
               help="linuxcnc: the file's COMP_FILE_TYPE.")
 @click.option("--axis", default=None, metavar="NAME",

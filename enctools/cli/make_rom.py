@@ -33,7 +33,8 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
          ("code_bits", "address_bits", "width", "lsb", "sample", "endian", "zone", "array_name",
           "resolution_deg"),
          "Controls' tables (a grid over the turn)":
-         ("bidirectional", "points", "comp_type", "detection_unit", "home_point"),
+         ("bidirectional", "points", "comp_type", "detection_unit", "increment_system",
+          "home_point", "tnc"),
          "Rom streams (--target stream)": ("fmt",)}
 
 
@@ -71,8 +72,8 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
               help="linuxcnc, twincat: one table per direction (default: one table of the mean "
                    "of both directions).")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
-              help="acs, fanuc, heidenhain: whether the control stores the correction or "
-                   "the error.")
+              help="acs, fanuc, heidenhain, twincat-nc: whether the control stores the "
+                   "correction or the error.")
 @click.option("--resolution", "resolution_deg", type=float, default=None,
               help="acs, siemens: the control's resolution [deg], a power of ten.")
 @click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
@@ -81,8 +82,15 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
               help="Controls: points of the table over the turn, both ends included.")
 @click.option("--detection-unit", type=float, default=1e-3, show_default=True,
               help="fanuc: the axis's detection unit [deg].")
+@click.option("--increment-system", type=options.LazyChoice(lambda: _increment_systems()),
+              default=None,
+              help="fanuc: the axis's increment system, which sets the detection unit "
+                   "(IS-A 0.01, IS-B 0.001, IS-C 0.0001 deg).")
 @click.option("--home-point", type=int, default=0, show_default=True,
               help="fanuc: compensation point number of the reference (home) position.")
+@click.option("--tnc", type=options.LazyChoice(lambda: _generations()), default=None,
+              help="heidenhain: the control's generation, whose rules the table follows "
+                   "(407: TNC 407/415/425; 620: MANUALplus 620 and its generation).")
 @click.option("--outside", type=click.Choice(["zero", "hold"]), default=None,
               help="Where the source's targets do not cover the turn: zero correction, or "
                    "hold the nearer end's (default: refused).")
@@ -104,11 +112,11 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
             axis: str | None, zone: int, array_name: str, max_entries: int | None,
-            bidirectional: bool,
-            sign: str | None, resolution_deg: float | None, comp_type: int, points: int | None,
-            detection_unit: float, home_point: int, outside: str | None, verify: bool,
-            allow_no_gain: bool, allow_coarse: bool, output: str | None, force: bool,
-            fmt: str | None, as_json: bool, unit: str) -> None:
+            bidirectional: bool, sign: str | None, resolution_deg: float | None,
+            comp_type: int, points: int | None, detection_unit: float,
+            increment_system: str | None, home_point: int, tnc: str | None,
+            outside: str | None, verify: bool, allow_no_gain: bool, allow_coarse: bool,
+            output: str | None, force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -132,10 +140,10 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
     family = _check_applies(target)
     if family == registry.CONTROL:
-        control = _control_settings(target=target, bidirectional=bidirectional, sign=sign,
-                                    comp_type=comp_type, points=points,
-                                    max_entries=max_entries, axis=axis,
-                                    detection_unit_deg=detection_unit, home_point=home_point)
+        control = _control_settings(
+            target=target, bidirectional=bidirectional, sign=sign, comp_type=comp_type,
+            points=points, max_entries=max_entries, axis=axis, detection_unit_deg=detection_unit,
+            home_point=home_point, increment_system=_one_unit(increment_system), tnc=tnc)
         _control(input, curve, control, str(path), (force, verify, outside), as_json, unit,
                  (allow_no_gain, allow_coarse))
         return
@@ -250,6 +258,34 @@ def _formats_taking(name: str) -> str:
     return ", ".join(r.name for r in registry.records() if name in r.accepts)
 
 
+def _increment_systems() -> tuple[str, ...]:
+    """The increment systems the controls' records name (Fanuc's IS-A, IS-B, IS-C)."""
+    from enctools.models.romformats import registry
+
+    return tuple(dict.fromkeys(name for r in registry.records(registry.CONTROL)
+                               if r.control is not None
+                               for name, _ in r.control.increment_systems))
+
+
+def _generations() -> tuple[str, ...]:
+    """The HEIDENHAIN generations whose rules the heidenhain format knows."""
+    from enctools.models.romformats.catalogue.heidenhain import GENERATIONS
+
+    return tuple(GENERATIONS)
+
+
+def _one_unit(increment_system: str | None) -> str | None:
+    """--increment-system, refused beside --detection-unit (each sets the detection unit)."""
+    from enctools.cli.usage import UsageError
+
+    ctx = click.get_current_context()
+    if increment_system is not None and \
+            ctx.get_parameter_source("detection_unit") == click.core.ParameterSource.COMMANDLINE:
+        msg = "give --increment-system or --detection-unit, not both (each sets the unit)"
+        raise UsageError(msg)
+    return increment_system
+
+
 def _control_settings(**settings: Any) -> ControlSettings:
     """A control's table settings (the controls' modules imported here: a memory table
     never needs them)."""
@@ -288,8 +324,10 @@ def _control(input: str | None, curve: str | None, settings: ControlSettings, pa
     size = romformats.write_control_table(path, table, force, comment + _range_line(extent))
     if verify:
         romformats.verify_control_table(path, table)
-    emit(table.summary | extent | {"output": path, "file_bytes": size, "verified": verify,
-                                   "elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
+    companion = romformats.companion_path(path, settings.target)
+    emit(table.summary | extent | {"output": path, "file_bytes": size, "verified": verify}
+         | ({} if companion is None else {"assignment": companion})
+         | {"elapsed_s": round(time.monotonic() - t0, 3)}, as_json, unit)
 
 
 def _range_line(summary: dict[str, Any]) -> list[str]:

@@ -167,16 +167,37 @@ def verify_table(path: str, values: np.ndarray, target: Target) -> None:
 
 def write_control_table(path: str, table: ControlTable, force: bool = False,
                         comment: list[str] | None = None) -> int:
-    """Write a control's table to ``path`` atomically; returns the file's size [byte]."""
-    from enctools.data.files import check_new_file, write_atomic
+    """Write a control's table to ``path`` atomically, with its companion file where the
+    control needs one (:func:`companion_path`; both or neither written); returns the
+    table file's size [byte]."""
+    from enctools.data.files import OutputGroup, check_new_file
 
-    writer = registry.get(table.settings.target).write_table
+    fmt = registry.get(table.settings.target)
+    writer = fmt.write_table
     if writer is None:
         msg = f"{table.settings.target} is not a control's table"
         raise ValueError(msg)
+    companion = companion_path(path, table.settings.target)
     check_new_file(path, force)
-    write_atomic(path, lambda f: writer(f, table, comment or []))
+    if companion is not None:
+        check_new_file(companion, force)
+    with OutputGroup() as outputs:
+        outputs.write(path, lambda f: writer(f, table, comment or []), force=force)
+        if companion is not None and fmt.companion is not None:
+            write = fmt.companion.write
+            outputs.write(companion, lambda f: write(f, table, Path(path).name), force=force)
     return Path(path).stat().st_size
+
+
+def companion_path(path: str, target: str) -> str | None:
+    """The file written beside a control's table ``path`` (HEIDENHAIN: the .CMA, in the
+    case of the table's extension), or None."""
+    companion = registry.get(target).companion
+    if companion is None:
+        return None
+    p = Path(path)
+    ext = companion.extension.upper() if p.suffix.isupper() else companion.extension
+    return str(p.with_suffix(ext)) if p.suffix.lower() != ext.lower() else str(p) + ext
 
 
 def read_control_table(path: str, target: str, sign: str | None = None, comp_type: int = 0,
@@ -209,6 +230,19 @@ def read_points(path: str, target: str, options: PointOptions) -> PointTable:
         raise DataError(msg) from None
 
 
+def _verify_companion(path: str, target: str, axis: str | None) -> None:
+    """CheckFailed unless the table's companion (if the control has one) makes this table
+    file the axis's active one, as the control reads it."""
+    companion = registry.get(target).companion
+    where = companion_path(path, target)
+    if companion is None or where is None:
+        return
+    named = companion.read(read_bytes(where), where, axis or registry.get(target).default_axis)
+    if named != Path(path).name:
+        msg = f"{where}: names {named!r} for the axis, not {Path(path).name!r}"
+        raise CheckFailed(msg)
+
+
 def verify_control_table(path: str, table: ControlTable) -> float:
     """Read a written control table back with its control's reader: CheckFailed unless every
     point's correction (each direction) is within half the control's resolution of the
@@ -227,6 +261,7 @@ def verify_control_table(path: str, table: ControlTable) -> float:
             msg = f"{path}: {got.size} points read back, {intended.size} written"
             raise CheckFailed(msg)
         worst = max(worst, float(np.max(np.abs(got - intended))))
+    _verify_companion(path, s.target, s.axis)
     half = table.resolution_deg * DEG / 2.0
     if worst > half * (1 + 1e-6):
         msg = (f"{path}: a correction read back differs from the intended by "

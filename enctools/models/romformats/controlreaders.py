@@ -171,33 +171,56 @@ def read_fanuc(data: bytes, src: str, options: PointOptions) -> PointTable:
                       modulo_rad=turn * du * DEG)
 
 
+def _heidenhain_table(data: bytes, src: str, columns: tuple[str, ...]
+                      ) -> dict[str, list[str]]:
+    """A HEIDENHAIN table (``BEGIN`` line, a header naming the columns, rows, ``[END]``)
+    as its columns' fields, each field starting under its column's name and running to
+    the next column's start; DataError if a column of ``columns`` is missing."""
+    lines = data.decode("latin-1").splitlines()
+    if len(lines) < 3 or not lines[0].startswith("BEGIN") or lines[-1].strip() != "[END]":
+        msg = f"{src}: not a HEIDENHAIN table (BEGIN line, header, rows, [END])"
+        raise DataError(msg)
+    starts = {m.group(): m.start() for m in re.finditer(r"\S+", lines[1])}
+    missing = [c for c in columns if c not in starts]
+    if missing:
+        msg = f"{src}: no {' or '.join(missing)} column"
+        raise DataError(msg)
+    bounds = sorted(starts.values()) + [1 << 30]
+    return {name: [line[a:bounds[bounds.index(a) + 1]].strip() for line in lines[2:-1]]
+            for name, a in starts.items() if name in columns}
+
+
+def read_heidenhain_cma(data: bytes, src: str, axis: str) -> str:
+    """A HEIDENHAIN assignment table (.CMA): the .COM table named in the axis's column on
+    the one line marked active (``*`` in ACTIVE)."""
+    table = _heidenhain_table(data, src, (axis, "ACTIVE"))
+    active = [i for i, mark in enumerate(table["ACTIVE"]) if mark == "*"]
+    if len(active) != 1:
+        msg = f"{src}: {len(active)} lines marked active; the control takes one"
+        raise DataError(msg)
+    name = table[axis][active[0]]
+    if not name:
+        msg = f"{src}: the active line names no table for axis {axis}"
+        raise DataError(msg)
+    return name
+
+
 def read_heidenhain(data: bytes, src: str, options: PointOptions) -> PointTable:
     """A HEIDENHAIN compensation value table (.COM): ``BEGIN`` line, a header naming the
     columns (each field starts under its name), rows, ``[END]``; AXISPOS [deg] and the
     axis's column [deg] (``options.axis``, else C); ``options.sign`` says whether the value
     is the correction or the error."""
     axis = options.axis or "C"
-    lines = data.decode("latin-1").splitlines()
-    if len(lines) < 4 or not lines[0].startswith("BEGIN") or lines[-1].strip() != "[END]":
-        msg = f"{src}: not a HEIDENHAIN table (BEGIN line, header, rows, [END])"
-        raise DataError(msg)
-    header = lines[1]
-    starts = {m.group(): m.start() for m in re.finditer(r"\S+", header)}
-    if "AXISPOS" not in starts or axis not in starts:
-        msg = f"{src}: no AXISPOS or {axis} column"
-        raise DataError(msg)
-    bounds = sorted(starts.values()) + [1 << 30]
-
-    def field(line: str, name: str) -> float:
-        a = starts[name]
-        return float(line[a:bounds[bounds.index(a) + 1]])
-
+    table = _heidenhain_table(data, src, ("AXISPOS", axis))
     try:
-        pos = np.array([field(line, "AXISPOS") for line in lines[2:-1]])
-        val = np.array([field(line, axis) for line in lines[2:-1]])
+        pos = np.array([float(v) for v in table["AXISPOS"]])
+        val = np.array([float(v) for v in table[axis]])
     except ValueError:
         msg = f"{src}: a table field is not a number"
         raise DataError(msg) from None
+    if len(pos) < 2:
+        msg = f"{src}: fewer than 2 compensation points"
+        raise DataError(msg)
     if len(pos) > 256:
         msg = f"{src}: {len(pos)} compensation points; a table holds 256"
         raise DataError(msg)
@@ -234,3 +257,72 @@ def read_acs(data: bytes, src: str, options: PointOptions) -> PointTable:
         raise DataError(msg)
     positions = base + step * np.arange(vals.size)
     return PointTable(positions * DEG, (vals if options.sign == "correction" else -vals) * DEG)
+
+
+#: IEC 61131-3 (TwinCAT 3) numbers: an LREAL literal or an integer
+_ST_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
+_ST_FIELD = re.compile(r"(\w+)\s*:=\s*([\w.+-]+)", re.IGNORECASE)
+_ST_DECLARATION = re.compile(r"(\w+)\s*:\s*(ARRAY\s*\[\s*(\d+)\s*\.\.\s*(\d+)\s*\]\s*OF\s*)?"
+                             r"(\w+)\s*:=\s*(\(.*?\)|\[.*?\])\s*;", re.IGNORECASE | re.DOTALL)
+
+
+def _st_fields(text: str, src: str) -> dict[str, str]:
+    """``name := value`` pairs of one structure initialiser, names upper-cased (Structured
+    Text is not case-sensitive); DataError on a name given twice."""
+    fields: dict[str, str] = {}
+    for name, value in _ST_FIELD.findall(text):
+        if name.upper() in fields:
+            msg = f"{src}: {name} is given twice in one initialiser"
+            raise DataError(msg)
+        fields[name.upper()] = value
+    return fields
+
+
+def _st_number(fields: dict[str, str], name: str, src: str) -> float:
+    value = fields.get(name.upper())
+    if value is None or not re.fullmatch(_ST_NUMBER, value):
+        msg = f"{src}: {name} is missing or not a number ({value!r})"
+        raise DataError(msg)
+    return float(value)
+
+
+def read_twincat_nc(data: bytes, src: str, options: PointOptions) -> PointTable:
+    """A TwinCAT PLC declaration of MC_TableBasedPositionCompensation's table as the PLC
+    compiles it: comments ``(* *)`` dropped; the one ST_PositionCompensationTableParameter
+    (MinPosition, MaxPosition, NoOfTableElements, Direction, Modulo) and the one ARRAY
+    [a..b] OF ST_PositionCompensationTableElement initialised element by element
+    (Position, Compensation [deg]); the table equidistant and increasing from MinPosition
+    to MaxPosition, its count the array's and NoOfTableElements; Direction both (a
+    one-direction table is not read); Modulo TRUE wraps MaxPosition - MinPosition.
+    ``options.sign`` says whether Compensation is the correction or the error."""
+    text = re.sub(r"\(\*.*?\*\)", " ", data.decode("latin-1"), flags=re.DOTALL)
+    decls = {m.group(5).upper(): m for m in _ST_DECLARATION.finditer(text)}
+    param = decls.get("ST_POSITIONCOMPENSATIONTABLEPARAMETER")
+    table = decls.get("ST_POSITIONCOMPENSATIONTABLEELEMENT")
+    if param is None or table is None or table.group(2) is None:
+        msg = (f"{src}: no initialised ST_PositionCompensationTableParameter and ARRAY OF "
+               "ST_PositionCompensationTableElement")
+        raise DataError(msg)
+    p = _st_fields(param.group(6), src)
+    lo, hi = _st_number(p, "MinPosition", src), _st_number(p, "MaxPosition", src)
+    count = int(_st_number(p, "NoOfTableElements", src))
+    if p.get("DIRECTION", "").upper().rsplit(".", 1)[-1] != "WORKDIRECTIONBOTH":
+        msg = f"{src}: Direction {p.get('DIRECTION')!r}: only a table for both directions is read"
+        raise DataError(msg)
+    elements = re.findall(r"\(([^()]*)\)", table.group(6))
+    rows = [_st_fields(e, src) for e in elements]
+    pos = np.array([_st_number(r, "Position", src) for r in rows])
+    val = np.array([_st_number(r, "Compensation", src) for r in rows])
+    bounds = int(table.group(4)) - int(table.group(3)) + 1
+    if not 2 <= count == pos.size == bounds:
+        msg = (f"{src}: NoOfTableElements {count}, {pos.size} elements initialised, "
+               f"ARRAY of {bounds}: they must agree (2 or more)")
+        raise DataError(msg)
+    step = np.diff(pos)
+    if pos[0] != lo or pos[-1] != hi or not (np.all(step > 0)
+                                            and np.ptp(step) <= 1e-9 * (hi - lo)):
+        msg = f"{src}: the positions must run equidistant from MinPosition to MaxPosition"
+        raise DataError(msg)
+    modulo = p.get("MODULO", "FALSE").upper() == "TRUE"
+    return PointTable(pos * DEG, (val if options.sign == "correction" else -val) * DEG,
+                      modulo_rad=(hi - lo) * DEG if modulo else None)

@@ -31,6 +31,8 @@ if TYPE_CHECKING:
 ARCSEC_PER_DEG = factor("deg", "arcsec")
 #: grid spacings that are whole multiples of 0.0001 deg divide this many steps of a turn
 TURN_STEPS = 3_600_000
+#: an incremental table's detection unit when none is given [deg] (Fanuc's IS-B)
+DEFAULT_DETECTION_UNIT_DEG = 1e-3
 #: an incremental table's (Fanuc's parameter 3623) largest magnification
 MAX_MAGNIFICATION = 100
 #: a step run's targets within this of m equal steps over the turn [deg] are taken as
@@ -54,6 +56,11 @@ class ControlSettings:
     detection_unit_deg : an incremental table's detection unit of the axis [deg].
     home_point : an incremental table's compensation point number of the home
         (reference) position.
+    increment_system : an incremental table's increment system by its control's name
+        (Fanuc: IS-A, IS-B, IS-C), which sets ``detection_unit_deg`` (None: that unit as
+        given).
+    tnc : a HEIDENHAIN control's generation, whose rules the table follows (``407``: TNC
+        407/415/425; ``620``: MANUALplus 620 and its generation), by its record's check.
     """
 
     target: str
@@ -63,11 +70,14 @@ class ControlSettings:
     points: int | None = None
     max_entries: int | None = None
     axis: str | None = None
-    detection_unit_deg: float = 1e-3
+    detection_unit_deg: float = DEFAULT_DETECTION_UNIT_DEG
     home_point: int = 0
+    increment_system: str | None = None
+    tnc: str | None = None
 
     def __post_init__(self) -> None:
         fmt, spec = self.format, self.spec
+        self._increment_system()
         if self.bidirectional and not spec.bidirectional:
             msg = (f"{self.target}: a bidirectional table is not written: the control's "
                    "backward-direction table is not confirmed (enc-make-rom(1), CONTROLS); "
@@ -92,6 +102,29 @@ class ControlSettings:
             if why:
                 msg = f"`points` {self.points}: {self.target}: {why}"
                 raise SettingsError(msg)
+
+    def _increment_system(self) -> None:
+        """The detection unit of the increment system named, if one is: refused for a
+        control that names none, a name it does not have, or a different unit given."""
+        if self.increment_system is None:
+            return
+        systems = dict(self.spec.increment_systems)
+        if not systems:
+            takes = [r.name for r in registry.records(registry.CONTROL)
+                     if r.control is not None and r.control.increment_systems]
+            msg = f"`increment_system` applies to {', '.join(takes)}, not {self.target}"
+            raise SettingsError(msg)
+        if self.increment_system not in systems:
+            msg = (f"`increment_system` must be one of {', '.join(systems)} for {self.target}, "
+                   f"not {self.increment_system!r}")
+            raise SettingsError(msg)
+        unit = systems[self.increment_system]
+        given = self.detection_unit_deg
+        if given != DEFAULT_DETECTION_UNIT_DEG and abs(given - unit) > 1e-12 * unit:
+            msg = (f"`increment_system` {self.increment_system} has a detection unit of "
+                   f"{unit!r} deg, not the `detection_unit_deg` {given!r} given")
+            raise SettingsError(msg)
+        object.__setattr__(self, "detection_unit_deg", unit)  # frozen: set once, here
 
     def _check_ranges(self) -> None:
         if self.comp_type not in (0, 1):
@@ -297,7 +330,10 @@ def _summary(t: ControlTable, source: Source, fwd: np.ndarray, bwd: np.ndarray |
         "direction": "bidirectional" if t.backward is not None else "unidirectional",
         "max_quantisation_error_arcsec": quant, "interpolation_error_arcsec": err}
     if t.settings.spec.incremental:
-        out |= {"magnification": t.magnification, "offset_removed_arcsec": offset}
+        out |= {"magnification": t.magnification, "offset_removed_arcsec": offset,
+                "detection_unit_deg": t.settings.detection_unit_deg}
+        if t.settings.increment_system is not None:
+            out["increment_system"] = t.settings.increment_system
     if source.reversal_arcsec is not None:
         b = source.reversal_arcsec
         out |= {"reversal_max_arcsec": float(np.max(np.abs(b))),

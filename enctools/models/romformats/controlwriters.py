@@ -9,10 +9,12 @@ reaches the text). The layouts and their sources are in enc-make-rom(1), CONTROL
 
 from __future__ import annotations
 
+import re
 from typing import IO
 
 import numpy as np
 
+from enctools.errors import SettingsError
 from enctools.models.romformats.controls import ControlTable
 from enctools.models.romformats.words import comment_text
 
@@ -92,7 +94,8 @@ def write_fanuc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
               (3625, per_turn, "travel per rotation [detection units]")]
     increments = np.diff(t.forward)
     out = [f"# {comment_text(c, ascii_only=True)}\n" for c in comment]
-    out.append(f"DETECTION_UNIT_DEG {du!r}\n")
+    system = f"  # increment system {s.increment_system}" if s.increment_system else ""
+    out.append(f"DETECTION_UNIT_DEG {du!r}{system}\n")
     out += [f"PARAMETER {n} AXIS {axis} VALUE {v}  # {what}\n" for n, v, what in params]
     out.append(f"PITCH {r} VALUE {increments[-1]:+d}  # the same as point {r + sections}\n")
     out += [f"PITCH {r + 1 + i} VALUE {v:+d}\n" for i, v in enumerate(increments.tolist())]
@@ -112,3 +115,46 @@ def write_heidenhain(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
     out.append("[END]\n")
     f.write("".join(out).encode("ascii"))
 
+
+
+def write_heidenhain_cma(f: IO[bytes], t: ControlTable, com_name: str) -> None:
+    """The HEIDENHAIN assignment table (.CMA) of the .COM table ``com_name``: a column
+    named for the axis holding the .COM file's name, the line marked active (``*`` in
+    ACTIVE), the fields starting under their column names as in the .COM."""
+    if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}", com_name):
+        msg = (f"heidenhain: the .CMA names the table by its file name, which must be "
+               f"letters, digits, _ . or - (at most 64), not {com_name!r}")
+        raise SettingsError(msg)
+    axis = t.settings.axis or "C"
+    width = max(16, len(com_name) + 2, len(axis) + 2)
+    cma = com_name.rsplit(".", 1)[0] + ".CMA"
+    out = [f"BEGIN {cma.upper()}\n", f"{'NR':<8}{axis:<{width}}ACTIVE\n",
+           f"{0:<8}{com_name:<{width}}*\n", "[END]\n"]
+    f.write("".join(out).encode("ascii"))
+
+
+#: the PLC names of the TwinCAT NC PTP table and its parameters
+TWINCAT_NC_TABLE = "aEncCompTable"
+TWINCAT_NC_PARAMETER = "stEncCompParameter"
+
+
+def write_twincat_nc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
+    """A TwinCAT PLC declaration (Structured Text) of the table MC_TableBasedPositionCompensation
+    reads: ``aEncCompTable`` (Position, Compensation [deg], equidistant and increasing,
+    0..360 deg) and ``stEncCompParameter`` (MinPosition 0, MaxPosition 360, the element
+    count, both directions, Modulo TRUE). Comments are ``(* *)`` with every ``*`` of the
+    text escaped, so none can close one."""
+    d = _decimals(t.resolution_deg)
+    n = t.grid_deg.size
+    out = [f"(* {comment_text(c, ascii_only=True, reserved='*')} *)\n" for c in comment]
+    out += ["VAR_GLOBAL\n",
+            f"    {TWINCAT_NC_PARAMETER} : ST_PositionCompensationTableParameter := (\n",
+            f"        MinPosition := {fixed(0, d)}, MaxPosition := {fixed(360 * 10 ** d, d)},\n",
+            f"        NoOfTableElements := {n}, "
+            "Direction := E_WorkDirection.WorkDirectionBoth, Modulo := TRUE);\n",
+            f"    {TWINCAT_NC_TABLE} : ARRAY[1..{n}] OF ST_PositionCompensationTableElement := [\n"]
+    rows = zip(_grid_steps(t, d).tolist(), t.forward.tolist(), strict=True)
+    out += [f"        (Position := {fixed(p, d)}, Compensation := {fixed(v, d)})"
+            f"{',' if i < n - 1 else ''}\n" for i, (p, v) in enumerate(rows)]
+    out += ["    ];\n", "END_VAR\n"]
+    f.write("".join(out).encode("ascii"))

@@ -105,6 +105,8 @@ class Control:
         correction is 0 at the home position): Fanuc's pitch error compensation.
     grid_rule : why a grid of k sections over the turn is refused beyond the above:
         (settings, k) -> the reason, or None.
+    increment_systems : the control's named increment systems and the detection unit
+        [deg] each gives (an incremental table's unit: Fanuc's IS-A, IS-B, IS-C), or ().
     """
 
     resolution_deg: float
@@ -114,6 +116,7 @@ class Control:
     exact_spacing: bool = True
     incremental: bool = False
     grid_rule: Callable[[ControlSettings, int], str | None] | None = None
+    increment_systems: tuple[tuple[str, float], ...] = ()
 
 
 def lazy(module: str, name: str) -> Callable[..., Any]:
@@ -145,6 +148,24 @@ def check_axis_number(settings: Any, entries: int | None = None) -> None:
     if axis is not None and not (re.fullmatch(r"[0-9]{1,2}", axis) and int(axis) <= 32):
         msg = f"`axis` must be an axis number 0..32 for {settings.target}, not {axis!r}"
         raise SettingsError(msg)
+
+
+#: a companion file written: (file, table, the table file's name as the companion names it)
+CompanionWriter = Callable[[IO[bytes], "ControlTable", str], None]
+#: a companion read: (bytes, file's name, the axis) -> the table file's name it makes
+#: active for the axis
+CompanionReader = Callable[[bytes, str, str], str]
+
+
+@dataclass(frozen=True)
+class Companion:
+    """A file a control needs beside its table (HEIDENHAIN's .CMA assigning the .COM to
+    the axis), written with it as one output and read back with it."""
+
+    #: its extension (lower case, with the dot), in the table file's case
+    extension: str
+    write: CompanionWriter
+    read: CompanionReader
 
 
 #: a memory's or a controller's words written: (file, words [LSB], how, comment lines)
@@ -200,6 +221,8 @@ class TableFormat:
     signature: re.Pattern[bytes] | None = None
     #: where it is listed among the others (lower first; then by name)
     rank: int = 100
+    #: a file written beside the table, as one output with it (None: none)
+    companion: Companion | None = None
 
     def __post_init__(self) -> None:
         if self.family not in FAMILIES:

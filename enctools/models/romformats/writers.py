@@ -72,11 +72,23 @@ def _put_hex(lines: np.ndarray, col: int, u: np.ndarray, digits: int) -> None:
         left, col = left - size, col + size
 
 
+#: characters a line of a controller's program holds at most here (ACS, SINUMERIK): their
+#: manuals' limits were not found (enc-make-rom(1), Formats); a longer comment goes on
+#: as further comment lines, the layout line (under 200) staying whole
+PROGRAM_LINE = 200
+
+
 def _comments(comment: list[str], prefix: str, ascii_only: bool = False,
-              reserved: str = "") -> str:
+              reserved: str = "", width: int | None = None) -> str:
     """The comment lines, each ``prefix`` + :func:`~.words.comment_text` + newline: nothing
-    in them can end the comment or start a line of program or table."""
-    return "".join(f"{prefix}{comment_text(c, ascii_only, reserved)}\n" for c in comment)
+    in them can end the comment or start a line of program or table; with ``width``, a
+    longer one is cut into lines of at most ``width`` characters, each a comment."""
+    lines = []
+    for c in comment:
+        text = comment_text(c, ascii_only, reserved)
+        room = len(text) if width is None else max(1, width - len(prefix))
+        lines += [f"{prefix}{text[i:i + room]}\n" for i in range(0, max(len(text), 1), room)]
+    return "".join(lines)
 
 
 #: words of a binary image converted and written at once
@@ -338,7 +350,7 @@ def write_acs(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str]) -
     """ACS SPiiPlus program: a REAL array [deg] 0..360 deg, ERRORMAP1D, ERRORMAPON."""
     v = _closed(values)
     step = 360.0 / values.size
-    head = _comments(comment, "! ", ascii_only=True)
+    head = _comments(comment, "! ", ascii_only=True, width=PROGRAM_LINE)
     head += (f"! enctools table: {v.size} points 0..360 deg, step {step!r} deg, "
              f"lsb {t.count_deg!r} deg\n"
              f"GLOBAL REAL {t.name}({v.size})\nINT AXIS_NO\nAXIS_NO = {t.axis}\n")
@@ -354,9 +366,10 @@ def write_siemens(f: IO[bytes], values: np.ndarray, t: Target, comment: list[str
     v = _closed(values)
     step = 360.0 / values.size
     e, ax = t.zone, t.axis
-    head = _comments(comment, "; ", ascii_only=True)
+    # punch tape format: the file's name, %_N_..._INI, first in its first line
+    head = "%_N_AX_EEC_INI\n" + _comments(comment, "; ", ascii_only=True, width=PROGRAM_LINE)
     head += (f"; enctools table: {v.size} points 0..360 deg, lsb {t.count_deg!r} deg\n"
-             "%_N_AX_EEC_INI\nCHANDATA(1)\n")
+             "CHANDATA(1)\n")
     f.write(head.encode())
     _write_assignments(f, v, f"$AA_ENC_COMP[{e},", f",{ax}]=", t)
     f.write((f"$AA_ENC_COMP_STEP[{e},{ax}]={step!r}\n$AA_ENC_COMP_MIN[{e},{ax}]=0.0\n"

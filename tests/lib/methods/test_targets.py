@@ -231,7 +231,8 @@ def partial(tmp_path_factory):
 @pytest.mark.parametrize("source, opts", [
     ("points", "--target linuxcnc"), ("points", "--target twincat --bidirectional"),
     ("points", "--target siemens --address-bits 8 --resolution 0.0001"),
-    ("model", "--target fanuc --sign error"), ("model", "--target heidenhain --sign error"),
+    ("model", "--target fanuc --sign error"),
+    ("model", "--target heidenhain --sign error --tnc 620"),
     ("model", "--bits 12 --target mif"), ("model", "--bits 12 --target bin"),
     ("model", "--bits 12 --target stream --format parquet")])
 def test_a_partial_range_is_refused_naming_it(partial, tmp_path, source, opts):

@@ -27,7 +27,8 @@ CASES = {
     "twincat": ("twincat", "--bidirectional --axis 3", 0.36, True),
     "twincat-uni": ("twincat", "", 0.36, False),
     "fanuc": ("fanuc", "--sign error --axis 4", 3.6, False),
-    "heidenhain": ("heidenhain", "--sign correction --axis C", 0.36, False),
+    "heidenhain": ("heidenhain", "--sign correction --axis C --tnc 620", 0.36, False),
+    "twincat-nc": ("twincat-nc", "--sign error", 0.0036, False),
 }
 
 
@@ -134,8 +135,9 @@ def test_sign_conventions(step_run, tmp_path):
     files = {}
     for name, target, opts in (("l0", "linuxcnc", "--comp-type 0"),
                                ("l1", "linuxcnc", "--comp-type 1"),
-                               ("tc", "twincat", ""), ("hc", "heidenhain", "--sign correction"),
-                               ("he", "heidenhain", "--sign error")):
+                               ("tc", "twincat", ""),
+                               ("hc", "heidenhain", "--sign correction --tnc 620"),
+                               ("he", "heidenhain", "--sign error --tnc 620")):
         files[name] = tmp_path / f"{name}.txt"
         r = run_in_process(f"enc make-rom {points} --target {target} {opts} -q "
                            f"-o {files[name]}")
@@ -164,6 +166,120 @@ def test_fanuc_increments_sum_to_zero(step_run, tmp_path):
     assert "PARAMETER 3622 AXIS 4 VALUE 84" in text and "PARAMETER 3624 AXIS 4 VALUE 15000" in text
 
 
+@pytest.mark.parametrize("system, unit", [("IS-B", 1e-3), ("IS-C", 1e-4)])
+def test_fanuc_increment_system(step_run, tmp_path, system, unit):
+    """The increment system sets the detection unit: the table's resolution is the
+    magnification x that unit, read back and applied by enc correct within half of it
+    (IS-C: finer than IS-B's 3.6 arcsec, whose every value is +-1 unit)."""
+    points, intended = step_run
+    out, fixed = tmp_path / "f.txt", tmp_path / "fixed.parquet"
+    r = run(f"enc make-rom {points} --target fanuc --sign error --axis 4 "
+            f"--increment-system {system} --verify --json -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    s = json.loads(r.stdout)
+    assert s["increment_system"] == system and s["detection_unit_deg"] == unit
+    resolution = s["magnification"] * unit * 3600.0
+    assert s["resolution_arcsec"] == pytest.approx(resolution)
+    assert f"DETECTION_UNIT_DEG {unit!r}  # increment system {system}" in out.read_text()
+    if system == "IS-C":
+        assert resolution < 3.6
+    table = rf.read_control_table(str(out), "fanuc", "error")
+    mean = (intended[1] + intended[-1]) / 2.0
+    want = np.r_[mean, mean[0]] - mean[0]
+    got = table.correction(np.radians(np.arange(TARGETS + 1) * 15.0)) / ARCSEC
+    assert np.max(np.abs(got - want)) <= resolution / 2 * (1 + 1e-6)
+    r = run(f"enc correct {points} --table {out} --target fanuc --sign error -q -o {fixed}")
+    assert r.returncode == 0, r.stderr.decode()
+    t = pq.read_table(fixed)
+    k = np.rint(np.mod(np.degrees(t.column("position").to_numpy()), 360.0) / 15.0)
+    dev = t.column("deviation").to_numpy()
+    means = np.array([dev[k.astype(int) % TARGETS == j].mean() for j in range(TARGETS)])
+    # the table is 0 at the reference point: every target keeps the deviation there
+    assert np.max(np.abs(means + mean[0])) <= resolution / 2 + 0.01
+
+
+def test_heidenhain_assignment_table(step_run, tmp_path):
+    """The .COM is written with its .CMA (both or neither): the .CMA, parsed here as the
+    control reads it (fields under their column names, the one line marked * in ACTIVE),
+    makes the .COM the axis's active table; an existing .CMA is not replaced without
+    --force, and then neither file is written."""
+    points, _ = step_run
+    com, cma = tmp_path / "B.COM", tmp_path / "B.CMA"
+    r = run_in_process(f"enc make-rom {points} --target heidenhain --sign error --tnc 620 "
+                       f"--axis B --verify --json -o {com}")
+    assert r.returncode == 0, r.stderr.decode()
+    assert json.loads(r.stdout)["assignment"] == str(cma)
+    lines = cma.read_text(encoding="ascii").splitlines()
+    assert lines[0] == "BEGIN B.CMA" and lines[-1] == "[END]"
+    header = lines[1]
+    cols = {name: header.index(name) for name in header.split()}
+    assert cols["NR"] == 0 and set(cols) == {"NR", "B", "ACTIVE"}
+    rows = lines[2:-1]
+    assert [row[cols["ACTIVE"]:].strip() for row in rows] == ["*"]
+    assert rows[0][cols["B"]:cols["ACTIVE"]].strip() == "B.COM"
+    assert rf.read_control_table(str(com), "heidenhain", "error", axis="B").positions_rad.size \
+        == TARGETS + 1
+    com.unlink()
+    before = cma.read_bytes()
+    r = run_in_process(f"enc make-rom {points} --target heidenhain --sign error --tnc 620 "
+                       f"--axis B -o {com}")
+    assert "B.CMA" in one_error_line(r, 2, "enc make-rom")
+    assert not com.exists() and cma.read_bytes() == before
+
+
+def test_twincat_nc_plc_declaration(step_run, tmp_path, monkeypatch):
+    """The TwinCAT NC PTP table is a PLC declaration MC_TableBasedPositionCompensation's
+    inputs take: parsed here on its own (IEC 61131-3: comments dropped, the initialisers
+    read by name), it holds the parameter structure and an ARRAY[1..25] whose Position
+    runs 0..360 deg by 15 and whose Compensation at 90 deg is the correction in the sign
+    given; a hostile output name stays inside one comment."""
+    points, intended = step_run
+    corr90 = (intended[1][6] + intended[-1][6]) / 2.0 / 3600.0  # [deg]
+    out = str(tmp_path / "c*)\nVAR_GLOBAL x : INT := 1; END_VAR(*.st")
+    args = ["make-rom", str(points), "--target", "twincat-nc", "--sign", "correction",
+            "-o", out, "--verify", "-q"]
+    monkeypatch.setattr("sys.argv", ["enc", *args])
+    r = run_in_process(args)
+    assert r.returncode == 0, r.stderr.decode()
+    text = Path(out).read_text(encoding="ascii")
+    code = re.sub(r"\(\*.*?\*\)", "", text, flags=re.DOTALL)
+    assert "x : INT" not in code and code.count("VAR_GLOBAL") == 1
+    assert re.search(r"stEncCompParameter\s*:\s*ST_PositionCompensationTableParameter\s*:=", code)
+    fields = dict(re.findall(r"(\w+) := ([\w.]+)", code.split("aEncCompTable")[0]))
+    assert fields == {"MinPosition": "0.000000", "MaxPosition": "360.000000",
+                      "NoOfTableElements": "25",
+                      "Direction": "E_WorkDirection.WorkDirectionBoth", "Modulo": "TRUE"}
+    assert "ARRAY[1..25] OF ST_PositionCompensationTableElement" in code
+    rows = re.findall(r"\(Position := (\S+), Compensation := (\S+?)\)", code)
+    assert [float(p) for p, _ in rows] == [15.0 * i for i in range(25)]
+    assert float(rows[6][1]) == pytest.approx(corr90, abs=5e-7)
+    assert rows[0][1] == rows[-1][1]
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ("WorkDirectionBoth", "WorkDirectionPositive", "only a table for both directions"),
+    ("NoOfTableElements := 3", "NoOfTableElements := 4", "must agree"),
+    ("(Position := 180.0,", "(Position := 170.0,", "equidistant"),
+])
+def test_twincat_nc_reader_refuses_what_the_block_would_not_take(tmp_path, old, new, says):
+    """What MC_TableBasedPositionCompensation's documentation excludes (one direction is
+    not read here; a count that disagrees; positions not equidistant) is one DataError."""
+    from enctools.errors import DataError
+    text = ("VAR_GLOBAL\n p : ST_PositionCompensationTableParameter := (MinPosition := 0.0, "
+            "MaxPosition := 360.0, NoOfTableElements := 3, Direction := "
+            "E_WorkDirection.WorkDirectionBoth, Modulo := TRUE);\n"
+            " t : ARRAY[1..3] OF ST_PositionCompensationTableElement := [(Position := 0.0, "
+            "Compensation := 0.001), (Position := 180.0, Compensation := -0.002), "
+            "(Position := 360.0, Compensation := 0.001)];\nEND_VAR\n")
+    f = tmp_path / "t.st"
+    f.write_text(text)
+    table = rf.read_control_table(str(f), "twincat-nc", "correction")
+    assert table.correction(np.radians(540.0)) == pytest.approx(np.radians(-0.002))
+    f.write_text(text.replace(old, new))
+    with pytest.raises(DataError, match=says):
+        rf.read_control_table(str(f), "twincat-nc", "correction")
+
+
 def test_beyond_range_is_one_line(step_run, tmp_path):
     """Fanuc: an increment beyond +-7 x magnification 100 x 0.001 deg is refused."""
     points, _ = step_run
@@ -181,7 +297,10 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
 
 @pytest.mark.parametrize("opts, says", [
     ("--target fanuc", "not confirmed"),
-    ("--target heidenhain --sign error --bidirectional", "bidirectional"),
+    ("--target heidenhain --sign error --tnc 620 --bidirectional", "bidirectional"),
+    ("--target heidenhain --sign error", "name the control's generation with --tnc"),
+    ("--target heidenhain --sign error --tnc 407", "power of two"),
+    ("--target linuxcnc --tnc 620", "--tnc applies to heidenhain"),
     ("--target fanuc --sign error --bidirectional", "bidirectional"),
     ("--target twincat --points 8", "0.0001 deg"),
     ("--target linuxcnc --points 300", "256"),
@@ -190,6 +309,8 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
     ("--target mif --comp-type 1", "--comp-type"),
     ("--target twincat --comp-type 1", "--comp-type applies to linuxcnc"),
     ("--target linuxcnc --detection-unit 0.0001", "--detection-unit applies to fanuc"),
+    ("--target linuxcnc --increment-system IS-C", "--increment-system applies to fanuc"),
+    ("--target fanuc --sign error --increment-system IS-C --detection-unit 0.001", "not both"),
     ("--target linuxcnc --axis 2", "names no joint"),
     ("--target siemens --points 9 --bits 23 --address-bits 3 --resolution 0.0001",
      "--points applies to linuxcnc"),
@@ -226,7 +347,7 @@ def test_point_table_modulo_and_directions():
 
 @pytest.mark.parametrize("target, opts", [("linuxcnc", []), ("twincat", []),
                                           ("fanuc", ["--sign", "error"]),
-                                          ("heidenhain", ["--sign", "error"])])
+                                          ("heidenhain", ["--sign", "error", "--tnc", "620"])])
 def test_hostile_names_stay_in_comments(step_run, tmp_path, monkeypatch, target, opts):
     """The command line (with the output's name) lands only in '# ' comment lines, which
     the control's reader skips; the table reads back the same."""
@@ -235,6 +356,10 @@ def test_hostile_names_stay_in_comments(step_run, tmp_path, monkeypatch, target,
     args = ["make-rom", str(points), "--target", target, *opts, "-o", out, "--verify", "-q"]
     monkeypatch.setattr("sys.argv", ["enc", *args])
     r = run_in_process(args)
+    if target == "heidenhain":  # the .CMA names the .COM by its file name: refused
+        assert "letters, digits" in one_error_line(r, 2, "enc make-rom")
+        assert not list(tmp_path.iterdir())
+        return
     assert r.returncode == 0, r.stderr.decode()
     text = Path(out).read_text(encoding="ascii")
     assert all(c.isprintable() or c == "\n" for c in text)
@@ -252,7 +377,7 @@ def test_the_command_knows_the_controls():
 
 
 @pytest.mark.parametrize("target", ["linuxcnc", "twincat", "fanuc", "heidenhain", "siemens",
-                                    "acs"])
+                                    "acs", "twincat-nc"])
 @pytest.mark.parametrize("data", [b"", b"\xff\xfe\x00garbage\n", b"1 2 3\n1 2 3\n",
                                   b"DETECTION_UNIT_DEG x\nkw.ssfk.unit 1\n",
                                   b"BEGIN C.COM\nNR AXISPOS C\n0 +1 +x\n1 +0 +0\n[END]\n",

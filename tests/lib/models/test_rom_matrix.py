@@ -32,7 +32,8 @@ OPTIONS = {"bin": "--bits 12", "ihex": "--bits 12", "mif": "--bits 12", "coe": "
            "mem": "--bits 12", "csv": "--bits 12", "stream": "--bits 12 --format parquet",
            "acs": "--address-bits 6 --resolution 0.0001 --sign correction",
            "siemens": "--address-bits 6 --resolution 0.0001", "linuxcnc": "", "twincat": "",
-           "fanuc": "--sign error", "heidenhain": "--sign error"}
+           "fanuc": "--sign error", "heidenhain": "--sign error --tnc 620",
+           "twincat-nc": "--sign error"}
 TARGETS = targets()
 CONTROLS = rf.CONTROLS
 MEMORIES = tuple(t for t in TARGETS if t not in CONTROLS + rf.CONTROLLER)
@@ -40,7 +41,7 @@ MEMORIES = tuple(t for t in TARGETS if t not in CONTROLS + rf.CONTROLLER)
 #: that it beats no correction, and Fanuc's 0.001 deg is coarse beside a 2" correction;
 #: the guards of enc-make-rom(1) are waived here and tested in test_gain.py
 GUARDS = "--allow-no-gain --allow-coarse"
-SIGN = {"acs": "correction", "fanuc": "error", "heidenhain": "error"}
+SIGN = {"acs": "correction", "fanuc": "error", "heidenhain": "error", "twincat-nc": "error"}
 
 
 @pytest.fixture(scope="module")

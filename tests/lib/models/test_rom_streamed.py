@@ -78,7 +78,9 @@ BEFORE = {
     "mem-18-24-grid": ("38e5759167e7f27d", "e16c85d9"),
     "csv-18-24-grid": ("06039c963db01b01", "e16c85d9"),
     "acs-12": ("a8a5fc5c9efaaa45", "cf9cceb9"),
-    "siemens-12": ("2fa8a2c3d273eb5d", "ff9f9b8f"),
+    # the punch tape name %_N_AX_EEC_INI moved to the first line since (the file of
+    # 0345448, 2fa8a2c3d273eb5d, is these bytes with that line back after the comments)
+    "siemens-12": ("7fb610af57f0d185", "ff9f9b8f"),
 }
 FORMATS = [("bin", {}), ("bin", {"endian": "big"}), ("ihex", {}), ("mif", {}), ("coe", {}),
            ("mem", {}), ("csv", {})]

@@ -20,6 +20,9 @@ FANUC_LAST_POINT = 1023
 #: largest |compensation value| of one point, in units of magnification x detection unit
 #: (the conservative limit; see enc-make-rom(1))
 FANUC_MAX_STEP = 7
+#: the increment systems and the least command increment of a rotation axis each gives
+#: [deg]: the detection unit of the table when the command multiplier is 1 (enc-make-rom(1))
+INCREMENT_SYSTEMS = (("IS-A", 1e-2), ("IS-B", 1e-3), ("IS-C", 1e-4))
 
 
 def check(settings: Any, entries: int | None) -> None:
@@ -49,5 +52,6 @@ FANUC = registry.register(TableFormat(
     write_table=lazy(".controlwriters", "write_fanuc"),
     read_points=lazy(".controlreaders", "read_fanuc"),
     control=Control(1e-3, FANUC_LAST_POINT + 1, False, (-FANUC_MAX_STEP, FANUC_MAX_STEP),
-                    incremental=True, grid_rule=grid),
-    sign=None, settings=frozenset({"detection_unit", "home_point"}), check=check, rank=30))
+                    incremental=True, grid_rule=grid, increment_systems=INCREMENT_SYSTEMS),
+    sign=None, settings=frozenset({"detection_unit", "home_point", "increment_system"}),
+    check=check, rank=30))

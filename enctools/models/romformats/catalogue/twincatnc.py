@@ -1,0 +1,24 @@
+"""TwinCAT NC PTP position compensation: a PLC declaration (IEC 61131-3 Structured Text)
+of the table and parameters that Tc2_MC2's MC_TableBasedPositionCompensation reads:
+an ARRAY OF ST_PositionCompensationTableElement (Position, Compensation [deg]) and an
+ST_PositionCompensationTableParameter (MinPosition, MaxPosition, NoOfTableElements,
+Direction, Modulo)."""
+
+from __future__ import annotations
+
+import re
+
+from enctools.models.romformats import registry
+from enctools.models.romformats.record import CONTROL, Control, TableFormat, lazy
+
+#: points written at most: the function block documents no limit; the library's choice
+TWINCAT_NC_POINTS = 3601
+#: what only this format's content has (a file's first 4 KiB)
+SIGNATURE = re.compile(rb"ST_PositionCompensationTableElement", re.IGNORECASE)
+
+TWINCAT_NC = registry.register(TableFormat(
+    "twincat-nc", "TwinCAT NC PTP table for MC_TableBasedPositionCompensation", CONTROL,
+    (".st",), write_table=lazy(".controlwriters", "write_twincat_nc"),
+    read_points=lazy(".controlreaders", "read_twincat_nc"),
+    control=Control(1e-6, TWINCAT_NC_POINTS, False, None, exact_spacing=False), sign=None,
+    signature=SIGNATURE, rank=25))
