@@ -139,7 +139,7 @@ def with_history(header: Header, line: str | None = None, *, output: str | None 
     words = [w.split("=", 1)[-1] if w.startswith("--") else w for w in sys.argv[1:]]
     paths = {w: recorded_path(w, folder) for w in words
              if not w.startswith("-") and _names_path(w)}
-    meta = {k: v if k == "history" else _recorded_values(v, paths)
+    meta = {k: v if k in ("history", "truth") else _recorded_values(v, paths)
             for k, v in header.meta.items()}
     meta["history"] = [*header.history, line or history_line(output=output, measured=measured)]
     return Header(header.kind, header.schema, meta)
@@ -195,8 +195,8 @@ def recorded_path(path: str, folder: str | None) -> str:
 
 def recorded_word(arg: str, folder: str | None) -> str:
     """A command-line word, or a file's name as a command was given it, with the path it
-    names (a file or folder that exists, an absolute path, or a new file in a folder that
-    exists) as :func:`recorded_path` gives it; any other word as it is."""
+    names (an absolute one, or one through a folder that exists) as :func:`recorded_path`
+    gives it; any other word, a bare name among them, as it is."""
     if arg.startswith("--") and "=" in arg:
         name, value = arg.split("=", 1)
         return f"{name}={recorded_word(value, folder)}"
@@ -206,9 +206,12 @@ def recorded_word(arg: str, folder: str | None) -> str:
 
 
 def _names_path(arg: str) -> bool:
+    """Whether a word names a file through a folder: absolute, or with a folder part that
+    exists. A bare name is left as it is: it names no folder, and may be a rig's or a
+    head's name that a file or folder happens to share."""
     try:
-        return (os.path.isabs(arg) or os.path.lexists(arg)
-                or (os.sep in arg and os.path.isdir(os.path.dirname(arg))))
+        return os.path.isabs(arg) or (os.sep in arg and (
+            os.path.lexists(arg) or os.path.isdir(os.path.dirname(arg))))
     except (OSError, ValueError):
         return False
 

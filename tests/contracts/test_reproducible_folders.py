@@ -160,6 +160,14 @@ def test_a_simulated_acquisition_is_dated_by_source_date_epoch(tmp_path):
     assert meta["history"][-1].endswith("--replay raw.parquet -o again.parquet")
 
 
+def test_a_bare_name_is_kept_as_given(tmp_path):
+    """A value that a folder's name shares is a value, not that folder ("--mode .")."""
+    (tmp_path / "steps").mkdir()
+    _ok("enc acquire -q --rig ciomp-23bit --mode steps -o steps/polygon.parquet", tmp_path)
+    line = _meta(tmp_path / "steps" / "polygon.parquet")["history"][-1]
+    assert line.endswith(": enc acquire -q --rig ciomp-23bit --mode steps -o polygon.parquet")
+
+
 def test_a_device_acquisition_keeps_the_time_it_measured_at(tmp_path):
     pytest.importorskip("pyvisa_sim")
     rig = ROOT / "tests" / "rigs" / "visa-sim.toml"
