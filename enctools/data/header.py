@@ -165,9 +165,9 @@ def output_folder(output: str | None) -> str | None:
     """The folder an output is written into, as the machine names it (symbolic links
     resolved); for stdout (None or "-") the folder of the regular file it was sent to
     (``> FILE``), or None when that is not known (a pipe, a terminal)."""
-    if output is not None and output != "-":
-        return os.path.realpath(os.path.dirname(os.path.abspath(output)))
     try:
+        if output is not None and output != "-":  # (a removed working folder: OSError)
+            return os.path.realpath(os.path.dirname(os.path.abspath(output)))
         if not os.path.isfile(f"/proc/self/fd/{sys.stdout.fileno()}"):
             return None
         return os.path.dirname(os.readlink(f"/proc/self/fd/{sys.stdout.fileno()}"))

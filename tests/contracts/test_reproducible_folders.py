@@ -191,3 +191,26 @@ def test_corrected_readings_name_their_table_relative_to_their_folder(made, tmp_
     assert meta["settings"]["table"]["file"] == "c.mif"
     assert meta["source"] == "dense.parquet"
     assert str(tmp_path) not in json.dumps(meta)
+
+
+def test_recorded_paths_inside_outside_and_through_a_link(tmp_path, monkeypatch):
+    from enctools.data.header import output_folder, recorded_path, recorded_word
+
+    (tmp_path / "out" / "raw").mkdir(parents=True)
+    (tmp_path / "link").symlink_to(tmp_path / "out")
+    folder = output_folder(str(tmp_path / "link" / "grad.parquet"))
+    assert folder == output_folder(str(tmp_path / "out" / "grad.parquet"))
+    assert recorded_path(str(tmp_path / "out" / "raw" / "a.parquet"), folder) == "raw/a.parquet"
+    assert recorded_path(str(tmp_path / "link" / "a.parquet"), folder) == "a.parquet"
+    assert recorded_path(str(tmp_path / "b.parquet"), folder) == "b.parquet"
+    assert recorded_path("/elsewhere/c.toml", folder) == "c.toml"
+    assert recorded_word(f"--table={tmp_path}/out/t.mif", folder) == "--table=t.mif"
+    assert recorded_word("H1,P1", folder) == "H1,P1"
+    assert recorded_word("-", folder) == "-"
+    # a working folder removed under the command: no folder known, base names
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    assert output_folder("x/p.parquet") is None
+    assert recorded_path("x/p.parquet", None) == "p.parquet"
