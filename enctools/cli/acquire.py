@@ -122,7 +122,7 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
 
     from enctools.cli.summary import check_json
     from enctools.data import streams
-    from enctools.hw import recording
+    from enctools.hw import backends, recording
 
     options.distinct_outputs({"-o": output, "--tee": tee_path})
     check_json(as_json, output)
@@ -130,14 +130,16 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
     if tee_path is not None:
         streams.check_output(tee_path, force)
     targets = ([(tee_path, None)] if tee_path else []) + [(output, fmt)]
+    # the history line's paths as the first file written records them
+    named = next((p for p in (output, tee_path) if p is not None and p != "-"), None)
     if replay_path is not None:
         from enctools.hw.replay import replay
 
         streams.check_output(output, force, fmt)
         source = streams.open_input(replay_path, "readings")
-        header = streams.with_history(source.header)
-        header.meta["settings"] = dict(header.meta.get("settings", {}), replayed=replay_path,
-                                       pace=pace)
+        meta = source.header.meta
+        meta["settings"] = dict(meta.get("settings", {}), replayed=replay_path, pace=pace)
+        header = streams.with_history(source.header, output=named)  # the path recorded too
         rows = recording.record(replay(source, pace),
                                 recording.open_outputs(header, targets, force, unit))
         _summary("replay", rows, time.monotonic() - start, output, tee_path, as_json)
@@ -159,7 +161,9 @@ def command(rig: str | None, replay_path: str | None, pace: bool, realtime: bool
                       realtime=realtime, timeout_s=timeout_s, retries=retries) as session:
         progress = runner.Progress(settings.mode, counted)
         header, batches = acq.acquire(rig_, session, settings, progress)
-        outs = recording.open_outputs(streams.with_history(header), targets, force, unit)
+        measured = not backends.of_rig(rig_).simulated  # a device's run keeps its time
+        header = streams.with_history(header, output=named, measured=measured)
+        outs = recording.open_outputs(header, targets, force, unit)
         rows = recording.record(batches, outs)
     _summary(settings.mode, rows, time.monotonic() - start, output, tee_path, as_json)
 

@@ -56,7 +56,7 @@ def command(input: str | None, groups: list[tuple[str | None, list[str]]], band:
     header, batches = heads.run(source, settings)
     progress = runner.Progress("rows", "rows").every(runner.expected_rows(source.meta))
     rows = 0
-    with streams.OutputStream(output, streams.with_history(header), force, fmt,
+    with streams.OutputStream(output, streams.with_history(header, output=output), force, fmt,
                               unit=unit) as out:
         for b in batches:
             out.write(b)

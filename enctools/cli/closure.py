@@ -38,6 +38,7 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     from enctools.cli.summary import check_json, emit
     from enctools.cli.usage import UsageError
     from enctools.data import files, polygon, streams
+    from enctools.data.header import history_line, output_folder, recorded_path
     from enctools.data.streams import with_history
     from enctools.data.summaries import from_meta
     from enctools.methods import closure, points
@@ -53,15 +54,16 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     src = streams.open_input(input, "readings")
     run = closure.read_run(src, settings)
     header, found, sep = closure.closure_points(src.header, run, settings, src.source)
-    header = with_history(header)
+    header = with_history(header, output=output)
     with files.OutputGroup() as group:
         streams.write_table(output, header, found.table(), force, fmt, group=group,
                             unit=unit)
         if faces_out is not None:
+            run_name = recorded_path(src.source, output_folder(faces_out))
             text = polygon.certificate_text(
-                sep.face_error, np.full(sep.faces, sep.u_face), f"closure {src.source}",
+                sep.face_error, np.full(sep.faces, sep.u_face), f"closure {run_name}",
                 "circle closure (cross-calibration) on the rig itself: no external standard",
-                (header.history[-1],))
+                (history_line(output=faces_out),))
             group.write(faces_out, text.encode(), force=force)
     summary: dict[str, Any] = {"n_positions": sep.faces, "s_arcsec": sep.s, "dof": sep.dof,
                                "u_deviation_arcsec": sep.u_deviation,

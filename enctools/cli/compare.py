@@ -65,10 +65,11 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
     (dh, dt), spec = compare.run(source, settings, progress, curve)
     with OutputGroup() as outputs:  # both files, or neither
         if spectrum_path is not None and spec is not None:
-            streams.write_table(spectrum_path, streams.with_history(spec[0]), spec[1], force,
-                                group=outputs, unit=unit)
-        streams.write_table(output, streams.with_history(dh), dt, force, fmt, group=outputs,
-                            unit=unit)
+            streams.write_table(spectrum_path,
+                                streams.with_history(spec[0], output=spectrum_path), spec[1],
+                                force, group=outputs, unit=unit)
+        streams.write_table(output, streams.with_history(dh, output=output), dt, force, fmt,
+                            group=outputs, unit=unit)
     summary.emit({"device": ",".join(device), "reference": ",".join(ref),
                   "n_revolutions": dh.meta["settings"].get("revolutions"),
                   "curves": summary.curves(dh, dt)}, as_json, unit)

@@ -120,8 +120,8 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
         kind = "deviations" if header.kind == "readings" else "points"
         out_header = header.derive(kind, applied.rows.schema, source=extra["input"]["source"],
                                    settings={"table": described})
-        streams.write_table(output, streams.with_history(out_header), applied.rows, force, fmt,
-                            unit=unit)
+        streams.write_table(output, streams.with_history(out_header, output=output),
+                            applied.rows, force, fmt, unit=unit)
     figures = before_after(res.figures_before, res.figures_after)
     constant = {"constant": {"added_arcsec": res.constant,
                              "after_rms_with_it_arcsec": res.rms_with_constant}}

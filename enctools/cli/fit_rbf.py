@@ -83,7 +83,7 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
              "domain": means.measured().meta()}
     out = header.derive("model", table.schema, model=meta, residuals=fit.residuals(),
                         settings=settings.to_meta())
-    streams.write_table(output, with_history(out), table, force, fmt, unit=unit)
+    streams.write_table(output, with_history(out, output=output), table, force, fmt, unit=unit)
     emit(_summary(fit, meta), as_json, unit)
     if check_arcsec is not None:
         which = "holdout" if fit.holdout else "leave_one_out"

@@ -150,13 +150,13 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     with OutputGroup() as outputs:  # every file, or none
         if spectrum_path:
             sh, st = _spectrum(source.header, curves, checked.settings)
-            streams.write_table(spectrum_path, streams.with_history(sh), st, force, None,
-                                group=outputs, unit=unit)
+            streams.write_table(spectrum_path, streams.with_history(sh, output=spectrum_path),
+                                st, force, None, group=outputs, unit=unit)
         if checked.corrected is not None and corrected:
             _write_corrected(source.header, checked.corrected, [c.name for c in curves],
                              corrected, force, outputs, unit)
-        streams.write_table(output, streams.with_history(header), out_table, force, fmt,
-                            group=outputs, unit=unit)
+        streams.write_table(output, streams.with_history(header, output=output), out_table,
+                            force, fmt, group=outputs, unit=unit)
     emit({"curves": [_summary(c) for c in curves]}, as_json, unit)
     if tolerance is not None:
         _check_tolerance(curves, tolerance)
@@ -267,5 +267,5 @@ def _write_corrected(header: Any, table: Any, names: list[str], path: str, force
     meta = dict(header.meta)
     meta["settings"] = dict(meta.get("settings", {}), heydemann_corrected=names)
     h = streams.Header("readings", table.schema, meta)
-    streams.write_table(path, streams.with_history(h), table, force, None, group=group,
+    streams.write_table(path, streams.with_history(h, output=path), table, force, None, group=group,
                         unit=unit)

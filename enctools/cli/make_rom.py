@@ -132,7 +132,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     import time
 
     from enctools.cli.summary import check_json, emit
-    from enctools.data import streams
+    from enctools.data.streams import with_history
     from enctools.models import rom, romformats
     from enctools.models.romformats import registry
 
@@ -162,10 +162,10 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,
                                    settings=settings.to_meta())
-        rom.write_stream(output, streams.with_history(header), table.values, force, fmt)
+        rom.write_stream(output, with_history(header, output=output), table.values, force, fmt)
     else:
         size = romformats.write_table(path, table.values, settings.table, force,
-                                      table.file_comment() + _range_line(summary))
+                                      table.file_comment(path) + _range_line(summary))
         if verify:
             romformats.verify_table(path, table.values, settings.table)
     emit(_summary(summary, size, output, time.monotonic() - t0, verify), as_json, unit)
@@ -320,7 +320,7 @@ def _control(input: str | None, curve: str | None, settings: ControlSettings, pa
     _guard("control", table, allow[1])
     extent = domain.summary(measured, outside)
     comment = [f"enctools make-rom: {table.grid_deg.size} points 0..360 deg, "
-               f"resolution {table.resolution_deg!r} deg; " + history_line()]
+               f"resolution {table.resolution_deg!r} deg; " + history_line(output=path)]
     size = romformats.write_control_table(path, table, force, comment + _range_line(extent))
     if verify:
         romformats.verify_control_table(path, table)

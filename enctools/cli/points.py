@@ -74,7 +74,8 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
         cert = read_certificate(certificate, None, certificate_unit)
     given = usertables.open_input(input, "readings")
     header, found = points.make_points(given, settings, mapping, cert)
-    streams.write_table(output, with_history(header), found.table(), force, fmt, unit=unit)
+    streams.write_table(output, with_history(header, output=output), found.table(), force, fmt,
+                        unit=unit)
     summary: dict[str, Any] = {"n_rows": len(found)}
     if "zero_offset_arcsec" in header.meta:
         summary |= {"zero_offset_arcsec": header.meta["zero_offset_arcsec"],

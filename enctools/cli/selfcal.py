@@ -117,10 +117,11 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
     deviations, spectrum = selfcal.run(source, settings, runner.Progress("revolutions", "rev"))
     with OutputGroup() as outputs:  # both files, or neither
         if spectrum_path is not None:
-            streams.write_table(spectrum_path, streams.with_history(spectrum[0]), spectrum[1],
-                                force, group=outputs, unit=unit)
-        streams.write_table(output, streams.with_history(deviations[0]), deviations[1], force,
-                            fmt, group=outputs, unit=unit)
+            streams.write_table(spectrum_path,
+                                streams.with_history(spectrum[0], output=spectrum_path),
+                                spectrum[1], force, group=outputs, unit=unit)
+        streams.write_table(output, streams.with_history(deviations[0], output=output),
+                            deviations[1], force, fmt, group=outputs, unit=unit)
     meta = deviations[0].meta
     summary.emit({"method": meta["settings"].get("method"),
                   "n_revolutions": meta["settings"].get("revolutions"),

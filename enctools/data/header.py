@@ -112,21 +112,108 @@ def output_time() -> float:
     return float(int(given))
 
 
-def history_line(argv: list[str] | None = None) -> str:
-    """One NCO-style history line: UTC time (:func:`output_time`), enctools and library
-    versions, command line."""
+def history_line(argv: list[str] | None = None, output: str | None = None,
+                 measured: bool = False) -> str:
+    """One NCO-style history line: UTC time, enctools and library versions, command line.
+
+    The time is :func:`output_time`, or now when ``measured`` (a real acquisition keeps
+    the time it measured at). The paths on the command line are written as
+    :func:`recorded_path` gives them for ``output`` (the file the line goes into; None
+    or "-": stdout), so that no folder of the machine reaches the file.
+    """
     import shlex
     argv = sys.argv if argv is None else argv
-    cmd = "enc " + shlex.join(argv[1:]) if argv else "enc"
-    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(output_time()))
+    folder = output_folder(output)
+    cmd = "enc " + shlex.join(recorded_word(a, folder) for a in argv[1:]) if argv else "enc"
+    when = time.time() if measured else output_time()
+    stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(when))
     return f"{stamp} enctools {__version__} ({library_versions()}): {cmd}"
 
 
-def with_history(header: Header, line: str | None = None) -> Header:
-    """The header with one more history line (this command's)."""
-    meta = dict(header.meta)
-    meta["history"] = [*header.history, line or history_line()]
+def with_history(header: Header, line: str | None = None, *, output: str | None = None,
+                 measured: bool = False) -> Header:
+    """The header with one more history line (this command's, for ``output``), and the
+    paths of this command's line that its metadata names (``source``, a setting's file)
+    written as :func:`recorded_path` gives them for ``output``."""
+    folder = output_folder(output)
+    words = [w.split("=", 1)[-1] if w.startswith("--") else w for w in sys.argv[1:]]
+    paths = {w: recorded_path(w, folder) for w in words
+             if not w.startswith("-") and _names_path(w)}
+    meta = {k: v if k in ("history", "truth") else _recorded_values(v, paths)
+            for k, v in header.meta.items()}
+    meta["history"] = [*header.history, line or history_line(output=output, measured=measured)]
     return Header(header.kind, header.schema, meta)
+
+
+def _recorded_values(value: Any, paths: dict[str, str]) -> Any:
+    """``value`` (metadata) with every string that is one of ``paths``, or ends with one
+    after a space ("steps run PATH"), written as recorded."""
+    if isinstance(value, dict):
+        return {k: _recorded_values(v, paths) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_recorded_values(v, paths) for v in value]
+    if isinstance(value, str):
+        for given, recorded in paths.items():
+            if value == given:
+                return recorded
+            if value.endswith(" " + given):
+                return value[: len(value) - len(given)] + recorded
+    return value
+
+
+def output_folder(output: str | None) -> str | None:
+    """The folder an output is written into, as the machine names it (symbolic links
+    resolved); for stdout (None or "-") the folder of the regular file it was sent to
+    (``> FILE``), or None when that is not known (a pipe, a terminal)."""
+    try:
+        if output is not None and output != "-":  # (a removed working folder: OSError)
+            return os.path.realpath(os.path.dirname(os.path.abspath(output)))
+        if not os.path.isfile(f"/proc/self/fd/{sys.stdout.fileno()}"):
+            return None
+        return os.path.dirname(os.readlink(f"/proc/self/fd/{sys.stdout.fileno()}"))
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def recorded_path(path: str, folder: str | None) -> str:
+    """A path as an output written into ``folder`` (:func:`output_folder`) records it:
+    relative to that folder when the file is in it or below it, else its base name; never
+    absolute, so the same campaign written into two folders gives the same bytes."""
+    if path == "-" or not path:
+        return path
+    try:
+        full = os.path.abspath(path)
+        where = os.path.join(os.path.realpath(os.path.dirname(full)), os.path.basename(full))
+        if folder is not None:
+            relative = os.path.relpath(where, folder)
+            if relative != os.pardir and not relative.startswith(os.pardir + os.sep):
+                return Path(relative).as_posix()
+    except (OSError, ValueError):
+        pass
+    return os.path.basename(os.path.normpath(path)) or path
+
+
+def recorded_word(arg: str, folder: str | None) -> str:
+    """A command-line word, or a file's name as a command was given it, with the path it
+    names (an absolute one, or one through a folder that exists) as :func:`recorded_path`
+    gives it; any other word, a bare name among them, as it is."""
+    if arg.startswith("--") and "=" in arg:
+        name, value = arg.split("=", 1)
+        return f"{name}={recorded_word(value, folder)}"
+    if arg.startswith("-") or not _names_path(arg):
+        return arg
+    return recorded_path(arg, folder)
+
+
+def _names_path(arg: str) -> bool:
+    """Whether a word names a file through a folder: absolute, or with a folder part that
+    exists. A bare name is left as it is: it names no folder, and may be a rig's or a
+    head's name that a file or folder happens to share."""
+    try:
+        return os.path.isabs(arg) or (os.sep in arg and (
+            os.path.lexists(arg) or os.path.isdir(os.path.dirname(arg))))
+    except (OSError, ValueError):
+        return False
 
 
 def header_from_arrow(schema: pa.Schema, source: str) -> Header:

@@ -315,14 +315,16 @@ class Rom:
                 "image_bytes": s.entries * s.storage_bytes,
                 "sign": "value = correction to add to the code = -deviation"}
 
-    def file_comment(self) -> list[str]:
-        """The comment lines heading a table file: layout, LSB [arcsec], CRC-32, history."""
+    def file_comment(self, output: str | None = None) -> list[str]:
+        """The comment lines heading a table file: layout, LSB [arcsec], CRC-32, history
+        (its paths as the file ``output`` records them: :func:`~enctools.data.header.
+        history_line`)."""
         from enctools.models.romformats.headers import Layout, comment_line
 
         s = self.spec
         return [comment_line(Layout(s.entries, s.code_bits, s.width, s.lsb, s.sample)),
                 f"CRC-32 {self.crc32:08x} (little-endian int{8 * s.storage_bytes} image); "
-                + history_line()]
+                + history_line(output=output)]
 
 
 def build_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,

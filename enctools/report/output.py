@@ -10,7 +10,7 @@ from enctools.data.files import OutputGroup, check_new_file
 from enctools.errors import CheckFailed, OutputError
 from enctools.report.display import in_unit
 from enctools.report.sections import Options
-from enctools.report.summary import build_report
+from enctools.report.summary import Report, build_report
 from enctools.report.thresholds import Thresholds, check, in_words
 
 
@@ -27,6 +27,34 @@ def _check_stdout() -> None:
     if sys.stdout is None:
         msg = "stdout is closed: the report cannot be printed; give it a stdout (> FILE)"
         raise OutputError(msg)
+
+
+def _recorded(report: Report, output: str | None) -> Report:
+    """A copy of ``report`` whose sections name their files as ``output`` (None: stdout)
+    records them (:func:`~enctools.data.header.recorded_word`): never an absolute path."""
+    import copy
+
+    from enctools.data.header import output_folder, recorded_word
+
+    folder = output_folder(output)
+    out = copy.copy(report)
+    out.sections = []
+    for s in report.sections:
+        named = copy.copy(s)
+        named.source = recorded_word(s.source, folder)
+        out.sections.append(named)
+    return out
+
+
+def _print(report: Report, as_json: bool, failures: list[str] | None) -> None:
+    """The report on stdout, as JSON (with ``failures``) or as text."""
+    if as_json:
+        from enctools.report.jsonout import to_json
+        sys.stdout.write(to_json(_recorded(report, None), failures) + "\n")
+    else:
+        from enctools.report.text import write_text
+        write_text(_recorded(report, None), sys.stdout)
+    sys.stdout.flush()
 
 
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
@@ -62,20 +90,15 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     report.settings["thresholds"] = limits.to_dict()
     failures = in_words(check(report, limits), words)
     shown = in_unit(report, unit)
-    if as_json:
-        from enctools.report.jsonout import to_json
-        sys.stdout.write(to_json(report, failures if limits.any else None) + "\n")
-    else:
-        from enctools.report.text import write_text
-        write_text(shown, sys.stdout)
-    sys.stdout.flush()
+    _print(report if as_json else shown, as_json, failures if limits.any else None)
     with OutputGroup() as outputs:  # both reports, or neither
         done = len(sources)
         if html_path is not None or pdf_path is not None:
             from enctools.report.document import build, render
             from enctools.report.drawings import Drawings
             # each plot drawn once, the document's data built once, for the HTML and the PDF
-            doc = build(shown, failures, title, Drawings(shown), cert)
+            doc = build(_recorded(shown, html_path or pdf_path), failures, title,
+                        Drawings(shown), cert)
         if html_path is not None:
             outputs.write(html_path, render(doc, page=True).encode())
             done += 1

@@ -27,7 +27,9 @@ SECTIONS = ("A first pipeline", "A calibration campaign, step by step (seed 000)
             "The polygon's own errors: its certificate, or closure", "Your own table")
 #: sections with commands that this test does not run, and why
 SKIPPED = {"Set-up: two commands": "make demo and make test are the set-up itself (CI runs "
-           "both); the PATH, man and completion lines configure a login shell"}
+           "both); the PATH, man and completion lines configure a login shell",
+           "Same inputs, same bytes": "make demo twice takes minutes; "
+           "test_reproducible_folders.py runs one campaign into two folders and compares"}
 WARNING = re.compile(r"warn", re.IGNORECASE)
 
 

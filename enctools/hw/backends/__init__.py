@@ -73,6 +73,9 @@ class Backend:
     counter: CounterOpener | None = None
     #: records each head's raw sin/cos signals besides its counts
     signals: bool = False
+    #: simulates its rig: its runs are dated as the outputs are (SOURCE_DATE_EPOCH), a
+    #: device's by the time they were measured
+    simulated: bool = False
     #: the keys it reads in its instrument's table (a port's) besides the dialogue's
     keys: frozenset[str] = field(default_factory=frozenset)
     #: the keys it adds to ``[backend]``

@@ -21,4 +21,4 @@ def open_session(rig: Rig, opening: Opening) -> Session:
 
 
 BACKEND = register(Backend("sim", "the simulator", session=open_session, signals=True,
-                           backend_keys=frozenset({"seed", "realtime"}), rank=0))
+                           simulated=True, backend_keys=frozenset({"seed", "realtime"}), rank=0))
