@@ -236,7 +236,7 @@ def _unit(raw: RawTable, k: int, role: str, mapping: Mapping) -> str | None:
     return given or said
 
 
-def _cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | None]:
+def cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | None]:
     """A column's numbers and unit: a text column's cells parsed, each unit written in a
     cell the column's (DataError naming the line otherwise)."""
     col = raw.columns[k]
@@ -266,7 +266,7 @@ def values(raw: RawTable, k: int, role: str, mapping: Mapping) -> tuple[np.ndarr
     """Column ``k`` as ``role``: angles [deg], deviations [arcsec], checked finite and
     within the limits of enc-streams(5); and the unit it was read in."""
     to = "arcsec" if role == "deviation" else "deg"
-    raw_values, unit = _cells(raw, k, _unit(raw, k, role, mapping))
+    raw_values, unit = cells(raw, k, _unit(raw, k, role, mapping))
     unit = unit or to
     scale = (counts_factor(mapping.counts_per_rev or 0, to) if unit == "counts"
              else factor(unit, to))
@@ -286,7 +286,7 @@ def values(raw: RawTable, k: int, role: str, mapping: Mapping) -> tuple[np.ndarr
 
 def _whole(raw: RawTable, k: int, role: str, allowed: tuple[int, int]) -> np.ndarray:
     """A direction or run column: whole numbers within ``allowed`` (directions: +-1)."""
-    v, _ = _cells(raw, k, None)
+    v, _ = cells(raw, k, None)
     lo, hi = allowed
     ok = np.isfinite(v) & (v == np.round(v)) & (v >= lo) & (v <= hi)
     if role == "direction":

@@ -438,6 +438,30 @@ def read_points(src: UserTable | InputStream, mapping: Mapping | None = None
                                      src.source)
 
 
+def open_points(path: str | None, expect: tuple[str, ...], mapping: Mapping | None = None
+                ) -> InputStream:
+    """The stream of a kind in ``expect`` at ``path`` (None, "-": stdin), or a user's
+    table read as a points stream (its columns mapped by ``mapping``, :func:`read_points`)
+    when ``path`` is one: what a command that takes a points stream or a table opens. A
+    table given where no points are taken is refused naming the kinds taken; a mapping's
+    fields given for a stream are refused."""
+    from enctools.data import streams, usertables
+
+    mapping = mapping or Mapping()
+    if path is None or not usertables.is_table_file(path):
+        src = streams.open_input(path, expect)
+        if mapping.given():
+            src.close()
+            _no_mapping(mapping, src.source)
+        return src
+    if "points" not in expect:
+        msg = (f"{path} is a table: it gives points, and here a {' or '.join(expect)} "
+               "stream is read (fit a model to the points first)")
+        raise DataError(msg)
+    header, points = read_points(usertables.read(path), mapping)
+    return streams.InputStream(header, iter(points.table().to_batches()), path, "table")
+
+
 def _no_mapping(mapping: Mapping, source: str | None) -> None:
     """Refuse (SettingsError) a table's column fields for a stream."""
     if mapping.given():

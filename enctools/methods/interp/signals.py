@@ -123,10 +123,25 @@ def check_signals(table: pa.Table, settings: Settings
         fits[name] = meta
         fitted[name] = np.zeros(i.shape, dtype=bool)
         fitted[name][np.isfinite(i) & np.isfinite(q)] = screen.kept
-        info = head_info(table.schema, name) if name in table.schema.names else None
+        info = head_info(table.schema, name) if name in table.schema.names else \
+            _signal_geometry(table.schema, name, comp)
         if info is not None and info.periods_per_rev:
             curves.append(_signal_curve(name, info, fit, grid, meta))
     return curves, fits, fitted
+
+
+def _signal_geometry(schema: pa.Schema, name: str, components: dict[str, str]
+                     ) -> HeadInfo | None:
+    """A head without a counts column (signals from a user's table): its signal periods
+    a revolution from its signal columns' field metadata ``periods_per_rev`` (None:
+    none stated, no curve)."""
+    stated = {field_meta(schema.field(c)).get("periods_per_rev") for c in components.values()}
+    stated.discard(None)
+    if len(stated) != 1:
+        return None
+    ppr = int(str(stated.pop()))
+    return HeadInfo(name=name, encoder=name, alpha=0.0, counts_per_rev=ppr,
+                    periods_per_rev=ppr, interpolation=1, radius_m=0.0, zero_count=0)
 
 
 def _signal_curve(name: str, info: HeadInfo, fit: hd.EllipseFit, grid: np.ndarray,

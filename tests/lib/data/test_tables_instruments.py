@@ -1,0 +1,122 @@
+"""Tables as instruments and papers print them, read by every command that takes a table.
+
+Each fixture is written here line by line in the layout of its source (an oscilloscope's
+CSV export, a quadrature capture's two columns, a paper's table with its primes and
+minus signs, an interferometer's ISO 230-2 log with a column per run), never through
+enctools' writers; the expected values are computed here from the numbers written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import one_error_line, run
+
+from enctools.data.streams import read_table
+
+#: the faults of the quadrature captures: offsets [V], amplitudes [V], phase error [deg]
+COS_OFFSET, SIN_OFFSET, COS_AMP, SIN_AMP, PHASE_DEG = 0.02, -0.01, 0.50, 0.48, 2.0
+
+
+def _quadrature(n: int = 2000) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Time [s], cosine and sine [V] of a head passing 5 signal periods with the faults above."""
+    phase = 2 * np.pi * 5.065 * np.arange(n) / n
+    c = COS_OFFSET + COS_AMP * np.cos(phase)
+    s = SIN_OFFSET + SIN_AMP * np.sin(phase + math.radians(PHASE_DEG))
+    return np.arange(n) * 1e-5, c, s
+
+
+def _scope_export(path: Path) -> None:
+    """An oscilloscope's CSV export: a preamble of comments, titles with units, volts."""
+    t, c, s = _quadrature()
+    lines = ["# Model,DSOX1204G", "# Channels,CH1 cos,CH2 sin", "# Points,2000",
+             "Time [s],CH1 [V],CH2 [V]"]
+    lines += [f"{a:.6e},{b:.6f},{d:.6f}" for a, b, d in zip(t, c, s, strict=True)]
+    path.write_text("\r\n".join(lines) + "\r\n")
+
+
+def _fit_of(path: Path) -> dict:
+    header, _ = read_table(str(path), "deviations")
+    return header.meta["signals"]["H1"]["signals"]
+
+
+def _check_fit(fit: dict) -> None:
+    assert fit["offset_cos_v"] == pytest.approx(COS_OFFSET, abs=1e-5)
+    assert fit["offset_sin_v"] == pytest.approx(SIN_OFFSET, abs=1e-5)
+    assert fit["ratio"] == pytest.approx(SIN_AMP / COS_AMP, abs=1e-5)
+    assert abs(fit["phase_rad"]) == pytest.approx(math.radians(PHASE_DEG), abs=1e-5)
+
+
+def test_interp_check_reads_a_plain_sin_cos_table_by_title(tmp_path):
+    _, c, s = _quadrature()
+    table = tmp_path / "capture.tsv"  # sine first, as the capture wrote it
+    table.write_text("sin\tcos\n" + "".join(f"{b:.7f}\t{a:.7f}\n" for a, b in zip(c, s)))
+    out = tmp_path / "err.parquet"
+    r = run(f"enc interp-check --signals {table} --periods-per-rev 18000 --json -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    _check_fit(_fit_of(out))
+    curve = json.loads(r.stdout)["curves"][0]
+    assert curve["name"] == "H1" and curve["period_arcsec"] == pytest.approx(72.0)
+
+
+def test_interp_check_reads_an_oscilloscope_export_by_option(tmp_path):
+    table = tmp_path / "scope.csv"
+    _scope_export(table)
+    out = tmp_path / "err.parquet"
+    r = run(f"enc interp-check --signals {table} --cos 'CH1 [V]' --sin 3 --heads P1 "
+            f"--periods-per-rev 18000 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    header, rows = read_table(str(out), "deviations")
+    assert "P1" in rows.column_names
+    fit = header.meta["signals"]["P1"]["signals"]
+    _check_fit(fit)
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    ("--signals", "--periods-per-rev"),
+    ("--signals --periods-per-rev 100", "no cos column found by its title; columns found: "
+     "'Time [s]', 'CH1 [V]', 'CH2 [V]'; name them with --cos COL --sin COL"),
+    ("", "is a table: a table of sin/cos signals is read with --signals"),
+    ("--signals --periods-per-rev 100 --cos 2 --sin 3 --corrected c.parquet",
+     "--corrected: "),
+])
+def test_a_signal_table_that_does_not_map_is_refused_in_one_line(tmp_path, args, words):
+    table = tmp_path / "scope.csv"
+    _scope_export(table)
+    r = run(f"enc interp-check {table} {args} -o {tmp_path}/o.parquet")
+    assert words in one_error_line(r, 2, "enc interp-check")
+    assert not (tmp_path / "o.parquet").exists()
+
+
+#: a step run's table as a controller's log gives it: target and mean deviation
+STEP_TABLE = ("position_deg,deviation_arcsec\n0,0.0\n45,1.2\n90,2.1\n135,1.5\n180,0.3\n"
+              "225,-0.9\n270,-1.8\n315,-1.1\n")
+
+
+def test_make_rom_takes_a_table_as_enc_points_maps_it(tmp_path):
+    (tmp_path / "run.csv").write_text(STEP_TABLE)
+    r = run("enc points run.csv -o p.parquet && "
+            "enc make-rom p.parquet --target linuxcnc -o a.comp && "
+            "enc make-rom run.csv --target linuxcnc --verify -o b.comp", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    a, b = ([ln for ln in (tmp_path / f).read_text().splitlines() if not ln.startswith("#")]
+            for f in ("a.comp", "b.comp"))
+    assert a == b
+    # LinuxCNC's comp file: nominal, and the position to command in each direction
+    first = (tmp_path / "b.comp").read_text().split("\n")[1].split()
+    assert float(first[0]) == 45.0 and float(first[1]) == pytest.approx(45 - 1.2 / 3600, abs=1e-6)
+
+
+def test_make_rom_refuses_a_table_for_a_memory_and_mapping_options_for_a_stream(tmp_path):
+    (tmp_path / "run.csv").write_text(STEP_TABLE)
+    r = run("enc make-rom run.csv --target mif --bits 16 -o t.mif", cwd=tmp_path)
+    assert "is a table: it gives points" in one_error_line(r, 2, "enc make-rom")
+    r = run("enc points run.csv -o p.parquet && "
+            "enc make-rom p.parquet --position 1 --target linuxcnc -o t.comp", cwd=tmp_path)
+    assert "--position: for a table; p.parquet is a stream" in one_error_line(
+        r, 2, "enc make-rom")
+    assert not (tmp_path / "t.comp").exists() and not (tmp_path / "t.mif").exists()
