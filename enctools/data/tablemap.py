@@ -59,6 +59,8 @@ class Mapping:
     counts_per_rev : counts a revolution, for a column in counts.
     zero_offset : remove or keep the constant offset between indicated and reference
         angle (None: remove for reference + measured, keep for a deviation column).
+    decimal_comma : a text table's numbers have a decimal comma (``1,25``; the table is
+        then separated by tabs, semicolons or blanks); None: a decimal point.
     """
 
     column_position: str | None = None
@@ -73,6 +75,7 @@ class Mapping:
     deviation_unit: str | None = None
     counts_per_rev: int | None = None
     zero_offset: str | None = None
+    decimal_comma: bool | None = None
 
     def column(self, role: str) -> str | None:
         """The column named for ``role`` (None: found by its title)."""
@@ -115,7 +118,8 @@ class Mapping:
     def to_meta(self) -> dict[str, Any]:
         """The mapping as given (None: found by title, or the default), a column by its
         role (``position``)."""
-        return {f.name.removeprefix("column_"): getattr(self, f.name) for f in fields(self)}
+        return {f.name.removeprefix("column_"): getattr(self, f.name) for f in fields(self)
+                if f.name != "decimal_comma" or self.decimal_comma is not None}
 
 
 @dataclass
@@ -248,10 +252,12 @@ def cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | No
         return col, unit
     out = np.empty(len(col))
     for i, cell in enumerate(col):
-        parsed = cell_unit(cell)
+        parsed = cell_unit(cell, raw.decimal_comma)
         if parsed is None:
+            hint = ("" if raw.decimal_comma or cell_unit(cell, True) is None else
+                    " (a decimal comma: give `decimal_comma`)")
             msg = (f"{raw.source}: {raw.where(i)}, column {name!r}: {printable(cell)!r} is not "
-                   "a number")
+                   f"a number{hint}")
             raise DataError(msg)
         out[i], said = parsed
         if said is not None and unit is not None and said != unit:

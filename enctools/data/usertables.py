@@ -58,23 +58,26 @@ def is_table_file(path: str | None) -> bool:
     return fmt is None or is_plain(path, fmt)
 
 
-def read(path: str) -> UserTable:
-    """The table at ``path``: text (``#`` comments, any header) or, by its magic bytes,
-    Parquet, Arrow or HDF5 read as named columns."""
+def read(path: str, decimal_comma: bool = False) -> UserTable:
+    """The table at ``path``: text (``#`` comments, any header; ``decimal_comma``: a
+    comma is a number's decimal mark) or, by its magic bytes, Parquet, Arrow or HDF5
+    read as named columns."""
     from enctools.data.streams import detect_format
     from enctools.data.tables import read_binary, read_text
 
     source = str(path)
     with open(source, "rb") as f:
         fmt = detect_format(f.read(8))
-    return UserTable(read_text(source) if fmt is None else read_binary(source, fmt), source)
+    return UserTable(read_text(source, decimal_comma) if fmt is None else
+                     read_binary(source, fmt), source)
 
 
-def open_input(path: str | None, kind: str) -> UserTable | InputStream:
-    """A user's table when ``path`` is one (:func:`is_table_file`), else the stream of
-    ``kind`` at ``path`` (None, "-": stdin)."""
+def open_input(path: str | None, kind: str, decimal_comma: bool = False
+               ) -> UserTable | InputStream:
+    """A user's table when ``path`` is one (:func:`is_table_file`; ``decimal_comma``: as
+    :func:`read`), else the stream of ``kind`` at ``path`` (None, "-": stdin)."""
     from enctools.data import streams
 
     if path is not None and is_table_file(path):
-        return read(path)
+        return read(path, decimal_comma)
     return streams.open_input(path, kind)

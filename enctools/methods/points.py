@@ -455,10 +455,17 @@ def open_points(path: str | None, expect: tuple[str, ...], mapping: Mapping | No
             _no_mapping(mapping, src.source)
         return src
     if "points" not in expect:
-        msg = (f"{path} is a table: it gives points, and here a {' or '.join(expect)} "
-               "stream is read (fit a model to the points first)")
+        from enctools.data.csvio import sidecar_path
+        from enctools.data.streams import detect_format
+
+        with open(path, "rb") as f:
+            text = detect_format(f.read(8)) is None
+        stream = (f" (its sidecar {sidecar_path(path)}, which is missing, would make it a "
+                  "stream)") if text else ""
+        msg = (f"{path} is a table{stream}: a table gives points, and here a "
+               f"{' or '.join(expect)} stream is read (fit a model to the points first)")
         raise DataError(msg)
-    header, points = read_points(usertables.read(path), mapping)
+    header, points = read_points(usertables.read(path, bool(mapping.decimal_comma)), mapping)
     return streams.InputStream(header, iter(points.table().to_batches()), path, "table")
 
 

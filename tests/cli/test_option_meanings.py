@@ -40,6 +40,7 @@ MEANINGS = {
     "--deviation-unit": "the unit of the deviation column",
     "--counts-per-rev": "counts a revolution, for a column in counts",
     "--zero-offset": "remove or keep the constant offset of the table's deviations",
+    "--decimal-comma": "a text table's numbers have a decimal comma",
     # the methods' words
     "--band": "the highest harmonic order K solved for, kept or shown",
     "--method": "the self-calibration method (the registry's names)",

@@ -114,9 +114,69 @@ def test_make_rom_takes_a_table_as_enc_points_maps_it(tmp_path):
 def test_make_rom_refuses_a_table_for_a_memory_and_mapping_options_for_a_stream(tmp_path):
     (tmp_path / "run.csv").write_text(STEP_TABLE)
     r = run("enc make-rom run.csv --target mif --bits 16 -o t.mif", cwd=tmp_path)
-    assert "is a table: it gives points" in one_error_line(r, 2, "enc make-rom")
+    assert "a table gives points, and here a model or deviations stream is read" in \
+        one_error_line(r, 2, "enc make-rom")
     r = run("enc points run.csv -o p.parquet && "
             "enc make-rom p.parquet --position 1 --target linuxcnc -o t.comp", cwd=tmp_path)
     assert "--position: for a table; p.parquet is a stream" in one_error_line(
         r, 2, "enc make-rom")
     assert not (tmp_path / "t.comp").exists() and not (tmp_path / "t.mif").exists()
+
+
+#: seed 001's table 1 as it comes out of the paper's PDF: degree signs, double primes
+#: (typographic quotes for some), Unicode minus signs, a no-break space before a unit
+PAPER = """\
+# Table 1 Positioning errors of the 23-bit encoder before correction
+Angle\tError
+0°\t0.00″
+15°\t−1.27″
+30°\t\u22120.54\u00a0″
+45°\t0.83”
+60°\t1.96''
+75°\t2.41″
+90°00′00″\t−1.12″
+"""
+PAPER_DEG = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0]
+PAPER_ARCSEC = [0.0, -1.27, -0.54, 0.83, 1.96, 2.41, -1.12]
+
+
+def _deviations(path: Path) -> tuple[dict, np.ndarray, np.ndarray]:
+    header, rows = read_table(str(path), "points")
+    return (header.meta, np.degrees(rows.column("position").to_numpy()),
+            rows.column("deviation").to_numpy())
+
+
+def test_a_table_pasted_from_a_paper_reads_its_primes_and_minus_signs(tmp_path):
+    (tmp_path / "paper.txt").write_text(PAPER, encoding="utf-8")
+    r = run("enc points paper.txt -o p.parquet && enc fit-rbf paper.txt --kernel fourier "
+            "--band 2 -q -o m.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    meta, pos, dev = _deviations(tmp_path / "p.parquet")
+    assert pos == pytest.approx(PAPER_DEG, abs=1e-12)
+    # the last row's angle in degrees, minutes and seconds
+    assert dev == pytest.approx(PAPER_ARCSEC, abs=1e-9)
+    assert meta["table"]["units"] == {"position": "deg", "deviation": "arcsec"}
+
+
+#: an instrument's export with a decimal comma and semicolons (a German locale's CSV)
+GERMAN = """\
+Sollposition [°];Abweichung vorwärts [µrad];Abweichung rückwärts [µrad]
+0;0,0;0,8
+90;-5,25;-4,1
+180;3,5;4,75
+270;-1,0;0,25
+"""
+
+
+def test_a_decimal_comma_table_reads_with_the_option_and_is_named_without(tmp_path):
+    (tmp_path / "de.csv").write_text(GERMAN, encoding="utf-8")
+    r = run("enc points de.csv --position 1 --deviation 2 -o p.parquet", cwd=tmp_path)
+    line = one_error_line(r, 2, "enc points")
+    assert "'0,0' is not a number (a decimal comma: give --decimal-comma)" in line
+    r = run("enc points de.csv --position 1 --deviation 2 --decimal-comma -o p.parquet",
+            cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    _, pos, dev = _deviations(tmp_path / "p.parquet")
+    urad_arcsec = 180 / math.pi * 3600 * 1e-6
+    assert pos == pytest.approx([0, 90, 180, 270], abs=1e-12)
+    assert dev == pytest.approx(np.array([0.0, -5.25, 3.5, -1.0]) * urad_arcsec, abs=1e-9)
