@@ -17,7 +17,7 @@ MODES = {STEPS: ("heads", "autocollimator", "faces", "certificate", "certificate
          TABLE: ("column_position", "column_reference", "column_measured", "column_deviation",
                  "column_direction", "column_run", "position_unit", "reference_unit",
                  "measured_unit", "deviation_unit", "counts_per_rev", "zero_offset",
-                 "decimal_comma")}
+                 "decimal_comma", "columns_forward", "columns_reverse")}
 
 
 def _mode(params: Any) -> str:

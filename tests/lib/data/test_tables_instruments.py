@@ -180,3 +180,93 @@ def test_a_decimal_comma_table_reads_with_the_option_and_is_named_without(tmp_pa
     urad_arcsec = 180 / math.pi * 3600 * 1e-6
     assert pos == pytest.approx([0, 90, 180, 270], abs=1e-12)
     assert dev == pytest.approx(np.array([0.0, -5.25, 3.5, -1.0]) * urad_arcsec, abs=1e-9)
+
+
+#: a laser interferometer's ISO 230-2 log of a rotary axis: a target column, then a
+#: column per run and direction (arrows as its software prints them), in arcsec
+ISO_LOG = """\
+# Rotary axis C, ISO 230-2 bidirectional, 2 runs, 2026-11-30
+Target (deg)\tRun 1 ↑\tRun 1 ↓\tRun 2 ↑\tRun 2 ↓
+0\t0.0\t0.6\t0.1\t0.5
+90\t1.2\t1.9\t1.4\t2.0
+180\t−0.8\t−0.1\t−0.6\t0.0
+270\t0.4\t1.1\t0.3\t1.2
+"""
+
+
+def _iso_columns() -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    rows = [ln.replace("−", "-").split("\t") for ln in ISO_LOG.splitlines()[2:]]
+    target = np.array([float(r[0]) for r in rows])
+    cols = {name: np.array([float(r[k]) for r in rows])
+            for k, name in enumerate(("up1", "down1", "up2", "down2"), start=1)}
+    return target, cols
+
+
+def test_a_wide_iso_log_gives_a_point_per_run_and_direction(tmp_path):
+    (tmp_path / "log.txt").write_text(ISO_LOG, encoding="utf-8")
+    wide = "--forward 'Run 1 ↑' --forward 'Run 2 ↑' --reverse 'Run 1 ↓,Run 2 ↓'"
+    r = run(f"enc points log.txt {wide} -o p.parquet && enc report log.txt {wide} --json > "
+            "r.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    header, rows = read_table(str(tmp_path / "p.parquet"), "points")
+    target, cols = _iso_columns()
+    got = {(int(d), int(k)): (np.degrees(rows.column("reference").to_numpy()[sel]),
+                              rows.column("deviation").to_numpy()[sel])
+           for d in (1, -1) for k in (0, 1)
+           for sel in [(rows.column("direction").to_numpy() == d) &
+                       (rows.column("run").to_numpy() == k)]}
+    for (d, k), name in {(1, 0): "up1", (-1, 0): "down1", (1, 1): "up2",
+                         (-1, 1): "down2"}.items():
+        assert got[d, k][0] == pytest.approx(target, abs=1e-9)
+        assert got[d, k][1] == pytest.approx(cols[name], abs=1e-9)
+    table = header.meta["table"]["columns"]
+    assert table["forward"] == "Run 1 ↑, Run 2 ↑" and table["reverse"] == "Run 1 ↓, Run 2 ↓"
+    # ISO 230-2's reversal value at each target: mean up minus mean down
+    iso = json.loads((tmp_path / "r.json").read_text())["sections"][0]["iso230_2"]
+    b_i = (cols["up1"] + cols["up2"]) / 2 - (cols["down1"] + cols["down2"]) / 2
+    assert [p["B"] for p in iso["positions"]] == pytest.approx(b_i, abs=1e-9)
+    assert iso["axis"]["B"] == pytest.approx(np.abs(b_i).max(), abs=1e-9)
+
+
+def test_a_forward_reverse_pair_with_decimal_commas_in_urad(tmp_path):
+    (tmp_path / "de.csv").write_text(GERMAN, encoding="utf-8")
+    r = run("enc points de.csv --position 1 --forward 2 --reverse 3 --decimal-comma "
+            "-o p.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    header, rows = read_table(str(tmp_path / "p.parquet"), "points")
+    urad_arcsec = 180 / math.pi * 3600 * 1e-6
+    fwd = np.array([0.0, -5.25, 3.5, -1.0]) * urad_arcsec
+    rev = np.array([0.8, -4.1, 4.75, 0.25]) * urad_arcsec
+    assert rows.column("deviation").to_numpy() == pytest.approx(np.r_[fwd, rev], abs=1e-9)
+    assert list(rows.column("direction").to_numpy()) == [1] * 4 + [-1] * 4
+    assert header.meta["table"]["units"]["deviation"] == "urad"
+
+
+def test_a_column_per_run_fits_as_the_runs_mean(tmp_path):
+    text = "angle_deg run_a run_b run_c\n" + "".join(
+        f"{a} {e:.3f} {e + 0.2:.3f} {e - 0.2:.3f}\n"
+        for a, e in zip(range(0, 360, 30), np.sin(np.radians(range(0, 360, 30)))))
+    (tmp_path / "runs.txt").write_text(text)
+    (tmp_path / "mean.txt").write_text("angle_deg error_arcsec\n" + "".join(
+        f"{ln.split()[0]} {ln.split()[1]}\n" for ln in text.splitlines()[1:]))
+    r = run("enc fit-rbf runs.txt --forward run_a,run_b,run_c --kernel fourier --band 2 --json "
+            "-o a.parquet > a.json && enc fit-rbf mean.txt --kernel fourier --band 2 -q "
+            "-o b.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    _, a = read_table(str(tmp_path / "a.parquet"))
+    _, b = read_table(str(tmp_path / "b.parquet"))
+    for name in a.column_names:  # the mean of the three runs is run_a's column
+        assert a.column(name).to_numpy() == pytest.approx(b.column(name).to_numpy(), abs=1e-9)
+    assert json.loads((tmp_path / "a.json").read_text())["targets"]["n_visits"] == 36
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    ("--forward 2 --deviation 3", "--forward and --reverse give the deviation, direction and "
+     "run of a wide table: not with --deviation"),
+    ("--forward 2 --reverse 9", "--reverse '9': no such column"),
+    ("--forward 2,3 --reverse 3", "--forward and --reverse name a column twice"),
+])
+def test_a_wide_table_mapped_wrongly_is_refused_in_one_line(tmp_path, args, words):
+    (tmp_path / "de.csv").write_text(GERMAN, encoding="utf-8")
+    r = run(f"enc points de.csv --position 1 --decimal-comma {args} -o p.parquet", cwd=tmp_path)
+    assert words in one_error_line(r, 2, "enc points")
