@@ -270,3 +270,16 @@ def test_a_wide_table_mapped_wrongly_is_refused_in_one_line(tmp_path, args, word
     (tmp_path / "de.csv").write_text(GERMAN, encoding="utf-8")
     r = run(f"enc points de.csv --position 1 --decimal-comma {args} -o p.parquet", cwd=tmp_path)
     assert words in one_error_line(r, 2, "enc points")
+
+
+def test_enc_info_labels_a_csv_column_in_the_unit_the_file_holds(tmp_path):
+    (tmp_path / "paper.txt").write_text(PAPER, encoding="utf-8")
+    r = run("enc points paper.txt -q --unit urad -o p.csv && enc info p.csv > info.txt && "
+            "enc info p.csv --json > info.json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    assert (tmp_path / "p.csv").read_text().splitlines()[0].split(",")[1] == "deviation_urad"
+    text = (tmp_path / "info.txt").read_text()
+    assert "deviation    double   [urad in the file as deviation_urad, read in arcsec]" in text
+    cols = {c["name"]: c for c in json.loads((tmp_path / "info.json").read_text())["columns"]}
+    assert cols["deviation"]["written_unit"] == "urad" and cols["deviation"]["unit"] == "arcsec"
+    assert "written_unit" not in cols["position"]
