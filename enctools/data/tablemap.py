@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from enctools.data import limits
-from enctools.data.tables import UNITS, RawTable, cell_unit, title_unit
+from enctools.data.tables import LENGTHS, UNITS, RawTable, cell_unit, title_unit
 from enctools.data.text import printable
 from enctools.errors import DataError, SettingsError
 from enctools.units import counts_factor, factor
@@ -256,10 +256,21 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
 # ------------------------------------------------------------------------- values
 
 
+def _not_a_length(raw: RawTable, k: int, unit: str | None, i: int | None = None) -> None:
+    """Refuse a column (or its row ``i``) in a length: points are angles of a rotary axis."""
+    if unit in LENGTHS.values():
+        where = "" if i is None else f"{raw.where(i)}, "
+        msg = (f"{raw.source}: {where}column {printable(raw.titles[k])!r} is a length "
+               f"({unit}): points are angles of a rotary axis (deg, arcsec); a linear "
+               "axis's table is refused, not read as angles")
+        raise DataError(msg)
+
+
 def _unit(raw: RawTable, k: int, role: str, mapping: Mapping) -> str | None:
     """A column's unit: its option's and its title's, which must agree (None: neither)."""
     given = getattr(mapping, f"{role}_unit")
     said = title_unit(raw.titles[k])[1]
+    _not_a_length(raw, k, said)
     if given is not None and said is not None and given != said:
         msg = (f"{raw.source}: column {printable(raw.titles[k])!r}: its title says {said}, "
                f"`{role}_unit` says {given} (mixed units)")
@@ -287,6 +298,7 @@ def cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | No
                    f"a number{hint}")
             raise DataError(msg)
         out[i], said = parsed
+        _not_a_length(raw, k, said, i)
         if said is not None and unit is not None and said != unit:
             msg = (f"{raw.source}: {raw.where(i)}, column {name!r}: {printable(cell)!r} is in "
                    f"{said}, the column in {unit} (mixed units)")

@@ -43,6 +43,12 @@ ALIASES = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg",
            "urad": "urad", "µrad": "urad", "μrad": "urad", "microrad": "urad",
            "mrad": "mrad", "milliradian": "mrad", "milliradians": "mrad",
            "counts": "counts", "count": "counts", "cnt": "counts", "lsb": "counts"}
+#: lengths, as a linear axis's table gives its positions and deviations: recognised so
+#: that they are refused, never read as an angle (enc-points(1), TABLES)
+LENGTHS = {"nm": "nm", "nanometre": "nm", "nanometer": "nm", "um": "um", "µm": "um",
+           "μm": "um", "micron": "um", "microns": "um", "micrometre": "um",
+           "micrometer": "um", "mm": "mm", "millimetre": "mm", "millimeter": "mm"}
+ALIASES |= LENGTHS
 #: characters of a title or cell read for a unit (longer: a name, or not a number); bounds
 #: the regular expressions' work on a hostile line
 _LONGEST = 200

@@ -283,3 +283,12 @@ def test_enc_info_labels_a_csv_column_in_the_unit_the_file_holds(tmp_path):
     cols = {c["name"]: c for c in json.loads((tmp_path / "info.json").read_text())["columns"]}
     assert cols["deviation"]["written_unit"] == "urad" and cols["deviation"]["unit"] == "arcsec"
     assert "written_unit" not in cols["position"]
+
+
+def test_a_linear_axis_log_in_um_is_refused_not_read_as_arcsec(tmp_path):
+    (tmp_path / "lin.txt").write_text("Target [mm]\tRun 1 ↑ [µm]\tRun 1 ↓ [µm]\n"
+                                      "0\t0.0\t0.4\n100\t1.3\t1.9\n", encoding="utf-8")
+    r = run("enc points lin.txt --reference-column 1 --forward 2 --reverse 3 -o p.parquet",
+            cwd=tmp_path)
+    assert "column 'Run 1 ↑ [µm]' is a length (um)" in one_error_line(r, 2, "enc points")
+    assert not (tmp_path / "p.parquet").exists()
