@@ -22,7 +22,7 @@ REFERENCE = "Reference mode (without --signals)"
 MODES = {REFERENCE: ("average", "reference", "reference_file", "probes", "arm_m", "keep",
                      "reference_harmonics", "window_arcsec"),
          SIGNALS: ("min_arc_deg", "allow_excluded_pct", "rails_v", "corrected", "column_cos",
-                   "column_sin", "periods_per_rev")}
+                   "column_sin", "periods_per_rev", "decimal_comma")}
 usage.FIELD_FLAGS["interp-check"] = {"signals": "--signals",
                                      "interval_s": "enc acquire --interval"}
 
@@ -99,6 +99,9 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
                    "by its title, sin, sine, Q, B, Ua2).")
 @click.option("--periods-per-rev", "periods_per_rev", type=int, default=None, metavar="N",
               help="A table of signals: the encoder's signal periods a revolution.")
+@click.option("--decimal-comma", is_flag=True, default=False,
+              help="A text table's numbers have a decimal comma (1,25); its columns are then "
+                   "separated by tabs, semicolons or blanks.")
 @click.option("--corrected", default=None, type=click.Path(dir_okay=False),
               help="Also write the readings with each head's counts "
                    "re-interpolated from the corrected phase.")
@@ -115,7 +118,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
             trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool,
             min_arc_deg: float, allow_excluded_pct: float, rails_v: list[float] | None,
             column_cos: str | None, column_sin: str | None, periods_per_rev: int | None,
-            corrected: str | None, spectrum_path: str | None,
+            decimal_comma: bool, corrected: str | None, spectrum_path: str | None,
             tolerance: float | None, as_json: bool, unit: str, output: str | None,
             force: bool, fmt: str | None) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
@@ -133,7 +136,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     from enctools.data.files import OutputGroup
     from enctools.methods.interp import Settings, check
 
-    table = (column_cos, column_sin, periods_per_rev)
+    table = (column_cos, column_sin, periods_per_rev, decimal_comma or None)
 
     settings = Settings(
         heads=heads, average=average, reference=reference, reference_file=reference_file,
@@ -186,15 +189,17 @@ def _check_outputs(output: str | None, spectrum_path: str | None, corrected: str
 
 
 def _open(input: str | None, signals_mode: bool, heads: list[str] | None,
-          table: tuple[str | None, str | None, int | None], corrected: str | None) -> Any:
+          table: tuple[str | None, str | None, int | None, bool | None], corrected: str | None
+          ) -> Any:
     """The readings stream, or (--signals) a user's table of one head's sin/cos signals
-    read as its signal columns (``table``: --cos, --sin, --periods-per-rev)."""
+    read as its signal columns (``table``: --cos, --sin, --periods-per-rev,
+    --decimal-comma)."""
     from enctools.cli.usage import UsageError
     from enctools.data import signaltable, streams, usertables
 
     if input is None or not usertables.is_table_file(input):
-        given = [o for o, v in zip(("--cos", "--sin", "--periods-per-rev"), table, strict=True)
-                 if v is not None]
+        given = [o for o, v in zip(("--cos", "--sin", "--periods-per-rev", "--decimal-comma"),
+                                   table, strict=True) if v is not None]
         if given:
             msg = f"{', '.join(given)}: for a table of signals; {input or 'stdin'} is a stream"
             raise UsageError(msg)
@@ -208,8 +213,9 @@ def _open(input: str | None, signals_mode: bool, heads: list[str] | None,
     if heads is not None and len(heads) != 1:
         msg = f"--heads: a table of signals holds one head, not {len(heads)}"
         raise UsageError(msg)
-    mapping = signaltable.SignalMapping(*table, head=heads[0] if heads else "H1")
-    meta, rows = signaltable.signal_readings(usertables.read(input).raw, mapping)
+    mapping = signaltable.SignalMapping(*table[:3], head=heads[0] if heads else "H1")
+    meta, rows = signaltable.signal_readings(usertables.read(input, bool(table[3])).raw,
+                                             mapping)
     return streams.InputStream(streams.Header("readings", rows.schema, meta),
                                iter(rows.to_batches()), input, "table")
 

@@ -292,3 +292,16 @@ def test_a_linear_axis_log_in_um_is_refused_not_read_as_arcsec(tmp_path):
             cwd=tmp_path)
     assert "column 'Run 1 ↑ [µm]' is a length (um)" in one_error_line(r, 2, "enc points")
     assert not (tmp_path / "p.parquet").exists()
+
+
+def test_a_signal_capture_with_decimal_commas(tmp_path):
+    _, c, s = _quadrature()
+    table = tmp_path / "capture.csv"  # a German locale's export: semicolons, decimal commas
+    table.write_text("Zeit [s];Kanal A [V];Kanal B [V]\n" + "".join(
+        f"{k * 1e-5:.6f};{a:.7f};{b:.7f}\n".replace(".", ",")
+        for k, (a, b) in enumerate(zip(c, s))))
+    out = tmp_path / "err.parquet"
+    r = run(f"enc interp-check --signals {table} --cos 2 --sin 3 --decimal-comma "
+            f"--periods-per-rev 18000 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    _check_fit(_fit_of(out))
