@@ -32,7 +32,8 @@ def is_table_file(path: str | None) -> bool:
     without a sidecar, or a Parquet, Arrow or HDF5 table without enctools metadata.
 
     A stream starts with its format's magic bytes and carries enctools metadata, or is a
-    CSV or TSV table with its sidecar (read as a stream, see enc-streams(5)); stdin
+    CSV or TSV table with its enctools sidecar (read as a stream, see enc-streams(5); a
+    CSVW sidecar another program wrote, without enctools' part, leaves it a table); stdin
     (None, "-") and pipes are streams (a pipe can be read once only). An unreadable path
     is not a table: opening it as a stream then says what is wrong.
     """
@@ -43,7 +44,8 @@ def is_table_file(path: str | None) -> bool:
     from enctools.data.streams import detect_format
     from enctools.data.tables import is_plain
 
-    if path is None or path == "-" or os.path.exists(sidecar_path(path)):
+    if path is None or path == "-" or (os.path.exists(sidecar_path(path)) and
+                                       _enctools_sidecar(path)):
         return False
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):
@@ -56,6 +58,19 @@ def is_table_file(path: str | None) -> bool:
         return False
     fmt = detect_format(head)
     return fmt is None or is_plain(path, fmt)
+
+
+def _enctools_sidecar(path: str) -> bool:
+    """Whether the sidecar beside ``path`` is enctools' (it has an ``enctools`` part), or
+    cannot be read (then opening the stream says why)."""
+    from enctools.data.csvio import read_sidecar
+    from enctools.errors import DataError
+
+    try:
+        doc = read_sidecar(path)
+    except DataError:
+        return True
+    return not isinstance(doc, dict) or "enctools" in doc
 
 
 def read(path: str, decimal_comma: bool = False) -> UserTable:

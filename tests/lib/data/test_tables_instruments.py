@@ -305,3 +305,16 @@ def test_a_signal_capture_with_decimal_commas(tmp_path):
             f"--periods-per-rev 18000 -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     _check_fit(_fit_of(out))
+
+
+def test_a_table_beside_another_programs_csvw_sidecar_is_a_table(tmp_path):
+    (tmp_path / "run.csv").write_text(STEP_TABLE)
+    (tmp_path / "run.csv-metadata.json").write_text(json.dumps({
+        "@context": "http://www.w3.org/ns/csvw", "url": "run.csv",
+        "tableSchema": {"columns": [{"titles": "position_deg", "datatype": "double"},
+                                    {"titles": "deviation_arcsec", "datatype": "double"}]}}))
+    r = run("enc make-rom run.csv --target linuxcnc -q -o t.comp && "
+            "enc points run.csv -q -o p.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    _, _, dev = _deviations(tmp_path / "p.parquet")
+    assert dev == pytest.approx([0.0, 1.2, 2.1, 1.5, 0.3, -0.9, -1.8, -1.1], abs=1e-12)
