@@ -16,8 +16,9 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data.arrays import arrow_array
+from enctools.data.limits import FIELD_RANGES
 from enctools.data.readings import HeadInfo, head_info, signal_phase
-from enctools.data.schemas import columns_with_role, field_meta
+from enctools.data.schemas import columns_with_role, field_meta, parse_field_value
 from enctools.errors import DataError
 from enctools.methods import heydemann as hd
 from enctools.methods.interp.curve import Curve, error_figures
@@ -135,9 +136,10 @@ def _signal_geometry(schema: pa.Schema, name: str, components: dict[str, str]
     """A head without a counts column (signals from a user's table): its signal periods
     a revolution from its signal columns' field metadata ``periods_per_rev`` (None:
     none stated, no curve)."""
-    stated = {field_meta(schema.field(c)).get("periods_per_rev") for c in components.values()}
-    stated.discard(None)
-    if len(stated) != 1:
+    rng = FIELD_RANGES["signal"]["periods_per_rev"]
+    stated = {parse_field_value(field_meta(schema.field(c)).get("periods_per_rev", ""), rng)
+              for c in components.values()}
+    if len(stated) != 1 or None in stated:
         return None
     ppr = int(str(stated.pop()))
     return HeadInfo(name=name, encoder=name, alpha=0.0, counts_per_rev=ppr,
