@@ -145,7 +145,7 @@ def _apply(input: str | None, table_for: TableFor, readings: ReadingsSettings,
     given = [o for o, v in (("--heads", readings.heads), ("--reference", readings.reference))
              if v is not None]
     if input is not None and is_table_file(input):
-        header, pts = read_points(usertables.read(input), mapping)
+        header, pts = read_points(usertables.read(input, bool(mapping.decimal_comma)), mapping)
         source = input
     else:
         if mapping.given():

@@ -64,14 +64,15 @@ def command(input: str | None, kernel: str, spread_deg: float | None, goal: floa
     settings = fitting.Settings(kernel, spread_deg, goal, harmonics, holdout_path)
     check_json(as_json, output)
     streams.check_output(output, force, fmt)
-    header, pts = read_points(usertables.open_input(input, "points"), mapping)
+    comma = bool(mapping.decimal_comma)
+    header, pts = read_points(usertables.open_input(input, "points", comma), mapping)
     means = target_means(pts, header.meta.get("source", "input"), header.meta)
     if means.spread > 0:
         runner.log.info("visits of one target differ by up to %.4f arcsec; fitted the mean per "
                         "target", means.spread)
     hold = None
     if holdout_path is not None:
-        hh, hp = read_points(usertables.open_input(holdout_path, "points"), mapping)
+        hh, hp = read_points(usertables.open_input(holdout_path, "points", comma), mapping)
         hold = distinct(hp, holdout_path, hh.meta)[:2]
     fit = fitting.fit_points(means.position_deg, means.mean, settings, hold,
                              runner.Progress("spread search", "spreads"))

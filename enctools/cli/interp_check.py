@@ -21,7 +21,8 @@ REFERENCE = "Reference mode (without --signals)"
 #: the options of one mode: the other ignores them, or refuses them
 MODES = {REFERENCE: ("average", "reference", "reference_file", "probes", "arm_m", "keep",
                      "reference_harmonics", "window_arcsec"),
-         SIGNALS: ("min_arc_deg", "allow_excluded_pct", "rails_v", "corrected")}
+         SIGNALS: ("min_arc_deg", "allow_excluded_pct", "rails_v", "corrected", "column_cos",
+                   "column_sin", "periods_per_rev", "decimal_comma")}
 usage.FIELD_FLAGS["interp-check"] = {"signals": "--signals",
                                      "interval_s": "enc acquire --interval"}
 
@@ -90,6 +91,17 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
               metavar="LOW,HIGH",
               help="The ADC's rails of every signal channel [V] (default: the "
                    "columns' rail_low_v/rail_high_v, else flat tops detected).")
+@click.option("--cos", "column_cos", default=None, metavar="COL",
+              help="A table of signals: the cosine's column (title or number; default: found "
+                   "by its title, cos, cosine, I, A, Ua1).")
+@click.option("--sin", "column_sin", default=None, metavar="COL",
+              help="A table of signals: the sine's column (title or number; default: found "
+                   "by its title, sin, sine, Q, B, Ua2).")
+@click.option("--periods-per-rev", "periods_per_rev", type=int, default=None, metavar="N",
+              help="A table of signals: the encoder's signal periods a revolution.")
+@click.option("--decimal-comma", is_flag=True, default=False,
+              help="A text table's numbers have a decimal comma (1,25); its columns are then "
+                   "separated by tabs, semicolons or blanks.")
 @click.option("--corrected", default=None, type=click.Path(dir_okay=False),
               help="Also write the readings with each head's counts "
                    "re-interpolated from the corrected phase.")
@@ -105,7 +117,8 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
             harmonics: int | None, keep: list[int] | None, reference_harmonics: int,
             trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool,
             min_arc_deg: float, allow_excluded_pct: float, rails_v: list[float] | None,
-            corrected: str | None, spectrum_path: str | None,
+            column_cos: str | None, column_sin: str | None, periods_per_rev: int | None,
+            decimal_comma: bool, corrected: str | None, spectrum_path: str | None,
             tolerance: float | None, as_json: bool, unit: str, output: str | None,
             force: bool, fmt: str | None) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
@@ -117,11 +130,13 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     uncertainty. Figures (p-p, +/-) and harmonics go to stderr and into the
     output's metadata.
     """
-    from enctools.cli.summary import check_json, emit
+    from enctools.cli.summary import emit
     from enctools.cli.usage import UsageError
     from enctools.data import streams
     from enctools.data.files import OutputGroup
     from enctools.methods.interp import Settings, check
+
+    table = (column_cos, column_sin, periods_per_rev, decimal_comma or None)
 
     settings = Settings(
         heads=heads, average=average, reference=reference, reference_file=reference_file,
@@ -130,12 +145,8 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         window_arcsec=window_arcsec, points=points, signals=signals_mode,
         min_arc_deg=min_arc_deg, allow_excluded_pct=allow_excluded_pct,
         rails_v=None if rails_v is None else tuple(rails_v), corrected=bool(corrected))
-    options.distinct_outputs({"-o": output, "--spectrum": spectrum_path, "--corrected": corrected})
-    check_json(as_json, output)
-    streams.check_output(output, force, fmt)
-    for extra in filter(None, (spectrum_path, corrected)):
-        streams.check_output(extra, force, None)
-    source = streams.open_input(input, "readings")
+    _check_outputs(output, spectrum_path, corrected, (force, fmt, as_json))
+    source = _open(input, signals_mode, heads, table, corrected)
     ref_stream = None if reference_file is None else streams.open_input(reference_file, "readings")
     checked = check.run(runner.RowsRead(source), settings, ref_stream)
     curves = checked.curves
@@ -160,6 +171,53 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     emit({"curves": [_summary(c) for c in curves]}, as_json, unit)
     if tolerance is not None:
         _check_tolerance(curves, tolerance)
+
+
+def _check_outputs(output: str | None, spectrum_path: str | None, corrected: str | None,
+                   how: tuple[bool, str | None, bool]) -> None:
+    """Refuse outputs that are one file, exist without --force, or a JSON summary where
+    the stream goes to stdout (``how``: --force, --format, --json), before any work."""
+    from enctools.cli.summary import check_json
+    from enctools.data import streams
+
+    force, fmt, as_json = how
+    options.distinct_outputs({"-o": output, "--spectrum": spectrum_path, "--corrected": corrected})
+    check_json(as_json, output)
+    streams.check_output(output, force, fmt)
+    for extra in filter(None, (spectrum_path, corrected)):
+        streams.check_output(extra, force, None)
+
+
+def _open(input: str | None, signals_mode: bool, heads: list[str] | None,
+          table: tuple[str | None, str | None, int | None, bool | None], corrected: str | None
+          ) -> Any:
+    """The readings stream, or (--signals) a user's table of one head's sin/cos signals
+    read as its signal columns (``table``: --cos, --sin, --periods-per-rev,
+    --decimal-comma)."""
+    from enctools.cli.usage import UsageError
+    from enctools.data import signaltable, streams, usertables
+
+    if input is None or not usertables.is_table_file(input):
+        given = [o for o, v in zip(("--cos", "--sin", "--periods-per-rev", "--decimal-comma"),
+                                   table, strict=True) if v is not None]
+        if given:
+            msg = f"{', '.join(given)}: for a table of signals; {input or 'stdin'} is a stream"
+            raise UsageError(msg)
+        return streams.open_input(input, "readings")
+    if not signals_mode:
+        msg = f"{input} is a table: a table of sin/cos signals is read with --signals"
+        raise UsageError(msg)
+    if corrected:
+        msg = f"--corrected: {input} is a table of signals, without the heads' counts"
+        raise UsageError(msg)
+    if heads is not None and len(heads) != 1:
+        msg = f"--heads: a table of signals holds one head, not {len(heads)}"
+        raise UsageError(msg)
+    mapping = signaltable.SignalMapping(*table[:3], head=heads[0] if heads else "H1")
+    meta, rows = signaltable.signal_readings(usertables.read(input, bool(table[3])).raw,
+                                             mapping)
+    return streams.InputStream(streams.Header("readings", rows.schema, meta),
+                               iter(rows.to_batches()), input, "table")
 
 
 def _check_tolerance(curves: list[Any], tolerance: float) -> None:

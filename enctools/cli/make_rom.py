@@ -15,6 +15,7 @@ if TYPE_CHECKING:
 
     from enctools.data.header import Header
     from enctools.data.streams import InputStream
+    from enctools.data.tablemap import Mapping
     from enctools.models.rom import Rom, Settings
     from enctools.models.romformats.controls import ControlSettings
 
@@ -102,6 +103,7 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
 @click.option("--allow-coarse", is_flag=True, default=False,
               help="Write a table whose LSB or resolution leaves an RMS error over 1/4 of "
                    "the correction's (or rounds it all to 0), with a warning.")
+@options.table_columns
 @options.output
 @options.force
 @click.option("--format", "fmt", type=click.Choice(options.FORMATS), default=None,
@@ -116,7 +118,8 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             comp_type: int, points: int | None, detection_unit: float,
             increment_system: str | None, home_point: int, tnc: str | None,
             outside: str | None, verify: bool, allow_no_gain: bool, allow_coarse: bool,
-            output: str | None, force: bool, fmt: str | None, as_json: bool, unit: str) -> None:
+            output: str | None, force: bool, fmt: str | None, as_json: bool, unit: str,
+            mapping: Mapping) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -126,8 +129,8 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     to stderr. What a target cannot hold is refused.
 
     A control's table is also built from a points stream (a step run, per target and
-    direction): a grid over the turn at the control's resolution, with the
-    interpolation error it costs in the summary.
+    direction) or a table, its columns mapped as by `enc points`: a grid over the turn
+    at the control's resolution, with the interpolation error it costs in the summary.
     """
     import time
 
@@ -145,9 +148,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             points=points, max_entries=max_entries, axis=axis, detection_unit_deg=detection_unit,
             home_point=home_point, increment_system=_one_unit(increment_system), tnc=tnc)
         _control(input, curve, control, str(path), (force, verify, outside), as_json, unit,
-                 (allow_no_gain, allow_coarse))
+                 (allow_no_gain, allow_coarse), mapping)
         return
-    src, evaluate, extent = _measured_model(input, family, curve, outside)
+    src, evaluate, extent = _measured_model(input, family, curve, outside, mapping)
     settings = rom.Settings(
         _bits_from_rig(src.header.meta) if code_bits is None else code_bits,
         address_bits=address_bits, width=width, lsb=lsb, sample=sample, target=target,
@@ -172,18 +175,18 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
 
 
 def _measured_model(input: str | None, family: str | None, curve: str | None,
-                    outside: str | None
+                    outside: str | None, mapping: Mapping
                     ) -> tuple[InputStream, Callable[[np.ndarray], np.ndarray], dict[str, Any]]:
     """The input opened (a controller's table is built from a step run too), the deviation
     [arcsec] at angles [deg] a memory table is built from, restricted to the range its
     source measured (refused over a partial one without ``outside``), and what the summary
     says of that range."""
-    from enctools.data import streams
+    from enctools.methods.points import open_points
     from enctools.models import domain, rom
     from enctools.models.romformats import registry
 
     kinds = ("model", "deviations") + (("points",) if family == registry.CONTROLLER else ())
-    src = streams.open_input(input, kinds)
+    src = open_points(input, kinds, mapping)
 
     rows = src.read_all()
     measured = domain.measured_of(src.header, rows, src.source)
@@ -296,20 +299,21 @@ def _control_settings(**settings: Any) -> ControlSettings:
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,
              flags: tuple[bool, bool, str | None], as_json: bool, unit: str,
-             allow: tuple[bool, bool]) -> None:
-    """Build a control's point table from a step run or a model, write it, verify it
-    (``flags``: --force, --verify, --outside; ``allow``: --allow-no-gain, --allow-coarse)."""
+             allow: tuple[bool, bool], mapping: Mapping) -> None:
+    """Build a control's point table from a step run (a points stream or a table mapped
+    by ``mapping``) or a model, write it, verify it (``flags``: --force, --verify,
+    --outside; ``allow``: --allow-no-gain, --allow-coarse)."""
     import time
 
     from enctools.cli.summary import emit
-    from enctools.data import streams
     from enctools.data.header import history_line
+    from enctools.methods.points import open_points
     from enctools.models import domain, rom, romformats
     from enctools.models.romformats import controls
 
     force, verify, outside = flags
     t0 = time.monotonic()
-    src = streams.open_input(input, ("points", "model", "deviations"))
+    src = open_points(input, ("points", "model", "deviations"), mapping)
     rows = src.read_all()
     source = rom.control_source(src.header, rows, src.source, curve)
     measured = source.measured or domain.measured_of(src.header, rows, src.source)

@@ -295,7 +295,8 @@ TABLE_RENAMED = {"--ref": "--reference-column", "--reference": "--reference-colu
 
 def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
     """--position/--reference-column/--measured/--deviation/--direction/--run COL, a unit
-    per angle column (--position-unit, ...), --counts-per-rev and --zero-offset: passed
+    per angle column (--position-unit, ...), --counts-per-rev, --zero-offset,
+    --decimal-comma and a wide table's --forward/--reverse COL,...: passed
     to the command as ``mapping`` (a ``Mapping``; its checks are one SettingsError line
     naming these options)."""
     reference = ("--reference-column",)
@@ -310,9 +311,19 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
 
         given = {f"column_{k}": kwargs.pop(f"column_{k}") for k in names}
         given |= {k: kwargs.pop(k) for k in [*units, "counts_per_rev", "zero_offset"]}
+        given["decimal_comma"] = kwargs.pop("decimal_comma") or None
+        given |= {k: kwargs.pop(k) or None for k in ("columns_forward", "columns_reverse")}
         return f(*args, mapping=Mapping(**given), **kwargs)
 
     g: Callable[..., Any] = with_mapping
+    for side, sign in reversed((("forward", "+1"), ("reverse", "-1"))):
+        g = click.option(f"--{side}", f"columns_{side}", multiple=True, metavar="COL[,COL...]",
+                         help=f"A wide table: its deviation columns of the {side} direction "
+                              f"({sign}), one a run (repeat it, or separate them by commas), "
+                              "in place of --deviation, --direction and --run.")(g)
+    g = click.option("--decimal-comma", is_flag=True, default=False,
+                     help="A text table's numbers have a decimal comma (1,25); its columns "
+                          "are then separated by tabs, semicolons or blanks.")(g)
     g = click.option("--zero-offset", type=click.Choice(["remove", "keep"]), default=None,
                      help="Remove or keep the constant offset between indicated and reference "
                           "angle (default: remove with --reference and --measured, keep a "

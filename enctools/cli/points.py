@@ -16,7 +16,8 @@ MODES = {STEPS: ("heads", "autocollimator", "faces", "certificate", "certificate
                  "first_face"),
          TABLE: ("column_position", "column_reference", "column_measured", "column_deviation",
                  "column_direction", "column_run", "position_unit", "reference_unit",
-                 "measured_unit", "deviation_unit", "counts_per_rev", "zero_offset")}
+                 "measured_unit", "deviation_unit", "counts_per_rev", "zero_offset",
+                 "decimal_comma", "columns_forward", "columns_reverse")}
 
 
 def _mode(params: Any) -> str:
@@ -72,7 +73,7 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     cert = None
     if certificate is not None and not usertables.is_table_file(input):
         cert = read_certificate(certificate, None, certificate_unit)
-    given = usertables.open_input(input, "readings")
+    given = usertables.open_input(input, "readings", bool(mapping.decimal_comma))
     header, found = points.make_points(given, settings, mapping, cert)
     streams.write_table(output, with_history(header, output=output), found.table(), force, fmt,
                         unit=unit)

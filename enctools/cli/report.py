@@ -23,7 +23,8 @@ MODES = {
     "Tables read as points": (
         "column_position", "column_reference", "column_measured", "column_deviation",
         "column_direction", "column_run", "position_unit", "reference_unit", "measured_unit",
-        "deviation_unit", "counts_per_rev", "zero_offset"),
+        "deviation_unit", "counts_per_rev", "zero_offset", "decimal_comma", "columns_forward",
+        "columns_reverse"),
 }
 
 

@@ -266,8 +266,8 @@ def read_sidecar(path: str) -> dict[str, Any]:
         st = os.stat(side)
     except OSError:
         msg = (f"{path}: a CSV or TSV table is read as a stream with its sidecar "
-               f"{side}, which is missing (without one, only a points table "
-               "position_deg,deviation_arcsec[,direction,run] is read)")
+               f"{side}, which is missing (without one, a table of points or of sin/cos "
+               "signals is read by the commands that take one: enc-points(1), TABLES)")
         raise DataError(msg) from None
     if not stat.S_ISREG(st.st_mode):  # a FIFO would wait for a writer
         msg = f"{side}: not a regular file"
@@ -350,6 +350,18 @@ class _Layout:
                 msg = (f"{source}: the sidecar titles column {printable(f.name)!r} "
                        f"{printable(text)!r}, not {printable(title(f.name, unit))!r}")
                 raise DataError(msg)
+
+
+def written_units(path: str) -> dict[str, tuple[str, str]]:
+    """Column -> (its title, the unit the file holds it in) of the CSV or TSV stream at
+    ``path`` whose columns its writer wrote in another unit than the stream's (errors in
+    urad: a deviation in arcsec written as ``deviation_urad``), from its sidecar."""
+    layout = _Layout(read_sidecar(path), sidecar_path(path))
+    out = {}
+    for f, title, unit in zip(layout.fields, layout.titles, layout.units, strict=True):
+        if unit and unit != _unit_of(f):
+            out[f.name] = (title, unit)
+    return out
 
 
 def _arrow_type(name: str) -> pa.DataType:

@@ -29,11 +29,15 @@ def describe(stream: InputStream) -> str:
     if "mode" in h.meta:
         lines.append(f"  mode: {h.meta['mode']}")
     lines.append("  columns:")
+    written = written_units(stream)
     for f in h.schema:
         fm = field_meta(f)
         unit = fm.pop("unit", "")
         role = fm.pop("role", "")
         extra = ", ".join(f"{k}={v}" for k, v in fm.items())
+        if f.name in written:  # the file holds it in another unit than the stream reads
+            title, held = written[f.name]
+            unit = f"{held} in the file as {title}, read in {unit}"
         desc = f"    {f.name:<12} {f.type!s:<8} [{unit}]"
         if role:
             desc += f" {role}"
@@ -47,6 +51,17 @@ def describe(stream: InputStream) -> str:
     return printable_lines(lines)
 
 
+def written_units(stream: InputStream) -> dict[str, tuple[str, str]]:
+    """Column -> (its title, the unit the file holds it in) of a CSV or TSV stream's
+    columns written in another unit than the stream reads them in
+    (:func:`enctools.data.csvio.written_units`); {} for the other formats."""
+    from enctools.data.csvio import written_units as in_file
+
+    if stream.format not in ("CSV", "TSV") or stream.source == "stdin":
+        return {}
+    return in_file(stream.source)
+
+
 def info_dict(stream: InputStream) -> dict[str, Any]:
     """A stream described as a dict for enc info's JSON (enc-streams(5), SUMMARIES):
     source, kind, schema version, format, rows and batches read, the rig's name, the
@@ -58,10 +73,13 @@ def info_dict(stream: InputStream) -> dict[str, Any]:
         batches += 1
     h = stream.header
     columns = []
+    written = written_units(stream)
     for f in h.schema:
         fm = field_meta(f)
         columns.append({"name": f.name, "type": str(f.type), "unit": fm.pop("unit", ""),
                         "role": fm.pop("role", ""), "metadata": fm})
+        if f.name in written:
+            columns[-1] |= {"title": written[f.name][0], "written_unit": written[f.name][1]}
     rig = h.meta.get("rig")
     return {"source": stream.source, "kind": h.kind,
             "schema_version": h.meta.get("schema_version"), "format": stream.format,

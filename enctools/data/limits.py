@@ -207,6 +207,8 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
         # the ADC's rails of the channel (optional): the bound of a signal sample
         "rail_low_v": Range("float", -MAX_ABS_VOLTS, MAX_ABS_VOLTS, "V"),
         "rail_high_v": Range("float", -MAX_ABS_VOLTS, MAX_ABS_VOLTS, "V"),
+        # a head without a counts column (a user's table of signals): its periods a turn
+        "periods_per_rev": Range("int", 1, 1 << 32, "period"),
     },
 }
 

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from enctools.data import limits
-from enctools.data.tables import UNITS, RawTable, cell_unit, title_unit
+from enctools.data.tables import LENGTHS, UNITS, RawTable, cell_unit, title_unit
 from enctools.data.text import printable
 from enctools.errors import DataError, SettingsError
 from enctools.units import counts_factor, factor
@@ -43,6 +43,9 @@ _NAMES = {"position": {"position", "pos", "angle", "theta"},
 _WORDS = {"reference": {"reference", "ref", "true", "stage", "nominal", "target"},
           "measured": {"measured", "indicated", "reading", "encoder", "sensor"}}
 ZERO_OFFSET = ("remove", "keep")
+#: fields a points stream's metadata names only when given (streams made before them
+#: read the same)
+_LATER = ("decimal_comma", "columns_forward", "columns_reverse")
 _ARCSEC_PER_DEG = factor("deg", "arcsec")
 
 
@@ -59,6 +62,12 @@ class Mapping:
     counts_per_rev : counts a revolution, for a column in counts.
     zero_offset : remove or keep the constant offset between indicated and reference
         angle (None: remove for reference + measured, keep for a deviation column).
+    decimal_comma : a text table's numbers have a decimal comma (``1,25``; the table is
+        then separated by tabs, semicolons or blanks); None: a decimal point.
+    columns_forward, columns_reverse : a wide table's deviation columns, one a run, of
+        the forward (+1) and the reverse (-1) direction (run k: the k-th of each; a name
+        may list several separated by commas): in place of a deviation, direction and
+        run column.
     """
 
     column_position: str | None = None
@@ -73,6 +82,9 @@ class Mapping:
     deviation_unit: str | None = None
     counts_per_rev: int | None = None
     zero_offset: str | None = None
+    decimal_comma: bool | None = None
+    columns_forward: tuple[str, ...] | None = None
+    columns_reverse: tuple[str, ...] | None = None
 
     def column(self, role: str) -> str | None:
         """The column named for ``role`` (None: found by its title)."""
@@ -80,8 +92,9 @@ class Mapping:
 
     @staticmethod
     def option(role: str) -> str:
-        """The setting naming a role's column, as a field between backticks."""
-        return f"`column_{role}`"
+        """The setting naming a role's column (or a wide table's ``columns_forward``,
+        ``columns_reverse``), as a field between backticks."""
+        return f"`{role}`" if role.startswith("columns_") else f"`column_{role}`"
 
     def __post_init__(self) -> None:
         for role in (*ANGLES, "deviation"):
@@ -103,6 +116,23 @@ class Mapping:
         if self.zero_offset is not None and self.zero_offset not in ZERO_OFFSET:
             msg = f"`zero_offset` must be remove or keep, not {self.zero_offset!r}"
             raise SettingsError(msg)
+        self._check_wide()
+
+    def _check_wide(self) -> None:
+        """A wide table's columns give the deviation, direction and run: refused beside
+        a column named for one of them."""
+        if not self.wide():
+            return
+        named = [f"`column_{r}`" for r in ("deviation", "direction", "run")
+                 if self.column(r) is not None]
+        if named:
+            msg = (f"`columns_forward` and `columns_reverse` give the deviation, direction and "
+                   f"run of a wide table: not with {', '.join(named)}")
+            raise SettingsError(msg)
+
+    def wide(self) -> bool:
+        """Whether a wide table's deviation columns are named (one a run and direction)."""
+        return bool(self.columns_forward or self.columns_reverse)
 
     def given(self) -> list[str]:
         """The settings given, each as its field between backticks."""
@@ -115,7 +145,8 @@ class Mapping:
     def to_meta(self) -> dict[str, Any]:
         """The mapping as given (None: found by title, or the default), a column by its
         role (``position``)."""
-        return {f.name.removeprefix("column_"): getattr(self, f.name) for f in fields(self)}
+        return {f.name.removeprefix("column_"): getattr(self, f.name) for f in fields(self)
+                if f.name not in _LATER or getattr(self, f.name) is not None}
 
 
 @dataclass
@@ -225,10 +256,21 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
 # ------------------------------------------------------------------------- values
 
 
+def _not_a_length(raw: RawTable, k: int, unit: str | None, i: int | None = None) -> None:
+    """Refuse a column (or its row ``i``) in a length: points are angles of a rotary axis."""
+    if unit in LENGTHS.values():
+        where = "" if i is None else f"{raw.where(i)}, "
+        msg = (f"{raw.source}: {where}column {printable(raw.titles[k])!r} is a length "
+               f"({unit}): points are angles of a rotary axis (deg, arcsec); a linear "
+               "axis's table is refused, not read as angles")
+        raise DataError(msg)
+
+
 def _unit(raw: RawTable, k: int, role: str, mapping: Mapping) -> str | None:
     """A column's unit: its option's and its title's, which must agree (None: neither)."""
     given = getattr(mapping, f"{role}_unit")
     said = title_unit(raw.titles[k])[1]
+    _not_a_length(raw, k, said)
     if given is not None and said is not None and given != said:
         msg = (f"{raw.source}: column {printable(raw.titles[k])!r}: its title says {said}, "
                f"`{role}_unit` says {given} (mixed units)")
@@ -236,7 +278,7 @@ def _unit(raw: RawTable, k: int, role: str, mapping: Mapping) -> str | None:
     return given or said
 
 
-def _cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | None]:
+def cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | None]:
     """A column's numbers and unit: a text column's cells parsed, each unit written in a
     cell the column's (DataError naming the line otherwise)."""
     col = raw.columns[k]
@@ -248,12 +290,15 @@ def _cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | N
         return col, unit
     out = np.empty(len(col))
     for i, cell in enumerate(col):
-        parsed = cell_unit(cell)
+        parsed = cell_unit(cell, raw.decimal_comma)
         if parsed is None:
+            hint = ("" if raw.decimal_comma or cell_unit(cell, True) is None else
+                    " (a decimal comma: give `decimal_comma`)")
             msg = (f"{raw.source}: {raw.where(i)}, column {name!r}: {printable(cell)!r} is not "
-                   "a number")
+                   f"a number{hint}")
             raise DataError(msg)
         out[i], said = parsed
+        _not_a_length(raw, k, said, i)
         if said is not None and unit is not None and said != unit:
             msg = (f"{raw.source}: {raw.where(i)}, column {name!r}: {printable(cell)!r} is in "
                    f"{said}, the column in {unit} (mixed units)")
@@ -266,7 +311,7 @@ def values(raw: RawTable, k: int, role: str, mapping: Mapping) -> tuple[np.ndarr
     """Column ``k`` as ``role``: angles [deg], deviations [arcsec], checked finite and
     within the limits of enc-streams(5); and the unit it was read in."""
     to = "arcsec" if role == "deviation" else "deg"
-    raw_values, unit = _cells(raw, k, _unit(raw, k, role, mapping))
+    raw_values, unit = cells(raw, k, _unit(raw, k, role, mapping))
     unit = unit or to
     scale = (counts_factor(mapping.counts_per_rev or 0, to) if unit == "counts"
              else factor(unit, to))
@@ -286,7 +331,7 @@ def values(raw: RawTable, k: int, role: str, mapping: Mapping) -> tuple[np.ndarr
 
 def _whole(raw: RawTable, k: int, role: str, allowed: tuple[int, int]) -> np.ndarray:
     """A direction or run column: whole numbers within ``allowed`` (directions: +-1)."""
-    v, _ = _cells(raw, k, None)
+    v, _ = cells(raw, k, None)
     lo, hi = allowed
     ok = np.isfinite(v) & (v == np.round(v)) & (v >= lo) & (v <= hi)
     if role == "direction":
@@ -316,7 +361,17 @@ def circular_mean_deg(x: np.ndarray) -> float:
 
 
 def map_table(raw: RawTable, mapping: Mapping) -> TablePoints:
-    """The points of a table (module docstring): positions at the indicated angle."""
+    """The points of a table (module docstring): positions at the indicated angle; a wide
+    table's (``columns_forward``, ``columns_reverse``) a point per run and direction of
+    each row (:func:`melt`)."""
+    if mapping.wide():
+        long, long_mapping, said = melt(raw, mapping)
+        points = map_table(long, long_mapping)
+        for role in ("deviation", "direction", "run"):
+            points.columns.pop(role, None)
+        points.columns |= said["columns"]
+        points.units["deviation"] = said["unit"]
+        return points
     cols = resolve(raw, mapping)
     got = {r: values(raw, k, r, mapping) for r, k in cols.items() if r not in ("direction", "run")}
     n = len(raw)
@@ -370,3 +425,63 @@ def check_rows(raw: RawTable, p: TablePoints, has_reference: bool) -> None:
                f"({p.reference_deg[i]:.10g} deg at {raw.where(i)} -> "
                f"{p.reference_deg[j]:.10g} deg) where the indicated angle goes on")
         raise DataError(msg)
+
+
+# -------------------------------------------------------------------- wide tables
+
+#: the titles of a melted table's deviation, direction and run (no text file has them)
+_LONG = ("\x00deviation", "\x00direction", "\x00run")
+
+
+def _wide_columns(raw: RawTable, names: tuple[str, ...], field: str, mapping: Mapping
+                  ) -> list[int]:
+    """The columns a wide table's setting names: each name a title (or number), else a
+    list of them separated by commas."""
+    out: list[int] = []
+    for name in names:
+        try:
+            out.append(_named(raw, name, field, mapping))
+        except DataError:
+            if "," not in name:
+                raise
+            out += [_named(raw, piece, field, mapping) for piece in name.split(",")]
+    return out
+
+
+def melt(raw: RawTable, mapping: Mapping) -> tuple[RawTable, Mapping, dict[str, Any]]:
+    """A wide table as a long one: a row per row and deviation column of
+    ``columns_forward`` (direction +1) and ``columns_reverse`` (-1), the run the column's
+    place in its list; the other columns repeated. The deviations are read here, each
+    column in its own unit (title, cells or ``deviation_unit``), into arcsec; returns the
+    long table, the mapping that maps it, and the columns and unit it says it used."""
+    sides = [(+1, "forward", mapping.columns_forward or ()),
+             (-1, "reverse", mapping.columns_reverse or ())]
+    picked = [(d, run, k) for d, side, names in sides
+              for run, k in enumerate(_wide_columns(raw, names, f"columns_{side}", mapping))]
+    taken = [k for _, _, k in picked]
+    if len(set(taken)) < len(taken):
+        msg = f"{raw.source}: `columns_forward` and `columns_reverse` name a column twice"
+        raise SettingsError(msg)
+    read = {k: values(raw, k, "deviation", mapping) for k in taken}
+    n = len(raw)
+    keep = [k for k in range(len(raw.titles)) if k not in taken]
+    columns: list[list[str] | np.ndarray] = []
+    for k in keep:
+        col = raw.columns[k]
+        columns.append(np.tile(col, len(picked)) if isinstance(col, np.ndarray)
+                       else list(col) * len(picked))
+    columns += [np.concatenate([read[k][0] for _, _, k in picked]),
+                np.repeat([float(d) for d, _, _ in picked], n),
+                np.repeat([float(r) for _, r, _ in picked], n)]
+    long = RawTable([raw.titles[k] for k in keep] + list(_LONG), columns,
+                    np.tile(raw.lines, len(picked)), raw.source, raw.row_word,
+                    raw.decimal_comma)
+    given = {f.name: getattr(mapping, f.name) for f in fields(mapping)}
+    given |= {"columns_forward": None, "columns_reverse": None, "deviation_unit": None,
+              "column_deviation": _LONG[0], "column_direction": _LONG[1],
+              "column_run": _LONG[2]}
+    units = sorted({read[k][1] for k in taken})
+    said = {"columns": {side: ", ".join(raw.titles[k] for d, _, k in picked if d == sign)
+                        for sign, side, names in sides if names},
+            "unit": ", ".join(units)}
+    return long, Mapping(**given), said

@@ -38,14 +38,31 @@ ALIASES = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg",
            "arcsec": "arcsec", "arcsecond": "arcsec", "arcseconds": "arcsec", '"': "arcsec",
            "″": "arcsec", "asec": "arcsec",
            "arcmin": "arcmin", "arcminute": "arcmin", "arcminutes": "arcmin", "′": "arcmin",
+           "''": "arcsec", "”": "arcsec", "′′": "arcsec", "’’": "arcsec",
+           "'": "arcmin", "’": "arcmin", "º": "deg", "˚": "deg",
            "urad": "urad", "µrad": "urad", "μrad": "urad", "microrad": "urad",
            "mrad": "mrad", "milliradian": "mrad", "milliradians": "mrad",
            "counts": "counts", "count": "counts", "cnt": "counts", "lsb": "counts"}
+#: lengths, as a linear axis's table gives its positions and deviations: recognised so
+#: that they are refused, never read as an angle (enc-points(1), TABLES)
+LENGTHS = {"nm": "nm", "nanometre": "nm", "nanometer": "nm", "um": "um", "µm": "um",
+           "μm": "um", "micron": "um", "microns": "um", "micrometre": "um",
+           "micrometer": "um", "mm": "mm", "millimetre": "mm", "millimeter": "mm"}
+ALIASES |= LENGTHS
 #: characters of a title or cell read for a unit (longer: a name, or not a number); bounds
 #: the regular expressions' work on a hostile line
 _LONGEST = 200
 _NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?"
                      r"|nan|inf|infinity))\s*(.*?)\s*$", re.IGNORECASE)
+#: a sexagesimal angle as papers print it: 12°30′15.5″, −0°00′01.2″, 30′15″ (each part a
+#: number and its unit, the units in decreasing order)
+_PART = re.compile(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([^\d\s.]+)")
+_SEXAGESIMAL = ("deg", "arcmin", "arcsec")
+#: what a pasted cell spells otherwise than Python reads it: the minus signs and dashes
+#: a PDF gives for "-", and the spaces between a number and its unit
+_PASTED = str.maketrans({"\u2212": "-", "\u2013": "-", "\u2012": "-", "\ufe63": "-",
+                         "\uff0d": "-", "\u00a0": " ", "\u2009": " ", "\u202f": " ",
+                         "\u2007": " "})
 
 
 @dataclass
@@ -56,6 +73,7 @@ class RawTable:
     columns : one per title: text cells (a text table) or numbers (a binary one).
     lines : the line of each row in the file (text, 1-based) or its row number (binary).
     source : the file, for messages; ``row_word``: ``line`` or ``row``.
+    decimal_comma : whether a text cell's comma is its decimal mark (``1,25``).
     """
 
     titles: list[str]
@@ -63,6 +81,7 @@ class RawTable:
     lines: np.ndarray
     source: str
     row_word: str = "line"
+    decimal_comma: bool = False
 
     def where(self, i: int) -> str:
         """Row ``i`` (0-based) as the file counts it: ``line 12`` or ``row 12``."""
@@ -87,27 +106,63 @@ def title_unit(title: str) -> tuple[str, str | None]:
     return text, None
 
 
-def cell_unit(cell: str) -> tuple[float, str | None] | None:
+def cell_unit(cell: str, decimal_comma: bool = False) -> tuple[float, str | None] | None:
     """A text cell's number and the unit written after it (None: no unit); None when
-    the cell is not a number, with or without one of :data:`ALIASES` after it."""
-    m = _NUMBER.fullmatch(cell) if len(cell) <= _LONGEST else None
+    the cell is not a number, with or without one of :data:`ALIASES` after it.
+
+    Read as pasted from a paper: a Unicode minus or dash for the sign, a no-break or thin
+    space before the unit, primes and degree signs (``1.2″``, ``−0.5′``), a sexagesimal
+    angle (``12°30′15.5″``: its value in the unit of its first part); with
+    ``decimal_comma``, ``1,25`` is 1.25.
+    """
+    if len(cell) > _LONGEST:
+        return None
+    text = cell.translate(_PASTED)
+    if decimal_comma:
+        text = text.replace(",", ".")
+    m = _NUMBER.fullmatch(text)
     if m is None:
         return None
     unit = m.group(2).lower()
-    if unit and unit not in ALIASES:
+    if not unit or unit in ALIASES:
+        return float(m.group(1)), (ALIASES[unit] if unit else None)
+    return _sexagesimal(text)
+
+
+def _sexagesimal(text: str) -> tuple[float, str] | None:
+    """``[-]D°M′S″`` (or M′S″, D°M′) in the unit of its first part; None if it is not one."""
+    body = text.strip()
+    sign = -1.0 if body.startswith("-") else 1.0
+    body = body.lstrip("+-")
+    parts, end = [], 0
+    for m in _PART.finditer(body):
+        if m.start() != end:
+            return None
+        unit = ALIASES.get(m.group(2).lower())
+        if unit not in _SEXAGESIMAL:
+            return None
+        parts.append((float(m.group(1)), _SEXAGESIMAL.index(unit)))
+        end = m.end()
+    if len(parts) < 2 or body[end:].strip():
         return None
-    return float(m.group(1)), (ALIASES[unit] if unit else None)
+    orders = [o for _, o in parts]
+    if orders != sorted(set(orders)) or any(v >= 60 for v, _ in parts[1:]):
+        return None
+    first = orders[0]
+    value = sum(v / 60.0 ** (o - first) for v, o in parts)
+    return sign * value, _SEXAGESIMAL[first]
 
 
 # ---------------------------------------------------------------------------- text
 
 
-def read_text(path: str) -> RawTable:
-    """A text table (CSV, TSV or blank-separated; ``#`` comments) as cells by column."""
-    return parse_text(_text(path), path)
+def read_text(path: str, decimal_comma: bool = False) -> RawTable:
+    """A text table (CSV, TSV or blank-separated; ``#`` comments) as cells by column;
+    with ``decimal_comma`` a comma is a number's decimal mark, never a delimiter."""
+    return parse_text(_text(path), path, decimal_comma)
 
 
-def parse_text(text: str, path: str) -> RawTable:
+def parse_text(text: str, path: str, decimal_comma: bool = False) -> RawTable:
     """The table of a text already read from ``path`` (named in messages)."""
     numbered = [(k + 1, ln) for k, ln in enumerate(text.splitlines())
                 if ln.strip() and not ln.lstrip().startswith("#")]
@@ -122,11 +177,11 @@ def parse_text(text: str, path: str) -> RawTable:
         msg = (f"{path}: line {longest[0]} has {len(longest[1])} characters; a table line "
                f"is at most {limits.MAX_CSV_FIELD_BYTES}")
         raise DataError(msg)
-    rows = _split([ln for _, ln in numbered], path)
+    rows = _split([ln for _, ln in numbered], path, decimal_comma)
     if len(rows) != len(numbered):
         msg = f"{path}: a quoted field holds a line end (a table has one row a line)"
         raise DataError(msg)
-    has_header = any(cell_unit(c) is None for c in rows[0])
+    has_header = any(cell_unit(c, decimal_comma) is None for c in rows[0])
     titles = [c.strip() for c in rows[0]] if has_header else \
         [str(k + 1) for k in range(len(rows[0]))]
     data, lines = (rows[1:], numbered[1:]) if has_header else (rows, numbered)
@@ -142,7 +197,8 @@ def parse_text(text: str, path: str) -> RawTable:
             msg = f"{path}: line {line} has {len(row)} fields, the header {len(titles)}"
             raise DataError(msg)
     columns: list[list[str] | np.ndarray] = [list(c) for c in zip(*data)]
-    return RawTable(titles, columns, np.array([n for n, _ in lines]), path)
+    return RawTable(titles, columns, np.array([n for n, _ in lines]), path,
+                    decimal_comma=decimal_comma)
 
 
 def _text(path: str) -> str:
@@ -162,10 +218,12 @@ def _text(path: str) -> str:
         raise DataError(msg) from None
 
 
-def _split(lines: list[str], path: str) -> list[list[str]]:
-    """The fields of each line, by the header line's delimiter."""
+def _split(lines: list[str], path: str, decimal_comma: bool = False) -> list[list[str]]:
+    """The fields of each line, by the header line's delimiter (a tab, a comma, a
+    semicolon; with ``decimal_comma`` never a comma)."""
     head = lines[0]
-    delimiter = next((d for d in ("\t", ",", ";") if d in head), None)
+    delimiters = ("\t", ";") if decimal_comma else ("\t", ",", ";")
+    delimiter = next((d for d in delimiters if d in head), None)
     if delimiter is None:
         return [ln.split() for ln in lines]
     try:

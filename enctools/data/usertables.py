@@ -32,7 +32,8 @@ def is_table_file(path: str | None) -> bool:
     without a sidecar, or a Parquet, Arrow or HDF5 table without enctools metadata.
 
     A stream starts with its format's magic bytes and carries enctools metadata, or is a
-    CSV or TSV table with its sidecar (read as a stream, see enc-streams(5)); stdin
+    CSV or TSV table with its enctools sidecar (read as a stream, see enc-streams(5); a
+    CSVW sidecar another program wrote, without enctools' part, leaves it a table); stdin
     (None, "-") and pipes are streams (a pipe can be read once only). An unreadable path
     is not a table: opening it as a stream then says what is wrong.
     """
@@ -43,7 +44,8 @@ def is_table_file(path: str | None) -> bool:
     from enctools.data.streams import detect_format
     from enctools.data.tables import is_plain
 
-    if path is None or path == "-" or os.path.exists(sidecar_path(path)):
+    if path is None or path == "-" or (os.path.exists(sidecar_path(path)) and
+                                       _enctools_sidecar(path)):
         return False
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):
@@ -58,23 +60,39 @@ def is_table_file(path: str | None) -> bool:
     return fmt is None or is_plain(path, fmt)
 
 
-def read(path: str) -> UserTable:
-    """The table at ``path``: text (``#`` comments, any header) or, by its magic bytes,
-    Parquet, Arrow or HDF5 read as named columns."""
+def _enctools_sidecar(path: str) -> bool:
+    """Whether the sidecar beside ``path`` is enctools' (it has an ``enctools`` part), or
+    cannot be read (then opening the stream says why)."""
+    from enctools.data.csvio import read_sidecar
+    from enctools.errors import DataError
+
+    try:
+        doc = read_sidecar(path)
+    except DataError:
+        return True
+    return not isinstance(doc, dict) or "enctools" in doc
+
+
+def read(path: str, decimal_comma: bool = False) -> UserTable:
+    """The table at ``path``: text (``#`` comments, any header; ``decimal_comma``: a
+    comma is a number's decimal mark) or, by its magic bytes, Parquet, Arrow or HDF5
+    read as named columns."""
     from enctools.data.streams import detect_format
     from enctools.data.tables import read_binary, read_text
 
     source = str(path)
     with open(source, "rb") as f:
         fmt = detect_format(f.read(8))
-    return UserTable(read_text(source) if fmt is None else read_binary(source, fmt), source)
+    return UserTable(read_text(source, decimal_comma) if fmt is None else
+                     read_binary(source, fmt), source)
 
 
-def open_input(path: str | None, kind: str) -> UserTable | InputStream:
-    """A user's table when ``path`` is one (:func:`is_table_file`), else the stream of
-    ``kind`` at ``path`` (None, "-": stdin)."""
+def open_input(path: str | None, kind: str, decimal_comma: bool = False
+               ) -> UserTable | InputStream:
+    """A user's table when ``path`` is one (:func:`is_table_file`; ``decimal_comma``: as
+    :func:`read`), else the stream of ``kind`` at ``path`` (None, "-": stdin)."""
     from enctools.data import streams
 
     if path is not None and is_table_file(path):
-        return read(path)
+        return read(path, decimal_comma)
     return streams.open_input(path, kind)

@@ -438,6 +438,37 @@ def read_points(src: UserTable | InputStream, mapping: Mapping | None = None
                                      src.source)
 
 
+def open_points(path: str | None, expect: tuple[str, ...], mapping: Mapping | None = None
+                ) -> InputStream:
+    """The stream of a kind in ``expect`` at ``path`` (None, "-": stdin), or a user's
+    table read as a points stream (its columns mapped by ``mapping``, :func:`read_points`)
+    when ``path`` is one: what a command that takes a points stream or a table opens. A
+    table given where no points are taken is refused naming the kinds taken; a mapping's
+    fields given for a stream are refused."""
+    from enctools.data import streams, usertables
+
+    mapping = mapping or Mapping()
+    if path is None or not usertables.is_table_file(path):
+        src = streams.open_input(path, expect)
+        if mapping.given():
+            src.close()
+            _no_mapping(mapping, src.source)
+        return src
+    if "points" not in expect:
+        from enctools.data.csvio import sidecar_path
+        from enctools.data.streams import detect_format
+
+        with open(path, "rb") as f:
+            text = detect_format(f.read(8)) is None
+        stream = (f" (its sidecar {sidecar_path(path)}, which is missing, would make it a "
+                  "stream)") if text else ""
+        msg = (f"{path} is a table{stream}: a table gives points, and here a "
+               f"{' or '.join(expect)} stream is read (fit a model to the points first)")
+        raise DataError(msg)
+    header, points = read_points(usertables.read(path, bool(mapping.decimal_comma)), mapping)
+    return streams.InputStream(header, iter(points.table().to_batches()), path, "table")
+
+
 def _no_mapping(mapping: Mapping, source: str | None) -> None:
     """Refuse (SettingsError) a table's column fields for a stream."""
     if mapping.given():

@@ -52,5 +52,6 @@ def _open(path: str | None, mapping: Any) -> InputStream:
 
     if path is None or not usertables.is_table_file(path):
         return open_input(path)
-    header, points = read_points(usertables.read(path), mapping)
+    comma = bool(mapping and mapping.decimal_comma)
+    header, points = read_points(usertables.read(path, comma), mapping)
     return InputStream(header, iter(points.table().to_batches()), path, "table")

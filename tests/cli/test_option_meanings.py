@@ -40,6 +40,9 @@ MEANINGS = {
     "--deviation-unit": "the unit of the deviation column",
     "--counts-per-rev": "counts a revolution, for a column in counts",
     "--zero-offset": "remove or keep the constant offset of the table's deviations",
+    "--decimal-comma": "a text table's numbers have a decimal comma",
+    "--forward": "a wide table's deviation columns of the forward direction, one a run",
+    "--reverse": "a wide table's deviation columns of the reverse direction, one a run",
     # the methods' words
     "--band": "the highest harmonic order K solved for, kept or shown",
     "--method": "the self-calibration method (the registry's names)",

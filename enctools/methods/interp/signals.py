@@ -16,8 +16,9 @@ import numpy as np
 import pyarrow as pa
 
 from enctools.data.arrays import arrow_array
+from enctools.data.limits import FIELD_RANGES
 from enctools.data.readings import HeadInfo, head_info, signal_phase
-from enctools.data.schemas import columns_with_role, field_meta
+from enctools.data.schemas import columns_with_role, field_meta, parse_field_value
 from enctools.errors import DataError
 from enctools.methods import heydemann as hd
 from enctools.methods.interp.curve import Curve, error_figures
@@ -123,10 +124,26 @@ def check_signals(table: pa.Table, settings: Settings
         fits[name] = meta
         fitted[name] = np.zeros(i.shape, dtype=bool)
         fitted[name][np.isfinite(i) & np.isfinite(q)] = screen.kept
-        info = head_info(table.schema, name) if name in table.schema.names else None
+        info = head_info(table.schema, name) if name in table.schema.names else \
+            _signal_geometry(table.schema, name, comp)
         if info is not None and info.periods_per_rev:
             curves.append(_signal_curve(name, info, fit, grid, meta))
     return curves, fits, fitted
+
+
+def _signal_geometry(schema: pa.Schema, name: str, components: dict[str, str]
+                     ) -> HeadInfo | None:
+    """A head without a counts column (signals from a user's table): its signal periods
+    a revolution from its signal columns' field metadata ``periods_per_rev`` (None:
+    none stated, no curve)."""
+    rng = FIELD_RANGES["signal"]["periods_per_rev"]
+    stated = {parse_field_value(field_meta(schema.field(c)).get("periods_per_rev", ""), rng)
+              for c in components.values()}
+    if len(stated) != 1 or None in stated:
+        return None
+    ppr = int(str(stated.pop()))
+    return HeadInfo(name=name, encoder=name, alpha=0.0, counts_per_rev=ppr,
+                    periods_per_rev=ppr, interpolation=1, radius_m=0.0, zero_count=0)
 
 
 def _signal_curve(name: str, info: HeadInfo, fit: hd.EllipseFit, grid: np.ndarray,
