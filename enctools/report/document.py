@@ -31,6 +31,7 @@ from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
 from enctools.report.display import fmt, label
 from enctools.report.drawings import Drawings
+from enctools.report.results import results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import DEG
@@ -154,6 +155,18 @@ def _summary(report: Report) -> dict[str, Any] | None:
                      fmt(c.k, decimals=2) if c.u is not None else "–"])
     return table(["input", "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"],
                  rows, left=3)
+
+
+def _results(report: Report) -> list[dict[str, Any]]:
+    """The results per calibrated position of every input (:mod:`enctools.report.
+    results`): a table each, the same numbers as the text and the JSON."""
+    out = []
+    for s in report.sections:
+        for res in results(s):
+            out.append({"heading": f"{_name(s.source)}: {res.curve}",
+                        "table": table(res.header(), res.cells(), left=0,
+                                       caption=res.note())})
+    return out
 
 
 def _conformity(report: Report, failures: Sequence[str] | None) -> dict[str, Any] | None:
@@ -369,7 +382,8 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
         "environment": _environment(cert), "references_std": _references(cert),
         "rigs": _rigs(report), "methods": citations.rows(report, table),
-        "summary": _summary(report), "conformity": _conformity(report, failures),
+        "summary": _summary(report), "results": _results(report),
+        "conformity": _conformity(report, failures),
         "uncertainty": _uncertainty(report),
         "sections": [_section(s, drawings.top, drawings) for s in report.sections],
         "comparisons": _comparison(report, drawings), "history": _history(report, drawings),

@@ -12,6 +12,7 @@ from typing import Any
 from enctools.data import summaries
 from enctools.data.summaries import clean, figure_dict
 from enctools.report.budget import budget_dict
+from enctools.report.results import results
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.report.summary import Report
 from enctools.report.vdi3441 import Vdi3441
@@ -71,6 +72,9 @@ def section_dict(s: Section, top: int) -> dict[str, Any]:
     d: dict[str, Any] = {"source": s.source, "kind": s.kind, "rig": s.rig_name,
                          "domain": s.domain, "info": s.info,
                          "curves": [curve_dict(c, top) for c in s.curves]}
+    tables = results(s)
+    if tables:
+        d["results"] = [r.to_dict() for r in tables]
     if s.spectra:
         d["spectra"] = [spectrum_dict(sp, top) for sp in s.spectra]
     if s.iso is not None:

@@ -7,6 +7,7 @@ from typing import Any
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
 from enctools.report.display import fmt, mark
+from enctools.report.results import results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import DEG
@@ -80,6 +81,21 @@ def vdi_lines(s: Section) -> list[str]:
     return lines
 
 
+def result_lines(s: Section) -> list[str]:
+    """The results per calibrated position (:mod:`enctools.report.results`): one line a
+    target, the same numbers as the JSON, HTML and PDF."""
+    lines = []
+    for res in results(s):
+        lines.append(f"  results per calibrated position, {res.curve}: {res.note()}")
+        head = res.header()
+        cells = res.cells()
+        widths = [max(len(h), *(len(r[i]) for r in cells)) for i, h in enumerate(head)]
+        lines.append("    " + "  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+        lines += ["    " + "  ".join(v.rjust(w) for v, w in zip(r, widths, strict=True))
+                  for r in cells]
+    return lines
+
+
 def section_lines(s: Section, top: int) -> list[str]:
     rig = f", rig {s.rig_name}" if s.rig_name else ""
     lines = [f"{s.source}: {s.kind}{rig}"]
@@ -97,6 +113,7 @@ def section_lines(s: Section, top: int) -> list[str]:
                 p += f" |W| {fmt(float(sp.transfer[i]), decimals=2)}"
             parts.append(p)
         lines.append(f"  spectrum {sp.curve}: largest " + "; ".join(parts))
+    lines += result_lines(s)
     if s.budget is not None:
         lines += budget_lines(s.budget, s.unit)
     lines += iso_lines(s)
