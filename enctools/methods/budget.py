@@ -47,6 +47,7 @@ class Contribution:
     divisor: float
     sensitivity: float
     dof: float = math.inf
+    quantity: str = ""      # the declared quantity it is of (enc-rig(5)); "" for none
 
     @property
     def u_arcsec(self) -> float:
@@ -271,7 +272,7 @@ def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
     declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""
     c = c_base * UNITS[d.dimension][d.unit]
     return Contribution(name, d.source, "B", d.distribution, d.value, d.unit, d.divisor, c,
-                        d.dof)
+                        d.dof, d.quantity)
 
 
 # ------------------------------------------- the model of a probe-based angle (seed 000)

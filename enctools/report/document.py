@@ -123,9 +123,9 @@ def _environment(cert: Certificate | None) -> list[list[str]]:
                             ("material_temperature_c", "Temperature of the item", "°C"),
                             ("humidity_percent", "Relative humidity", "%")):
         if key in env:
-            rows.append([name, f"{fmt(env[key], decimals=1)} {unit}", "as entered"])
+            rows.append([name, f"{fmt(env[key], decimals=1)} {unit}"])
     if env.get("remarks"):
-        rows.append(["Remarks", env["remarks"], ""])
+        rows.append(["Remarks", env["remarks"]])
     return rows
 
 
@@ -153,8 +153,8 @@ def _summary(report: Report) -> dict[str, Any] | None:
         rows.append([_name(s.source), c.name, label(u), f.n, fmt(f.pp, u), fmt(f.plus_minus, u),
                      fmt(f.mean, u), fmt(f.std, u), fmt(c.U_max, u),
                      fmt(c.k, decimals=2) if c.u is not None else "–"])
-    return table(["input", "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"],
-                 rows, left=3)
+    return table(["result" if report.sections[0].source.startswith("Result ") else "input",
+                  "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"], rows, left=3)
 
 
 def _results(report: Report) -> list[dict[str, Any]]:
@@ -212,7 +212,10 @@ def _name(source: str) -> str:
     return source.rsplit("/", 1)[-1] or source
 
 
-def _rigs(report: Report) -> list[dict[str, Any]]:
+def _rigs(report: Report, certificate: bool) -> list[dict[str, Any]]:
+    """The measuring set-up of each rig: its encoders and heads. A certificate names
+    neither the rig nor its description, nor the rig's model names: the item is named
+    as the certificate file says."""
     rigs = {s.rig_name: s.meta for s in report.sections if s.rig_name}
     out = []
     for name, meta in rigs.items():
@@ -220,13 +223,15 @@ def _rigs(report: Report) -> list[dict[str, Any]]:
         rows = []
         for enc in rig_encoders(meta):
             heads = ", ".join(f"{h.name} {h.angle / DEG:g}°" for h in enc.heads)
-            rows.append([enc.name, enc.model, heads, enc.periods_per_rev, enc.interpolation,
-                         enc.diameter_mm])
+            rows.append([enc.name] + ([] if certificate else [enc.model])
+                        + [heads, enc.periods_per_rev, enc.interpolation, enc.diameter_mm])
         extras = [k for k in ("polygon", "autocollimator", "probes") if rig.get(k)]
-        out.append({"name": name, "description": customer_text(rig.get("description", "")),
-                    "encoders": table(["encoder", "model", "heads (nominal angle)",
-                                       "periods/rev", "interpolation", "diameter [mm]"], rows,
-                                      left=3) if rows else None,
+        head = ["encoder"] + ([] if certificate else ["model"]) + [
+            "heads (nominal angle)", "periods/rev", "interpolation", "diameter [mm]"]
+        out.append({"name": "" if certificate else f"Rig {name}",
+                    "description": "" if certificate else customer_text(
+                        rig.get("description", "")),
+                    "encoders": table(head, rows, left=3 - certificate) if rows else None,
                     "also": ", ".join(extras)})
     return out
 
@@ -300,13 +305,19 @@ def _value(v: Any) -> str:
     return fmt(v, decimals=4) if isinstance(v, float) else str(v)
 
 
-def _section(s: Section, top: int, drawings: Drawings) -> dict[str, Any]:
+#: the kinds whose facts are the laboratory's (a model's settings and internals, a
+#: table's layout): a certificate shows their curve, not these
+INTERNAL_KINDS = ("model", "rom")
+
+
+def _section(s: Section, top: int, drawings: Drawings, certificate: bool) -> dict[str, Any]:
     notes = [customer_text(n) for n in s.notes]
     notes += [f"{c.name}: {c.harmonics.note()}" for c in s.curves
               if c.harmonics is not None and c.harmonics.note()]
+    info = {} if certificate and s.kind in INTERNAL_KINDS else s.info
     return {"heading": f"{s.source} — {citations.kind_name(s.kind)}",
-            "info": table(["", ""], [[k, _value(v)] for k, v in s.info.items()], left=2)
-            if s.info else None,
+            "info": table(["", ""], [[k, _value(v)] for k, v in info.items()], left=2)
+            if info else None,
             "figures": [_figure(png, caption) for caption, png in drawings.section(s)],
             "harmonics": _harmonics(s.curves, top),
             "standard": _iso(s) or _vdi(s), "notes": notes}
@@ -366,7 +377,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
     now = _dt.datetime.fromtimestamp(output_time(), _dt.UTC)
     unit = str(report.settings.get("unit", "arcsec"))
     rigs = [s.rig_name for s in report.sections if s.rig_name]
-    default = ("Calibration certificate" if cert else "Calibration report") + (
+    default = "Calibration certificate" if cert else "Calibration report" + (
         f" — {', '.join(dict.fromkeys(rigs))}" if rigs else "")
     if cert is not None and cert.get("certificate", "title"):
         default = cert.get("certificate", "title")
@@ -375,20 +386,22 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
     return escaped_all({  # a certificate keeps its title; --title is then its subject line
         "title": default if cert else title or default,
         "subtitle": title if cert and title else "", "number": cert.number if cert else "",
-        "made": f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
-                f"{len(report.sections)} input(s)",
+        "made": "" if cert else f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
+                                f"{len(report.sections)} input(s)",
         "laboratory": cert.table("laboratory") if cert else {},
         "statement": cert.get("certificate", "statement") if cert else None,
         "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
         "environment": _environment(cert), "references_std": _references(cert),
-        "rigs": _rigs(report), "methods": citations.rows(report, table),
+        "rigs": _rigs(report, cert is not None),
+        "methods": citations.rows(report, table, settings=cert is None),
         "summary": _summary(report), "results": _results(report),
         "conformity": _conformity(report, failures),
         "uncertainty": _uncertainty(report),
-        "sections": [_section(s, drawings.top, drawings) for s in report.sections],
+        "sections": [_section(s, drawings.top, drawings, cert is not None)
+                     for s in report.sections],
         "comparisons": _comparison(report, drawings), "history": _history(report, drawings),
-        "record": [{"source": s.source, "lines": s.history or ["(none)"]}
-                   for s in report.sections],
+        "record": [] if cert else [{"source": s.source, "lines": s.history or ["(none)"]}
+                                   for s in report.sections],
         "unit": label(unit), "papers": citations.papers(),
         "approval": _approval(cert),
     })

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import datetime as _dt
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from enctools.data.files import OutputGroup, check_new_file
-from enctools.errors import CheckFailed, OutputError
+from enctools.data.header import output_time
+from enctools.errors import CheckFailed, DataError, OutputError, SettingsError
 from enctools.report.display import in_unit
 from enctools.report.sections import Options
 from enctools.report.summary import build_report
@@ -29,6 +31,19 @@ def _check_stdout() -> None:
         raise OutputError(msg)
 
 
+def one_rig(report: Any) -> None:
+    """A certificate is of one item on one rig: DataError naming the inputs of each
+    rig when they come from several."""
+    rigs: dict[str, list[str]] = {}
+    for s in report.sections:
+        if s.rig_name:
+            rigs.setdefault(s.rig_name, []).append(s.source)
+    if len(rigs) > 1:
+        said = "; ".join(f"rig {name}: {', '.join(srcs)}" for name, srcs in rigs.items())
+        msg = f"the inputs of one certificate come from {len(rigs)} rigs ({said}): give one rig's"
+        raise DataError(msg)
+
+
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
@@ -36,7 +51,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
                prog: str = "enc report", unit: str = "arcsec",
                progress: Callable[[int, int], object] | None = None,
                mapping: Any = None, cert: Any = None,
-               words: Callable[[str], str] | None = None) -> None:
+               words: Callable[[str], str] | None = None,
+               record_path: str | None = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
@@ -46,9 +62,14 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     and the HTML and PDF renderings. ``mapping``: how a user's table maps to points
     (``data.tablemap.Mapping``). ``cert``: the laboratory's fields (``certificate.
     Certificate``; None: a calibration report). ``words``: a threshold's field -> the
-    words that name it (a command: its option; None: the field).
+    words that name it (a command: its option; None: the field). ``record_path``: with
+    ``cert``, where the laboratory's record of the certificate is written (the inputs'
+    paths and history, which the certificate leaves out: :mod:`enctools.report.customer`).
     """
     _check_stdout()
+    if record_path is not None and cert is None:
+        msg = "a laboratory record is of a certificate: give `certificate_path`"
+        raise SettingsError(msg)
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
     def step(done: int) -> None:
@@ -59,6 +80,10 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     if history_dir is not None:
         from enctools.report.history import read_history
         report.history = read_history(history_dir, **(history_filter or {}))
+    if cert is not None:
+        from enctools.report import standards
+        one_rig(report)
+        standards.apply(report, cert)
     report.settings["thresholds"] = limits.to_dict()
     failures = in_words(check(report, limits), words)
     shown = in_unit(report, unit)
@@ -72,10 +97,17 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     with OutputGroup() as outputs:  # both reports, or neither
         done = len(sources)
         if html_path is not None or pdf_path is not None:
+            from enctools.report import customer
             from enctools.report.document import build, render
             from enctools.report.drawings import Drawings
+            # a certificate names its results, not the laboratory's files
+            seen = shown if cert is None else customer.view(shown)
             # each plot drawn once, the document's data built once, for the HTML and the PDF
-            doc = build(shown, failures, title, Drawings(shown), cert)
+            doc = build(seen, failures, title, Drawings(seen), cert)
+            if record_path is not None:
+                outputs.write(record_path, customer.record(
+                    report, cert.number, _dt.datetime.fromtimestamp(output_time(), _dt.UTC)
+                ).encode())
         if html_path is not None:
             outputs.write(html_path, render(doc, page=True).encode())
             done += 1

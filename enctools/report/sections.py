@@ -329,7 +329,9 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                           (name, role, tol_deg), no_iso)
     s.curves.append(curve)
     s.info["positions"] = int(unique.size)
-    s.info["readings"] = int(pos_deg.size)
+    # a points stream's rows are points (each may be the mean of several readings,
+    # which its budget counts); a step run's rows are readings
+    s.info["points" if s.kind == "points" else "readings"] = int(pos_deg.size)
 
 
 def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.ndarray | None,
