@@ -267,6 +267,29 @@ def polygon_run_budget(declared: dict[str, Declaration], run: PolygonRun,
 POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator")
 
 
+# ------------------------------------------ the model of a comparison (seed 000 eq. 10)
+#
+# A device against a reference encoder on one spindle, averaged over R revolutions:
+# D(theta) = E_dev(theta) - E_ref(theta), read E_dev = D + E_ref. The reference's own
+# calibrated deviation E_ref is known to its certificate's u: dD/dE_ref = -1.
+
+
+def comparison_budget(u_a_arcsec: float, dof: float, reference: Declaration,
+                      coverage: float = 0.95) -> Budget:
+    """The budget of a point of a comparison against a reference encoder: the Type A
+    u of the mean over the revolutions [arcsec] on ``dof`` degrees of freedom, and the
+    reference encoder's calibrated deviation as its certificate declares it
+    (``reference``, quantity ``reference_encoder``)."""
+    rows = [Contribution("repeatability of the mean over the revolutions", "this run", "A",
+                         "normal", u_a_arcsec, "arcsec", 1.0, 1.0, dof),
+            _declared(reference, "calibrated deviation of the reference encoder", -1.0)]
+    return combine(rows, coverage)
+
+
+#: the declared quantities the comparison's model uses
+COMPARISON_QUANTITIES = ("reference_encoder",)
+
+
 def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
     """A Contribution of a declaration: its value and unit as declared, c [arcsec per
     declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""

@@ -45,7 +45,9 @@ SCHEMA: dict[str, dict[str, str]] = {
     "customer": {"name": TEXT, "address": TEXT, "order": TEXT},
     "item": {"description": TEXT, "manufacturer": TEXT, "model": TEXT, "serial": TEXT,
              "received": DATE, "condition": TEXT},
-    "calibration": {"date": DATE, "location": TEXT, "operator": TEXT, "remarks": TEXT},
+    "calibration": {"date": DATE, "location": TEXT, "operator": TEXT, "remarks": TEXT,
+                    "procedure": TEXT},
+    "specification": {"name": TEXT, "limits": TEXT},
     "environment": {"air_temperature_c": "number", "material_temperature_c": "number",
                     "humidity_percent": "number", "remarks": TEXT},
     "reference": {"name": TEXT, "serial": TEXT, "certificate": TEXT, "due": DATE,
@@ -60,7 +62,8 @@ IDENTIFIERS = frozenset({
     "[certificate] number", "[laboratory] name", "[laboratory] accreditation",
     "[customer] name", "[customer] order", "[item] manufacturer", "[item] model",
     "[item] serial", "[calibration] operator", "[reference] name", "[reference] serial",
-    "[reference] certificate", "[reference] quantity", "[approval] name",
+    "[reference] certificate", "[reference] quantity", "[calibration] procedure",
+    "[approval] name",
     "[approval] function", "number"})
 
 

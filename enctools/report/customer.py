@@ -6,7 +6,7 @@ their options, the versions of the software, the settings and internals of a mod
 the rig's name) is no part of it (ISO/IEC 17025:2017 7.8.1.2: the information the
 customer needs to interpret the results). :func:`view` renames the inputs of a report for
 the document; :func:`record` is the laboratory's record of the same certificate: which
-input each result is, and each input's history, written apart (enc report --record).
+input each result is, and each input's history, written apart (its record file, enc-report(1)).
 """
 
 from __future__ import annotations

@@ -100,6 +100,7 @@ def _identity(cert: Certificate | None, report: Report, now: _dt.datetime
     _add(rows, "Date of issue", issued)
     if cert is not None:
         _add(rows, "Location", cert.get("calibration", "location"))
+        _add(rows, "Procedure", cert.get("calibration", "procedure"))
         _add(rows, "Operator", cert.get("calibration", "operator"))
     return rows
 
@@ -169,15 +170,41 @@ def _results(report: Report) -> list[dict[str, Any]]:
     return out
 
 
-def _conformity(report: Report, failures: Sequence[str] | None) -> dict[str, Any] | None:
-    """The conformity statement and its decision rule, when limits were given."""
+#: each threshold's field in a specification's words, and its unit
+LIMIT_WORDS = {"max_pp": ("peak-to-peak deviation", "arcsec"),
+               "max_std": ("standard deviation s of the deviation", "arcsec"),
+               "max_abs": ("largest |deviation|", "arcsec"),
+               "max_u": ("expanded uncertainty U", "arcsec"),
+               "max_radial_pp": ("peak-to-peak radial error motion", "nm"),
+               "max_harmonic": ("amplitude of harmonic", "arcsec"),
+               "max_iso": ("ISO 230-2 figure", "arcsec"),
+               "max_vdi": ("VDI/DGQ 3441 figure", "arcsec")}
+
+
+def limits_in_words(limits: dict[str, Any]) -> str:
+    """The limits of a conformity statement as a specification states them:
+    "peak-to-peak deviation ≤ 5 arcsec; amplitude of harmonic 4 ≤ 1 arcsec"."""
+    parts = []
+    for key, value in limits.items():
+        words, unit = LIMIT_WORDS.get(key, (key, "arcsec"))
+        if isinstance(value, dict):
+            parts += [f"{words} {n} ≤ {x:g} {unit}" for n, x in value.items()]
+        else:
+            parts.append(f"{words} ≤ {value:g} {unit}")
+    return "; ".join(parts)
+
+
+def _conformity(report: Report, failures: Sequence[str] | None,
+                cert: Certificate | None = None) -> dict[str, Any] | None:
+    """The conformity statement and its decision rule, when limits were given: the
+    specification the certificate file names, and its limits in words."""
     limits = report.settings.get("thresholds") or {}
     if not limits:
         return None
-    given = ", ".join(f"{k.replace('_', '-')} " + (", ".join(f"{n}:{x:g}" for n, x in v.items())
-                                                  if isinstance(v, dict) else f"{v:g}")
-                      for k, v in limits.items())
-    return {"limits": given, "failures": list(failures or []),
+    spec = cert.table("specification") if cert is not None else {}
+    named = ", ".join(str(spec[k]) for k in ("name", "limits") if spec.get(k))
+    return {"limits": limits_in_words(limits), "specification": named,
+            "failures": list(failures or []),
             "rule": ("Decision rule: simple acceptance (ILAC-G8:09/2019, 4.2.1; no guard "
                      "band): a figure conforms when its measured value does not exceed "
                      "its limit. The expanded uncertainty stated in this document is not "
@@ -395,7 +422,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         "rigs": _rigs(report, cert is not None),
         "methods": citations.rows(report, table, settings=cert is None),
         "summary": _summary(report), "results": _results(report),
-        "conformity": _conformity(report, failures),
+        "conformity": _conformity(report, failures, cert),
         "uncertainty": _uncertainty(report),
         "sections": [_section(s, drawings.top, drawings, cert is not None)
                      for s in report.sections],

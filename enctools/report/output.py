@@ -44,6 +44,37 @@ def one_rig(report: Any) -> None:
         raise DataError(msg)
 
 
+def _documents(report: Any, shown: Any, failures: list[str], title: str | None, cert: Any,
+               paths: tuple[str | None, str | None, str | None],
+               step: Callable[[int], object]) -> None:
+    """The HTML, the PDF and the laboratory's record (``paths``; None: not written), all
+    or none; ``step(n)`` after the n-th document."""
+    html_path, pdf_path, record_path = paths
+    with OutputGroup() as outputs:  # every document, or none
+        if html_path is None and pdf_path is None:
+            return
+        from enctools.report import customer
+        from enctools.report.document import build, render
+        from enctools.report.drawings import Drawings
+        # a certificate names its results, not the laboratory's files
+        seen = shown if cert is None else customer.view(shown)
+        # each plot drawn once, the document's data built once, for the HTML and the PDF
+        doc = build(seen, failures, title, Drawings(seen), cert)
+        if record_path is not None:
+            outputs.write(record_path, customer.record(
+                report, cert.number, _dt.datetime.fromtimestamp(output_time(), _dt.UTC)
+            ).encode())
+        done = 0
+        if html_path is not None:
+            outputs.write(html_path, render(doc, page=True).encode())
+            done += 1
+            step(done)
+        if pdf_path is not None:
+            from enctools.report.pdf import document_pdf
+            outputs.write(pdf_path, document_pdf(doc))
+            step(done + 1)
+
+
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
@@ -94,28 +125,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
         from enctools.report.text import write_text
         write_text(shown, sys.stdout)
     sys.stdout.flush()
-    with OutputGroup() as outputs:  # both reports, or neither
-        done = len(sources)
-        if html_path is not None or pdf_path is not None:
-            from enctools.report import customer
-            from enctools.report.document import build, render
-            from enctools.report.drawings import Drawings
-            # a certificate names its results, not the laboratory's files
-            seen = shown if cert is None else customer.view(shown)
-            # each plot drawn once, the document's data built once, for the HTML and the PDF
-            doc = build(seen, failures, title, Drawings(seen), cert)
-            if record_path is not None:
-                outputs.write(record_path, customer.record(
-                    report, cert.number, _dt.datetime.fromtimestamp(output_time(), _dt.UTC)
-                ).encode())
-        if html_path is not None:
-            outputs.write(html_path, render(doc, page=True).encode())
-            done += 1
-            step(done)
-        if pdf_path is not None:
-            from enctools.report.pdf import document_pdf
-            outputs.write(pdf_path, document_pdf(doc))
-            step(done + 1)
+    _documents(report, shown, failures, title, cert, (html_path, pdf_path, record_path),
+               lambda done: step(len(sources) + done))
     if failures:
         for line in failures:
             sys.stderr.write(f"{prog}: threshold exceeded: {line}\n")

@@ -211,6 +211,11 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
                                    domain="period" if in_period else "revolution"))
             if name in unc:
                 s.curves[-1].k = stated_k(table.schema, unc[name])
+                if role == "deviation" and s.budget is None:
+                    from enctools.report.budget import comparison_into, stated_dof
+
+                    comparison_into(s, s.curves[-1],
+                                    stated_dof(field_meta(table.schema.field(unc[name]))))
             if in_period and "period_arcsec" in fm:
                 s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
     s.info["grid points"] = table.num_rows
