@@ -28,6 +28,7 @@ from enctools.methods.budget import (
     PolygonRun,
     comparison_budget,
     polygon_run_budget,
+    probe_interpolation_budget,
 )
 from enctools.units import factor
 
@@ -134,6 +135,36 @@ def comparison_into(s: Any, curve: Any, dof: float) -> None:
         s.budget = budget
         curve.u = np.sqrt(np.square(curve.u) + u_ref * u_ref)
         curve.k = budget.k
+
+
+def interpolation_into(s: Any) -> None:
+    """The budget of a section's interpolation errors measured against the probes
+    (their field metadata ``reference`` = probes) when the rig declares any of the
+    probe's quantities (enc-rig(5)): one budget for its curves, at the largest of their
+    magnitudes; each curve's U is then k sqrt(u(point)^2 + u_B^2)."""
+    curves = [c for c in s.curves if c.domain == "period" and c.u is not None
+              and c.extra.get("probes") == 1.0]
+    rig = s.meta.get("rig")
+    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
+    if not curves or not tables:
+        return
+    declared = declarations(tables, f"{s.source}: rig uncertainty")
+    probes = rig.get("probes") or [{}]
+    arm_mm = probes[0].get("arm_mm") if isinstance(probes[0], dict) else None
+    if not isinstance(arm_mm, int | float) or not arm_mm > 0 or not any(
+            q in declared for q in ("probe", "probe_arm", "temperature")):
+        return
+    u_a = float(np.sqrt(np.mean(np.concatenate([np.square(c.u) for c in curves]))))
+    psi = max(float(np.max(np.abs(c.values))) for c in curves)
+    budget = probe_interpolation_budget(u_a, math.inf, psi, arm_mm * 1e-3, declared)
+    u_b2 = sum(r.u_arcsec ** 2 for r in budget.contributions[1:])
+    for c in curves:
+        c.u = np.sqrt(np.square(c.u) + u_b2)
+        c.k = budget.k
+    s.budget = budget
+    s.notes.append(f"U per point of the curves against the probes: k sqrt(u_A(point)^2 + "
+                   f"u_B^2), k = {budget.k:.3g}; the probes' rows at the largest |deviation| "
+                   f"{psi:.3g} arcsec")
 
 
 def stated_dof(field_meta: dict[str, Any]) -> float:

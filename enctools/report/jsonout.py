@@ -25,7 +25,8 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
     d["std_convention"] = ("Bessel, n-1, over the n values, one per position modulo "
                            "360 deg")
     for k, v in c.extra.items():  # period_arcsec
-        d[k] = v
+        if k != "probes":           # a flag of the budget's, not a figure
+            d[k] = v
     if c.head:
         d["head"] = c.head
     if c.u is not None:

@@ -218,6 +218,12 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
                                     stated_dof(field_meta(table.schema.field(unc[name]))))
             if in_period and "period_arcsec" in fm:
                 s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
+            if in_period and fm.get("reference") == "probes":
+                s.curves[-1].extra["probes"] = 1.0      # its reference: the probes
+    if s.budget is None:
+        from enctools.report.budget import interpolation_into
+
+        interpolation_into(s)
     s.info["grid points"] = table.num_rows
     s.notes += screen_notes(s.meta.get("signals"))  # interp-check --signals: faults found
     if s.domain == "period":

@@ -32,3 +32,19 @@ def test_monte_carlo_coverage_of_U_and_without_the_reference_row():
     p = comparison_mc.monte_carlo(800, seed=3)
     assert 0.92 <= p <= 0.98
     assert comparison_mc.monte_carlo(800, seed=3, leave_out_reference=True) < 0.88
+
+
+def test_interpolation_against_the_probes_has_their_rows():
+    from enctools.data.rig import load_rig
+    from enctools.data.uncertainty import declarations
+    from enctools.methods.budget import probe_interpolation_budget
+
+    declared = declarations(load_rig("sjtu-dual").uncertainty, "sjtu-dual")
+    b = probe_interpolation_budget(0.004, math.inf, 0.2, 0.2, declared)
+    rows = {c.quantity: c for c in b.contributions[1:]}
+    assert set(rows) == {"probe", "probe_arm", "temperature"}
+    # psi = h (1 + k_p) / L: c = psi per unit scale, -psi / L per metre, -psi alpha per K
+    assert rows["probe"].sensitivity == pytest.approx(0.2 * 1e-2)          # per %
+    assert rows["probe_arm"].sensitivity == pytest.approx(-0.2 / 0.2 * 1e-3)  # per mm
+    assert rows["temperature"].sensitivity == pytest.approx(-0.2 * 11.5e-6)
+    assert b.u_c == pytest.approx(math.sqrt(sum(c.u_arcsec ** 2 for c in b.contributions)))
