@@ -75,6 +75,9 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
     for ref in cert["reference"]:
         assert "".join(ref["certificate"].split()) in solid
     assert "P-24-0117" not in flat and "AC-2025-0342" not in flat
+    if seed == "000":       # the comparison's budget: encoder I as a reference standard
+        assert "calibrateddeviationofthereferenceencoder" in solid
+        assert "LAB-EI-2026-012" in solid
 
 
 def test_inputs_of_two_rigs_are_refused_for_one_certificate(campaigns, tmp_path):  # noqa: F811
