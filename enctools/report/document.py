@@ -31,7 +31,7 @@ from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
 from enctools.report.display import fmt, label
 from enctools.report.drawings import Drawings
-from enctools.report.results import results
+from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import DEG
@@ -162,8 +162,9 @@ def _results(report: Report) -> list[dict[str, Any]]:
     """The results per calibrated position of every input (:mod:`enctools.report.
     results`): a table each, the same numbers as the text and the JSON."""
     out = []
+    model = correction_of(report.sections)
     for s in report.sections:
-        for res in results(s):
+        for res in results(s, model):
             out.append({"heading": f"{_name(s.source)}: {res.curve}",
                         "table": table(res.header(), res.cells(), left=0,
                                        caption=res.note())})

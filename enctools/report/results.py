@@ -60,6 +60,7 @@ class Results:
     k: float | None = None
     phase: bool = False
     sampled: float | None = None       # the step [deg] a dense curve is listed at
+    after: np.ndarray | None = None    # the deviation less the correction shipped with it
 
     def rows(self) -> list[dict[str, Any]]:
         """One dict per row: ``target_deg``, ``deviation_up``, ``deviation_down``,
@@ -73,6 +74,7 @@ class Results:
                 "deviation_up": None if self.up is None else round(float(self.up[i]), d),
                 "deviation_down": None if self.down is None else round(float(self.down[i]), d),
                 "deviation": round(float(self.mean[i]), d),
+                "after": None if self.after is None else round(float(self.after[i]), d),
                 "U": None if self.U is None else round(float(self.U[i]), d),
                 "k": None if self.k is None else round(self.k, 2)})
         return out
@@ -85,7 +87,8 @@ class Results:
             cols += [f"deviation ↑ [{u}]", f"deviation ↓ [{u}]", f"mean [{u}]"]
         else:
             cols.append(f"deviation [{u}]")
-        return cols + [f"U [{u}]", "k"]
+        cols += [f"U [{u}]", "k"]
+        return cols + ([f"after correction [{u}]"] if self.after is not None else [])
 
     def cells(self) -> list[list[str]]:
         """The rows as the documents print them (the same numbers as :meth:`rows`)."""
@@ -97,6 +100,8 @@ class Results:
                 row += [fmt(r["deviation_up"], self.unit), fmt(r["deviation_down"], self.unit)]
             row += [fmt(r["deviation"], self.unit), fmt(r["U"], self.unit),
                     "–" if r["k"] is None else f"{r['k']:.2f}"]
+            if self.after is not None:
+                row.append(fmt(r["after"], self.unit))
             out.append(row)
         return out
 
@@ -106,10 +111,14 @@ class Results:
             what = "phase within the signal period" if self.phase else "angle"
             return (f"The {what} every {self.sampled:g}° (the curve's nearest grid point); "
                     "the figures and the plot cover the whole curve.")
+        after = (" After correction: the deviation less the error model shipped with the "
+                 "item (its correction table) at the target; a model fitted to these points "
+                 "leaves its residuals here, not an independent check."
+                 if self.after is not None else "")
         if self.up is not None and self.down is not None:
             return ("Mean deviation per direction (↑ increasing, ↓ decreasing angle) and "
-                    "their mean; U is the mean's.")
-        return "One row per calibrated position."
+                    "their mean; U is the mean's." + after)
+        return "One row per calibrated position." + after
 
     def to_dict(self) -> dict[str, Any]:
         """For JSON: the unit as the keys' suffix."""
@@ -124,19 +133,33 @@ class Results:
             row[f"deviation_{u}"] = r["deviation"]
             row[f"expanded_u_{u}"] = r["U"]
             row["coverage_k"] = r["k"]
+            if r["after"] is not None:
+                row[f"deviation_after_correction_{u}"] = r["after"]
             rows.append(row)
         return {"curve": self.curve, "unit": u, "listed_every_deg": self.sampled,
                 "rows": rows}
 
 
-def results(s: Section) -> list[Results]:
-    """The results tables of a section (none for radial motion, models, tables)."""
+def results(s: Section, model: Curve | None = None) -> list[Results]:
+    """The results tables of a section (none for radial motion, models, tables);
+    ``model``: the error model shipped with the item as its correction (a report's model
+    section's curve, :func:`correction_of`), which gives points a column after it."""
     out = []
     for c in s.curves:
         if c.role not in ROLES or c.unit in ("nm", "count") or c.values.size == 0:
             continue
-        out.append(_curve_results(s, c))
+        res = _curve_results(s, c)
+        if model is not None and c.role == "points" and model.unit == c.unit:
+            grid = np.mod(np.asarray(model.angle, np.float64) / DEG, 360.0)
+            res.after = res.mean - np.interp(res.target, grid, model.values, period=360.0)
+        out.append(res)
     return out
+
+
+def correction_of(sections: list[Section]) -> Curve | None:
+    """The curve of the first error model among ``sections`` (the correction a points
+    section's results are given after), or None."""
+    return next((c for s in sections if s.kind == "model" for c in s.curves), None)
 
 
 def _curve_results(s: Section, c: Curve) -> Results:

@@ -17,8 +17,9 @@ from test_certificate import CERTS, campaigns  # noqa: F401  (the campaigns' inp
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(
     not shutil.which("pdftotext"), reason="poppler-utils not installed (make poppler)")]
 
-#: a results row as pdftotext -layout prints it: target, deviation(s), U, k
-ROW = re.compile(r"^\s*(\d+\.\d{3})\s+(?:-?\d+\.\d{3}\s+){1,3}(\d+\.\d{3})\s+(\d\.\d\d)\s*$")
+#: a results row as pdftotext -layout prints it: target, deviation(s), U, k (and after)
+ROW = re.compile(r"^\s*(\d+\.\d{3})\s+(?:-?\d+\.\d{3}\s+){1,3}(\d+\.\d{3})\s+(\d\.\d\d)"
+                 r"(?:\s+-?\d+\.\d{3})?\s*$")   # ... and after the correction shipped
 
 
 def _certificate(seed: str, inputs: list[str], folder) -> tuple[str, str]:
@@ -46,8 +47,9 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
                                                                      tmp_path):
     text, record = _certificate(seed, campaigns[seed], tmp_path)
     rows = _rows(text)
-    if seed == "001":       # the 24 polygon positions
+    if seed == "001":       # the 24 polygon positions, before and after the correction
         assert sorted(t for t, _ in rows) == [15.0 * i for i in range(24)]
+        assert "after correction [arcsec]" in text
     else:                   # each curve over the turn every 10 deg
         assert len(rows) >= 2 * 36
     assert all(u > 0 for _, u in rows)
