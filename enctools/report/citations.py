@@ -102,5 +102,5 @@ def rows(report: Report, table: Callable[..., dict[str, Any]], settings: bool = 
                     method_of(s.meta)] + ([brief or "–"] if settings else []))
     if not out:
         return None
-    return table(["input", "holds", "method"] + (["settings"] if settings else []), out,
-                 left=4)
+    return table(["input" if settings else "result", "holds", "method"]
+                 + (["settings"] if settings else []), out, left=4)
