@@ -169,7 +169,10 @@ def _curve_results(s: Section, c: Curve) -> Results:
     angle = np.mod(np.asarray(c.angle, np.float64) / DEG, 360.0)
     if c.values.size <= MAX_TARGETS and c.role != "deviation":
         res = Results(c.name, c.unit, angle, c.values, U=U, k=k, phase=phase)
-        _directions(s, res)
+        if set(c.directions) == {1, -1}:
+            res.up, res.down = c.directions[1], c.directions[-1]
+        else:
+            _directions(s, res)
         return res
     step = PHASE_STEP_DEG if phase else STEP_DEG
     wanted = np.arange(0.0, 360.0, step)

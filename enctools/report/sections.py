@@ -74,6 +74,8 @@ class Curve:
     head: str | None = None
     extra: dict[str, float] = field(default_factory=dict)
     k: float = K_COVERAGE           # coverage factor of U = k u (a budget's Student k)
+    #: the mean of each direction (+1 up, -1 down) per target, where both were approached
+    directions: dict[int, np.ndarray] = field(default_factory=dict)
 
     @property
     def U_max(self) -> float | None:
@@ -358,6 +360,12 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
     a_index, a_dir, a_x, _ = approaches(index, dev, d, run)
     means, u, n_min, dof = _means_and_u(a_index, a_dir, a_x, unique.size)
     curve = _curve(name, "arcsec", role, unique * DEG, means, opts, s.source)
+    if u is not None and set(a_dir.tolist()) == {-1, 1}:    # each direction's mean x_i
+        for sign in (1, -1):
+            sel = a_dir == sign
+            curve.directions[sign] = (np.bincount(a_index[sel], weights=a_x[sel],
+                                                  minlength=unique.size)
+                                      / np.bincount(a_index[sel], minlength=unique.size))
     s.notes.append(f"{dev.size} readings at {unique.size} positions ({a_x.size} approaches): "
                    "the curve and its figures use the mean deviation per position")
     none = f"no {opts.standard_name} figures"

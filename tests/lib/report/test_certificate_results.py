@@ -78,3 +78,15 @@ def test_a_dense_curve_is_listed_every_10_degrees_with_its_U(tmp_path):
     for t in tables:
         assert len(t["rows"]) == 36
         assert all(row["expanded_u_arcsec"] is not None for row in t["rows"])
+
+
+def test_a_step_run_lists_every_target_per_direction(step_run):
+    """The readings of the step run itself (its positioning deviation per target): every
+    target with both directions' means, even where no ISO 230-2 figures are given."""
+    r = run(["enc", "report", "--json", str(step_run.parent / "raw.parquet")])
+    assert r.returncode == 0, r.stderr.decode()
+    rows = json.loads(r.stdout)["sections"][0]["results"][0]["rows"]
+    assert [row["target_deg"] for row in rows] == [15.0 * i for i in range(24)]
+    for row in rows:
+        assert {"deviation_up_arcsec", "deviation_down_arcsec"} <= set(row)
+        assert row["expanded_u_arcsec"] is not None and row["coverage_k"] > 2
