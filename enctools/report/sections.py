@@ -316,7 +316,7 @@ def _budget_into(s: Section, one_approach: bool) -> None:
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                  direction: np.ndarray | None, opts: Options, name: str, role: str,
                  tol_deg: float = 0.01, run: np.ndarray | None = None,
-                 no_iso: str | None = None) -> None:
+                 no_iso: str | None = None, u_b: float = 0.0) -> None:
     """Points -> one curve (means per target when positions repeat) and ISO 230-2.
 
     ``tol_deg``: measured positions closer than this are one target (a points stream:
@@ -339,7 +339,7 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
         curve = _curve(name, "arcsec", role, pos_deg * DEG, dev, opts, s.source)
     else:
         curve = _repeated(s, pos_deg, dev, direction, run, (unique, index), opts,
-                          (name, role, tol_deg), no_iso)
+                          (name, role, tol_deg, u_b), no_iso)
     s.curves.append(curve)
     s.info["positions"] = int(unique.size)
     # a points stream's rows are points (each may be the mean of several readings,
@@ -349,12 +349,12 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
 
 def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.ndarray | None,
               run: np.ndarray | None, targets: tuple[np.ndarray, np.ndarray], opts: Options,
-              what: tuple[str, str, float], no_iso: str | None) -> Curve:
+              what: tuple[str, str, float, float], no_iso: str | None) -> Curve:
     """The curve of points whose positions repeat: per target the mean over the
     directions of the mean over approaches (one run's readings at one target in one
     direction averaged first) [arcsec], its standard uncertainty from the approaches'
     scatter, and ISO 230-2 when every target has 2 approaches or more."""
-    name, role, tol_deg = what
+    name, role, tol_deg, u_b = what     # u_b: a Type B u per target [arcsec]
     unique, index = targets
     d = np.ones(dev.size, np.int64) if direction is None else np.asarray(direction, np.int64)
     a_index, a_dir, a_x, _ = approaches(index, dev, d, run)
@@ -373,8 +373,8 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
         s.notes.append(f"{none}: one run per target and direction (the run "
                        "column numbers them; its readings are one approach); s needs 2 or more")
         return curve
-    curve.u = u
-    coverage = type_a_coverage(u, dof) if u is not None else None
+    curve.u = None if u is None else np.sqrt(u * u + u_b * u_b)
+    coverage = type_a_coverage(u, dof, u_b) if u is not None else None
     if coverage is not None:    # Student's k on the few approaches u rests on
         curve.k = coverage.k
     if no_iso is not None:
@@ -583,11 +583,15 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
     elif where.is_feedback and not opts.servo_loop:
         no_iso = opts.say(feedback_reason(where, scan.autocollimator))
     enc = encoder[0].encoder
+    u_q = 1296000.0 / encoder[0].counts_per_rev / np.sqrt(12.0 * len(encoder))  # arcsec
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "
                    "signal period)")
     _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                 "positioning", tol_deg=1e-9, run=run, no_iso=no_iso)
+                 "positioning", tol_deg=1e-9, run=run, no_iso=no_iso, u_b=u_q)
+    if s.curves[-1].u is not None:
+        s.notes.append(f"U per target: Type A over the approaches and the heads' rounding, "
+                       f"1 count / sqrt(12 N) = {u_q:.3g} arcsec (N = {len(encoder)} heads)")
     if where.is_feedback and (s.iso is not None or s.vdi is not None):
         s.notes.append(opts.say(servo_loop_note(where, opts.standard_name)))
     elif where.is_feedback and f"figures: {no_iso}" in " ".join(s.notes):
