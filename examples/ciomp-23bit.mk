@@ -73,8 +73,11 @@ $(OUT)/residual.parquet: $(OUT)/correction.mif $(OUT)/correction.bin
 	$(ENC) correct $(OUT)/dense.parquet --table $(OUT)/correction.bin --reference $(REF) \
 	    --max-std $(MAX_STD) -o $(OUT)/residual-bin.parquet --force
 
-# 7. The calibration certificate: text on stdout, HTML and A4 PDF for the customer
+# 7. The calibration certificate: text on stdout, HTML and A4 PDF for the customer (its
+#    conformity to the specification the certificate file names: p-p at most 5"), and
+#    the laboratory's record of how it was made (inputs, commands, versions)
 $(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet $(CERT)
 	$(ENC) report $(OUT)/points.parquet $(OUT)/model.parquet --certificate $(CERT) \
-	    --title "Encoder $(RIG): polygon calibration and RBF model" \
-	    --html $@ --pdf $(OUT)/report.pdf --force > $(OUT)/report.txt
+	    --title "Encoder $(RIG): polygon calibration and RBF model" --max-pp 5 \
+	    --html $@ --pdf $(OUT)/report.pdf --record $(OUT)/report-record.txt \
+	    --force > $(OUT)/report.txt

@@ -71,10 +71,12 @@ $(OUT)/signals.parquet: $(OUT)/sweep-signals.parquet
 	$(ENC) interp-check $< --signals --corrected $(OUT)/sweep-corrected.parquet \
 	    -o $@ --force
 
-# 11. The calibration certificate: text on stdout, HTML and A4 PDF for the customer
+# 11. The calibration certificate: text on stdout, HTML and A4 PDF for the customer, and
+#     the laboratory's record of how it was made (inputs, commands, versions)
 $(OUT)/report.html: $(OUT)/grad.parquet $(OUT)/h-p.parquet $(OUT)/interp.parquet \
                     $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet $(CERT)
 	$(ENC) report $(OUT)/grad.parquet $(OUT)/grad-spectrum.parquet $(OUT)/h-p.parquet \
 	    $(OUT)/interp.parquet $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet \
 	    --title "Rotary table $(RIG): graduation, radial motion, interpolation" \
-	    --certificate $(CERT) --html $@ --pdf $(OUT)/report.pdf --force > $(OUT)/report.txt
+	    --certificate $(CERT) --html $@ --pdf $(OUT)/report.pdf \
+	    --record $(OUT)/report-record.txt --force > $(OUT)/report.txt

@@ -14,7 +14,7 @@ from enctools.cli import options, runner, usage
 #: given where they do not apply, the command refuses or ignores them as it says
 MODES = {
     "HTML and PDF document": ("html_path", "pdf_path", "title", "certificate_path",
-                              "certificate_number"),
+                              "certificate_number", "record_path"),
     "Thresholds (exit 1 when one is exceeded)": (
         "max_pp", "max_std", "max_abs", "max_u", "max_radial_pp", "max_harmonic", "max_iso",
         "max_vdi"),
@@ -44,6 +44,10 @@ MODES = {
               "fields of FILE (TOML; enc-certificate(5)).")
 @click.option("--certificate-number", default=None, metavar="TEXT",
               help="The certificate's number (replaces the file's [certificate] number).")
+@click.option("--record", "record_path", default=None, metavar="FILE",
+              type=click.Path(dir_okay=False),
+              help="With --certificate: write the laboratory's record of it to FILE (each "
+              "result's input, settings and history: what the certificate leaves out).")
 @click.option("--top", "top_harmonics", type=click.IntRange(1, 10000), default=5,
               show_default=True, metavar="N", help="List the N largest harmonics per curve.")
 @options.band("Highest harmonic order K considered.", dest="nmax")
@@ -82,7 +86,7 @@ MODES = {
 @options.verbosity
 def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
             pdf_path: str | None, title: str | None, certificate_path: str | None,
-            certificate_number: str | None, top_harmonics: int, nmax: int,
+            certificate_number: str | None, record_path: str | None, top_harmonics: int, nmax: int,
             max_pp: float | None, max_std: float | None, max_abs: float | None,
             max_u: float | None, max_radial_pp: float | None, max_harmonic: tuple[str, ...],
             max_iso: tuple[str, ...], standard: str, servo_loop: bool,
@@ -119,8 +123,11 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
     if history_dir is None and (history_rig is not None or since is not None):
         msg = "--history-rig and --since select runs of --history DIR; give --history"
         raise UsageError(msg)
-    options.distinct_outputs({"--html": html_path, "--pdf": pdf_path})
-    check_paths([html_path, pdf_path], force)
+    options.distinct_outputs({"--html": html_path, "--pdf": pdf_path, "--record": record_path})
+    check_paths([html_path, pdf_path, record_path], force)
+    if record_path is not None and certificate_path is None and certificate_number is None:
+        msg = "--record is the laboratory's record of a certificate: give --certificate"
+        raise UsageError(msg)
     if (certificate_path or certificate_number is not None) and not (html_path or pdf_path):
         msg = "--certificate and --certificate-number make the --html or --pdf document"
         raise UsageError(msg)
@@ -135,4 +142,4 @@ def command(inputs: tuple[str, ...], as_json: bool, html_path: str | None,
                history_filter={"rig": history_rig, "since": since},
                prog=runner.command_name(), unit=unit,
                progress=runner.Progress("inputs and renderings"), mapping=mapping, cert=cert,
-               words=words)
+               words=words, record_path=record_path)

@@ -38,6 +38,8 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "probe": ("relative", "probe calibration (scale) error"),
     "temperature": ("temperature", "deviation of the arm's temperature from 20 degC"),
     "head_mounting": ("angle", "mounting angle of a scanning head"),
+    "reference_encoder": ("angle", "calibrated deviation of the reference encoder of a "
+                                   "comparison (its certificate's uncertainty)"),
 }
 
 #: divisors of the GUM for a value of each distribution (GUM 4.3.7-4.3.9)

@@ -47,6 +47,7 @@ class Contribution:
     divisor: float
     sensitivity: float
     dof: float = math.inf
+    quantity: str = ""      # the declared quantity it is of (enc-rig(5)); "" for none
 
     @property
     def u_arcsec(self) -> float:
@@ -266,12 +267,35 @@ def polygon_run_budget(declared: dict[str, Declaration], run: PolygonRun,
 POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator")
 
 
+# ------------------------------------------ the model of a comparison (seed 000 eq. 10)
+#
+# A device against a reference encoder on one spindle, averaged over R revolutions:
+# D(theta) = E_dev(theta) - E_ref(theta), read E_dev = D + E_ref. The reference's own
+# calibrated deviation E_ref is known to its certificate's u: dD/dE_ref = -1.
+
+
+def comparison_budget(u_a_arcsec: float, dof: float, reference: Declaration,
+                      coverage: float = 0.95) -> Budget:
+    """The budget of a point of a comparison against a reference encoder: the Type A
+    u of the mean over the revolutions [arcsec] on ``dof`` degrees of freedom, and the
+    reference encoder's calibrated deviation as its certificate declares it
+    (``reference``, quantity ``reference_encoder``)."""
+    rows = [Contribution("repeatability of the mean over the revolutions", "this run", "A",
+                         "normal", u_a_arcsec, "arcsec", 1.0, 1.0, dof),
+            _declared(reference, "calibrated deviation of the reference encoder", -1.0)]
+    return combine(rows, coverage)
+
+
+#: the declared quantities the comparison's model uses
+COMPARISON_QUANTITIES = ("reference_encoder",)
+
+
 def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
     """A Contribution of a declaration: its value and unit as declared, c [arcsec per
     declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""
     c = c_base * UNITS[d.dimension][d.unit]
     return Contribution(name, d.source, "B", d.distribution, d.value, d.unit, d.divisor, c,
-                        d.dof)
+                        d.dof, d.quantity)
 
 
 # ------------------------------------------- the model of a probe-based angle (seed 000)
@@ -293,3 +317,33 @@ def probe_scale_sensitivity(psi_arcsec: float) -> float:
 def temperature_sensitivity(psi_arcsec: float, expansion_per_k: float) -> float:
     """dpsi/d(dT) of psi = h / (L20 (1 + alpha dT)) at dT = 0: -psi alpha [arcsec per K]."""
     return -psi_arcsec * expansion_per_k
+
+
+def probe_interpolation_budget(u_a_arcsec: float, dof: float, psi_arcsec: float,
+                               arm_m: float, declared: dict[str, Declaration],
+                               coverage: float = 0.95) -> Budget:
+    """The budget of an interpolation error measured against capacitive probes (seed 000
+    sec. 4: psi = h / L): the Type A u of the curve [arcsec] on ``dof`` degrees of
+    freedom, and the probe's calibration, the arm's length and its temperature as
+    ``declared`` (quantities probe, probe_arm, temperature). The reference's trend over
+    the sweep is fitted out with the device's, so a scale error of psi reaches the
+    result through the part of psi that remains: the interpolation error itself, at
+    most ``psi_arcsec`` (its largest magnitude)."""
+    rows = [Contribution("repeatability of the interpolation error", "this run", "A",
+                         "normal", u_a_arcsec, "arcsec", 1.0, 1.0, dof)]
+    if "probe" in declared:
+        rows.append(_declared(declared["probe"], "probe calibration (scale) error",
+                              probe_scale_sensitivity(psi_arcsec)))
+    if "probe_arm" in declared:
+        rows.append(_declared(declared["probe_arm"], "probe arm length L",
+                              probe_arm_sensitivity(psi_arcsec, arm_m)))
+    temperature = declared.get("temperature")
+    if temperature is not None:
+        rows.append(_declared(temperature, "temperature of the arm (from 20 degC)",
+                              temperature_sensitivity(psi_arcsec,
+                                                      temperature.expansion_per_k)))
+    return combine(rows, coverage)
+
+
+#: the declared quantities the probe-based interpolation error's model uses
+PROBE_QUANTITIES = ("probe", "probe_arm", "temperature")

@@ -17,10 +17,19 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from enctools.data.polygon import points_face_uncertainty
 from enctools.data.uncertainty import Declaration, declarations
 from enctools.errors import DataError
-from enctools.methods.budget import POLYGON_RUN_QUANTITIES, Budget, PolygonRun, polygon_run_budget
+from enctools.methods.budget import (
+    POLYGON_RUN_QUANTITIES,
+    Budget,
+    PolygonRun,
+    comparison_budget,
+    polygon_run_budget,
+    probe_interpolation_budget,
+)
 from enctools.units import factor
 
 #: polygon_run metadata key -> (least, greatest, whole number, may be null)
@@ -88,6 +97,81 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
                  f"{_dof(budget.nu_eff)}), of each point against the run's first position")
     return budget, notes
+
+
+def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
+               ) -> tuple[Budget | None, list[str]]:
+    """The budget of a comparison's curve (enc compare against a reference encoder's
+    heads) when the rig declares the reference encoder's uncertainty
+    (``[uncertainty.reference_encoder]``, enc-rig(5)): ``u_a_arcsec`` the curve's Type A
+    u (its rms along the curve) on ``dof`` degrees of freedom."""
+    history = meta.get("history") or []
+    settings = meta.get("settings")
+    if not history or ": enc compare " not in str(history[-1]) \
+            or not isinstance(settings, dict) or settings.get("ref_curve") is not None:
+        return None, []     # against a reference's calibrated curve: not this model
+    rig = meta.get("rig")
+    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
+    declared = declarations(tables, f"{source}: rig uncertainty") if tables else {}
+    if "reference_encoder" not in declared:
+        return None, ["no uncertainty budget: the rig declares no [uncertainty."
+                      "reference_encoder] (the reference encoder's certificate; enc-rig(5))"]
+    budget = comparison_budget(u_a_arcsec, dof, declared["reference_encoder"])
+    return budget, [f"U per point: sqrt(u_A(point)^2 + u_ref^2) with the budget's k = "
+                    f"{budget.k:.3g} (nu_eff {_dof(budget.nu_eff)})"]
+
+
+def comparison_into(s: Any, curve: Any, dof: float) -> None:
+    """A comparison's budget given to its section ``s`` (a ``sections.Section``): the
+    curve's U from its Type A u and the reference encoder's declared u, with the
+    budget's k (nothing when the curve has no u or the rig declares no reference)."""
+    if curve.u is None or not np.all(np.isfinite(curve.u)) or dof <= 0:
+        return
+    u_a = float(np.sqrt(np.mean(np.square(curve.u))))
+    budget, notes = comparison(s.meta, s.source, u_a, dof)
+    s.notes += notes
+    if budget is not None:
+        u_ref = budget.contributions[1].u_arcsec
+        s.budget = budget
+        curve.u = np.sqrt(np.square(curve.u) + u_ref * u_ref)
+        curve.k = budget.k
+
+
+def interpolation_into(s: Any) -> None:
+    """The budget of a section's interpolation errors measured against the probes
+    (their field metadata ``reference`` = probes) when the rig declares any of the
+    probe's quantities (enc-rig(5)): one budget for its curves, at the largest of their
+    magnitudes; each curve's U is then k sqrt(u(point)^2 + u_B^2)."""
+    curves = [c for c in s.curves if c.domain == "period" and c.u is not None
+              and c.extra.get("probes") == 1.0]
+    rig = s.meta.get("rig")
+    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
+    if not curves or not tables:
+        return
+    declared = declarations(tables, f"{s.source}: rig uncertainty")
+    probes = rig.get("probes") or [{}]
+    arm_mm = probes[0].get("arm_mm") if isinstance(probes[0], dict) else None
+    if not isinstance(arm_mm, int | float) or not arm_mm > 0 or not any(
+            q in declared for q in ("probe", "probe_arm", "temperature")):
+        return
+    u_a = float(np.sqrt(np.mean(np.concatenate([np.square(c.u) for c in curves]))))
+    psi = max(float(np.max(np.abs(c.values))) for c in curves)
+    budget = probe_interpolation_budget(u_a, math.inf, psi, arm_mm * 1e-3, declared)
+    u_b2 = sum(r.u_arcsec ** 2 for r in budget.contributions[1:])
+    for c in curves:
+        c.u = np.sqrt(np.square(c.u) + u_b2)
+        c.k = budget.k
+    s.budget = budget
+    s.notes.append(f"U per point of the curves against the probes: k sqrt(u_A(point)^2 + "
+                   f"u_B^2), k = {budget.k:.3g}; the probes' rows at the largest |deviation| "
+                   f"{psi:.3g} arcsec")
+
+
+def stated_dof(field_meta: dict[str, Any]) -> float:
+    """The degrees of freedom an uncertainty column's field metadata state (``dof``;
+    infinite when they state none)."""
+    dof = field_meta.get("dof")
+    return math.inf if dof is None or dof == "inf" else float(dof)
 
 
 def certificate_face(meta: dict[str, Any]) -> Declaration | None:

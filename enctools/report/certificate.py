@@ -14,6 +14,7 @@ Temperatures are in degC, humidity in % (relative).
 from __future__ import annotations
 
 import datetime as _dt
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -44,11 +45,13 @@ SCHEMA: dict[str, dict[str, str]] = {
     "customer": {"name": TEXT, "address": TEXT, "order": TEXT},
     "item": {"description": TEXT, "manufacturer": TEXT, "model": TEXT, "serial": TEXT,
              "received": DATE, "condition": TEXT},
-    "calibration": {"date": DATE, "location": TEXT, "operator": TEXT, "remarks": TEXT},
+    "calibration": {"date": DATE, "location": TEXT, "operator": TEXT, "remarks": TEXT,
+                    "procedure": TEXT},
+    "specification": {"name": TEXT, "limits": TEXT},
     "environment": {"air_temperature_c": "number", "material_temperature_c": "number",
                     "humidity_percent": "number", "remarks": TEXT},
     "reference": {"name": TEXT, "serial": TEXT, "certificate": TEXT, "due": DATE,
-                  "traceability": TEXT},
+                  "traceability": TEXT, "quantity": TEXT},
     "approval": {"name": TEXT, "function": TEXT},
 }
 #: the keys that name or number a thing (a serial number, a customer, a standard's
@@ -59,7 +62,9 @@ IDENTIFIERS = frozenset({
     "[certificate] number", "[laboratory] name", "[laboratory] accreditation",
     "[customer] name", "[customer] order", "[item] manufacturer", "[item] model",
     "[item] serial", "[calibration] operator", "[reference] name", "[reference] serial",
-    "[reference] certificate", "[approval] name", "[approval] function", "number"})
+    "[reference] certificate", "[reference] quantity", "[calibration] procedure",
+    "[approval] name",
+    "[approval] function", "number"})
 
 
 @dataclass
@@ -106,6 +111,7 @@ def load_certificate(path: str | None, number: str | None = None) -> Certificate
             msg = f"certificate file {path}: tables nested too deep"
             raise DataError(msg) from None
         _parse(raw, cert, f"certificate file {path}")
+        check_dates(cert, f"certificate file {path}")
     if number is not None:
         cert.number = _value(number, TEXT, "`certificate_number`", "number")
     if not cert.number or len(cert.number) > MAX_NUMBER or "\n" in cert.number:
@@ -113,6 +119,24 @@ def load_certificate(path: str | None, number: str | None = None) -> Certificate
                f"or `certificate_number`: one line of at most {MAX_NUMBER} characters)")
         raise DataError(msg)
     return cert
+
+
+#: the certificate's dates in the order they must come: (table, key, what it is)
+DATES = (("item", "received", "the item was received"),
+         ("calibration", "date", "it was calibrated"),
+         ("certificate", "issued", "the certificate is issued"))
+
+
+def check_dates(cert: Certificate, where: str) -> None:
+    """One date model: the item received, then calibrated, then the certificate issued
+    (each on or after the one before). DataError naming both keys otherwise."""
+    given = [(f"[{t}] {k}", cert.get(t, k), what) for t, k, what in DATES
+             if cert.get(t, k) is not None]
+    for (key_a, a, what_a), (key_b, b, what_b) in itertools.pairwise(given):
+        if b < a:
+            msg = (f"{where}: {key_b} {b.isoformat()} is before {key_a} {a.isoformat()}: "
+                   f"{what_b} on or after {what_a}")
+            raise DataError(msg)
 
 
 def _parse(raw: dict[str, Any], cert: Certificate, where: str) -> None:

@@ -89,15 +89,18 @@ def method_of(meta: dict[str, Any]) -> str:
     return f"{name} {cite(key)}" if key else name
 
 
-def rows(report: Report, table: Callable[..., dict[str, Any]]) -> dict[str, Any] | None:
-    """The table of every input's kind, method and settings (``table`` builds it)."""
+def rows(report: Report, table: Callable[..., dict[str, Any]], settings: bool = True
+         ) -> dict[str, Any] | None:
+    """The table of every input's kind, method and (``settings``) the settings it was
+    made with (``table`` builds it); a certificate leaves the settings to the
+    laboratory's record."""
     out = []
     for s in report.sections:
-        settings = _settings(s.meta)
-        brief = ", ".join(f"{k}={v}" for k, v in settings.items()
+        brief = ", ".join(f"{k}={v}" for k, v in _settings(s.meta).items()
                           if isinstance(v, (int, float, str)) and k != "backend")[:160]
         out.append([s.source.rsplit("/", 1)[-1] or s.source, kind_name(s.kind),
-                    method_of(s.meta), brief or "–"])
+                    method_of(s.meta)] + ([brief or "–"] if settings else []))
     if not out:
         return None
-    return table(["input", "holds", "method", "settings"], out, left=4)
+    return table(["input" if settings else "result", "holds", "method"]
+                 + (["settings"] if settings else []), out, left=4)

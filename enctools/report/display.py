@@ -93,7 +93,8 @@ def _curve(c: Curve, unit: str, k: float) -> Curve:
     extra = dict(c.extra)
     return dataclasses.replace(c, unit=unit, values=c.values * k,
                                u=None if c.u is None else c.u * k, figures=figures,
-                               harmonics=harmonics, extra=extra)
+                               harmonics=harmonics, extra=extra,
+                               directions={d: v * k for d, v in c.directions.items()})
 
 
 def _direction(d: DirectionFigures | None, k: float) -> DirectionFigures | None:

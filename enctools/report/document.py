@@ -31,6 +31,7 @@ from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
 from enctools.report.display import fmt, label
 from enctools.report.drawings import Drawings
+from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import DEG
@@ -99,6 +100,7 @@ def _identity(cert: Certificate | None, report: Report, now: _dt.datetime
     _add(rows, "Date of issue", issued)
     if cert is not None:
         _add(rows, "Location", cert.get("calibration", "location"))
+        _add(rows, "Procedure", cert.get("calibration", "procedure"))
         _add(rows, "Operator", cert.get("calibration", "operator"))
     return rows
 
@@ -122,9 +124,9 @@ def _environment(cert: Certificate | None) -> list[list[str]]:
                             ("material_temperature_c", "Temperature of the item", "°C"),
                             ("humidity_percent", "Relative humidity", "%")):
         if key in env:
-            rows.append([name, f"{fmt(env[key], decimals=1)} {unit}", "as entered"])
+            rows.append([name, f"{fmt(env[key], decimals=1)} {unit}"])
     if env.get("remarks"):
-        rows.append(["Remarks", env["remarks"], ""])
+        rows.append(["Remarks", env["remarks"]])
     return rows
 
 
@@ -152,19 +154,58 @@ def _summary(report: Report) -> dict[str, Any] | None:
         rows.append([_name(s.source), c.name, label(u), f.n, fmt(f.pp, u), fmt(f.plus_minus, u),
                      fmt(f.mean, u), fmt(f.std, u), fmt(c.U_max, u),
                      fmt(c.k, decimals=2) if c.u is not None else "–"])
-    return table(["input", "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"],
-                 rows, left=3)
+    return table(["result" if report.sections[0].source.startswith("Result ") else "input",
+                  "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"], rows, left=3)
 
 
-def _conformity(report: Report, failures: Sequence[str] | None) -> dict[str, Any] | None:
-    """The conformity statement and its decision rule, when limits were given."""
+def _results(report: Report) -> list[dict[str, Any]]:
+    """The results per calibrated position of every input (:mod:`enctools.report.
+    results`): a table each, the same numbers as the text and the JSON."""
+    out = []
+    model = correction_of(report.sections)
+    for s in report.sections:
+        for res in results(s, model):
+            out.append({"heading": f"{_name(s.source)}: {res.curve}",
+                        "table": table(res.header(), res.cells(), left=0,
+                                       caption=res.note())})
+    return out
+
+
+#: each threshold's field in a specification's words, and its unit
+LIMIT_WORDS = {"max_pp": ("peak-to-peak deviation", "arcsec"),
+               "max_std": ("standard deviation s of the deviation", "arcsec"),
+               "max_abs": ("largest |deviation|", "arcsec"),
+               "max_u": ("expanded uncertainty U", "arcsec"),
+               "max_radial_pp": ("peak-to-peak radial error motion", "nm"),
+               "max_harmonic": ("amplitude of harmonic", "arcsec"),
+               "max_iso": ("ISO 230-2 figure", "arcsec"),
+               "max_vdi": ("VDI/DGQ 3441 figure", "arcsec")}
+
+
+def limits_in_words(limits: dict[str, Any]) -> str:
+    """The limits of a conformity statement as a specification states them:
+    "peak-to-peak deviation ≤ 5 arcsec; amplitude of harmonic 4 ≤ 1 arcsec"."""
+    parts = []
+    for key, value in limits.items():
+        words, unit = LIMIT_WORDS.get(key, (key, "arcsec"))
+        if isinstance(value, dict):
+            parts += [f"{words} {n} ≤ {x:g} {unit}" for n, x in value.items()]
+        else:
+            parts.append(f"{words} ≤ {value:g} {unit}")
+    return "; ".join(parts)
+
+
+def _conformity(report: Report, failures: Sequence[str] | None,
+                cert: Certificate | None = None) -> dict[str, Any] | None:
+    """The conformity statement and its decision rule, when limits were given: the
+    specification the certificate file names, and its limits in words."""
     limits = report.settings.get("thresholds") or {}
     if not limits:
         return None
-    given = ", ".join(f"{k.replace('_', '-')} " + (", ".join(f"{n}:{x:g}" for n, x in v.items())
-                                                  if isinstance(v, dict) else f"{v:g}")
-                      for k, v in limits.items())
-    return {"limits": given, "failures": list(failures or []),
+    spec = cert.table("specification") if cert is not None else {}
+    named = ", ".join(str(spec[k]) for k in ("name", "limits") if spec.get(k))
+    return {"limits": limits_in_words(limits), "specification": named,
+            "failures": list(failures or []),
             "rule": ("Decision rule: simple acceptance (ILAC-G8:09/2019, 4.2.1; no guard "
                      "band): a figure conforms when its measured value does not exceed "
                      "its limit. The expanded uncertainty stated in this document is not "
@@ -199,7 +240,10 @@ def _name(source: str) -> str:
     return source.rsplit("/", 1)[-1] or source
 
 
-def _rigs(report: Report) -> list[dict[str, Any]]:
+def _rigs(report: Report, certificate: bool) -> list[dict[str, Any]]:
+    """The measuring set-up of each rig: its encoders and heads. A certificate names
+    neither the rig nor its description, nor the rig's model names: the item is named
+    as the certificate file says."""
     rigs = {s.rig_name: s.meta for s in report.sections if s.rig_name}
     out = []
     for name, meta in rigs.items():
@@ -207,13 +251,15 @@ def _rigs(report: Report) -> list[dict[str, Any]]:
         rows = []
         for enc in rig_encoders(meta):
             heads = ", ".join(f"{h.name} {h.angle / DEG:g}°" for h in enc.heads)
-            rows.append([enc.name, enc.model, heads, enc.periods_per_rev, enc.interpolation,
-                         enc.diameter_mm])
+            rows.append([enc.name] + ([] if certificate else [enc.model])
+                        + [heads, enc.periods_per_rev, enc.interpolation, enc.diameter_mm])
         extras = [k for k in ("polygon", "autocollimator", "probes") if rig.get(k)]
-        out.append({"name": name, "description": customer_text(rig.get("description", "")),
-                    "encoders": table(["encoder", "model", "heads (nominal angle)",
-                                       "periods/rev", "interpolation", "diameter [mm]"], rows,
-                                      left=3) if rows else None,
+        head = ["encoder"] + ([] if certificate else ["model"]) + [
+            "heads (nominal angle)", "periods/rev", "interpolation", "diameter [mm]"]
+        out.append({"name": "" if certificate else f"Rig {name}",
+                    "description": "" if certificate else customer_text(
+                        rig.get("description", "")),
+                    "encoders": table(head, rows, left=3 - certificate) if rows else None,
                     "also": ", ".join(extras)})
     return out
 
@@ -287,13 +333,19 @@ def _value(v: Any) -> str:
     return fmt(v, decimals=4) if isinstance(v, float) else str(v)
 
 
-def _section(s: Section, top: int, drawings: Drawings) -> dict[str, Any]:
+#: the kinds whose facts are the laboratory's (a model's settings and internals, a
+#: table's layout): a certificate shows their curve, not these
+INTERNAL_KINDS = ("model", "rom")
+
+
+def _section(s: Section, top: int, drawings: Drawings, certificate: bool) -> dict[str, Any]:
     notes = [customer_text(n) for n in s.notes]
     notes += [f"{c.name}: {c.harmonics.note()}" for c in s.curves
               if c.harmonics is not None and c.harmonics.note()]
+    info = {} if certificate and s.kind in INTERNAL_KINDS else s.info
     return {"heading": f"{s.source} — {citations.kind_name(s.kind)}",
-            "info": table(["", ""], [[k, _value(v)] for k, v in s.info.items()], left=2)
-            if s.info else None,
+            "info": table(["", ""], [[k, _value(v)] for k, v in info.items()], left=2)
+            if info else None,
             "figures": [_figure(png, caption) for caption, png in drawings.section(s)],
             "harmonics": _harmonics(s.curves, top),
             "standard": _iso(s) or _vdi(s), "notes": notes}
@@ -353,7 +405,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
     now = _dt.datetime.fromtimestamp(output_time(), _dt.UTC)
     unit = str(report.settings.get("unit", "arcsec"))
     rigs = [s.rig_name for s in report.sections if s.rig_name]
-    default = ("Calibration certificate" if cert else "Calibration report") + (
+    default = "Calibration certificate" if cert else "Calibration report" + (
         f" — {', '.join(dict.fromkeys(rigs))}" if rigs else "")
     if cert is not None and cert.get("certificate", "title"):
         default = cert.get("certificate", "title")
@@ -362,19 +414,22 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
     return escaped_all({  # a certificate keeps its title; --title is then its subject line
         "title": default if cert else title or default,
         "subtitle": title if cert and title else "", "number": cert.number if cert else "",
-        "made": f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
-                f"{len(report.sections)} input(s)",
+        "made": "" if cert else f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
+                                f"{len(report.sections)} input(s)",
         "laboratory": cert.table("laboratory") if cert else {},
         "statement": cert.get("certificate", "statement") if cert else None,
         "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
         "environment": _environment(cert), "references_std": _references(cert),
-        "rigs": _rigs(report), "methods": citations.rows(report, table),
-        "summary": _summary(report), "conformity": _conformity(report, failures),
+        "rigs": _rigs(report, cert is not None),
+        "methods": citations.rows(report, table, settings=cert is None),
+        "summary": _summary(report), "results": _results(report),
+        "conformity": _conformity(report, failures, cert),
         "uncertainty": _uncertainty(report),
-        "sections": [_section(s, drawings.top, drawings) for s in report.sections],
+        "sections": [_section(s, drawings.top, drawings, cert is not None)
+                     for s in report.sections],
         "comparisons": _comparison(report, drawings), "history": _history(report, drawings),
-        "record": [{"source": s.source, "lines": s.history or ["(none)"]}
-                   for s in report.sections],
+        "record": [] if cert else [{"source": s.source, "lines": s.history or ["(none)"]}
+                                   for s in report.sections],
         "unit": label(unit), "papers": citations.papers(),
         "approval": _approval(cert),
     })

@@ -12,6 +12,7 @@ from typing import Any
 from enctools.data import summaries
 from enctools.data.summaries import clean, figure_dict
 from enctools.report.budget import budget_dict
+from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.report.summary import Report
 from enctools.report.vdi3441 import Vdi3441
@@ -24,7 +25,8 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
     d["std_convention"] = ("Bessel, n-1, over the n values, one per position modulo "
                            "360 deg")
     for k, v in c.extra.items():  # period_arcsec
-        d[k] = v
+        if k != "probes":           # a flag of the budget's, not a figure
+            d[k] = v
     if c.head:
         d["head"] = c.head
     if c.u is not None:
@@ -67,10 +69,13 @@ def vdi_dict(vdi: Vdi3441) -> dict[str, Any]:
     return {"axis": {f"{k}_{vdi.unit}": v for k, v in vdi.axis().items()}, "positions": rows}
 
 
-def section_dict(s: Section, top: int) -> dict[str, Any]:
+def section_dict(s: Section, top: int, model: Curve | None = None) -> dict[str, Any]:
     d: dict[str, Any] = {"source": s.source, "kind": s.kind, "rig": s.rig_name,
                          "domain": s.domain, "info": s.info,
                          "curves": [curve_dict(c, top) for c in s.curves]}
+    tables = results(s, model)
+    if tables:
+        d["results"] = [r.to_dict() for r in tables]
     if s.spectra:
         d["spectra"] = [spectrum_dict(sp, top) for sp in s.spectra]
     if s.iso is not None:
@@ -88,7 +93,8 @@ def section_dict(s: Section, top: int) -> dict[str, Any]:
 
 def report_dict(report: Report, failures: list[str] | None = None) -> dict[str, Any]:
     top = int(report.settings.get("top_harmonics", 5))
-    d: dict[str, Any] = {"sections": [section_dict(s, top) for s in report.sections],
+    model = correction_of(report.sections)
+    d: dict[str, Any] = {"sections": [section_dict(s, top, model) for s in report.sections],
                          "settings": report.settings}
     if report.history is not None:
         d["history"] = report.history.to_records()

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import datetime as _dt
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from enctools.data.files import OutputGroup, check_new_file
-from enctools.errors import CheckFailed, OutputError
+from enctools.data.header import output_time
+from enctools.errors import CheckFailed, DataError, OutputError, SettingsError
 from enctools.report.display import in_unit
 from enctools.report.sections import Options
 from enctools.report.summary import Report, build_report
@@ -57,6 +59,51 @@ def _print(report: Report, as_json: bool, failures: list[str] | None) -> None:
     sys.stdout.flush()
 
 
+def one_rig(report: Any) -> None:
+    """A certificate is of one item on one rig: DataError naming the inputs of each
+    rig when they come from several."""
+    rigs: dict[str, list[str]] = {}
+    for s in report.sections:
+        if s.rig_name:
+            rigs.setdefault(s.rig_name, []).append(s.source)
+    if len(rigs) > 1:
+        said = "; ".join(f"rig {name}: {', '.join(srcs)}" for name, srcs in rigs.items())
+        msg = f"the inputs of one certificate come from {len(rigs)} rigs ({said}): give one rig's"
+        raise DataError(msg)
+
+
+def _documents(report: Any, shown: Any, failures: list[str], title: str | None, cert: Any,
+               paths: tuple[str | None, str | None, str | None],
+               step: Callable[[int], object]) -> None:
+    """The HTML, the PDF and the laboratory's record (``paths``; None: not written), all
+    or none; ``step(n)`` after the n-th document."""
+    html_path, pdf_path, record_path = paths
+    with OutputGroup() as outputs:  # every document, or none
+        if html_path is None and pdf_path is None:
+            return
+        from enctools.report import customer
+        from enctools.report.document import build, render
+        from enctools.report.drawings import Drawings
+        # a certificate names its results, not the laboratory's files
+        seen = shown if cert is None else customer.view(shown)
+        # each plot drawn once, the document's data built once, for the HTML and the PDF
+        doc = build(_recorded(seen, html_path or pdf_path), failures, title, Drawings(seen),
+                    cert)
+        if record_path is not None:
+            made = _dt.datetime.fromtimestamp(output_time(), _dt.UTC)
+            outputs.write(record_path, customer.record(
+                _recorded(report, record_path), cert.number, made).encode())
+        done = 0
+        if html_path is not None:
+            outputs.write(html_path, render(doc, page=True).encode())
+            done += 1
+            step(done)
+        if pdf_path is not None:
+            from enctools.report.pdf import document_pdf
+            outputs.write(pdf_path, document_pdf(doc))
+            step(done + 1)
+
+
 def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds, *,
                as_json: bool = False, html_path: str | None = None, pdf_path: str | None = None,
                title: str | None = None, history_dir: str | None = None,
@@ -64,7 +111,8 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
                prog: str = "enc report", unit: str = "arcsec",
                progress: Callable[[int, int], object] | None = None,
                mapping: Any = None, cert: Any = None,
-               words: Callable[[str], str] | None = None) -> None:
+               words: Callable[[str], str] | None = None,
+               record_path: str | None = None) -> None:
     """Build the report, print it on stdout, write HTML/PDF, then apply the thresholds.
 
     A threshold exceeded is one line on stderr each, headed by ``prog``. The text, HTML
@@ -74,9 +122,14 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     and the HTML and PDF renderings. ``mapping``: how a user's table maps to points
     (``data.tablemap.Mapping``). ``cert``: the laboratory's fields (``certificate.
     Certificate``; None: a calibration report). ``words``: a threshold's field -> the
-    words that name it (a command: its option; None: the field).
+    words that name it (a command: its option; None: the field). ``record_path``: with
+    ``cert``, where the laboratory's record of the certificate is written (the inputs'
+    paths and history, which the certificate leaves out: :mod:`enctools.report.customer`).
     """
     _check_stdout()
+    if record_path is not None and cert is None:
+        msg = "a laboratory record is of a certificate: give `certificate_path`"
+        raise SettingsError(msg)
     total = len(sources) + (html_path is not None) + (pdf_path is not None)
 
     def step(done: int) -> None:
@@ -87,26 +140,16 @@ def run_report(sources: Sequence[str | None], opts: Options, limits: Thresholds,
     if history_dir is not None:
         from enctools.report.history import read_history
         report.history = read_history(history_dir, **(history_filter or {}))
+    if cert is not None:
+        from enctools.report import standards
+        one_rig(report)
+        standards.apply(report, cert)
     report.settings["thresholds"] = limits.to_dict()
     failures = in_words(check(report, limits), words)
     shown = in_unit(report, unit)
     _print(report if as_json else shown, as_json, failures if limits.any else None)
-    with OutputGroup() as outputs:  # both reports, or neither
-        done = len(sources)
-        if html_path is not None or pdf_path is not None:
-            from enctools.report.document import build, render
-            from enctools.report.drawings import Drawings
-            # each plot drawn once, the document's data built once, for the HTML and the PDF
-            doc = build(_recorded(shown, html_path or pdf_path), failures, title,
-                        Drawings(shown), cert)
-        if html_path is not None:
-            outputs.write(html_path, render(doc, page=True).encode())
-            done += 1
-            step(done)
-        if pdf_path is not None:
-            from enctools.report.pdf import document_pdf
-            outputs.write(pdf_path, document_pdf(doc))
-            step(done + 1)
+    _documents(report, shown, failures, title, cert, (html_path, pdf_path, record_path),
+               lambda done: step(len(sources) + done))
     if failures:
         for line in failures:
             sys.stderr.write(f"{prog}: threshold exceeded: {line}\n")

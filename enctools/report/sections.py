@@ -74,6 +74,8 @@ class Curve:
     head: str | None = None
     extra: dict[str, float] = field(default_factory=dict)
     k: float = K_COVERAGE           # coverage factor of U = k u (a budget's Student k)
+    #: the mean of each direction (+1 up, -1 down) per target, where both were approached
+    directions: dict[int, np.ndarray] = field(default_factory=dict)
 
     @property
     def U_max(self) -> float | None:
@@ -211,8 +213,19 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
                                    domain="period" if in_period else "revolution"))
             if name in unc:
                 s.curves[-1].k = stated_k(table.schema, unc[name])
+                if role == "deviation" and s.budget is None:
+                    from enctools.report.budget import comparison_into, stated_dof
+
+                    comparison_into(s, s.curves[-1],
+                                    stated_dof(field_meta(table.schema.field(unc[name]))))
             if in_period and "period_arcsec" in fm:
                 s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
+            if in_period and fm.get("reference") == "probes":
+                s.curves[-1].extra["probes"] = 1.0      # its reference: the probes
+    if s.budget is None:
+        from enctools.report.budget import interpolation_into
+
+        interpolation_into(s)
     s.info["grid points"] = table.num_rows
     s.notes += screen_notes(s.meta.get("signals"))  # interp-check --signals: faults found
     if s.domain == "period":
@@ -303,7 +316,7 @@ def _budget_into(s: Section, one_approach: bool) -> None:
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                  direction: np.ndarray | None, opts: Options, name: str, role: str,
                  tol_deg: float = 0.01, run: np.ndarray | None = None,
-                 no_iso: str | None = None) -> None:
+                 no_iso: str | None = None, u_b: float = 0.0) -> None:
     """Points -> one curve (means per target when positions repeat) and ISO 230-2.
 
     ``tol_deg``: measured positions closer than this are one target (a points stream:
@@ -326,25 +339,33 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
         curve = _curve(name, "arcsec", role, pos_deg * DEG, dev, opts, s.source)
     else:
         curve = _repeated(s, pos_deg, dev, direction, run, (unique, index), opts,
-                          (name, role, tol_deg), no_iso)
+                          (name, role, tol_deg, u_b), no_iso)
     s.curves.append(curve)
     s.info["positions"] = int(unique.size)
-    s.info["readings"] = int(pos_deg.size)
+    # a points stream's rows are points (each may be the mean of several readings,
+    # which its budget counts); a step run's rows are readings
+    s.info["points" if s.kind == "points" else "readings"] = int(pos_deg.size)
 
 
 def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.ndarray | None,
               run: np.ndarray | None, targets: tuple[np.ndarray, np.ndarray], opts: Options,
-              what: tuple[str, str, float], no_iso: str | None) -> Curve:
+              what: tuple[str, str, float, float], no_iso: str | None) -> Curve:
     """The curve of points whose positions repeat: per target the mean over the
     directions of the mean over approaches (one run's readings at one target in one
     direction averaged first) [arcsec], its standard uncertainty from the approaches'
     scatter, and ISO 230-2 when every target has 2 approaches or more."""
-    name, role, tol_deg = what
+    name, role, tol_deg, u_b = what     # u_b: a Type B u per target [arcsec]
     unique, index = targets
     d = np.ones(dev.size, np.int64) if direction is None else np.asarray(direction, np.int64)
     a_index, a_dir, a_x, _ = approaches(index, dev, d, run)
     means, u, n_min, dof = _means_and_u(a_index, a_dir, a_x, unique.size)
     curve = _curve(name, "arcsec", role, unique * DEG, means, opts, s.source)
+    if u is not None and set(a_dir.tolist()) == {-1, 1}:    # each direction's mean x_i
+        for sign in (1, -1):
+            sel = a_dir == sign
+            curve.directions[sign] = (np.bincount(a_index[sel], weights=a_x[sel],
+                                                  minlength=unique.size)
+                                      / np.bincount(a_index[sel], minlength=unique.size))
     s.notes.append(f"{dev.size} readings at {unique.size} positions ({a_x.size} approaches): "
                    "the curve and its figures use the mean deviation per position")
     none = f"no {opts.standard_name} figures"
@@ -352,8 +373,8 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
         s.notes.append(f"{none}: one run per target and direction (the run "
                        "column numbers them; its readings are one approach); s needs 2 or more")
         return curve
-    curve.u = u
-    coverage = type_a_coverage(u, dof) if u is not None else None
+    curve.u = None if u is None else np.sqrt(u * u + u_b * u_b)
+    coverage = type_a_coverage(u, dof, u_b) if u is not None else None
     if coverage is not None:    # Student's k on the few approaches u rests on
         curve.k = coverage.k
     if no_iso is not None:
@@ -562,11 +583,15 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
     elif where.is_feedback and not opts.servo_loop:
         no_iso = opts.say(feedback_reason(where, scan.autocollimator))
     enc = encoder[0].encoder
+    u_q = 1296000.0 / encoder[0].counts_per_rev / np.sqrt(12.0 * len(encoder))  # arcsec
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "
                    "signal period)")
     _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                 "positioning", tol_deg=1e-9, run=run, no_iso=no_iso)
+                 "positioning", tol_deg=1e-9, run=run, no_iso=no_iso, u_b=u_q)
+    if s.curves[-1].u is not None:
+        s.notes.append(f"U per target: Type A over the approaches and the heads' rounding, "
+                       f"1 count / sqrt(12 N) = {u_q:.3g} arcsec (N = {len(encoder)} heads)")
     if where.is_feedback and (s.iso is not None or s.vdi is not None):
         s.notes.append(opts.say(servo_loop_note(where, opts.standard_name)))
     elif where.is_feedback and f"figures: {no_iso}" in " ".join(s.notes):

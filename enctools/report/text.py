@@ -7,6 +7,7 @@ from typing import Any
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
 from enctools.report.display import fmt, mark
+from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import DEG
@@ -80,7 +81,22 @@ def vdi_lines(s: Section) -> list[str]:
     return lines
 
 
-def section_lines(s: Section, top: int) -> list[str]:
+def result_lines(s: Section, model: Curve | None = None) -> list[str]:
+    """The results per calibrated position (:mod:`enctools.report.results`): one line a
+    target, the same numbers as the JSON, HTML and PDF."""
+    lines = []
+    for res in results(s, model):
+        lines.append(f"  results per calibrated position, {res.curve}: {res.note()}")
+        head = res.header()
+        cells = res.cells()
+        widths = [max(len(h), *(len(r[i]) for r in cells)) for i, h in enumerate(head)]
+        lines.append("    " + "  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+        lines += ["    " + "  ".join(v.rjust(w) for v, w in zip(r, widths, strict=True))
+                  for r in cells]
+    return lines
+
+
+def section_lines(s: Section, top: int, model: Curve | None = None) -> list[str]:
     rig = f", rig {s.rig_name}" if s.rig_name else ""
     lines = [f"{s.source}: {s.kind}{rig}"]
     for k, v in s.info.items():
@@ -97,6 +113,7 @@ def section_lines(s: Section, top: int) -> list[str]:
                 p += f" |W| {fmt(float(sp.transfer[i]), decimals=2)}"
             parts.append(p)
         lines.append(f"  spectrum {sp.curve}: largest " + "; ".join(parts))
+    lines += result_lines(s, model)
     if s.budget is not None:
         lines += budget_lines(s.budget, s.unit)
     lines += iso_lines(s)
@@ -115,8 +132,9 @@ def history_lines(report: Report) -> list[str]:
 def to_text(report: Report) -> str:
     top = int(report.settings.get("top_harmonics", 5))
     out: list[str] = []
+    model = correction_of(report.sections)
     for s in report.sections:
-        out += section_lines(s, top)
+        out += section_lines(s, top, model)
     out += history_lines(report)
     return printable_lines(out)  # names, notes and history come from files
 
@@ -126,8 +144,9 @@ def write_text(report: Report, out: Any, block: int = 10_000) -> None:
     history's runs are read batch by batch, so memory does not grow with them."""
     top = int(report.settings.get("top_harmonics", 5))
     lines: list[str] = []
+    model = correction_of(report.sections)
     for s in report.sections:
-        lines += section_lines(s, top)
+        lines += section_lines(s, top, model)
     history = iter(()) if report.history is None else report.history.iter_text_lines()
     wrote = False
     for line in history:

@@ -65,9 +65,9 @@ def test_free_text_is_shown_escaped_in_the_html_and_the_pdf(tmp_path):
     cert = tmp_path / "c.toml"
     cert.write_text(_toml(FREE), encoding="utf-8")
     points = make_points(tmp_path / "in\u202efdp.parquet", 1)    # a file name is text too
-    html, pdf = tmp_path / "r.html", tmp_path / "r.pdf"
+    html, pdf, record = tmp_path / "r.html", tmp_path / "r.pdf", tmp_path / "record.txt"
     r = run_in_process(["enc", "report", str(points), "--certificate", str(cert),
-                        "--html", str(html), "--pdf", str(pdf)])
+                        "--html", str(html), "--pdf", str(pdf), "--record", str(record)])
     assert r.returncode == 0, r.stderr.decode()
     page = html.read_text(encoding="utf-8")
     text = subprocess.run(["pdftotext", "-enc", "UTF-8", str(pdf), "-"], capture_output=True,
@@ -77,6 +77,9 @@ def test_free_text_is_shown_escaped_in_the_html_and_the_pdf(tmp_path):
         found = [f"U+{ord(ch):04X}" for ch in DECEPTIVE if ch in document]
         assert not found, (name, found)
         for shown in ("Encoder\\u2028Serial: FAKE-1", "Lane 3\\u202e9001-32EA",
-                      "ok\\x85NEL\\u2029PS", "zero\\u200bwidth\\ufeff\\u2060\\u200d",
-                      "in\\u202efdp.parquet"):
+                      "ok\\x85NEL\\u2029PS", "zero\\u200bwidth\\ufeff\\u2060\\u200d"):
             assert (shown if name == "html" else "".join(shown.split())) in document, (name, shown)
+        assert "fdp.parquet" not in document    # a certificate names its results, not files
+    # the file's name is in the laboratory's record, escaped there too
+    kept = record.read_text(encoding="utf-8")
+    assert "in\\u202efdp.parquet" in kept and "\u202e" not in kept

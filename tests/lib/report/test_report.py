@@ -179,7 +179,7 @@ def test_seed001_table1_conventions(streams):
     assert r.returncode == 0
     out = r.stdout.decode()
     assert 'n=24  p-p 5.460"' in out and 's 1.267" (Bessel n-1' in out
-    assert "positions: 24" in out and "readings: 25" in out
+    assert "positions: 24" in out and "points: 25" in out
     c = report_json(streams["table1"])["sections"][0]["curves"][0]
     assert c["s_bessel_arcsec"] == pytest.approx(1.2674, abs=1e-4)
     assert c["pm_arcsec"] == pytest.approx(2.73)
