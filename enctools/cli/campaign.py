@@ -28,7 +28,7 @@ def polygon_check(rig: str, folder: Path, run_id: str) -> None:
     points written to ``folder``/result.parquet."""
     from enctools.data import streams
     from enctools.data.rig import load_rig
-    from enctools.hw import acquire, open_session, recording
+    from enctools.hw import acquire, backends, open_session, recording
     from enctools.methods import points
 
     rig_ = load_rig(rig)
@@ -36,14 +36,16 @@ def polygon_check(rig: str, folder: Path, run_id: str) -> None:
     readings = folder / "readings.arrows"  # the pipe's stream, removed once read
     with open_session(rig_, seed=settings.seed, signals=bool(settings.signals)) as session:
         header, batches = acquire.acquire(rig_, session, settings)
-        outs = recording.open_outputs(streams.with_history(header), [(str(readings), None)],
-                                      force=True)
+        measured = not backends.of_rig(rig_).simulated  # a device's run keeps its time
+        header = streams.with_history(header, output=str(readings), measured=measured)
+        outs = recording.open_outputs(header, [(str(readings), None)], force=True)
         recording.record(batches, outs)
     try:
         header, found = points.make_points(streams.open_input(str(readings), "readings"),
                                            points.Settings())
-        streams.write_table(str(folder / RESULT), streams.with_history(header), found.table(),
-                            force=True)
+        result = str(folder / RESULT)
+        header = streams.with_history(header, output=result, read=(str(readings),))
+        streams.write_table(result, header, found.table(), force=True)
     finally:
         readings.unlink(missing_ok=True)
 

@@ -131,13 +131,14 @@ def history_line(argv: list[str] | None = None, output: str | None = None,
 
 
 def with_history(header: Header, line: str | None = None, *, output: str | None = None,
-                 measured: bool = False) -> Header:
+                 measured: bool = False, read: tuple[str, ...] = ()) -> Header:
     """The header with one more history line (this command's, for ``output``), and the
-    paths of this command's line that its metadata names (``source``, a setting's file)
+    paths of this command's line that its metadata names (``source``, a setting's file),
+    and those of files it ``read`` that its line does not name (a campaign's own),
     written as :func:`recorded_path` gives them for ``output``."""
     folder = output_folder(output)
     words = [w.split("=", 1)[-1] if w.startswith("--") else w for w in sys.argv[1:]]
-    paths = {w: recorded_path(w, folder) for w in words
+    paths = {w: recorded_path(w, folder) for w in (*words, *read)
              if not w.startswith("-") and _names_path(w)}
     meta = {k: v if k in ("history", "truth") else _recorded_values(v, paths)
             for k, v in header.meta.items()}

@@ -214,3 +214,18 @@ def test_recorded_paths_inside_outside_and_through_a_link(tmp_path, monkeypatch)
     gone.rmdir()
     assert output_folder("x/p.parquet") is None
     assert recorded_path("x/p.parquet", None) == "p.parquet"
+
+
+def test_a_nightly_calibration_names_no_folder_of_the_machine(tmp_path):
+    """enc-nightly's default campaign runs in its process: the result it stores as the
+    calibration (--init) records the night's paths as its own folder's, not the machine's
+    (the history, the calibration and TMPDIR are all absolute here)."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    cal = tmp_path / "cal.parquet"
+    r = run([str(ROOT / "bin" / "enc-nightly"), "--rig", "ciomp-23bit", "--history",
+             str(tmp_path / "hist"), "--calibration", str(cal), "--init"],
+            env={**ENV, "TMPDIR": str(tmp)})
+    assert r.returncode == 0, r.stderr.decode()
+    meta = _meta(cal)
+    assert str(tmp_path) not in json.dumps(meta) and STAMP in meta["history"][-1]
