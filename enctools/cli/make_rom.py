@@ -117,9 +117,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
             bidirectional: bool, sign: str | None, resolution_deg: float | None,
             comp_type: int, points: int | None, detection_unit: float,
             increment_system: str | None, home_point: int, tnc: str | None,
-            outside: str | None, verify: bool, allow_no_gain: bool, allow_coarse: bool,
-            output: str | None, force: bool, fmt: str | None, as_json: bool, unit: str,
-            mapping: Mapping) -> None:
+            outside: str | None, verify: bool, allow_no_gain: bool, allow_coarse: bool, output:
+            str | None, force: bool, fmt: str | None, as_json: bool, unit: str, mapping: Mapping,
+            ) -> None:
     """Evaluate a model at every address of an n-bit code into a correction table.
 
     MODEL is a model stream (enc fit-rbf) or a deviations stream (--curve). Each
@@ -137,12 +137,11 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     from enctools.cli.summary import check_json, emit
     from enctools.data.streams import with_history
     from enctools.models import rom, romformats
-    from enctools.models.romformats import registry
 
     target, path = _target(target, output, force, fmt)
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
     family = _check_applies(target)
-    if family == registry.CONTROL:
+    if family == romformats.registry.CONTROL:
         control = _control_settings(
             target=target, bidirectional=bidirectional, sign=sign, comp_type=comp_type,
             points=points, max_entries=max_entries, axis=axis, detection_unit_deg=detection_unit,

@@ -583,7 +583,7 @@ def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInf
     elif where.is_feedback and not opts.servo_loop:
         no_iso = opts.say(feedback_reason(where, scan.autocollimator))
     enc = encoder[0].encoder
-    u_q = 1296000.0 / encoder[0].counts_per_rev / np.sqrt(12.0 * len(encoder))  # arcsec
+    u_q = TWO_PI / ARCSEC / encoder[0].counts_per_rev / np.sqrt(12.0 * len(encoder))  # arcsec
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "
                    "signal period)")

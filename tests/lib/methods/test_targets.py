@@ -168,7 +168,7 @@ def test_42_visits_are_8_targets_everywhere(repeated, tmp_path):
     assert (fit["targets"]["n_targets"], fit["targets"]["n_visits"]) == (8, 80)
     assert fit["points"]["n_points"] == 8 and fit["targets"]["domain"] == "the full turn"
     section = json.loads(run_in_process(f"enc report {pts} --json").stdout)["sections"][0]
-    assert section["info"] == {"positions": 8, "readings": 80}
+    assert section["info"] == {"positions": 8, "points": 80}
     assert section["curves"][0]["n_points"] == 8
     rows = section["iso230_2"]["positions"]  # one ISO 230-2 row per target, 5 runs each way
     assert len(rows) == 8 and {(r["n_up"], r["n_down"]) for r in rows} == {(5, 5)}
