@@ -588,6 +588,48 @@ def test_a_library_campaign_is_a_callable(tmp_path):
     assert h.column("campaign")[0] == "broken" and h.column("exit_code")[0] == 3
 
 
+def test_two_init_nights_at_once_store_one_calibration(tmp_path):
+    """--init while another --init night stores its calibration first: that one is kept
+    (not replaced by this night's) and this night is compared with it."""
+    import shutil
+
+    from enctools.report.nightly import Campaign, Settings, run_nightly
+    cal = tmp_path / "c.parquet"
+    first = tmp_path / "first.parquet"
+    assert run(["enc", "points", f"{DATA}/seed001_table3.csv", "-o", str(first)]).returncode == 0
+
+    def other_night_first(rig: str, folder: Path, run_id: str) -> None:
+        assert run(["enc", "points", f"{DATA}/seed001_table1.csv", "-o",
+                    str(folder / "result.parquet")]).returncode == 0
+        shutil.copyfile(first, cal)            # the other night stored its own meanwhile
+
+    night = run_nightly(Settings("r", str(tmp_path / "h"), str(cal),
+                                 Campaign(other_night_first, "table 1"), tolerance=99.0,
+                                 init=True))
+    assert night.code == 0, night.messages
+    assert cal.read_bytes() == first.read_bytes()             # kept, not replaced
+    h = read_history(tmp_path / "h")
+    assert h.column("drift_max")[0] > 0.1                     # table 1 against table 3
+    # the narrower race: both found no calibration, the other's landed first
+    from enctools.report.nightly import store_first
+    mine = tmp_path / "mine.parquet"
+    mine.write_bytes(b"this night's result")
+    assert not store_first(str(cal), mine, "run-2")
+    assert cal.read_bytes() == first.read_bytes()
+    other = tmp_path / "new" / "c.parquet"
+    assert store_first(str(other), first, "run-3") and other.read_bytes() == first.read_bytes()
+    assert not [f.name for f in tmp_path.rglob("*.init")]
+
+
+def test_the_history_records_a_rig_file_by_its_name(tmp_path):
+    from enctools.report.nightly import history_rig
+    rig = tmp_path / "lab" / "rig.toml"
+    rig.parent.mkdir()
+    text = run(["enc", "rig", "show", "ciomp-23bit"]).stdout.decode()
+    rig.write_text(text.replace('name = "ciomp-23bit"', 'name = "0042"', 1))
+    assert history_rig(str(rig)) == "0042" and history_rig("ciomp-23bit") == "ciomp-23bit"
+
+
 def test_a_campaign_script_past_its_time_limit_is_stopped(tmp_path, enc):
     """A --campaign script runs as a process group of its own, stopped whole once past
     --campaign-timeout: exit 3, recorded."""
