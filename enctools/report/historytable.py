@@ -211,6 +211,19 @@ def append_rows(history: str | os.PathLike[str], rows: pa.Table,
     raise DataError(msg)
 
 
+def rig_dataset(table: Any, rig: str | None) -> Any:
+    """The table as a ``pyarrow.dataset``: of one ``rig``'s files alone, chosen from the log
+    before a file is opened (the dataset of every file costs in proportion to the files:
+    44 s for 36,500 of them, where one rig's 365 take 0.2 s), or of all (None)."""
+    import warnings
+
+    if rig is None:
+        return table.to_pyarrow_dataset()
+    with warnings.catch_warnings():  # newer releases would have a predicate: same files
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return table.to_pyarrow_dataset(partitions=[("rig", "=", rig)])
+
+
 def _first_line(exc: BaseException) -> str:
     """An error of delta-rs as one line (its messages may hold the causes' lines)."""
     text = " ".join(str(exc).split())
@@ -225,7 +238,7 @@ def _without_known(table: Any, rows: pa.Table) -> pa.Table:
     rigs = sorted({r for r in rows.column("rig").to_pylist() if r is not None})
     if not rigs or table.version() < 0:
         return rows
-    dataset = table.to_pyarrow_dataset()
+    dataset = rig_dataset(table, rigs[0] if len(rigs) == 1 else None)
     known = dataset.to_table(columns=["run_id"], filter=ds.field("rig").isin(rigs)
                              & ds.field("run_id").isin(rows.column("run_id")))
     if not known.num_rows:
@@ -246,7 +259,7 @@ def read_rows(history: str | os.PathLike[str], columns: list[str], rig: str | No
     if table is None:
         msg = f"`history_dir` {os.fspath(history)}: no history table there"
         raise DataError(msg)
-    dataset = table.to_pyarrow_dataset()
+    dataset = rig_dataset(table, rig)
     wanted = ds.scalar(True)
     if rig is not None:
         wanted = ds.field("rig") == rig
