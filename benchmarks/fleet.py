@@ -1,26 +1,28 @@
 #!/usr/bin/env python3
-"""A fleet's nightly history: the time to tabulate one rig's drift as the fleet grows.
+"""A fleet's nightly history: 100 rigs x 365 nights, as the Delta table enc-nightly writes
+and as the Hive folders of the layout before it, queried fleet-wide and for one rig before
+and after ``enc history compact``.
 
-Builds the history dataset of 10, 30 and 100 rigs x 365 nights, each in a folder of its own
-(one Parquet file per night in the ``rig=NAME/year=YYYY`` partitions that ``enc-nightly``
-writes; written here at once by ``pyarrow.dataset.write_dataset``, one row a file, without
-the fsync each night makes), and times on each, the three fleets in turn (a machine busy
-for a while slows them alike) and the best of five:
+Rows are made for the benchmark (a slow random walk of drift per rig). The table is
+appended a night at a time, each night one transaction of one row per rig (one file per
+rig and night, as many nights appended by many hosts make); the Hive layout is written
+at once by ``pyarrow.dataset.write_dataset``, one file a night and rig. Then, in one run:
 
-- one rig (``read_history(DIR, rig=...)`` and its table, as ``enc report --history DIR
-  --rig NAME`` does), and the same since a date (the year before is pruned);
-- one rig by a scan of the whole dataset with the filter applied there
-  (``pyarrow.dataset.dataset(DIR, partitioning="hive").to_table(filter=...)``): what the
-  partitions save, since that scan lists every rig's files;
-- ``enc report --history DIR --history-rig NAME`` as a command (start-up included).
+- fleet-wide: the README's DuckDB query (nights since a date, largest drift and nights
+  not ok of every rig) over the whole history: on the Hive folders
+  (``read_parquet(..., hive_partitioning = true)``) and on the table (DuckDB over
+  ``DeltaTable(DIR).to_pyarrow_dataset()``, the table opened within the time);
+- one rig: ``read_history(DIR, rig=...)`` and its text, as ``enc report --history
+  --history-rig`` does;
+- the number of data files of the table's version, before and after ``compact``
+  (OPTIMIZE, then VACUUM with the least retention, 1 h: the files OPTIMIZE replaced
+  stay on disk until they are an hour old);
+- one more night appended by ``append_run`` (its run id checked), before and after.
 
-Times are CPU seconds (threads and child processes included): on a machine shared with
-other work they hold where wall times do not.
+Times are wall seconds, the best of ``--repeat`` (the machine is shared: the best is the
+figure least disturbed). Prints a Markdown table; writes OUT/fleet.json.
 
-The ratios to the 10-rig fleet are the result: flat (about 1) for one rig, growing with
-the fleet for the whole-dataset scan. Prints a Markdown table; writes OUT/fleet.json.
-
-Usage: fleet.py [--out bench-out] [--rigs 10,30,100] [--nights 365]
+Usage: fleet.py [--out bench-out] [--rigs 100] [--nights 365] [--repeat 3]
 """
 
 from __future__ import annotations
@@ -28,9 +30,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
-import resource
 import shutil
-import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -40,138 +40,170 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.dataset as ds
 
-from enctools.report.history import FILE_SCHEMA, read_history
-from enctools.report.partitions import partition_folder
+from enctools.report import historytable
+from enctools.report.history import SCHEMA, read_history
+from enctools.report.history_hive import FILE_SCHEMA
 
 ROOT = Path(__file__).resolve().parent.parent
-ENC = str(Path(sys.executable).parent / "enc")
 LAST_NIGHT = dt.datetime(2026, 11, 30, 2, 30, tzinfo=dt.UTC)
-SINCE = "2026-11-01"  # the last 30 nights: the 2025 folder is not read
+SINCE = "2026-01-01"
+QUERY = """SELECT rig, count(*) AS nights, max(drift_max) AS largest_drift_arcsec,
+       count(*) FILTER (WHERE status <> 'ok') AS not_ok
+FROM {source}
+WHERE time >= TIMESTAMPTZ '2026-01-01 00:00:00+00'
+GROUP BY rig ORDER BY largest_drift_arcsec DESC"""
 
 
 def rig_name(k: int) -> str:
-    return f"table-{k:03d}"
+    return f"{k:04d}"  # digit-only, as many labs number their rigs
 
 
-def add_rigs(root: Path, first: int, last: int, nights: int) -> None:
-    """Rigs ``first`` .. ``last - 1``, ``nights`` nights each up to LAST_NIGHT, one file a
-    night in its partition; the drift a slow random walk [arcsec] per rig."""
-    rng = np.random.default_rng(first)
-    n = (last - first) * nights
-    when = np.tile(np.datetime64(LAST_NIGHT.replace(tzinfo=None), "us")
-                   - np.arange(nights)[::-1] * np.timedelta64(1, "D"), last - first)
-    k = np.repeat(np.arange(first, last), nights)
-    drift = np.abs(np.cumsum(rng.normal(0.0, 0.01, (last - first, nights)), axis=1)).ravel()
+def nights(rigs: int, count: int) -> pa.Table:
+    """Every rig's ``count`` nights up to LAST_NIGHT, night by night (the rigs of a night
+    together); the drift a slow random walk [arcsec] per rig."""
+    rng = np.random.default_rng(1)
+    when = np.repeat(np.datetime64(LAST_NIGHT.replace(tzinfo=None), "us")
+                     - np.arange(count)[::-1] * np.timedelta64(1, "D"), rigs)
+    k = np.tile(np.arange(rigs), count)
+    drift = np.abs(np.cumsum(rng.normal(0.0, 0.01, (count, rigs)), axis=0)).ravel()
     bad = drift > 0.5
+    n = rigs * count
     cols = {"run_id": [f"{t}Z-bench-{r}" for t, r in zip(when.astype(str), k, strict=True)],
             "time": pa.array(when, pa.timestamp("us")).cast(pa.timestamp("us", tz="UTC")),
-            "host": [f"host-{r % 7}" for r in k], "status": np.where(bad, "drift", "ok"),
-            "exit_code": bad.astype(np.int32), "pp": 5.0 + drift, "std": np.full(n, 1.2),
-            "mean": np.zeros(n), "max_abs": np.full(n, 2.7), "drift_pp": 2 * drift,
-            "drift_max": drift, "tolerance": np.full(n, 0.5),
+            "host": [f"host-{r % 7}" for r in k], "rig": [rig_name(r) for r in k],
+            "status": np.where(bad, "drift", "ok"), "exit_code": bad.astype(np.int32),
+            "pp": 5.0 + drift, "std": np.full(n, 1.2), "mean": np.zeros(n),
+            "max_abs": np.full(n, 2.7), "drift_pp": 2 * drift, "drift_max": drift,
+            "tolerance": np.full(n, 0.5),
             "campaign": ['enc acquire --rig "$RIG" --mode steps | enc points'] * n,
             "summary_json": ["{}"] * n}
-    table = pa.table({f.name: pa.array(cols[f.name], f.type) for f in FILE_SCHEMA},
-                     schema=FILE_SCHEMA)
-    table = table.append_column("rig", pa.array([rig_name(r) for r in k])) \
-        .append_column("year", pa.array(when.astype("datetime64[Y]").astype(int) + 1970,
-                                        pa.int32()))
-    # the folders enc-nightly writes to (a bench rig's name needs no encoding)
-    assert partition_folder(root, rig_name(first), 2026).parent.name == f"rig={rig_name(first)}"
+    return pa.table({f.name: pa.array(cols[f.name], f.type) for f in SCHEMA},
+                    schema=historytable.table_schema(SCHEMA))
+
+
+def build_table(root: Path, rows: pa.Table, rigs: int) -> None:
+    """The table as enc-nightly leaves it: a transaction a night, a file per rig (written
+    here without the run-id check of each night, whose cost :func:`one_night` gives)."""
+    from deltalake import write_deltalake
+
+    table = historytable.create_table(root, SCHEMA)
+    for start in range(0, rows.num_rows, rigs):
+        write_deltalake(table, rows.slice(start, rigs), mode="append", partition_by=["rig"])
+
+
+def one_night(root: Path, rig: str) -> float:
+    """The wall time [s] of one more night of ``rig`` appended as enc-nightly does
+    (its run id checked against the rig's partition, then the commit)."""
+    from enctools.report.history import append_run
+
+    t0 = time.perf_counter()
+    append_run(root, {"rig": rig, "status": "ok", "time": LAST_NIGHT + dt.timedelta(days=1)})
+    return time.perf_counter() - t0
+
+
+def build_hive(root: Path, rows: pa.Table) -> None:
+    """The layout before the table: a Parquet file a night in rig=NAME/year=YYYY."""
+    years = pa.array(rows.column("time").to_numpy().astype("datetime64[Y]").astype(int)
+                     + 1970, pa.int32())
+    table = rows.select(FILE_SCHEMA.names).cast(FILE_SCHEMA) \
+        .append_column("rig", rows.column("rig")).append_column("year", years)
     ds.write_dataset(table, root, format="parquet", partitioning=ds.partitioning(
-        pa.schema([table.schema.field("rig"), table.schema.field("year")]), flavor="hive"),
-        max_rows_per_file=1, max_rows_per_group=1,
-        basename_template=f"run-{first}-{{i}}.parquet",
-        existing_data_behavior="overwrite_or_ignore")
+        pa.schema([pa.field("rig", pa.string()), pa.field("year", pa.int32())]),
+        flavor="hive"), max_rows_per_file=1, max_rows_per_group=1,
+        basename_template="run-{i}.parquet", existing_data_behavior="overwrite_or_ignore")
 
 
-def cpu_seconds(fn: Callable[[], object]) -> float:
-    """The CPU time [s] of one call of ``fn()``: this process's, its threads and the
-    children it waited for included (a machine shared with other work changes the wall
-    time far more)."""
-    def cpu() -> float:
-        me, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
-                                                     resource.RUSAGE_CHILDREN))
-        return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
-
-    t0 = cpu()
-    fn()
-    return cpu() - t0
-
-
-def jobs(root: Path, rigs: int) -> dict[str, Callable[[], object]]:
-    """What is timed at one fleet size, for a rig in the middle of the fleet."""
-    rig = rig_name(rigs // 2)
-    since = dt.datetime.fromisoformat(SINCE).replace(tzinfo=dt.UTC)
-
-    def one_rig() -> None:
-        assert len(read_history(root, rig=rig).text_lines()) > 300
-
-    def one_rig_since() -> None:
-        assert 30 <= read_history(root, rig=rig, since=since).runs <= 31
-
-    def whole_scan() -> None:
-        t = ds.dataset(root, format="parquet", partitioning="hive") \
-            .to_table(filter=ds.field("rig") == rig)
-        assert t.num_rows > 300
-
-    def command() -> None:
-        subprocess.run([ENC, "report", "--history", str(root), "--history-rig", rig], check=True,
-                       stdout=subprocess.DEVNULL)
-
-    return {"one rig": one_rig, "one rig since": one_rig_since,
-            "whole-dataset scan": whole_scan, "enc report --history-rig": command}
-
-
-def measure(roots: dict[int, Path], repeat: int = 5) -> dict[str, dict[str, float]]:
-    """The least CPU time [s] of ``repeat`` turns of every job on every fleet, the fleets
-    in turn within each turn."""
-    todo = {n: jobs(root, n) for n, root in roots.items()}
-    best: dict[str, dict[str, float]] = {str(n): {} for n in roots}
+def best(fn: Callable[[], object], repeat: int) -> float:
+    """The least wall time [s] of ``repeat`` calls of ``fn``."""
+    times = []
     for _ in range(repeat):
-        for n, each in todo.items():
-            for what, fn in each.items():
-                t = cpu_seconds(fn)
-                best[str(n)][what] = min(best[str(n)].get(what, t), t)
-    return best
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
 
 
-def markdown(res: dict) -> str:
-    sizes = res["rigs"]
-    base = res["times"][str(sizes[0])]
-    head = " | ".join(f"{n} rigs [CPU s]" for n in sizes)
-    ratio = " | ".join(f"{n}/{sizes[0]}" for n in sizes[1:])
-    out = [f"| one rig of a fleet, {res['nights']} nights each | {head} | {ratio} |",
-           "|---|" + "---:|" * (2 * len(sizes) - 1)]
-    for what in base:
-        t = [res["times"][str(n)][what] for n in sizes]
-        out.append(f"| {what} | " + " | ".join(f"{x:.3f}" for x in t) + " | "
-                   + " | ".join(f"{x / t[0]:.2f}" for x in t[1:]) + " |")
-    return "\n".join(out)
+def jobs(table: Path, hive: Path, rigs: int, count: int) -> dict[str, Callable[[], object]]:
+    import duckdb
+
+    rig = rig_name(rigs // 2)
+
+    def fleet_hive() -> None:
+        sql = QUERY.format(source=f"read_parquet('{hive}/*/*/*.parquet', "
+                                  "hive_partitioning = true, "
+                                  "hive_types = {'rig': VARCHAR, 'year': INTEGER})")
+        assert len(duckdb.sql(sql).fetchall()) == rigs
+
+    def fleet_table() -> None:
+        history = historytable.open_table(table).to_pyarrow_dataset()  # noqa: F841 - in SQL
+        assert len(duckdb.sql(QUERY.format(source="history")).fetchall()) == rigs
+
+    def one_rig_table() -> None:
+        assert len(read_history(table, rig=rig).text_lines()) >= count + 2
+
+    def one_rig_hive() -> None:
+        assert len(read_history(hive, rig=rig).text_lines()) >= count + 2
+
+    return {"fleet-wide, Hive folders": fleet_hive, "fleet-wide, table": fleet_table,
+            "one rig, Hive folders": one_rig_hive, "one rig, table": one_rig_table}
+
+
+def files(root: Path) -> int:
+    return sum(1 for _ in root.rglob("*.parquet"))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default=str(ROOT / "bench-out"))
-    ap.add_argument("--rigs", default="10,30,100")
+    ap.add_argument("--rigs", type=int, default=100)
     ap.add_argument("--nights", type=int, default=365)
+    ap.add_argument("--repeat", type=int, default=3)
     a = ap.parse_args()
-    sizes = sorted(int(x) for x in a.rigs.split(","))
     out = Path(a.out)
-    roots = {n: out / f"fleet-history-{n}" for n in sizes}
-    res: dict = {"rigs": sizes, "nights": a.nights, "build_s": {}}
-    for n, root in roots.items():
+    table, hive = out / "fleet-table", out / "fleet-hive"
+    for root in (table, hive):
         shutil.rmtree(root, ignore_errors=True)
-        t0 = time.perf_counter()
-        add_rigs(root, 0, n, a.nights)
-        res["build_s"][str(n)] = time.perf_counter() - t0
-        print(f"fleet: {n} rigs built", file=sys.stderr)
-    res["times"] = measure(roots)
-    for root in roots.values():
+    rows = nights(a.rigs, a.nights)
+    res: dict = {"rigs": a.rigs, "nights": a.nights, "rows": rows.num_rows, "build_s": {}}
+    t0 = time.perf_counter()
+    build_hive(hive, rows)
+    res["build_s"]["hive"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    build_table(table, rows, a.rigs)
+    res["build_s"]["table"] = time.perf_counter() - t0
+    print(f"fleet: built ({res['build_s']})", file=sys.stderr)
+    todo = jobs(table, hive, a.rigs, a.nights)
+    res["files"] = {"hive": files(hive), "table before": historytable.file_count(table)}
+    res["before"] = {what: best(fn, a.repeat) for what, fn in todo.items()}
+    res["append_s"] = {"before": one_night(table, rig_name(0))}
+    t0 = time.perf_counter()
+    res["compact"] = historytable.compact(table, historytable.MIN_RETENTION_HOURS)
+    res["compact_s"] = time.perf_counter() - t0
+    res["files"]["table after"] = historytable.file_count(table)
+    res["after"] = {what: best(fn, a.repeat) for what, fn in todo.items()
+                    if what.endswith("table")}
+    res["append_s"]["after"] = one_night(table, rig_name(1))
+    for root in (table, hive):
         shutil.rmtree(root, ignore_errors=True)
     (out / "fleet.json").write_text(json.dumps(res, indent=1))
     print(markdown(res))
+
+
+def markdown(res: dict) -> str:
+    hive_fleet, hive_rig = res["before"]["fleet-wide, Hive folders"], \
+        res["before"]["one rig, Hive folders"]
+    out = [f"| {res['rigs']} rigs x {res['nights']} nights [s] | Hive folders | table | "
+           "table compacted | compacted / Hive |", "|---|---:|---:|---:|---:|"]
+    for what, hive in (("fleet-wide", hive_fleet), ("one rig", hive_rig)):
+        before, after = res["before"][f"{what}, table"], res["after"][f"{what}, table"]
+        out.append(f"| {what} | {hive:.3f} | {before:.3f} | {after:.3f} | "
+                   f"{after / hive:.4f} |")
+    f = res["files"]
+    out.append(f"| data files | {f['hive']} | {f['table before']} | {f['table after']} | |")
+    out.append(f"| a night appended (enc-nightly) | | {res['append_s']['before']:.3f} | "
+               f"{res['append_s']['after']:.3f} | |")
+    return "\n".join(out)
 
 
 if __name__ == "__main__":

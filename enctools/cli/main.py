@@ -34,6 +34,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "report": ("report", "Figures, uncertainty, ISO 230-2, plots and thresholds."),
     "info": ("info", "Describe a stream: kind, columns, units, rows, history."),
     "rig": ("rig", "List the bundled rigs, print one to edit, check a rig file."),
+    "history": ("history", "Show, compact or migrate the nightly history (a Delta table)."),
 }
 
 

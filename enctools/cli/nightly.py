@@ -39,8 +39,9 @@ PROG = "enc-nightly"
 @click.option("--rig", envvar="ENC_RIG", required=True, metavar="NAME|PATH",
               help="Rig to re-acquire on (passed to a --campaign script as $RIG).")
 @click.option("--history", "history_dir", envvar="ENC_NIGHTLY_HISTORY", required=True,
-              metavar="DIR", type=click.Path(file_okay=False),
-              help="History folder: one Parquet file per run is added.")
+              metavar="DIR|URI", type=click.Path(file_okay=False),
+              help="The history (a Delta table): a folder or an s3://, az://, gs:// URI; "
+              "one transaction a night is appended.")
 @click.option("--calibration", required=True, metavar="FILE", type=click.Path(dir_okay=False),
               help="The stored calibration (points or deviations stream) to compare with.")
 @click.option("--init", is_flag=True, default=False,
@@ -56,7 +57,8 @@ PROG = "enc-nightly"
               show_default=True, metavar="ARCSEC",
               help="Largest allowed |drift| against the calibration.")
 @click.option("--keep", default=None, metavar="DIR", type=click.Path(file_okay=False),
-              help="Keep the campaign's outputs in DIR (default: a removed temporary folder).")
+              help="Keep the campaign's outputs in a new subfolder DIR/RUN_ID each night "
+              "(default: a removed temporary folder).")
 @click.option("--html", default=None, metavar="FILE", type=click.Path(dir_okay=False),
               help="Also write this run's HTML report with the history.")
 @click.option("--force", is_flag=True, default=False,

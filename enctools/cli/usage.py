@@ -46,6 +46,8 @@ FIELD_FLAGS: dict[str, dict[str, str]] = {
     "make-rom": {"detection_unit_deg": "--detection-unit"},
     "correct": {"fmt": "--target"},
     "fit-rbf": {"goal_arcsec": "--goal", "allow_no_gain": "--allow-no-gain"},
+    "history": {"history_dir": "DIR|URI", "old": "OLD", "new": "NEW",
+                "retention_hours": "--retention-hours"},
 }
 
 #: the old spellings still accepted, with a warning: (command, old) -> new

@@ -12,8 +12,9 @@ append the run to the history dataset; the command is ``enc-nightly``
    current - stored at the current positions (the stored curve interpolated
    periodically), mean offset removed (an encoder's zero is arbitrary);
    ``drift_max`` = max |drift|, ``drift_pp`` = its peak-to-peak.
-4. Append one row to the history dataset (:mod:`.history`), in the rig's partition
-   ``rig=NAME/year=YYYY``, whatever happened.
+4. Append one row to the history table (:mod:`.history`), in the partition of the rig's
+   name (a rig file's ``name``), whatever happened: one transaction, a retry of the same
+   run id adding nothing.
 5. The exit status: 0 (within tolerance), 1 (drift > tolerance), 2 (bad usage or
    input), 3 (the campaign reported a device fault) or the campaign's own failing
    status.
@@ -72,11 +73,12 @@ class Settings:
     """One nightly recheck.
 
     ``rig``: the rig the campaign measures (a name or rig file); ``history_dir``: the
-    history folder; ``calibration``: the stored calibration stream; ``campaign``: what
-    is run (:class:`Campaign`); ``tolerance``: largest allowed |drift| [arcsec];
-    ``init``: store this run as the calibration when there is none; ``keep``: folder for
-    the campaign's outputs (default: a removed temporary folder); ``html``: also write
-    the HTML report here.
+    history (a folder or an object-store URI); ``calibration``: the stored calibration
+    stream; ``campaign``: what is run (:class:`Campaign`); ``tolerance``: largest allowed
+    |drift| [arcsec]; ``init``: store this run as the calibration when there is none;
+    ``keep``: folder in which each night's outputs are kept, in a new subfolder named by
+    its run id (default: a removed temporary folder); ``html``: also write the HTML
+    report here.
     """
 
     rig: str
@@ -186,18 +188,22 @@ def run_nightly(s: Settings, words: Callable[[str], str] | None = None) -> Night
     read-only file system) is one message naming the file, exit 2.
     """
     night = Night(words=words)
-    record: dict[str, Any] = {"run_id": "", "rig": s.rig, "tolerance": s.tolerance,
+    # the rig file's stem until its name is read (a file that cannot be read: the row's)
+    record: dict[str, Any] = {"run_id": "", "tolerance": s.tolerance,
+                              "rig": Path(s.rig).stem if s.rig.endswith(".toml") else s.rig,
                               "campaign": s.campaign.text if s.campaign else ""}
     work: Path | None = None
     lock: int | None = None
     try:
         with signals_held():  # a signal inside an import would leave numpy unusable for the row
-            import pyarrow.parquet  # noqa: F401 - what append_run needs, imported whole
+            import deltalake  # noqa: F401 - what append_run needs, imported whole
+            import pyarrow.dataset  # noqa: F401
 
             from enctools.report.history import new_run_id
 
             record["run_id"] = new_run_id()
-            work, lock = _work_folder(s)
+            record["rig"] = history_rig(s.rig)
+            work, lock = _work_folder(s, record["run_id"])
         _recheck(s, work, record, night)
     except Interrupted as exc:  # SIGTERM (exit 143), SIGHUP (129)...
         night.fail(exc.template, exc.exit_code, record, status="interrupted")
@@ -233,8 +239,10 @@ def _record_row(s: Settings, record: dict[str, Any], night: Night) -> bool:
         try:
             append_run(s.history_dir, record)
             return True
-        except OSError as exc:
-            why = "this run cannot be added to the history: " + os_message(exc, s.history_dir)
+        except (OSError, EncError) as exc:
+            why = "this run cannot be added to the history: " + (
+                os_message(exc, s.history_dir) if isinstance(exc, OSError)
+                else night.say(exc.template))
             errors = [i for i, (level, _) in enumerate(night.messages) if level == "error"]
             if night.code in (0, 1) or not errors:
                 night.messages.append(("error", why))
@@ -252,14 +260,26 @@ WORK_PREFIX = "enc-nightly-"
 WORK_LOCK = ".enc-nightly.lock"
 
 
-def _work_folder(s: Settings) -> tuple[Path, int | None]:
-    """The campaign's folder: ``keep``, or a new temporary folder named after this
+def history_rig(rig: str) -> str:
+    """The rig's name as the history records it (its partition): a rig file's ``name``,
+    never its path (hosts keeping their rigs at one path would share a partition); a
+    bundled rig's name as given."""
+    if not (rig.endswith(".toml") or os.sep in rig or (os.altsep or os.sep) in rig):
+        return rig
+    from enctools.data.rig import load_rig
+
+    return load_rig(rig).name
+
+
+def _work_folder(s: Settings, run_id: str) -> tuple[Path, int | None]:
+    """The campaign's folder: a new subfolder ``run_id`` of ``keep`` (a night never finds
+    an older night's result there), or a new temporary folder named after this
     process (``enc-nightly-PID@HOST-RANDOM``) in :func:`temporary_root`, once those of
     killed runs are removed; with the descriptor of its lock, held until it is closed
     (None for ``keep``)."""
     if s.keep:
-        work = Path(s.keep)
-        work.mkdir(parents=True, exist_ok=True)
+        work = Path(s.keep) / run_id
+        work.mkdir(parents=True, exist_ok=False)
         return work, None
     from enctools.data.files import writer_tag
 
@@ -512,12 +532,32 @@ def _calibration_ready(s: Settings, result: Path, record: dict[str, Any], night:
         night.fail(f"`calibration` {s.calibration}: no such file (use `init` to store this "
                    "run as the calibration)", 2, record, summary="no stored calibration")
         return False
+    if store_first(s.calibration, result, record["run_id"]):
+        night.messages.append(("info", f"stored this run as the calibration {s.calibration}"))
+    else:
+        night.messages.append(("info", f"compared with the calibration {s.calibration} "
+                               "another night stored meanwhile"))
+    return True
+
+
+def store_first(path: str, result: Path, run_id: str) -> bool:
+    """Store ``result`` as ``path`` unless a file is there: written whole beside it, then
+    linked into place, which fails when another night stored its own first (two
+    ``init`` nights at once: one calibration, the other night compared with it).
+    True when this night's was stored."""
     from enctools.data.files import write_atomic
 
-    with _naming(s.calibration):
-        Path(s.calibration).parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(s.calibration, result.read_bytes(), durable=True)
-    night.messages.append(("info", f"stored this run as the calibration {s.calibration}"))
+    final = Path(path)
+    with _naming(path):
+        final.parent.mkdir(parents=True, exist_ok=True)
+        mine = final.with_name(f".{final.name}.{run_id}.init")
+        write_atomic(mine, result.read_bytes(), durable=True)
+        try:
+            os.link(mine, final)
+        except FileExistsError:
+            return False
+        finally:
+            mine.unlink(missing_ok=True)
     return True
 
 
@@ -527,7 +567,7 @@ def _write_html(path: str, s: Settings, rep: Report, d: Drift, status: str) -> N
     from enctools.report.history import read_history
     from enctools.report.html import to_html
 
-    rep.history = read_history(s.history_dir, rig=s.rig)
+    rep.history = read_history(s.history_dir, rig=history_rig(s.rig))
     rep.settings["thresholds"] = {"drift tolerance": s.tolerance}
     fails = [] if status == "ok" else [f"drift {d.max_abs:.3f} arcsec > {s.tolerance:g}"]
     # SIGTERM's Interrupted raised inside matplotlib's drawing may be swallowed there and

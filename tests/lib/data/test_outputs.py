@@ -99,8 +99,9 @@ def test_every_output_has_the_mode_the_umask_gives(tmp_path, mask):
         with files.OutputGroup() as group:
             group.write(tmp_path / "a.txt", b"a")
             streams.write_table(str(tmp_path / "g.parquet"), header, table, group=group)
-        names += [tmp_path / "whole.txt", tmp_path / "a.txt", tmp_path / "g.parquet",
-                  append_run(tmp_path / "hist", {"rig": "r", "status": "ok"})]
+        names += [tmp_path / "whole.txt", tmp_path / "a.txt", tmp_path / "g.parquet"]
+        assert append_run(tmp_path / "hist", {"rig": "r", "status": "ok"}) == 1
+        names += [p for p in (tmp_path / "hist").rglob("*") if p.is_file()]  # data and log
     finally:
         os.umask(before)
     modes = {p.name: oct(stat.S_IMODE(p.stat().st_mode)) for p in names}

@@ -1,6 +1,6 @@
-"""The nightly history of a fleet: one Hive-partitioned dataset (rig=NAME/year=YYYY) that
-pyarrow.dataset and DuckDB read as written; enc report --history --history-rig/--since reads
-only the partitions asked for; the layout before partitions is read and moved."""
+"""The nightly history of a fleet: one Delta table partitioned by the rig's name that
+enc report --history --history-rig/--since reads one partition of; the Hive folders of the
+layout before the table (rig=NAME/year=YYYY) and the flat one before those, still read."""
 
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import ROOT, one_error_line, run, run_in_process
 
-from enctools.report.history import FILE_SCHEMA, SCHEMA, append_run, read_history
+from enctools.report.history import SCHEMA, append_run, read_history
+from enctools.report.history_hive import FILE_SCHEMA
+from enctools.report.partitions import partition_folder
 
 HOSTILE = "lab/3 a=b%20c.toml"      # a rig given as a path: every character the layout encodes
 RIGS = ["sjtu-dual", HOSTILE, "Prüfstand ü"]
@@ -24,46 +26,38 @@ def utc(*args: int) -> dt.datetime:
     return dt.datetime(*args, tzinfo=dt.UTC)
 
 
+NIGHTS = (utc(2025, 11, 30, 23, 59), utc(2026, 1, 1), utc(2026, 3, 1))
+
+
 def fleet(root: Path) -> None:
     """Three rigs, runs in 2025 and 2026; pp = the month, drift_max = the rig's index."""
     for k, rig in enumerate(RIGS):
-        for when in (utc(2025, 11, 30, 23, 59), utc(2026, 1, 1), utc(2026, 3, 1)):
+        for when in NIGHTS:
             append_run(root, {"rig": rig, "time": when, "status": "ok",
                               "pp": float(when.month), "drift_max": float(k)})
 
 
-def test_runs_land_in_their_partition_without_the_partition_columns(tmp_path):
-    f = append_run(tmp_path, {"rig": HOSTILE, "time": utc(2026, 2, 3), "status": "ok"})
-    assert f.parent.relative_to(tmp_path) == Path("rig=lab%2F3%20a%3Db%2520c.toml/year=2026")
-    t = pq.read_table(f)
-    assert t.schema.remove_metadata() == FILE_SCHEMA.remove_metadata() and t.num_rows == 1
-    assert "rig" not in t.schema.names and "year" not in t.schema.names
+def hive_fleet(root: Path) -> None:
+    """:func:`fleet` in the layout before the table: a Parquet file a night in its
+    ``rig=NAME/year=YYYY`` folder."""
+    for k, rig in enumerate(RIGS):
+        for i, when in enumerate(NIGHTS):
+            row = {"run_id": f"{k}-{i}", "time": when, "status": "ok",
+                   "pp": float(when.month), "drift_max": float(k)}
+            part = partition_folder(root, rig, when.year)
+            part.mkdir(parents=True, exist_ok=True)
+            pq.write_table(pa.Table.from_pylist([row], schema=FILE_SCHEMA),
+                           part / f"run-{k}-{i}.parquet")
 
 
 def test_pyarrow_dataset_reads_the_fleet_as_written(tmp_path):
+    from deltalake import DeltaTable
     fleet(tmp_path)
-    t = ds.dataset(tmp_path, format="parquet", partitioning="hive").to_table()
+    t = DeltaTable(str(tmp_path)).to_pyarrow_dataset().to_table()
     assert t.num_rows == 9
     assert sorted(set(t.column("rig").to_pylist())) == sorted(RIGS)
-    assert sorted(set(t.column("year").to_pylist())) == [2025, 2026]
     rows = t.filter(ds.field("rig") == HOSTILE).column("drift_max").to_pylist()
     assert rows == [1.0, 1.0, 1.0]
-
-
-def test_duckdb_reads_the_fleet_as_written(tmp_path):
-    """The README's query, word for word, over the partitions as enc-nightly writes them."""
-    import duckdb
-    fleet(tmp_path)
-    readme = (ROOT / "README.md").read_text()
-    sql = readme.split("```sql\n", 1)[1].split("```", 1)[0]
-    sql = sql.replace("/var/lib/enc/history", str(tmp_path))
-    got = duckdb.sql(sql).fetchall()
-    # one rig a row: nights since 2026-01-01, largest drift, nights not ok
-    assert sorted(got) == sorted((rig, 2, float(k), 0)
-                                 for k, rig in enumerate(RIGS)), got
-    n = duckdb.sql(f"SELECT count(*) FROM read_parquet('{tmp_path}/*/*/*.parquet', "
-                   f"hive_partitioning = true) WHERE rig = '{HOSTILE}' AND year = 2025")
-    assert n.fetchall() == [(1,)]
 
 
 def test_report_reads_one_rig_since_a_date(tmp_path):
@@ -97,9 +91,10 @@ def test_the_old_spelling_of_history_rig_still_works_with_a_warning(tmp_path):
 
 
 def test_one_rig_reads_its_partition_only(tmp_path):
-    """Damaged files in another rig's folder and in a year before --since are never
-    opened (no warning); read without the filters they are skipped and named."""
-    fleet(tmp_path)
+    """The layout before the table: damaged files in another rig's folder and in a year
+    before --since are never opened (no warning); read without the filters they are
+    skipped and named."""
+    hive_fleet(tmp_path)
     damaged = [tmp_path / "rig=sjtu-dual" / "year=2026" / "run-damaged.parquet",
                tmp_path / "rig=lab%2F3%20a%3Db%2520c.toml" / "year=2025" / "run-damaged.parquet"]
     for f in damaged:
@@ -113,27 +108,22 @@ def test_one_rig_reads_its_partition_only(tmp_path):
     assert err.count("skipping unreadable") == 2 and "year=2025/run-damaged.parquet" in err
 
 
-def test_the_layout_before_partitions_is_read_then_moved(tmp_path):
+def test_the_layout_before_partitions_is_read(tmp_path):
     old = {"run_id": "20250101T000000.000000Z-old", "time": utc(2025, 1, 1), "host": "h",
            "rig": "ciomp-23bit", "status": "ok", "exit_code": 0, "pp": 4.0}
     table = pa.table({f.name: pa.array([old.get(f.name)], f.type) for f in SCHEMA})
     pq.write_table(table, tmp_path / f"run-{old['run_id']}.parquet")
     h = read_history(tmp_path, rig="ciomp-23bit", since=dt.datetime(2024, 12, 31))
     assert h.column("pp").tolist() == [4.0] and read_history(tmp_path, rig="x").runs == 0
-    append_run(tmp_path, {"rig": "ciomp-23bit", "status": "ok", "pp": 5.0})
-    assert not list(tmp_path.glob("*.parquet"))                 # moved into its partition
-    moved = tmp_path / "rig=ciomp-23bit" / "year=2025" / f"run-{old['run_id']}.parquet"
-    assert pq.read_table(moved).column("pp").to_pylist() == [4.0]
-    assert read_history(tmp_path).column("pp").tolist() == [4.0, 5.0]
 
 
-def test_a_run_both_moved_and_not_yet_removed_is_read_once(tmp_path):
-    """A reader between the move's write and its removal of the old file."""
-    f = append_run(tmp_path, {"rig": "r", "status": "ok", "time": utc(2026, 5, 1)})
-    t = pq.read_table(f)
-    whole = t.append_column("rig", pa.array(["r"])).select(SCHEMA.names)
+def test_a_run_both_in_a_partition_and_flat_is_read_once(tmp_path):
+    """A history that an older version was moving into its partitions."""
+    hive_fleet(tmp_path)
+    f = next(tmp_path.glob("rig=sjtu-dual/year=2026/*.parquet"))
+    whole = pq.read_table(f).append_column("rig", pa.array(["sjtu-dual"])).select(SCHEMA.names)
     pq.write_table(whole, tmp_path / f.name)
-    assert read_history(tmp_path).runs == 1
+    assert read_history(tmp_path).runs == 9
 
 
 @pytest.mark.parametrize(("argv", "says"), [

@@ -1,5 +1,5 @@
-"""A large nightly history is read batch by batch (enc-report(1), MEMORY): the same text,
-records and drift line as the history read whole."""
+"""A large nightly history of the layout before the table is read batch by batch
+(enc-report(1), MEMORY): the same text, records and drift line as the history read whole."""
 
 from __future__ import annotations
 
@@ -9,9 +9,10 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from enctools.report import history
+from enctools.report import historyrows
 from enctools.report.display import _history
-from enctools.report.history import FILE_SCHEMA, read_history
+from enctools.report.history import read_history
+from enctools.report.history_hive import FILE_SCHEMA
 
 
 def _write(folder, start, count, seed, reverse=False):
@@ -37,8 +38,8 @@ def test_a_large_history_reads_as_the_whole(tmp_path, monkeypatch):
     _write(tmp_path, 0, 40, 1)
     _write(tmp_path, 40, 30, 2)
     whole = read_history(tmp_path)
-    monkeypatch.setattr(history, "STREAM_ROWS", 10)
-    monkeypatch.setattr(history, "BATCH_ROWS", 4)
+    monkeypatch.setattr(historyrows, "STREAM_ROWS", 10)
+    monkeypatch.setattr(historyrows, "BATCH_ROWS", 4)
     streamed = read_history(tmp_path)
     assert whole._table is not None and streamed._table is None and streamed.runs == 70
     assert streamed.text_lines() == whole.text_lines()
@@ -58,7 +59,7 @@ def test_a_large_history_reads_as_the_whole(tmp_path, monkeypatch):
 
 def test_files_out_of_order_are_read_whole_and_sorted(tmp_path, monkeypatch):
     _write(tmp_path, 0, 40, 1, reverse=True)
-    monkeypatch.setattr(history, "STREAM_ROWS", 10)
+    monkeypatch.setattr(historyrows, "STREAM_ROWS", 10)
     h = read_history(tmp_path)
     assert h._table is not None and h.runs == 40
     assert list(h.times()) == sorted(h.times())

@@ -15,7 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import DATA, ROOT, one_error_line, run
 
-from enctools.report.history import FILE_SCHEMA, SCHEMA, append_run, read_history
+from enctools.report.history import SCHEMA, append_run, read_history
 
 NIGHTLY = str(ROOT / "bin" / "enc-nightly")
 
@@ -121,34 +121,18 @@ def test_two_runs_at_once_both_land(tmp_path, enc):
     assert sorted(h.column("pp")[1:]) == pytest.approx([2.29, 5.46])
 
 
-_WRITERS = textwrap.dedent("""
-    import sys
-    from enctools.report.history import append_run
-    for i in range(int(sys.argv[2])):
-        append_run(sys.argv[1], {"rig": "w" + sys.argv[3], "status": "ok", "pp": float(i)})
-""")
-
-
-@pytest.mark.slow
-def test_many_concurrent_writers_lose_nothing(tmp_path):
-    procs = [subprocess.Popen([sys.executable, "-c", _WRITERS, str(tmp_path / "h"), "15", str(k)])
-             for k in range(4)]
-    assert [p.wait(timeout=120) for p in procs] == [0, 0, 0, 0]
-    h = read_history(tmp_path / "h")
-    assert h.runs == 60 and not h.skipped
-    assert sorted(h.column("rig").tolist()).count("w0") == 15
-
-
 _KILLED = textwrap.dedent("""
     import os, signal, sys
-    import pyarrow.parquet as pq
+    import deltalake
     from enctools.report import history
 
-    def half_then_die(table, where, **kw):
-        where.write(b"PAR1" + b"x" * 100)      # part of a file ...
-        where.flush()
+    def half_then_die(table, data, **kw):   # the night's data file written, no commit
+        import pyarrow.parquet as pq
+        folder = os.path.join(sys.argv[1], "rig=killed")
+        os.makedirs(folder, exist_ok=True)
+        pq.write_table(data, os.path.join(folder, "part-00001-orphan.parquet"))
         os.kill(os.getpid(), signal.SIGKILL)   # ... then the power goes
-    pq.write_table = half_then_die
+    deltalake.write_deltalake = half_then_die
     history.append_run(sys.argv[1], {"rig": "killed", "status": "ok"})
 """)
 
@@ -158,15 +142,14 @@ def test_run_killed_mid_write_leaves_history_readable(tmp_path):
     hist = tmp_path / "hist"
     append_run(hist, {"rig": "before", "status": "ok", "pp": 1.0})
     p = subprocess.run([sys.executable, "-c", _KILLED, str(hist)], capture_output=True)
-    assert p.returncode == -signal.SIGKILL
-    leftovers = [f.name for f in hist.rglob("*")]
-    assert any(n.startswith(".run-") for n in leftovers)           # the half-written file
+    assert p.returncode == -signal.SIGKILL, p.stderr.decode()
+    assert (hist / "rig=killed" / "part-00001-orphan.parquet").exists()  # written, no commit
     h = read_history(hist)
     assert h.runs == 1 and h.column("rig").tolist() == ["before"] and not h.skipped
     append_run(hist, {"rig": "after", "status": "ok"})
     assert read_history(hist).runs == 2
-    import pyarrow.dataset as ds  # any Parquet reader
-    t = ds.dataset(str(hist), format="parquet", partitioning="hive").to_table()
+    from deltalake import DeltaTable  # any Delta reader
+    t = DeltaTable(str(hist)).to_pyarrow_dataset().to_table()
     assert sorted(t.column("rig").to_pylist()) == ["after", "before"]
     r = run(["enc", "report", "--history", str(hist)])
     assert r.returncode == 0 and "2 run(s)" in r.stdout.decode()
@@ -188,21 +171,28 @@ def test_killed_nightly_process_leaves_history_readable(tmp_path, enc):
     assert h.runs == 1 and not h.skipped
 
 
-def test_a_damaged_history_file_is_skipped_with_a_warning(tmp_path):
+def test_a_damaged_file_of_the_layout_before_is_skipped_with_a_warning(tmp_path):
+    from enctools.report.history_hive import FILE_SCHEMA
     hist = tmp_path / "hist"
-    append_run(hist, {"rig": "good", "status": "ok"})
-    (hist / "run-damaged.parquet").write_bytes(b"PAR1 not really")  # the layout before
+    good = SCHEMA.empty_table().to_pylist() + [{"run_id": "g", "rig": "good", "status": "ok"}]
+    hist.mkdir()
+    pq.write_table(pa_table(good, SCHEMA), hist / "run-good.parquet")
+    (hist / "run-damaged.parquet").write_bytes(b"PAR1 not really")  # the flat layout
+    assert FILE_SCHEMA.names[0] == "run_id"
     r = run(["enc", "report", "--history", str(hist), "--json"])
     assert r.returncode == 0
     assert "skipping unreadable run-damaged.parquet" in r.stderr.decode()
     assert [row["rig"] for row in json.loads(r.stdout)["history"]] == ["good"]
 
 
-def test_history_files_have_the_schema(tmp_path):
-    f = append_run(tmp_path, {"rig": "x", "status": "ok", "drift_max": 0.1})
-    t = pq.read_table(f)
-    assert f.parent.parent == tmp_path / "rig=x" and f.parent.name.startswith("year=")
-    assert t.schema.remove_metadata() == FILE_SCHEMA.remove_metadata() and t.num_rows == 1
+def pa_table(rows, schema):
+    import pyarrow as pa
+    return pa.Table.from_pylist(rows, schema=schema)
+
+
+def test_history_rows_have_the_schema(tmp_path):
+    assert append_run(tmp_path, {"rig": "x", "status": "ok", "drift_max": 0.1}) == 1
+    assert (tmp_path / "_delta_log").is_dir()
     assert read_history(tmp_path).table.schema == SCHEMA
 
 
@@ -276,8 +266,8 @@ def test_terminated_night_is_recorded(tmp_path, enc, sig, code, why):
                          stderr=subprocess.PIPE)
     import time
     deadline = time.monotonic() + 60
-    while not (work / "started").exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
+    while not list(work.glob("*/started")) and time.monotonic() < deadline:
+        time.sleep(0.05)                    # the night's own subfolder of --keep
     p.send_signal(sig)
     _, err = p.communicate(timeout=30)
     assert p.returncode == code, err
@@ -428,15 +418,18 @@ def test_stale_work_folders_only_of_dead_processes(tmp_path):
     assert sorted(f.name for f in tmp_path.iterdir()) == sorted(names[1:])
 
 
-def test_history_temporary_of_a_dead_writer_is_removed(tmp_path):
+def test_no_file_of_another_writer_is_removed_by_a_night(tmp_path):
+    """A file another writer is writing (or left) in the history stays: an append
+    removes nothing (compaction's VACUUM alone does, past its retention)."""
     from enctools.data.files import writer_tag
     host = writer_tag().split("@", 1)[1]
-    dead = tmp_path / f".run-x.parquet.{2**22 + 7}@{host}.abc123.tmp"
-    live = tmp_path / f".run-y.parquet.{writer_tag()}.abc123.tmp"
-    for f in (dead, live):
+    append_run(tmp_path, {"rig": "r", "status": "ok"})
+    others = [tmp_path / f".run-x.parquet.{2**22 + 7}@{host}.abc123.tmp",
+              tmp_path / "rig=r" / "part-00000-in-flight.parquet"]
+    for f in others:
         f.write_bytes(b"PAR1")
     append_run(tmp_path, {"rig": "r", "status": "ok"})
-    assert not dead.exists() and live.exists()
+    assert all(f.exists() for f in others) and read_history(tmp_path).runs == 2
 
 
 def _nightly_in_process(argv: list[str], env: dict[str, str]) -> subprocess.CompletedProcess:
@@ -467,20 +460,29 @@ def test_full_disk_is_one_line_exit_2_and_no_ok(tmp_path, enc, monkeypatch, wher
     import pyarrow.parquet as pq
 
     from enctools.data import files
+    from enctools.report import historytable
     hist, cal, page = tmp_path / "hist", tmp_path / "cal.parquet", tmp_path / "n.html"
     if where not in ("calibration", "both"):
         append_run(hist, {"rig": "before", "status": "ok"})
         assert nightly(tmp_path / "h0", cal, "--init", campaign=csv_campaign(1)).returncode == 0
     real = files.write_atomic
 
-    def full(path, data, **kw):
+    def full(path, data, **kw):  # the calibration: written beside, then linked into place
+        if Path(path).name.startswith(f".{cal.name}."):
+            path = cal
         if (where in ("history", "both") and hist in Path(path).parents) \
                 or {"calibration": str(cal), "html": str(page),
                     "both": str(cal)}.get(where) == str(path):
             raise OSError(errno.ENOSPC, "No space left on device")
         return real(path, data, **kw)
     monkeypatch.setattr(files, "write_atomic", full)
-    monkeypatch.setattr("enctools.report.history.write_atomic", full)
+    real_append = historytable.append_rows
+
+    def full_history(history, rows, run_ids=None):
+        if where in ("history", "both") and Path(history) == hist:
+            raise OSError(errno.ENOSPC, "No space left on device", str(hist))
+        return real_append(history, rows, run_ids)
+    monkeypatch.setattr(historytable, "append_rows", full_history)
     env = {"PATH": f"{Path(enc).parent}{os.pathsep}{os.environ['PATH']}",
            "TMPDIR": str(tmp_path)}
     r = _nightly_in_process(["--rig", "r", "--history", str(hist), "--calibration", str(cal),
@@ -559,9 +561,11 @@ def test_the_default_campaign_runs_in_process_without_a_shell(tmp_path, monkeypa
                             {"PATH": str(tmp_path / "nothing"), "TMPDIR": str(tmp_path)})
     assert r.returncode == 0, r.stderr.decode()
     assert ": ok: p-p" in r.stdout.decode() and cal.exists()
-    assert sorted(f.name for f in work.iterdir()) == ["result.parquet"]
+    (night,) = work.iterdir()                # --keep: a new subfolder a night
+    assert sorted(f.name for f in night.iterdir()) == ["result.parquet"]
     h = read_history(hist)
     assert h.runs == 1 and h.column("campaign")[0] == DEFAULT_TEXT
+    assert night.name == h.column("run_id")[0]
     assert 1.0 < h.column("std")[0] < 2.0   # the polygon run's Bessel s (ciomp-23bit)
 
 
@@ -580,6 +584,48 @@ def test_a_library_campaign_is_a_callable(tmp_path):
     assert night.messages == [("error", "campaign failed with exit 3: --axis did not answer")]
     h = read_history(tmp_path / "h")
     assert h.column("campaign")[0] == "broken" and h.column("exit_code")[0] == 3
+
+
+def test_two_init_nights_at_once_store_one_calibration(tmp_path):
+    """--init while another --init night stores its calibration first: that one is kept
+    (not replaced by this night's) and this night is compared with it."""
+    import shutil
+
+    from enctools.report.nightly import Campaign, Settings, run_nightly
+    cal = tmp_path / "c.parquet"
+    first = tmp_path / "first.parquet"
+    assert run(["enc", "points", f"{DATA}/seed001_table3.csv", "-o", str(first)]).returncode == 0
+
+    def other_night_first(rig: str, folder: Path, run_id: str) -> None:
+        assert run(["enc", "points", f"{DATA}/seed001_table1.csv", "-o",
+                    str(folder / "result.parquet")]).returncode == 0
+        shutil.copyfile(first, cal)            # the other night stored its own meanwhile
+
+    night = run_nightly(Settings("r", str(tmp_path / "h"), str(cal),
+                                 Campaign(other_night_first, "table 1"), tolerance=99.0,
+                                 init=True))
+    assert night.code == 0, night.messages
+    assert cal.read_bytes() == first.read_bytes()             # kept, not replaced
+    h = read_history(tmp_path / "h")
+    assert h.column("drift_max")[0] > 0.1                     # table 1 against table 3
+    # the narrower race: both found no calibration, the other's landed first
+    from enctools.report.nightly import store_first
+    mine = tmp_path / "mine.parquet"
+    mine.write_bytes(b"this night's result")
+    assert not store_first(str(cal), mine, "run-2")
+    assert cal.read_bytes() == first.read_bytes()
+    other = tmp_path / "new" / "c.parquet"
+    assert store_first(str(other), first, "run-3") and other.read_bytes() == first.read_bytes()
+    assert not [f.name for f in tmp_path.rglob("*.init")]
+
+
+def test_the_history_records_a_rig_file_by_its_name(tmp_path):
+    from enctools.report.nightly import history_rig
+    rig = tmp_path / "lab" / "rig.toml"
+    rig.parent.mkdir()
+    text = run(["enc", "rig", "show", "ciomp-23bit"]).stdout.decode()
+    rig.write_text(text.replace('name = "ciomp-23bit"', 'name = "0042"', 1))
+    assert history_rig(str(rig)) == "0042" and history_rig("ciomp-23bit") == "ciomp-23bit"
 
 
 def test_a_campaign_script_past_its_time_limit_is_stopped(tmp_path, enc):
@@ -724,7 +770,7 @@ def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
     killed.kill()
     killed.wait(timeout=30)
     left = [f.name for f in tmp.iterdir()]
-    slow = night(f'touch "$OUT/slow"; sleep 2; {csv_campaign(1)}')
+    slow = night(f'touch "$OUT/slow"; sleep 5; {csv_campaign(1)}')  # outlasts the next
     while len(list(tmp.glob("*/slow"))) < 1 and time.monotonic() < deadline:
         time.sleep(0.02)
     r = subprocess.run([NIGHTLY, "--rig", "r", "--history", str(hist), "--calibration",
