@@ -365,9 +365,15 @@ def _group_for_workers(items: list[pytest.Item]) -> None:
     go to one worker together (``xdist_group`` named by the file: the fixture is made
     once), every other test is a unit of its own, the catalogue's cases included, so the
     two workers share every file and neither waits for the other at the end. The slow
-    tests come first, so none of them starts last (xdist hands the groups out first, then
-    the single tests in this order)."""
+    tests come first, those of small families before the catalogue's hundreds of short
+    cases, so no long test starts last (xdist hands the groups out first, then the single
+    tests in this order)."""
+    family: dict[tuple[str, str], int] = {}
     for item in items:
         if _shares_a_file_fixture(item):
             item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+        key = (str(item.path), getattr(item, "originalname", item.name))
+        family[key] = family.get(key, 0) + 1
+    items.sort(key=lambda item: (item.get_closest_marker("slow") is None,
+                                 family[str(item.path), getattr(item, "originalname",
+                                                                item.name)]))
