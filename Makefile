@@ -7,9 +7,10 @@ ENC     := $(abspath $(BIN)/enc)
 # the oldest versions pyproject.toml declares, in a venv of their own (make test-min)
 VENV_MIN := .venv-min
 MIN_PINS := tests/min-versions.txt
-# two workers, one test file each at a time: each file's module fixtures (simulator runs)
-# are then made once
-PYTEST   = -m pytest -q -n 2 --dist loadfile
+# two workers: the tests of a file that share a module's fixture (a simulator run) go to one
+# worker together, every other test (the catalogue's cases too) is handed out on its own,
+# the slow ones first (tests/conftest.py groups them), so both workers end together
+PYTEST   = -m pytest -q -n 2 --dist loadgroup
 
 .DEFAULT_GOAL := help
 .PHONY: help install demo screenshot nightly chromium poppler test check test-min bench accuracy fuzz man \

@@ -344,12 +344,49 @@ def _command_runners(path: str) -> set[str]:
     return runners
 
 
+@pytest.hookimpl(tryfirst=True)  # before xdist reads the groups (its hook names them)
 def pytest_collection_modifyitems(config, items) -> None:
     """Mark ``command`` each test that runs a command or the simulator (itself, through
     its module's helpers, or through a fixture that does): ``make check`` leaves them
-    out with the ``slow`` ones, keeping the library's own tests."""
+    out with the ``slow`` ones, keeping the library's own tests. Then group the tests
+    for the two workers (:func:`_group_for_workers`)."""
     for item in items:
         function = getattr(item, "originalname", None) or item.name.split("[")[0]
         runners = _command_runners(str(item.path))
         if function in runners or set(item.fixturenames) & (COMMAND_FIXTURES | runners):
             item.add_marker(pytest.mark.command)
+    if config.getoption("dist", "no") == "loadgroup":
+        _group_for_workers(items)
+
+
+# ------------------------------------------------------------ two workers, no tail
+
+#: the scopes of a fixture made once for several tests of one file
+_FILE_SCOPES = {"module", "class", "package"}
+
+
+def _shares_a_file_fixture(item: pytest.Item) -> bool:
+    """Whether the test uses a fixture made once for its module (or class): a simulator
+    run, a fitted model..."""
+    info = getattr(item, "_fixtureinfo", None)
+    return info is not None and any(
+        d.scope in _FILE_SCOPES for defs in info.name2fixturedefs.values() for d in defs)
+
+
+def _group_for_workers(items: list[pytest.Item]) -> None:
+    """``--dist loadgroup`` (make test): the tests of a file that share a module's fixture
+    go to one worker together (``xdist_group`` named by the file: the fixture is made
+    once), every other test is a unit of its own, the catalogue's cases included, so the
+    two workers share every file and neither waits for the other at the end. The slow
+    tests come first, those of small families before the catalogue's hundreds of short
+    cases, so no long test starts last (xdist hands the groups out first, then the single
+    tests in this order)."""
+    family: dict[tuple[str, str], int] = {}
+    for item in items:
+        if _shares_a_file_fixture(item):
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+        key = (str(item.path), getattr(item, "originalname", item.name))
+        family[key] = family.get(key, 0) + 1
+    items.sort(key=lambda item: (item.get_closest_marker("slow") is None,
+                                 family[str(item.path), getattr(item, "originalname",
+                                                                item.name)]))

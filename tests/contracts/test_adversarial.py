@@ -20,7 +20,7 @@ from conftest import made_once
 
 CASES = catalogue.load()
 #: the rows written one by one here; the matrices' rows run in test_adversarial_matrix.py
-#: (two files: the two xdist workers of make test take one each)
+#: (two files, one for the rows a person wrote, one for the rows the matrices make)
 ROWS = [c for c in CASES if not c.matrix]
 
 
