@@ -14,6 +14,7 @@ compact its table, and migrate a history of the layout before the table into one
 from __future__ import annotations
 
 import datetime as _dt
+import math
 import os
 from dataclasses import dataclass
 from typing import Any
@@ -37,13 +38,13 @@ def show(history: str, rig: str | None, since: _dt.datetime | None, *, as_json: 
 
 def compact_lines(history: str, retention_hours: float) -> list[str]:
     """Compact the table at ``history``; the counts as the lines the command prints."""
+    if not historytable.MIN_RETENTION_HOURS <= retention_hours < math.inf:  # NaN too
+        msg = (f"`retention_hours` must be a number >= {historytable.MIN_RETENTION_HOURS:g} "
+               f"(a night writes its files before its commit), not {retention_hours:g}")
+        raise SettingsError(msg)
     if not historytable.is_table(history):
         msg = f"`history_dir` {history}: no history table there (`enc history migrate` makes one)"
         raise DataError(msg)
-    if not retention_hours >= historytable.MIN_RETENTION_HOURS:
-        msg = (f"`retention_hours` must be >= {historytable.MIN_RETENTION_HOURS:g} (a night "
-               f"writes its files before its commit), not {retention_hours:g}")
-        raise SettingsError(msg)
     c = historytable.compact(history, retention_hours)
     return [f"{history}: {c['files_before']} data file(s) before, {c['files_after']} after",
             f"optimize: {c['files_removed']} file(s) rewritten into {c['files_added']}",

@@ -85,6 +85,6 @@ def test_history_errors_are_one_line(tmp_path):
     assert "no history table there" in one_error_line(r, 2, "enc history")
     append_run(tmp_path / "t", {"rig": "r", "status": "ok"})
     r = run_in_process(["history", "compact", str(tmp_path / "t"), "--retention-hours", "0"])
-    assert "--retention-hours must be >= 1" in one_error_line(r, 2, "enc history")
+    assert "--retention-hours must be a number >= 1" in one_error_line(r, 2, "enc history")
     r = run_in_process(["history", "migrate", str(tmp_path / "t"), str(tmp_path / "n")])
     assert "OLD" in one_error_line(r, 2, "enc history")
