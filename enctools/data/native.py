@@ -32,7 +32,7 @@ class ArrowWriter:
     def __init__(self, fmt: str, target: str | Any, schema: pa.Schema) -> None:
         # Parquet: batches held until GROUP_ROWS rows or BATCH_BYTES bytes make a row group
         self._groups: list[pa.RecordBatch] | None = [] if fmt == "parquet" else None
-        self._held = 0
+        self._held = self._rows = 0  # bytes and rows of the batches held
         self._file = native_file(target, "w") if isinstance(target, str) else None
         try:
             self._writer = _writer(fmt, target if self._file is None else self._file, schema)
@@ -46,14 +46,15 @@ class ArrowWriter:
             return
         self._groups.append(batch)
         self._held += batch.nbytes
-        if self._held >= BATCH_BYTES or sum(b.num_rows for b in self._groups) >= GROUP_ROWS:
+        self._rows += batch.num_rows
+        if self._held >= BATCH_BYTES or self._rows >= GROUP_ROWS:
             self._flush()
 
     def _flush(self) -> None:
         """The batches held as one Parquet row group: a closure run written a reading a
         batch would otherwise give a row group a row (129,600 and a 108 MB footer)."""
         if self._groups:
-            groups, self._groups, self._held = self._groups, [], 0
+            groups, self._groups, self._held, self._rows = self._groups, [], 0, 0
             table = pa.Table.from_batches(groups)
             self._writer.write_table(table, row_group_size=table.num_rows)
 
