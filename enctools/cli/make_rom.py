@@ -147,9 +147,8 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     if family == romformats.registry.CONTROL:
         control = _control_settings(
             target=target, bidirectional=bidirectional, backlash=backlash, sign=sign,
-            comp_type=comp_type,
-            points=points, max_entries=max_entries, axis=axis, detection_unit_deg=detection_unit,
-            home_point=home_point, increment_system=_one_unit(increment_system), tnc=tnc)
+            comp_type=comp_type, points=points, max_entries=max_entries, axis=axis, tnc=tnc,
+            detection_unit=detection_unit, home_point=home_point, increment_system=increment_system)
         _control(input, curve, control, str(path), (force, verify, outside), as_json, unit,
                  (allow_no_gain, allow_coarse), mapping)
         return
@@ -293,11 +292,12 @@ def _one_unit(increment_system: str | None) -> str | None:
 
 
 def _control_settings(**settings: Any) -> ControlSettings:
-    """A control's table settings (the controls' modules imported here: a memory table
-    never needs them)."""
+    """A control's table settings, --increment-system checked beside --detection-unit (the
+    controls' modules imported here: a memory table never needs them)."""
     from enctools.models.romformats.controls import ControlSettings
 
-    return ControlSettings(**settings)
+    settings["increment_system"] = _one_unit(settings["increment_system"])
+    return ControlSettings(detection_unit_deg=settings.pop("detection_unit"), **settings)
 
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,

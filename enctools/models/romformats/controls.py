@@ -369,8 +369,8 @@ def _summary(t: ControlTable, source: Source, fwd: np.ndarray, bwd: np.ndarray |
     if source.backward is None:
         pairs = [(dev_f, fwd)]
     elif t.backlash is not None:  # backward: the positive table and the backlash value
-        b = t.backlash * t.settings.backlash_unit_deg * ARCSEC_PER_DEG
-        pairs = [(dev_f, fwd), (source.backward(check), fwd + b)]
+        lash = t.backlash * t.settings.backlash_unit_deg * ARCSEC_PER_DEG
+        pairs = [(dev_f, fwd), (source.backward(check), fwd + lash)]
     elif bwd is None:  # a unidirectional table of a bidirectional run: against the mean
         pairs = [((dev_f + source.backward(check)) / 2.0, fwd)]
     else:

@@ -315,6 +315,14 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
     ("--target linuxcnc --axis 2", "names no joint"),
     ("--target siemens --points 9 --bits 23 --address-bits 3 --resolution 0.0001",
      "--points applies to linuxcnc"),
+    # --backlash where the control keeps none apart from its table: its reason
+    ("--target linuxcnc --backlash", "ignores [JOINT_n]BACKLASH"),
+    ("--target twincat --backlash", "P-AXIS-00103"),
+    ("--target twincat-nc --sign error --backlash", "takes no backlash"),
+    ("--target heidenhain --sign error --tnc 620 --backlash", "not confirmed"),
+    ("--target fanuc --sign error --bidirectional --backlash", "not both"),
+    ("--target siemens --bits 23 --address-bits 3 --resolution 0.0001 --backlash",
+     "--backlash applies to"),
 ])
 def test_refusals_are_one_line(step_run, tmp_path, opts, says):
     points, _ = step_run
