@@ -9,6 +9,7 @@ import json
 import re
 
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 from conftest import one_error_line, run, run_in_process
@@ -100,6 +101,10 @@ def test_enc_correct_closes_the_gap_between_directions(step_run, tmp_path):  # n
     assert abs(gap - (s["reversal_mean_arcsec"] - s["backlash_arcsec"])) < 1e-6
     assert abs(gap) <= IS_C_ARCSEC / 2 + 1e-6
     assert np.max(np.abs(up - down - gap)) <= 2.0 + 0.05
+    # named by its content (N.....Q1 / Q0 blocks) when --target is left out
+    r = run_in_process(f"enc correct {points} --table {out} --sign error --axis 4 "
+                       f"--detection-unit 0.0001 --json")
+    assert json.loads(r.stdout)["table"]["format"] == "fanuc-param", r.stderr.decode()
 
 
 def test_sheet_writes_the_backlash_too(step_run, tmp_path):  # noqa: F811
@@ -160,3 +165,17 @@ def test_reader_refuses_what_the_cnc_would(tmp_path, change, says):
     with pytest.raises(DataError, match=re.escape(says)) as err:
         rf.read_control_table(str(f), "fanuc-param", "correction", axis="4")
     assert "\n" not in str(err.value)
+
+
+def test_backlash_beyond_1851s_range_is_one_line(step_run, tmp_path):  # noqa: F811
+    """A reversal of 4000 arcsec at IS-C is 11111 detection units: beyond 1851's 9999."""
+    points, _ = step_run
+    t = pq.read_table(points)
+    i = t.schema.get_field_index("deviation")
+    dev = t.column("deviation").to_numpy() + t.column("direction").to_numpy() * 2000.0
+    pq.write_table(t.set_column(i, t.schema.field(i), pa.array(dev)), tmp_path / "lash.parquet")
+    out = tmp_path / "p.txt"
+    r = run_in_process(f"enc make-rom {tmp_path}/lash.parquet --target fanuc-param --sign error "
+                       f"--increment-system IS-C --backlash -o {out}")
+    assert "beyond the control's range -9999..9999" in one_error_line(r, 2, "enc make-rom")
+    assert not out.exists()
