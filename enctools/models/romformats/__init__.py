@@ -11,10 +11,11 @@ so an export can be checked. Hex words are two's complement in ``width`` bits,
 ``ceil(width / 4)`` digits.
 
 The motion controls' compensation tables (the control family: LinuxCNC, TwinCAT CNC and
-NC, Fanuc's sheet and parameter transfer file, HEIDENHAIN) are point tables over the turn at the control's resolution
-(:mod:`.controls` builds them by the rules of their record's ``control``, their
-``write_table`` (:mod:`.controlwriters`) writes them, their ``read_points``
-(:mod:`.controlreaders`) reads them back as a :class:`~.points.PointTable`).
+NC, Fanuc's sheet and parameter transfer file, HEIDENHAIN) are point tables over the
+turn at the control's resolution (:mod:`.controls` builds them by the rules of their
+record's ``control``, their ``write_table`` (:mod:`.controlwriters`) writes them, their
+``read_points`` (:mod:`.controlreaders`) reads them back as a
+:class:`~.points.PointTable`).
 """
 
 from __future__ import annotations
