@@ -26,7 +26,8 @@ def formats() -> tuple[str, ...]:
 MODES = {"Readings (a continuous run)": ("heads", "reference", "points"),
          "A table file's layout (memories: bin, ihex, mif, coe, mem, csv)":
          ("code_bits", "address_bits", "width", "lsb", "endian"),
-         "A controller's table file": ("array_name", "sign", "comp_type", "axis")}
+         "A controller's table file": ("array_name", "sign", "comp_type", "axis",
+                                       "detection_unit")}
 
 
 @usage.renamed({"--ref": "--reference"})
@@ -58,7 +59,9 @@ MODES = {"Readings (a continuous run)": ("heads", "reference", "points"),
 @click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
               help="linuxcnc: the file's COMP_FILE_TYPE.")
 @click.option("--axis", default=None, metavar="NAME",
-              help="heidenhain: the table's axis column.")
+              help="heidenhain: the table's axis column; fanuc-param: the axis number.")
+@click.option("--detection-unit", type=float, default=1e-3, show_default=True,
+              help="fanuc-param: the axis's detection unit [deg] (the file does not state it).")
 @click.option("--curve", default=None, metavar="NAME",
               help="A deviations stream as the correction: the curve to use.")
 @options.heads("Readings: heads averaged into the encoder's code (default: the rig's "
@@ -79,7 +82,7 @@ MODES = {"Readings (a continuous run)": ("heads", "reference", "points"),
 def command(input: str | None, table_path: str, target: str | None, code_bits: int | None,
             address_bits: int | None, width: int | None, lsb: float | None, endian: str | None,
             array_name: str, sign: str | None, comp_type: int, axis: str | None,
-            curve: str | None, heads: list[str] | None,
+            detection_unit: float, curve: str | None, heads: list[str] | None,
             reference: list[str] | None, points: int, max_pp: float | None,
             max_std: float | None, max_abs: float | None, as_json: bool, unit: str,
             output: str | None, force: bool, fmt: str | None, mapping: Mapping) -> None:
@@ -107,7 +110,8 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
         streams.check_output(output, force, fmt)
     settings = correction.TableSettings(
         fmt=target, code_bits=code_bits, address_bits=address_bits, width=width, lsb=lsb,
-        endian=endian, array_name=array_name, sign=sign, comp_type=comp_type, axis=axis)
+        endian=endian, array_name=array_name, sign=sign, comp_type=comp_type, axis=axis,
+        detection_unit_deg=detection_unit)
 
     def table_for(rig_bits: int | None) -> correction.Correction:
         return correction.load(table_path, settings, curve, rig_bits)

@@ -34,8 +34,8 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
          ("code_bits", "address_bits", "width", "lsb", "sample", "endian", "zone", "array_name",
           "resolution_deg"),
          "Controls' tables (a grid over the turn)":
-         ("bidirectional", "points", "comp_type", "detection_unit", "increment_system",
-          "home_point", "tnc"),
+         ("bidirectional", "backlash", "points", "comp_type", "detection_unit",
+          "increment_system", "home_point", "tnc"),
          "Rom streams (--target stream)": ("fmt",)}
 
 
@@ -72,9 +72,12 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
 @click.option("--bidirectional", is_flag=True, default=False,
               help="linuxcnc, twincat: one table per direction (default: one table of the mean "
                    "of both directions).")
+@click.option("--backlash", is_flag=True, default=False,
+              help="fanuc, fanuc-param: write the step run's mean reversal as the backlash "
+                   "(1851) and the positive direction's table (default: the mean of both).")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
-              help="acs, fanuc, heidenhain, twincat-nc: whether the control stores the "
-                   "correction or the error.")
+              help="acs, fanuc, fanuc-param, heidenhain, twincat-nc: whether the control "
+                   "stores the correction or the error.")
 @click.option("--resolution", "resolution_deg", type=float, default=None,
               help="acs, siemens: the control's resolution [deg], a power of ten.")
 @click.option("--comp-type", type=click.IntRange(0, 1), default=0, show_default=True,
@@ -114,7 +117,7 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
 def command(input: str | None, code_bits: int | None, address_bits: int | None, width: int,
             lsb: float, sample: str | None, target: str | None, endian: str, curve: str | None,
             axis: str | None, zone: int, array_name: str, max_entries: int | None,
-            bidirectional: bool, sign: str | None, resolution_deg: float | None,
+            bidirectional: bool, backlash: bool, sign: str | None, resolution_deg: float | None,
             comp_type: int, points: int | None, detection_unit: float,
             increment_system: str | None, home_point: int, tnc: str | None,
             outside: str | None, verify: bool, allow_no_gain: bool, allow_coarse: bool, output:
@@ -143,9 +146,9 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     family = _check_applies(target)
     if family == romformats.registry.CONTROL:
         control = _control_settings(
-            target=target, bidirectional=bidirectional, sign=sign, comp_type=comp_type,
-            points=points, max_entries=max_entries, axis=axis, detection_unit_deg=detection_unit,
-            home_point=home_point, increment_system=_one_unit(increment_system), tnc=tnc)
+            target=target, bidirectional=bidirectional, backlash=backlash, sign=sign,
+            comp_type=comp_type, points=points, max_entries=max_entries, axis=axis, tnc=tnc,
+            detection_unit=detection_unit, home_point=home_point, increment_system=increment_system)
         _control(input, curve, control, str(path), (force, verify, outside), as_json, unit,
                  (allow_no_gain, allow_coarse), mapping)
         return
@@ -289,11 +292,12 @@ def _one_unit(increment_system: str | None) -> str | None:
 
 
 def _control_settings(**settings: Any) -> ControlSettings:
-    """A control's table settings (the controls' modules imported here: a memory table
-    never needs them)."""
+    """A control's table settings, --increment-system checked beside --detection-unit (the
+    controls' modules imported here: a memory table never needs them)."""
     from enctools.models.romformats.controls import ControlSettings
 
-    return ControlSettings(**settings)
+    settings["increment_system"] = _one_unit(settings["increment_system"])
+    return ControlSettings(detection_unit_deg=settings.pop("detection_unit"), **settings)
 
 
 def _control(input: str | None, curve: str | None, settings: ControlSettings, path: str,

@@ -44,7 +44,7 @@ FIELD_FLAGS: dict[str, dict[str, str]] = {
     "*": {"force": "--force", "fmt": "--format", "format": "--format", "unit": "--unit",
           "as_json": "--json"},
     "make-rom": {"detection_unit_deg": "--detection-unit"},
-    "correct": {"fmt": "--target"},
+    "correct": {"fmt": "--target", "detection_unit_deg": "--detection-unit"},
     "fit-rbf": {"goal_arcsec": "--goal", "allow_no_gain": "--allow-no-gain"},
     "history": {"history_dir": "DIR|URI", "old": "OLD", "new": "NEW",
                 "retention_hours": "--retention-hours"},

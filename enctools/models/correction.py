@@ -158,7 +158,8 @@ class TableSettings:
     array_name : acs: the REAL array holding the map.
     sign : acs, fanuc, heidenhain: whether the file stores the correction or the error.
     comp_type : linuxcnc: COMP_FILE_TYPE (0 or 1).
-    axis : heidenhain: the table's column.
+    axis : heidenhain: the table's column; fanuc-param: the axis number.
+    detection_unit_deg : fanuc-param: the axis's detection unit [deg].
     """
 
     fmt: str | None = None
@@ -171,8 +172,12 @@ class TableSettings:
     sign: str | None = None
     comp_type: int = 0
     axis: str | None = None
+    detection_unit_deg: float = 1e-3
 
     def __post_init__(self) -> None:
+        if not (0 < self.detection_unit_deg <= 1 and np.isfinite(self.detection_unit_deg)):
+            msg = f"`detection_unit_deg` must be in (0, 1] deg, not {self.detection_unit_deg}"
+            raise SettingsError(msg)
         if self.code_bits is not None and not 1 <= self.code_bits <= MAX_CODE_BITS:
             msg = f"`code_bits` must be 1..{MAX_CODE_BITS}, not {self.code_bits}"
             raise SettingsError(msg)

@@ -67,6 +67,7 @@ MEANINGS = {
     "--axis": "the controller's axis the table is for",
     "--array": "the controller's array holding the table",
     "--comp-type": "LinuxCNC's COMP_FILE_TYPE",
+    "--detection-unit": "a Fanuc axis's detection unit, the unit of its table [deg]",
     "--curve": "the curve of a deviations stream used as the correction",
     # thresholds: exit 1 beyond
     "--max-abs": "the largest |deviation| allowed",

@@ -10,11 +10,12 @@ A memory's table (bin, ihex, mif, coe, mem, csv) and a controller's addressed ta
 so an export can be checked. Hex words are two's complement in ``width`` bits,
 ``ceil(width / 4)`` digits.
 
-The motion controls' compensation tables (the control family: LinuxCNC, TwinCAT CNC,
-Fanuc, HEIDENHAIN) are point tables over the turn at the control's resolution
-(:mod:`.controls` builds them by the rules of their record's ``control``, their
-``write_table`` (:mod:`.controlwriters`) writes them, their ``read_points``
-(:mod:`.controlreaders`) reads them back as a :class:`~.points.PointTable`).
+The motion controls' compensation tables (the control family: LinuxCNC, TwinCAT CNC and
+NC, Fanuc's sheet and parameter transfer file, HEIDENHAIN) are point tables over the
+turn at the control's resolution (:mod:`.controls` builds them by the rules of their
+record's ``control``, their ``write_table`` (:mod:`.controlwriters`) writes them, their
+``read_points`` (:mod:`.controlreaders`) reads them back as a
+:class:`~.points.PointTable`).
 """
 
 from __future__ import annotations
@@ -201,9 +202,11 @@ def companion_path(path: str, target: str) -> str | None:
 
 
 def read_control_table(path: str, target: str, sign: str | None = None, comp_type: int = 0,
-                       axis: str | None = None, array_name: str = "ENC_COMP") -> PointTable:
+                       axis: str | None = None, array_name: str = "ENC_COMP",
+                       detection_unit_deg: float = 1e-3) -> PointTable:
     """:func:`read_points` with the options as values."""
-    return read_points(path, target, Reading(sign, comp_type, axis, array_name))
+    return read_points(path, target, Reading(sign, comp_type, axis, array_name,
+                                             detection_unit_deg))
 
 
 def read_points(path: str, target: str, options: PointOptions) -> PointTable:
@@ -243,6 +246,20 @@ def _verify_companion(path: str, target: str, axis: str | None) -> None:
         raise CheckFailed(msg)
 
 
+def _verify_backlash(path: str, table: ControlTable, read: PointTable) -> None:
+    """CheckFailed unless the backlash value read back (if one was written) is within half
+    its unit of the reversal value it stands for."""
+    if table.intended_backlash_rad is None:
+        return
+    half = table.settings.backlash_unit_deg * DEG / 2.0
+    got = read.backlash_rad
+    if got is None or abs(got - table.intended_backlash_rad) > half * (1 + 1e-6):
+        shown = "none" if got is None else f"{got / ARCSEC:.6g} arcsec"
+        msg = (f"{path}: the backlash read back ({shown}) is not within half its unit of "
+               f"{table.intended_backlash_rad / ARCSEC:.6g} arcsec")
+        raise CheckFailed(msg)
+
+
 def verify_control_table(path: str, table: ControlTable) -> float:
     """Read a written control table back with its control's reader: CheckFailed unless every
     point's correction (each direction) is within half the control's resolution of the
@@ -250,7 +267,8 @@ def verify_control_table(path: str, table: ControlTable) -> float:
     import numpy as np
 
     s = table.settings
-    read = read_points(path, s.target, Reading(s.sign, s.comp_type, s.axis))
+    read = read_points(path, s.target, Reading(s.sign, s.comp_type, s.axis,
+                                               detection_unit_deg=s.detection_unit_deg))
     grid = table.grid_deg * DEG
     worst = 0.0
     pairs = [(read.correction(grid, 1), table.intended_forward_rad)]
@@ -262,6 +280,7 @@ def verify_control_table(path: str, table: ControlTable) -> float:
             raise CheckFailed(msg)
         worst = max(worst, float(np.max(np.abs(got - intended))))
     _verify_companion(path, s.target, s.axis)
+    _verify_backlash(path, table, read)
     half = table.resolution_deg * DEG / 2.0
     if worst > half * (1 + 1e-6):
         msg = (f"{path}: a correction read back differs from the intended by "

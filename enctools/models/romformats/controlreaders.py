@@ -167,8 +167,96 @@ def read_fanuc(data: bytes, src: str, options: PointOptions) -> PointTable:
         raise DataError(msg)
     absolute = np.r_[0, np.cumsum(inc)] * mag * du * DEG
     positions = np.arange(sections + 1) * interval * du * DEG
+    backlash = params[1851] * du * DEG if 1851 in params else None
     return PointTable(positions, absolute if options.sign == "correction" else -absolute,
-                      modulo_rad=turn * du * DEG)
+                      backlash_rad=backlash, modulo_rad=turn * du * DEG)
+
+
+#: a block of a Fanuc parameter transfer file: N<number>Q<1: parameter, 0: pitch data>
+_FANUC_BLOCK = re.compile(r"N(\d{1,5})Q([01])(.*)")
+_FANUC_AXIS_VALUE = re.compile(r"A(\d{1,2})P([-+]?\d+(?:\.\d*)?)")
+
+
+def _fanuc_record(data: bytes, src: str) -> list[str]:
+    """The blocks of a Fanuc transfer file's record: between the ``%`` leader and the
+    next ``%``, one block a line (ISO code: LF ends a block), blanks and CR dropped."""
+    lines = [re.sub(r"[ \t\r]", "", ln) for ln in data.decode("latin-1").split("\n")]
+    if "%" not in lines or "%" not in lines[lines.index("%") + 1:]:
+        msg = f"{src}: no record between a % leader and a closing %"
+        raise DataError(msg)
+    start = lines.index("%") + 1
+    return [ln for ln in lines[start:lines.index("%", start)] if ln]
+
+
+def _fanuc_blocks(data: bytes, src: str, axis: str | None
+                  ) -> tuple[dict[int, float], dict[int, int], str]:
+    """The axis's parameters (Q1, A<axis>P<value>) and the pitch error data by point
+    (Q0, N<10000 + point>), and the axis read: ``axis``, else the one 3620 names."""
+    params: dict[int, dict[str, str]] = {}
+    pitch: dict[int, int] = {}
+    for block in _fanuc_record(data, src):
+        m = _FANUC_BLOCK.fullmatch(block)
+        if m is None:
+            msg = f"{src}: cannot read the block {block[:40]!r}"
+            raise DataError(msg)
+        number, rest = int(m.group(1)), m.group(3)
+        if m.group(2) == "0":
+            if not (re.fullmatch(r"P[-+]?\d+", rest) and number >= 10000):
+                msg = f"{src}: pitch error data N{number} must be N<10000 + point>Q0P<integer>"
+                raise DataError(msg)
+            pitch[number - 10000] = int(rest[1:])
+            continue
+        pairs = _FANUC_AXIS_VALUE.findall(rest)
+        if "".join(f"A{a}P{v}" for a, v in pairs) != rest:
+            continue  # a parameter of no axis, or of another type: not the table's
+        params[number] = dict(pairs)
+    axes = list(params.get(3620, {}))
+    name = axis if axis is not None else axes[0] if len(axes) == 1 else None
+    if name is None:
+        msg = f"{src}: parameter 3620 names axes {axes}; give the axis"
+        raise DataError(msg)
+    values = {n: float(v[name]) for n, v in params.items() if name in v}
+    return values, pitch, name
+
+
+def read_fanuc_param(data: bytes, src: str, options: PointOptions) -> PointTable:
+    """A Fanuc parameter transfer file as the CNC reads it, for a rotary axis (``options.axis``,
+    else the one 3620 names): 3620 (reference point), 3621 (3620 or 3620 + 1), 3622,
+    3623 (magnification), 3624 (interval [deg]), 3625 (travel per rotation [deg]); the
+    pitch data of points 3620 + 1..3622 (Q0 blocks N10000 + point), each the increment
+    over the section ending there, summing to 0; 1851 (backlash) if given. Values are in
+    the axis's detection unit (``options.detection_unit_deg``: the file does not state
+    it); the compensation is the sum of the increments from the reference position (0
+    deg) x magnification x detection unit; ``options.sign`` says whether it is the
+    correction or the error. 1851 is the backlash added when the axis moves against its
+    reference return direction (taken as +)."""
+    values, pitch, axis = _fanuc_blocks(data, src, options.axis)
+    missing = [n for n in range(3620, 3626) if n not in values]
+    if missing:
+        msg = f"{src}: axis {axis} lacks parameters {missing}"
+        raise DataError(msg)
+    ref, neg, far, mag = (int(values[n]) for n in range(3620, 3624))
+    interval, turn = values[3624], values[3625]
+    sections = far - ref
+    if neg not in (ref, ref + 1) or sections < 2 or mag < 1 or \
+            abs(interval * sections - turn) > 1e-9 * max(turn, 1.0):
+        msg = (f"{src}: a rotary axis needs 3621 = 3620 or 3620 + 1, magnification >= 1 and "
+               f"(3622 - 3620) x 3624 = 3625 (here {ref}, {neg}, {far}, {mag}, {interval}, {turn})")
+        raise DataError(msg)
+    lost = [p for p in range(ref + 1, far + 1) if p not in pitch]
+    if lost:
+        msg = f"{src}: no pitch error data for points {lost[:5]}"
+        raise DataError(msg)
+    inc = np.array([pitch[p] for p in range(ref + 1, far + 1)])
+    if inc.sum() != 0:
+        msg = f"{src}: the increments of points {ref + 1}..{far} sum to {inc.sum()}, not 0"
+        raise DataError(msg)
+    du = options.detection_unit_deg
+    absolute = np.r_[0, np.cumsum(inc)] * mag * du * DEG
+    positions = np.arange(sections + 1) * interval * DEG
+    backlash = values[1851] * du * DEG if 1851 in values else None
+    return PointTable(positions, absolute if options.sign == "correction" else -absolute,
+                      backlash_rad=backlash, modulo_rad=turn * DEG)
 
 
 def _heidenhain_table(data: bytes, src: str, columns: tuple[str, ...]

@@ -61,6 +61,9 @@ class ControlSettings:
         given).
     tnc : a HEIDENHAIN control's generation, whose rules the table follows (``407``: TNC
         407/415/425; ``620``: MANUALplus 620 and its generation), by its record's check.
+    backlash : write the step run's mean reversal value as the control's backlash
+        parameter (where its record's control keeps one), with the table of the positive
+        direction (the reference position return's) instead of the mean of both.
     """
 
     target: str
@@ -74,10 +77,12 @@ class ControlSettings:
     home_point: int = 0
     increment_system: str | None = None
     tnc: str | None = None
+    backlash: bool = False
 
     def __post_init__(self) -> None:
         fmt, spec = self.format, self.spec
         self._increment_system()
+        self._check_backlash()
         if self.bidirectional and not spec.bidirectional:
             msg = (f"{self.target}: a bidirectional table is not written: the control's "
                    "backward-direction table is not confirmed (enc-make-rom(1), CONTROLS); "
@@ -125,6 +130,25 @@ class ControlSettings:
                    f"{unit!r} deg, not the `detection_unit_deg` {given!r} given")
             raise SettingsError(msg)
         object.__setattr__(self, "detection_unit_deg", unit)  # frozen: set once, here
+
+    def _check_backlash(self) -> None:
+        """Refuse a backlash value for a control that does not keep one apart from its
+        table (its record says why), or beside a table per direction."""
+        if not self.backlash:
+            return
+        if self.spec.backlash_range is None:
+            msg = f"`backlash`: {self.target}: {self.spec.no_backlash}"
+            raise SettingsError(msg)
+        if self.bidirectional:
+            msg = ("give `backlash` or `bidirectional`, not both (a table per direction "
+                   "holds the reversal already)")
+            raise SettingsError(msg)
+
+    @property
+    def backlash_unit_deg(self) -> float:
+        """The step of a backlash value [deg]: an incremental table's detection unit, else
+        the control's resolution."""
+        return self.detection_unit_deg if self.spec.incremental else self.spec.resolution_deg
 
     def _check_ranges(self) -> None:
         if self.comp_type not in (0, 1):
@@ -199,6 +223,10 @@ class ControlTable:
     intended_backward_rad: np.ndarray | None
     magnification: int = 1
     summary: dict[str, Any] = field(default_factory=dict)
+    #: the backlash value written [steps of ``settings.backlash_unit_deg``], or None
+    backlash: int | None = None
+    #: the reversal value it stands for, before rounding [rad]
+    intended_backlash_rad: float | None = None
 
     @property
     def spacing_deg(self) -> float:
@@ -237,8 +265,9 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
     DataError (one line) when a value is beyond the control's range, or the source
     lacks the backward direction a bidirectional table needs.
     """
-    if settings.bidirectional and source.backward is None:
-        msg = ("`bidirectional` needs a step run with both directions "
+    if (settings.bidirectional or settings.backlash) and source.backward is None:
+        what = "bidirectional" if settings.bidirectional else "backlash"
+        msg = (f"`{what}` needs a step run with both directions "
                "(a points stream with direction +1 and -1)")
         raise DataError(msg)
     k = choose_sections(settings, source)
@@ -246,7 +275,9 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
     grid[-1] = 360.0
     fwd = -np.asarray(source.forward(grid), dtype=np.float64)  # correction [arcsec]
     bwd = None if source.backward is None else -np.asarray(source.backward(grid), np.float64)
-    if not settings.bidirectional and bwd is not None:
+    if settings.backlash:  # the positive direction's table, the reversal apart
+        bwd = None
+    elif not settings.bidirectional and bwd is not None:
         fwd, bwd = (fwd + bwd) / 2.0, None  # the mean bidirectional deviation
     if not np.all(np.isfinite(fwd)) or (bwd is not None and not np.all(np.isfinite(bwd))):
         msg = "the source gives NaN or infinite deviations"
@@ -256,8 +287,29 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
         offset = float(fwd[0])
         fwd = fwd - offset
     table = _quantise(settings, grid, fwd, bwd)
+    if settings.backlash:
+        _backlash(table, source)
     table.summary = _summary(table, source, fwd, bwd, offset)
     return table
+
+
+def _backlash(table: ControlTable, source: Source) -> None:
+    """The step run's mean reversal value B (mean up - mean down of the deviation, ISO
+    230-2) as the control's backlash value: B is what the control adds to the positive
+    direction's correction when it moves the other way [steps of the backlash unit];
+    DataError (one line) beyond the control's range."""
+    s = table.settings
+    assert source.reversal_arcsec is not None and s.spec.backlash_range is not None
+    b_arcsec = float(np.mean(source.reversal_arcsec))
+    unit = s.backlash_unit_deg
+    steps = int(np.rint(b_arcsec / (unit * ARCSEC_PER_DEG)))
+    lo, hi = s.spec.backlash_range
+    if not lo <= steps <= hi:
+        msg = (f"{s.target}: a backlash of {steps} x {unit!r} deg ({b_arcsec:.4g} arcsec) is "
+               f"beyond the control's range {lo}..{hi}")
+        raise DataError(msg)
+    table.backlash = steps
+    table.intended_backlash_rad = b_arcsec * factor("arcsec", "rad")
 
 
 def _quantise(settings: ControlSettings, grid: np.ndarray, fwd: np.ndarray,
@@ -316,6 +368,9 @@ def _summary(t: ControlTable, source: Source, fwd: np.ndarray, bwd: np.ndarray |
     dev_f = source.forward(check)
     if source.backward is None:
         pairs = [(dev_f, fwd)]
+    elif t.backlash is not None:  # backward: the positive table and the backlash value
+        lash = t.backlash * t.settings.backlash_unit_deg * ARCSEC_PER_DEG
+        pairs = [(dev_f, fwd), (source.backward(check), fwd + lash)]
     elif bwd is None:  # a unidirectional table of a bidirectional run: against the mean
         pairs = [((dev_f + source.backward(check)) / 2.0, fwd)]
     else:
@@ -338,4 +393,9 @@ def _summary(t: ControlTable, source: Source, fwd: np.ndarray, bwd: np.ndarray |
         b = source.reversal_arcsec
         out |= {"reversal_max_arcsec": float(np.max(np.abs(b))),
                 "reversal_mean_arcsec": float(np.mean(b))}
+    if t.backlash is not None:
+        unit = t.settings.backlash_unit_deg
+        out |= {"direction": "positive, backlash apart", "backlash_steps": t.backlash,
+                "backlash_unit_deg": unit,
+                "backlash_arcsec": t.backlash * unit * ARCSEC_PER_DEG}
     return out

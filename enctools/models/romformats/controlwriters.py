@@ -79,7 +79,8 @@ def write_twincat(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
 
 def write_fanuc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
     """A Fanuc pitch error compensation setting sheet for a rotary axis: parameters
-    3620-3625 of the axis and one incremental value per compensation point."""
+    3620-3625 of the axis, 1851 (backlash) when one is written, and one incremental value
+    per compensation point."""
     s = t.settings
     axis = s.axis or "1"
     du = s.detection_unit_deg
@@ -92,6 +93,8 @@ def write_fanuc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
               (3623, t.magnification, "magnification"),
               (3624, per_turn // sections, "interval [detection units]"),
               (3625, per_turn, "travel per rotation [detection units]")]
+    if t.backlash is not None:
+        params.append((1851, t.backlash, "backlash [detection units]"))
     increments = np.diff(t.forward)
     out = [f"# {comment_text(c, ascii_only=True)}\n" for c in comment]
     system = f"  # increment system {s.increment_system}" if s.increment_system else ""
@@ -99,6 +102,42 @@ def write_fanuc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
     out += [f"PARAMETER {n} AXIS {axis} VALUE {v}  # {what}\n" for n, v, what in params]
     out.append(f"PITCH {r} VALUE {increments[-1]:+d}  # the same as point {r + sections}\n")
     out += [f"PITCH {r + 1 + i} VALUE {v:+d}\n" for i, v in enumerate(increments.tolist())]
+    f.write("".join(out).encode("ascii"))
+
+
+def _fanuc_real(steps: int, decimals: int) -> str:
+    """A Fanuc real parameter: ``steps`` (>= 0) x 10^-decimals with its trailing zeros
+    dropped and one digit after the point kept (30.0, 27.5, 0.125)."""
+    whole, frac = divmod(int(steps), 10 ** decimals)
+    digits = f"{frac:0{decimals}d}".rstrip("0") if decimals else ""
+    return f"{whole}.{digits or '0'}"
+
+
+def write_fanuc_param(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
+    """A Fanuc parameter transfer file (the CNC's punch and read format, ISO code): ``%``,
+    blocks ``N<parameter>Q1A<axis>P<value>`` of the axis's pitch error compensation
+    parameters 3620-3625 (3624 and 3625 real, in deg) and, with a backlash, 1851, then
+    the pitch error compensation data ``N<10000 + point>Q0P<value>``, then ``%``. A rotary
+    axis: points 3620 + 1 .. 3622 hold the increments over the turn (summing to 0), 3621 =
+    3620 + 1, and point 3620 repeats point 3622. The format has no comment: ``comment``
+    is left out."""
+    s = t.settings
+    axis = s.axis or "1"
+    d = _decimals(s.detection_unit_deg)
+    sections = t.grid_deg.size - 1
+    per_turn = 360 * 10 ** d
+    r = s.home_point
+    params = [(3620, str(r)), (3621, str(r + 1)), (3622, str(r + sections)),
+              (3623, str(t.magnification)),
+              (3624, _fanuc_real(per_turn // sections, d)), (3625, _fanuc_real(per_turn, d))]
+    if t.backlash is not None:
+        params.insert(0, (1851, str(t.backlash)))
+    increments = np.diff(t.forward).tolist()
+    out = ["%\n"] + [f"N{n:05d}Q1A{axis}P{v}\n" for n, v in params]
+    out += [f"N{10000 + p:05d}Q0P{v}\n"
+            for p, v in zip(range(r, r + sections + 1), [increments[-1], *increments],
+                            strict=True)]
+    out.append("%\n")
     f.write("".join(out).encode("ascii"))
 
 

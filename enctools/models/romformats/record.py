@@ -52,8 +52,9 @@ FAMILIES = (MEMORY, CONTROLLER, CONTROL)
 #: table: every format of those families takes them, no control's table does
 ADDRESSED_SETTINGS = frozenset({"code_bits", "address_bits", "width", "lsb", "sample",
                                 "endian", "zone", "array_name"})
-#: the settings every control's table takes
-GRID_SETTINGS = frozenset({"bidirectional", "points"})
+#: the settings every control's table takes (``backlash``: written where the record's
+#: control keeps one, else refused with the record's reason)
+GRID_SETTINGS = frozenset({"bidirectional", "points", "backlash"})
 
 
 class PointOptions(Protocol):
@@ -79,6 +80,11 @@ class PointOptions(Protocol):
         """An ACS program's array holding the map."""
         ...
 
+    @property
+    def detection_unit_deg(self) -> float:
+        """A Fanuc axis's detection unit [deg], where the file does not state it."""
+        ...
+
 
 @dataclass(frozen=True)
 class Reading:
@@ -88,6 +94,7 @@ class Reading:
     comp_type: int = 0
     axis: str | None = None
     array_name: str = "ENC_COMP"
+    detection_unit_deg: float = 1e-3
 
 
 @dataclass(frozen=True)
@@ -107,6 +114,10 @@ class Control:
         (settings, k) -> the reason, or None.
     increment_systems : the control's named increment systems and the detection unit
         [deg] each gives (an incremental table's unit: Fanuc's IS-A, IS-B, IS-C), or ().
+    backlash_range : smallest and largest backlash value the control keeps apart from
+        the table [detection units of an incremental table, else resolution steps], or
+        None: no backlash is written (``no_backlash`` says why).
+    no_backlash : why a backlash value is not written for this control (one clause).
     """
 
     resolution_deg: float
@@ -117,6 +128,8 @@ class Control:
     incremental: bool = False
     grid_rule: Callable[[ControlSettings, int], str | None] | None = None
     increment_systems: tuple[tuple[str, float], ...] = ()
+    backlash_range: tuple[int, int] | None = None
+    no_backlash: str = "its documentation read names no backlash parameter"
 
 
 def lazy(module: str, name: str) -> Callable[..., Any]:

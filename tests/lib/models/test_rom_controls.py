@@ -27,6 +27,7 @@ CASES = {
     "twincat": ("twincat", "--bidirectional --axis 3", 0.36, True),
     "twincat-uni": ("twincat", "", 0.36, False),
     "fanuc": ("fanuc", "--sign error --axis 4", 3.6, False),
+    "fanuc-param": ("fanuc-param", "--sign error --axis 4 --home-point 300", 3.6, False),
     "heidenhain": ("heidenhain", "--sign correction --axis C --tnc 620", 0.36, False),
     "twincat-nc": ("twincat-nc", "--sign error", 0.0036, False),
 }
@@ -90,7 +91,7 @@ def test_step_run_read_back_within_half_resolution(step_run, tmp_path, case):
         wanted = {1: mean, -1: mean}
     for s, corr in wanted.items():
         want = np.r_[corr, corr[0]]
-        if target == "fanuc":  # the compensation is 0 at the reference position
+        if target.startswith("fanuc"):  # the compensation is 0 at the reference position
             want = want - want[0]
         got = table.correction(grid, s) / ARCSEC
         assert np.max(np.abs(got - want)) <= resolution / 2 * (1 + 1e-6), (s, got - want)
@@ -314,6 +315,14 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
     ("--target linuxcnc --axis 2", "names no joint"),
     ("--target siemens --points 9 --bits 23 --address-bits 3 --resolution 0.0001",
      "--points applies to linuxcnc"),
+    # --backlash where the control keeps none apart from its table: its reason
+    ("--target linuxcnc --backlash", "ignores [JOINT_n]BACKLASH"),
+    ("--target twincat --backlash", "P-AXIS-00103"),
+    ("--target twincat-nc --sign error --backlash", "takes no backlash"),
+    ("--target heidenhain --sign error --tnc 620 --backlash", "not confirmed"),
+    ("--target fanuc --sign error --bidirectional --backlash", "not both"),
+    ("--target siemens --bits 23 --address-bits 3 --resolution 0.0001 --backlash",
+     "--backlash applies to"),
 ])
 def test_refusals_are_one_line(step_run, tmp_path, opts, says):
     points, _ = step_run
@@ -377,11 +386,13 @@ def test_the_command_knows_the_controls():
 
 
 @pytest.mark.parametrize("target", ["linuxcnc", "twincat", "fanuc", "heidenhain", "siemens",
-                                    "acs", "twincat-nc"])
+                                    "acs", "twincat-nc", "fanuc-param"])
 @pytest.mark.parametrize("data", [b"", b"\xff\xfe\x00garbage\n", b"1 2 3\n1 2 3\n",
                                   b"DETECTION_UNIT_DEG x\nkw.ssfk.unit 1\n",
                                   b"BEGIN C.COM\nNR AXISPOS C\n0 +1 +x\n1 +0 +0\n[END]\n",
-                                  b"kw.ssfk.unit 1\nkw.ssfk.kw_nr_max 99999999999999999999\n"])
+                                  b"kw.ssfk.unit 1\nkw.ssfk.kw_nr_max 99999999999999999999\n",
+                                  b"%\nN03620Q1A1P0\nN03620Q1A1P1\n%\n",
+                                  b"%\nN03620Q1A1P0A2P1\nN10001Q0P99999999999999999999\n%"])
 def test_readers_refuse_malformed_files_in_one_line(tmp_path, target, data):
     """Whatever the file holds, a reader gives a table or one DataError line."""
     from enctools.errors import DataError
@@ -406,6 +417,8 @@ def test_enc_correct_applies_each_controls_table(step_run, tmp_path, case):
     out, fixed = tmp_path / f"{case}.txt", tmp_path / "corrected.parquet"
     assert run(f"enc make-rom {points} --target {target} {opts} -q -o {out}").returncode == 0
     read = " ".join(re.findall(r"--(?:sign|comp-type) \S+", opts))
+    if target == "fanuc-param":  # the file names its axis; its detection unit, not
+        read += " --axis 4 --detection-unit 0.001"
     if target == "heidenhain":
         read += " --axis C"
     r = run(f"enc correct {points} --table {out} --target {target} {read} --json -o {fixed}")
@@ -419,6 +432,6 @@ def test_enc_correct_applies_each_controls_table(step_run, tmp_path, case):
     groups = [(1,), (-1,)] if bidirectional else [(1, -1)]
     means = np.array([[dev[(k == j) & np.isin(direction, g)].mean() for j in range(TARGETS)]
                       for g in groups])
-    if target == "fanuc":
+    if target.startswith("fanuc"):
         means = means - means.mean()
     assert np.max(np.abs(means)) <= resolution / 2 + 0.01, means

@@ -1,8 +1,10 @@
 """Fanuc pitch error compensation setting sheet for a rotary axis: parameters 3620-3625
-and one incremental value per compensation point from the home (reference) point."""
+(and the backlash, 1851) and one incremental value per compensation point from the home
+(reference) point."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 from enctools.errors import SettingsError
@@ -23,6 +25,16 @@ FANUC_MAX_STEP = 7
 #: the increment systems and the least command increment of a rotation axis each gives
 #: [deg]: the detection unit of the table when the command multiplier is 1 (enc-make-rom(1))
 INCREMENT_SYSTEMS = (("IS-A", 1e-2), ("IS-B", 1e-3), ("IS-C", 1e-4))
+#: parameter 1851 (backlash compensating value, word axis, detection units): its valid
+#: data range (FANUC Series 0i/0i Mate-MODEL C Parameter Manual B-64120EN/01, 1851)
+BACKLASH_RANGE = (-9999, 9999)
+#: the rules of a rotary axis's pitch error compensation, the sheet's and the transfer
+#: file's alike
+FANUC_CONTROL = Control(1e-3, FANUC_LAST_POINT + 1, False, (-FANUC_MAX_STEP, FANUC_MAX_STEP),
+                        incremental=True, increment_systems=INCREMENT_SYSTEMS,
+                        backlash_range=BACKLASH_RANGE)
+#: the settings of enc make-rom a Fanuc table takes beyond a control's
+FANUC_SETTINGS = frozenset({"detection_unit", "home_point", "increment_system"})
 
 
 def check(settings: Any, entries: int | None) -> None:
@@ -51,7 +63,5 @@ FANUC = registry.register(TableFormat(
     "fanuc", "Fanuc pitch error compensation sheet", CONTROL,
     write_table=lazy(".controlwriters", "write_fanuc"),
     read_points=lazy(".controlreaders", "read_fanuc"),
-    control=Control(1e-3, FANUC_LAST_POINT + 1, False, (-FANUC_MAX_STEP, FANUC_MAX_STEP),
-                    incremental=True, grid_rule=grid, increment_systems=INCREMENT_SYSTEMS),
-    sign=None, settings=frozenset({"detection_unit", "home_point", "increment_system"}),
+    control=replace(FANUC_CONTROL, grid_rule=grid), sign=None, settings=FANUC_SETTINGS,
     check=check, rank=30))

@@ -49,7 +49,9 @@ HEIDENHAIN = registry.register(TableFormat(
     "heidenhain", "HEIDENHAIN compensation value table and its .CMA", CONTROL, (".com",),
     write_table=lazy(".controlwriters", "write_heidenhain"),
     read_points=lazy(".controlreaders", "read_heidenhain"),
-    control=Control(1e-4, HEIDENHAIN_POINTS, False, None), sign=None, default_axis="C",
+    control=Control(1e-4, HEIDENHAIN_POINTS, False, None, no_backlash=(
+        "the sign of its backlash machine parameter and of the .COM BACKLASH column is not "
+        "confirmed from the technical manuals read")), sign=None, default_axis="C",
     settings=frozenset({"tnc"}), check=check, rank=40,
     companion=Companion(".cma", lazy(".controlwriters", "write_heidenhain_cma"),
                         lazy(".controlreaders", "read_heidenhain_cma"))))

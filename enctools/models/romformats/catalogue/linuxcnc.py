@@ -20,5 +20,7 @@ LINUXCNC = registry.register(TableFormat(
     "linuxcnc", "LinuxCNC joint compensation file", CONTROL,
     write_table=lazy(".controlwriters", "write_linuxcnc"),
     read_points=lazy(".controlreaders", "read_linuxcnc"),
-    control=Control(1e-6, 256, True, None, exact_spacing=False), sign="error",
+    control=Control(1e-6, 256, True, None, exact_spacing=False, no_backlash=(
+        "LinuxCNC ignores [JOINT_n]BACKLASH when a COMP_FILE is given (ini-config.adoc): "
+        "its table per direction (`bidirectional`) holds the reversal")), sign="error",
     settings=frozenset({"comp_type"}), check=check, rank=10))

@@ -16,5 +16,7 @@ TWINCAT = registry.register(TableFormat(
     "twincat", "TwinCAT CNC compensation value list", CONTROL, (".lis",),
     write_table=lazy(".controlwriters", "write_twincat"),
     read_points=lazy(".controlreaders", "read_twincat"),
-    control=Control(1e-4, 1500, True, (-(1 << 31), (1 << 31) - 1)), sign="correction",
+    control=Control(1e-4, 1500, True, (-(1 << 31), (1 << 31) - 1), no_backlash=(
+        "its backlash (P-AXIS-00103) is an axis parameter, not in the compensation list, and "
+        "a bilateral list (`bidirectional`) holds the reversal")), sign="correction",
     check=check_axis_number, rank=20))

@@ -20,5 +20,6 @@ TWINCAT_NC = registry.register(TableFormat(
     "twincat-nc", "TwinCAT NC PTP table for MC_TableBasedPositionCompensation", CONTROL,
     (".st",), write_table=lazy(".controlwriters", "write_twincat_nc"),
     read_points=lazy(".controlreaders", "read_twincat_nc"),
-    control=Control(1e-6, TWINCAT_NC_POINTS, False, None, exact_spacing=False), sign=None,
+    control=Control(1e-6, TWINCAT_NC_POINTS, False, None, exact_spacing=False, no_backlash=(
+        "MC_TableBasedPositionCompensation takes no backlash value")), sign=None,
     signature=SIGNATURE, rank=25))
