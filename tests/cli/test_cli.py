@@ -115,10 +115,15 @@ def test_sigterm_mid_run_keeps_a_valid_stream(tmp_path):
     out = tmp_path / "x.arrows"
     p = subprocess.Popen([enc_exe(), "acquire", "--rig", "sjtu-dual", "--revolutions", "2000",
                           "-o", str(out)], stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not list(tmp_path.glob(".x.arrows.*")):
+    # signalled once a batch has reached the temporary (a batch of 65536 rows is over
+    # 1 MB), not after a fixed wait: on a loaded machine a second may not see one written
+    deadline = time.monotonic() + 120
+
+    def written() -> int:
+        return sum(f.stat().st_size for f in tmp_path.glob(".x.arrows.*"))
+
+    while time.monotonic() < deadline and written() < 1 << 20:
         time.sleep(0.05)
-    time.sleep(1.0)
     p.send_signal(signal.SIGTERM)
     _, err = p.communicate(timeout=60)
     assert p.returncode == 143, err
