@@ -105,7 +105,15 @@ def _send_signal(case: Case, pid: int, folder: Path) -> None:
         time.sleep(0.02)
     time.sleep(float(case.signal.get("delay", 0.0)))
     with contextlib.suppress(ProcessLookupError):  # not send_signal: it reaps an ended child
-        os.kill(pid, getattr(signal, f"SIG{case.signal['sig']}"))
+        os.kill(pid, signal_number(case.signal["sig"]))
+
+
+def signal_number(name: str) -> int:
+    """A signal by its name without SIG, as kill(1) takes it: HUP, XCPU, RTMIN+3, RTMAX."""
+    rt = re.fullmatch(r"RT(MIN|MAX)([+-][0-9]+)?", name)
+    if rt:
+        return int(signal.SIGRTMIN if rt[1] == "MIN" else signal.SIGRTMAX) + int(rt[2] or 0)
+    return int(getattr(signal, f"SIG{name}"))
 
 
 def forked(case: Case) -> bool:

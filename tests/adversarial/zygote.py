@@ -26,8 +26,11 @@ import signal
 import socket
 import sys
 
-FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT, signal.SIGUSR1,
-             signal.SIGUSR2, signal.SIGALRM)
+from enctools.errors import ending_signal_numbers
+
+#: every signal a command catches as its ending: passed on by the minder, at its default
+#: in the command as exec leaves it
+FORWARDED = ending_signal_numbers()
 LIMITS = {"as": resource.RLIMIT_AS, "fsize": resource.RLIMIT_FSIZE,
           "nofile": resource.RLIMIT_NOFILE}
 
