@@ -82,16 +82,26 @@ def command_line(case: Case, folder: Path, base: Path) -> list[str]:
 
 
 #: a case's ``limits`` keys: the resource limit each sets in the command's process
-LIMITS = {"fsize": resource.RLIMIT_FSIZE, "nofile": resource.RLIMIT_NOFILE}
+LIMITS = {"fsize": resource.RLIMIT_FSIZE, "nofile": resource.RLIMIT_NOFILE,
+          "cpu": resource.RLIMIT_CPU}
+#: seconds of CPU between a case's ``cpu`` limit (SIGXCPU) and the hard one (SIGKILL)
+CPU_GRACE = 10
+
+
+def limit_pair(key: str, value: int) -> tuple[int, int]:
+    """The (soft, hard) limit a case's ``limits`` key sets: both ``value``, as ``ulimit``
+    sets them, but for ``cpu``, whose hard limit is SIGKILL's: ``ulimit -St`` then."""
+    return (value, value + CPU_GRACE) if key == "cpu" else (value, value)
 
 
 def _limits(case: Case) -> Callable[[], None]:
     """What the child runs before the command: the address-space limit, and the case's
-    own (``limits = {fsize = BYTES, nofile = N}``, as ``ulimit -f``/``-n`` set them)."""
+    own (``limits = {fsize = BYTES, nofile = N, cpu = S}``, as ``ulimit -f``/``-n``/``-St``
+    set them)."""
     def apply() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_LIMIT, ADDRESS_LIMIT))
         for key, value in case.limits.items():
-            resource.setrlimit(LIMITS[key], (value, value))
+            resource.setrlimit(LIMITS[key], limit_pair(key, value))
     return apply
 
 
