@@ -82,16 +82,34 @@ class DeviceError(EncError):
     exit_code = 3
 
 
-#: the signals whose default action ends the process (SIGINT aside, which Python makes a
-#: KeyboardInterrupt): each is turned into :class:`Interrupted`, so that a command's
-#: outputs end as on any other ending (whole, or not at all) and its exit status is the
-#: shell's 128 + the signal's number
-ENDING_SIGNALS = ("SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGALRM")
+#: the signals whose default action ends the process (signal(7): Term or Core) that reach
+#: it from outside (SIGINT aside, which Python makes a KeyboardInterrupt): each is turned
+#: into :class:`Interrupted`, so that a command's outputs end as on any other ending
+#: (whole, or not at all) and its exit status is the shell's 128 + the signal's number;
+#: so are the real-time signals (:func:`ending_signal_numbers`). Python ignores SIGPIPE and
+#: SIGXFSZ (EPIPE, EFBIG instead). Not caught: SIGKILL, which cannot be, and the faults of
+#: the process itself (SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGSYS, SIGTRAP), after
+#: which its state cannot be trusted to finish anything
+ENDING_SIGNALS = ("SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGALRM", "SIGXCPU",
+                  "SIGVTALRM", "SIGPROF", "SIGIO", "SIGPWR", "SIGSTKFLT")
+
+
+def ending_signal_numbers(sigint: bool = True) -> tuple[int, ...]:
+    """The numbers of SIGINT (unless ``sigint`` is false), of :data:`ENDING_SIGNALS` this
+    platform has and of its real-time signals (SIGRTMIN to SIGRTMAX), whatever their
+    disposition now."""
+    import signal
+
+    names = ("SIGINT", *ENDING_SIGNALS) if sigint else ENDING_SIGNALS
+    numbers = [int(getattr(signal, name)) for name in names if hasattr(signal, name)]
+    if hasattr(signal, "SIGRTMIN") and hasattr(signal, "SIGRTMAX"):
+        numbers += range(int(signal.SIGRTMIN), int(signal.SIGRTMAX) + 1)
+    return tuple(numbers)
 
 
 def ending_signals(sigint: bool = True) -> tuple[int, ...]:
-    """The numbers of SIGINT (unless ``sigint`` is false) and :data:`ENDING_SIGNALS` that
-    this process does not ignore: the ones a command may catch.
+    """The numbers of :func:`ending_signal_numbers` that this process does not ignore: the
+    ones a command may catch.
 
     A signal ignored when a command starts stays ignored, as POSIX has it for a shell's
     background jobs (started with SIGINT and SIGQUIT ignored) and nohup(1) (SIGHUP):
@@ -100,9 +118,18 @@ def ending_signals(sigint: bool = True) -> tuple[int, ...]:
     """
     import signal
 
-    names = ("SIGINT", *ENDING_SIGNALS) if sigint else ENDING_SIGNALS
-    numbers = (getattr(signal, name) for name in names)
-    return tuple(sig for sig in numbers if signal.getsignal(sig) != signal.SIG_IGN)
+    return tuple(sig for sig in ending_signal_numbers(sigint)
+                 if signal.getsignal(sig) != signal.SIG_IGN)
+
+
+def signal_name(signum: int) -> str:
+    """``signum``'s name: SIGHUP, ..., a real-time one as SIGRTMIN+3."""
+    import signal
+
+    try:
+        return signal.Signals(signum).name
+    except ValueError:
+        return f"SIGRTMIN+{signum - int(signal.SIGRTMIN)}"
 
 
 class Interrupted(EncError):
@@ -119,7 +146,5 @@ class Interrupted(EncError):
     def by_signal(cls, signum: int) -> Interrupted:
         """The ending of signal ``signum``: "terminated" for SIGTERM (exit 143), "stopped
         by SIGHUP" and the like for the others (exit 128 + the number)."""
-        import signal
-
-        name = signal.Signals(signum).name
+        name = signal_name(signum)
         return cls("terminated" if name == "SIGTERM" else f"stopped by {name}", 128 + signum)

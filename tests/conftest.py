@@ -77,13 +77,12 @@ def _as_a_process(stdin: io.TextIOWrapper, stdout: io.TextIOWrapper,
     a fresh ``enc`` process has them; everything put back afterwards (enc-nightly ends by
     ignoring the ending signals: left so, the commands started later would inherit it)."""
     from enctools.cli import runner
-    from enctools.errors import ENDING_SIGNALS
+    from enctools.errors import ending_signal_numbers
 
     saved_streams = sys.stdin, sys.stdout, sys.stderr
     saved_env = dict(os.environ)
     saved_cwd = os.getcwd()
-    saved_signals = {sig: signal.getsignal(sig) for sig in
-                     (signal.SIGINT, *(getattr(signal, name) for name in ENDING_SIGNALS))}
+    saved_signals = {sig: signal.getsignal(sig) for sig in ending_signal_numbers()}
     saved_state = dict(getattr(runner, "_state", {}))
     log = logging.getLogger("enctools")
     saved_log = log.handlers[:], log.level, log.propagate

@@ -10,8 +10,10 @@ import sys
 
 if __name__ == "__main__":  # a signal ends the process as documented from here on, before
     # the imports below (runner.prologue then puts its own handlers)
+    from enctools.errors import ending_signals, signal_name  # light: re and the exceptions
+
     def _ended(signum: int, frame: object) -> None:
-        name = signal.Signals(signum).name
+        name = signal_name(signum)
         why = "terminated" if name == "SIGTERM" else f"stopped by {name}"
         if sys.stderr is not None:
             with contextlib.suppress(OSError, ValueError):
@@ -20,8 +22,6 @@ if __name__ == "__main__":  # a signal ends the process as documented from here 
         # not SystemExit: raised inside an import's class body, Python wraps it in a
         # RuntimeError (a traceback, exit 1); nothing is open yet that needs closing
         os._exit(128 + signum)
-
-    from enctools.errors import ending_signals  # light: re and the exceptions
 
     for _sig in ending_signals(sigint=False):  # an ignored one (nohup's SIGHUP) stays so
         signal.signal(_sig, _ended)
@@ -141,10 +141,10 @@ def main(argv: list[str] | None = None) -> None:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     # the night is over and told: a signal now would only turn its status into -15
     # (the interpreter's shutdown puts the default handlers back)
-    from enctools.errors import ENDING_SIGNALS
+    from enctools.errors import ending_signal_numbers
 
-    for name in ("SIGINT", *ENDING_SIGNALS):
-        signal.signal(getattr(signal, name), signal.SIG_IGN)
+    for sig in ending_signal_numbers():
+        signal.signal(sig, signal.SIG_IGN)
     sys.exit(code)
 
 

@@ -220,10 +220,10 @@ def log_warning(text: str) -> None:
 
 def install_sigterm() -> None:
     """Turn SIGTERM (exit 143) and the other signals that end a process by default
-    (``errors.ENDING_SIGNALS``: SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM; exit 128 + the
-    number) into an Interrupted exception, so that outputs end whole or not at all. A
-    signal the command was started with ignored (nohup, a background job) stays ignored
-    (``errors.ending_signals``)."""
+    (``errors.ending_signals``: SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM, SIGXCPU, ...,
+    the real-time ones; exit 128 + the number) into an Interrupted exception, so that
+    outputs end whole or not at all. A signal the command was started with ignored
+    (nohup, a background job) stays ignored."""
     import signal
 
     from enctools.errors import ending_signals

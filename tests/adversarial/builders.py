@@ -21,6 +21,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from adversarial.h5builders import h5_elsewhere, h5_table
+
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data"
 RIGS = ROOT / "tests" / "rigs"
@@ -633,7 +635,7 @@ BUILDERS: dict[str, Callable[..., None]] = {
                             deep_toml, csv_pair, csv_cut, csv_field, csv_sidecar,
                             full_disk, concatenated, extreme_value, null_column,
                             duplicate_column, nightly_folder, corrupt, cast_column,
-                            wide_heads, closure_run)
+                            wide_heads, closure_run, h5_elsewhere, h5_table)
 }
 
 

@@ -26,7 +26,7 @@ CASE_KEYS: dict[str, type | tuple[type, ...]] = {
 }
 READER_KEYS = {"name", "argv", "valid", "other_kind", "column", "stdin", "pending", "outputs",
                "setup"}
-HOSTILE_IN_KEYS = {"id", "setup", "stdin", "exit", "why"}
+HOSTILE_IN_KEYS = {"id", "setup", "stdin", "exit", "why", "formats"}
 WRITER_KEYS = {"name", "argv", "ext", "setup", "pending", "timeout", "not_for"}
 HOSTILE_OUT_KEYS = {"id", "setup", "out", "force", "exit", "unchanged", "files", "why", "limits"}
 
@@ -120,6 +120,8 @@ def _readers(doc: dict[str, Any], source: str) -> list[Case]:
         ext = Path(r["valid"]).suffix
         for h in hostile:
             if h.get("stdin") and not r.get("stdin", True):
+                continue
+            if "formats" in h and ext not in h["formats"]:  # damage of one format's own
                 continue
             inp = "-" if h.get("stdin") else f"in{ext}"
             subs = {"in": f"in{ext}", "valid": r["valid"], "other": r.get("other_kind", ""),

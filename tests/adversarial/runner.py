@@ -82,16 +82,26 @@ def command_line(case: Case, folder: Path, base: Path) -> list[str]:
 
 
 #: a case's ``limits`` keys: the resource limit each sets in the command's process
-LIMITS = {"fsize": resource.RLIMIT_FSIZE, "nofile": resource.RLIMIT_NOFILE}
+LIMITS = {"fsize": resource.RLIMIT_FSIZE, "nofile": resource.RLIMIT_NOFILE,
+          "cpu": resource.RLIMIT_CPU}
+#: seconds of CPU between a case's ``cpu`` limit (SIGXCPU) and the hard one (SIGKILL)
+CPU_GRACE = 10
+
+
+def limit_pair(key: str, value: int) -> tuple[int, int]:
+    """The (soft, hard) limit a case's ``limits`` key sets: both ``value``, as ``ulimit``
+    sets them, but for ``cpu``, whose hard limit is SIGKILL's: ``ulimit -St`` then."""
+    return (value, value + CPU_GRACE) if key == "cpu" else (value, value)
 
 
 def _limits(case: Case) -> Callable[[], None]:
     """What the child runs before the command: the address-space limit, and the case's
-    own (``limits = {fsize = BYTES, nofile = N}``, as ``ulimit -f``/``-n`` set them)."""
+    own (``limits = {fsize = BYTES, nofile = N, cpu = S}``, as ``ulimit -f``/``-n``/``-St``
+    set them)."""
     def apply() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_LIMIT, ADDRESS_LIMIT))
         for key, value in case.limits.items():
-            resource.setrlimit(LIMITS[key], (value, value))
+            resource.setrlimit(LIMITS[key], limit_pair(key, value))
     return apply
 
 
@@ -105,7 +115,15 @@ def _send_signal(case: Case, pid: int, folder: Path) -> None:
         time.sleep(0.02)
     time.sleep(float(case.signal.get("delay", 0.0)))
     with contextlib.suppress(ProcessLookupError):  # not send_signal: it reaps an ended child
-        os.kill(pid, getattr(signal, f"SIG{case.signal['sig']}"))
+        os.kill(pid, signal_number(case.signal["sig"]))
+
+
+def signal_number(name: str) -> int:
+    """A signal by its name without SIG, as kill(1) takes it: HUP, XCPU, RTMIN+3, RTMAX."""
+    rt = re.fullmatch(r"RT(MIN|MAX)([+-][0-9]+)?", name)
+    if rt:
+        return int(signal.SIGRTMIN if rt[1] == "MIN" else signal.SIGRTMAX) + int(rt[2] or 0)
+    return int(getattr(signal, f"SIG{name}"))
 
 
 def forked(case: Case) -> bool:

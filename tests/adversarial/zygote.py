@@ -26,10 +26,14 @@ import signal
 import socket
 import sys
 
-FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT, signal.SIGUSR1,
-             signal.SIGUSR2, signal.SIGALRM)
+from enctools.errors import ending_signal_numbers
+
+#: every signal a command catches as its ending: passed on by the minder, at its default
+#: in the command as exec leaves it
+FORWARDED = ending_signal_numbers()
 LIMITS = {"as": resource.RLIMIT_AS, "fsize": resource.RLIMIT_FSIZE,
-          "nofile": resource.RLIMIT_NOFILE}
+          "nofile": resource.RLIMIT_NOFILE, "cpu": resource.RLIMIT_CPU}
+CPU_GRACE = 10  # as runner.CPU_GRACE: SIGXCPU at the case's limit, SIGKILL this much later
 
 
 def _command(req: dict, fds: list[int]) -> None:
@@ -45,7 +49,8 @@ def _command(req: dict, fds: list[int]) -> None:
         os.environ.clear()
         os.environ.update(req["env"])
         for key, value in req["limits"].items():
-            resource.setrlimit(LIMITS[key], (value, value))
+            hard = value + CPU_GRACE if key == "cpu" else value
+            resource.setrlimit(LIMITS[key], (value, hard))
         for sig in FORWARDED:
             signal.signal(sig, signal.SIG_DFL)
         signal.signal(signal.SIGINT, signal.default_int_handler)  # as Python starts
