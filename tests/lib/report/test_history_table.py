@@ -86,22 +86,22 @@ def test_the_rig_names_come_back_as_the_same_strings_in_every_reader(tmp_path):
         assert read_history(tmp_path, rig=name).column("rig").tolist() == [name, name]
 
 
-def test_duckdb_reads_the_files_the_log_lists_with_the_same_rig_strings(tmp_path):
+def test_duckdb_reads_the_table_with_the_same_rig_strings(tmp_path):
     """enc-history(1)'s DuckDB recipe where its delta extension cannot be fetched: the
-    files of the table's version (DeltaTable.file_uris) read by DuckDB itself, the rig
-    from their partition folders as VARCHAR: "0042" a string, not 42, non-ASCII and
-    escaped names decoded to themselves (DuckDB 1.0.0 left them %-encoded)."""
+    table as an Arrow dataset, the rig from the log's partition values (never from the
+    folder names, whose escaping is the writer's: deltalake 1.0.0 escapes them twice);
+    and the reader enctools uses. "0042" a string, non-ASCII and escaped names intact."""
     import duckdb
     from deltalake import DeltaTable
 
     fleet(tmp_path)
-    files = DeltaTable(str(tmp_path)).file_uris()
-    got = duckdb.execute("SELECT rig, typeof(rig), count(*), max(drift_max) FROM read_parquet("
-                         "?, hive_partitioning = true, hive_types = {'rig': VARCHAR}) "
-                         "GROUP BY ALL", [files]).fetchall()
-    assert sorted(got) == sorted((n, "VARCHAR", 2, float(k)) for k, n in enumerate(NAMES))
-    dataset = historytable.current_dataset(historytable.open_table(tmp_path))  # noqa: F841
-    got = duckdb.sql("SELECT rig, count(*) FROM dataset WHERE rig = '0042' GROUP BY ALL")
+    sql = ("SELECT rig, typeof(rig), count(*), max(drift_max) FROM history GROUP BY ALL")
+    want = sorted((n, "VARCHAR", 2, float(k)) for k, n in enumerate(NAMES))
+    history = DeltaTable(str(tmp_path)).to_pyarrow_dataset()
+    assert sorted(duckdb.sql(sql).fetchall()) == want
+    history = historytable.current_dataset(historytable.open_table(tmp_path))  # noqa: F841
+    assert sorted(duckdb.sql(sql).fetchall()) == want
+    got = duckdb.sql("SELECT rig, count(*) FROM history WHERE rig = '0042' GROUP BY ALL")
     assert got.fetchall() == [("0042", 2)]
 
 
