@@ -126,6 +126,22 @@ def test_a_night_compacts_its_rig_when_its_files_pass_the_count(tmp_path, monkey
     assert append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": "n3"}) == 0
 
 
+def test_a_compaction_that_fails_leaves_the_night_recorded(tmp_path, monkeypatch, caplog):
+    """The night is committed before its rig is compacted: a compaction that fails (a full
+    disk, another writer's compaction first) is told and loses nothing."""
+    from deltalake.table import TableOptimizer
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(historytable, "CROWDED_FILES", 1)
+    monkeypatch.setattr(TableOptimizer, "compact", full)
+    for i in range(3):
+        assert append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": f"n{i}"}) == 1
+    assert "could not be compacted" in caplog.text
+    assert sorted(read_history(tmp_path).column("run_id").tolist()) == ["n0", "n1", "n2"]
+
+
 def test_since_skips_the_files_before_it_by_the_log_alone(tmp_path):
     """--since is pushed down to the log's statistics: a file whose runs all precede it
     is not opened (here: removed from the disk, and the read does not notice)."""
