@@ -5,13 +5,16 @@ and after ``enc history compact``.
 
 Rows are made for the benchmark (a slow random walk of drift per rig). The table is
 appended a night at a time, each night one transaction of one row per rig (one file per
-rig and night, as many nights appended by many hosts make); the Hive layout is written
-at once by ``pyarrow.dataset.write_dataset``, one file a night and rig. Then, in one run:
+rig and night, as many nights appended by many hosts make), twice: never compacted, and
+as enc-nightly leaves it (a rig's partition compacted by the night that passes
+``CROWDED_FILES``); the Hive layout is written at once by
+``pyarrow.dataset.write_dataset``, one file a night and rig. Then, in one run:
 
 - fleet-wide: the README's DuckDB query (nights since a date, largest drift and nights
   not ok of every rig) over the whole history: on the Hive folders
-  (``read_parquet(..., hive_partitioning = true)``) and on the table (DuckDB over
-  ``DeltaTable(DIR).to_pyarrow_dataset()``, the table opened within the time);
+  (``read_parquet(..., hive_partitioning = true)``) and on each table (DuckDB over
+  ``historytable.current_dataset``: the files the table's log lists, the table opened
+  within the time);
 - one rig: ``read_history(DIR, rig=...)`` and its text, as ``enc report --history
   --history-rig`` does;
 - the number of data files of the table's version, before and after ``compact``
@@ -20,7 +23,8 @@ at once by ``pyarrow.dataset.write_dataset``, one file a night and rig. Then, in
 - one more night appended by ``append_run`` (its run id checked), before and after.
 
 Times are wall seconds, the best of ``--repeat`` (the machine is shared: the best is the
-figure least disturbed). Prints a Markdown table; writes OUT/fleet.json.
+figure least disturbed, and the load average is printed beside). Prints a Markdown
+table; writes OUT/fleet.json.
 
 Usage: fleet.py [--out bench-out] [--rigs 100] [--nights 365] [--repeat 3]
 """
@@ -30,6 +34,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
 import shutil
 import sys
 import time
@@ -81,14 +86,19 @@ def nights(rigs: int, count: int) -> pa.Table:
                     schema=historytable.table_schema(SCHEMA))
 
 
-def build_table(root: Path, rows: pa.Table, rigs: int) -> None:
-    """The table as enc-nightly leaves it: a transaction a night, a file per rig (written
-    here without the run-id check of each night, whose cost :func:`one_night` gives)."""
+def build_table(root: Path, rows: pa.Table, rigs: int, crowded: bool) -> None:
+    """The table of a transaction a night, a file per rig (written here without the run-id
+    check of each night, whose cost :func:`one_night` gives): as enc-nightly leaves it,
+    each rig's partition compacted when it passes ``CROWDED_FILES`` (``crowded``), or
+    never compacted (a table of a writer that does not)."""
     from deltalake import write_deltalake
 
     table = historytable.create_table(root, SCHEMA)
+    names = [rig_name(k) for k in range(rigs)]
     for start in range(0, rows.num_rows, rigs):
         write_deltalake(table, rows.slice(start, rigs), mode="append", partition_by=["rig"])
+        if crowded:
+            historytable.compact_crowded(table, names)
 
 
 def one_night(root: Path, rig: str) -> float:
@@ -123,10 +133,13 @@ def best(fn: Callable[[], object], repeat: int) -> float:
     return min(times)
 
 
-def jobs(table: Path, hive: Path, rigs: int, count: int) -> dict[str, Callable[[], object]]:
+def jobs(tables: dict[str, Path], hive: Path, rigs: int, count: int
+         ) -> dict[str, Callable[[], object]]:
+    """The queries timed: fleet-wide and one rig, on the Hive folders and each table."""
     import duckdb
 
     rig = rig_name(rigs // 2)
+    todo: dict[str, Callable[[], object]] = {}
 
     def fleet_hive() -> None:
         sql = QUERY.format(source=f"read_parquet('{hive}/*/*/*.parquet', "
@@ -134,22 +147,37 @@ def jobs(table: Path, hive: Path, rigs: int, count: int) -> dict[str, Callable[[
                                   "hive_types = {'rig': VARCHAR, 'year': INTEGER})")
         assert len(duckdb.sql(sql).fetchall()) == rigs
 
-    def fleet_table() -> None:
-        history = historytable.open_table(table).to_pyarrow_dataset()  # noqa: F841 - in SQL
+    def fleet_table(where: Path) -> None:
+        history = historytable.current_dataset(  # noqa: F841 - named in the SQL
+            historytable.open_table(where))
         assert len(duckdb.sql(QUERY.format(source="history")).fetchall()) == rigs
 
-    def one_rig_table() -> None:
-        assert len(read_history(table, rig=rig).text_lines()) >= count + 2
+    def one_rig(where: Path) -> None:
+        assert len(read_history(where, rig=rig).text_lines()) >= count + 2
 
-    def one_rig_hive() -> None:
-        assert len(read_history(hive, rig=rig).text_lines()) >= count + 2
-
-    return {"fleet-wide, Hive folders": fleet_hive, "fleet-wide, table": fleet_table,
-            "one rig, Hive folders": one_rig_hive, "one rig, table": one_rig_table}
+    todo["fleet-wide, Hive folders"] = fleet_hive
+    todo["one rig, Hive folders"] = lambda: one_rig(hive)
+    for name, where in tables.items():
+        todo[f"fleet-wide, {name}"] = lambda where=where: fleet_table(where)
+        todo[f"one rig, {name}"] = lambda where=where: one_rig(where)
+    return todo
 
 
 def files(root: Path) -> int:
     return sum(1 for _ in root.rglob("*.parquet"))
+
+
+def load() -> str:
+    """The load average over 1, 5 and 15 minutes (the machine is shared)."""
+    return " ".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def timed(what: str, fn: Callable[[], object], res: dict) -> None:
+    t0 = time.perf_counter()
+    fn()
+    res["build_s"][what] = time.perf_counter() - t0
+    print(f"fleet: {what} built in {res['build_s'][what]:.1f} s (load {load()})",
+          file=sys.stderr)
 
 
 def main() -> None:
@@ -161,48 +189,53 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     a = ap.parse_args()
     out = Path(a.out)
-    table, hive = out / "fleet-table", out / "fleet-hive"
-    for root in (table, hive):
+    raw, nightly, hive = out / "fleet-table", out / "fleet-nightly", out / "fleet-hive"
+    for root in (raw, nightly, hive):
         shutil.rmtree(root, ignore_errors=True)
     rows = nights(a.rigs, a.nights)
-    res: dict = {"rigs": a.rigs, "nights": a.nights, "rows": rows.num_rows, "build_s": {}}
-    t0 = time.perf_counter()
-    build_hive(hive, rows)
-    res["build_s"]["hive"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    build_table(table, rows, a.rigs)
-    res["build_s"]["table"] = time.perf_counter() - t0
-    print(f"fleet: built ({res['build_s']})", file=sys.stderr)
-    todo = jobs(table, hive, a.rigs, a.nights)
-    res["files"] = {"hive": files(hive), "table before": historytable.file_count(table)}
+    res: dict = {"rigs": a.rigs, "nights": a.nights, "rows": rows.num_rows, "build_s": {},
+                 "crowded_files": historytable.CROWDED_FILES, "load": {"start": load()}}
+    timed("hive", lambda: build_hive(hive, rows), res)
+    timed("table", lambda: build_table(raw, rows, a.rigs, crowded=False), res)
+    timed("nightly", lambda: build_table(nightly, rows, a.rigs, crowded=True), res)
+    todo = jobs({"table": raw, "nightly": nightly}, hive, a.rigs, a.nights)
+    res["files"] = {"hive": files(hive), "table before": historytable.file_count(raw),
+                    "nightly": historytable.file_count(nightly)}
     res["before"] = {what: best(fn, a.repeat) for what, fn in todo.items()}
-    res["append_s"] = {"before": one_night(table, rig_name(0))}
+    res["load"]["before"] = load()
+    res["append_s"] = {"before": one_night(raw, rig_name(0)),
+                       "nightly": one_night(nightly, rig_name(0))}
     t0 = time.perf_counter()
-    res["compact"] = historytable.compact(table, historytable.MIN_RETENTION_HOURS)
+    res["compact"] = historytable.compact(raw, historytable.MIN_RETENTION_HOURS)
     res["compact_s"] = time.perf_counter() - t0
-    res["files"]["table after"] = historytable.file_count(table)
+    res["files"]["table after"] = historytable.file_count(raw)
     res["after"] = {what: best(fn, a.repeat) for what, fn in todo.items()
-                    if what.endswith("table")}
-    res["append_s"]["after"] = one_night(table, rig_name(1))
-    for root in (table, hive):
+                    if what.endswith(", table")}
+    res["load"]["after"] = load()
+    res["append_s"]["after"] = one_night(raw, rig_name(1))
+    for root in (raw, nightly, hive):
         shutil.rmtree(root, ignore_errors=True)
     (out / "fleet.json").write_text(json.dumps(res, indent=1))
     print(markdown(res))
 
 
 def markdown(res: dict) -> str:
-    hive_fleet, hive_rig = res["before"]["fleet-wide, Hive folders"], \
-        res["before"]["one rig, Hive folders"]
-    out = [f"| {res['rigs']} rigs x {res['nights']} nights [s] | Hive folders | table | "
-           "table compacted | compacted / Hive |", "|---|---:|---:|---:|---:|"]
-    for what, hive in (("fleet-wide", hive_fleet), ("one rig", hive_rig)):
-        before, after = res["before"][f"{what}, table"], res["after"][f"{what}, table"]
-        out.append(f"| {what} | {hive:.3f} | {before:.3f} | {after:.3f} | "
-                   f"{after / hive:.4f} |")
-    f = res["files"]
-    out.append(f"| data files | {f['hive']} | {f['table before']} | {f['table after']} | |")
-    out.append(f"| a night appended (enc-nightly) | | {res['append_s']['before']:.3f} | "
-               f"{res['append_s']['after']:.3f} | |")
+    """The figures as the README's table."""
+    b, f = res["before"], res["files"]
+    out = [f"| {res['rigs']} rigs x {res['nights']} nights [s] | Hive folders | table, "
+           f"never compacted | table, as the nights leave it | table compacted | "
+           "compacted / Hive |", "|---|---:|---:|---:|---:|---:|"]
+    for what in ("fleet-wide", "one rig"):
+        hive, after = b[f"{what}, Hive folders"], res["after"][f"{what}, table"]
+        out.append(f"| {what} | {hive:.3f} | {b[f'{what}, table']:.3f} | "
+                   f"{b[f'{what}, nightly']:.3f} | {after:.3f} | {after / hive:.4f} |")
+    out.append(f"| data files | {f['hive']} | {f['table before']} | {f['nightly']} | "
+               f"{f['table after']} | |")
+    a = res["append_s"]
+    out.append(f"| a night appended (enc-nightly) | | {a['before']:.3f} | {a['nightly']:.3f} | "
+               f"{a['after']:.3f} | |")
+    out.append(f"| load average (1, 5, 15 min) | | {res['load']['before']} | | "
+               f"{res['load']['after']} | |")
     return "\n".join(out)
 
 

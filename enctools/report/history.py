@@ -109,11 +109,82 @@ def read_history(history: str | os.PathLike[str], rig: str | None = None,
             msg = f"`history_dir` {text}: no such folder"
             raise DataError(msg)
         if not historytable.is_table(text):
-            from enctools.report.history_hive import read_hive
+            from enctools.report.history_hive import is_hive, read_hive
 
+            if not is_hive(text):
+                refuse_stray(text)
             return read_hive(text, rig, since)
     rows = historytable.read_rows(text, SCHEMA.names, rig, since)
     return History(text, conform(rows).sort_by("time"), [], rig=rig, since=since)
+
+
+#: the Parquet files looked for below a folder that is no history, and how deep [folders]
+STRAY_LOOK, STRAY_DEPTH = 1000, 3
+
+
+def refuse_stray(folder: str) -> None:
+    """A folder holding neither a table nor the layout before it but Parquet files is
+    refused, naming what is there (read, it would show no runs): a partition of a table
+    (a ``_delta_log`` above), files in ``NAME=VALUE`` folders or with the history's
+    columns (the layout before the table: ``enc history migrate``), or other files."""
+    found = _parquet_below(folder)
+    if not found:
+        return
+    msg = (f"`history_dir` {folder}: no history table there (no _delta_log) but "
+           f"{len(found)}{'+' if len(found) >= STRAY_LOOK else ''} Parquet file(s), "
+           f"{found[0]} first")
+    above = _table_above(folder)
+    if above is not None:
+        msg += f"; it is a partition of the table {above}: give that"
+    elif _looks_hive(folder, found):
+        root = os.path.dirname(os.path.abspath(folder)) \
+            if os.path.basename(os.path.abspath(folder)).startswith("rig=") else folder
+        msg += ("; a history of the layout before the table? `enc history migrate` "
+                f"makes a table of it (OLD: the folder of its rig=NAME folders, {root})")
+    else:
+        msg += "; not a nightly history"
+    raise DataError(msg)
+
+
+def _parquet_below(folder: str) -> list[str]:
+    """The first :data:`STRAY_LOOK` ``*.parquet`` files in ``folder`` and
+    :data:`STRAY_DEPTH` folders below it, relative to it, in name order."""
+    found: list[str] = []
+    for here, dirs, names in os.walk(folder):
+        rel = os.path.relpath(here, folder)
+        dirs.sort()
+        if rel.count(os.sep) + (rel != ".") >= STRAY_DEPTH:
+            dirs.clear()
+        found += [os.path.normpath(os.path.join(rel, n)) for n in sorted(names)
+                  if n.endswith(".parquet")]
+        if len(found) >= STRAY_LOOK:
+            break
+    return found[:STRAY_LOOK]
+
+
+def _table_above(folder: str) -> str | None:
+    """The table (a folder with ``_delta_log``) ``folder`` lies in, two levels up at most."""
+    up = os.path.abspath(folder)
+    for _ in range(2):
+        up = os.path.dirname(up)
+        if os.path.isdir(os.path.join(up, "_delta_log")):
+            return up
+    return None
+
+
+def _looks_hive(folder: str, found: list[str]) -> bool:
+    """Whether ``found`` lie in ``NAME=VALUE`` folders, or the first holds the history's
+    ``run_id`` and ``time`` (the layout before the table, given one level too deep)."""
+    import pyarrow.parquet as pq
+
+    if os.path.basename(os.path.abspath(folder)).startswith("rig=") or any(
+            "=" in part for f in found for part in f.split(os.sep)[:-1]):
+        return True
+    try:
+        names = pq.read_schema(os.path.join(folder, found[0])).names
+    except (OSError, pa.ArrowInvalid):
+        return False
+    return "run_id" in names and "time" in names
 
 
 def conform(rows: pa.Table) -> pa.Table:

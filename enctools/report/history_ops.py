@@ -106,12 +106,12 @@ def migrate(old: str, new: str) -> Migration:
 
 def _count(history: str) -> int:
     table = historytable.open_table(history)
-    return 0 if table is None else int(table.to_pyarrow_dataset().count_rows())
+    return 0 if table is None else int(historytable.current_dataset(table).count_rows())
 
 
 def _run_ids(history: str) -> set[Any]:
     table = historytable.open_table(history)
     if table is None:
         return set()
-    return set(table.to_pyarrow_dataset().to_table(columns=["run_id"])
+    return set(historytable.current_dataset(table).to_table(columns=["run_id"])
                .column("run_id").to_pylist())

@@ -30,6 +30,7 @@ import os
 import random
 import time
 from typing import Any
+from urllib.parse import unquote
 
 import pyarrow as pa
 
@@ -47,6 +48,10 @@ RETENTION_HOURS = 168
 #: the least retention ``compact`` takes [h]: a night writes its data files seconds before
 #: its commit, and VACUUM must not take them for files of no version
 MIN_RETENTION_HOURS = 1.0
+#: a rig's partition holding more data files than this after a night's append is
+#: compacted by that night (:func:`compact_crowded`): a fleet's table then holds at most
+#: rigs x (CROWDED_FILES + 1) files between two ``enc history compact`` runs
+CROWDED_FILES = 16
 #: a commit that lost the race to another writer's is tried again this many times
 COMMIT_TRIES = 60
 #: the URI schemes of the object stores delta-rs reaches
@@ -199,6 +204,7 @@ def append_rows(history: str | os.PathLike[str], rows: pa.Table,
                             partition_by=["rig"],
                             commit_properties=CommitProperties(custom_metadata={
                                 "enctools.runs": ",".join(run_ids or [])[:4000]}))
+            compact_crowded(table, sorted({r for r in fresh.column("rig").to_pylist() if r}))
             return fresh.num_rows
         except CommitFailedError as exc:
             log.debug("history: commit lost to another writer's, again: %s", exc)
@@ -211,10 +217,87 @@ def append_rows(history: str | os.PathLike[str], rows: pa.Table,
     raise DataError(msg)
 
 
-def rig_dataset(table: Any, rig: str | None) -> Any:
-    """The table as a ``pyarrow.dataset``: of one ``rig``'s files alone, chosen from the log
-    before a file is opened (the dataset of every file costs in proportion to the files:
-    44 s for 36,500 of them, where one rig's 365 take 0.2 s), or of all (None)."""
+def compact_crowded(table: Any, rigs: list[str]) -> list[str]:
+    """OPTIMIZE the partitions of ``rigs`` that hold more than :data:`CROWDED_FILES` data
+    files, each into one file (one commit a rig). Return the rigs compacted.
+
+    A night appends a file to its rig's partition, and a query opens each file (36,500
+    nights of 100 rigs: 16 s fleet-wide, 0.3 s compacted): so the night that passes the
+    count rewrites its rig's few kilobytes (some 0.2 s) and the table stays small without
+    ``enc history compact``; the files replaced stay on disk until that command's VACUUM.
+    The night is recorded before: a compaction that fails (another writer's compaction of
+    the same files first) is told and leaves the history as it was.
+    """
+    import pyarrow.compute as pc
+    from deltalake.exceptions import CommitFailedError
+
+    done: list[str] = []
+    try:
+        table.update_incremental()
+        held = _arrow_table(table.get_add_actions(flatten=True)).column("partition.rig")
+        for rig in rigs:
+            if (pc.sum(pc.equal(held, rig)).as_py() or 0) > CROWDED_FILES:
+                table.optimize.compact(partition_filters=[("rig", "=", rig)])
+                done.append(rig)
+    except CommitFailedError as exc:
+        log.debug("history: compaction lost to another writer's: %s", _first_line(exc))
+    except Exception as exc:  # noqa: BLE001 - the night is recorded; the files stay as they were
+        log.warning("history: the rig's files could not be compacted: %s", _first_line(exc))
+    return done
+
+
+def current_dataset(table: Any, rig: str | None = None,
+                    since: _dt.datetime | None = None) -> Any:
+    """The table's current version as a ``pyarrow.dataset``: of one ``rig``'s files alone
+    (None: every rig), less the files whose runs all precede ``since`` (by the log's
+    statistics), chosen from the log before a file is opened.
+
+    In a folder, pyarrow opens the files the log lists itself, each fragment told its rig:
+    deltalake's own dataset reads through a file system written in Python and makes its
+    fragments one by one (72 s for 36,500 files, where this takes 1 s). On an object store,
+    or a table needing a reader feature this does not handle, deltalake's own dataset.
+    """
+    import pyarrow.compute as pc
+    import pyarrow.dataset as ds
+    import pyarrow.fs as pafs
+
+    root = _local_root(table)
+    if root is None:
+        return _deltalake_dataset(table, rig)
+    adds = _arrow_table(table.get_add_actions(flatten=True))
+    if rig is not None:
+        adds = adds.filter(pc.equal(adds.column("partition.rig"), rig))
+    if since is not None and "max.time" in adds.schema.names:  # the log's max is in ms
+        latest = pc.add(adds.column("max.time").cast(pa.timestamp("us", tz="UTC")),
+                        pa.scalar(_dt.timedelta(milliseconds=1)))
+        adds = adds.filter(pc.invert(pc.fill_null(pc.less(
+            latest, pa.scalar(since, pa.timestamp("us", tz="UTC"))), False)))
+    schema = pa.schema(table.schema().to_arrow())
+    said: dict[Any, Any] = {}  # one expression a rig, not a file (25 us each to make)
+    for value in adds.column("partition.rig").unique().to_pylist():
+        said[value] = (ds.field("rig") == value) if value is not None \
+            else ~ds.field("rig").is_valid()
+    return ds.FileSystemDataset.from_paths(
+        [os.path.join(root, unquote(p)) for p in adds.column("path").to_pylist()],
+        schema=schema, format=ds.ParquetFileFormat(), filesystem=pafs.LocalFileSystem(),
+        partitions=[said[v] for v in adds.column("partition.rig").to_pylist()])
+
+
+def _local_root(table: Any) -> str | None:
+    """The folder of ``table`` when pyarrow can read its files itself, else None: not a
+    folder, reader features (deletion vectors, column mapping), a path not relative."""
+    from urllib.parse import urlparse
+    from urllib.request import url2pathname
+
+    uri = str(table.table_uri)
+    protocol = table.protocol()
+    if not uri.startswith("file://") or protocol.min_reader_version > 1 \
+            or protocol.reader_features or table.metadata().partition_columns != ["rig"]:
+        return None
+    return url2pathname(urlparse(uri).path)
+
+
+def _deltalake_dataset(table: Any, rig: str | None) -> Any:
     import warnings
 
     if rig is None:
@@ -222,6 +305,16 @@ def rig_dataset(table: Any, rig: str | None) -> Any:
     with warnings.catch_warnings():  # newer releases would have a predicate: same files
         warnings.simplefilter("ignore", DeprecationWarning)
         return table.to_pyarrow_dataset(partitions=[("rig", "=", rig)])
+
+
+def _arrow_table(data: Any) -> pa.Table:
+    """``data`` (deltalake's arro3 table or batch, through the Arrow C stream) in pyarrow."""
+    if isinstance(data, pa.Table):
+        return data
+    if hasattr(data, "__arrow_c_stream__"):
+        reader = pa.RecordBatchReader._import_from_c_capsule(data.__arrow_c_stream__())
+        return reader.read_all()
+    return pa.Table.from_batches([pa.record_batch(data)])
 
 
 def _first_line(exc: BaseException) -> str:
@@ -238,7 +331,7 @@ def _without_known(table: Any, rows: pa.Table) -> pa.Table:
     rigs = sorted({r for r in rows.column("rig").to_pylist() if r is not None})
     if not rigs or table.version() < 0:
         return rows
-    dataset = rig_dataset(table, rigs[0] if len(rigs) == 1 else None)
+    dataset = current_dataset(table, rigs[0] if len(rigs) == 1 else None)
     known = dataset.to_table(columns=["run_id"], filter=ds.field("rig").isin(rigs)
                              & ds.field("run_id").isin(rows.column("run_id")))
     if not known.num_rows:
@@ -259,7 +352,7 @@ def read_rows(history: str | os.PathLike[str], columns: list[str], rig: str | No
     if table is None:
         msg = f"`history_dir` {os.fspath(history)}: no history table there"
         raise DataError(msg)
-    dataset = rig_dataset(table, rig)
+    dataset = current_dataset(table, rig, since)
     wanted = ds.scalar(True)
     if rig is not None:
         wanted = ds.field("rig") == rig
@@ -286,8 +379,10 @@ def _first_of_each(ids: Any) -> tuple[list[Any], list[int]]:
 def compact(history: str | os.PathLike[str], retention_hours: float = RETENTION_HOURS
             ) -> dict[str, int]:
     """OPTIMIZE (each rig's small files rewritten into few) then VACUUM (the files no
-    version younger than ``retention_hours`` [h] needs, removed). Return the counts:
-    files before and after, files added and removed by OPTIMIZE, files vacuumed."""
+    version younger than ``retention_hours`` [h] needs, removed), then a checkpoint of
+    the version left (a reader opening the table reads it, not each commit since the
+    last checkpoint: 1.2 s to open 36,500 nights compacted, 0.1 s with it). Return the
+    counts: files before and after, files added and removed by OPTIMIZE, files vacuumed."""
     table = open_table(history)
     if table is None:
         msg = f"`history_dir` {os.fspath(history)}: no history table there"
@@ -299,6 +394,7 @@ def compact(history: str | os.PathLike[str], retention_hours: float = RETENTION_
     metrics = table.optimize.compact()
     gone = table.vacuum(retention_hours=int(retention_hours), dry_run=False,
                         enforce_retention_duration=False)
+    table.create_checkpoint()
     return {"files_before": before, "files_after": len(table.file_uris()),
             "files_added": int(metrics.get("numFilesAdded", 0)),
             "files_removed": int(metrics.get("numFilesRemoved", 0)),

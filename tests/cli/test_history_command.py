@@ -88,3 +88,26 @@ def test_history_errors_are_one_line(tmp_path):
     assert "--retention-hours must be a number >= 1" in one_error_line(r, 2, "enc history")
     r = run_in_process(["history", "migrate", str(tmp_path / "t"), str(tmp_path / "n")])
     assert "OLD" in one_error_line(r, 2, "enc history")
+
+
+def test_show_refuses_a_folder_of_parquet_files_that_is_no_history(tmp_path):
+    """Neither a table nor the layout before it, yet Parquet files: one line naming what
+    is there, exit 2, no --html written (it printed "0 run(s)" and exited 0)."""
+    stray = tmp_path / "stray"
+    stray.mkdir()
+    pq.write_table(pa.table({"x": [1]}), stray / "notes.parquet")
+    page = tmp_path / "out.html"
+    r = run_in_process(["history", "show", str(stray), "--html", str(page)])
+    line = one_error_line(r, 2, "enc history")
+    assert "1 Parquet file(s), notes.parquet first" in line and "not a nightly history" in line
+    assert not page.exists()
+    old_history(tmp_path / "old")  # one rig's folder of the layout before, given
+    line = one_error_line(run_in_process(["history", "show", str(tmp_path / "old" / "rig=0042")]),
+                          2, "enc history")
+    assert "`enc history migrate`" in line and f"{tmp_path / 'old'})" in line
+    append_run(tmp_path / "t", {"rig": "0042", "status": "ok"})  # a partition of a table
+    line = one_error_line(run_in_process(["history", "show", str(tmp_path / "t" / "rig=0042")]),
+                          2, "enc history")
+    assert f"a partition of the table {tmp_path / 't'}" in line
+    r = run_in_process(["report", "--history", str(stray)])
+    assert "notes.parquet" in one_error_line(r, 2, "enc report")

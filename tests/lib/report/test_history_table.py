@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -83,6 +84,92 @@ def test_the_rig_names_come_back_as_the_same_strings_in_every_reader(tmp_path):
     assert one == [(2,)]
     for name in NAMES:  # the reader enctools uses, one partition each
         assert read_history(tmp_path, rig=name).column("rig").tolist() == [name, name]
+
+
+def test_duckdb_reads_the_table_with_the_same_rig_strings(tmp_path):
+    """enc-history(1)'s DuckDB recipe where its delta extension cannot be fetched: the
+    table as an Arrow dataset, the rig from the log's partition values (never from the
+    folder names, whose escaping is the writer's: deltalake 1.0.0 escapes them twice);
+    and the reader enctools uses. "0042" a string, non-ASCII and escaped names intact."""
+    import duckdb
+    from deltalake import DeltaTable
+
+    fleet(tmp_path)
+    sql = ("SELECT rig, typeof(rig), count(*), max(drift_max) FROM history GROUP BY ALL")
+    want = sorted((n, "VARCHAR", 2, float(k)) for k, n in enumerate(NAMES))
+    history = DeltaTable(str(tmp_path)).to_pyarrow_dataset()
+    assert sorted(duckdb.sql(sql).fetchall()) == want
+    history = historytable.current_dataset(historytable.open_table(tmp_path))  # noqa: F841
+    assert sorted(duckdb.sql(sql).fetchall()) == want
+    got = duckdb.sql("SELECT rig, count(*) FROM history WHERE rig = '0042' GROUP BY ALL")
+    assert got.fetchall() == [("0042", 2)]
+
+
+def test_a_night_compacts_its_rig_when_its_files_pass_the_count(tmp_path, monkeypatch):
+    """Nothing else compacts a table that enc-nightly appends to: the night that leaves
+    more than CROWDED_FILES files in its rig's partition rewrites them into one, every
+    row kept, the other rigs' files as they were."""
+    monkeypatch.setattr(historytable, "CROWDED_FILES", 3)
+    for i in range(2):
+        append_run(tmp_path, {"rig": "Prüfstand ü", "status": "ok", "run_id": f"p{i}"})
+    for i in range(4):
+        append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": f"n{i}"})
+    assert historytable.file_count(tmp_path) == 1 + 2              # 4 files > 3: one
+    for i in range(4, 6):
+        append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": f"n{i}"})
+    assert historytable.file_count(tmp_path) == 3 + 2              # 3 files: not yet
+    append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": "n6"})
+    assert historytable.file_count(tmp_path) == 1 + 2
+    h = read_history(tmp_path)
+    assert sorted(h.column("run_id").tolist()) == sorted([f"n{i}" for i in range(7)]
+                                                         + ["p0", "p1"])
+    assert append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": "n3"}) == 0
+
+
+def test_a_compaction_that_fails_leaves_the_night_recorded(tmp_path, monkeypatch, caplog):
+    """The night is committed before its rig is compacted: a compaction that fails (a full
+    disk, another writer's compaction first) is told and loses nothing."""
+    from deltalake.table import TableOptimizer
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(historytable, "CROWDED_FILES", 1)
+    monkeypatch.setattr(TableOptimizer, "compact", full)
+    for i in range(3):
+        assert append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": f"n{i}"}) == 1
+    assert "could not be compacted" in caplog.text
+    assert sorted(read_history(tmp_path).column("run_id").tolist()) == ["n0", "n1", "n2"]
+
+
+def test_since_skips_the_files_before_it_by_the_log_alone(tmp_path):
+    """--since is pushed down to the log's statistics: a file whose runs all precede it
+    is not opened (here: removed from the disk, and the read does not notice)."""
+    from deltalake import DeltaTable
+
+    fleet(tmp_path)
+    for path in DeltaTable(str(tmp_path)).file_uris():
+        if read_one_time(path) < utc(2026, 1, 1):
+            os.remove(path)
+    h = read_history(tmp_path, rig="0042", since=utc(2026, 1, 1))
+    assert h.column("run_id").size == 1 and h.column("pp").tolist() == [1.0]
+    assert read_history(tmp_path, since=utc(2025, 12, 31)).runs == len(NAMES)
+
+
+def read_one_time(path) -> dt.datetime:
+    import pyarrow.parquet as pq
+
+    return pq.read_table(path, columns=["time"]).column("time")[0].as_py()
+
+
+def test_compact_leaves_a_checkpoint_of_the_version_it_made(tmp_path):
+    """A reader opens a compacted table from one checkpoint, not by replaying each night's
+    commit since the last (36,500 nights: 1.2 s to open, 0.1 s)."""
+    fleet(tmp_path)
+    historytable.compact(tmp_path, historytable.MIN_RETENTION_HOURS)
+    last = json.loads((tmp_path / "_delta_log" / "_last_checkpoint").read_text())
+    assert last["version"] == historytable.open_table(tmp_path).version()
+    assert read_history(tmp_path).runs == 2 * len(NAMES)
 
 
 def test_the_readme_query_runs_in_duckdb(tmp_path):
