@@ -16,15 +16,14 @@ a :class:`Section` holding, for its kind:
 - model and rom: their metadata and the figures of weights / corrections;
 - readings: what was recorded (mode, heads, rows, duration, turns), for step runs the
   positioning deviation of the axis (encoder - target, on an encoder the axis does not
-  position on: :mod:`enctools.report.positioning`) with ISO 230-2, and the raw sin/cos
-  signals for a Lissajous plot when recorded.
+  position on: :mod:`enctools.report.positioning`, :mod:`enctools.report.steprun`) with
+  ISO 230-2, and the raw sin/cos signals for a Lissajous plot when recorded.
 
 Readings are read batch by batch (memory does not grow with the run's length).
 """
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -44,14 +43,10 @@ from enctools.methods.points import count_deg
 from enctools.methods.targets import tolerance
 from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
-from enctools.report.positioning import (
-    Positioning,
-    feedback_reason,
-    positioning_heads,
-    servo_loop_note,
-)
+from enctools.report.positioning import positioning_heads
+from enctools.report.steprun import positioning
 from enctools.report.vdi3441 import Vdi3441, from_iso
-from enctools.units import ARCSEC, DEG, TWO_PI
+from enctools.units import DEG, TWO_PI
 
 #: Lissajous plots keep at most this many samples per head
 LISSAJOUS_POINTS = 4000
@@ -521,7 +516,7 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
             s.signals[head] = (c[::step], sn[::step])
     if stepped and where is not None and scan.rows:
         s.info["positioning read on"] = where.describe()
-        _positioning(s, scan, encoder, opts, where)
+        positioning(s, scan, encoder, opts, where, _points_into)
     elif scan.rows and not stepped:
         s.notes.append(f"no {opts.standard_name} figures: a continuous run has no target "
                        "positions to approach (a step run of enc acquire has them)")
@@ -564,36 +559,3 @@ def _scan_batch(scan: _ReadingsScan, batch: pa.RecordBatch, infos: list[readings
             scan.run.append(batch.column("run").to_numpy(zero_copy_only=False))
         scan.angle.append(readings.mean_head_angle([batch.column(i.name) for i in encoder],
                                                    encoder))
-
-
-def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInfo],
-                 opts: Options, where: Positioning) -> None:
-    """Positioning deviation of a step run: mean angle of the encoder's heads - target;
-    read on the axis' feedback encoder, no figures unless ``opts.servo_loop``."""
-    target = np.concatenate(scan.target)
-    angle = np.concatenate(scan.angle)
-    dev = (np.mod(angle - target + np.pi, TWO_PI) - np.pi) / ARCSEC
-    dev -= dev.mean()
-    direction = np.concatenate(scan.direction) if scan.direction else None
-    run = np.concatenate(scan.run) if scan.run else None
-    no_iso = None
-    if s.info.get("mode") == "sweep":
-        no_iso = ("a sweep steps over a small range, not targets over the axis's travel "
-                  f"(a full turn) as {opts.standard_name} asks")
-    elif where.is_feedback and not opts.servo_loop:
-        no_iso = opts.say(feedback_reason(where, scan.autocollimator))
-    enc = encoder[0].encoder
-    u_q = TWO_PI / ARCSEC / encoder[0].counts_per_rev / np.sqrt(12.0 * len(encoder))  # arcsec
-    s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
-                   f"(encoder {enc}) - target, mean removed (head zeros are set below one "
-                   "signal period)")
-    _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                 "positioning", tol_deg=1e-9, run=run, no_iso=no_iso, u_b=u_q)
-    if s.curves[-1].u is not None:
-        s.notes.append(f"U per target: Type A over the approaches and the heads' rounding, "
-                       f"1 count / sqrt(12 N) = {u_q:.3g} arcsec (N = {len(encoder)} heads)")
-    if where.is_feedback and (s.iso is not None or s.vdi is not None):
-        s.notes.append(opts.say(servo_loop_note(where, opts.standard_name)))
-    elif where.is_feedback and f"figures: {no_iso}" in " ".join(s.notes):
-        logging.getLogger("enctools").warning("%s: no %s figures: %s", s.source,
-                                              opts.standard_name, no_iso)
