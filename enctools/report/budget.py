@@ -24,11 +24,16 @@ from enctools.data.uncertainty import Declaration, declarations
 from enctools.errors import DataError
 from enctools.methods.budget import (
     POLYGON_RUN_QUANTITIES,
+    POLYGON_RUNS_QUANTITIES,
+    STEP_RUN_QUANTITIES,
     Budget,
     PolygonRun,
     comparison_budget,
     polygon_run_budget,
+    polygon_runs_budget,
     probe_interpolation_budget,
+    resolution,
+    step_run_budget,
 )
 from enctools.units import factor
 
@@ -64,11 +69,14 @@ def polygon_run(meta: Any, source: str) -> PolygonRun | None:
 
 
 def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
-                  face: Declaration | None = None) -> tuple[Budget | None, list[str]]:
+                  face: Declaration | None = None,
+                  type_a: tuple[float, float] | None = None) -> tuple[Budget | None, list[str]]:
     """The budget of the points of a section and the notes saying what it holds.
 
     ``one_approach``: the points are of one run in one direction (a closing 360 deg
     is the 0 deg target again): the model's datum is then the run's first position.
+    Else ``type_a``: the Type A u of a target's mean over its approaches [arcsec] (rms
+    along the curve) and its degrees of freedom (None: the approaches give none).
     ``face``: the polygon's face uncertainty from elsewhere (None: from the polygon
     certificate the points were corrected with, else the rig's declaration).
     """
@@ -80,23 +88,112 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
         return None, ["no uncertainty budget: the rig declares no [uncertainty] "
                       "(enc-rig(5))"]
     declared = declarations(tables, f"{source}: rig uncertainty")
+    if not one_approach:
+        return _polygon_runs(meta, source, declared, face, type_a)
     run = polygon_run(meta["polygon_run"], source)
     if run is None:
         return None, ["no uncertainty budget: one reading per position gives no Type A"]
-    if not one_approach:
-        return None, ["no uncertainty budget: it is of a one-run polygon step run; "
-                      "several runs or directions have U from their scatter"]
     notes = []
     face = face if face is not None else certificate_face(meta)
     if face is None and "polygon" not in declared:
         notes.append("the rig declares no polygon face uncertainty: U leaves it out")
-    other = sorted(set(declared) - set(POLYGON_RUN_QUANTITIES))
-    if other:
-        notes.append(f"declared but not in a polygon run's model: {', '.join(other)}")
+    notes += unused(declared, POLYGON_RUN_QUANTITIES, "a polygon run's")
     budget = polygon_run_budget(declared, run, face)
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
                  f"{_dof(budget.nu_eff)}), of each point against the run's first position")
     return budget, notes
+
+
+def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declaration],
+                  face: Declaration | None, type_a: tuple[float, float] | None
+                  ) -> tuple[Budget | None, list[str]]:
+    """The budget of a target of a polygon step run of several runs or directions."""
+    if type_a is None:
+        return None, ["no uncertainty budget: a direction misses a target, or one approach "
+                      "per target and direction gives no Type A"]
+    raw = meta["polygon_run"]
+    # its Type A is the approaches'; of the run's metadata the quantisation takes the
+    # resolution, and the heads' noise where readings repeat (else none: q / sqrt 12)
+    filled = {**raw, "dof": 1, "s_arcsec": raw.get("s_arcsec") or 0.0,
+              "head_s_arcsec": raw.get("head_s_arcsec") or 0.0} if isinstance(raw, dict) else raw
+    run = polygon_run(filled, source)
+    if run is None:
+        return None, ["no uncertainty budget: the points do not state their run"]
+    face = face if face is not None else certificate_face(meta)
+    notes = [] if face is not None or "polygon" in declared else [
+        "the rig declares no polygon face uncertainty: U leaves it out"]
+    notes += unused(declared, POLYGON_RUNS_QUANTITIES, "a polygon step run's")
+    budget = polygon_runs_budget(declared, run, type_a[0], type_a[1], face)
+    notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
+                 f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
+                 f"{_dof(budget.nu_eff)})")
+    return budget, notes
+
+
+def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) -> list[str]:
+    """The note naming the declarations a model does not use (none: no note)."""
+    other = sorted(set(declared) - set(model))
+    return [f"declared but not in {what} model: {', '.join(other)}"] if other else []
+
+
+def points_budget_into(s: Any, one_approach: bool) -> None:
+    """The budget of a points section ``s`` (a ``sections.Section``) given to its curve:
+    of one approach, every point's u is the budget's u_c; of several runs or directions,
+    each target's u is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u."""
+    curve = s.curves[-1]
+    type_a = None
+    if not one_approach and curve.u is not None and curve.dof:
+        type_a = (float(np.sqrt(np.mean(np.square(curve.u)))), float(curve.dof))
+    budget, notes = points_budget(s.meta, s.source, one_approach, type_a=type_a)
+    s.notes += notes
+    if budget is None:
+        return
+    s.budget = budget
+    if one_approach:
+        curve.u = np.full(curve.values.shape, budget.u_c)
+    else:
+        _add_type_b(curve, budget)
+    curve.k = budget.k
+
+
+def _add_type_b(curve: Any, budget: Budget) -> None:
+    """A curve's Type A u per point with the budget's Type B rows added in quadrature."""
+    u_b2 = math.fsum(c.u_arcsec ** 2 for c in budget.contributions if c.kind == "B")
+    curve.u = np.sqrt(np.square(curve.u) + u_b2)
+
+
+def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
+                  reference: bool) -> None:
+    """The budget of a step run's positioning deviation (its section ``s``'s last curve,
+    a mean per target with its Type A u over the approaches): the rounding of the
+    ``heads`` heads of ``encoder`` (1 count = ``lsb_arcsec``), and, when that encoder is a
+    reference instrument (``reference``: not the axis' feedback), its calibrated
+    deviation and alignment as the rig declares them (enc-rig(5)). Each target's U is
+    then k sqrt(u_A(target)^2 + u_B^2) with the budget's k."""
+    curve = s.curves[-1]
+    if curve.u is None or not curve.dof:
+        return
+    rig = s.meta.get("rig")
+    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
+    declared = declarations(tables, f"{s.source}: rig uncertainty") if tables else {}
+    u_a = float(np.sqrt(np.mean(np.square(curve.u))))
+    budget = step_run_budget(u_a, float(curve.dof),
+                             resolution(lsb_arcsec, heads, f"encoder {encoder}"),
+                             declared, reference)
+    _add_type_b(curve, budget)
+    curve.k = budget.k
+    s.budget = budget
+    used = (STEP_RUN_QUANTITIES if reference else ()) + ("temperature",)
+    s.notes += unused(declared, used, "a step run's")
+    if reference and "reference_encoder" not in declared:
+        s.notes.append(f"the rig declares no [uncertainty.reference_encoder]: U leaves the "
+                       f"calibrated deviation of encoder {encoder} out (enc-rig(5))")
+    if "temperature" in declared:
+        s.notes.append("temperature: no row; a uniform temperature leaves the angles of a "
+                       "circular scale and of the axis unchanged")
+    s.notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
+                   f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
+                   f"{_dof(budget.nu_eff)})")
 
 
 def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float

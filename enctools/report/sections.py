@@ -69,6 +69,7 @@ class Curve:
     head: str | None = None
     extra: dict[str, float] = field(default_factory=dict)
     k: float = K_COVERAGE           # coverage factor of U = k u (a budget's Student k)
+    dof: float | None = None        # degrees of freedom of a Type A u (targets' approaches)
     #: the mean of each direction (+1 up, -1 down) per target, where both were approached
     directions: dict[int, np.ndarray] = field(default_factory=dict)
 
@@ -295,23 +296,16 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
 
 
 def _budget_into(s: Section, one_approach: bool) -> None:
-    """The uncertainty budget of a polygon run's points (report/budget.py): every
-    point's u is then the budget's u_c, its U the budget's k u_c."""
-    from enctools.report.budget import points_budget
+    """The uncertainty budget of a polygon run's points (report/budget.py)."""
+    from enctools.report.budget import points_budget_into
 
-    budget, notes = points_budget(s.meta, s.source, one_approach)
-    s.notes += notes
-    if budget is not None:
-        s.budget = budget
-        curve = s.curves[-1]
-        curve.u = np.full(curve.values.shape, budget.u_c)
-        curve.k = budget.k
+    points_budget_into(s, one_approach)
 
 
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                  direction: np.ndarray | None, opts: Options, name: str, role: str,
                  tol_deg: float = 0.01, run: np.ndarray | None = None,
-                 no_iso: str | None = None, u_b: float = 0.0) -> None:
+                 no_iso: str | None = None) -> None:
     """Points -> one curve (means per target when positions repeat) and ISO 230-2.
 
     ``tol_deg``: measured positions closer than this are one target (a points stream:
@@ -334,7 +328,7 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
         curve = _curve(name, "arcsec", role, pos_deg * DEG, dev, opts, s.source)
     else:
         curve = _repeated(s, pos_deg, dev, direction, run, (unique, index), opts,
-                          (name, role, tol_deg, u_b), no_iso)
+                          (name, role, tol_deg), no_iso)
     s.curves.append(curve)
     s.info["positions"] = int(unique.size)
     # a points stream's rows are points (each may be the mean of several readings,
@@ -344,12 +338,13 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
 
 def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.ndarray | None,
               run: np.ndarray | None, targets: tuple[np.ndarray, np.ndarray], opts: Options,
-              what: tuple[str, str, float, float], no_iso: str | None) -> Curve:
+              what: tuple[str, str, float], no_iso: str | None) -> Curve:
     """The curve of points whose positions repeat: per target the mean over the
     directions of the mean over approaches (one run's readings at one target in one
     direction averaged first) [arcsec], its standard uncertainty from the approaches'
-    scatter, and ISO 230-2 when every target has 2 approaches or more."""
-    name, role, tol_deg, u_b = what     # u_b: a Type B u per target [arcsec]
+    scatter (Type A; a budget adds its Type B terms, report/budget.py), and ISO 230-2
+    when every target has 2 approaches or more."""
+    name, role, tol_deg = what
     unique, index = targets
     d = np.ones(dev.size, np.int64) if direction is None else np.asarray(direction, np.int64)
     a_index, a_dir, a_x, _ = approaches(index, dev, d, run)
@@ -368,10 +363,10 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
         s.notes.append(f"{none}: one run per target and direction (the run "
                        "column numbers them; its readings are one approach); s needs 2 or more")
         return curve
-    curve.u = None if u is None else np.sqrt(u * u + u_b * u_b)
-    coverage = type_a_coverage(u, dof, u_b) if u is not None else None
+    curve.u = u
+    coverage = type_a_coverage(u, dof) if u is not None else None
     if coverage is not None:    # Student's k on the few approaches u rests on
-        curve.k = coverage.k
+        curve.k, curve.dof = coverage.k, dof
     if no_iso is not None:
         s.notes.append(f"{none}: {no_iso}")
         return curve

@@ -4,7 +4,8 @@ A step run of enc acquire (``--mode steps``) records, at each commanded target, 
 heads of its encoders. The positioning deviation is the mean angle of the heads of the
 encoder the axis does not position on (:mod:`enctools.report.positioning`) minus the
 target [arcsec], its mean removed; :func:`positioning` gives it to the section as a
-curve of targets with the figures of the report's standard. Values in arcsec.
+curve of targets with the figures of the report's standard and its uncertainty budget
+(:func:`enctools.report.budget.step_run_into`). Values in arcsec.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from enctools.data.readings import HeadInfo
+from enctools.report.budget import step_run_into
 from enctools.report.positioning import Positioning, feedback_reason, servo_loop_note
 from enctools.units import ARCSEC, DEG, TWO_PI
 
@@ -40,15 +42,15 @@ def positioning(s: Any, scan: Any, encoder: list[HeadInfo], opts: Any, where: Po
     elif where.is_feedback and not opts.servo_loop:
         no_iso = opts.say(feedback_reason(where, scan.autocollimator))
     enc = encoder[0].encoder
-    u_q = TWO_PI / ARCSEC / encoder[0].counts_per_rev / np.sqrt(12.0 * len(encoder))  # arcsec
     s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
                    f"(encoder {enc}) - target, mean removed (head zeros are set below one "
                    "signal period)")
     points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                "positioning", tol_deg=1e-9, run=run, no_iso=no_iso, u_b=u_q)
-    if s.curves[-1].u is not None:
-        s.notes.append(f"U per target: Type A over the approaches and the heads' rounding, "
-                       f"1 count / sqrt(12 N) = {u_q:.3g} arcsec (N = {len(encoder)} heads)")
+                "positioning", tol_deg=1e-9, run=run, no_iso=no_iso)
+    # its budget: the Type A over the approaches, the heads' rounding (a target whose
+    # approaches read the same counts still has its U) and the reference's declarations
+    lsb = TWO_PI / ARCSEC / min(i.counts_per_rev for i in encoder)     # arcsec
+    step_run_into(s, lsb, len(encoder), enc, reference=not where.is_feedback)
     if where.is_feedback and (s.iso is not None or s.vdi is not None):
         s.notes.append(opts.say(servo_loop_note(where, opts.standard_name)))
     elif where.is_feedback and f"figures: {no_iso}" in " ".join(s.notes):
