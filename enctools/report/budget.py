@@ -70,13 +70,15 @@ def polygon_run(meta: Any, source: str) -> PolygonRun | None:
 
 def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
                   face: Declaration | None = None,
-                  type_a: tuple[float, float] | None = None) -> tuple[Budget | None, list[str]]:
+                  type_a: tuple[float, float, float] | None = None
+                  ) -> tuple[Budget | None, list[str]]:
     """The budget of the points of a section and the notes saying what it holds.
 
     ``one_approach``: the points are of one run in one direction (a closing 360 deg
     is the 0 deg target again): the model's datum is then the run's first position.
     Else ``type_a``: the Type A u of a target's mean over its approaches [arcsec] (rms
-    along the curve) and its degrees of freedom (None: the approaches give none).
+    along the curve), its degrees of freedom and the stops' scatter [arcsec]
+    (:func:`stop_scatter`; None: the approaches give no Type A).
     ``face``: the polygon's face uncertainty from elsewhere (None: from the polygon
     certificate the points were corrected with, else the rig's declaration).
     """
@@ -105,17 +107,19 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
 
 
 def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declaration],
-                  face: Declaration | None, type_a: tuple[float, float] | None
+                  face: Declaration | None, type_a: tuple[float, float, float] | None
                   ) -> tuple[Budget | None, list[str]]:
     """The budget of a target of a polygon step run of several runs or directions."""
     if type_a is None:
         return None, ["no uncertainty budget: a direction misses a target, or one approach "
                       "per target and direction gives no Type A"]
     raw = meta["polygon_run"]
-    # its Type A is the approaches'; of the run's metadata the quantisation takes the
-    # resolution, and the heads' noise where readings repeat (else none: q / sqrt 12)
+    # its Type A is the approaches'; the heads' rounding is the run's resolution, dithered
+    # by the stops' scatter between approaches (a table that stops within a count reads
+    # the same counts each time: q / sqrt 12 a head, not in the Type A; one that stops
+    # over several counts rounds each approach anew, which the Type A holds)
     filled = {**raw, "dof": 1, "s_arcsec": raw.get("s_arcsec") or 0.0,
-              "head_s_arcsec": raw.get("head_s_arcsec") or 0.0} if isinstance(raw, dict) else raw
+              "head_s_arcsec": type_a[2]} if isinstance(raw, dict) else raw
     run = polygon_run(filled, source)
     if run is None:
         return None, ["no uncertainty budget: the points do not state their run"]
@@ -136,14 +140,34 @@ def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) 
     return [f"declared but not in {what} model: {', '.join(other)}"] if other else []
 
 
-def points_budget_into(s: Any, one_approach: bool) -> None:
+def stop_scatter(pos_deg: np.ndarray, target_rad: np.ndarray) -> float:
+    """The pooled standard deviation [arcsec] of the indicated positions of the stops at a
+    target about their target's mean: how far the stops move between approaches, which
+    dithers the heads' rounding from approach to approach (each position taken at the
+    nearest target)."""
+    target_deg = np.degrees(target_rad)
+    d = (pos_deg[:, None] - target_deg[None, :] + 180.0) % 360.0 - 180.0
+    index = np.argmin(np.abs(d), axis=1)
+    x = d[np.arange(pos_deg.size), index] * 3600.0
+    n = np.bincount(index, minlength=target_deg.size)
+    dof = int(np.sum(np.maximum(n - 1, 0)))
+    if dof == 0:
+        return 0.0
+    mean = np.bincount(index, weights=x, minlength=target_deg.size) / np.maximum(n, 1)
+    return math.sqrt(float(np.sum((x - mean[index]) ** 2)) / dof)
+
+
+def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray) -> None:
     """The budget of a points section ``s`` (a ``sections.Section``) given to its curve:
     of one approach, every point's u is the budget's u_c; of several runs or directions,
-    each target's u is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u."""
+    each target's u is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u.
+    ``pos_deg``: the points' indicated positions [deg] (of several approaches: how far
+    their stops scatter, :func:`stop_scatter`)."""
     curve = s.curves[-1]
     type_a = None
     if not one_approach and curve.u is not None and curve.dof:
-        type_a = (float(np.sqrt(np.mean(np.square(curve.u)))), float(curve.dof))
+        type_a = (float(np.sqrt(np.mean(np.square(curve.u)))), float(curve.dof),
+                  stop_scatter(pos_deg, curve.angle))
     budget, notes = points_budget(s.meta, s.source, one_approach, type_a=type_a)
     s.notes += notes
     if budget is None:
