@@ -362,6 +362,38 @@ STEP_RUN_QUANTITIES = ("reference_encoder", "alignment")
 POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", "alignment")
 
 
+# ------------------------------------------- the model of a self-calibration (seed 000)
+#
+# The graduation error at a point is the mean over R revolutions of the method's solution
+# (enc-selfcal(1)): G = mean_r G_r + b + e_blind, with the revolutions' scatter (Type A,
+# R - 1 degrees of freedom), b the method's own bound (its last iteration's change, the
+# second-order term of the coordinate, the rounding when every revolution repeats it) and
+# e_blind the content of the harmonics the head arrangement cannot see (W(n) = 0 in the
+# band: set to 0 by the method). A uniform temperature leaves the scale's angles unchanged.
+
+
+def selfcal_budget(u_a_arcsec: float, revolutions: int, bound_arcsec: float,
+                   blind: tuple[tuple[int, ...], float] | None = None,
+                   coverage: float = 0.95) -> Budget:
+    """The budget of a point of a self-calibrated graduation error: the Type A u of the
+    mean over ``revolutions`` [arcsec] on R - 1 degrees of freedom, the method's bound
+    [arcsec] (normal, taken as exact) and, for ``blind`` = (orders, amplitude [arcsec]),
+    a sinusoid of that root-sum-square amplitude and unknown phase (u-shaped, divisor
+    sqrt 2) for the harmonics the arrangement cannot see."""
+    rows = [type_a_row(u_a_arcsec, float(revolutions - 1),
+                       f"repeatability over the {revolutions} revolutions"),
+            Contribution("the method's own bound (last iteration, second order, rounding)",
+                         "the self-calibration", "B", "normal", bound_arcsec, "arcsec", 1.0,
+                         1.0)]
+    if blind is not None:
+        orders, amplitude = blind
+        rows.append(Contribution(
+            f"harmonics the heads cannot see (n = {', '.join(map(str, orders))})",
+            "transfer function W(n) = 0; amplitude from the neighbouring orders", "B",
+            "u-shaped", amplitude, "arcsec", math.sqrt(2.0), 1.0))
+    return combine(rows, coverage)
+
+
 def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
     """A Contribution of a declaration: its value and unit as declared, c [arcsec per
     declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""

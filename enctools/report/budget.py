@@ -33,6 +33,7 @@ from enctools.methods.budget import (
     polygon_runs_budget,
     probe_interpolation_budget,
     resolution,
+    selfcal_budget,
     step_run_budget,
 )
 from enctools.units import factor
@@ -197,9 +198,7 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
     curve = s.curves[-1]
     if curve.u is None or not curve.dof:
         return
-    rig = s.meta.get("rig")
-    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
-    declared = declarations(tables, f"{s.source}: rig uncertainty") if tables else {}
+    declared = rig_declarations(s.meta, s.source)
     u_a = float(np.sqrt(np.mean(np.square(curve.u))))
     budget = step_run_budget(u_a, float(curve.dof),
                              resolution(lsb_arcsec, heads, f"encoder {encoder}"),
@@ -231,15 +230,70 @@ def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
     if not history or ": enc compare " not in str(history[-1]) \
             or not isinstance(settings, dict) or settings.get("ref_curve") is not None:
         return None, []     # against a reference's calibrated curve: not this model
-    rig = meta.get("rig")
-    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
-    declared = declarations(tables, f"{source}: rig uncertainty") if tables else {}
+    declared = rig_declarations(meta, source)
     if "reference_encoder" not in declared:
         return None, ["no uncertainty budget: the rig declares no [uncertainty."
                       "reference_encoder] (the reference encoder's certificate; enc-rig(5))"]
     budget = comparison_budget(u_a_arcsec, dof, declared["reference_encoder"])
     return budget, [f"U per point: sqrt(u_A(point)^2 + u_ref^2) with the budget's k = "
                     f"{budget.k:.3g} (nu_eff {_dof(budget.nu_eff)})"]
+
+
+def curve_budget_into(s: Any, curve: Any, dof: float) -> None:
+    """The budget of a deviation curve with its u column: a self-calibration's
+    (:func:`selfcal_into`) or a comparison's (:func:`comparison_into`)."""
+    history = s.meta.get("history") or []
+    if history and ": enc selfcal " in str(history[-1]):
+        selfcal_into(s, curve, dof)
+    else:
+        comparison_into(s, curve, dof)
+
+
+def selfcal_into(s: Any, curve: Any, dof: float) -> None:
+    """A self-calibration's budget given to its section ``s``: its u column (enc selfcal:
+    u = sqrt(s_mean^2 + b^2) per point, the dof Welch-Satterthwaite of both over the
+    curve) split into the Type A over the R revolutions and the method's bound b, with
+    the harmonics its heads cannot see (metadata ``blind``) bounded by their neighbours;
+    each point's U is then k sqrt(u(point)^2 + u_blind^2) with the budget's k."""
+    settings = s.meta.get("settings")
+    r = settings.get("revolutions") if isinstance(settings, dict) else None
+    if curve.u is None or not isinstance(r, int) or r < 2 or not dof > 0:
+        return
+    total = float(np.mean(np.square(curve.u)))      # = var_a + b^2 (enc-selfcal(1))
+    var_a = total if math.isinf(dof) else min(total, total * math.sqrt((r - 1) / dof))
+    blind, notes = _blind(s.meta.get("blind"), curve)
+    budget = selfcal_budget(math.sqrt(var_a), r, math.sqrt(max(total - var_a, 0.0)), blind)
+    u_blind = budget.contributions[2].u_arcsec if blind is not None else 0.0
+    curve.u = np.sqrt(np.square(curve.u) + u_blind ** 2)
+    curve.k = budget.k
+    s.budget = budget
+    declared = rig_declarations(s.meta, s.source)
+    if "head_mounting" in declared:
+        notes.append("head_mounting is declared but not in this budget: its sensitivity "
+                     "through the transfer function W(n) is not evaluated (U leaves it out)")
+    if "temperature" in declared:
+        notes.append("temperature: no row; a uniform temperature leaves the scale's "
+                     "angles unchanged")
+    s.notes += notes
+
+
+def _blind(blind: Any, curve: Any) -> tuple[tuple[tuple[int, ...], float] | None, list[str]]:
+    """The blind orders of the band (the method set them to 0) and the root-sum-square of
+    a bound on each: the largest amplitude of the curve's orders n +- 1, n +- 2 that are
+    not blind [arcsec]; a note when none is blind or an order lies past the harmonics."""
+    orders = sorted(int(n) for n in blind if isinstance(n, int) and n > 0) \
+        if isinstance(blind, list) else []
+    if not orders:
+        return None, ["the harmonics of the band are all seen by the heads (no order "
+                      "with W(n) = 0): no row for blind harmonics"]
+    h = curve.harmonics
+    if h is None or max(orders) + 2 > int(h.n.max()):
+        return None, [f"blind harmonics n = {', '.join(map(str, orders))}: beyond the "
+                      "report's harmonics, not bounded: U leaves them out"]
+    amp = dict(zip(h.n.tolist(), h.amplitude.tolist(), strict=True))
+    bound = [max(amp.get(n + d, 0.0) for d in (-2, -1, 1, 2) if n + d not in orders)
+             for n in orders]
+    return (tuple(orders), math.sqrt(math.fsum(b * b for b in bound))), []
 
 
 def comparison_into(s: Any, curve: Any, dof: float) -> None:
@@ -286,6 +340,13 @@ def interpolation_into(s: Any) -> None:
     s.notes.append(f"U per point of the curves against the probes: k sqrt(u_A(point)^2 + "
                    f"u_B^2), k = {budget.k:.3g}; the probes' rows at the largest |deviation| "
                    f"{psi:.3g} arcsec")
+
+
+def rig_declarations(meta: dict[str, Any], source: str) -> dict[str, Declaration]:
+    """The checked Type B declarations of the rig a stream's metadata records (none: {})."""
+    rig = meta.get("rig")
+    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
+    return declarations(tables, f"{source}: rig uncertainty") if tables else {}
 
 
 def stated_dof(field_meta: dict[str, Any]) -> float:

@@ -210,10 +210,10 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
             if name in unc:
                 s.curves[-1].k = stated_k(table.schema, unc[name])
                 if role == "deviation" and s.budget is None:
-                    from enctools.report.budget import comparison_into, stated_dof
+                    from enctools.report.budget import curve_budget_into, stated_dof
 
-                    comparison_into(s, s.curves[-1],
-                                    stated_dof(field_meta(table.schema.field(unc[name]))))
+                    curve_budget_into(s, s.curves[-1],
+                                      stated_dof(field_meta(table.schema.field(unc[name]))))
             if in_period and "period_arcsec" in fm:
                 s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
             if in_period and fm.get("reference") == "probes":
