@@ -85,6 +85,8 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
         assert "LAB-EI-2026-012" in solid
         # ... and the step run's, per target: its approaches, encoder I's resolution
         assert "repeatabilityoftheapproaches" in solid and "resolutionofencoderI" in solid
+        # ... and the self-calibration's: its revolutions and the method's own bound
+        assert "repeatabilityoverthe" in solid and "themethod'sownbound" in solid
 
 
 def test_inputs_of_two_rigs_are_refused_for_one_certificate(campaigns, tmp_path):  # noqa: F811
