@@ -93,6 +93,8 @@ bench: $(VENV)/.installed  ## measure speed and memory of every command (table f
 	$(BIN)/python benchmarks/fit_rbf.py --signal --out bench-out
 	$(BIN)/python benchmarks/budget_mc.py --runs 2000
 	$(BIN)/python benchmarks/comparison_mc.py --runs 4000
+	$(BIN)/python benchmarks/steprun_mc.py --runs 4000
+	$(BIN)/python benchmarks/polygon_runs_mc.py --runs 2000
 
 SEEDS ?= 20
 accuracy: $(VENV)/.installed  ## the README's accuracy table over SEEDS noise seeds (minutes)

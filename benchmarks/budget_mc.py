@@ -37,7 +37,7 @@ from enctools.data.uncertainty import Declaration, declaration
 from enctools.hw import acquire as acq
 from enctools.hw.sim import VirtualRig
 from enctools.methods.budget import Budget
-from enctools.methods.points import Settings, points_from_steps
+from enctools.methods.points import Points, Settings, points_from_steps
 from enctools.report.budget import points_budget
 from enctools.units import ARCSEC
 
@@ -80,19 +80,25 @@ def simulated_rig(rig: Rig, rng: np.random.Generator) -> Rig:
     return dataclasses.replace(rig, polygon=polygon, autocollimator=autocollimator)
 
 
+def simulated_points(sim_rig: Rig, seed: int, given: dict[str, Any]) -> tuple[Points, np.ndarray]:
+    """A step run of ``sim_rig`` (enc acquire's settings ``given`` over mode steps): its
+    points as enc points makes them, and the encoder's own error at each stop [arcsec]."""
+    sim = VirtualRig(sim_rig, seed=seed)
+    header, batches = acq.acquire(sim_rig, sim, acq.resolve(sim_rig, {"mode": "steps",
+                                                                      "seed": seed} | given))
+    kept, held = [], []
+    for batch in batches:           # one batch per stop: where the table stopped
+        kept.append(batch)
+        held.append(sim._held)
+    points = points_from_steps(header, pa.Table.from_batches(kept), Settings())
+    return points, np.array([sim.feedback_error(theta) for theta in held]) / ARCSEC
+
+
 def one_run(rig: Rig, seed: int, rng: np.random.Generator) -> RunResult:
     """A polygon step run on a rig drawn from ``rig``'s declarations: its points as
     enc points makes them, and their errors against the simulator's truth."""
     sim_rig = simulated_rig(rig, rng)
-    sim = VirtualRig(sim_rig, seed=seed)
-    header, batches = acq.acquire(sim_rig, sim, acq.resolve(sim_rig, {"mode": "steps",
-                                                                      "seed": seed}))
-    kept, held = [], []
-    for batch in batches:           # one batch per position: where the table stopped
-        kept.append(batch)
-        held.append(sim._held)
-    points = points_from_steps(header, pa.Table.from_batches(kept), Settings())
-    own = np.array([sim.feedback_error(theta) for theta in held]) / ARCSEC
+    points, own = simulated_points(sim_rig, seed, {})
     errors = points.deviation - (own - own[0])
     picked = errors[int(rng.integers(1, errors.size))]
     return RunResult(errors[1:], float(picked),

@@ -71,12 +71,22 @@ $(OUT)/signals.parquet: $(OUT)/sweep-signals.parquet
 	$(ENC) interp-check $< --signals --corrected $(OUT)/sweep-corrected.parquet \
 	    -o $@ --force
 
-# 11. The calibration certificate: text on stdout, HTML and A4 PDF for the customer, and
+# 11. ISO 230-2 of the rotary axis: 8 targets, 5 runs in each direction, 2 readings a
+#     stop; the axis positions on encoder II and the step run is read on encoder I, its
+#     reference instrument (enc report: ISO 230-2 and the budget per target)
+$(OUT)/steps.parquet:
+	@mkdir -p $(OUT)
+	$(ENC) acquire --rig $(RIG) --mode steps --count 8 --runs 5 --bidirectional \
+	    --readings 2 -o $@ --force
+
+# 12. The calibration certificate: text on stdout, HTML and A4 PDF for the customer, and
 #     the laboratory's record of how it was made (inputs, commands, versions)
 $(OUT)/report.html: $(OUT)/grad.parquet $(OUT)/h-p.parquet $(OUT)/interp.parquet \
-                    $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet $(CERT)
+                    $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet \
+                    $(OUT)/steps.parquet $(CERT)
 	$(ENC) report $(OUT)/grad.parquet $(OUT)/grad-spectrum.parquet $(OUT)/h-p.parquet \
 	    $(OUT)/interp.parquet $(OUT)/interp-by-p1.parquet $(OUT)/interp-run.parquet \
-	    --title "Rotary table $(RIG): graduation, radial motion, interpolation" \
+	    $(OUT)/steps.parquet \
+	    --title "Rotary table $(RIG): graduation, radial motion, interpolation, positioning" \
 	    --certificate $(CERT) --html $@ --pdf $(OUT)/report.pdf \
 	    --record $(OUT)/report-record.txt --force > $(OUT)/report.txt

@@ -39,7 +39,9 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "temperature": ("temperature", "deviation of the arm's temperature from 20 degC"),
     "head_mounting": ("angle", "mounting angle of a scanning head"),
     "reference_encoder": ("angle", "calibrated deviation of the reference encoder of a "
-                                   "comparison (its certificate's uncertainty)"),
+                                   "comparison or a step run (its certificate's uncertainty)"),
+    "alignment": ("angle", "alignment of a step run's reference instrument to the axis: the "
+                           "angle error its residual eccentricity or tilt makes at a target"),
 }
 
 #: divisors of the GUM for a value of each distribution (GUM 4.3.7-4.3.9)

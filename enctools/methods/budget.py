@@ -290,6 +290,110 @@ def comparison_budget(u_a_arcsec: float, dof: float, reference: Declaration,
 COMPARISON_QUANTITIES = ("reference_encoder",)
 
 
+# ------------------------------------------- the model of a step run (ISO 230-2)
+#
+# A step run approaches each target T_i several times (runs, directions); at each stop the
+# N heads of the reference instrument, an encoder the axis does not position on, are read:
+#
+#     x_ij = E_ij - T_i = P_ij + e_ref(T_i) + a(T_i) + (1/N) sum_k r_k(T_i)
+#
+# P the axis' true positioning deviation (the measurand), e_ref the reference encoder's
+# calibrated deviation, a its alignment to the axis, r_k the rounding of head k to whole
+# counts (the same at every approach of a target when the noise is below a count: Type B).
+# A uniform temperature leaves the angles of a circular scale and of the axis unchanged:
+# no temperature term enters an angle read on an angle scale (the angular rule).
+
+
+def resolution(lsb_arcsec: float, heads: int, what: str) -> Contribution:
+    """The rounding of ``heads`` heads to whole counts of ``lsb_arcsec``, averaged: each a
+    rectangular half-width q/2 (divisor sqrt 3), c = 1/sqrt(N) for their mean, so
+    u = q / sqrt(12 N)."""
+    return Contribution(f"resolution of {what}: {heads} head(s), 1 count = "
+                        f"{lsb_arcsec:.4g} arcsec", "encoder resolution", "B", "rectangular",
+                        lsb_arcsec / 2.0, "arcsec", math.sqrt(3.0), 1.0 / math.sqrt(heads))
+
+
+def type_a_row(u_a_arcsec: float, dof: float, what: str) -> Contribution:
+    """The Type A row of a result that is a mean over repeats: u [arcsec] on ``dof``."""
+    return Contribution(what, "this run", "A", "normal", u_a_arcsec, "arcsec", 1.0, 1.0, dof)
+
+
+def step_run_budget(u_a_arcsec: float, dof: float, resolution_row: Contribution,
+                    declared: dict[str, Declaration], reference: bool = True,
+                    coverage: float = 0.95) -> Budget:
+    """The budget of a target of a step run read on an encoder (``x_ij`` above): the
+    Type A u of the target's mean over its approaches [arcsec] on ``dof``, the rounding
+    of the heads (``resolution_row``, :func:`resolution`) and, when the encoder read is a
+    reference instrument (``reference``: not the axis' feedback, whose reading measures
+    the servo loop), its calibrated deviation (``reference_encoder``) and alignment
+    (``alignment``) as ``declared``, c = -1 each."""
+    rows = [type_a_row(u_a_arcsec, dof, "repeatability of the approaches"), resolution_row]
+    if reference and "reference_encoder" in declared:
+        rows.append(_declared(declared["reference_encoder"],
+                              "calibrated deviation of the reference encoder", -1.0))
+    if reference and "alignment" in declared:
+        rows.append(_declared(declared["alignment"],
+                              "alignment of the reference instrument to the axis", -1.0))
+    return combine(rows, coverage)
+
+
+def polygon_runs_budget(declared: dict[str, Declaration], run: PolygonRun, u_a_arcsec: float,
+                        dof: float, face: Declaration | None = None,
+                        coverage: float = 0.95) -> Budget:
+    """The budget of a target of a polygon step run of several runs or directions
+    (ISO 230-2 on the polygon): the model D_j of :func:`polygon_run_budget` with the Type A
+    u of the target's mean over its approaches [arcsec] on ``dof`` in place of the
+    readings' repeatability, then the heads' quantisation, the polygon's faces, the
+    autocollimator's scale and the alignment (c = -1) as ``declared``."""
+    rows = [type_a_row(u_a_arcsec, dof, "repeatability of the approaches"), quantisation(run)]
+    face = face if face is not None else declared.get("polygon")
+    if face is not None:
+        rows += polygon_faces(face)
+    if "autocollimator" in declared:
+        rows.append(autocollimator_scale(declared["autocollimator"], run.span_arcsec))
+    if "alignment" in declared:
+        rows.append(_declared(declared["alignment"],
+                              "alignment of the polygon to the axis", -1.0))
+    return combine(rows, coverage)
+
+
+#: the declared quantities a step run's models use (read on an encoder; on a polygon)
+STEP_RUN_QUANTITIES = ("reference_encoder", "alignment")
+POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", "alignment")
+
+
+# ------------------------------------------- the model of a self-calibration (seed 000)
+#
+# The graduation error at a point is the mean over R revolutions of the method's solution
+# (enc-selfcal(1)): G = mean_r G_r + b + e_blind, with the revolutions' scatter (Type A,
+# R - 1 degrees of freedom), b the method's own bound (its last iteration's change, the
+# second-order term of the coordinate, the rounding when every revolution repeats it) and
+# e_blind the content of the harmonics the head arrangement cannot see (W(n) = 0 in the
+# band: set to 0 by the method). A uniform temperature leaves the scale's angles unchanged.
+
+
+def selfcal_budget(u_a_arcsec: float, revolutions: int, bound_arcsec: float,
+                   blind: tuple[tuple[int, ...], float] | None = None,
+                   coverage: float = 0.95) -> Budget:
+    """The budget of a point of a self-calibrated graduation error: the Type A u of the
+    mean over ``revolutions`` [arcsec] on R - 1 degrees of freedom, the method's bound
+    [arcsec] (normal, taken as exact) and, for ``blind`` = (orders, amplitude [arcsec]),
+    a sinusoid of that root-sum-square amplitude and unknown phase (u-shaped, divisor
+    sqrt 2) for the harmonics the arrangement cannot see."""
+    rows = [type_a_row(u_a_arcsec, float(revolutions - 1),
+                       f"repeatability over the {revolutions} revolutions"),
+            Contribution("the method's own bound (last iteration, second order, rounding)",
+                         "the self-calibration", "B", "normal", bound_arcsec, "arcsec", 1.0,
+                         1.0)]
+    if blind is not None:
+        orders, amplitude = blind
+        rows.append(Contribution(
+            f"harmonics the heads cannot see (n = {', '.join(map(str, orders))})",
+            "transfer function W(n) = 0; amplitude from the neighbouring orders", "B",
+            "u-shaped", amplitude, "arcsec", math.sqrt(2.0), 1.0))
+    return combine(rows, coverage)
+
+
 def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
     """A Contribution of a declaration: its value and unit as declared, c [arcsec per
     declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""

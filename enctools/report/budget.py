@@ -24,11 +24,17 @@ from enctools.data.uncertainty import Declaration, declarations
 from enctools.errors import DataError
 from enctools.methods.budget import (
     POLYGON_RUN_QUANTITIES,
+    POLYGON_RUNS_QUANTITIES,
+    STEP_RUN_QUANTITIES,
     Budget,
     PolygonRun,
     comparison_budget,
     polygon_run_budget,
+    polygon_runs_budget,
     probe_interpolation_budget,
+    resolution,
+    selfcal_budget,
+    step_run_budget,
 )
 from enctools.units import factor
 
@@ -64,11 +70,16 @@ def polygon_run(meta: Any, source: str) -> PolygonRun | None:
 
 
 def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
-                  face: Declaration | None = None) -> tuple[Budget | None, list[str]]:
+                  face: Declaration | None = None,
+                  type_a: tuple[float, float, float] | None = None
+                  ) -> tuple[Budget | None, list[str]]:
     """The budget of the points of a section and the notes saying what it holds.
 
     ``one_approach``: the points are of one run in one direction (a closing 360 deg
     is the 0 deg target again): the model's datum is then the run's first position.
+    Else ``type_a``: the Type A u of a target's mean over its approaches [arcsec] (rms
+    along the curve), its degrees of freedom and the stops' scatter [arcsec]
+    (:func:`stop_scatter`; None: the approaches give no Type A).
     ``face``: the polygon's face uncertainty from elsewhere (None: from the polygon
     certificate the points were corrected with, else the rig's declaration).
     """
@@ -80,23 +91,132 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
         return None, ["no uncertainty budget: the rig declares no [uncertainty] "
                       "(enc-rig(5))"]
     declared = declarations(tables, f"{source}: rig uncertainty")
+    if not one_approach:
+        return _polygon_runs(meta, source, declared, face, type_a)
     run = polygon_run(meta["polygon_run"], source)
     if run is None:
         return None, ["no uncertainty budget: one reading per position gives no Type A"]
-    if not one_approach:
-        return None, ["no uncertainty budget: it is of a one-run polygon step run; "
-                      "several runs or directions have U from their scatter"]
     notes = []
     face = face if face is not None else certificate_face(meta)
     if face is None and "polygon" not in declared:
         notes.append("the rig declares no polygon face uncertainty: U leaves it out")
-    other = sorted(set(declared) - set(POLYGON_RUN_QUANTITIES))
-    if other:
-        notes.append(f"declared but not in a polygon run's model: {', '.join(other)}")
+    notes += unused(declared, POLYGON_RUN_QUANTITIES, "a polygon run's")
     budget = polygon_run_budget(declared, run, face)
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
                  f"{_dof(budget.nu_eff)}), of each point against the run's first position")
     return budget, notes
+
+
+def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declaration],
+                  face: Declaration | None, type_a: tuple[float, float, float] | None
+                  ) -> tuple[Budget | None, list[str]]:
+    """The budget of a target of a polygon step run of several runs or directions."""
+    if type_a is None:
+        return None, ["no uncertainty budget: a direction misses a target, or one approach "
+                      "per target and direction gives no Type A"]
+    raw = meta["polygon_run"]
+    # its Type A is the approaches'; the heads' rounding is the run's resolution, dithered
+    # by the stops' scatter between approaches (a table that stops within a count reads
+    # the same counts each time: q / sqrt 12 a head, not in the Type A; one that stops
+    # over several counts rounds each approach anew, which the Type A holds)
+    filled = {**raw, "dof": 1, "s_arcsec": raw.get("s_arcsec") or 0.0,
+              "head_s_arcsec": type_a[2]} if isinstance(raw, dict) else raw
+    run = polygon_run(filled, source)
+    if run is None:
+        return None, ["no uncertainty budget: the points do not state their run"]
+    face = face if face is not None else certificate_face(meta)
+    notes = [] if face is not None or "polygon" in declared else [
+        "the rig declares no polygon face uncertainty: U leaves it out"]
+    notes += unused(declared, POLYGON_RUNS_QUANTITIES, "a polygon step run's")
+    budget = polygon_runs_budget(declared, run, type_a[0], type_a[1], face)
+    notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
+                 f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
+                 f"{_dof(budget.nu_eff)})")
+    return budget, notes
+
+
+def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) -> list[str]:
+    """The note naming the declarations a model does not use (none: no note)."""
+    other = sorted(set(declared) - set(model))
+    return [f"declared but not in {what} model: {', '.join(other)}"] if other else []
+
+
+def stop_scatter(pos_deg: np.ndarray, target_rad: np.ndarray) -> float:
+    """The pooled standard deviation [arcsec] of the indicated positions of the stops at a
+    target about their target's mean: how far the stops move between approaches, which
+    dithers the heads' rounding from approach to approach (each position taken at the
+    nearest target)."""
+    target_deg = np.degrees(target_rad)
+    d = (pos_deg[:, None] - target_deg[None, :] + 180.0) % 360.0 - 180.0
+    index = np.argmin(np.abs(d), axis=1)
+    x = d[np.arange(pos_deg.size), index] * 3600.0
+    n = np.bincount(index, minlength=target_deg.size)
+    dof = int(np.sum(np.maximum(n - 1, 0)))
+    if dof == 0:
+        return 0.0
+    mean = np.bincount(index, weights=x, minlength=target_deg.size) / np.maximum(n, 1)
+    return math.sqrt(float(np.sum((x - mean[index]) ** 2)) / dof)
+
+
+def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray) -> None:
+    """The budget of a points section ``s`` (a ``sections.Section``) given to its curve:
+    of one approach, every point's u is the budget's u_c; of several runs or directions,
+    each target's u is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u.
+    ``pos_deg``: the points' indicated positions [deg] (of several approaches: how far
+    their stops scatter, :func:`stop_scatter`)."""
+    curve = s.curves[-1]
+    type_a = None
+    if not one_approach and curve.u is not None and curve.dof:
+        type_a = (float(np.sqrt(np.mean(np.square(curve.u)))), float(curve.dof),
+                  stop_scatter(pos_deg, curve.angle))
+    budget, notes = points_budget(s.meta, s.source, one_approach, type_a=type_a)
+    s.notes += notes
+    if budget is None:
+        return
+    s.budget = budget
+    if one_approach:
+        curve.u = np.full(curve.values.shape, budget.u_c)
+    else:
+        _add_type_b(curve, budget)
+    curve.k = budget.k
+
+
+def _add_type_b(curve: Any, budget: Budget) -> None:
+    """A curve's Type A u per point with the budget's Type B rows added in quadrature."""
+    u_b2 = math.fsum(c.u_arcsec ** 2 for c in budget.contributions if c.kind == "B")
+    curve.u = np.sqrt(np.square(curve.u) + u_b2)
+
+
+def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
+                  reference: bool) -> None:
+    """The budget of a step run's positioning deviation (its section ``s``'s last curve,
+    a mean per target with its Type A u over the approaches): the rounding of the
+    ``heads`` heads of ``encoder`` (1 count = ``lsb_arcsec``), and, when that encoder is a
+    reference instrument (``reference``: not the axis' feedback), its calibrated
+    deviation and alignment as the rig declares them (enc-rig(5)). Each target's U is
+    then k sqrt(u_A(target)^2 + u_B^2) with the budget's k."""
+    curve = s.curves[-1]
+    if curve.u is None or not curve.dof:
+        return
+    declared = rig_declarations(s.meta, s.source)
+    u_a = float(np.sqrt(np.mean(np.square(curve.u))))
+    budget = step_run_budget(u_a, float(curve.dof),
+                             resolution(lsb_arcsec, heads, f"encoder {encoder}"),
+                             declared, reference)
+    _add_type_b(curve, budget)
+    curve.k = budget.k
+    s.budget = budget
+    used = (STEP_RUN_QUANTITIES if reference else ()) + ("temperature",)
+    s.notes += unused(declared, used, "a step run's")
+    if reference and "reference_encoder" not in declared:
+        s.notes.append(f"the rig declares no [uncertainty.reference_encoder]: U leaves the "
+                       f"calibrated deviation of encoder {encoder} out (enc-rig(5))")
+    if "temperature" in declared:
+        s.notes.append("temperature: no row; a uniform temperature leaves the angles of a "
+                       "circular scale and of the axis unchanged")
+    s.notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
+                   f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
+                   f"{_dof(budget.nu_eff)})")
 
 
 def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
@@ -110,15 +230,70 @@ def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
     if not history or ": enc compare " not in str(history[-1]) \
             or not isinstance(settings, dict) or settings.get("ref_curve") is not None:
         return None, []     # against a reference's calibrated curve: not this model
-    rig = meta.get("rig")
-    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
-    declared = declarations(tables, f"{source}: rig uncertainty") if tables else {}
+    declared = rig_declarations(meta, source)
     if "reference_encoder" not in declared:
         return None, ["no uncertainty budget: the rig declares no [uncertainty."
                       "reference_encoder] (the reference encoder's certificate; enc-rig(5))"]
     budget = comparison_budget(u_a_arcsec, dof, declared["reference_encoder"])
     return budget, [f"U per point: sqrt(u_A(point)^2 + u_ref^2) with the budget's k = "
                     f"{budget.k:.3g} (nu_eff {_dof(budget.nu_eff)})"]
+
+
+def curve_budget_into(s: Any, curve: Any, dof: float) -> None:
+    """The budget of a deviation curve with its u column: a self-calibration's
+    (:func:`selfcal_into`) or a comparison's (:func:`comparison_into`)."""
+    history = s.meta.get("history") or []
+    if history and ": enc selfcal " in str(history[-1]):
+        selfcal_into(s, curve, dof)
+    else:
+        comparison_into(s, curve, dof)
+
+
+def selfcal_into(s: Any, curve: Any, dof: float) -> None:
+    """A self-calibration's budget given to its section ``s``: its u column (enc selfcal:
+    u = sqrt(s_mean^2 + b^2) per point, the dof Welch-Satterthwaite of both over the
+    curve) split into the Type A over the R revolutions and the method's bound b, with
+    the harmonics its heads cannot see (metadata ``blind``) bounded by their neighbours;
+    each point's U is then k sqrt(u(point)^2 + u_blind^2) with the budget's k."""
+    settings = s.meta.get("settings")
+    r = settings.get("revolutions") if isinstance(settings, dict) else None
+    if curve.u is None or not isinstance(r, int) or r < 2 or not dof > 0:
+        return
+    total = float(np.mean(np.square(curve.u)))      # = var_a + b^2 (enc-selfcal(1))
+    var_a = total if math.isinf(dof) else min(total, total * math.sqrt((r - 1) / dof))
+    blind, notes = _blind(s.meta.get("blind"), curve)
+    budget = selfcal_budget(math.sqrt(var_a), r, math.sqrt(max(total - var_a, 0.0)), blind)
+    u_blind = budget.contributions[2].u_arcsec if blind is not None else 0.0
+    curve.u = np.sqrt(np.square(curve.u) + u_blind ** 2)
+    curve.k = budget.k
+    s.budget = budget
+    declared = rig_declarations(s.meta, s.source)
+    if "head_mounting" in declared:
+        notes.append("head_mounting is declared but not in this budget: its sensitivity "
+                     "through the transfer function W(n) is not evaluated (U leaves it out)")
+    if "temperature" in declared:
+        notes.append("temperature: no row; a uniform temperature leaves the scale's "
+                     "angles unchanged")
+    s.notes += notes
+
+
+def _blind(blind: Any, curve: Any) -> tuple[tuple[tuple[int, ...], float] | None, list[str]]:
+    """The blind orders of the band (the method set them to 0) and the root-sum-square of
+    a bound on each: the largest amplitude of the curve's orders n +- 1, n +- 2 that are
+    not blind [arcsec]; a note when none is blind or an order lies past the harmonics."""
+    orders = sorted(int(n) for n in blind if isinstance(n, int) and n > 0) \
+        if isinstance(blind, list) else []
+    if not orders:
+        return None, ["the harmonics of the band are all seen by the heads (no order "
+                      "with W(n) = 0): no row for blind harmonics"]
+    h = curve.harmonics
+    if h is None or max(orders) + 2 > int(h.n.max()):
+        return None, [f"blind harmonics n = {', '.join(map(str, orders))}: beyond the "
+                      "report's harmonics, not bounded: U leaves them out"]
+    amp = dict(zip(h.n.tolist(), h.amplitude.tolist(), strict=True))
+    bound = [max(amp.get(n + d, 0.0) for d in (-2, -1, 1, 2) if n + d not in orders)
+             for n in orders]
+    return (tuple(orders), math.sqrt(math.fsum(b * b for b in bound))), []
 
 
 def comparison_into(s: Any, curve: Any, dof: float) -> None:
@@ -165,6 +340,13 @@ def interpolation_into(s: Any) -> None:
     s.notes.append(f"U per point of the curves against the probes: k sqrt(u_A(point)^2 + "
                    f"u_B^2), k = {budget.k:.3g}; the probes' rows at the largest |deviation| "
                    f"{psi:.3g} arcsec")
+
+
+def rig_declarations(meta: dict[str, Any], source: str) -> dict[str, Declaration]:
+    """The checked Type B declarations of the rig a stream's metadata records (none: {})."""
+    rig = meta.get("rig")
+    tables = rig.get("uncertainty") if isinstance(rig, dict) else None
+    return declarations(tables, f"{source}: rig uncertainty") if tables else {}
 
 
 def stated_dof(field_meta: dict[str, Any]) -> float:

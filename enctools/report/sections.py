@@ -16,15 +16,14 @@ a :class:`Section` holding, for its kind:
 - model and rom: their metadata and the figures of weights / corrections;
 - readings: what was recorded (mode, heads, rows, duration, turns), for step runs the
   positioning deviation of the axis (encoder - target, on an encoder the axis does not
-  position on: :mod:`enctools.report.positioning`) with ISO 230-2, and the raw sin/cos
-  signals for a Lissajous plot when recorded.
+  position on: :mod:`enctools.report.positioning`, :mod:`enctools.report.steprun`) with
+  ISO 230-2, and the raw sin/cos signals for a Lissajous plot when recorded.
 
 Readings are read batch by batch (memory does not grow with the run's length).
 """
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -44,14 +43,10 @@ from enctools.methods.points import count_deg
 from enctools.methods.targets import tolerance
 from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
-from enctools.report.positioning import (
-    Positioning,
-    feedback_reason,
-    positioning_heads,
-    servo_loop_note,
-)
+from enctools.report.positioning import positioning_heads
+from enctools.report.steprun import positioning
 from enctools.report.vdi3441 import Vdi3441, from_iso
-from enctools.units import ARCSEC, DEG, TWO_PI
+from enctools.units import DEG, TWO_PI
 
 #: Lissajous plots keep at most this many samples per head
 LISSAJOUS_POINTS = 4000
@@ -74,6 +69,7 @@ class Curve:
     head: str | None = None
     extra: dict[str, float] = field(default_factory=dict)
     k: float = K_COVERAGE           # coverage factor of U = k u (a budget's Student k)
+    dof: float | None = None        # degrees of freedom of a Type A u (targets' approaches)
     #: the mean of each direction (+1 up, -1 down) per target, where both were approached
     directions: dict[int, np.ndarray] = field(default_factory=dict)
 
@@ -214,10 +210,10 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
             if name in unc:
                 s.curves[-1].k = stated_k(table.schema, unc[name])
                 if role == "deviation" and s.budget is None:
-                    from enctools.report.budget import comparison_into, stated_dof
+                    from enctools.report.budget import curve_budget_into, stated_dof
 
-                    comparison_into(s, s.curves[-1],
-                                    stated_dof(field_meta(table.schema.field(unc[name]))))
+                    curve_budget_into(s, s.curves[-1],
+                                      stated_dof(field_meta(table.schema.field(unc[name]))))
             if in_period and "period_arcsec" in fm:
                 s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
             if in_period and fm.get("reference") == "probes":
@@ -295,28 +291,22 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
                       if c in table.schema.names else None for c in ("direction", "run"))
     _points_into(s, pos, dev, direction, opts, "deviation", "points",
                  tolerance(pos, count_deg(s.meta)), run=run)
-    _budget_into(s, one_approach=all(x is None or len(set(x.tolist())) == 1
-                                     for x in (direction, run)))
+    _budget_into(s, pos, one_approach=all(x is None or len(set(x.tolist())) == 1
+                                          for x in (direction, run)))
 
 
-def _budget_into(s: Section, one_approach: bool) -> None:
-    """The uncertainty budget of a polygon run's points (report/budget.py): every
-    point's u is then the budget's u_c, its U the budget's k u_c."""
-    from enctools.report.budget import points_budget
+def _budget_into(s: Section, pos_deg: np.ndarray, one_approach: bool) -> None:
+    """The uncertainty budget of a polygon run's points (report/budget.py); ``pos_deg``
+    the indicated position of each point [deg]."""
+    from enctools.report.budget import points_budget_into
 
-    budget, notes = points_budget(s.meta, s.source, one_approach)
-    s.notes += notes
-    if budget is not None:
-        s.budget = budget
-        curve = s.curves[-1]
-        curve.u = np.full(curve.values.shape, budget.u_c)
-        curve.k = budget.k
+    points_budget_into(s, one_approach, pos_deg)
 
 
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
                  direction: np.ndarray | None, opts: Options, name: str, role: str,
                  tol_deg: float = 0.01, run: np.ndarray | None = None,
-                 no_iso: str | None = None, u_b: float = 0.0) -> None:
+                 no_iso: str | None = None) -> None:
     """Points -> one curve (means per target when positions repeat) and ISO 230-2.
 
     ``tol_deg``: measured positions closer than this are one target (a points stream:
@@ -339,7 +329,7 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
         curve = _curve(name, "arcsec", role, pos_deg * DEG, dev, opts, s.source)
     else:
         curve = _repeated(s, pos_deg, dev, direction, run, (unique, index), opts,
-                          (name, role, tol_deg, u_b), no_iso)
+                          (name, role, tol_deg), no_iso)
     s.curves.append(curve)
     s.info["positions"] = int(unique.size)
     # a points stream's rows are points (each may be the mean of several readings,
@@ -349,12 +339,13 @@ def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,
 
 def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.ndarray | None,
               run: np.ndarray | None, targets: tuple[np.ndarray, np.ndarray], opts: Options,
-              what: tuple[str, str, float, float], no_iso: str | None) -> Curve:
+              what: tuple[str, str, float], no_iso: str | None) -> Curve:
     """The curve of points whose positions repeat: per target the mean over the
     directions of the mean over approaches (one run's readings at one target in one
     direction averaged first) [arcsec], its standard uncertainty from the approaches'
-    scatter, and ISO 230-2 when every target has 2 approaches or more."""
-    name, role, tol_deg, u_b = what     # u_b: a Type B u per target [arcsec]
+    scatter (Type A; a budget adds its Type B terms, report/budget.py), and ISO 230-2
+    when every target has 2 approaches or more."""
+    name, role, tol_deg = what
     unique, index = targets
     d = np.ones(dev.size, np.int64) if direction is None else np.asarray(direction, np.int64)
     a_index, a_dir, a_x, _ = approaches(index, dev, d, run)
@@ -373,10 +364,10 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
         s.notes.append(f"{none}: one run per target and direction (the run "
                        "column numbers them; its readings are one approach); s needs 2 or more")
         return curve
-    curve.u = None if u is None else np.sqrt(u * u + u_b * u_b)
-    coverage = type_a_coverage(u, dof, u_b) if u is not None else None
+    curve.u = u
+    coverage = type_a_coverage(u, dof) if u is not None else None
     if coverage is not None:    # Student's k on the few approaches u rests on
-        curve.k = coverage.k
+        curve.k, curve.dof = coverage.k, dof
     if no_iso is not None:
         s.notes.append(f"{none}: {no_iso}")
         return curve
@@ -521,7 +512,7 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
             s.signals[head] = (c[::step], sn[::step])
     if stepped and where is not None and scan.rows:
         s.info["positioning read on"] = where.describe()
-        _positioning(s, scan, encoder, opts, where)
+        positioning(s, scan, encoder, opts, where, _points_into)
     elif scan.rows and not stepped:
         s.notes.append(f"no {opts.standard_name} figures: a continuous run has no target "
                        "positions to approach (a step run of enc acquire has them)")
@@ -564,36 +555,3 @@ def _scan_batch(scan: _ReadingsScan, batch: pa.RecordBatch, infos: list[readings
             scan.run.append(batch.column("run").to_numpy(zero_copy_only=False))
         scan.angle.append(readings.mean_head_angle([batch.column(i.name) for i in encoder],
                                                    encoder))
-
-
-def _positioning(s: Section, scan: _ReadingsScan, encoder: list[readings.HeadInfo],
-                 opts: Options, where: Positioning) -> None:
-    """Positioning deviation of a step run: mean angle of the encoder's heads - target;
-    read on the axis' feedback encoder, no figures unless ``opts.servo_loop``."""
-    target = np.concatenate(scan.target)
-    angle = np.concatenate(scan.angle)
-    dev = (np.mod(angle - target + np.pi, TWO_PI) - np.pi) / ARCSEC
-    dev -= dev.mean()
-    direction = np.concatenate(scan.direction) if scan.direction else None
-    run = np.concatenate(scan.run) if scan.run else None
-    no_iso = None
-    if s.info.get("mode") == "sweep":
-        no_iso = ("a sweep steps over a small range, not targets over the axis's travel "
-                  f"(a full turn) as {opts.standard_name} asks")
-    elif where.is_feedback and not opts.servo_loop:
-        no_iso = opts.say(feedback_reason(where, scan.autocollimator))
-    enc = encoder[0].encoder
-    u_q = TWO_PI / ARCSEC / encoder[0].counts_per_rev / np.sqrt(12.0 * len(encoder))  # arcsec
-    s.notes.append(f"positioning deviation = mean of heads {', '.join(i.name for i in encoder)} "
-                   f"(encoder {enc}) - target, mean removed (head zeros are set below one "
-                   "signal period)")
-    _points_into(s, target / DEG, dev, direction, opts, f"encoder {enc} - target",
-                 "positioning", tol_deg=1e-9, run=run, no_iso=no_iso, u_b=u_q)
-    if s.curves[-1].u is not None:
-        s.notes.append(f"U per target: Type A over the approaches and the heads' rounding, "
-                       f"1 count / sqrt(12 N) = {u_q:.3g} arcsec (N = {len(encoder)} heads)")
-    if where.is_feedback and (s.iso is not None or s.vdi is not None):
-        s.notes.append(opts.say(servo_loop_note(where, opts.standard_name)))
-    elif where.is_feedback and f"figures: {no_iso}" in " ".join(s.notes):
-        logging.getLogger("enctools").warning("%s: no %s figures: %s", s.source,
-                                              opts.standard_name, no_iso)

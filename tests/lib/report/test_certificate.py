@@ -30,16 +30,19 @@ def _ok(cmd: str | list[str]) -> None:
 @pytest.fixture(scope="module")
 def campaigns(tmp_path_factory, sjtu_raw, ciomp_steps) -> dict[str, list[str]]:
     """The inputs of each demo campaign's report: seed 000's self-calibration (with its
-    spectrum), direct comparison and interpolation error; seed 001's polygon points and
-    RBF model."""
+    spectrum), direct comparison, interpolation error and the axis' step run (ISO 230-2,
+    read on encoder I); seed 001's polygon points and RBF model."""
     d = tmp_path_factory.mktemp("campaigns")
+    _ok(f"enc acquire --rig sjtu-dual --mode steps --count 8 --runs 5 --bidirectional "
+        f"--readings 2 -o {d}/steps.parquet")
     _ok(f"enc selfcal {sjtu_raw} --method esa --ref-head H1 --heads H5,H6,H7 "
         f"--spectrum {d}/spec.parquet -o {d}/grad.parquet")
     _ok(f"enc average-heads {sjtu_raw} | enc compare --device H --reference P -o {d}/h-p.parquet")
     interp = make_interp(d / "interp.parquet")
     _ok(f"enc points {ciomp_steps} -o {d}/points.parquet")
     _ok(f"enc fit-rbf {d}/points.parquet -o {d}/model.parquet")
-    return {"000": [f"{d}/grad.parquet", f"{d}/spec.parquet", f"{d}/h-p.parquet", str(interp)],
+    return {"000": [f"{d}/grad.parquet", f"{d}/spec.parquet", f"{d}/h-p.parquet", str(interp),
+                    f"{d}/steps.parquet"],
             "001": [f"{d}/points.parquet", f"{d}/model.parquet"]}
 
 

@@ -50,8 +50,9 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
     if seed == "001":       # the 24 polygon positions, before and after the correction
         assert sorted(t for t, _ in rows) == [15.0 * i for i in range(24)]
         assert "after correction [arcsec]" in text
-    else:                   # each curve over the turn every 10 deg
+    else:                   # each curve over the turn every 10 deg; the step run's targets
         assert len(rows) >= 2 * 36
+        assert {45.0 * i for i in range(8)} <= {t for t, _ in rows}
     assert all(u > 0 for _, u in rows)
     flat = re.sub(r"\s+", " ", text)
     solid = "".join(text.split())       # a table's cell may wrap anywhere
@@ -82,6 +83,10 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
     if seed == "000":       # the comparison's budget: encoder I as a reference standard
         assert "calibrateddeviationofthereferenceencoder" in solid
         assert "LAB-EI-2026-012" in solid
+        # ... and the step run's, per target: its approaches, encoder I's resolution
+        assert "repeatabilityoftheapproaches" in solid and "resolutionofencoderI" in solid
+        # ... and the self-calibration's: its revolutions and the method's own bound
+        assert "repeatabilityoverthe" in solid and "themethod'sownbound" in solid
 
 
 def test_inputs_of_two_rigs_are_refused_for_one_certificate(campaigns, tmp_path):  # noqa: F811

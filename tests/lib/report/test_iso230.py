@@ -227,18 +227,20 @@ def test_iso230_of_a_step_run_is_computed_per_approach(step_runs):
     assert all(p["n_up"] == 5 and p["n_down"] == 5 for p in rows)      # runs, not readings
     assert not iso["warnings"]
     # the curve is x_i; its u combines s / sqrt(n) of each direction over the approaches
-    # with the rounding of encoder I's heads, 1 count / sqrt(12 N) (Type B)
+    # with the rounding of encoder I's heads, 1 count / sqrt(12 N), and encoder I's
+    # calibrated deviation as sjtu-dual declares it, U 0.06" at k = 2 (Type B)
     curve = sec["curves"][0]
     with pa.ipc.open_stream(str(path)) as reader:
         heads = [f for f in reader.schema if field_meta(f).get("encoder") == "I"]
     u_q = 1296000.0 / int(field_meta(heads[0])["counts_per_rev"]) / np.sqrt(12 * len(heads))
+    u_b = np.hypot(u_q, 0.03)
     u_a = np.sqrt(want["s_up"] ** 2 / 5 + want["s_down"] ** 2 / 5) / 2
-    u = np.sqrt(u_a ** 2 + u_q ** 2)
+    u = np.sqrt(u_a ** 2 + u_b ** 2)
     # U = k u, Student's k at the effective degrees of freedom (4 a direction, combined
     # by Welch-Satterthwaite on the directions' mean variances along the curve; the
     # rounding taken as exact)
     v_up, v_dn = np.mean(want["s_up"] ** 2 / 5) / 4, np.mean(want["s_down"] ** 2 / 5) / 4
-    nu = (v_up + v_dn + u_q ** 2) ** 2 / (v_up ** 2 / 4 + v_dn ** 2 / 4)
+    nu = (v_up + v_dn + u_b ** 2) ** 2 / (v_up ** 2 / 4 + v_dn ** 2 / 4)
     k = stats.t.ppf(0.975, nu)
     assert curve["coverage_k"] == pytest.approx(k, rel=1e-9)
     assert curve["expanded_u_max_arcsec"] == pytest.approx(k * u.max(), abs=1e-9)
