@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pytest
+from conftest import run
 from test_report import make_deviations, make_interp
 
 from enctools.data.schemas import make_field
@@ -52,6 +53,20 @@ def test_a_long_stream_reports_what_the_held_one_does(tmp_path, monkeypatch):
     long = _json(paths, 1_000, monkeypatch)
     _same(held, long, 1e-9)
     assert long["sections"][0]["results"][0]["listed_every_deg"] == 10.0
+
+
+def test_a_long_comparison_gets_the_held_ones_budget(tmp_path, monkeypatch):
+    # enc compare against the reference encoder the rig declares: its budget takes the
+    # rms of u over every row, its U per point sqrt(u_A^2 + u_ref^2) with the budget's k
+    # (8192 points: more than the envelope's 2 a column, whose u alone would give another)
+    r = run("enc acquire --rig sjtu-dual --revolutions 2 --heads H1,P1 -q -o r.parquet && "
+            "enc compare r.parquet --device H1 --reference P1 --points 8192 -q "
+            "-o cmp.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    held = _json([tmp_path / "cmp.parquet"], 1 << 30, monkeypatch)
+    long = _json([tmp_path / "cmp.parquet"], 100, monkeypatch)
+    assert held["sections"][0]["budget"] is not None
+    _same(held, long, 1e-9)
 
 
 def _stream(path: Path, theta: np.ndarray, y: np.ndarray) -> Path:
