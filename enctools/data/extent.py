@@ -17,6 +17,7 @@ from typing import IO, Any
 
 import pyarrow as pa
 
+from enctools.data.limits import check_row_group
 from enctools.errors import DataError
 
 #: the bytes read at a time where a file's unaccounted bytes are searched [bytes]
@@ -37,16 +38,20 @@ def _two_files(source: str, fmt: str, what: str) -> DataError:
                      "the end of one; a command reads one file")
 
 
-def check_parquet(f: IO[bytes], metadata: Any, source: str) -> None:
+def check_parquet(f: IO[bytes], metadata: Any, source: str, groups: bool = False) -> None:
     """DataError unless the Parquet file ``f`` (its ``metadata``, pyarrow's FileMetaData)
     is one file: the column chunks the footer names end before the footer, and between
-    them no Parquet file ends and another begins (``PAR1PAR1``)."""
+    them no Parquet file ends and another begins (``PAR1PAR1``). ``groups``: each row
+    group within :func:`~enctools.data.limits.check_row_group`'s limits too, in the same
+    walk over the footer's row groups."""
     size = _size(f)
     (footer_len,) = struct.unpack("<I", _read_at(f, size - 8, 4))
     footer_start = size - 8 - footer_len
     end = 4
     for i in range(metadata.num_row_groups):
         group = metadata.row_group(i)
+        if groups:
+            check_row_group(group, source)
         for j in range(group.num_columns):
             c = group.column(j)
             start = c.dictionary_page_offset if c.has_dictionary_page else c.data_page_offset

@@ -39,11 +39,15 @@ MAX_STREAM_ROWS = 1_000_000_000
 #: bytes of a Parquet, Arrow file or HDF5 stream arriving on a pipe, which is held in
 #: memory to be read (it needs seeking; Arrow IPC streams are read as they come) [byte]
 MAX_PIPE_BUFFER_BYTES = 256 << 20
-#: rows of one Parquet row group (read whole by the Parquet decoder) [rows]
+#: rows of one Parquet row group [rows]
 MAX_ROW_GROUP_ROWS = 4 << 20
-#: bytes of one Parquet row group decoded, as its footer gives them (the decoder holds a
-#: few times that): 4 Mi rows of 8 float64 columns [byte]
+#: bytes of one Parquet row group decoded, as its footer gives them: 4 Mi rows of 8
+#: float64 columns [byte]
 MAX_ROW_GROUP_BYTES = 256 << 20
+#: bytes of a Parquet column chunk read at a time: the decoder reads a row group's
+#: column chunks this much at a time, a page at a time, not each whole (which held a
+#: few times the row group's decoded bytes) [byte]
+PARQUET_READ_BYTES = 1 << 20
 #: bytes of one batch a stream is read in, and of one Parquet row group written: fewer
 #: rows than :data:`~enctools.data.streams.BATCH_ROWS` when the rows are wide (thousands of
 #: head columns) [byte]
@@ -62,16 +66,13 @@ def batch_rows(schema: pa.Schema, most: int) -> int:
     return max(1, min(most, BATCH_BYTES // max(width, 1)))
 
 
-def check_row_groups(metadata: Any, source: str) -> None:
-    """DataError unless every row group is within the rows and decoded bytes the Parquet
-    decoder is let hold (it reads a row group's column chunks whole)."""
+def check_row_group(group: Any, source: str) -> None:
+    """DataError unless the row group (pyarrow's RowGroupMetaData) is within the rows
+    and decoded bytes a command reads of one (the Parquet decoder's time and pages)."""
     from enctools.errors import DataError
 
-    groups = [metadata.row_group(i) for i in range(metadata.num_row_groups)]
-    rows = max((g.num_rows for g in groups), default=0)
-    size = max((g.total_byte_size for g in groups), default=0)
-    for value, most, what in ((rows, MAX_ROW_GROUP_ROWS, "rows"),
-                              (size, MAX_ROW_GROUP_BYTES, "bytes decoded")):
+    for value, most, what in ((group.num_rows, MAX_ROW_GROUP_ROWS, "rows"),
+                              (group.total_byte_size, MAX_ROW_GROUP_BYTES, "bytes decoded")):
         if value > most:
             msg = (f"{source}: a Parquet row group of {value} {what}; at most {most} are "
                    "read (rewrite it with smaller row groups)")

@@ -336,14 +336,15 @@ def _open_parquet(f: IO[bytes], source: str) -> InputStream:
 
     native = _native(f)
     try:
-        pf = pq.ParquetFile(native, pre_buffer=False)  # pre-buffering holds the whole file
+        # pre-buffering holds the whole file; a column chunk read whole, its row group's
+        # decoded bytes a few times over: read a page at a time
+        pf = pq.ParquetFile(native, pre_buffer=False, buffer_size=limits.PARQUET_READ_BYTES)
         header = header_from_arrow(pf.schema_arrow, source)
         rows = pf.metadata.num_rows
         if rows > limits.MAX_STREAM_ROWS:
             msg = f"{source}: claims {rows} rows; at most {limits.MAX_STREAM_ROWS} are read"
             raise DataError(msg)
-        limits.check_row_groups(pf.metadata, source)
-        extent.check_parquet(f, pf.metadata, source)
+        extent.check_parquet(f, pf.metadata, source, groups=True)  # one walk, both checks
     except BaseException:
         native.close()
         raise

@@ -94,7 +94,8 @@ def _curve(c: Curve, unit: str, k: float) -> Curve:
     return dataclasses.replace(c, unit=unit, values=c.values * k,
                                u=None if c.u is None else c.u * k, figures=figures,
                                harmonics=harmonics, extra=extra,
-                               directions={d: v * k for d, v in c.directions.items()})
+                               directions={d: v * k for d, v in c.directions.items()},
+                               digest=None if c.digest is None else c.digest.scaled(k))
 
 
 def _direction(d: DirectionFigures | None, k: float) -> DirectionFigures | None:

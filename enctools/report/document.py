@@ -382,10 +382,20 @@ def _history(report: Report, drawings: Drawings) -> dict[str, Any] | None:
     png = drawings.history()
     if png is not None:
         u = h.unit
-        out["figure"] = _figure(png, "p-p, s and drift of every run (× marks runs that failed)")
+        long = drawings.history_digest()
+        out["figure"] = _figure(png, "p-p, s and drift of every run (× marks runs that failed)"
+                                if long is None else "p-p, s and drift, the smallest and "
+                                "largest of each bin of time (× marks bins with a failed run)")
+        if long is not None:
+            shown = long.groups[-12:]   # every rig and month in the JSON summary
+            out["text"] += (f" The last {len(long.last)} are listed. Per rig and month"
+                            + (f" (the last {len(shown)} of {len(long.groups)})"
+                               if len(shown) < len(long.groups) else "") + ": "
+                            + "; ".join(f"{g['rig']} {g['month']}: {g['runs']} run(s), "
+                                        f"{g['failed']} failed" for g in shown) + ".")
         rows = [[r["time"], r["rig"] or "–", r["status"] or "–", fmt(r["pp"], u),
                  fmt(r["std"], u), fmt(r["drift_max"], u), fmt(r["tolerance"], u)]
-                for r in h.to_records()]
+                for r in (h.to_records() if long is None else long.last)]
         b = f" [{label(u)}]"
         out["table"] = table(["time (UTC)", "rig", "status", "p-p" + b, "s" + b, "drift" + b,
                               "tolerance" + b], rows, left=3)

@@ -8,7 +8,7 @@ report draws nothing (and imports no matplotlib).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,7 @@ class Drawings:
         self.top = int(report.settings.get("top_harmonics", 5))
         self._sections: dict[int, list[tuple[str, bytes]]] = {}
         self._history: bytes | None = None
+        self._history_digest: Any = None
         self._comparisons: dict[str, bytes] = {}
 
     def section(self, s: Section) -> list[tuple[str, bytes]]:
@@ -59,11 +60,29 @@ class Drawings:
         if self._history is None:
             from enctools.report import plots
 
-            bad = np.array([st != "ok" for st in h.column("status")])
-            series = {n: h.column(n).astype(float) for n in ("pp", "std", "drift_max")}
-            self._history = plots.to_png(plots.history_plot(
-                h.times(), series, "figures of each nightly run", bad, h.unit), DPI)
+            long = self.history_digest()
+            if long is not None and long.times is not None:   # binned by time
+                times, series, bad = long.times, long.series, long.bad
+                title = "figures of the nightly runs, binned by time: each bin's extremes"
+            else:
+                bad = np.array([st != "ok" for st in h.column("status")])
+                series = {n: h.column(n).astype(float) for n in ("pp", "std", "drift_max")}
+                times, title = h.times(), "figures of each nightly run"
+            self._history = plots.to_png(plots.history_plot(times, series, title, bad,
+                                                            h.unit), DPI)
         return self._history
+
+    def history_digest(self) -> Any:
+        """The digest of a history of more than ``historydigest.LISTED`` runs (read
+        once, for the plot and the table), or None."""
+        from enctools.report import historydigest
+
+        h = self.report.history
+        if h is None or h.runs <= historydigest.LISTED:
+            return None
+        if self._history_digest is None:
+            self._history_digest = historydigest.digest(h)
+        return self._history_digest
 
     def comparisons(self) -> list[tuple[str, list[tuple[str, Curve]]]]:
         """(kind, [(name, curve), ...]) of every kind of which several inputs carry the same

@@ -11,7 +11,9 @@ from typing import Any
 
 from enctools.data import summaries
 from enctools.data.summaries import clean, figure_dict
+from enctools.report import historydigest
 from enctools.report.budget import budget_dict
+from enctools.report.historydigest import LISTED
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.report.summary import Report
@@ -96,7 +98,12 @@ def report_dict(report: Report, failures: list[str] | None = None) -> dict[str, 
     model = correction_of(report.sections)
     d: dict[str, Any] = {"sections": [section_dict(s, top, model) for s in report.sections],
                          "settings": report.settings}
-    if report.history is not None:
+    if report.history is not None and report.history.runs > LISTED:
+        # a long history: the last runs listed and a summary per rig and month
+        digest = historydigest.digest(report.history, binned=False)
+        d["history"] = digest.last
+        d["history_summary"] = digest.to_dict()
+    elif report.history is not None:
         d["history"] = report.history.to_records()
     if failures is not None:
         d["thresholds"] = {"exceeded": failures, "ok": not failures}

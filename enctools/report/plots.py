@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 
 import numpy as np
 
+from enctools.report import longcurves
 from enctools.report.display import label
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.units import ANGLE_UNITS, DEG, TWO_PI
@@ -195,8 +196,9 @@ def _unit_label(unit: str) -> str:
 
 #: pixel columns a plotted series is binned to: wider than a plot at the report's
 #: resolution (7.2 in at 110 dpi: 792 px); a longer series is drawn as the smallest and
-#: largest value of each column, so the envelope drawn is the data's exactly
-COLUMNS = 1024
+#: largest value of each column, so the envelope drawn is the data's exactly (a long
+#: curve comes binned so: longcurves.py)
+COLUMNS = longcurves.COLUMNS
 
 
 def _columns(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -364,7 +366,9 @@ def radial_polar_plot(curves: Sequence[Curve], title: str) -> Figure:
     byname = {c.name.lower(): c for c in curves}
     xs = [c for n, c in byname.items() if n.endswith("x")]
     ys = [c for n, c in byname.items() if n.endswith("y")]
-    if xs and ys:
+    if xs and ys and xs[0].digest is not None and xs[0].digest.polar is not None:
+        traces = [("radial (x cos θ + y sin θ)", *xs[0].digest.polar)]   # a long curve's
+    elif xs and ys:
         cx, cy = xs[0], ys[0]
         theta = np.asarray(cx.angle)
         err = cx.values * np.cos(theta) + np.interp(theta, cy.angle, cy.values) * np.sin(theta)

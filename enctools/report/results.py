@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from enctools.report.display import DECIMALS, fmt, label
+from enctools.report.longcurves import MARK_DEG
 from enctools.report.sections import Curve, Section
 from enctools.units import DEG
 
@@ -176,6 +177,13 @@ def _curve_results(s: Section, c: Curve) -> Results:
         return res
     step = PHASE_STEP_DEG if phase else STEP_DEG
     wanted = np.arange(0.0, 360.0, step)
+    if c.digest is not None:    # a long curve: its grid points nearest every MARK_DEG
+        marks = np.arange(0.0, 360.0, MARK_DEG)
+        pick = np.flatnonzero(np.isin(marks, wanted))
+        d = c.digest
+        return Results(c.name, c.unit, np.mod(d.angle[pick] / DEG, 360.0), d.values[pick],
+                       U=None if d.u is None else c.k * d.u[pick], k=k, phase=phase,
+                       sampled=step)
     gap = np.abs(((angle[None, :] - wanted[:, None]) + 180.0) % 360.0 - 180.0)
     near = np.argmin(gap, axis=1)
     return Results(c.name, c.unit, angle[near], c.values[near],

@@ -41,8 +41,10 @@ from enctools.methods.budget import Budget, type_a_coverage
 from enctools.methods.interp.screen import screen_notes
 from enctools.methods.points import count_deg
 from enctools.methods.targets import tolerance
+from enctools.report import longcurves
 from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
+from enctools.report.longcurves import Digest, period_domain, stated_k
 from enctools.report.positioning import positioning_heads
 from enctools.report.steprun import positioning
 from enctools.report.vdi3441 import Vdi3441, from_iso
@@ -72,6 +74,8 @@ class Curve:
     dof: float | None = None        # degrees of freedom of a Type A u (targets' approaches)
     #: the mean of each direction (+1 up, -1 down) per target, where both were approached
     directions: dict[int, np.ndarray] = field(default_factory=dict)
+    #: a long curve's (longcurves.py): then angle, values and u are its plot's envelope
+    digest: Digest | None = None
 
     @property
     def U_max(self) -> float | None:
@@ -190,39 +194,50 @@ def _curve(name: str, unit: str, role: str, angle: np.ndarray, values: np.ndarra
 
 
 def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
-    table = stream.read_all()
-    if table.num_rows == 0:
+    """Each curve with its figures, harmonics and U: a stream of at most
+    ``longcurves.HOLD_ROWS`` rows held whole, a longer one summed block by block."""
+    from enctools.report.budget import curve_budget_into, interpolation_into, stated_dof
+
+    schema = stream.schema
+    if period_domain(s.meta, schema):
+        s.domain = "period"
+    unc = uncertainty_columns(schema)
+    named = [(name, role, unit) for role, unit in (("deviation", "arcsec"), ("radial", "nm"))
+             for name in columns_with_role(schema, role)]
+    got = longcurves.gather(stream, [(n, unit, unc.get(n)) for n, _, unit in named], opts.nmax,
+                            longcurves.radial_pair([n for n, r, _ in named if r == "radial"]))
+    held = got if isinstance(got, pa.Table) else None
+    if held is not None and held.num_rows == 0:
         msg = f"{s.source}: deviations stream has no rows"
         raise DataError(msg)
-    if _period_domain(s.meta, table.schema):
-        s.domain = "period"
-    theta = column(table, "theta", "rad", s.source)
-    unc = uncertainty_columns(table.schema)
-    for role, unit in (("deviation", "arcsec"), ("radial", "nm")):
-        for name in columns_with_role(table.schema, role):
-            fm = field_meta(table.schema.field(name))
-            u = column(table, unc[name], unit, s.source) if name in unc else None
-            in_period = s.domain == "period" and role == "deviation"
-            values = column(table, name, unit, s.source)
-            s.curves.append(_curve(name, unit, role, theta, values, opts, s.source,
-                                   u=u, head=fm.get("head", name if in_period else None),
-                                   domain="period" if in_period else "revolution"))
-            if name in unc:
-                s.curves[-1].k = stated_k(table.schema, unc[name])
-                if role == "deviation" and s.budget is None:
-                    from enctools.report.budget import curve_budget_into, stated_dof
-
-                    curve_budget_into(s, s.curves[-1],
-                                      stated_dof(field_meta(table.schema.field(unc[name]))))
-            if in_period and "period_arcsec" in fm:
-                s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
-            if in_period and fm.get("reference") == "probes":
-                s.curves[-1].extra["probes"] = 1.0      # its reference: the probes
+    longs = {} if isinstance(got, pa.Table) else got.results(s.source)
+    theta = None if held is None else column(held, "theta", "rad", s.source)
+    for name, role, unit in named:
+        fm = field_meta(schema.field(name))
+        in_period = s.domain == "period" and role == "deviation"
+        kw: dict[str, Any] = {"head": fm.get("head", name if in_period else None),
+                              "domain": "period" if in_period else "revolution"}
+        if held is not None and theta is not None:
+            u = column(held, unc[name], unit, s.source) if name in unc else None
+            s.curves.append(_curve(name, unit, role, theta, column(held, name, unit, s.source),
+                                   opts, s.source, u=u, **kw))
+        else:
+            r = longs[name]
+            s.curves.append(Curve(name, unit, role, r.angle, r.values, r.figures, r.harmonics,
+                                  u=r.u, digest=r.digest, **kw))
+        if name in unc:
+            s.curves[-1].k = stated_k(schema, unc[name])
+            if role == "deviation" and s.budget is None:
+                dof = stated_dof(field_meta(schema.field(unc[name])))
+                longcurves.budget(s, lambda: curve_budget_into(s, s.curves[-1], dof),  # noqa: B023
+                                  longs)  # called at once, in this iteration
+        if in_period and "period_arcsec" in fm:
+            s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
+        if in_period and fm.get("reference") == "probes":
+            s.curves[-1].extra["probes"] = 1.0      # its reference: the probes
     if s.budget is None:
-        from enctools.report.budget import interpolation_into
-
-        interpolation_into(s)
-    s.info["grid points"] = table.num_rows
+        longcurves.budget(s, lambda: interpolation_into(s), longs)
+    s.info["grid points"] = held.num_rows if held is not None else got.rows
     s.notes += screen_notes(s.meta.get("signals"))  # interp-check --signals: faults found
     if s.domain == "period":
         periods = sorted({f"{c.extra['period_arcsec']:.4g}" for c in s.curves
@@ -254,27 +269,12 @@ def _spectrum(stream: InputStream, s: Section, opts: Options) -> None:
     if blind:
         s.info["blind harmonics"] = ", ".join(str(b) for b in blind) if isinstance(
             blind, list) else str(blind)
-    if _period_domain(s.meta, table.schema):
+    if period_domain(s.meta, table.schema):
         s.domain = "period"
     for key, label in (("ill_conditioned", "ill-conditioned harmonics"),
                        ("blind_radial", "radial motion x, y blind at")):
         if s.meta.get(key):
             s.info[label] = ", ".join(map(str, s.meta[key]))
-
-
-def stated_k(schema: pa.Schema, u_column: str) -> float:
-    """The coverage factor an uncertainty column states (field metadata ``k``, checked
-    against its range when the stream was read), else 2."""
-    k = field_meta(schema.field(u_column)).get("k")
-    return K_COVERAGE if k is None else float(k)
-
-
-def _period_domain(meta: dict[str, Any], schema: pa.Schema) -> bool:
-    """True when theta is the phase within a signal period (interpolation errors)."""
-    domain = str(meta.get("domain", ""))
-    return domain == "period" or domain.startswith("signal period") or any(
-        "period_arcsec" in field_meta(f) for f in schema
-        if field_meta(f).get("role") == "deviation")
 
 
 # ---------------------------------------------------------------------- points
