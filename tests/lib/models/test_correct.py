@@ -232,28 +232,30 @@ def seed001_loop(d: Path, seed: int | None = None, pipes: bool = True) -> tuple[
     """24 polygon points (noise seed ``seed``, else the rig's) -> fit-rbf's default ->
     23-bit ROM -> enc correct on a dense turn; the s before and after [arcsec] by the
     test's own FPGA (the heads' mean code, its word, against the true motion), which
-    enc correct's figures must equal. ``pipes``: the commands as a shell pipeline, else
-    the same commands one after the other through files, in this process."""
+    enc correct's figures must equal. ``pipes``: the commands as a shell pipeline and the
+    ROM as a MIF, else the same commands one after the other through files, in this
+    process, and the ROM as its binary image (the same words, little-endian int16)."""
     seeded = "" if seed is None else f" --seed {seed}"
     dense = (f"enc acquire --rig ciomp-23bit --mode continuous --revolutions 1 --interval 0.002 "
              f"--seed {11 if seed is None else seed + 10}")
-    correct = f"enc correct --table {d}/rom.mif -o {d}/dev.parquet --json --max-std 0.65"
+    rom = d / ("rom.mif" if pipes else "rom.bin")
+    correct = f"enc correct --table {rom} -o {d}/dev.parquet --json --max-std 0.65"
     if pipes:
         r = run(f"enc acquire --rig ciomp-23bit --mode steps{seeded} | enc points "
-                f"| enc fit-rbf -q | enc make-rom -o {d}/rom.mif -q && "
+                f"| enc fit-rbf -q | enc make-rom -o {rom} -q && "
                 f"{dense} --tee {d}/dense.parquet | {correct}")
     else:
         for cmd in (f"enc acquire --rig ciomp-23bit --mode steps{seeded} -q -o {d}/steps.parquet",
                     f"enc points {d}/steps.parquet -q -o {d}/points.parquet",
                     f"enc fit-rbf {d}/points.parquet -q -o {d}/model.parquet",
-                    f"enc make-rom {d}/model.parquet -o {d}/rom.mif -q",
+                    f"enc make-rom {d}/model.parquet -o {rom} -q",
                     f"{dense} -q -o {d}/dense.parquet"):
             done = run_in_process(cmd)
             assert done.returncode == 0, f"{cmd}: {done.stderr.decode()}"
         r = run_in_process(f"{correct} {d}/dense.parquet")
     s = summary(r)
     header, table = streams.read_table(str(d / "dense.parquet"), "readings")
-    words = mif_words(d / "rom.mif")
+    words = mif_words(rom) if pipes else np.fromfile(rom, dtype="<i2").astype(np.int64)
     assert words.size == 1 << 23
     c1, c2 = (table.column(h).to_numpy() for h in ("F1", "F2"))
     full = 1 << 23
