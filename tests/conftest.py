@@ -31,6 +31,18 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 DATA = Path(__file__).resolve().parent / "data"
 
+# One BLAS thread in the test process and every command it starts, as the enc driver
+# takes for itself (enctools/cli/tuning.py), unless the environment says otherwise: the
+# library's tests run on two workers sharing two cores, and each worker's idle OpenBLAS
+# threads spinning around small matrix products cost many times the work (fit-rbf's
+# search and blocked hold-out on 48 points: 0.89 s of CPU against 0.043 s, on a loaded
+# machine). Set before numpy is first imported (no plugin of the suite imports it).
+if "OMP_NUM_THREADS" not in os.environ:
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+if "numpy" in sys.modules:  # a plugin imported it first: the setting came too late
+    warnings.warn("numpy was imported before tests/conftest.py: OpenBLAS keeps its threads",
+                  stacklevel=1)
+
 # A shell starts a background job (CI's runner may be one) with SIGINT and SIGQUIT
 # ignored, and the commands keep a signal they were started with ignored (nohup, a
 # background job: errors.ending_signals). The suite's commands are stopped as from a

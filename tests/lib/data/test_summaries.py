@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import DATA, ROOT, enc_exe, run
+from conftest import DATA, ROOT, enc_exe, run, run_in_process
 
 MAN = ROOT / "man"
 #: containers whose keys are free (metadata, settings, what a kind tells, ISO figures)
@@ -216,6 +216,8 @@ def test_json_needs_o_file_when_the_stream_takes_stdout(cmd, runs):
 
 
 def test_quiet_is_silent_and_unit_converts(runs, tmp_path):
+    """Each command speaks on stderr, one "enc ..." line at a time, and -q silences it
+    (in this process: the summary's words, not the interpreter, are what is checked)."""
     for cmd in (f"enc average-heads {runs}/run.parquet -o {tmp_path}/a.parquet",
                 f"enc selfcal {runs}/run.parquet -o {tmp_path}/s.parquet",
                 f"enc compare {runs}/run.parquet --device H1,H2,H3,H4 --reference P1,P2 "
@@ -225,16 +227,16 @@ def test_quiet_is_silent_and_unit_converts(runs, tmp_path):
                 f"enc make-rom {tmp_path}/m.parquet --bits 23 --address-bits 16 "
                 f"--allow-no-gain -o {tmp_path}/t.mif",
                 f"enc acquire --rig ciomp-23bit --mode steps -o {tmp_path}/r.parquet"):
-        loud = run(cmd)
+        loud = run_in_process(cmd)
         assert loud.returncode == 0 and loud.stderr.count(b"\n") >= 1, loud.stderr.decode()
         assert all(ln.startswith(b"enc ") for ln in loud.stderr.splitlines())
-        quiet = run(cmd + " --force -q")
+        quiet = run_in_process(cmd + " --force -q")
         assert quiet.returncode == 0 and quiet.stderr == b"", quiet.stderr.decode()
-    text = run(f"enc points {runs}/steps.parquet --unit urad -q -o {tmp_path}/p.parquet --force"
-               f" -v").stderr.decode()
-    arcsec = run(f"enc points {runs}/steps.parquet -o {tmp_path}/p.parquet --force").stderr
+    points = f"enc points {runs}/steps.parquet -o {tmp_path}/p.parquet --force"
+    text = run_in_process(f"{points} --unit urad -q -v").stderr.decode()
+    arcsec = run_in_process(points).stderr
     pp = float(re.search(r'p-p ([0-9.]+)"', arcsec.decode()).group(1))
-    urad = run(f"enc points {runs}/steps.parquet --unit urad -o {tmp_path}/p.parquet --force")
+    urad = run_in_process(f"{points} --unit urad")
     got = float(re.search(r"p-p ([0-9.]+) µrad", urad.stderr.decode()).group(1))
     assert got == pytest.approx(pp * np.pi / 648000 * 1e6, rel=1e-4)
     assert "p-p" not in text  # -q wins over -v for the summary
