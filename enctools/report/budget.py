@@ -146,10 +146,10 @@ def stop_scatter(pos_deg: np.ndarray, target_rad: np.ndarray) -> float:
     target about their target's mean: how far the stops move between approaches, which
     dithers the heads' rounding from approach to approach (each position taken at the
     nearest target)."""
-    target_deg = np.degrees(target_rad)
+    target_deg = np.asarray(target_rad) * factor("rad", "deg")
     d = (pos_deg[:, None] - target_deg[None, :] + 180.0) % 360.0 - 180.0
     index = np.argmin(np.abs(d), axis=1)
-    x = d[np.arange(pos_deg.size), index] * 3600.0
+    x = d[np.arange(pos_deg.size), index] * factor("deg", "arcsec")
     n = np.bincount(index, minlength=target_deg.size)
     dof = int(np.sum(np.maximum(n - 1, 0)))
     if dof == 0:

@@ -1,6 +1,6 @@
 """The positioning section of a step run: encoder - target per target, with ISO 230-2.
 
-A step run of enc acquire (``--mode steps``) records, at each commanded target, the
+A step run of enc acquire (its steps mode) records, at each commanded target, the
 heads of its encoders. The positioning deviation is the mean angle of the heads of the
 encoder the axis does not position on (:mod:`enctools.report.positioning`) minus the
 target [arcsec], its mean removed; :func:`positioning` gives it to the section as a

@@ -26,7 +26,7 @@ FREE = {"info", "settings", "metadata", "axis", "positions", "thresholds_setting
 def documented_keys() -> set[str]:
     text = (MAN / "enc-streams.5").read_text()
     section = text.split(".SH SUMMARIES", 1)[1].split("\n.SH ", 1)[0]
-    return set(re.findall(r"[a-z][a-z0-9]*(?:_[a-z0-9]+)*", section))
+    return set(re.findall(r"[A-Za-z][a-z0-9]*(?:_[a-z0-9]+)*", section))  # U_arcsec too
 
 
 def keys_of(x: object) -> set[str]:
