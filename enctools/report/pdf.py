@@ -43,6 +43,22 @@ def _fonts_folder() -> Path:
 
 #: a heading starts a new page when less than this is left below it [mm]
 KEEP_WITH_HEADING_MM = 45.0
+#: room kept below a figure for its caption (two lines of the oblique body text) [mm]
+CAPTION_MM = 12.0
+
+
+def _figure_mm(part: str) -> float:
+    """The height [mm] a figure's ``<img>`` (a PNG data URI, its width in pt) is laid out
+    at; 0 where the tag says neither."""
+    import base64
+    import struct
+
+    m = re.match(r'<img src="data:image/png;base64,([A-Za-z0-9+/]{32})[^"]*" width="(\d+)"',
+                 part)
+    if m is None:
+        return 0.0
+    wide, high = struct.unpack(">II", base64.b64decode(m.group(1))[16:24])  # IHDR [px]
+    return float(m.group(2)) * high / max(wide, 1) * 25.4 / 72.0
 
 
 def _document(title: str, number: str) -> Any:
@@ -101,9 +117,12 @@ def document_pdf(doc: dict[str, Any]) -> bytes:
     pdf = _document(str(doc["title"]), str(doc["number"]))
     pdf.add_page()
     styles = _styles()
-    # laid out a heading at a time: a heading too near the foot of a page starts the next
-    for part in re.split(r"(?=<h[23]>)", render(doc, page=False)):
-        if part.startswith(("<h2>", "<h3>")) and pdf.will_page_break(KEEP_WITH_HEADING_MM):
+    # laid out a heading and a figure at a time: a heading too near the foot of a page,
+    # or a figure with its caption that the page cannot hold, starts the next
+    for part in re.split(r"(?=<h[23]>)|(?=<img )", render(doc, page=False)):
+        keep = (KEEP_WITH_HEADING_MM if part.startswith(("<h2>", "<h3>"))
+                else _figure_mm(part) + CAPTION_MM if part.startswith("<img ") else 0.0)
+        if keep and pdf.will_page_break(keep):
             pdf.add_page()
         pdf.write_html(part, font_family=FAMILY, tag_styles=styles,
                        table_line_separators=True, li_prefix_color=(60, 60, 60))
