@@ -121,9 +121,11 @@ class ControlTable:
         p = np.asarray(self.table.positions_rad)
         step = np.diff(p) / DEG
         bidirectional = self.table.backward_rad is not None or self.table.backlash_rad is not None
+        lash = self.table.backlash_rad
         return {"family": "points", "format": self.fmt, "entries": int(p.size),
                 "bidirectional": bidirectional,
-                "step_deg": float(step.mean()) if step.size else 360.0}
+                "step_deg": float(step.mean()) if step.size else 360.0} \
+            | ({} if lash is None else {"backlash_arcsec": lash / ARCSEC})
 
 
 @dataclass(frozen=True)
@@ -419,20 +421,20 @@ def check_applies(settings: TableSettings, fmt: str, path: str) -> None:
     (:meth:`~.romformats.record.TableFormat.reads`), a memory's layout for a controller's
     table, ``endian`` for a table of text."""
     record = registry.find(fmt)  # None: a stream
-    what = f"{path} is a stream" if record is None else f"{path} is a {fmt} table"
+    what = f"not the stream {path}" if record is None else f"not the {fmt} table {path}"
     for name in ("sign", *registry.READ_SETTINGS):
         if name in settings.options_given and (record is None or not record.reads(name)):
             takes = ", ".join(r.name for r in registry.records() if r.reads(name))
-            msg = f"`{name}` applies to {takes}; {what}"
+            msg = f"`{name}` applies to {takes}, {what}"
             raise SettingsError(msg)
     layout = settings.given()
     if record is not None and record.points and layout:
         msg = (f"{next(iter(layout))} describes a memory's table "
-               f"({', '.join(registry.names(registry.MEMORY))}); {what}")
+               f"({', '.join(registry.names(registry.MEMORY))}), {what}")
         raise SettingsError(msg)
     if settings.endian is not None and (record is None or not record.binary):
         binary = " and ".join(r.name for r in registry.records() if r.binary)
-        msg = f"`endian` applies to {binary} (binary images); {what}"
+        msg = f"`endian` applies to {binary} (binary images), {what}"
         raise SettingsError(msg)
 
 

@@ -87,7 +87,9 @@ def test_enc_correct_closes_the_gap_between_directions(step_run, tmp_path):  # n
     fixed = tmp_path / "fixed.parquet"
     r = run(f"enc correct {points} --table {out} --json -o {fixed}")
     assert r.returncode == 0, r.stderr.decode()
-    assert json.loads(r.stdout)["table"]["bidirectional"] is True
+    described = json.loads(r.stdout)["table"]
+    assert described["bidirectional"] is True
+    assert described["backlash_arcsec"] == pytest.approx(s["backlash_arcsec"])
     t = pq.read_table(fixed)
     k = np.rint(np.mod(np.degrees(t.column("position").to_numpy()), 360.0) / 15.0)
     k = k.astype(int) % TARGETS
@@ -148,3 +150,55 @@ def test_no_summary_figure_is_minus_zero():
     assert all(math.copysign(1.0, v) == 1.0 or v < 0
                for v in summary.values() if isinstance(v, float))
     assert "-0" not in json.dumps(summary)
+
+
+def test_correct_refuses_what_a_format_does_not_read():
+    """Every reader option (sign, array_name, comp_type, axis, detection_unit_deg) walked
+    through every registered format: refused, one line naming the formats that take it,
+    exactly where the format's reader is not told it; a memory's layout refused for
+    every controller's and control's file; endian for all but the binary images."""
+    from enctools.errors import SettingsError
+    from enctools.models import correction
+    from enctools.models.romformats import registry
+
+    readers = {"sign": {"acs", "twincat-nc", "fanuc", "fanuc-param", "heidenhain"},
+               "array_name": {"acs"}, "comp_type": {"linuxcnc"},
+               "axis": {"heidenhain", "fanuc-param"},
+               "detection_unit_deg": {"fanuc-param"}}
+    for fmt in [*registry.names(), correction.STREAM]:
+        for name, takes in readers.items():
+            settings = correction.TableSettings(options_given=frozenset({name}))
+            if fmt in takes:
+                correction.check_applies(settings, fmt, "t")
+                continue
+            with pytest.raises(SettingsError, match=f"{name} applies to .*, not the .*t$"):
+                correction.check_applies(settings, fmt, "t")
+        record = registry.find(fmt)
+        layout = correction.TableSettings(width=8)
+        if record is not None and record.points:
+            with pytest.raises(SettingsError, match="describes a memory's table"):
+                correction.check_applies(layout, fmt, "t")
+        else:
+            correction.check_applies(layout, fmt, "t")
+        endian = correction.TableSettings(endian="big")
+        if fmt in ("bin", "ihex"):
+            correction.check_applies(endian, fmt, "t")
+        elif record is None or not record.points:
+            with pytest.raises(SettingsError, match="endian applies to bin and ihex"):
+                correction.check_applies(endian, fmt, "t")
+
+
+def test_make_rom_takes_each_option_where_a_format_uses_it():
+    """The options of the addressed tables walked through the records: lsb the memories'
+    (a controller's steps at its resolution), endian the binary images', zone and
+    array_name only where the program names them, backlash SINUMERIK's of the
+    controllers'."""
+    from enctools.models.romformats import registry
+
+    takers = {name: {r.name for r in registry.records() if name in r.accepts}
+              for name in ("lsb", "endian", "zone", "array_name", "backlash")}
+    assert takers["lsb"] == set(registry.names(registry.MEMORY))
+    assert takers["endian"] == {"bin", "ihex"}
+    assert takers["zone"] == {"acs", "siemens"}
+    assert takers["array_name"] == {"acs"}
+    assert takers["backlash"] == {"siemens", *registry.names(registry.CONTROL)}
