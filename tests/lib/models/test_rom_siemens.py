@@ -10,10 +10,10 @@ import json
 import re
 
 import numpy as np
-import pyarrow.parquet as pq
 import pytest
 from conftest import one_error_line, run, run_in_process
 from test_rom_controls import TARGETS, known_reversal, step_run  # noqa: F401 (fixture)
+from test_rom_fanuc import direction_means
 
 from enctools.models import romformats as rf
 
@@ -90,12 +90,7 @@ def test_enc_correct_closes_the_gap_between_directions(step_run, tmp_path):  # n
     described = json.loads(r.stdout)["table"]
     assert described["bidirectional"] is True
     assert described["backlash_arcsec"] == pytest.approx(s["backlash_arcsec"])
-    t = pq.read_table(fixed)
-    k = np.rint(np.mod(np.degrees(t.column("position").to_numpy()), 360.0) / 15.0)
-    k = k.astype(int) % TARGETS
-    direction, dev = t.column("direction").to_numpy(), t.column("deviation").to_numpy()
-    up, down = (np.array([dev[(k == j) & (direction == d)].mean() for j in range(TARGETS)])
-                for d in (1, -1))
+    up, down = direction_means(fixed)
     assert np.max(np.abs(up[::3])) <= RES_ARCSEC / 2 * (1 + 1e-6) + 0.02
     gap = float(np.mean(up - down))
     assert abs(gap - (s["reversal_mean_arcsec"] - s["backlash_arcsec"])) < 1e-6
@@ -113,17 +108,6 @@ def test_refusals_are_one_line(step_run, tmp_path, opts, says):  # noqa: F811
                        f"--resolution {RES} --backlash {opts} -o {out}")
     assert says in one_error_line(r, 2, "enc make-rom")
     assert not out.exists() and not (tmp_path / "t_tea.ini").exists()
-
-
-def test_backlash_needs_both_directions(tmp_path):
-    r = run(f"enc acquire --rig ciomp-23bit --mode steps --count 8 --readings 2 -q | "
-            f"enc points -q -o {tmp_path}/one.parquet")
-    assert r.returncode == 0, r.stderr.decode()
-    out = tmp_path / "t.spf"
-    r = run_in_process(f"enc make-rom {tmp_path}/one.parquet --target siemens --bits 23 "
-                       f"--address-bits 3 --resolution {RES} --backlash --allow-coarse -o {out}")
-    assert "needs a step run with both directions" in one_error_line(r, 2, "enc make-rom")
-    assert not out.exists()
 
 
 def test_reader_refuses_another_axis(step_run, tmp_path):  # noqa: F811
