@@ -111,7 +111,7 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
     settings = correction.TableSettings(
         fmt=target, code_bits=code_bits, address_bits=address_bits, width=width, lsb=lsb,
         endian=endian, array_name=array_name, sign=sign, comp_type=comp_type, axis=axis,
-        detection_unit_deg=detection_unit)
+        detection_unit_deg=detection_unit, options_given=_given_read_settings())
 
     def table_for(rig_bits: int | None) -> correction.Correction:
         return correction.load(table_path, settings, curve, rig_bits)
@@ -135,6 +135,21 @@ def command(input: str | None, table_path: str, target: str | None, code_bits: i
                         f"the corrected {header.kind} of {extra['input']['source']}")
     if bad:
         raise CheckFailed("; ".join(bad))
+
+
+#: the options a controller's file reader is told -> the field of TableSettings each sets
+READ_OPTIONS = {"sign": "sign", "array_name": "array_name", "comp_type": "comp_type",
+                "axis": "axis", "detection_unit": "detection_unit_deg"}
+
+
+def _given_read_settings() -> frozenset[str]:
+    """The fields of :data:`READ_OPTIONS` set by an option given (not its default): the
+    library refuses each for a table whose reader is not told it."""
+    from click.core import ParameterSource
+
+    ctx = click.get_current_context()
+    return frozenset(field for param, field in READ_OPTIONS.items()
+                     if ctx.get_parameter_source(param) not in (ParameterSource.DEFAULT, None))
 
 
 def _apply(input: str | None, table_for: TableFor, readings: ReadingsSettings,

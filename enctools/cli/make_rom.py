@@ -73,8 +73,9 @@ MODES = {"Memories' and controllers' tables (addressed by the code)":
               help="linuxcnc, twincat: one table per direction (default: one table of the mean "
                    "of both directions).")
 @click.option("--backlash", is_flag=True, default=False,
-              help="fanuc, fanuc-param: write the step run's mean reversal as the backlash "
-                   "(1851) and the positive direction's table (default: the mean of both).")
+              help="fanuc, fanuc-param, siemens: write the step run's mean reversal as the "
+                   "backlash (1851; MD32450 in a machine data file beside the table) and the "
+                   "positive direction's table (default: the mean of both).")
 @click.option("--sign", type=click.Choice(["correction", "error"]), default=None,
               help="acs, fanuc, fanuc-param, heidenhain, twincat-nc: whether the control "
                    "stores the correction or the error.")
@@ -139,7 +140,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
 
     from enctools.cli.summary import check_json, emit
     from enctools.data.streams import with_history
-    from enctools.models import rom, romformats
+    from enctools.models import rom, romformats, romsource
 
     target, path = _target(target, output, force, fmt)
     check_json(as_json, output, "-o FILE (a table file or a stream file)")
@@ -152,39 +153,62 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
         _control(input, curve, control, str(path), (force, verify, outside), as_json, unit,
                  (allow_no_gain, allow_coarse), mapping)
         return
-    src, evaluate, extent = _measured_model(input, family, curve, outside, mapping)
+    src, (evaluate, reversal), extent = _measured_model(input, family, curve, outside,
+                                                        mapping, backlash)
     settings = rom.Settings(
         _bits_from_rig(src.header.meta) if code_bits is None else code_bits,
         address_bits=address_bits, width=width, lsb=lsb, sample=sample, target=target,
         endian=endian, axis=axis, zone=zone, array_name=array_name, max_entries=max_entries,
-        resolution_deg=resolution_deg, sign=sign)
+        resolution_deg=resolution_deg, sign=sign, backlash=backlash)
     _before_work(path, force, src.header.meta, allow_no_gain)
     t0 = time.monotonic()
     table = rom.scan_rom(evaluate, settings.spec, runner.Progress("evaluating", "entries"))
     _guard("rom", table, allow_coarse)
     summary = _rom_summary(table, src.header, curve, evaluate, settings) | extent
+    if reversal is not None and settings.resolution_deg is not None:
+        summary |= romsource.backlash_summary(reversal, settings.resolution_deg)
     size = None
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,
                                    settings=settings.to_meta())
         rom.write_stream(output, with_history(header, output=output), table.values, force, fmt)
     else:
-        size = romformats.write_table(path, table.values, settings.table, force,
-                                      table.file_comment(path) + _range_line(summary))
-        if verify:
-            romformats.verify_table(path, table.values, settings.table)
+        size = _write_file(path, table, settings, summary, (force, verify))
     emit(_summary(summary, size, output, time.monotonic() - t0, verify), as_json, unit)
 
 
+def _write_file(path: str, table: Rom, settings: Settings, summary: dict[str, Any],
+                flags: tuple[bool, bool]) -> int:
+    """A memory's or controller's table file written (``flags``: --force, --verify) with
+    its backlash machine datum file where the summary has one (its name then added to
+    the summary), verified: the file's size [byte]."""
+    from enctools.models import romformats
+
+    force, verify = flags
+    lash = summary.get("backlash_steps")
+    size = romformats.write_table(path, table.values, settings.table, force,
+                                  table.file_comment(path) + _range_line(summary), lash)
+    if verify:
+        romformats.verify_table(path, table.values, settings.table)
+    if lash is not None:
+        summary["machine_data"] = romformats.backlash_path(path, settings.target)
+        if verify:
+            romformats.verify_backlash(path, settings.target, summary["reversal_mean_arcsec"],
+                                       summary["backlash_unit_deg"])
+    return size
+
+
 def _measured_model(input: str | None, family: str | None, curve: str | None,
-                    outside: str | None, mapping: Mapping
-                    ) -> tuple[InputStream, Callable[[np.ndarray], np.ndarray], dict[str, Any]]:
+                    outside: str | None, mapping: Mapping, backlash: bool
+                    ) -> tuple[InputStream, tuple[Callable[[np.ndarray], np.ndarray],
+                                                  np.ndarray | None], dict[str, Any]]:
     """The input opened (a controller's table is built from a step run too), the deviation
     [arcsec] at angles [deg] a memory table is built from, restricted to the range its
-    source measured (refused over a partial one without ``outside``), and what the summary
-    says of that range."""
+    source measured (refused over a partial one without ``outside``), the step run's
+    reversal per target [arcsec] with ``backlash`` (the deviation then its positive
+    direction's), and what the summary says of that range."""
     from enctools.methods.points import open_points
-    from enctools.models import domain, rom
+    from enctools.models import domain, romsource
     from enctools.models.romformats import registry
 
     kinds = ("model", "deviations") + (("points",) if family == registry.CONTROLLER else ())
@@ -192,9 +216,9 @@ def _measured_model(input: str | None, family: str | None, curve: str | None,
 
     rows = src.read_all()
     measured = domain.measured_of(src.header, rows, src.source)
-    evaluate = domain.restrict(rom.deviation_model(src.header, rows, src.source, curve),
-                               measured, outside, src.source)
-    return src, evaluate, domain.summary(measured, outside)
+    model, reversal = romsource.deviation_model(src.header, rows, src.source, curve, backlash)
+    evaluate = domain.restrict(model, measured, outside, src.source)
+    return src, (evaluate, reversal), domain.summary(measured, outside)
 
 
 def _rom_summary(table: Rom, header: Header, curve: str | None,
@@ -202,12 +226,13 @@ def _rom_summary(table: Rom, header: Header, curve: str | None,
                  ) -> dict[str, Any]:
     """The table's summary, the model it came from and, for a controller's table, what
     the control's interpolation between its points costs [arcsec]."""
-    from enctools.models import rom
+    from enctools.models import romsource
 
     summary: dict[str, Any] = table.summary()
     summary["model"] = header.meta.get("model", {"kind": header.kind, "curve": curve})
     if settings.controller:
-        summary["interpolation_error_arcsec"] = rom.interpolation_error(evaluate, settings.spec)
+        summary["interpolation_error_arcsec"] = romsource.interpolation_error(evaluate,
+                                                                              settings.spec)
     return summary
 
 
@@ -243,7 +268,7 @@ def _check_applies(target: str) -> str | None:
 
     ctx = click.get_current_context()
     fmt = None if target == "stream" else registry.get(target)
-    takes = registry.ADDRESSED_SETTINGS if fmt is None else fmt.accepts
+    takes = registry.ADDRESSED_SETTINGS | {"lsb"} if fmt is None else fmt.accepts
     for name in (n for names in MODES.values() for n in names if n != "fmt"):
         if name in takes or \
                 ctx.get_parameter_source(name) != click.core.ParameterSource.COMMANDLINE:
@@ -260,7 +285,8 @@ def _formats_taking(name: str) -> str:
 
     if name in registry.ADDRESSED_SETTINGS:
         return "the memories' tables, " + " and ".join(registry.names(registry.CONTROLLER))
-    return ", ".join(r.name for r in registry.records() if name in r.accepts)
+    return ", ".join([r.name for r in registry.records() if name in r.accepts]
+                     + (["stream"] if name == "lsb" else []))
 
 
 def _increment_systems() -> tuple[str, ...]:
@@ -311,14 +337,14 @@ def _control(input: str | None, curve: str | None, settings: ControlSettings, pa
     from enctools.cli.summary import emit
     from enctools.data.header import history_line
     from enctools.methods.points import open_points
-    from enctools.models import domain, rom, romformats
+    from enctools.models import domain, romformats, romsource
     from enctools.models.romformats import controls
 
     force, verify, outside = flags
     t0 = time.monotonic()
     src = open_points(input, ("points", "model", "deviations"), mapping)
     rows = src.read_all()
-    source = rom.control_source(src.header, rows, src.source, curve)
+    source = romsource.control_source(src.header, rows, src.source, curve)
     measured = source.measured or domain.measured_of(src.header, rows, src.source)
     source = domain.restrict_source(source, measured, outside, src.source)
     table = controls.build(settings, source)
@@ -390,7 +416,10 @@ def _bits_from_rig(meta: dict) -> int:
 
 def _summary(s: dict, size: int | None, output: str | None, seconds: float,
              verified: bool) -> dict:
-    """The table's layout, its corrections [LSB, arcsec], CRC-32 and file (enc-streams(5))."""
+    """The table's layout, its corrections [LSB, arcsec], CRC-32 and file (enc-streams(5)),
+    and a backlash machine datum written beside it (its file, steps, unit and value)."""
+    from enctools.models import romsource
+
     corrections = {k: s[k] for k in ("min_lsb", "max_lsb", "max_quantisation_error_lsb",
                                      "max_quantisation_error_arcsec", "interpolation_error_arcsec")
                    if k in s}
@@ -399,7 +428,7 @@ def _summary(s: dict, size: int | None, output: str | None, seconds: float,
            "corrections": corrections,
            "crc32": {"value": s["crc32"], "of": s["crc32_of"], "image_bytes": s["image_bytes"]},
            "output": output or "-", "elapsed_s": round(seconds, 3)}
-    out |= {k: s[k] for k in ("measured_range", "outside") if k in s}
+    out |= {k: s[k] for k in ("measured_range", "outside", *romsource.BACKLASH_KEYS) if k in s}
     if size is not None:  # a table file, verified or not (a stream is not)
         out |= {"file_bytes": size, "verified": verified}
     return out

@@ -121,9 +121,11 @@ class ControlTable:
         p = np.asarray(self.table.positions_rad)
         step = np.diff(p) / DEG
         bidirectional = self.table.backward_rad is not None or self.table.backlash_rad is not None
+        lash = self.table.backlash_rad
         return {"family": "points", "format": self.fmt, "entries": int(p.size),
                 "bidirectional": bidirectional,
-                "step_deg": float(step.mean()) if step.size else 360.0}
+                "step_deg": float(step.mean()) if step.size else 360.0} \
+            | ({} if lash is None else {"backlash_arcsec": lash / ARCSEC})
 
 
 @dataclass(frozen=True)
@@ -160,6 +162,8 @@ class TableSettings:
     comp_type : linuxcnc: COMP_FILE_TYPE (0 or 1).
     axis : heidenhain: the table's column; fanuc-param: the axis number.
     detection_unit_deg : fanuc-param: the axis's detection unit [deg].
+    options_given : which of ``sign`` and :data:`~.romformats.registry.READ_SETTINGS` were given
+        (not defaults): each is refused for a table whose format's reader is not told it.
     """
 
     fmt: str | None = None
@@ -173,6 +177,7 @@ class TableSettings:
     comp_type: int = 0
     axis: str | None = None
     detection_unit_deg: float = 1e-3
+    options_given: frozenset[str] = frozenset()
 
     def __post_init__(self) -> None:
         if not (0 < self.detection_unit_deg <= 1 and np.isfinite(self.detection_unit_deg)):
@@ -410,6 +415,29 @@ def source_format(path: str, fmt: str | None) -> str:
     return found
 
 
+def check_applies(settings: TableSettings, fmt: str, path: str) -> None:
+    """Refuse (SettingsError, one line) a setting given that the table's format does not
+    take (its reader would not be told it): ``sign`` and the controllers' read settings
+    (:meth:`~.romformats.record.TableFormat.reads`), a memory's layout for a controller's
+    table, ``endian`` for a table of text."""
+    record = registry.find(fmt)  # None: a stream
+    what = f"not the stream {path}" if record is None else f"not the {fmt} table {path}"
+    for name in ("sign", *registry.READ_SETTINGS):
+        if name in settings.options_given and (record is None or not record.reads(name)):
+            takes = ", ".join(r.name for r in registry.records() if r.reads(name))
+            msg = f"`{name}` applies to {takes}, {what}"
+            raise SettingsError(msg)
+    layout = settings.given()
+    if record is not None and record.points and layout:
+        msg = (f"{next(iter(layout))} describes a memory's table "
+               f"({', '.join(registry.names(registry.MEMORY))}), {what}")
+        raise SettingsError(msg)
+    if settings.endian is not None and (record is None or not record.binary):
+        binary = " and ".join(r.name for r in registry.records() if r.binary)
+        msg = f"`endian` applies to {binary} (binary images), {what}"
+        raise SettingsError(msg)
+
+
 def load(path: str, settings: TableSettings, curve: str | None = None,
          rig_bits: int | None = None) -> Correction:
     """The correction held by ``path``: a table file of any format enc make-rom writes,
@@ -420,6 +448,7 @@ def load(path: str, settings: TableSettings, curve: str | None = None,
         msg = "`table_path` must name a file (the input is read from stdin)"
         raise SettingsError(msg)
     fmt = source_format(path, settings.fmt)
+    check_applies(settings, fmt, path)
     if fmt != STREAM:
         if curve is not None:
             msg = f"`curve` chooses a curve of a deviations stream; {path} is a table file"

@@ -153,6 +153,9 @@ class Settings:
     resolution_deg : acs, siemens: the control's resolution [deg], a power of ten: the
         table is quantised to it (the LSB is set from it) and printed at it.
     sign : acs: ``correction`` or ``error`` (the control's convention is not confirmed).
+    backlash : write the step run's mean reversal as the control's backlash machine datum,
+        in a file beside the table (where the format's record has one: SINUMERIK's
+        MD32450), with the table of the positive direction instead of both directions' mean.
     """
 
     code_bits: int
@@ -168,6 +171,7 @@ class Settings:
     max_entries: int | None = None
     resolution_deg: float | None = None
     sign: str | None = None
+    backlash: bool = False
 
     def __post_init__(self) -> None:
         addressed = registry.names(registry.MEMORY, registry.CONTROLLER)
@@ -178,6 +182,14 @@ class Settings:
         self.spec.check()
         if self.target != "stream":
             romformats.check_capacity(self.table, self.spec.entries)
+        if self.backlash:
+            lash = registry.get(self.target).backlash_file if self.controller else None
+            if lash is None:
+                takes = [r.name for r in registry.records() if r.backlash_file is not None]
+                msg = f"`backlash` applies to {', '.join(takes)} here, not `target` {self.target}"
+                raise SettingsError(msg)
+            if lash.check is not None:
+                lash.check(self.table)
 
     def _check_controller_options(self) -> None:
         """``zone`` and ``max_entries`` in their ranges; ``axis`` and ``max_entries`` only where a
@@ -530,61 +542,3 @@ def write_stream(output: str | None, header: Header, values: np.ndarray, force: 
             v = values[start:start + rows]
             out.write(pa.record_batch([arrow_array(np.arange(start, start + v.size)),
                                        arrow_array(v.astype(np.int64))], schema=schema))
-
-
-def control_source(header: Header, table: pa.Table, source: str, curve: str | None
-                   ) -> romformats.controls.Source:
-    """What a control's table is built from: a ``points`` stream (a step run: the means
-    per target and direction) or a model or deviations stream (one direction)."""
-    from enctools.data.columns import column, declared_unit
-    from enctools.methods.points import count_deg
-    from enctools.models.curve_model import from_stream
-    from enctools.models.romformats import steprun
-
-    if header.kind != "points":
-        return steprun.from_model(from_stream(header, table, source, curve))
-    if curve is not None:
-        msg = f"`curve` chooses a curve of a deviations stream; {source} is a points stream"
-        raise SettingsError(msg)
-    position = column(table, "position", "deg", source,
-                      declared_unit("points", header.meta, "position"))
-    deviation = column(table, "deviation", "arcsec", source)
-    direction, run = (table.column(c).to_numpy(zero_copy_only=False)
-                      if c in table.schema.names else None for c in ("direction", "run"))
-    return steprun.from_points(position, deviation, direction, run, count_deg(header.meta))
-
-
-def deviation_model(header: Header, table: pa.Table, source: str, curve: str | None
-                    ) -> Callable[[np.ndarray], np.ndarray]:
-    """The deviation [arcsec] at angles [deg] a table is built from: a model or deviations
-    stream's (its evaluator, which may evaluate a uniform grid fast: ``on_grid``), or a
-    step run's (points stream) mean over both directions per target."""
-    from enctools.models.curve_model import from_stream
-
-    if header.kind != "points":
-        return from_stream(header, table, source, curve)
-    s = control_source(header, table, source, curve)
-    if s.backward is None:
-        return s.forward
-    forward, backward = s.forward, s.backward
-    return lambda a: (forward(a) + backward(a)) / 2.0
-
-
-#: angles over the turn at which a controller table's interpolation is checked
-INTERPOLATION_CHECKS = 14_400
-
-
-def interpolation_error(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec) -> float:
-    """The largest difference [arcsec] between a controller's linear interpolation of the
-    model's values at the table's points (before rounding) and the model, at
-    INTERPOLATION_CHECKS angles over the turn and the points' midpoints (tables up to
-    2^16 points; a finer table is checked at the INTERPOLATION_CHECKS angles only)."""
-    first, step = spec.grid_deg()
-    points = first + np.arange(spec.entries + 1) * step
-    values = np.asarray(deviation(points), dtype=np.float64)
-    check = np.arange(INTERPOLATION_CHECKS) * (360.0 / INTERPOLATION_CHECKS)
-    if spec.entries <= 1 << 16:
-        check = np.r_[check, points[:-1] + step / 2.0]
-    at = first + np.mod(check - first, 360.0)
-    return float(np.max(np.abs(np.interp(at, points, values)
-                               - np.asarray(deviation(at), dtype=np.float64))))

@@ -85,12 +85,16 @@ def check_capacity(target: Target, entries: int) -> None:
 
 
 def write_table(path: str, values: np.ndarray, target: Target, force: bool = False,
-                comment: list[str] | None = None) -> int:
-    """Write ``values`` [LSB] to ``path`` atomically (temporary file, then rename).
+                comment: list[str] | None = None, backlash: int | None = None) -> int:
+    """Write ``values`` [LSB] to ``path`` atomically (temporary file, then rename), with
+    the ``backlash`` machine datum [LSB] in its own file beside it where one is given
+    (:func:`backlash_path`; both or neither written).
 
     Returns the file's size [byte].
     """
     check_capacity(target, values.size)
+    if backlash is not None:
+        return _write_with_backlash(path, values, target, force, comment or [], backlash)
     from dataclasses import replace
 
     from enctools.data.csvio import sidecar_path
@@ -116,6 +120,37 @@ def write_table(path: str, values: np.ndarray, target: Target, force: bool = Fal
         group.write(path, lambda f: writer(f, values, target, lines), force=force)
         group.write(side, headers.sidecar(layout, target.fmt, Path(path).name, lines),
                     force=force)
+    return Path(path).stat().st_size
+
+
+def backlash_path(path: str, target: str) -> str | None:
+    """The machine data file written beside a controller's table ``path`` with its
+    backlash (SINUMERIK: the table's stem + ``_tea.ini``, in the case of its extension),
+    or None where the format writes none."""
+    lash = registry.get(target).backlash_file
+    if lash is None:
+        return None
+    p = Path(path)
+    suffix = lash.suffix.upper() if p.suffix.isupper() else lash.suffix
+    return str(p.with_name(p.stem + suffix))
+
+
+def _write_with_backlash(path: str, values: np.ndarray, target: Target, force: bool,
+                         comment: list[str], backlash: int) -> int:
+    """The table and its backlash machine datum file, as one output."""
+    from enctools.data.files import OutputGroup, check_new_file
+
+    fmt = registry.get(target.fmt)
+    side = backlash_path(path, target.fmt)
+    if fmt.backlash_file is None or side is None or fmt.write_values is None:
+        msg = f"{target.fmt}: no backlash machine datum is written beside its table"
+        raise SettingsError(msg)
+    write_values, write_lash = fmt.write_values, fmt.backlash_file.write
+    check_new_file(path, force)
+    check_new_file(side, force)
+    with OutputGroup() as group:
+        group.write(path, lambda f: write_values(f, values, target, comment), force=force)
+        group.write(side, lambda f: write_lash(f, target, backlash, comment), force=force)
     return Path(path).stat().st_size
 
 
@@ -226,11 +261,17 @@ def read_points(path: str, target: str, options: PointOptions) -> PointTable:
                "correction or `sign` error, as make-rom was given it")
         raise SettingsError(msg)
     try:
-        return fmt.read_points(data, path, options)
+        table = fmt.read_points(data, path, options)
     except (ValueError, OverflowError, IndexError, KeyError) as exc:
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         msg = f"{path}: not a readable {target} table ({why})"
         raise DataError(msg) from None
+    side = backlash_path(path, target)
+    if fmt.backlash_file is None or side is None or not Path(side).is_file():
+        return table
+    from dataclasses import replace
+
+    return replace(table, backlash_rad=fmt.backlash_file.read(read_bytes(side), side, data) * DEG)
 
 
 def _verify_companion(path: str, target: str, axis: str | None) -> None:
@@ -257,6 +298,17 @@ def _verify_backlash(path: str, table: ControlTable, read: PointTable) -> None:
         shown = "none" if got is None else f"{got / ARCSEC:.6g} arcsec"
         msg = (f"{path}: the backlash read back ({shown}) is not within half its unit of "
                f"{table.intended_backlash_rad / ARCSEC:.6g} arcsec")
+        raise CheckFailed(msg)
+
+
+def verify_backlash(path: str, target: str, intended_arcsec: float, unit_deg: float) -> None:
+    """CheckFailed unless the backlash machine datum read back with the controller's table
+    ``path`` (:func:`read_points`) is within half its unit [deg] of ``intended_arcsec``."""
+    got = read_points(path, target, Reading()).backlash_rad
+    if got is None or abs(got / ARCSEC - intended_arcsec) > unit_deg * 3600.0 / 2 * (1 + 1e-6):
+        shown = "none" if got is None else f"{got / ARCSEC:.6g} arcsec"
+        msg = (f"{backlash_path(path, target)}: the backlash read back ({shown}) is not within "
+               f"half its unit of {intended_arcsec:.6g} arcsec")
         raise CheckFailed(msg)
 
 

@@ -414,3 +414,44 @@ def read_twincat_nc(data: bytes, src: str, options: PointOptions) -> PointTable:
     modulo = p.get("MODULO", "FALSE").upper() == "TRUE"
     return PointTable(pos * DEG, (val if options.sign == "correction" else -val) * DEG,
                       modulo_rad=(hi - lo) * DEG if modulo else None)
+
+
+#: a SINUMERIK machine data assignment line: an optional MD number (N32450), the
+#: assignment, an optional line checksum (' and 4 hex digits), an optional ; comment
+_MD_LINE = re.compile(r"(?:N\d+\s*)?\$MA_BACKLASH\[\s*(\d+)\s*,\s*(\w+)\s*\]\s*=\s*"
+                      r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:'[0-9A-Fa-f]{4})?\s*"
+                      r"(?:;.*)?")
+
+
+def read_siemens_backlash(data: bytes, src: str, table: bytes) -> float:
+    """MD32450 $MA_BACKLASH [deg] of a SINUMERIK machine data file (``%_N_AX<n>_TEA_INI``
+    first, assignment lines, ``;`` comments, M17) for the measuring system and axis the
+    table ``table`` compensates (its ``$AA_ENC_COMP[e,N,axis]`` lines): the axis the
+    file's name numbers, the value positive when the encoder leads the machine part."""
+    lines = [ln.strip() for ln in data.decode("latin-1").splitlines()]
+    name = re.fullmatch(r"%_N_(AX\d+)_TEA_INI", lines[0] if lines else "")
+    if name is None:
+        msg = f"{src}: not a machine data file of an axis (%_N_AX<n>_TEA_INI first)"
+        raise DataError(msg)
+    m = re.search(rb"^\s*\$AA_ENC_COMP\[\s*(\d+)\s*,\s*\d+\s*,\s*(\w+)\s*\]", table,
+                  re.MULTILINE)
+    if m is None:
+        msg = f"{src}: the table beside it has no $AA_ENC_COMP line naming its axis"
+        raise DataError(msg)
+    zone, axis = int(m.group(1)), m.group(2).decode("latin-1")
+    if axis != name.group(1):
+        msg = f"{src}: holds the machine data of {name.group(1)}, the table compensates {axis}"
+        raise DataError(msg)
+    found = {}
+    for line in lines[1:]:
+        if not line or line.startswith(";") or line == "M17":
+            continue
+        md = _MD_LINE.fullmatch(line)
+        if md is None or md.group(2) != axis:
+            msg = f"{src}: cannot read {line[:40]!r} (an $MA_BACKLASH line of {axis})"
+            raise DataError(msg)
+        found[int(md.group(1))] = float(md.group(3))
+    if zone not in found or not np.isfinite(found[zone]):
+        msg = f"{src}: no $MA_BACKLASH[{zone},{axis}] (the table's measuring system)"
+        raise DataError(msg)
+    return found[zone]

@@ -84,9 +84,7 @@ class ControlSettings:
         self._increment_system()
         self._check_backlash()
         if self.bidirectional and not spec.bidirectional:
-            msg = (f"{self.target}: a bidirectional table is not written: the control's "
-                   "backward-direction table is not confirmed (enc-make-rom(1), CONTROLS); "
-                   "leave out `bidirectional`")
+            msg = f"{self.target}: `bidirectional`: {spec.no_bidirectional}"
             raise SettingsError(msg)
         if fmt.sign is None and self.sign is None:
             msg = (f"{self.target}: the sign of a stored value (correction added, or error "
@@ -398,4 +396,5 @@ def _summary(t: ControlTable, source: Source, fwd: np.ndarray, bwd: np.ndarray |
         out |= {"direction": "positive, backlash apart", "backlash_steps": t.backlash,
                 "backlash_unit_deg": unit,
                 "backlash_arcsec": t.backlash * unit * ARCSEC_PER_DEG}
-    return out
+    # no figure is -0.0 (printed "-0"): a correction of 0 at the home position negated
+    return {k: v + 0.0 if isinstance(v, float) else v for k, v in out.items()}

@@ -16,7 +16,7 @@ import numpy as np
 
 from enctools.errors import SettingsError
 from enctools.models.romformats.controls import ControlTable
-from enctools.models.romformats.words import comment_text
+from enctools.models.romformats.words import Target, comment_text
 
 
 def fixed(steps: int, decimals: int, plus: bool = False) -> str:
@@ -197,3 +197,17 @@ def write_twincat_nc(f: IO[bytes], t: ControlTable, comment: list[str]) -> None:
             f"{',' if i < n - 1 else ''}\n" for i, (p, v) in enumerate(rows)]
     out += ["    ];\n", "END_VAR\n"]
     f.write("".join(out).encode("ascii"))
+
+
+def write_siemens_backlash(f: IO[bytes], t: Target, steps: int, comment: list[str]) -> None:
+    """A SINUMERIK machine data file of the axis (punch tape format): its name
+    ``%_N_AX<n>_TEA_INI`` first in its first line, the comment lines (``;``), the
+    assignment ``$MA_BACKLASH[e,AX<n>]=value`` (MD32450, deg, positive when the encoder
+    leads the machine part) at the table's resolution, and M17."""
+    from enctools.models.romformats.writers import PROGRAM_LINE, _comments
+
+    assert t.decimals is not None  # a controller's table is written at its resolution
+    head = f"%_N_{t.axis}_TEA_INI\n" + _comments(comment, "; ", ascii_only=True,
+                                                  width=PROGRAM_LINE)
+    f.write((head + f"$MA_BACKLASH[{t.zone},{t.axis}]={fixed(steps, t.decimals)}\nM17\n")
+            .encode("ascii"))

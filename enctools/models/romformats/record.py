@@ -49,9 +49,13 @@ CONTROL = "control"
 FAMILIES = (MEMORY, CONTROLLER, CONTROL)
 
 #: the settings of enc make-rom that shape a memory's (and a controller's addressed)
-#: table: every format of those families takes them, no control's table does
-ADDRESSED_SETTINGS = frozenset({"code_bits", "address_bits", "width", "lsb", "sample",
-                                "endian", "zone", "array_name"})
+#: table: every format of those families takes them, no control's table does (a
+#: memory's takes ``lsb`` too, a controller's ``resolution_deg``; ``endian``, ``zone``,
+#: ``array_name`` only the formats whose records name them)
+ADDRESSED_SETTINGS = frozenset({"code_bits", "address_bits", "width", "sample"})
+#: what a reader of a controller's or control's file may be told beyond ``sign`` (enc
+#: correct's options): a format takes those its record's ``read_settings`` names
+READ_SETTINGS = ("array_name", "comp_type", "axis", "detection_unit_deg")
 #: the settings every control's table takes (``backlash``: written where the record's
 #: control keeps one, else refused with the record's reason)
 GRID_SETTINGS = frozenset({"bidirectional", "points", "backlash"})
@@ -130,6 +134,9 @@ class Control:
     increment_systems: tuple[tuple[str, float], ...] = ()
     backlash_range: tuple[int, int] | None = None
     no_backlash: str = "its documentation read names no backlash parameter"
+    #: why a table per direction is not written, where ``bidirectional`` is False
+    no_bidirectional: str = ("the control's backward-direction table is not confirmed "
+                             "(enc-make-rom(1), CONTROLS)")
 
 
 def lazy(module: str, name: str) -> Callable[..., Any]:
@@ -179,6 +186,27 @@ class Companion:
     extension: str
     write: CompanionWriter
     read: CompanionReader
+
+
+#: a backlash machine datum written: (file, how the table is written, the value [steps of
+#: the table's resolution], comment lines)
+BacklashWriter = Callable[[IO[bytes], "Target", int, list[str]], None]
+#: read back: (its bytes, its name, the table file's bytes) -> the value [deg] for the
+#: table's axis and measuring system
+BacklashReader = Callable[[bytes, str, bytes], float]
+
+
+@dataclass(frozen=True)
+class BacklashFile:
+    """A controller's backlash machine datum (SINUMERIK's MD32450), written as a file of
+    its own beside its table with it as one output, and read back with the table."""
+
+    #: the file's name: the table file's stem and this (``_tea.ini``), in its case
+    suffix: str
+    write: BacklashWriter
+    read: BacklashReader
+    #: refuses (SettingsError, one line) what the file cannot name: (how the table is written)
+    check: Callable[[Any], None] | None = None
 
 
 #: a memory's or a controller's words written: (file, words [LSB], how, comment lines)
@@ -236,6 +264,10 @@ class TableFormat:
     rank: int = 100
     #: a file written beside the table, as one output with it (None: none)
     companion: Companion | None = None
+    #: a controller's backlash machine datum, a file beside its table (None: refused)
+    backlash_file: BacklashFile | None = None
+    #: what its reader is told beyond ``sign`` (of :data:`READ_SETTINGS`; enc correct)
+    read_settings: frozenset[str] = field(default_factory=frozenset)
 
     def __post_init__(self) -> None:
         if self.family not in FAMILIES:
@@ -253,8 +285,15 @@ class TableFormat:
     def accepts(self) -> frozenset[str]:
         """The settings of enc make-rom that shape its table (its family's and its own)."""
         base = GRID_SETTINGS if self.family == CONTROL else ADDRESSED_SETTINGS
-        extra = frozenset({"resolution_deg"}) if self.family == CONTROLLER else frozenset()
-        return base | extra | self.settings
+        extra = {CONTROLLER: frozenset({"resolution_deg"}), MEMORY: frozenset({"lsb"})}
+        return base | extra.get(self.family, frozenset()) | self.settings
+
+    def reads(self, name: str) -> bool:
+        """Whether its reader is told the setting ``name`` (``sign`` where the format
+        documents none; one of :data:`READ_SETTINGS` its record names)."""
+        if name == "sign":
+            return self.points and self.sign is None
+        return name in self.read_settings
 
     @property
     def points(self) -> bool:

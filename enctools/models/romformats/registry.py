@@ -16,13 +16,14 @@ from enctools.models.romformats.record import (
     CONTROLLER,
     FAMILIES,
     MEMORY,
+    READ_SETTINGS,
     TableFormat,
 )
 from enctools.registry import Registry
 
-__all__ = ["ADDRESSED_SETTINGS", "CONTROL", "CONTROLLER", "MEMORY", "TableFormat",
-           "by_extension", "extensions", "find", "get", "names", "records", "register",
-           "unregister"]
+__all__ = ["ADDRESSED_SETTINGS", "CONTROL", "CONTROLLER", "MEMORY", "READ_SETTINGS",
+           "TableFormat", "by_extension", "extensions", "find", "get", "names", "records",
+           "register", "unregister"]
 
 #: the formats, registered by the modules of the catalogue
 _FORMATS: Registry[TableFormat] = Registry("table format", lambda f: f.name,

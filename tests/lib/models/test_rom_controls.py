@@ -321,7 +321,7 @@ def test_beyond_range_is_one_line(step_run, tmp_path):
     ("--target twincat-nc --sign error --backlash", "takes no backlash"),
     ("--target heidenhain --sign error --tnc 620 --backlash", "not confirmed"),
     ("--target fanuc --sign error --bidirectional --backlash", "not both"),
-    ("--target siemens --bits 23 --address-bits 3 --resolution 0.0001 --backlash",
+    ("--target acs --sign error --bits 23 --address-bits 3 --resolution 0.0001 --backlash",
      "--backlash applies to"),
 ])
 def test_refusals_are_one_line(step_run, tmp_path, opts, says):

@@ -76,6 +76,17 @@ def test_transfer_file_as_the_cnc_reads_it(step_run, tmp_path):  # noqa: F811
     assert backlash * IS_C_ARCSEC == pytest.approx(reversal, abs=IS_C_ARCSEC / 2 + 0.05)
 
 
+def direction_means(path) -> tuple[np.ndarray, np.ndarray]:
+    """The corrected deviation's mean per target (every 15 deg), up and down [arcsec]."""
+    t = pq.read_table(path)
+    k = np.rint(np.mod(np.degrees(t.column("position").to_numpy()), 360.0) / 15.0)
+    k = k.astype(int) % TARGETS
+    direction, dev = t.column("direction").to_numpy(), t.column("deviation").to_numpy()
+    up, down = (np.array([dev[(k == j) & (direction == d)].mean() for j in range(TARGETS)])
+                for d in (1, -1))
+    return up, down
+
+
 def test_enc_correct_closes_the_gap_between_directions(step_run, tmp_path):  # noqa: F811
     """Applied back by enc correct through the library's reader: the positive direction
     within half the resolution of one constant (the table is 0 at the reference point);
@@ -90,12 +101,7 @@ def test_enc_correct_closes_the_gap_between_directions(step_run, tmp_path):  # n
             f"--detection-unit 0.0001 --json -o {fixed}")
     assert r.returncode == 0, r.stderr.decode()
     assert json.loads(r.stdout)["table"]["bidirectional"] is True
-    t = pq.read_table(fixed)
-    k = np.rint(np.mod(np.degrees(t.column("position").to_numpy()), 360.0) / 15.0)
-    k = k.astype(int) % TARGETS
-    direction, dev = t.column("direction").to_numpy(), t.column("deviation").to_numpy()
-    up, down = (np.array([dev[(k == j) & (direction == d)].mean() for j in range(TARGETS)])
-                for d in (1, -1))
+    up, down = direction_means(fixed)
     assert np.ptp(up) <= s["resolution_arcsec"] + 0.02
     gap = float(np.mean(up - down))
     assert abs(gap - (s["reversal_mean_arcsec"] - s["backlash_arcsec"])) < 1e-6
@@ -118,15 +124,19 @@ def test_sheet_writes_the_backlash_too(step_run, tmp_path):  # noqa: F811
     assert table.backlash_rad == pytest.approx(np.radians(17 * IS_C))
 
 
-def test_backlash_needs_both_directions(tmp_path):
+@pytest.mark.parametrize("opts", [
+    "--target fanuc-param --sign error",
+    "--target siemens --bits 23 --address-bits 3 --resolution 0.0001",  # MD32450 alike
+])
+def test_backlash_needs_both_directions(tmp_path, opts):
     r = run(f"enc acquire --rig ciomp-23bit --mode steps --count 8 --readings 2 -q | "
             f"enc points -q -o {tmp_path}/one.parquet")
     assert r.returncode == 0, r.stderr.decode()
     out = tmp_path / "p.txt"
-    r = run_in_process(f"enc make-rom {tmp_path}/one.parquet --target fanuc-param --sign error "
+    r = run_in_process(f"enc make-rom {tmp_path}/one.parquet {opts} "
                        f"--backlash --allow-coarse -o {out}")
     assert "needs a step run with both directions" in one_error_line(r, 2, "enc make-rom")
-    assert not out.exists()
+    assert not out.exists() and not (tmp_path / "p_tea.ini").exists()
 
 
 #: a record as a Series 30i punches it (other axes' values, other parameters, trailing

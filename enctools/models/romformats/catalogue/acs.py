@@ -53,4 +53,5 @@ ACS = registry.register(TableFormat(
     write_values=lazy(".writers", "write_acs"), read_values=lazy(".readers", "read_acs"),
     read_points=lazy(".controlreaders", "read_acs"), sign=None, max_entries=100_000,
     resolution_source="ACS: the axis' position step in degrees, as its user units give it",
-    default_axis="0", check=check, signature=SIGNATURE, rank=10))
+    default_axis="0", settings=frozenset({"zone", "array_name"}),
+    read_settings=frozenset({"array_name"}), check=check, signature=SIGNATURE, rank=10))

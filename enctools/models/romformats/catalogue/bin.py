@@ -20,5 +20,5 @@ BIN = registry.register(TableFormat(
     "bin", "raw two's-complement words", MEMORY, (".bin", ".rom"),
     write_values=lazy(".writers", "write_bin"),
     read_values=lazy(".readers", "read_bin"),
-    layout_in=None, binary=True,
+    layout_in=None, binary=True, settings=frozenset({"endian"}),
     check=check, rank=10))

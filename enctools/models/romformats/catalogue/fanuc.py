@@ -32,7 +32,11 @@ BACKLASH_RANGE = (-9999, 9999)
 #: file's alike
 FANUC_CONTROL = Control(1e-3, FANUC_LAST_POINT + 1, False, (-FANUC_MAX_STEP, FANUC_MAX_STEP),
                         incremental=True, increment_systems=INCREMENT_SYSTEMS,
-                        backlash_range=BACKLASH_RANGE)
+                        backlash_range=BACKLASH_RANGE, no_bidirectional=(
+                            "bidirectional pitch error compensation (3605#0 BDPx, 3626, 3627; "
+                            "A-77810E) is not written: the data numbers of the negative "
+                            "direction's pitch data on the Series 30i are not confirmed "
+                            "(B-63950EN not read for them); use `backlash` (1851)"))
 #: the settings of enc make-rom a Fanuc table takes beyond a control's
 FANUC_SETTINGS = frozenset({"detection_unit", "home_point", "increment_system"})
 

@@ -20,4 +20,5 @@ FANUC_PARAM = registry.register(TableFormat(
     CONTROL, write_table=lazy(".controlwriters", "write_fanuc_param"),
     read_points=lazy(".controlreaders", "read_fanuc_param"),
     control=replace(FANUC_CONTROL, grid_rule=grid), sign=None, settings=FANUC_SETTINGS,
+    read_settings=frozenset({"axis", "detection_unit_deg"}),
     check=check, signature=SIGNATURE, rank=31))

@@ -51,7 +51,9 @@ HEIDENHAIN = registry.register(TableFormat(
     read_points=lazy(".controlreaders", "read_heidenhain"),
     control=Control(1e-4, HEIDENHAIN_POINTS, False, None, no_backlash=(
         "the sign of its backlash machine parameter and of the .COM BACKLASH column is not "
-        "confirmed from the technical manuals read")), sign=None, default_axis="C",
-    settings=frozenset({"tnc"}), check=check, rank=40,
+        "confirmed from the technical manuals read"), no_bidirectional=(
+        "the meaning and sign of the .COM BACKLASH column (the negative direction's values) "
+        "are not confirmed")), sign=None, default_axis="C",
+    settings=frozenset({"tnc"}), read_settings=frozenset({"axis"}), check=check, rank=40,
     companion=Companion(".cma", lazy(".controlwriters", "write_heidenhain_cma"),
                         lazy(".controlreaders", "read_heidenhain_cma"))))

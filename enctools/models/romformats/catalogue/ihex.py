@@ -31,4 +31,5 @@ IHEX = registry.register(TableFormat(
     write_values=lazy(".writers", "write_ihex"),
     read_values=lazy(".readers", "read_ihex"),
     fast_read=lazy(".readers", "fast_ihex"),
-    layout_in="sidecar", binary=True, check=check, signature=SIGNATURE, rank=20))
+    layout_in="sidecar", binary=True, settings=frozenset({"endian"}),
+    check=check, signature=SIGNATURE, rank=20))

@@ -23,4 +23,5 @@ LINUXCNC = registry.register(TableFormat(
     control=Control(1e-6, 256, True, None, exact_spacing=False, no_backlash=(
         "LinuxCNC ignores [JOINT_n]BACKLASH when a COMP_FILE is given (ini-config.adoc): "
         "its table per direction (`bidirectional`) holds the reversal")), sign="error",
-    settings=frozenset({"comp_type"}), check=check, rank=10))
+    settings=frozenset({"comp_type"}), read_settings=frozenset({"comp_type"}),
+    check=check, rank=10))

@@ -10,7 +10,7 @@ from typing import Any
 from enctools.errors import SettingsError
 from enctools.models.romformats import registry
 from enctools.models.romformats.catalogue.acs import check_zone
-from enctools.models.romformats.record import CONTROLLER, TableFormat, lazy
+from enctools.models.romformats.record import CONTROLLER, BacklashFile, TableFormat, lazy
 
 #: SINUMERIK axis names: a letter, then letters, digits or _; at most 8 characters
 #: (Siemens programming manual: axis identifiers up to 8 characters, e.g. AX1, C1)
@@ -26,6 +26,15 @@ def check(target: Any, entries: int | None) -> None:
         raise SettingsError(msg)
 
 
+def check_backlash(target: Any) -> None:
+    """The machine data file is named for the machine axis's number (_N_AX<n>_TEA_INI):
+    the axis must be given as AX<n>."""
+    if not re.fullmatch(r"AX[1-9][0-9]{0,2}", target.axis):
+        msg = (f"`backlash`: siemens: the machine data file is named for the machine axis's "
+               f"number (_N_AX<n>_TEA_INI); give `axis` as AX<n>, not {target.axis!r}")
+        raise SettingsError(msg)
+
+
 #: what only this format's content has (a file's first 4 KiB)
 SIGNATURE = re.compile(rb"^\s*\$AA_ENC_COMP\[", re.MULTILINE)
 
@@ -35,4 +44,8 @@ SIEMENS = registry.register(TableFormat(
     read_values=lazy(".readers", "read_siemens"),
     read_points=lazy(".controlreaders", "read_siemens"), max_entries=5_000,
     resolution_source="SINUMERIK: 1 / MD10210 $MN_INT_INCR_PER_DEG",
-    default_axis="AX1", check=check, signature=SIGNATURE, rank=20))
+    default_axis="AX1", settings=frozenset({"zone", "backlash"}),
+    backlash_file=BacklashFile("_tea.ini", lazy(".controlwriters", "write_siemens_backlash"),
+                               lazy(".controlreaders", "read_siemens_backlash"),
+                               check_backlash),
+    check=check, signature=SIGNATURE, rank=20))
