@@ -158,12 +158,16 @@ def stop_scatter(pos_deg: np.ndarray, target_rad: np.ndarray) -> float:
     return math.sqrt(float(np.sum((x - mean[index]) ** 2)) / dof)
 
 
-def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray) -> None:
+def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray,
+                       dev: np.ndarray | None = None) -> None:
     """The budget of a points section ``s`` (a ``sections.Section``) given to its curve:
-    of one approach, every point's u is the budget's u_c; of several runs or directions,
-    each target's u is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u.
+    of one approach, every point's u is the budget's u_c (and, given ``dev``, the
+    points' covariance statement from the same model through GTC:
+    :mod:`enctools.report.covariance`); of several runs or directions, each target's u
+    is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u.
     ``pos_deg``: the points' indicated positions [deg] (of several approaches: how far
-    their stops scatter, :func:`stop_scatter`)."""
+    their stops scatter, :func:`stop_scatter`), ``dev`` their deviations [arcsec], in the
+    stream's order."""
     curve = s.curves[-1]
     type_a = None
     if not one_approach and curve.u is not None and curve.dof:
@@ -176,9 +180,24 @@ def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray) -> None:
     s.budget = budget
     if one_approach:
         curve.u = np.full(curve.values.shape, budget.u_c)
+        if dev is not None:
+            _covariance_into(s, pos_deg, dev)
     else:
         _add_type_b(curve, budget)
     curve.k = budget.k
+
+
+def _covariance_into(s: Any, pos_deg: np.ndarray, dev: np.ndarray) -> None:
+    """The covariance statement of one run's points (:mod:`enctools.report.covariance`)."""
+    from enctools.report.covariance import statement
+
+    run = polygon_run(s.meta["polygon_run"], s.source)
+    if run is None:
+        return
+    st, note = statement(s.meta, rig_declarations(s.meta, s.source), run, pos_deg, dev)
+    s.covariance = st
+    if note:
+        s.notes.append(note)
 
 
 def _add_type_b(curve: Any, budget: Budget) -> None:
@@ -358,16 +377,30 @@ def stated_dof(field_meta: dict[str, Any]) -> float:
 
 def certificate_face(meta: dict[str, Any]) -> Declaration | None:
     """The polygon's face uncertainty from the certificate the points were corrected with
-    (enc points' polygon certificate): its largest standard uncertainty [arcsec]
-    (None: no certificate applied)."""
+    (enc points' polygon certificate; GUM 3.2.4: the certified errors applied, their u
+    remains): its largest standard uncertainty [arcsec], Type A on the certificate's dof
+    where it states one (enc closure's), else B (None: no certificate applied)."""
     u = points_face_uncertainty(meta)
     if u is None:
         return None
     cert = meta["polygon_certificate"]
-    number = cert.get("certificate") if isinstance(cert, dict) else None
+    number = cert.get("certificate")
     source = f"polygon certificate {number}" if isinstance(number, str) and number else \
         "polygon certificate"
-    return Declaration("polygon", float(u.max()), "arcsec", "normal", source=source)
+    kind, dof = certificate_evaluation(cert)
+    return Declaration("polygon", float(u.max()), "arcsec", "normal", dof=dof, source=source,
+                       kind=kind)
+
+
+def certificate_evaluation(cert: dict[str, Any]) -> tuple[str, float]:
+    """The evaluation ("A" or "B") and dof of a ``polygon_certificate``'s u (metadata of
+    points written before they were recorded: B, taken as exact)."""
+    kind, dof = cert.get("type", "B"), cert.get("dof")
+    if kind not in ("A", "B") or not (dof is None or (
+            isinstance(dof, int | float) and not isinstance(dof, bool) and 0 < dof <= 1e9)):
+        msg = "metadata polygon_certificate: type must be A or B and dof a number > 0 or null"
+        raise DataError(msg)
+    return kind, math.inf if dof is None else float(dof)
 
 
 def _dof(nu: float) -> str:
