@@ -110,6 +110,17 @@ def points_face_uncertainty(meta: dict[str, Any]) -> np.ndarray | None:
     return u
 
 
+def certificate_evaluation(cert: dict[str, Any]) -> tuple[str, float]:
+    """The evaluation ("A" or "B") and dof of a ``polygon_certificate``'s u (metadata of
+    points written before they were recorded: B, taken as exact)."""
+    kind, dof = cert.get("type", "B"), cert.get("dof")
+    if kind not in ("A", "B") or not (dof is None or (
+            isinstance(dof, int | float) and not isinstance(dof, bool) and 0 < dof <= MAX_DOF)):
+        msg = "metadata polygon_certificate: type must be A or B and dof a number > 0 or null"
+        raise DataError(msg)
+    return kind, math.inf if dof is None else float(dof)
+
+
 def read_certificate(path: str, faces: int | None = None, unit: str | None = None
                      ) -> Certificate:
     """A polygon's certificate from a text table (the module's format).

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -97,14 +98,14 @@ class PointsModel:
         return float(off.min()), float(off.max())
 
 
-def _figure(y: object, coverage: float) -> Figure:
-    u, nu = float(y.u), float(y.df)  # type: ignore[attr-defined]
+def _figure(y: Any, coverage: float) -> Figure:
+    u, nu = float(y.u), float(y.df)
     nu = math.inf if not math.isfinite(nu) or nu > 1e12 else nu
     return Figure(u, nu, coverage_factor(nu, coverage) if u > 0 else 0.0)
 
 
 def inputs(run: PolygonRun, faces: Faces, kappa: Declaration | None, points: int
-           ) -> tuple[list, list, list, object | None]:
+           ) -> tuple[list[Any], list[list[Any]], list[Any], Any]:
     """The GTC uncertain reals of the model's inputs, each labelled with its row's name:
     the repeatability of each point's mean (one ensemble on the run's dof), each head's
     quantisation there, each face's angle, the autocollimator's scale."""
@@ -134,7 +135,7 @@ def inputs(run: PolygonRun, faces: Faces, kappa: Declaration | None, points: int
 
 
 def deviations(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarray,
-               run: PolygonRun, faces: Faces, kappa: Declaration | None) -> list:
+               run: PolygonRun, faces: Faces, kappa: Declaration | None) -> list[Any]:
     """The points D_j as GTC uncertain reals (the model above): ``x_arcsec`` the measured
     deviations, the datum first; ``ac_arcsec`` a_j - a_0 at each point [arcsec];
     ``face_index`` the face at each point counted from the datum's (0 at the datum; a
@@ -159,7 +160,7 @@ def deviations(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarr
     return out
 
 
-def harmonic_amplitudes(points: list, orders: np.ndarray) -> list:
+def harmonic_amplitudes(points: list[Any], orders: np.ndarray) -> list[Any]:
     """The amplitude [arcsec] of each order n of the points taken at n_p equal steps of a
     turn (the datum at 0): sqrt(a_n^2 + b_n^2), a_n = (2/n_p) sum_j D_j cos(2 pi n j/n_p),
     b_n likewise with sin. The datum's terms, common to every point, do not enter (the
@@ -198,7 +199,7 @@ def propagate(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarra
         corr = np.where(np.outer(sd, sd) > 0, cov / np.outer(sd, sd), 0.0)
     np.fill_diagonal(corr, 1.0)
     var = np.diag(cov)[:, None] + np.diag(cov)[None, :] - 2.0 * cov
-    i, j = np.unravel_index(int(np.argmax(var)), var.shape)
+    pi, pj = (int(v) for v in np.unravel_index(int(np.argmax(var)), var.shape))
     hi, lo = int(np.argmax(x_arcsec)), int(np.argmin(x_arcsec))
     whole_turn = n == faces.u_arcsec.size and np.array_equal(f, np.arange(n))
     orders = np.arange(1, min(MAX_ORDER, (n - 1) // 2) + 1) if whole_turn else \
@@ -206,7 +207,7 @@ def propagate(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarra
     amps = harmonic_amplitudes(d, orders)
     return PointsModel(np.array([f.u for f in figures]), np.array([f.dof for f in figures]),
                        np.array([f.k for f in figures]), cov, corr,
-                       _figure(d[int(i)] - d[int(j)], coverage), (int(i), int(j)),
+                       _figure(d[pi] - d[pj], coverage), (pi, pj),
                        _figure(d[hi] - d[lo], coverage), (hi, lo), orders,
                        np.array([float(a.x) for a in amps]),
                        tuple(_figure(a, coverage) for a in amps))

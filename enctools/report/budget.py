@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from enctools.data.polygon import points_face_uncertainty
+from enctools.data.polygon import certificate_evaluation, points_face_uncertainty
 from enctools.data.uncertainty import Declaration, declarations
 from enctools.errors import DataError
 from enctools.methods.budget import (
@@ -96,10 +96,8 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
     run = polygon_run(meta["polygon_run"], source)
     if run is None:
         return None, ["no uncertainty budget: one reading per position gives no Type A"]
-    notes = []
     face = face if face is not None else certificate_face(meta)
-    if face is None and "polygon" not in declared:
-        notes.append("the rig declares no polygon face uncertainty: U leaves it out")
+    notes = face_notes(face, declared)
     notes += unused(declared, POLYGON_RUN_QUANTITIES, "a polygon run's")
     budget = polygon_run_budget(declared, run, face)
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
@@ -125,14 +123,25 @@ def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declara
     if run is None:
         return None, ["no uncertainty budget: the points do not state their run"]
     face = face if face is not None else certificate_face(meta)
-    notes = [] if face is not None or "polygon" in declared else [
-        "the rig declares no polygon face uncertainty: U leaves it out"]
+    notes = face_notes(face, declared)
     notes += unused(declared, POLYGON_RUNS_QUANTITIES, "a polygon step run's")
     budget = polygon_runs_budget(declared, run, type_a[0], type_a[1], face)
     notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
                  f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
                  f"{_dof(budget.nu_eff)})")
     return budget, notes
+
+
+def face_notes(face: Declaration | None, declared: dict[str, Declaration]) -> list[str]:
+    """What the budget's polygon rows are: a certificate's u of corrected faces (none),
+    the rig's declaration of faces not corrected, or nothing."""
+    if face is not None:
+        return []
+    if "polygon" not in declared:
+        return ["the rig declares no polygon face uncertainty: U leaves it out"]
+    return ["the polygon's certified face errors are not applied (enc points "
+            "--polygon-certificate): its rows are the rig's declaration for the faces "
+            "uncorrected, not a certificate's u of corrected faces (GUM 3.2.4)"]
 
 
 def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) -> list[str]:
@@ -194,7 +203,8 @@ def _covariance_into(s: Any, pos_deg: np.ndarray, dev: np.ndarray) -> None:
     run = polygon_run(s.meta["polygon_run"], s.source)
     if run is None:
         return
-    st, note = statement(s.meta, rig_declarations(s.meta, s.source), run, pos_deg, dev)
+    st, note = statement(s.meta, rig_declarations(s.meta, s.source), run, pos_deg, dev,
+                         s.source)
     s.covariance = st
     if note:
         s.notes.append(note)
@@ -390,17 +400,6 @@ def certificate_face(meta: dict[str, Any]) -> Declaration | None:
     kind, dof = certificate_evaluation(cert)
     return Declaration("polygon", float(u.max()), "arcsec", "normal", dof=dof, source=source,
                        kind=kind)
-
-
-def certificate_evaluation(cert: dict[str, Any]) -> tuple[str, float]:
-    """The evaluation ("A" or "B") and dof of a ``polygon_certificate``'s u (metadata of
-    points written before they were recorded: B, taken as exact)."""
-    kind, dof = cert.get("type", "B"), cert.get("dof")
-    if kind not in ("A", "B") or not (dof is None or (
-            isinstance(dof, int | float) and not isinstance(dof, bool) and 0 < dof <= 1e9)):
-        msg = "metadata polygon_certificate: type must be A or B and dof a number > 0 or null"
-        raise DataError(msg)
-    return kind, math.inf if dof is None else float(dof)
 
 
 def _dof(nu: float) -> str:

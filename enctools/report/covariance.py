@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from enctools.data.polygon import points_face_uncertainty
+from enctools.data.polygon import certificate_evaluation, points_face_uncertainty
 from enctools.data.uncertainty import Declaration
+from enctools.errors import DataError
 from enctools.methods.budget import PolygonRun
 from enctools.methods.polygon_gum import Faces, Figure, PointsModel, propagate
 from enctools.units import factor
@@ -45,8 +46,6 @@ def _faces(meta: dict[str, Any], declared: dict[str, Declaration], face: np.ndar
     from the face at the datum), else the rig's declaration for every face, else 0."""
     u = points_face_uncertainty(meta)
     if u is not None:
-        from enctools.report.budget import certificate_evaluation
-
         cert = meta["polygon_certificate"]
         start = int(cert.get("first_face", 0) or 0) - int(cert.get("first_face_number", 0) or 0)
         _, dof = certificate_evaluation(cert)
@@ -59,8 +58,22 @@ def _faces(meta: dict[str, Any], declared: dict[str, Declaration], face: np.ndar
                  d.dof if d is not None else math.inf)
 
 
+def _check(ac: list[Any], face: list[Any], source: str) -> None:
+    """DataError (one line) unless every a_j - a_0 is a number within +-3600 arcsec and
+    every face a whole number 0..719, the datum's 0 (metadata are data from elsewhere)."""
+    if not all(isinstance(a, int | float) and not isinstance(a, bool) and abs(a) <= 3600.0
+               for a in ac):
+        msg = f"{source}: polygon_run.ac_arcsec must be numbers within +-3600 arcsec"
+        raise DataError(msg)
+    if not (all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v < 720 for v in face)
+            and face[0] == 0):
+        msg = f"{source}: polygon_run.face must be whole numbers 0..719, the first 0"
+        raise DataError(msg)
+
+
 def statement(meta: dict[str, Any], declared: dict[str, Declaration], run: PolygonRun,
-              pos_deg: np.ndarray, x_arcsec: np.ndarray) -> tuple[Statement | None, str]:
+              pos_deg: np.ndarray, x_arcsec: np.ndarray, source: str = "points"
+              ) -> tuple[Statement | None, str]:
     """The statement of one run's points (stream order, the datum first) and a note
     (why there is none, or "")."""
     raw = meta.get("polygon_run") or {}
@@ -71,6 +84,7 @@ def statement(meta: dict[str, Any], declared: dict[str, Declaration], run: Polyg
                       "autocollimator offset and face (made before enc points recorded them)")
     if n > MAX_POINTS:
         return None, f"no covariance statement: {n} points, at most {MAX_POINTS} are modelled"
+    _check(ac, face, source)
     f = np.asarray(face, np.int64)
     model = propagate(x_arcsec, np.asarray(ac, float), f, run, _faces(meta, declared, f),
                       declared.get("autocollimator"))

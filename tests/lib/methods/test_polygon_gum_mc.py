@@ -10,7 +10,7 @@ import pytest
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
-from polygon_gum_mc import BAND, monte_carlo  # noqa: E402
+from polygon_gum_mc import BAND, monte_carlo
 
 
 @pytest.mark.parametrize("closure", [False, True])
