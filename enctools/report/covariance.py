@@ -96,27 +96,13 @@ def _at(st: Statement, i: int) -> str:
 
 
 def lines(st: Statement, unit: str = "arcsec") -> list[str]:
-    """The statement as the text report's lines, in ``unit``."""
+    """The statement as the text report's lines, in ``unit``: each point's U, then the
+    document's sentences (:func:`sentences`)."""
     m, f = st.model, factor("arcsec", unit)
-    lo, hi = m.r_range()
-    (i, j), (a, b) = m.pair, m.extremes
     u = m.k[1:] * m.u[1:]
-    out = [f"  covariance (GTC, the same model) [{unit}]: per point U {u.min() * f:.4g}.."
-           f"{u.max() * f:.4g} (0 at the datum {_at(st, 0)}); correlation between two "
-           f"points r {_range(lo, hi)} (the datum's terms and the autocollimator's scale "
-           f"are common to every point)",
-           f"    difference of two points: U {m.difference.U * f:.4g} (k "
-           f"{m.difference.k:.3f}), the largest over the pairs ({_at(st, i)}, {_at(st, j)})",
-           f"    p-p as the difference of the extreme points ({_at(st, a)} - {_at(st, b)}): "
-           f"{(st.x_arcsec[a] - st.x_arcsec[b]) * f:.4g} U {m.pp.U * f:.4g} (k "
-           f"{m.pp.k:.3f}); the extremes are picked from the data: U holds the two points, "
-           f"not the pick (a p-p not many times its U is biased up)"]
-    if m.orders.size:
-        hu = np.array([h.U for h in m.harmonics])
-        out.append(f"    harmonic amplitudes n = 1..{int(m.orders[-1])}: U "
-                   f"{hu.min() * f:.4g}..{hu.max() * f:.4g} (linearised: an amplitude "
-                   f"below about 3 u is biased up and its U does not hold)")
-    return out
+    return [f"  covariance (GTC, the budget's model per point) [{unit}]: U per point "
+            f"{u.min() * f:.4g}..{u.max() * f:.4g}, 0 at the datum {_at(st, 0)}"] + [
+        f"    {x}" for x in sentences(st, unit, lambda v, _: f"{v:.4g} {unit}")]
 
 
 def _range(lo: float, hi: float) -> str:

@@ -36,6 +36,6 @@ def test_json_states_r_the_difference_and_p_p_of_the_same_model(points):
 def test_text_prints_the_statement(points):
     r = run(f"enc report {points}")
     text = r.stderr.decode() + r.stdout.decode()
-    assert "covariance (GTC, the same model)" in text
-    assert "correlation between two points r 0.50" in text
-    assert "p-p as the difference of the extreme points" in text
+    assert "covariance (GTC, the budget's model per point)" in text
+    assert "two points correlate with r = 0.50" in text
+    assert "Peak-to-peak, as the difference of the extreme points" in text
