@@ -97,7 +97,7 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
     if run is None:
         return None, ["no uncertainty budget: one reading per position gives no Type A"]
     face = face if face is not None else certificate_face(meta)
-    notes = face_notes(face, declared)
+    notes = face_notes(face, declared) + [ONE_RUN_TYPE_A]
     notes += unused(declared, POLYGON_RUN_QUANTITIES, "a polygon run's")
     budget = polygon_run_budget(declared, run, face)
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
@@ -132,16 +132,31 @@ def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declara
     return budget, notes
 
 
+#: what the literature on polygon and autocollimator calibration expects in the model and
+#: neither the rig nor a certificate can declare yet (W. T. Estler, J. Res. NIST 103
+#: (1998) 141-151 for the autocollimator and the air): U leaves them out
+POLYGON_NOT_DECLARED = (
+    "not declared, so not in U: the autocollimator's resolution, non-linearity beyond its "
+    "scale and noise beyond the readings' scatter, air turbulence; the faces' flatness; "
+    "pyramidal error, tilt (cosine error) and eccentricity of the polygon; temperature and "
+    "drift over the run; optical asymmetry (no measurement in the reversed position)")
+#: what the Type A of one run's readings spans
+ONE_RUN_TYPE_A = ("the Type A is the scatter of the readings at each stop: it does not hold "
+                  "re-setting, zero drift over the run or a closing reading at 360 deg")
+
+
 def face_notes(face: Declaration | None, declared: dict[str, Declaration]) -> list[str]:
-    """What the budget's polygon rows are: a certificate's u of corrected faces (none),
-    the rig's declaration of faces not corrected, or nothing."""
+    """What the polygon model leaves out, and what its polygon rows are: a certificate's u
+    of corrected faces (no more), the rig's declaration of faces not corrected, or none."""
     if face is not None:
-        return []
+        return [POLYGON_NOT_DECLARED]
     if "polygon" not in declared:
-        return ["the rig declares no polygon face uncertainty: U leaves it out"]
-    return ["the polygon's certified face errors are not applied (enc points "
-            "--polygon-certificate): its rows are the rig's declaration for the faces "
-            "uncorrected, not a certificate's u of corrected faces (GUM 3.2.4)"]
+        return [POLYGON_NOT_DECLARED,
+                "the rig declares no polygon face uncertainty: U leaves it out"]
+    return [POLYGON_NOT_DECLARED,
+            "the polygon's certified face errors are not applied to these points: its "
+            "rows are the declared spread of the uncorrected faces, not a certificate's u "
+            "of corrected faces (GUM 3.2.4)"]
 
 
 def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) -> list[str]:
