@@ -156,7 +156,7 @@ def face_notes(face: Declaration | None, declared: dict[str, Declaration]) -> li
     return [POLYGON_NOT_DECLARED,
             "the polygon's certified face errors are not applied to these points: its "
             "rows are the declared spread of the uncorrected faces, not a certificate's u "
-            "of corrected faces (GUM 3.2.4)"]
+            "of corrected faces (the GUM: a correction applied leaves its own u)"]
 
 
 def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) -> list[str]:
