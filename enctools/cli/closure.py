@@ -63,7 +63,7 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
             text = polygon.certificate_text(
                 sep.face_error, np.full(sep.faces, sep.u_face), f"closure {run_name}",
                 "circle closure (cross-calibration) on the rig itself: no external standard",
-                (history_line(output=faces_out),))
+                (history_line(output=faces_out),), type_a_dof=sep.dof)
             group.write(faces_out, text.encode(), force=force)
     summary: dict[str, Any] = {"n_positions": sep.faces, "s_arcsec": sep.s, "dof": sep.dof,
                                "u_deviation_arcsec": sep.u_deviation,

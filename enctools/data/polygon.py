@@ -12,7 +12,9 @@ The file is a text table as :mod:`enctools.data.tables` reads one (CSV, TSV or b
 ``#`` comments), with a header line naming the columns ``face``, ``error`` and
 either ``U`` (expanded uncertainty, with ``k``) or ``u`` (standard uncertainty); a
 title may name its unit (``error [urad]``). Comment lines ``# key: value`` give
-``certificate`` (its number), ``traceability``, ``unit``, ``k`` and ``reference``.
+``certificate`` (its number), ``traceability``, ``unit``, ``k``, ``reference`` and, for
+a certificate whose uncertainties are a Type A evaluation (enc closure's), ``type: A``
+and the degrees of freedom they rest on, ``dof`` (default: Type B, taken as exact).
 :func:`certificate_text` writes the same format (what enc closure writes of the faces).
 """
 
@@ -35,7 +37,9 @@ from enctools.errors import DataError
 from enctools.units import ANGLE_UNITS, factor
 
 #: the keys a comment line ``# key: value`` may give
-KEYS = ("certificate", "traceability", "unit", "k", "reference")
+KEYS = ("certificate", "traceability", "unit", "k", "reference", "type", "dof")
+#: the most degrees of freedom a certificate may state (beyond: as good as exact)
+MAX_DOF = 1e9
 REFERENCES = ("mean", "first")
 #: the largest coverage factor a certificate may state
 MAX_K = 10.0
@@ -57,6 +61,8 @@ class Certificate:
     number, traceability : as the certificate states them (None: not stated).
     source, sha256 : the file read and the SHA-256 of its bytes.
     first : the number of the certificate's first face (0 or 1).
+    kind, dof : the evaluation of u_arcsec ("A" or "B") and its degrees of freedom
+        (``math.inf``: taken as exact).
     """
 
     error_arcsec: np.ndarray
@@ -66,6 +72,8 @@ class Certificate:
     source: str
     sha256: str
     first: int = 0
+    kind: str = "B"
+    dof: float = math.inf
 
     @property
     def faces(self) -> int:
@@ -78,7 +86,8 @@ class Certificate:
                 "faces": self.faces, "first_face_number": self.first,
                 "error_arcsec": [float(x) for x in self.error_arcsec],
                 "u_arcsec": [float(x) for x in self.u_arcsec],
-                "u_max_arcsec": float(self.u_arcsec.max())}
+                "u_max_arcsec": float(self.u_arcsec.max()), "type": self.kind,
+                "dof": None if math.isinf(self.dof) else self.dof}
 
 
 def face_standard_uncertainty(cert: Certificate) -> np.ndarray:
@@ -99,6 +108,17 @@ def points_face_uncertainty(meta: dict[str, Any]) -> np.ndarray | None:
         msg = "metadata polygon_certificate.u_arcsec must be positive numbers, one per face"
         raise DataError(msg)
     return u
+
+
+def certificate_evaluation(cert: dict[str, Any]) -> tuple[str, float]:
+    """The evaluation ("A" or "B") and dof of a ``polygon_certificate``'s u (metadata of
+    points written before they were recorded: B, taken as exact)."""
+    kind, dof = cert.get("type", "B"), cert.get("dof")
+    if kind not in ("A", "B") or not (dof is None or (
+            isinstance(dof, int | float) and not isinstance(dof, bool) and 0 < dof <= MAX_DOF)):
+        msg = "metadata polygon_certificate: type must be A or B and dof a number > 0 or null"
+        raise DataError(msg)
+    return kind, math.inf if dof is None else float(dof)
 
 
 def read_certificate(path: str, faces: int | None = None, unit: str | None = None
@@ -140,8 +160,28 @@ def read_certificate(path: str, faces: int | None = None, unit: str | None = Non
     error, spread = error[order], spread[order]
     _check_values(raw, error, spread, order)
     error = _relative_to_mean(raw, error, spread, keys.get("reference", "mean"))
+    kind, dof = _evaluation(keys, path)
     return Certificate(error, spread, keys.get("certificate"), keys.get("traceability"),
-                       path, hashlib.sha256(data).hexdigest(), first)
+                       path, hashlib.sha256(data).hexdigest(), first, kind, dof)
+
+
+def _evaluation(keys: dict[str, str], path: str) -> tuple[str, float]:
+    """The ``type`` (A or B) and ``dof`` lines: a Type A needs its dof; B's default inf."""
+    kind = keys.get("type", "B").upper()
+    if kind not in ("A", "B"):
+        msg = f"{path}: type must be A or B, not {keys['type']!r}"
+        raise DataError(msg)
+    if "dof" not in keys:
+        if kind == "A":
+            msg = f"{path}: a Type A certificate needs the degrees of freedom: a line '# dof: N'"
+            raise DataError(msg)
+        return kind, math.inf
+    parsed = cell_unit(keys["dof"])
+    dof = parsed[0] if parsed is not None and parsed[1] is None else math.nan
+    if not 0 < dof <= MAX_DOF:
+        msg = f"{path}: dof must be a number > 0 and at most {MAX_DOF:g}, not {keys['dof']!r}"
+        raise DataError(msg)
+    return kind, dof
 
 
 def _size(path: str) -> int:
@@ -344,12 +384,17 @@ def _relative_to_mean(raw: RawTable, error: np.ndarray, spread: np.ndarray,
 
 
 def certificate_text(error_arcsec: np.ndarray, u_arcsec: np.ndarray, number: str,
-                     traceability: str, comments: tuple[str, ...] = ()) -> str:
+                     traceability: str, comments: tuple[str, ...] = (),
+                     type_a_dof: float | None = None) -> str:
     """A certificate in the format :func:`read_certificate` reads: faces from 0, errors
-    relative to their mean and standard uncertainties [arcsec]."""
+    relative to their mean and standard uncertainties [arcsec]; ``type_a_dof``: the
+    uncertainties are a Type A evaluation on that many degrees of freedom."""
     lines = [f"# {c}" for c in comments]
     lines += [f"# certificate: {number}", f"# traceability: {traceability}",
-              "# reference: mean", "# unit: arcsec", "face,error,u"]
+              "# reference: mean", "# unit: arcsec"]
+    if type_a_dof is not None:
+        lines += ["# type: A", f"# dof: {type_a_dof:g}"]
+    lines += ["face,error,u"]
     lines += [f"{j},{e:.6f},{u:.6f}" for j, (e, u) in enumerate(zip(error_arcsec, u_arcsec,
                                                                      strict=True))]
     return "\n".join(lines) + "\n"

@@ -65,6 +65,8 @@ class Declaration:
     degrees of freedom (``math.inf``: taken as exact) and the source.
 
     ``expansion_per_k`` [1/K]: the arm's expansion coefficient (temperature only).
+    ``kind``: the evaluation, "B" (a rig's declarations) or "A" (a certificate's u that
+    a Type A evaluation gave, as enc closure's face errors).
     """
 
     quantity: str
@@ -75,6 +77,7 @@ class Declaration:
     dof: float = math.inf
     source: str = ""
     expansion_per_k: float = 0.0
+    kind: str = "B"
 
     @property
     def dimension(self) -> str:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -200,7 +200,12 @@ def repeatability(run: PolygonRun) -> Contribution:
 def polygon_faces(face: Declaration) -> list[Contribution]:
     """The polygon's face angle deviations delta_j and delta_0: dD/d(delta_j) = -1,
     dD/d(delta_0) = +1, each face's u as ``face`` declares it (a polygon certificate's
-    uncertainty of a certified face, or the face errors themselves when not applied)."""
+    uncertainty of a certified face, or the face errors themselves when not applied).
+    On finite dof (a Type A, as enc closure's faces: every face's u from one s) the two
+    are one row, c = sqrt 2, so that Welch-Satterthwaite counts the one estimate once."""
+    if math.isfinite(face.dof):
+        row = _declared(face, "polygon face angles at the point and the datum", 1.0)
+        return [replace(row, sensitivity=row.sensitivity * math.sqrt(2.0))]
     return [_declared(face, "polygon face angle at the point", -1.0),
             _declared(face, "polygon face angle at the datum", 1.0)]
 
@@ -398,7 +403,7 @@ def _declared(d: Declaration, name: str, c_base: float) -> Contribution:
     """A Contribution of a declaration: its value and unit as declared, c [arcsec per
     declared unit] from ``c_base`` [arcsec per base unit of the dimension]."""
     c = c_base * UNITS[d.dimension][d.unit]
-    return Contribution(name, d.source, "B", d.distribution, d.value, d.unit, d.divisor, c,
+    return Contribution(name, d.source, d.kind, d.distribution, d.value, d.unit, d.divisor, c,
                         d.dof, d.quantity)
 
 

@@ -199,6 +199,10 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
         dev -= face_correction(certificate, j, settings.first_face)
     points = Points(np.mod(va / DEG, 360.0), dev, vd, vr)
     points.run_meta = _run_meta(heads, ac, keys, (vac, vr), lsb)
+    if np.unique(vr).size == 1 and np.unique(vd).size == 1:
+        # one approach: what the budget's model of each point needs (methods/polygon_gum)
+        points.run_meta |= {"ac_arcsec": [float(a) for a in vac - vac[0]],
+                            "face": [int(f) for f in j]}
     return points
 
 
@@ -238,7 +242,9 @@ def _run_meta(heads: np.ndarray, ac: np.ndarray, keys: tuple[np.ndarray, ...],
     the pooled standard deviation of one reading's deviation (head mean minus
     autocollimator) and of one head's reading about their position's mean, its degrees
     of freedom, the fewest readings of a position, the largest |a_j - a_0| of a run's
-    autocollimator means, one count ``lsb`` [arcsec] and the number of heads averaged."""
+    autocollimator means, one count ``lsb`` [arcsec] and the number of heads averaged.
+    (A run of one approach adds each point's a_j - a_0 [arcsec] and face j from the first,
+    ``ac_arcsec`` and ``face``, in the points' order.)"""
     key = np.stack(keys).T
     ok = np.isfinite(ac)
     visit = np.r_[0, np.cumsum(np.any(key[1:] != key[:-1], axis=1))][ok]

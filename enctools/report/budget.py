@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from enctools.data.polygon import points_face_uncertainty
+from enctools.data.polygon import certificate_evaluation, points_face_uncertainty
 from enctools.data.uncertainty import Declaration, declarations
 from enctools.errors import DataError
 from enctools.methods.budget import (
@@ -96,10 +96,8 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
     run = polygon_run(meta["polygon_run"], source)
     if run is None:
         return None, ["no uncertainty budget: one reading per position gives no Type A"]
-    notes = []
     face = face if face is not None else certificate_face(meta)
-    if face is None and "polygon" not in declared:
-        notes.append("the rig declares no polygon face uncertainty: U leaves it out")
+    notes = face_notes(face, declared) + [ONE_RUN_TYPE_A]
     notes += unused(declared, POLYGON_RUN_QUANTITIES, "a polygon run's")
     budget = polygon_run_budget(declared, run, face)
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
@@ -125,14 +123,40 @@ def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declara
     if run is None:
         return None, ["no uncertainty budget: the points do not state their run"]
     face = face if face is not None else certificate_face(meta)
-    notes = [] if face is not None or "polygon" in declared else [
-        "the rig declares no polygon face uncertainty: U leaves it out"]
+    notes = face_notes(face, declared)
     notes += unused(declared, POLYGON_RUNS_QUANTITIES, "a polygon step run's")
     budget = polygon_runs_budget(declared, run, type_a[0], type_a[1], face)
     notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
                  f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
                  f"{_dof(budget.nu_eff)})")
     return budget, notes
+
+
+#: what the literature on polygon and autocollimator calibration expects in the model and
+#: neither the rig nor a certificate can declare yet (W. T. Estler, J. Res. NIST 103
+#: (1998) 141-151 for the autocollimator and the air): U leaves them out
+POLYGON_NOT_DECLARED = (
+    "not declared, so not in U: the autocollimator's resolution, non-linearity beyond its "
+    "scale and noise beyond the readings' scatter, air turbulence; the faces' flatness; "
+    "pyramidal error, tilt (cosine error) and eccentricity of the polygon; temperature and "
+    "drift over the run; optical asymmetry (no measurement in the reversed position)")
+#: what the Type A of one run's readings spans
+ONE_RUN_TYPE_A = ("the Type A is the scatter of the readings at each stop: it does not hold "
+                  "re-setting, zero drift over the run or a closing reading at 360 deg")
+
+
+def face_notes(face: Declaration | None, declared: dict[str, Declaration]) -> list[str]:
+    """What the polygon model leaves out, and what its polygon rows are: a certificate's u
+    of corrected faces (no more), the rig's declaration of faces not corrected, or none."""
+    if face is not None:
+        return [POLYGON_NOT_DECLARED]
+    if "polygon" not in declared:
+        return [POLYGON_NOT_DECLARED,
+                "the rig declares no polygon face uncertainty: U leaves it out"]
+    return [POLYGON_NOT_DECLARED,
+            "the polygon's certified face errors are not applied to these points: its "
+            "rows are the declared spread of the uncorrected faces, not a certificate's u "
+            "of corrected faces (the GUM: a correction applied leaves its own u)"]
 
 
 def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) -> list[str]:
@@ -158,12 +182,16 @@ def stop_scatter(pos_deg: np.ndarray, target_rad: np.ndarray) -> float:
     return math.sqrt(float(np.sum((x - mean[index]) ** 2)) / dof)
 
 
-def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray) -> None:
+def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray,
+                       dev: np.ndarray | None = None) -> None:
     """The budget of a points section ``s`` (a ``sections.Section``) given to its curve:
-    of one approach, every point's u is the budget's u_c; of several runs or directions,
-    each target's u is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u.
+    of one approach, every point's u is the budget's u_c (and, given ``dev``, the
+    points' covariance statement from the same model through GTC:
+    :mod:`enctools.report.covariance`); of several runs or directions, each target's u
+    is sqrt(u_A(target)^2 + u_B^2); its U the budget's k u.
     ``pos_deg``: the points' indicated positions [deg] (of several approaches: how far
-    their stops scatter, :func:`stop_scatter`)."""
+    their stops scatter, :func:`stop_scatter`), ``dev`` their deviations [arcsec], in the
+    stream's order."""
     curve = s.curves[-1]
     type_a = None
     if not one_approach and curve.u is not None and curve.dof:
@@ -176,9 +204,25 @@ def points_budget_into(s: Any, one_approach: bool, pos_deg: np.ndarray) -> None:
     s.budget = budget
     if one_approach:
         curve.u = np.full(curve.values.shape, budget.u_c)
+        if dev is not None:
+            _covariance_into(s, pos_deg, dev)
     else:
         _add_type_b(curve, budget)
     curve.k = budget.k
+
+
+def _covariance_into(s: Any, pos_deg: np.ndarray, dev: np.ndarray) -> None:
+    """The covariance statement of one run's points (:mod:`enctools.report.covariance`)."""
+    from enctools.report.covariance import statement
+
+    run = polygon_run(s.meta["polygon_run"], s.source)
+    if run is None:
+        return
+    st, note = statement(s.meta, rig_declarations(s.meta, s.source), run, pos_deg, dev,
+                         s.source)
+    s.covariance = st
+    if note:
+        s.notes.append(note)
 
 
 def _add_type_b(curve: Any, budget: Budget) -> None:
@@ -358,16 +402,19 @@ def stated_dof(field_meta: dict[str, Any]) -> float:
 
 def certificate_face(meta: dict[str, Any]) -> Declaration | None:
     """The polygon's face uncertainty from the certificate the points were corrected with
-    (enc points' polygon certificate): its largest standard uncertainty [arcsec]
-    (None: no certificate applied)."""
+    (enc points' polygon certificate; GUM 3.2.4: the certified errors applied, their u
+    remains): its largest standard uncertainty [arcsec], Type A on the certificate's dof
+    where it states one (enc closure's), else B (None: no certificate applied)."""
     u = points_face_uncertainty(meta)
     if u is None:
         return None
     cert = meta["polygon_certificate"]
-    number = cert.get("certificate") if isinstance(cert, dict) else None
+    number = cert.get("certificate")
     source = f"polygon certificate {number}" if isinstance(number, str) and number else \
         "polygon certificate"
-    return Declaration("polygon", float(u.max()), "arcsec", "normal", source=source)
+    kind, dof = certificate_evaluation(cert)
+    return Declaration("polygon", float(u.max()), "arcsec", "normal", dof=dof, source=source,
+                       kind=kind)
 
 
 def _dof(nu: float) -> str:

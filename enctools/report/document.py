@@ -222,7 +222,8 @@ def _uncertainty(report: Report) -> dict[str, Any] | None:
         if s.budget is not None:
             budgets.append({"source": s.source,
                             "table": budgettable.budget_table(s.budget, s.unit, table),
-                            "totals": table(["", ""], budgettable.totals(s.budget, s.unit))})
+                            "totals": table(["", ""], budgettable.totals(s.budget, s.unit)),
+                            "covariance": _covariance(s)})
         elif any(c.u is not None for c in s.curves) or any(sp.u is not None
                                                            for sp in s.spectra):
             type_a.append(_name(s.source))
@@ -233,6 +234,15 @@ def _uncertainty(report: Report) -> dict[str, Any] | None:
     return {"budgets": budgets, "type_a": ", ".join(type_a),
             "statement": budgettable.TYPE_A if type_a else "",
             "none": ", ".join(none)}
+
+
+def _covariance(s: Any) -> list[str]:
+    """The sentences of a section's covariance statement (none: [])."""
+    if s.covariance is None:
+        return []
+    from enctools.report.covariance import sentences
+
+    return sentences(s.covariance, s.unit, lambda v, u: f"{fmt(v, u)} {label(u)}")
 
 
 def _name(source: str) -> str:

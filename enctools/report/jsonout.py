@@ -87,6 +87,10 @@ def section_dict(s: Section, top: int, model: Curve | None = None) -> dict[str, 
         d["vdi3441"] = vdi_dict(s.vdi)
     if s.budget is not None:
         d["budget"] = budget_dict(s.budget)
+    if s.covariance is not None:
+        from enctools.report.covariance import as_dict
+
+        d["covariance"] = as_dict(s.covariance)
     if s.notes:
         d["notes"] = s.notes
     d["history"] = s.history

@@ -119,6 +119,7 @@ class Section:
     signals: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     budget: Budget | None = None    # the GUM budget of its results [arcsec], when declared
+    covariance: Any = None          # a polygon run's report.covariance.Statement, with it
 
     @property
     def rig_name(self) -> str | None:
@@ -291,16 +292,16 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
                       if c in table.schema.names else None for c in ("direction", "run"))
     _points_into(s, pos, dev, direction, opts, "deviation", "points",
                  tolerance(pos, count_deg(s.meta)), run=run)
-    _budget_into(s, pos, one_approach=all(x is None or len(set(x.tolist())) == 1
-                                          for x in (direction, run)))
+    _budget_into(s, pos, dev, one_approach=all(x is None or len(set(x.tolist())) == 1
+                                               for x in (direction, run)))
 
 
-def _budget_into(s: Section, pos_deg: np.ndarray, one_approach: bool) -> None:
+def _budget_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray, one_approach: bool) -> None:
     """The uncertainty budget of a polygon run's points (report/budget.py); ``pos_deg``
-    the indicated position of each point [deg]."""
+    the indicated position [deg] and ``dev`` the deviation [arcsec] of each point."""
     from enctools.report.budget import points_budget_into
 
-    points_budget_into(s, one_approach, pos_deg)
+    points_budget_into(s, one_approach, pos_deg, dev)
 
 
 def _points_into(s: Section, pos_deg: np.ndarray, dev: np.ndarray,

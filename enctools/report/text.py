@@ -116,6 +116,10 @@ def section_lines(s: Section, top: int, model: Curve | None = None) -> list[str]
     lines += result_lines(s, model)
     if s.budget is not None:
         lines += budget_lines(s.budget, s.unit)
+    if s.covariance is not None:
+        from enctools.report.covariance import lines as covariance_lines
+
+        lines += covariance_lines(s.covariance, s.unit)
     lines += iso_lines(s)
     lines += vdi_lines(s)
     lines += [f"  note: {n}" for n in s.notes]

@@ -111,6 +111,12 @@ def test_certificate_pdf_read_by_poppler(campaigns, tmp_path):
                           text=True, check=True).stdout
     assert text.count(NUMBERS["001"]) >= count
     assert "Measurement uncertainty" in text and "deviation [arcsec]" in text
+    # the covariance statement of the polygon run's points (the model through GTC)
+    flat = " ".join(text.split())
+    assert re.search(r"two points correlate with r = 0\.5\d? \(propagated through GTC\)", flat)
+    assert re.search(r"difference of two points .* its U is at most 0\.15\d arcsec", flat)
+    assert re.search(r"Peak-to-peak, as the difference of the extreme points \(\d+ deg and "
+                     r"\d+ deg\): U = 0\.15\d arcsec", flat)
 
 
 # ------------------------------------------------------- one template, a budget
