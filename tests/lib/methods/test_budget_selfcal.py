@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import sys
 
 import numpy as np
@@ -17,6 +16,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 from conftest import ROOT, run
+from test_selfcal import quiet_rig
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
 import selfcal_mc
@@ -85,28 +85,13 @@ def test_blind_harmonics_are_a_row_bounded_as_the_truth_is(raw):
 NOMINAL = {"H1": 0.0, "H5": 60.0, "H6": 135.0, "H7": 228.0}
 
 
-def _quiet(tmp, moved: dict[str, float]):
-    """sjtu-dual without noise, interpolation error, quantisation or asynchronous motion,
-    with heads moved to the angles ``moved`` [deg]."""
-    text = (ROOT / "enctools" / "rigs" / "sjtu-dual.toml").read_text()
-    text = re.sub(r"noise_arcsec = [0-9.]+", "noise_arcsec = 0.0", text)
-    text = re.sub(r"(?m)^signal = \{.*\}\n", "", text)
-    text = text.replace("interpolation = 4096", "interpolation = 1048576")
-    text = text.replace("counter_bits = 32", "counter_bits = 62")
-    text = re.sub(r"asynchronous_rms_nm = [0-9.]+", "asynchronous_rms_nm = 0.0", text)
-    for head, deg in moved.items():
-        text = re.sub(rf'(name = "{head}"\nangle_deg = )[0-9.]+', rf"\g<1>{deg}", text)
-    path = tmp / f"rig-{'-'.join(moved) or 'nominal'}.toml"
-    path.write_text(text)
-    return path
-
-
 def _graduation(tmp, moved: dict[str, float]):
     """The graduation curve [arcsec] of a run whose heads ``moved`` sit off their nominal
     angles while enc selfcal is told the nominal ones, and the run's sensitivities."""
     tag = "-".join(moved) or "nominal"
     raw, out = tmp / f"raw-{tag}.parquet", tmp / f"grad-{tag}.parquet"
-    r = run(f"enc acquire --rig {_quiet(tmp, moved)} --revolutions 2 --seed 1 -o {raw}")
+    rig = quiet_rig(tmp, moved)
+    r = run(f"enc acquire --rig {rig} --revolutions 2 --seed 1 -o {raw}")
     assert r.returncode == 0, r.stderr.decode()
     if moved:       # the stream states the nominal angles, as a rig file would
         t = pq.read_table(raw)
