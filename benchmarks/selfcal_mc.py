@@ -94,8 +94,8 @@ def one_run(rng: np.random.Generator, method: Method, enc, decl: dict[str, Decla
     mean_sol = np.mean(solved, axis=0)
     parts = {"graduation": mean_sol}
     sens = mounting_sensitivity(mounting_changes(lambda s: _parts(method.solve(s)),
-                                                 method.all_alphas, parts, method.radius_m,
-                                                 POINTS)) / ARCSEC   # [arcsec per rad]
+                                                 method.all_alphas, parts,
+                                                 method.radius_m)) / ARCSEC  # [arcsec/rad]
     u_a = float(np.sqrt(np.mean(sem ** 2)))
     budget = selfcal_budget(u_a, revolutions, 0.0, None,
                             {} if leave_out_mounting else decl, sens)

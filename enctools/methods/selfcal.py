@@ -51,6 +51,7 @@ from enctools.methods.selfcal_uncertainty import (
     SampleRepeats,
     Uncertainties,
     mounting_changes,
+    mounting_rms,
     systematic,
     uncertainties,
 )
@@ -334,7 +335,7 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
     solved = {name: part * SCALE[name] for name, part in refined.parts.items()}
     change = refined.change["graduation"] * SCALE["graduation"]
     moved = mounting_changes(lambda g: _parts(method.solve(g)), method.all_alphas,
-                             refined.parts, method.radius_m, points)
+                             refined.parts, method.radius_m)
     return Result(method.name, list(method.names), coordinate, method.band, spectra.count,
                   method.conditioning, solved,
                   uncertainties(coef, curves, bound, repeats.repeated),
@@ -342,7 +343,7 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
                   (settled.iterations, refined.iterations),
                   float(np.sqrt(np.sum(np.abs(change[1:]) ** 2) / 2)),
                   spectra.mean[:, 0].real - spectra.mean[0, 0].real,
-                  np.sqrt(np.mean(np.square(moved), axis=1)) * SCALE["graduation"])
+                  mounting_rms(moved) * SCALE["graduation"])
 
 
 @dataclass
