@@ -11,16 +11,17 @@ the rig's ``[uncertainty.head_mounting]`` (rectangular +-0.1 deg), and reads R
 revolutions: each head's spectrum is that of the simulator's head equation (seed 000
 eq. (1): eps(theta + alpha_k) at the head's true angle, taken against the reference
 head's reading, which is the curve's argument) plus white noise of a standard
-deviation drawn per run, log-uniform (the revolutions' Type A then weighs from far less to far more
-than the mounting's u). The method solves each revolution with the nominal angles, as
-enc selfcal does; the sensitivity to the mounting is worked out from the mean solution
-(:func:`enctools.methods.selfcal_uncertainty.mounting_changes`), the budget built as
-enc report builds it (:func:`enctools.methods.budget.selfcal_budget`) and each run's U
-at one point drawn at random compared with the error of the curve there against the
-truth. The acquisition itself (sampling, interpolation error, quantisation, radial
-motion: the method's bound) is not drawn here: tests/lib/methods/test_selfcal.py scores
-it against the simulator; the method's mounting sensitivity is checked against the
-simulator with a head moved in tests/lib/methods/test_budget_selfcal.py.
+deviation drawn per run, log-uniform (the revolutions' Type A then weighs from far
+less to far more than the mounting's u). The method solves each revolution with the
+nominal angles, as enc selfcal does; the sensitivity to the mounting is worked out from
+the mean solution (:func:`enctools.methods.selfcal_uncertainty.mounting_changes`), the
+budget built as enc report builds it (:func:`enctools.methods.budget.selfcal_budget`;
+each point's U with the mounting's u at that point) and each run's U at one point drawn
+at random compared with the error of the curve there against the truth. The
+acquisition itself (sampling, interpolation error, quantisation, radial motion: the
+method's bound) is not drawn here: tests/lib/methods/test_selfcal.py scores it against
+the simulator; the method's mounting sensitivity is checked against the simulator with
+a head moved in tests/lib/methods/test_budget_selfcal.py.
 
     .venv/bin/python benchmarks/selfcal_mc.py            # 2000 runs (make bench)
     .venv/bin/python benchmarks/selfcal_mc.py --runs 300
@@ -91,16 +92,18 @@ def one_run(rng: np.random.Generator, method: Method, enc, decl: dict[str, Decla
     curves = synthesize(np.array(solved), POINTS) / ARCSEC        # (R, points) [arcsec]
     mean = curves.mean(axis=0)
     sem = curves.std(axis=0, ddof=1) / math.sqrt(revolutions)
-    mean_sol = np.mean(solved, axis=0)
-    parts = {"graduation": mean_sol}
-    sens = mounting_sensitivity(mounting_changes(lambda s: _parts(method.solve(s)),
-                                                 method.all_alphas, parts,
-                                                 method.radius_m)) / ARCSEC  # [arcsec/rad]
-    u_a = float(np.sqrt(np.mean(sem ** 2)))
-    budget = selfcal_budget(u_a, revolutions, 0.0, None,
+    changes = mounting_changes(lambda s: _parts(method.solve(s)), method.all_alphas,
+                               {"graduation": np.mean(solved, axis=0)}, method.radius_m)
+    sens = mounting_sensitivity(changes) / ARCSEC                   # [arcsec per rad]
+    budget = selfcal_budget(float(np.sqrt(np.mean(sem ** 2))), revolutions, 0.0, None,
                             {} if leave_out_mounting else decl, sens)
-    added = math.fsum(c.u_arcsec ** 2 for c in budget.contributions[2:])
     j = int(rng.integers(POINTS))
+    # as enc report: the mounting's u at the point, sqrt(sum_k c_k(theta)^2) of the heads
+    at_point = float(np.sqrt(np.sum(synthesize(changes, POINTS)[:, j] ** 2))) / ARCSEC
+    added = math.fsum(c.u_arcsec ** 2 for c in budget.contributions[2:]
+                      if c.quantity != "head_mounting")
+    if not leave_out_mounting:
+        added += (budget.contributions[2].u_arcsec * at_point / sens) ** 2
     error = mean[j] - float(synthesize(truth, POINTS)[j]) / ARCSEC
     return abs(error) <= budget.k * math.sqrt(sem[j] ** 2 + added)
 

@@ -258,7 +258,8 @@ class Result:
     coordinate on the first revolution and on the mean; ``last_change``: the RMS
     change of the graduation error in the last [arcsec]; ``offsets``: each head's
     constant offset against the reference [rad]; ``mounting``: the rms change of the
-    graduation curve [arcsec] per rad of each head's mounting angle
+    graduation curve [arcsec] per rad of each head's mounting angle, and
+    ``mounting_coefficients`` its coefficients c_0..c_K per head [same]
     (:func:`~enctools.methods.selfcal_uncertainty.mounting_changes`).
     """
 
@@ -275,6 +276,7 @@ class Result:
     last_change: float = 0.0
     offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))
     mounting: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    mounting_coefficients: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 #: the factor from each solution array's unit to the output's: rad -> arcsec, m -> nm
@@ -343,7 +345,7 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
                   (settled.iterations, refined.iterations),
                   float(np.sqrt(np.sum(np.abs(change[1:]) ** 2) / 2)),
                   spectra.mean[:, 0].real - spectra.mean[0, 0].real,
-                  mounting_rms(moved) * SCALE["graduation"])
+                  mounting_rms(moved) * SCALE["graduation"], moved * SCALE["graduation"])
 
 
 @dataclass
@@ -558,7 +560,10 @@ def _outputs(header: Header, p: Plan, res: Result
                            "last_change_arcsec": res.last_change},
             "offsets_arcsec": {h: float(o / ARCSEC) for h, o in zip(res.heads, res.offsets)},
             "rounding_repeats": res.u.repeated,
-            "mounting_arcsec_per_rad": {h: float(m) for h, m in zip(res.heads, res.mounting)}}
+            "mounting_arcsec_per_rad": {h: float(m) for h, m in zip(res.heads, res.mounting)},
+            "mounting_coefficients_arcsec_per_rad": {
+                h: {"re": c.real.tolist(), "im": c.imag.tolist()}
+                for h, c in zip(res.heads, res.mounting_coefficients)}}
     if "x" in res.curves:
         meta["blind_radial"] = cond.blind_radial
     dev_header = header.derive("deviations", table.schema, **meta)

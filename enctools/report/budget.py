@@ -271,7 +271,15 @@ def selfcal_into(s: Any, curve: Any, dof: float) -> None:
     budget = selfcal_budget(math.sqrt(var_a), r, math.sqrt(max(total - var_a, 0.0)), blind,
                             declared, mounting)
     added = math.fsum(c.u_arcsec ** 2 for c in budget.contributions[2:])
-    curve.u = np.sqrt(np.square(curve.u) + added)
+    curve.u = np.square(curve.u) + added
+    row = next((c for c in budget.contributions if c.quantity == "head_mounting"), None)
+    shape = _mounting_shape(s.meta.get("mounting_coefficients_arcsec_per_rad"), curve.angle,
+                            mounting) if row is not None else None
+    if row is not None and shape is not None:   # the mounting's u at each point, not its rms
+        curve.u += row.u_arcsec ** 2 * (np.square(shape) - 1.0)
+        notes.append("head mounting: each point's U holds the mounting's u at that point "
+                     "(the row gives its rms along the curve)")
+    curve.u = np.sqrt(curve.u)
     curve.k = budget.k
     s.budget = budget
     if "temperature" not in declared:
@@ -279,6 +287,27 @@ def selfcal_into(s: Any, curve: Any, dof: float) -> None:
                      "the scale's angles unchanged")
     notes += unused(declared, SELFCAL_QUANTITIES, "a self-calibration's")
     s.notes += notes
+
+
+def _mounting_shape(meta: Any, angle: np.ndarray, rms: float | None) -> np.ndarray | None:
+    """The mounting's u at each point of a curve at ``angle`` [rad] over its rms along the
+    curve: sqrt(sum_k c_k(theta)^2) / ``rms`` from each head's coefficients [arcsec per
+    rad] (None: the run states none, or they do not match ``rms``)."""
+    from enctools.data.truth import Series
+
+    if not isinstance(meta, dict) or not meta or not rms:
+        return None
+    total = np.zeros(np.shape(angle))
+    try:
+        for c in meta.values():
+            re, im = np.asarray(c["re"], np.float64), np.asarray(c["im"], np.float64)
+            n = np.arange(re.size, dtype=np.float64)
+            total += np.square(Series(n, re, -im)(np.asarray(angle, np.float64)))
+    except (TypeError, KeyError, ValueError):
+        return None
+    shape = np.sqrt(total) / rms
+    ok = np.all(np.isfinite(shape)) and abs(float(np.mean(np.square(shape))) - 1.0) < 0.05
+    return shape if ok else None
 
 
 def _mounting(meta: Any, declared: dict[str, Declaration], source: str
