@@ -379,12 +379,16 @@ POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", "alignment")
 
 def selfcal_budget(u_a_arcsec: float, revolutions: int, bound_arcsec: float,
                    blind: tuple[tuple[int, ...], float] | None = None,
+                   declared: dict[str, Declaration] | None = None,
+                   mounting_arcsec_per_rad: float | None = None,
                    coverage: float = 0.95) -> Budget:
     """The budget of a point of a self-calibrated graduation error: the Type A u of the
     mean over ``revolutions`` [arcsec] on R - 1 degrees of freedom, the method's bound
-    [arcsec] (normal, taken as exact) and, for ``blind`` = (orders, amplitude [arcsec]),
-    a sinusoid of that root-sum-square amplitude and unknown phase (u-shaped, divisor
-    sqrt 2) for the harmonics the arrangement cannot see."""
+    [arcsec] (normal, taken as exact), for ``blind`` = (orders, amplitude [arcsec]) a
+    sinusoid of that root-sum-square amplitude and unknown phase (u-shaped, divisor
+    sqrt 2) for the harmonics the arrangement cannot see, and of the ``declared``
+    quantities the heads' mounting (:func:`head_mounting`, with the run's sensitivity
+    ``mounting_arcsec_per_rad``) and the temperature (c = 0)."""
     rows = [type_a_row(u_a_arcsec, float(revolutions - 1),
                        f"repeatability over the {revolutions} revolutions"),
             Contribution("the method's own bound (last iteration, second order, rounding)",
@@ -396,7 +400,27 @@ def selfcal_budget(u_a_arcsec: float, revolutions: int, bound_arcsec: float,
             f"harmonics the heads cannot see (n = {', '.join(map(str, orders))})",
             "transfer function W(n) = 0; amplitude from the neighbouring orders", "B",
             "u-shaped", amplitude, "arcsec", math.sqrt(2.0), 1.0))
+    declared = declared or {}
+    if "head_mounting" in declared and mounting_arcsec_per_rad is not None:
+        rows.append(head_mounting(declared["head_mounting"], mounting_arcsec_per_rad))
+    if "temperature" in declared:
+        rows.append(_declared(declared["temperature"], "temperature (uniform): a circular "
+                              "scale's angles do not change", 0.0))
     return combine(rows, coverage)
+
+
+def head_mounting(d: Declaration, arcsec_per_rad: float) -> Contribution:
+    """The heads' mounting angles, each off its nominal angle by an independent error
+    as ``d`` declares (quantity ``head_mounting``): c = the rms change of the curve
+    [arcsec] per rad of each head's error, root-sum-square over the heads
+    (:func:`enctools.methods.selfcal_uncertainty.mounting_sensitivity`, worked out by
+    enc selfcal through the method's own transfer function)."""
+    return _declared(d, "mounting angles of the heads (each, independent)",
+                     arcsec_per_rad / UNITS["angle"]["rad"])
+
+
+#: the declared quantities the self-calibration's model uses
+SELFCAL_QUANTITIES = ("head_mounting", "temperature")
 
 
 def _declared(d: Declaration, name: str, c_base: float) -> Contribution:

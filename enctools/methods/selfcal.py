@@ -50,6 +50,8 @@ from enctools.methods.selfcal_methods.base import Solution, basic_table
 from enctools.methods.selfcal_uncertainty import (
     SampleRepeats,
     Uncertainties,
+    mounting_changes,
+    mounting_rms,
     systematic,
     uncertainties,
 )
@@ -255,7 +257,10 @@ class Result:
     on a ``points`` grid with pointwise uncertainties in ``u``. ``iterations``: of the
     coordinate on the first revolution and on the mean; ``last_change``: the RMS
     change of the graduation error in the last [arcsec]; ``offsets``: each head's
-    constant offset against the reference [rad].
+    constant offset against the reference [rad]; ``mounting``: the rms change of the
+    graduation curve [arcsec] per rad of each head's mounting angle, and
+    ``mounting_coefficients`` its coefficients c_0..c_K per head [same]
+    (:func:`~enctools.methods.selfcal_uncertainty.mounting_changes`).
     """
 
     method: str
@@ -270,6 +275,8 @@ class Result:
     iterations: tuple[int, int] = (0, 0)
     last_change: float = 0.0
     offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    mounting: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    mounting_coefficients: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 #: the factor from each solution array's unit to the output's: rad -> arcsec, m -> nm
@@ -329,13 +336,16 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
                        noise if repeats.repeated else 0.0, SCALE)
     solved = {name: part * SCALE[name] for name, part in refined.parts.items()}
     change = refined.change["graduation"] * SCALE["graduation"]
+    moved = mounting_changes(lambda g: _parts(method.solve(g)), method.all_alphas,
+                             refined.parts, method.radius_m)
     return Result(method.name, list(method.names), coordinate, method.band, spectra.count,
                   method.conditioning, solved,
                   uncertainties(coef, curves, bound, repeats.repeated),
                   {name: synthesize(part, points) for name, part in solved.items()},
                   (settled.iterations, refined.iterations),
                   float(np.sqrt(np.sum(np.abs(change[1:]) ** 2) / 2)),
-                  spectra.mean[:, 0].real - spectra.mean[0, 0].real)
+                  spectra.mean[:, 0].real - spectra.mean[0, 0].real,
+                  mounting_rms(moved) * SCALE["graduation"], moved * SCALE["graduation"])
 
 
 @dataclass
@@ -549,7 +559,11 @@ def _outputs(header: Header, p: Plan, res: Result
             "iterations": {"first_revolution": res.iterations[0], "mean": res.iterations[1],
                            "last_change_arcsec": res.last_change},
             "offsets_arcsec": {h: float(o / ARCSEC) for h, o in zip(res.heads, res.offsets)},
-            "rounding_repeats": res.u.repeated}
+            "rounding_repeats": res.u.repeated,
+            "mounting_arcsec_per_rad": {h: float(m) for h, m in zip(res.heads, res.mounting)},
+            "mounting_coefficients_arcsec_per_rad": {
+                h: {"re": c.real.tolist(), "im": c.imag.tolist()}
+                for h, c in zip(res.heads, res.mounting_coefficients)}}
     if "x" in res.curves:
         meta["blind_radial"] = cond.blind_radial
     dev_header = header.derive("deviations", table.schema, **meta)

@@ -133,3 +133,52 @@ def uncertainties(coef: dict[str, RunningMean], curves: dict[str, RunningMean],
         out.curves[name] = np.hypot(sem_curve, b_curve)
         out.curve[name] = type_a_coverage(sem_curve, repeats_dof(count), b_curve)
     return out
+
+
+def mounting_changes(parts: Callable[[np.ndarray], dict[str, np.ndarray]],
+                     alphas: np.ndarray, solved: dict[str, np.ndarray],
+                     radius_m: float) -> np.ndarray:
+    """The change of the graduation error's coefficients c_0..c_K [rad] per rad of each
+    head's mounting angle: (heads, K + 1), heads in the method's order (the reference
+    first); the curve's change is Re(sum_n c_n exp(i n theta)).
+
+    A head mounted at alpha_k + d_k reads eps(theta + alpha_k + d_k) and the radial
+    motion at that angle, where the method assumes alpha_k: to first order its spectrum
+    gains d_k (i n exp(i n alpha_k) F(n) + (X(n) cos alpha_k + Y(n) sin alpha_k) / R)
+    (seed 000 eq. (11) differentiated in alpha_k), which the method solves as it solves
+    any spectrum: ``parts`` (the method's solution of head spectra, rad -> arrays by
+    name) gives the change of F, through each harmonic's own gain (1 / W(n) of esa,
+    the least squares of fourier and eda; 0 at a blind order). The curve's argument is
+    the scale angle under the reference head: every head moved together moves that
+    datum with them and changes nothing, so the reference's own change is minus the
+    sum of the others' (the simulator agrees; enc-selfcal(1), Head mounting).
+    ``solved``: the method's solution [rad, m] (F, and X, Y where it separates them);
+    ``alphas`` [rad].
+    """
+    f = solved["graduation"]
+    n = np.arange(f.size)
+    x, y = solved.get("x"), solved.get("y")
+    out = np.zeros((alphas.size, f.size), dtype=np.complex128)
+    for k, alpha in enumerate(alphas[1:], start=1):
+        row = 1j * n * np.exp(1j * n * alpha) * f
+        if x is not None and y is not None:
+            row = row + (x * np.cos(alpha) + y * np.sin(alpha)) / radius_m
+        moved = np.zeros((alphas.size, f.size), dtype=np.complex128)
+        moved[k] = row
+        out[k] = parts(moved)["graduation"]
+    out[:, 0] = 0.0
+    out[0] = -np.sum(out[1:], axis=0)
+    return out
+
+
+def mounting_rms(changes: np.ndarray) -> np.ndarray:
+    """Each head's rms change of the curve along it [rad per rad] from its coefficients
+    (:func:`mounting_changes`, c_0 = 0; Parseval: sqrt(sum_n |c_n|^2 / 2))."""
+    return np.sqrt(np.sum(np.abs(changes) ** 2, axis=1) / 2.0)
+
+
+def mounting_sensitivity(changes: np.ndarray) -> float:
+    """The rms change of the curve [rad] when each head's mounting angle is off by an
+    independent error of 1 rad standard deviation: sqrt(sum_k rms_k^2) of
+    :func:`mounting_rms`."""
+    return float(np.sqrt(np.sum(mounting_rms(changes) ** 2)))

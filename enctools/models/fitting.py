@@ -32,6 +32,10 @@ KERNELS = ("rbf", "fourier")
 SPREAD_DEG = (0.001, 360.0)
 GOAL_ARCSEC = (0.0, 3600.0)
 MAX_HARMONICS = 1024
+#: a model fitted to at most this many points keeps, per point, its prediction refitted
+#: without it (``residuals.held_out``): what a certificate's column after the correction
+#: gives of each calibrated position (enc-report(1))
+HELD_OUT_POINTS = 400
 #: the smoother alternative a model is compared with: a Fourier series of at most this
 #: order, chosen by leave-one-out
 LOW_ORDER = 4
@@ -103,6 +107,9 @@ class Fit:
     #: each point's residual against the model refitted without its block [arcsec], when
     #: the fit computed them itself (a dense table's network: rbfdense)
     blocked: np.ndarray | None = None
+    #: each point's position [deg] and the model's prediction there refitted without it
+    #: [arcsec] (None: more than HELD_OUT_POINTS points, or no leave-one-out)
+    held_out: tuple[np.ndarray, np.ndarray] | None = None
 
     def residuals(self) -> dict[str, Any]:
         """The ``residuals`` metadata of the model stream."""
@@ -111,6 +118,9 @@ class Fit:
             out["holdout"] = self.holdout
         if self.gain is not None:
             out["gain"] = self.gain.to_meta()
+        if self.held_out is not None:
+            out["held_out"] = {"position_deg": self.held_out[0].tolist(),
+                               "prediction_arcsec": self.held_out[1].tolist()}
         return out
 
 
@@ -142,6 +152,8 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
               {"max_abs_arcsec": train.max_abs, "rms_arcsec": train.rms},
               {"max_abs_arcsec": left_out.max_abs, "rms_arcsec": left_out.rms,
                "bessel_std_arcsec": left_out.std}, choice=choice, blocked=blocked)
+    if x.size <= HELD_OUT_POINTS and np.all(np.isfinite(loo)):
+        fit.held_out = (x.copy(), y - loo)
     if holdout is not None:
         hx, hy = (np.asarray(v, dtype=np.float64) for v in holdout)
         r = hy - model(hx)

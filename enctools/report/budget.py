@@ -25,6 +25,7 @@ from enctools.errors import DataError
 from enctools.methods.budget import (
     POLYGON_RUN_QUANTITIES,
     POLYGON_RUNS_QUANTITIES,
+    SELFCAL_QUANTITIES,
     STEP_RUN_QUANTITIES,
     Budget,
     PolygonRun,
@@ -297,8 +298,10 @@ def selfcal_into(s: Any, curve: Any, dof: float) -> None:
     """A self-calibration's budget given to its section ``s``: its u column (enc selfcal:
     u = sqrt(s_mean^2 + b^2) per point, the dof Welch-Satterthwaite of both over the
     curve) split into the Type A over the R revolutions and the method's bound b, with
-    the harmonics its heads cannot see (metadata ``blind``) bounded by their neighbours;
-    each point's U is then k sqrt(u(point)^2 + u_blind^2) with the budget's k."""
+    the harmonics its heads cannot see (metadata ``blind``) bounded by their neighbours
+    and the rig's declared head mounting (through the run's sensitivity, metadata
+    ``mounting_arcsec_per_rad``) and temperature; each point's U is then
+    k sqrt(u(point)^2 + u_B^2) with the budget's k and u_B of the rows added here."""
     settings = s.meta.get("settings")
     r = settings.get("revolutions") if isinstance(settings, dict) else None
     if curve.u is None or not isinstance(r, int) or r < 2 or not dof > 0:
@@ -306,19 +309,67 @@ def selfcal_into(s: Any, curve: Any, dof: float) -> None:
     total = float(np.mean(np.square(curve.u)))      # = var_a + b^2 (enc-selfcal(1))
     var_a = total if math.isinf(dof) else min(total, total * math.sqrt((r - 1) / dof))
     blind, notes = _blind(s.meta.get("blind"), curve)
-    budget = selfcal_budget(math.sqrt(var_a), r, math.sqrt(max(total - var_a, 0.0)), blind)
-    u_blind = budget.contributions[2].u_arcsec if blind is not None else 0.0
-    curve.u = np.sqrt(np.square(curve.u) + u_blind ** 2)
+    declared = rig_declarations(s.meta, s.source)
+    mounting, note = _mounting(s.meta.get("mounting_arcsec_per_rad"), declared, s.source)
+    notes += note
+    budget = selfcal_budget(math.sqrt(var_a), r, math.sqrt(max(total - var_a, 0.0)), blind,
+                            declared, mounting)
+    added = math.fsum(c.u_arcsec ** 2 for c in budget.contributions[2:])
+    curve.u = np.square(curve.u) + added
+    row = next((c for c in budget.contributions if c.quantity == "head_mounting"), None)
+    shape = _mounting_shape(s.meta.get("mounting_coefficients_arcsec_per_rad"), curve.angle,
+                            mounting) if row is not None else None
+    if row is not None and shape is not None:   # the mounting's u at each point, not its rms
+        curve.u += row.u_arcsec ** 2 * (np.square(shape) - 1.0)
+        notes.append("head mounting: each point's U holds the mounting's u at that point "
+                     "(the row gives its rms along the curve)")
+    curve.u = np.sqrt(curve.u)
     curve.k = budget.k
     s.budget = budget
-    declared = rig_declarations(s.meta, s.source)
-    if "head_mounting" in declared:
-        notes.append("head_mounting is declared but not in this budget: its sensitivity "
-                     "through the transfer function W(n) is not evaluated (U leaves it out)")
-    if "temperature" in declared:
-        notes.append("temperature: no row; a uniform temperature leaves the scale's "
-                     "angles unchanged")
+    if "temperature" not in declared:
+        notes.append("temperature: not declared (enc-rig(5)); a uniform temperature leaves "
+                     "the scale's angles unchanged")
+    notes += unused(declared, SELFCAL_QUANTITIES, "a self-calibration's")
     s.notes += notes
+
+
+def _mounting_shape(meta: Any, angle: np.ndarray, rms: float | None) -> np.ndarray | None:
+    """The mounting's u at each point of a curve at ``angle`` [rad] over its rms along the
+    curve: sqrt(sum_k c_k(theta)^2) / ``rms`` from each head's coefficients [arcsec per
+    rad] (None: the run states none, or they do not match ``rms``)."""
+    from enctools.data.truth import Series
+
+    if not isinstance(meta, dict) or not meta or not rms:
+        return None
+    total = np.zeros(np.shape(angle))
+    try:
+        for c in meta.values():
+            re, im = np.asarray(c["re"], np.float64), np.asarray(c["im"], np.float64)
+            n = np.arange(re.size, dtype=np.float64)
+            total += np.square(Series(n, re, -im)(np.asarray(angle, np.float64)))
+    except (TypeError, KeyError, ValueError):
+        return None
+    shape = np.sqrt(total) / rms
+    ok = np.all(np.isfinite(shape)) and abs(float(np.mean(np.square(shape))) - 1.0) < 0.05
+    return shape if ok else None
+
+
+def _mounting(meta: Any, declared: dict[str, Declaration], source: str
+              ) -> tuple[float | None, list[str]]:
+    """The run's sensitivity to the heads' mounting [arcsec per rad, root-sum-square over
+    its heads] and the note when the rig declares no mounting or the run states none."""
+    if "head_mounting" not in declared:
+        return None, ["head mounting: not declared (enc-rig(5) [uncertainty.head_mounting]):"
+                      " U leaves it out"]
+    if not isinstance(meta, dict) or not meta:
+        return None, ["head_mounting is declared but the self-calibration states no "
+                      "sensitivity to it (made before it did): U leaves it out"]
+    values = list(meta.values())
+    if not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+               and v >= 0 for v in values):
+        msg = f"{source}: mounting_arcsec_per_rad must map heads to numbers >= 0"
+        raise DataError(msg)
+    return math.sqrt(math.fsum(float(v) ** 2 for v in values)), []
 
 
 def _blind(blind: Any, curve: Any) -> tuple[tuple[tuple[int, ...], float] | None, list[str]]:

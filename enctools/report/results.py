@@ -37,6 +37,8 @@ STEP_DEG = 10.0
 PHASE_STEP_DEG = 30.0
 #: a curve of at most this many values is listed value by value (its targets)
 MAX_TARGETS = 400
+#: a results target within this of a model's fitted point [deg] is that point
+SAME_TARGET_DEG = 1e-3
 #: the curves of these roles are calibrated positions of the item
 ROLES = ("points", "positioning", "deviation")
 
@@ -62,6 +64,7 @@ class Results:
     phase: bool = False
     sampled: float | None = None       # the step [deg] a dense curve is listed at
     after: np.ndarray | None = None    # the deviation less the correction shipped with it
+    held_out: bool = False             # ``after`` of a model refitted without each target
 
     def rows(self) -> list[dict[str, Any]]:
         """One dict per row: ``target_deg``, ``deviation_up``, ``deviation_down``,
@@ -112,10 +115,13 @@ class Results:
             what = "phase within the signal period" if self.phase else "angle"
             return (f"The {what} every {self.sampled:g}° (the curve's nearest grid point); "
                     "the figures and the plot cover the whole curve.")
-        after = (" After correction: the deviation less the error model shipped with the "
-                 "item (its correction table) at the target; a model fitted to these points "
-                 "leaves its residuals here, not an independent check."
-                 if self.after is not None else "")
+        after = "" if self.after is None else (
+            " After correction: the deviation less the error model shipped with the item "
+            "(its correction table) at the target, "
+            + ("the model fitted without that target where it was fitted to it "
+               "(leave-one-out): a held-out residual." if self.held_out else
+               "a model fitted to these points leaves its residuals here, not an "
+               "independent check."))
         if self.up is not None and self.down is not None:
             return ("Mean deviation per direction (↑ increasing, ↓ decreasing angle) and "
                     "their mean; U is the mean's." + after)
@@ -151,9 +157,26 @@ def results(s: Section, model: Curve | None = None) -> list[Results]:
             continue
         res = _curve_results(s, c)
         if model is not None and c.role == "points" and model.unit == c.unit:
-            grid = np.mod(np.asarray(model.angle, np.float64) / DEG, 360.0)
-            res.after = res.mean - np.interp(res.target, grid, model.values, period=360.0)
+            res.after = res.mean - _correction(model, res.target)
+            res.held_out = model.held_out is not None
         out.append(res)
+    return out
+
+
+def _correction(model: Curve, target: np.ndarray) -> np.ndarray:
+    """The correction [the model's unit] at each ``target`` [deg]: the model's own, or, at a
+    target it was fitted to (within :data:`SAME_TARGET_DEG`), its prediction refitted
+    without that target (``model.held_out``), so that the column after it is a held-out
+    residual, not a residual of the fit."""
+    grid = np.mod(np.asarray(model.angle, np.float64) / DEG, 360.0)
+    out = np.interp(target, grid, model.values, period=360.0)
+    if model.held_out is None:
+        return out
+    fitted, prediction = model.held_out
+    gap = np.abs(((np.mod(fitted, 360.0)[None, :] - target[:, None]) + 180.0) % 360.0 - 180.0)
+    near = np.argmin(gap, axis=1)
+    same = gap[np.arange(target.size), near] <= SAME_TARGET_DEG
+    out[same] = prediction[near[same]]
     return out
 
 

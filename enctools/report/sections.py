@@ -76,6 +76,9 @@ class Curve:
     directions: dict[int, np.ndarray] = field(default_factory=dict)
     #: a long curve's (longcurves.py): then angle, values and u are its plot's envelope
     digest: Digest | None = None
+    #: a model's: each point it was fitted to [deg] and its prediction there refitted
+    #: without that point [arcsec] (enc fit-rbf's ``residuals.held_out``)
+    held_out: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def U_max(self) -> float | None:
@@ -441,8 +444,28 @@ def _model(stream: InputStream, s: Section, opts: Options) -> None:
     evaluate = from_stream(stream.header, table, s.source)
     grid = np.arange(720) * 0.5
     s.curves.append(_curve("model", "arcsec", "model", grid * DEG,
-                           np.asarray(evaluate(grid), np.float64), opts, s.source))
+                           np.asarray(evaluate(grid), np.float64), opts, s.source,
+                           held_out=_held_out(residuals, s.source)))
     s.notes.append("the model curve is evaluated every 0.5 deg; thresholds do not apply to it")
+
+
+def _held_out(residuals: Any, source: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """A model's points [deg] and its predictions there refitted without each [arcsec]
+    (None: the model states none); a DataError line when they are malformed."""
+    held = residuals.get("held_out") if isinstance(residuals, dict) else None
+    if held is None:
+        return None
+    try:
+        x = np.asarray(held["position_deg"], np.float64)
+        y = np.asarray(held["prediction_arcsec"], np.float64)
+    except (TypeError, KeyError, ValueError):
+        x = y = np.zeros(0)
+    if x.ndim != 1 or x.shape != y.shape or x.size == 0 \
+            or not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        msg = (f"{source}: residuals.held_out must hold position_deg and prediction_arcsec, "
+               "lists of as many finite numbers")
+        raise DataError(msg)
+    return x, y
 
 
 def _rom(stream: InputStream, s: Section, opts: Options) -> None:
