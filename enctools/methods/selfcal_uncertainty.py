@@ -66,12 +66,21 @@ class SampleRepeats:
         if self._first is None:
             self._first = np.unique(q)
             return
-        self._shares.append(float(np.mean(np.isin(q, self._first, assume_unique=False))))
+        self._shares.append(float(np.mean(_among(q, self._first))))
 
     @property
     def repeated(self) -> bool:
         """True when the revolutions after the first sample the first one's angles."""
         return bool(self._shares) and float(np.mean(self._shares)) > REPEATED_SHARE
+
+
+def _among(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
+    """Which of ``values`` are in ``ordered`` (sorted, unique): np.isin's answer by a
+    binary search of each (isin sorts or hashes both arrays anew at every call)."""
+    if ordered.size == 0:
+        return np.zeros(values.shape, dtype=bool)
+    at = np.minimum(np.searchsorted(ordered, values), ordered.size - 1)
+    return ordered[at] == values
 
 
 def systematic(parts: Callable[[np.ndarray], dict[str, np.ndarray]], heads: int,

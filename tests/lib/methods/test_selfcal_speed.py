@@ -1,0 +1,67 @@
+"""What enc selfcal pays per revolution and at start-up, with the same answers (issue 35).
+
+- methods.budget.coverage_factor: Student's k and the normal quantile from scipy.special,
+  the functions scipy.stats's t and norm return, without importing scipy.stats (0.5 s of
+  CPU at every start of a command that states a coverage).
+- methods.selfcal_uncertainty.SampleRepeats: the share of a revolution's positions
+  sampled in the first revolution, by a binary search in the first's sorted positions,
+  equal to np.isin's (which sorted or hashed both arrays at every revolution).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+from scipy import stats
+
+from enctools.methods.revolutions import Revolution
+from enctools.methods.selfcal_uncertainty import SampleRepeats, _among
+from enctools.units import TWO_PI
+
+PROBE = ("import json, math, sys\n"
+         "from enctools.methods.budget import coverage_factor\n"
+         "ks = [coverage_factor(nu, p) for nu in (1.0, 2.5, 5.0, 299.0, math.inf)\n"
+         "      for p in (0.6827, 0.95, 0.9973)]\n"
+         "print(json.dumps({'k': ks, 'stats': 'scipy.stats' in sys.modules}))")
+
+
+def test_coverage_factor_is_scipy_stats_quantile_without_importing_it() -> None:
+    """k is bit for bit scipy.stats.t.ppf (norm.ppf at infinite dof), and a process that
+    asks for it has not imported scipy.stats."""
+    r = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True,
+                       check=True)
+    got = json.loads(r.stdout)
+    want = [float(stats.norm.ppf(0.5 + p / 2) if math.isinf(nu) else stats.t.ppf(0.5 + p / 2, nu))
+            for nu in (1.0, 2.5, 5.0, 299.0, math.inf) for p in (0.6827, 0.95, 0.9973)]
+    assert got["k"] == want
+    assert got["stats"] is False
+
+
+def test_among_is_isin() -> None:
+    """_among answers as np.isin for values with repeats, outside, none, and an empty set."""
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        values = rng.integers(-40, 40, rng.integers(0, 60))
+        ordered = np.unique(rng.integers(-40, 40, rng.integers(0, 60)))
+        np.testing.assert_array_equal(_among(values, ordered), np.isin(values, ordered))
+
+
+def test_sample_repeats_share_as_isin() -> None:
+    """The share of each revolution's positions met in the first is np.isin's mean: a
+    revolution partly on the first's counts, one off them, one with a sample only."""
+    quantum = TWO_PI / 2 ** 20
+    rng = np.random.default_rng(3)
+    first = np.sort(rng.integers(0, 2 ** 20, 4000))
+    revs = [first, np.sort(np.concatenate([first[:1500], rng.integers(0, 2 ** 20, 2500)])),
+            first + 1, first[:1]]
+    repeats = SampleRepeats(quantum)
+    for i, counts in enumerate(revs):
+        start = i * TWO_PI
+        u = np.concatenate([start + counts * quantum, [start + TWO_PI]])
+        repeats.add(Revolution(i, start, u, np.zeros((1, u.size))))
+    want = [float(np.mean(np.isin(c, np.unique(first)))) for c in revs[1:]]
+    assert repeats._shares == want
