@@ -30,7 +30,11 @@ $(OUT)/grad.parquet: $(OUT)/raw.parquet
 $(OUT)/avg.parquet: $(OUT)/raw.parquet
 	$(ENC) average-heads $< -o $@ --force
 
-# 4. Direct comparison of the two encoders, 100 harmonics, 20 revolutions (eq. 10)
+# 4. Direct comparison of the two encoders, 100 harmonics, 20 revolutions (eq. 10). P is
+#    used as it reads, as the paper does: the certificate's U holds its whole error, the
+#    rig's bound of encoder I (reference_encoder_uncorrected, 0.37": U 0.42"). With
+#    --reference-curve FILE (encoder I's calibrated curve) the row would be that
+#    calibration's U instead (enc-rig(5))
 $(OUT)/h-p.parquet: $(OUT)/avg.parquet
 	$(ENC) compare $< --device H --reference P -o $@ --force
 

@@ -40,6 +40,9 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "head_mounting": ("angle", "mounting angle of a scanning head"),
     "reference_encoder": ("angle", "calibrated deviation of the reference encoder of a "
                                    "comparison or a step run (its certificate's uncertainty)"),
+    "reference_encoder_uncorrected": ("angle", "accuracy of the reference encoder used without "
+                                               "its calibrated curve: the bound of its error "
+                                               "(a half-width, as a maker states a grade)"),
     "alignment": ("angle", "alignment of a step run's reference instrument to the axis: the "
                            "angle error its residual eccentricity or tilt makes at a target"),
 }

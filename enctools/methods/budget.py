@@ -276,24 +276,48 @@ POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator")
 # ------------------------------------------ the model of a comparison (seed 000 eq. 10)
 #
 # A device against a reference encoder on one spindle, averaged over R revolutions:
-# D(theta) = E_dev(theta) - E_ref(theta), read E_dev = D + E_ref. The reference's own
-# calibrated deviation E_ref is known to its certificate's u: dD/dE_ref = -1.
+# D(theta) = E_dev(theta) - E_ref(theta), read E_dev = D + E_ref, dD/dE_ref = -1. What is
+# known of E_ref depends on what was done with the reference: with its calibrated curve
+# applied (enc compare --reference-curve) only the curve's own error remains, which the
+# calibration's certificate states (``reference_encoder``); used as it reads, its whole
+# error remains, which only a bound states (``reference_encoder_uncorrected``: its
+# accuracy, a half-width as a maker gives a grade). The one never stands in for the
+# other: the calibration's U of an uncorrected reference claims too little.
+
+#: the row of each declared quantity of a reference encoder
+REFERENCE_ROWS = {
+    "reference_encoder": "calibrated deviation of the reference encoder",
+    "reference_encoder_uncorrected": "accuracy of the reference encoder, used without its "
+                                     "calibrated curve",
+}
+
+
+def reference_quantity(corrected: bool) -> str:
+    """The declared quantity of a reference encoder's row: the calibration's U when its
+    calibrated curve was applied (``corrected``), else its uncorrected accuracy."""
+    return "reference_encoder" if corrected else "reference_encoder_uncorrected"
+
+
+def reference_row(reference: Declaration) -> Contribution:
+    """The reference encoder's row (c = -1) of its declaration, named by what it is."""
+    return _declared(reference, REFERENCE_ROWS[reference.quantity], -1.0)
 
 
 def comparison_budget(u_a_arcsec: float, dof: float, reference: Declaration,
                       coverage: float = 0.95) -> Budget:
     """The budget of a point of a comparison against a reference encoder: the Type A
     u of the mean over the revolutions [arcsec] on ``dof`` degrees of freedom, and the
-    reference encoder's calibrated deviation as its certificate declares it
-    (``reference``, quantity ``reference_encoder``)."""
+    reference encoder's row (``reference``: quantity ``reference_encoder`` with its
+    calibrated curve applied, ``reference_encoder_uncorrected`` without;
+    :func:`reference_quantity`)."""
     rows = [Contribution("repeatability of the mean over the revolutions", "this run", "A",
                          "normal", u_a_arcsec, "arcsec", 1.0, 1.0, dof),
-            _declared(reference, "calibrated deviation of the reference encoder", -1.0)]
+            reference_row(reference)]
     return combine(rows, coverage)
 
 
-#: the declared quantities the comparison's model uses
-COMPARISON_QUANTITIES = ("reference_encoder",)
+#: the declared quantities the comparison's model uses (one of them, as the curve was used)
+COMPARISON_QUANTITIES = ("reference_encoder", "reference_encoder_uncorrected")
 
 
 # ------------------------------------------- the model of a step run (ISO 230-2)
@@ -304,8 +328,10 @@ COMPARISON_QUANTITIES = ("reference_encoder",)
 #     x_ij = E_ij - T_i = P_ij + e_ref(T_i) + a(T_i) + (1/N) sum_k r_k(T_i)
 #
 # P the axis' true positioning deviation (the measurand), e_ref the reference encoder's
-# calibrated deviation, a its alignment to the axis, r_k the rounding of head k to whole
-# counts (the same at every approach of a target when the noise is below a count: Type B).
+# error at the target (its whole graduation and interpolation error when read as it reads,
+# as enc report reads a step run; what its calibrated curve leaves when applied), a its
+# alignment to the axis, r_k the rounding of head k to whole counts (the same at every
+# approach of a target when the noise is below a count: Type B).
 # A uniform temperature leaves the angles of a circular scale and of the axis unchanged:
 # no temperature term enters an angle read on an angle scale (the angular rule).
 
@@ -326,17 +352,19 @@ def type_a_row(u_a_arcsec: float, dof: float, what: str) -> Contribution:
 
 def step_run_budget(u_a_arcsec: float, dof: float, resolution_row: Contribution,
                     declared: dict[str, Declaration], reference: bool = True,
-                    coverage: float = 0.95) -> Budget:
+                    coverage: float = 0.95, corrected: bool = False) -> Budget:
     """The budget of a target of a step run read on an encoder (``x_ij`` above): the
     Type A u of the target's mean over its approaches [arcsec] on ``dof``, the rounding
     of the heads (``resolution_row``, :func:`resolution`) and, when the encoder read is a
     reference instrument (``reference``: not the axis' feedback, whose reading measures
-    the servo loop), its calibrated deviation (``reference_encoder``) and alignment
-    (``alignment``) as ``declared``, c = -1 each."""
+    the servo loop), its error (e_ref: ``reference_encoder_uncorrected`` as read,
+    ``reference_encoder`` with its calibrated curve applied, ``corrected``;
+    :func:`reference_quantity`) and alignment (``alignment``) as ``declared``, c = -1
+    each."""
     rows = [type_a_row(u_a_arcsec, dof, "repeatability of the approaches"), resolution_row]
-    if reference and "reference_encoder" in declared:
-        rows.append(_declared(declared["reference_encoder"],
-                              "calibrated deviation of the reference encoder", -1.0))
+    quantity = reference_quantity(corrected)
+    if reference and quantity in declared:
+        rows.append(reference_row(declared[quantity]))
     if reference and "alignment" in declared:
         rows.append(_declared(declared["alignment"],
                               "alignment of the reference instrument to the axis", -1.0))
@@ -364,7 +392,7 @@ def polygon_runs_budget(declared: dict[str, Declaration], run: PolygonRun, u_a_a
 
 
 #: the declared quantities a step run's models use (read on an encoder; on a polygon)
-STEP_RUN_QUANTITIES = ("reference_encoder", "alignment")
+STEP_RUN_QUANTITIES = ("reference_encoder", "reference_encoder_uncorrected", "alignment")
 POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", "alignment")
 
 

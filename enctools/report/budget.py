@@ -26,13 +26,13 @@ from enctools.methods.budget import (
     POLYGON_RUN_QUANTITIES,
     POLYGON_RUNS_QUANTITIES,
     SELFCAL_QUANTITIES,
-    STEP_RUN_QUANTITIES,
     Budget,
     PolygonRun,
     comparison_budget,
     polygon_run_budget,
     polygon_runs_budget,
     probe_interpolation_budget,
+    reference_quantity,
     resolution,
     selfcal_budget,
     step_run_budget,
@@ -237,13 +237,20 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
     """The budget of a step run's positioning deviation (its section ``s``'s last curve,
     a mean per target with its Type A u over the approaches): the rounding of the
     ``heads`` heads of ``encoder`` (1 count = ``lsb_arcsec``), and, when that encoder is a
-    reference instrument (``reference``: not the axis' feedback), its calibrated
-    deviation and alignment as the rig declares them (enc-rig(5)). Each target's U is
-    then k sqrt(u_A(target)^2 + u_B^2) with the budget's k."""
+    reference instrument (``reference``: not the axis' feedback), its accuracy as read
+    (enc report applies no calibrated curve to a step run's readings:
+    ``reference_encoder_uncorrected``) and alignment as the rig declares them
+    (enc-rig(5)). Each target's U is then k sqrt(u_A(target)^2 + u_B^2) with the
+    budget's k; without the reference's declaration no U at all (:func:`refuse`)."""
     curve = s.curves[-1]
     if curve.u is None or not curve.dof:
         return
     declared = rig_declarations(s.meta, s.source)
+    quantity = reference_quantity(corrected=False)
+    if reference and quantity not in declared:
+        refuse(s, [curve], quantity, f"encoder {encoder} is read without its calibrated "
+                                     "curve")
+        return
     u_a = float(np.sqrt(np.mean(np.square(curve.u))))
     budget = step_run_budget(u_a, float(curve.dof),
                              resolution(lsb_arcsec, heads, f"encoder {encoder}"),
@@ -251,11 +258,8 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
     _add_type_b(curve, budget)
     curve.k = budget.k
     s.budget = budget
-    used = (STEP_RUN_QUANTITIES if reference else ()) + ("temperature",)
+    used = ((quantity, "alignment") if reference else ()) + ("temperature",)
     s.notes += unused(declared, used, "a step run's")
-    if reference and "reference_encoder" not in declared:
-        s.notes.append(f"the rig declares no [uncertainty.reference_encoder]: U leaves the "
-                       f"calibrated deviation of encoder {encoder} out (enc-rig(5))")
     if "temperature" in declared:
         s.notes.append("temperature: no row; a uniform temperature leaves the angles of a "
                        "circular scale and of the axis unchanged")
@@ -264,24 +268,39 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
                    f"{_dof(budget.nu_eff)})")
 
 
+def refuse(s: Any, curves: list[Any], quantity: str, how: str) -> None:
+    """No expanded uncertainty for ``curves`` of section ``s`` (their u dropped, no
+    budget) when the reference encoder's row, ``quantity``, is not declared: a U without
+    it would leave the reference's error out, and its other declaration (the smaller
+    calibration's U for an uncorrected reference) never stands in for it. One note says
+    why (enc-report(1), UNCERTAINTY BUDGET)."""
+    for c in curves:
+        c.u = None
+    s.budget = None
+    s.notes.append(f"no expanded uncertainty U is stated: {how}, and the rig declares no "
+                   f"[uncertainty.{quantity}] (enc-rig(5)), without which U would leave "
+                   f"the reference's error out")
+
+
 def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
-               ) -> tuple[Budget | None, list[str]]:
+               ) -> tuple[Budget | None, str | None]:
     """The budget of a comparison's curve (enc compare against a reference encoder's
-    heads) when the rig declares the reference encoder's uncertainty
-    (``[uncertainty.reference_encoder]``, enc-rig(5)): ``u_a_arcsec`` the curve's Type A
-    u (its rms along the curve) on ``dof`` degrees of freedom."""
+    heads): ``u_a_arcsec`` the curve's Type A u (its rms along the curve) on ``dof``
+    degrees of freedom and the reference encoder's row as the rig declares it
+    (enc-rig(5)): ``reference_encoder`` when the comparison applied the reference's
+    calibrated curve (its settings record ``ref_curve``), else
+    ``reference_encoder_uncorrected``. (None, None) for a curve not of enc compare;
+    (None, quantity) when that quantity is not declared."""
     history = meta.get("history") or []
     settings = meta.get("settings")
     if not history or ": enc compare " not in str(history[-1]) \
-            or not isinstance(settings, dict) or settings.get("ref_curve") is not None:
-        return None, []     # against a reference's calibrated curve: not this model
+            or not isinstance(settings, dict):
+        return None, None
+    quantity = reference_quantity(corrected=settings.get("ref_curve") is not None)
     declared = rig_declarations(meta, source)
-    if "reference_encoder" not in declared:
-        return None, ["no uncertainty budget: the rig declares no [uncertainty."
-                      "reference_encoder] (the reference encoder's certificate; enc-rig(5))"]
-    budget = comparison_budget(u_a_arcsec, dof, declared["reference_encoder"])
-    return budget, [f"U per point: sqrt(u_A(point)^2 + u_ref^2) with the budget's k = "
-                    f"{budget.k:.3g} (nu_eff {_dof(budget.nu_eff)})"]
+    if quantity not in declared:
+        return None, quantity
+    return comparison_budget(u_a_arcsec, dof, declared[quantity]), quantity
 
 
 def curve_budget_into(s: Any, curve: Any, dof: float) -> None:
@@ -394,17 +413,26 @@ def _blind(blind: Any, curve: Any) -> tuple[tuple[tuple[int, ...], float] | None
 def comparison_into(s: Any, curve: Any, dof: float) -> None:
     """A comparison's budget given to its section ``s`` (a ``sections.Section``): the
     curve's U from its Type A u and the reference encoder's declared u, with the
-    budget's k (nothing when the curve has no u or the rig declares no reference)."""
+    budget's k (nothing when the curve has no u; no U at all when the rig does not
+    declare the reference's row, :func:`refuse`)."""
     if curve.u is None or not np.all(np.isfinite(curve.u)) or dof <= 0:
         return
     u_a = float(np.sqrt(np.mean(np.square(curve.u))))
-    budget, notes = comparison(s.meta, s.source, u_a, dof)
-    s.notes += notes
-    if budget is not None:
-        u_ref = budget.contributions[1].u_arcsec
-        s.budget = budget
-        curve.u = np.sqrt(np.square(curve.u) + u_ref * u_ref)
-        curve.k = budget.k
+    budget, quantity = comparison(s.meta, s.source, u_a, dof)
+    if quantity is None:
+        return
+    if budget is None:
+        how = ("the reference encoder's calibrated curve was applied" if quantity ==
+               "reference_encoder" else "the reference encoder is used without its "
+               "calibrated curve")
+        refuse(s, [curve], quantity, how)
+        return
+    u_ref = budget.contributions[1].u_arcsec
+    s.budget = budget
+    curve.u = np.sqrt(np.square(curve.u) + u_ref * u_ref)
+    curve.k = budget.k
+    s.notes.append(f"U per point: sqrt(u_A(point)^2 + u_ref^2) with the budget's k = "
+                   f"{budget.k:.3g} (nu_eff {_dof(budget.nu_eff)})")
 
 
 def interpolation_into(s: Any) -> None:

@@ -209,7 +209,9 @@ def budget(s: Any, call: Callable[[], None], longs: dict[str, Long]) -> None:
     finally:
         s.curves = real
     for c, st in zip(real, stand, strict=True):
-        if st is not c and (st.u[0] > 0.0 or st.k != c.k):
+        if st is not c and st.u is None:        # its U refused (report.budget.refuse)
+            c.u, c.digest = None, replace(c.digest, u=None)
+        elif st is not c and (st.u[0] > 0.0 or st.k != c.k):
             added = float(st.u[0]) ** 2
             c.u = np.sqrt(np.square(c.u) + added)
             c.digest = c.digest.with_u(lambda u, b2=added: np.sqrt(np.square(u) + b2))

@@ -3,7 +3,8 @@
 The reference standards a certificate lists are those of its file's ``[[reference]]``
 tables (enc-certificate(5)); a budget row of a quantity a reference standard realises
 (its ``quantity``: a polygon's faces, an autocollimator's scale, a reference encoder's
-calibrated curve, a probe's calibration) takes its identity from that table: its name,
+calibrated curve or, used without it, its accuracy, a probe's calibration) takes its
+identity from that table: its name,
 serial, certificate number and due date. A certificate whose budget has such a row with
 no reference standard declared for it, or whose data were corrected with a
 certificate other than the one it lists, is refused (one DataError line), so that the
@@ -24,7 +25,11 @@ from enctools.report.certificate import Certificate
 #: the declared quantities that a reference standard realises (its certificate is the
 #: row's source); the others (an arm's length, a temperature, a head's mounting) are
 #: the laboratory's own knowledge
-STANDARD_QUANTITIES = ("polygon", "autocollimator", "probe", "reference_encoder")
+STANDARD_QUANTITIES = ("polygon", "autocollimator", "probe", "reference_encoder",
+                       "reference_encoder_uncorrected")
+#: a quantity the standard of another realises when none names it: an encoder used
+#: without its calibrated curve is the same standard as with it (its accuracy as read)
+SAME_STANDARD = {"reference_encoder_uncorrected": "reference_encoder"}
 
 
 def identity(ref: dict[str, Any]) -> str:
@@ -77,11 +82,11 @@ def _identified(budget: Budget, refs: dict[str, dict[str, Any]], cert: Certifica
         if c.quantity not in STANDARD_QUANTITIES:
             rows.append(c)
             continue
-        ref = refs.get(c.quantity)
+        ref = refs.get(c.quantity) or refs.get(SAME_STANDARD.get(c.quantity, ""))
         if ref is None:
             msg = (f"{s.source}: the budget's row {c.name!r} ({c.source}) is of a reference "
                    f"standard that {cert.source} does not list: give its [[reference]] "
-                   f"with quantity = \"{c.quantity}\"")
+                   f"with quantity = \"{SAME_STANDARD.get(c.quantity, c.quantity)}\"")
             raise DataError(msg)
         _same_certificate(s.meta, c.quantity, ref, cert, s.source)
         rows.append(dataclasses.replace(c, source=identity(ref)))

@@ -28,10 +28,34 @@ def test_the_reference_encoder_is_a_row_of_the_budget():
     assert b.u_c == pytest.approx(math.hypot(0.01, 0.03))
 
 
+def test_the_row_of_a_reference_used_without_its_curve_is_its_accuracy():
+    """sjtu-dual's encoder I as read: a rectangular bound of 0.37" (seed 000's +-0.27" of
+    graduation and +-0.1" of interpolation), u = 0.37 / sqrt 3, four times the
+    calibration's 0.03"."""
+    ref = comparison_mc.reference("reference_encoder_uncorrected")
+    b = comparison_budget(0.01, 19.0, ref)
+    row = b.contributions[1]
+    assert row.name == "accuracy of the reference encoder, used without its calibrated curve"
+    assert row.quantity == "reference_encoder_uncorrected" and row.distribution == "rectangular"
+    assert row.u_arcsec == pytest.approx(0.37 / math.sqrt(3)) and row.sensitivity == -1.0
+    expanded = b.U
+    assert expanded == pytest.approx(1.96 * math.hypot(0.01, 0.37 / math.sqrt(3)), rel=1e-3)
+
+
 def test_monte_carlo_coverage_of_U_and_without_the_reference_row():
     p = comparison_mc.monte_carlo(800, seed=3)
     assert 0.92 <= p <= 0.98
     assert comparison_mc.monte_carlo(800, seed=3, leave_out_reference=True) < 0.88
+
+
+def test_monte_carlo_of_an_uncorrected_reference_draws_its_truth():
+    """The reference used as it reads: its error is the simulator's encoder I at a random
+    angle, not a draw from a declaration. Its bound covers all of it (a bound's U covers
+    more than 95 % by construction: at least 0.93 asked); the calibration's row in its
+    place, the budget before the row depended on the case, covers about half."""
+    assert comparison_mc.monte_carlo(800, seed=3, case="uncorrected") >= 0.93
+    assert comparison_mc.monte_carlo(800, seed=3, case="uncorrected",
+                                     row="reference_encoder") < 0.6
 
 
 def test_interpolation_against_the_probes_has_their_rows():

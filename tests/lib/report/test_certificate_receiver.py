@@ -80,8 +80,11 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
     for ref in cert["reference"]:
         assert "".join(ref["certificate"].split()) in solid
     assert "P-24-0117" not in flat and "AC-2025-0342" not in flat
-    if seed == "000":       # the comparison's budget: encoder I as a reference standard
-        assert "calibrateddeviationofthereferenceencoder" in solid
+    if seed == "000":       # the comparison's budget: encoder I as a reference standard,
+        # used as it reads (no calibrated curve applied): its row is its accuracy
+        assert re.search(r"accuracy of the\b.{0,60}?\breference\b.{0,60}?\bused without\b",
+                         flat), flat[-3000:]
+        assert "calibrateddeviationofthereferenceencoder" not in solid
         assert "LAB-EI-2026-012" in solid
         # ... and the step run's, per target: its approaches, encoder I's resolution
         # (a wrapped cell's last line may come after its neighbour's first: the oldest

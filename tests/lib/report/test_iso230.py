@@ -228,12 +228,13 @@ def test_iso230_of_a_step_run_is_computed_per_approach(step_runs):
     assert not iso["warnings"]
     # the curve is x_i; its u combines s / sqrt(n) of each direction over the approaches
     # with the rounding of encoder I's heads, 1 count / sqrt(12 N), and encoder I's
-    # calibrated deviation as sjtu-dual declares it, U 0.06" at k = 2 (Type B)
+    # accuracy as read (no calibrated curve applied to a step run) as sjtu-dual declares
+    # it, a rectangular bound of 0.37" (Type B)
     curve = sec["curves"][0]
     with pa.ipc.open_stream(str(path)) as reader:
         heads = [f for f in reader.schema if field_meta(f).get("encoder") == "I"]
     u_q = 1296000.0 / int(field_meta(heads[0])["counts_per_rev"]) / np.sqrt(12 * len(heads))
-    u_b = np.hypot(u_q, 0.03)
+    u_b = np.hypot(u_q, 0.37 / np.sqrt(3))
     u_a = np.sqrt(want["s_up"] ** 2 / 5 + want["s_down"] ** 2 / 5) / 2
     u = np.sqrt(u_a ** 2 + u_b ** 2)
     # U = k u, Student's k at the effective degrees of freedom (4 a direction, combined
