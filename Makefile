@@ -97,6 +97,7 @@ bench: $(VENV)/.installed  ## measure speed and memory of every command (table f
 	$(BIN)/python benchmarks/polygon_runs_mc.py --runs 2000
 	$(BIN)/python benchmarks/polygon_gum_mc.py --draws 200000
 	$(BIN)/python benchmarks/selfcal_mc.py --runs 2000
+	$(BIN)/python benchmarks/interp_mc.py --runs 4000
 
 SEEDS ?= 20
 accuracy: $(VENV)/.installed  ## the README's accuracy table over SEEDS noise seeds (minutes)
