@@ -121,6 +121,9 @@ def check(report: Report, limits: Thresholds) -> list[str]:
         where = f"{c.name} in {s.source}"
         bad.extend(figure_limits(c.figures, limits, where))
         over(c.U_max, limits.max_u, f"U (k={c.k:.3g})", where, "max_u")
+        if limits.max_u is not None and c.U_max is None:  # a limit no figure can show met
+            bad.append(f"{where} states no U (no u and no budget, or a budget lacking a "
+                       f"declaration): `max_u` {limits.max_u:g} cannot be checked")
     for s, c in report.curves("nm"):
         over(c.figures.pp, limits.max_radial_pp, "p-p", f"{c.name} in {s.source}",
              "max_radial_pp", "nm")

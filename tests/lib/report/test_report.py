@@ -328,9 +328,18 @@ def test_threshold_exceeded_exit1_reason_on_stderr_summary_on_stdout(streams):
 
 def test_threshold_within_limits_exit0_and_json_says_ok(streams):
     r = run(["enc", "report", "--json", str(streams["table2"]), "--max-pp", "2",
-             "--max-std", "0.51", "--max-u", "1"])
+             "--max-std", "0.51"])
     assert r.returncode == 0, r.stderr.decode()
     assert json.loads(r.stdout)["thresholds"] == {"exceeded": [], "ok": True}
+
+
+def test_max_u_fails_on_a_result_that_states_no_u(streams):
+    """Seed 001's table 2 as printed has one value a face and no budget: no U, so a
+    limit on U cannot be shown met and fails (exit 1), naming the option."""
+    r = run(["enc", "report", "--json", str(streams["table2"]), "--max-u", "1"])
+    assert r.returncode == 1, r.stderr.decode()
+    (line,) = json.loads(r.stdout)["thresholds"]["exceeded"]
+    assert "states no U" in line and "--max-u 1 cannot be checked" in line
 
 
 @pytest.mark.slow
