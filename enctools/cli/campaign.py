@@ -25,8 +25,10 @@ DEFAULT_TEXT = 'enc acquire --rig "$RIG" --mode steps | enc points -o "$OUT/resu
 def polygon_check(rig: str, folder: Path, run_id: str) -> None:
     """The default campaign, the polygon check of seed 001, as ``enc acquire --rig RIG
     --mode steps | enc points`` does it: a step run on ``rig`` (its own settings), its
-    points written to ``folder``/result.parquet."""
+    points written to ``folder``/result.parquet, each stream's history recording the
+    command it stands for (not enc-nightly's own line)."""
     from enctools.data import streams
+    from enctools.data.header import history_line
     from enctools.data.rig import load_rig
     from enctools.hw import acquire, backends, open_session, recording
     from enctools.methods import points
@@ -37,14 +39,17 @@ def polygon_check(rig: str, folder: Path, run_id: str) -> None:
     with open_session(rig_, seed=settings.seed, signals=bool(settings.signals)) as session:
         header, batches = acquire.acquire(rig_, session, settings)
         measured = not backends.of_rig(rig_).simulated  # a device's run keeps its time
-        header = streams.with_history(header, output=str(readings), measured=measured)
+        line = history_line(["enc", "acquire", "--rig", rig, "--mode", "steps"],
+                            output=str(readings), measured=measured)
+        header = streams.with_history(header, line, output=str(readings))
         outs = recording.open_outputs(header, [(str(readings), None)], force=True)
         recording.record(batches, outs)
     try:
         header, found = points.make_points(streams.open_input(str(readings), "readings"),
                                            points.Settings())
         result = str(folder / RESULT)
-        header = streams.with_history(header, output=result, read=(str(readings),))
+        line = history_line(["enc", "points", "-o", result], output=result)
+        header = streams.with_history(header, line, output=result, read=(str(readings),))
         streams.write_table(result, header, found.table(), force=True)
     finally:
         readings.unlink(missing_ok=True)

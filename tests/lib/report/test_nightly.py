@@ -15,6 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import DATA, ROOT, one_error_line, run
 
+from enctools.data.streams import read_table
 from enctools.report.history import SCHEMA, append_run, read_history
 
 NIGHTLY = str(ROOT / "bin" / "enc-nightly")
@@ -567,6 +568,9 @@ def test_the_default_campaign_runs_in_process_without_a_shell(tmp_path, monkeypa
     assert h.runs == 1 and h.column("campaign")[0] == DEFAULT_TEXT
     assert night.name == h.column("run_id")[0]
     assert 1.0 < h.column("std")[0] < 2.0   # the polygon run's Bessel s (ciomp-23bit)
+    lines = read_table(str(night / "result.parquet"), "points")[0].history
+    assert [line.split(": ", 1)[1] for line in lines] == [
+        "enc acquire --rig ciomp-23bit --mode steps", "enc points -o result.parquet"]
 
 
 def test_a_library_campaign_is_a_callable(tmp_path):
