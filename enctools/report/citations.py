@@ -1,8 +1,9 @@
 """The methods of a report's inputs named for a customer, and the references they cite.
 
 Each input is named by the command that made it (its last history line) with the
-paper or standard it follows as a reference number; the references are listed once,
-in :data:`REFERENCES` order, in the document's References section.
+paper or standard it follows as a reference number; the references the document cites
+are listed once in its References section, numbered in the order of their first
+citation (:func:`renumbered`).
 """
 
 from __future__ import annotations
@@ -67,6 +68,34 @@ def kind_name(kind: str) -> str:
 def papers() -> list[str]:
     """The references, in their numbered order."""
     return [text for _, text in REFERENCES]
+
+
+#: the rendered document's list of references (the template's), with its heading
+_LISTED = re.compile(r'<h2>References</h2>\s*<ol class="references">(.*?)</ol>', re.S)
+_CITED = re.compile(r"\[([1-9])\]")
+_HERE = "\x00references\x00"  # where the list stands while the text is renumbered
+
+
+def renumbered(html: str) -> str:
+    """The rendered document (``html``, whose list holds every one of :data:`REFERENCES`
+    numbered by :func:`cite`) with only the references its text cites listed, numbered in
+    the order of their first citation (the list left out when it cites none)."""
+    m = _LISTED.search(html)
+    if m is None:
+        return html
+    items = re.findall(r"<li>(.*?)</li>", m.group(1), re.S)
+    text = html[:m.start()] + _HERE + html[m.end():]
+    order: list[int] = []
+    for c in _CITED.finditer(text):
+        n = int(c.group(1))
+        if n <= len(items) and n not in order:
+            order.append(n)
+    new = {old: i + 1 for i, old in enumerate(order)}
+    text = _CITED.sub(lambda c: f"[{new[int(c.group(1))]}]" if int(c.group(1)) in new
+                      else c.group(0), text)
+    listing = ("<h2>References</h2>\n<ol>" + "".join(f"<li>{items[n - 1]}</li>" for n in order)
+               + "</ol>") if order else ""
+    return text.replace(_HERE, listing, 1)
 
 
 def _settings(meta: dict[str, Any]) -> dict[str, Any]:

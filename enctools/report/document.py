@@ -206,7 +206,8 @@ def _conformity(report: Report, failures: Sequence[str] | None,
     named = ", ".join(str(spec[k]) for k in ("name", "limits") if spec.get(k))
     return {"limits": limits_in_words(limits), "specification": named,
             "failures": list(failures or []),
-            "rule": ("Decision rule: simple acceptance (ILAC-G8:09/2019, 4.2.1; no guard "
+            "rule": (f"Decision rule: simple acceptance (ILAC-G8 {citations.cite('ilac')}, "
+                     "4.2.1; no guard "
                      "band): a figure conforms when its measured value does not exceed "
                      "its limit. The expanded uncertainty stated in this document is not "
                      "added to the measured value, so a value closer to a limit than its "
@@ -468,4 +469,4 @@ def _template() -> Any:
 def render(doc: dict[str, Any], page: bool) -> str:
     """The template filled with ``doc``: the whole HTML page (``page``), or its body
     alone for the PDF's renderer. Values are escaped as HTML."""
-    return str(_template().render(doc, page=page))
+    return citations.renumbered(str(_template().render(doc, page=page)))

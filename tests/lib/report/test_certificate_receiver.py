@@ -95,6 +95,26 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
         assert "repeatabilityoverthe" in solid and "themethod'sownbound" in solid
 
 
+@pytest.mark.parametrize("seed", ["000", "001"])
+def test_the_references_listed_are_those_cited_in_the_order_cited(seed, campaigns,  # noqa: F811
+                                                                   tmp_path):
+    """ISO/IEC 17025 7.8 asks for a document that stands on its own: every reference it
+    lists is cited in its text, numbered by its first citation, and every citation is
+    listed (seed 001's certificate cites neither seed 000's paper nor ISO 230-2)."""
+    _certificate(seed, campaigns[seed], tmp_path)
+    text = subprocess.run(["pdftotext", "-layout", str(tmp_path / "cert.pdf"), "-"],
+                          capture_output=True, text=True, check=True).stdout
+    before, _, rest = text.partition("\nReferences\n")
+    listing, _, after = rest.partition("The results relate only")
+    listed = [int(n) for n in re.findall(r"^\s*(\d)\. ", listing, re.M)]
+    cited = [int(n) for n in re.findall(r"\[(\d)\]", before + after)]
+    first = list(dict.fromkeys(cited))
+    assert listed == first == list(range(1, len(listed) + 1)), (listed, cited)
+    papers = " ".join(listing.split())
+    assert ("Jiao Y." in papers) == (seed == "000") and ("Yu H." in papers) == (seed == "001")
+    assert ("ISO 230-2" in papers) == (seed == "000")
+
+
 def test_inputs_of_two_rigs_are_refused_for_one_certificate(campaigns, tmp_path):  # noqa: F811
     r = run(["enc", "report", campaigns["001"][0], campaigns["000"][0], "--certificate",
              str(CERTS["001"]), "--pdf", str(tmp_path / "c.pdf")])
