@@ -68,15 +68,30 @@ def enc() -> str:
 
 def run(cmd: str | list[str], cwd: Path | None = None, input: bytes | None = None,
         env: dict[str, str] | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
-    """Run a command (a shell pipeline when given a string) with enc on PATH."""
+    """Run a command (a shell pipeline when given a string) with enc on PATH.
+
+    The command runs in a process group of its own: at its ``timeout`` [s] (or when the
+    test is interrupted) the whole group is killed, the commands a shell started with
+    it, not the shell alone (``subprocess.run`` kills only its child: the pipeline's
+    commands were left running, orphans holding the output pipes)."""
     e = dict(os.environ)
     e["PATH"] = f"{Path(enc_exe()).parent}{os.pathsep}{e.get('PATH', '')}"
     e.pop("ENC_DEBUG", None)
     if env:
         e.update(env)
     shell = isinstance(cmd, str)
-    return subprocess.run(cmd, shell=shell, cwd=cwd, input=input, env=e, capture_output=True,
-                          timeout=timeout, executable="/bin/bash" if shell else None)
+    with subprocess.Popen(cmd, shell=shell, cwd=cwd, env=e, process_group=0,
+                          stdin=subprocess.PIPE if input is not None else None,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          executable="/bin/bash" if shell else None) as proc:
+        try:
+            out, err = proc.communicate(input, timeout=timeout)
+        except BaseException:  # the timeout, or the test interrupted: none left running
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+            raise
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
 
 # ------------------------------------------------------------------ in-process runner
