@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 
 import pytest
-from conftest import run
+from conftest import ROOT, run
 
 
 def _running(pid: int) -> bool:
@@ -36,3 +37,13 @@ def test_a_command_past_its_timeout_leaves_no_process_running(tmp_path: Path) ->
         if _running(pid):
             os.kill(pid, 9)
 
+
+def test_the_commands_of_the_suite_keep_their_compiled_bytecode() -> None:
+    """The commands the tests start keep the bytecode they compile (in the venv's
+    pycache/ when the environment says not to write it beside the sources): else each of
+    them compiles again every module of enctools it imports."""
+    r = run([sys.executable, "-c", "import sys; print(sys.dont_write_bytecode, "
+             "sys.pycache_prefix)"])
+    written, prefix = r.stdout.decode().split()
+    assert written == "False", "the suite's commands compile enctools at every start"
+    assert prefix == "None" or not Path(prefix).is_relative_to(ROOT / "enctools")
