@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import importlib.util
 import io
 import logging
 import os
@@ -71,6 +72,14 @@ def enc_exe() -> str:
     if not exe.exists():
         pytest.fail(f"enc is not installed beside {sys.executable}; run make test")
     return str(exe)
+
+
+def skip_without(module: str) -> None:
+    """Skip the calling test module when ``module`` is not installed, without importing it
+    (``pytest.importorskip`` imports it: moto costs each worker's collection 0.5 s of CPU,
+    in every tier, ``make check`` too, where no test of that module runs)."""
+    if importlib.util.find_spec(module) is None:
+        pytest.skip(f"{module} is not installed", allow_module_level=True)
 
 
 @pytest.fixture(scope="session")
