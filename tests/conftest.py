@@ -3,10 +3,11 @@ in-process runner for usage errors and small cases, and the simulator runs that 
 files read, made once per test session (once across xdist workers too).
 
 Tiers: ``make check`` runs the library's own tests: neither ``slow`` nor ``command``
-(under 30 s on two loaded cores, the load printed first); ``make test`` runs them all. A
-test is marked ``command`` here, at collection, when it runs a command or the simulator
-(itself, through its module's helpers or a fixture); it is marked ``slow`` by hand when
-it runs a full-size simulation, many subprocesses or a long in-process computation.
+(under 30 s on two loaded cores, the load printed first); ``make test`` runs every test
+but the ``slow`` ones, ``make test-slow`` those (CI runs both). A test is marked
+``command`` here, at collection, when it runs a command or the simulator (itself,
+through its module's helpers or a fixture); it is marked ``slow`` by hand when it runs a
+full-size simulation, many subprocesses or a long in-process computation.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ and error line checked (tests/adversarial/runner.py).
 
 A case marked ``pending`` is a known failure, expected to fail (strict): when the fix
 lands it passes, the test fails loudly, and the marker is to be deleted from its row.
-The cases spawn many processes: marked slow (``make test``, not ``make check``), but for
+The cases spawn many processes: marked slow (``make test-slow``), but for
 the checks of the catalogue itself.
 """
 
