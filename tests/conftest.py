@@ -3,16 +3,18 @@ in-process runner for usage errors and small cases, and the simulator runs that 
 files read, made once per test session (once across xdist workers too).
 
 Tiers: ``make check`` runs the library's own tests: neither ``slow`` nor ``command``
-(under 30 s on two loaded cores, the load printed first); ``make test`` runs them all. A
-test is marked ``command`` here, at collection, when it runs a command or the simulator
-(itself, through its module's helpers or a fixture); it is marked ``slow`` by hand when
-it runs a full-size simulation, many subprocesses or a long in-process computation.
+(under 30 s on two loaded cores, the load printed first); ``make test`` runs every test
+but the ``slow`` ones, ``make test-slow`` those (CI runs both). A test is marked
+``command`` here, at collection, when it runs a command or the simulator (itself,
+through its module's helpers or a fixture); it is marked ``slow`` by hand when it runs a
+full-size simulation, many subprocesses or a long in-process computation.
 """
 
 from __future__ import annotations
 
 import contextlib
 import fcntl
+import importlib.util
 import io
 import logging
 import os
@@ -43,6 +45,18 @@ if "numpy" in sys.modules:  # a plugin imported it first: the setting came too l
     warnings.warn("numpy was imported before tests/conftest.py: OpenBLAS keeps its threads",
                   stacklevel=1)
 
+# Compiled bytecode kept in the venv (pycache/) for the test processes and every command
+# they start, when the environment says not to write it beside the sources
+# (PYTHONDONTWRITEBYTECODE, as in this machine's shells) and names no place of its own:
+# else each of the suite's thousands of commands compiled every enctools module it
+# imports, ~0.1 s of CPU a command, a third of a catalogue case's. An installed enctools
+# has its bytecode; nothing is written into the source tree.
+if os.environ.get("PYTHONDONTWRITEBYTECODE") and "PYTHONPYCACHEPREFIX" not in os.environ \
+        and sys.prefix != sys.base_prefix:
+    del os.environ["PYTHONDONTWRITEBYTECODE"]
+    os.environ["PYTHONPYCACHEPREFIX"] = sys.pycache_prefix = str(Path(sys.prefix) / "pycache")
+    sys.dont_write_bytecode = False
+
 # A shell starts a background job (CI's runner may be one) with SIGINT and SIGQUIT
 # ignored, and the commands keep a signal they were started with ignored (nohup, a
 # background job: errors.ending_signals). The suite's commands are stopped as from a
@@ -61,6 +75,14 @@ def enc_exe() -> str:
     return str(exe)
 
 
+def skip_without(module: str) -> None:
+    """Skip the calling test module when ``module`` is not installed, without importing it
+    (``pytest.importorskip`` imports it: moto costs each worker's collection 0.5 s of CPU,
+    in every tier, ``make check`` too, where no test of that module runs)."""
+    if importlib.util.find_spec(module) is None:
+        pytest.skip(f"{module} is not installed", allow_module_level=True)
+
+
 @pytest.fixture(scope="session")
 def enc() -> str:
     return enc_exe()
@@ -68,15 +90,30 @@ def enc() -> str:
 
 def run(cmd: str | list[str], cwd: Path | None = None, input: bytes | None = None,
         env: dict[str, str] | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
-    """Run a command (a shell pipeline when given a string) with enc on PATH."""
+    """Run a command (a shell pipeline when given a string) with enc on PATH.
+
+    The command runs in a process group of its own: at its ``timeout`` [s] (or when the
+    test is interrupted) the whole group is killed, the commands a shell started with
+    it, not the shell alone (``subprocess.run`` kills only its child: the pipeline's
+    commands were left running, orphans holding the output pipes)."""
     e = dict(os.environ)
     e["PATH"] = f"{Path(enc_exe()).parent}{os.pathsep}{e.get('PATH', '')}"
     e.pop("ENC_DEBUG", None)
     if env:
         e.update(env)
     shell = isinstance(cmd, str)
-    return subprocess.run(cmd, shell=shell, cwd=cwd, input=input, env=e, capture_output=True,
-                          timeout=timeout, executable="/bin/bash" if shell else None)
+    with subprocess.Popen(cmd, shell=shell, cwd=cwd, env=e, process_group=0,
+                          stdin=subprocess.PIPE if input is not None else None,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          executable="/bin/bash" if shell else None) as proc:
+        try:
+            out, err = proc.communicate(input, timeout=timeout)
+        except BaseException:  # the timeout, or the test interrupted: none left running
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+            raise
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
 
 # ------------------------------------------------------------------ in-process runner

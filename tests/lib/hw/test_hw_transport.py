@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import ROOT, one_error_line, run_in_process
+from conftest import ROOT, one_error_line, run_in_process, skip_without
 
 from enctools.data import streams
 
-pytest.importorskip("pyvisa_sim")
+skip_without("pyvisa_sim")
 
 RIG = ROOT / "tests" / "rigs" / "visa-sim.toml"
 TABLE = "instrument table (TCPIP0::192.168.0.21::inst0::INSTR)"

@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import ROOT, one_error_line, run
+from conftest import ROOT, one_error_line, run, skip_without
 
-pytest.importorskip("pyvisa_sim")
+skip_without("pyvisa_sim")
 
 RIG = ROOT / "tests" / "rigs" / "visa-sim.toml"
 CPR = 1 << 23

@@ -152,6 +152,7 @@ def test_the_demo_certificate_of_seed_000_carries_the_step_runs_budget(tmp_path)
     assert "calibrationcertificateofencoderI(example)" not in solid    # the rig's words
 
 
+@pytest.mark.slow  # 9 s of CPU: the largest of make check's tests
 def test_monte_carlo_coverage_of_a_polygon_step_run_of_several_runs():
     """60 simulated seed 001 runs of 3 runs each way (benchmarks/polygon_runs_mc.py; make
     bench runs 2000). The targets of one run share its datum and faces, so the count is

@@ -20,7 +20,7 @@ COMMENT = ["enctools make-rom: a test table", "CRC-32 0badf00d; a second line"]
 #: sizes [entries]: tiny, around a hex digit of the address, around the writers' blocks
 SIZES = (1, 2, 3, 15, 16, 17, 255, 257, 4095, 4097, 65535, 65536, 65537,
          3 * 65536 + 5, 5 * 65536 - 3)
-#: sizes of about a whole block (65536 entries) or more: in the slow tier (make test)
+#: sizes of about a whole block (65536 entries) or more: in the slow tier (make test-slow)
 MANY_BLOCKS = (65535, 65536, 65537, 3 * 65536 + 5, 5 * 65536 - 3, 8 * 65536 + 1)
 
 

@@ -12,11 +12,12 @@ import textwrap
 import time
 
 import pytest
+from conftest import skip_without
 
 from enctools.report import historytable
 from enctools.report.history import append_run, read_history
 
-pytest.importorskip("moto")
+skip_without("moto")
 
 
 @pytest.fixture(scope="module")
