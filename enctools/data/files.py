@@ -190,11 +190,41 @@ def new_temporary(path: str | Path) -> tuple[int, str]:
     for _ in range(100):  # as mkstemp: another name when one is taken
         # os.urandom, not secrets: that imports hashlib, which most commands never need
         name = os.path.abspath(folder / f"{prefix}{os.urandom(4).hex()}.tmp")
+        _live(name)  # recorded before it exists: a signal the moment it appears finds it
         try:
             return os.open(name, flags, 0o666), name
-        except FileExistsError:
+        except FileExistsError:  # a dead writer's of this process id (or a rare draw)
+            _LIVE.discard(name)
             continue
+        except OSError:  # not made (a signal's exception keeps it recorded: it may be)
+            _LIVE.discard(name)
+            raise
     raise FileExistsError(errno.EEXIST, "no unused temporary file name", str(folder))
+
+
+#: the temporaries this process made that are neither renamed into place nor removed yet,
+#: each recorded before it is made: removed when the process ends (atexit, which the
+#: commands' endings run), so that a signal that ends a command between a temporary's
+#: creation and its writer's own cleanup (the moment a watcher of the folder sends it, in
+#: whichever thread it is delivered) leaves none behind
+_LIVE: set[str] = set()
+_AT_EXIT: list[Callable[[], None]] = []
+
+
+def _live(name: str) -> None:
+    if not _AT_EXIT:  # registered once, by the first temporary
+        import atexit
+
+        atexit.register(_remove_live)
+        _AT_EXIT.append(_remove_live)
+    _LIVE.add(name)
+
+
+def _remove_live() -> None:
+    for name in sorted(_LIVE):
+        with contextlib.suppress(OSError):
+            os.unlink(name)
+    _LIVE.clear()
 
 
 def _pattern(name: str) -> re.Pattern[str]:
@@ -280,6 +310,7 @@ def rename_into_place(tmp: str, path: str | Path, force: bool = True) -> None:
     if not force and os.path.lexists(path):  # appeared meanwhile
         raise exists(path)
     os.replace(tmp, path)
+    _LIVE.discard(os.path.abspath(tmp))
 
 
 def write_atomic(path: str | Path, data: bytes | Callable[[BinaryIO], None], *,
@@ -399,6 +430,7 @@ class OutputGroup:
                 except OSError as exc:
                     msg = f"output {path}: {exc.strerror or exc}"
                     raise OutputError(msg, path) from None
+                _LIVE.discard(tmp)
                 staged.pop(0)
         finally:
             self._staged = staged

@@ -218,3 +218,35 @@ def test_the_temporary_of_a_killed_run_is_removed_by_the_next(tmp_path, enc):
     r = run_in_process(f"enc acquire --rig sjtu-dual --revolutions 0.01 -o {out}")
     assert r.returncode == 0, r.stderr.decode()
     assert [q.name for q in tmp_path.iterdir()] == [out.name]
+
+
+class _Stopped(Exception):
+    pass
+
+
+def test_a_signal_the_moment_a_temporary_appears_leaves_none(tmp_path, monkeypatch):
+    """A signal that ends a command arrives as soon as its output's temporary appears (a
+    watcher of the folder sends it then, as the catalogue's signal rows do): delivered
+    before the writer has the name to clean up, the temporary was left behind. It is now
+    made and recorded with the signals held, and removed when the process ends."""
+    import signal
+
+    previous = signal.signal(signal.SIGUSR1, lambda *_: (_ for _ in ()).throw(_Stopped()))
+    real_open = os.open
+
+    def open_and_signal(*args, **kwargs):
+        fd = real_open(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGUSR1)   # the watcher, the moment the file exists
+        return fd
+
+    monkeypatch.setattr(os, "open", open_and_signal)
+    try:
+        with pytest.raises(_Stopped):
+            files.write_atomic(tmp_path / "out.bin", b"data")
+    finally:
+        monkeypatch.setattr(os, "open", real_open)
+        signal.signal(signal.SIGUSR1, previous)
+    (left,) = [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+    assert str(left) in files._LIVE
+    files._remove_live()                 # what the command's ending runs (atexit)
+    assert list(tmp_path.iterdir()) == []
