@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from enctools.errors import DataError, SettingsError
+from enctools.units import factor
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -25,6 +26,9 @@ if TYPE_CHECKING:
 
 #: angles over the turn at which a controller table's interpolation is checked
 INTERPOLATION_CHECKS = 14_400
+
+#: arcsec in one degree
+ARCSEC_PER_DEG = factor("deg", "arcsec")
 
 
 def control_source(header: Header, table: pa.Table, source: str, curve: str | None) -> Source:
@@ -99,8 +103,8 @@ def backlash_summary(reversal_arcsec: np.ndarray, unit_deg: float) -> dict[str, 
     backlash machine datum in steps of ``unit_deg`` [deg] (the control's resolution),
     rounded, and what it stands for [arcsec]."""
     b = float(np.mean(reversal_arcsec)) + 0.0  # never -0.0
-    steps = int(np.rint(b / (unit_deg * 3600.0)))
+    steps = int(np.rint(b / (unit_deg * ARCSEC_PER_DEG)))
     return {"direction": "positive, backlash apart",
             "reversal_max_arcsec": float(np.max(np.abs(reversal_arcsec))),
             "reversal_mean_arcsec": b, "backlash_steps": steps, "backlash_unit_deg": unit_deg,
-            "backlash_arcsec": steps * unit_deg * 3600.0 + 0.0}
+            "backlash_arcsec": steps * unit_deg * ARCSEC_PER_DEG + 0.0}

@@ -305,7 +305,7 @@ def verify_backlash(path: str, target: str, intended_arcsec: float, unit_deg: fl
     """CheckFailed unless the backlash machine datum read back with the controller's table
     ``path`` (:func:`read_points`) is within half its unit [deg] of ``intended_arcsec``."""
     got = read_points(path, target, Reading()).backlash_rad
-    if got is None or abs(got / ARCSEC - intended_arcsec) > unit_deg * 3600.0 / 2 * (1 + 1e-6):
+    if got is None or abs(got - intended_arcsec * ARCSEC) > unit_deg * DEG / 2 * (1 + 1e-6):
         shown = "none" if got is None else f"{got / ARCSEC:.6g} arcsec"
         msg = (f"{backlash_path(path, target)}: the backlash read back ({shown}) is not within "
                f"half its unit of {intended_arcsec:.6g} arcsec")
