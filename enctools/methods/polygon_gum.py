@@ -4,7 +4,7 @@ The model of point j of one run against its datum, the run's first position (see
 sec. 5.3; :mod:`enctools.methods.budget`):
 
     D_j = x_j + (r_j - r_0) + (1/N) sum_k (Q_jk - Q_0k) - (delta_j - delta_0)
-          - (a_j - a_0) kappa
+          - (a_j - a_0) kappa + z
 
 x_j the measured deviation [arcsec] (the estimate), r_i the repeatability of position
 i's mean of n readings (Type A: the run's pooled s / sqrt(n), one estimate of s for
@@ -13,7 +13,9 @@ head k's mean at position i (u_q, :func:`enctools.methods.budget.quantisation`),
 delta_i the polygon's face angle at position i (its certificate's u, or the rig's
 declaration when the faces are not corrected), kappa the autocollimator's scale error
 and a_i - a_0 the autocollimator's indication at position i against the datum's
-[arcsec]. Every input is a GTC uncertain real labelled with its row's name, so GTC
+[arcsec], z the zero's drift since the datum where a closing reading at 360 deg bounds
+it (:func:`enctools.methods.budget.closing_drift`, one input common to the points).
+Every input is a GTC uncertain real labelled with its row's name, so GTC
 carries what the points share: the datum's r_0, Q_0k and delta_0 and kappa enter every
 point, and any two points correlate (r about 0.5 when the datum's terms are half of a
 point's variance). From the same inputs: each point's u and nu_eff, the covariance
@@ -149,9 +151,16 @@ def deviations(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarr
                f"of {faces.u_arcsec.size})")
         raise DataError(msg)
     rep, quant, face, scale = inputs(run, faces, kappa, n)
+    drift = None
+    if run.closing_arcsec is not None:   # a common bound from the closing reading
+        from GTC import ureal
+        drift = ureal(0.0, abs(run.closing_arcsec) / math.sqrt(3.0),
+                      label="drift over the run (closing reading)")
     out = []
     for j in range(n):
         d = float(x_arcsec[j]) + (rep[j] - rep[0]) - (face[f[j]] - face[0])
+        if drift is not None and j > 0:
+            d = d + drift
         for k in range(run.heads):
             d = d + (quant[j][k] - quant[0][k]) / run.heads
         if scale is not None:
