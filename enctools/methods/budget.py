@@ -28,6 +28,7 @@ import numpy as np
 from enctools.data.uncertainty import DIVISORS as DIVISORS  # the GUM's divisors, here too
 from enctools.data.uncertainty import UNITS, Declaration
 from enctools.errors import DataError
+from enctools.methods.polygon_terms import POLYGON_TERMS, SENSITIVITY
 
 
 @dataclass(frozen=True)
@@ -310,11 +311,18 @@ def polygon_run_budget(declared: dict[str, Declaration], run: PolygonRun,
         rows += polygon_faces(face)
     if "autocollimator" in declared:
         rows.append(autocollimator_scale(declared["autocollimator"], run.span_arcsec))
-    return combine(rows, coverage)
+    return combine(rows + polygon_terms(declared), coverage)
+
+
+def polygon_terms(declared: dict[str, Declaration]) -> list[Contribution]:
+    """The rows of the method's terms the rig declares (:mod:`enctools.methods.
+    polygon_terms`: resolution, noise, flatness, pyramidal, alignment, drift)."""
+    return [_declared(declared[q], name, SENSITIVITY[kind])
+            for q, (name, kind) in POLYGON_TERMS.items() if q in declared]
 
 
 #: the declared quantities the polygon step run's model uses
-POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator")
+POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator", *POLYGON_TERMS)
 
 
 # ------------------------------------------ the model of a comparison (seed 000 eq. 10)
@@ -430,15 +438,12 @@ def polygon_runs_budget(declared: dict[str, Declaration], run: PolygonRun, u_a_a
         rows += polygon_faces(face)
     if "autocollimator" in declared:
         rows.append(autocollimator_scale(declared["autocollimator"], run.span_arcsec))
-    if "alignment" in declared:
-        rows.append(_declared(declared["alignment"],
-                              "alignment of the polygon to the axis", -1.0))
-    return combine(rows, coverage)
+    return combine(rows + polygon_terms(declared), coverage)
 
 
 #: the declared quantities a step run's models use (read on an encoder; on a polygon)
 STEP_RUN_QUANTITIES = ("reference_encoder", "reference_encoder_uncorrected", "alignment")
-POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", "alignment")
+POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", *POLYGON_TERMS)
 
 
 # ------------------------------------------- the model of a self-calibration (seed 000)
