@@ -43,8 +43,16 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "reference_encoder_uncorrected": ("angle", "accuracy of the reference encoder used without "
                                                "its calibrated curve: the bound of its error "
                                                "(a half-width, as a maker states a grade)"),
-    "alignment": ("angle", "alignment of a step run's reference instrument to the axis: the "
-                           "angle error its residual eccentricity or tilt makes at a target"),
+    "alignment": ("angle", "alignment of a step run's reference instrument (or polygon) to "
+                           "the axis: the angle error its residual eccentricity or tilt makes "
+                           "at a target"),
+    "autocollimator_resolution": ("angle", "resolution of the autocollimator's reading"),
+    "autocollimator_noise": ("angle", "autocollimator noise and air turbulence beyond the "
+                                      "scatter of a stop's readings"),
+    "face_flatness": ("angle", "angle error from the flatness of a polygon face"),
+    "pyramidal": ("angle", "angle error from a polygon face's pyramidal error (tilt)"),
+    "temperature_drift": ("angle", "drift of the polygon method's zero with temperature "
+                                   "over a run"),
 }
 
 #: divisors of the GUM for a value of each distribution (GUM 4.3.7-4.3.9)

@@ -28,6 +28,7 @@ import numpy as np
 from enctools.data.uncertainty import DIVISORS as DIVISORS  # the GUM's divisors, here too
 from enctools.data.uncertainty import UNITS, Declaration
 from enctools.errors import DataError
+from enctools.methods.polygon_terms import POLYGON_TERMS, SENSITIVITY
 
 
 @dataclass(frozen=True)
@@ -178,6 +179,9 @@ class PolygonRun:
     lsb_arcsec : one count of the encoder [arcsec]; heads : the N heads averaged.
     head_s_arcsec : pooled standard deviation of one head's reading about its position's
         mean [arcsec] (the noise that dithers the quantisation).
+    interval_s : time between a stop's readings [s]; runs, directions : of the run
+        (None: not stated); closing_arcsec : the closing reading's deviation on the first
+        face again, less the first's [arcsec] (None: no closing reading).
     """
 
     s_arcsec: float
@@ -187,15 +191,53 @@ class PolygonRun:
     lsb_arcsec: float
     heads: int
     head_s_arcsec: float
+    interval_s: float | None = None
+    runs: int | None = None
+    directions: int | None = None
+    closing_arcsec: float | None = None
+
+    def readings_span(self) -> str:
+        """What the readings' Type A spans: "5 readings 1 ms apart at each stop of one run"."""
+        apart = "" if self.interval_s is None else f" {_duration(self.interval_s)} apart"
+        return f"{self.readings} readings{apart} at each stop of one run"
+
+    def approaches_span(self) -> str:
+        """What a Type A over approaches spans: "3 runs x 2 directions" (or "the approaches")."""
+        if self.runs is None:
+            return "the approaches"
+        runs = f"{self.runs} run{'s' if self.runs != 1 else ''}"
+        both = " x 2 directions" if self.directions == 2 else ""
+        return f"{runs}{both}"
+
+
+def _duration(seconds: float) -> str:
+    """A time in the unit that reads best: "1 ms", "2 s", "250 us"."""
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6)):
+        if seconds >= scale * (1.0 - 1e-9):
+            return f"{seconds / scale:.3g} {unit}"
+    return f"{seconds:.3g} s"
 
 
 def repeatability(run: PolygonRun) -> Contribution:
     """Type A: the scatter of the n readings at a position. u(D_j) = s sqrt(1/n + 1/n):
     the point is the difference of two means of n readings (position j and the datum),
     as one row (one estimate s on its dof): value s, divisor sqrt(n), c = sqrt(2)."""
-    return Contribution(f"repeatability of the readings ({run.readings} per position)",
+    return Contribution(f"repeatability: {run.readings_span()}",
                         "this run", "A", "normal", run.s_arcsec, "arcsec",
                         math.sqrt(run.readings), math.sqrt(2.0), run.dof)
+
+
+def closing_drift(run: PolygonRun) -> Contribution | None:
+    """The drift over the run from its closing reading, back on the first face at 360 deg:
+    its deviation less the first's, d [arcsec], bounds the zero's drift between the datum
+    and any point (a drift that does not turn back): rectangular of half-width |d|, c = 1
+    (GUM 4.3.7). It holds the two readings' noise too: a bound. None without one."""
+    d = run.closing_arcsec
+    if d is None:
+        return None
+    return Contribution(f"drift over the run: closing reading at 360 deg, {d:+.3g} arcsec "
+                        "from the first", "this run", "B", "rectangular", abs(d), "arcsec",
+                        math.sqrt(3.0), 1.0)
 
 
 def polygon_faces(face: Declaration) -> list[Contribution]:
@@ -261,16 +303,26 @@ def polygon_run_budget(declared: dict[str, Declaration], run: PolygonRun,
     certificate), else ``declared["polygon"]``.
     """
     rows = [repeatability(run), quantisation(run)]
+    drift = closing_drift(run)
+    if drift is not None:
+        rows.append(drift)
     face = face if face is not None else declared.get("polygon")
     if face is not None:
         rows += polygon_faces(face)
     if "autocollimator" in declared:
         rows.append(autocollimator_scale(declared["autocollimator"], run.span_arcsec))
-    return combine(rows, coverage)
+    return combine(rows + polygon_terms(declared), coverage)
+
+
+def polygon_terms(declared: dict[str, Declaration]) -> list[Contribution]:
+    """The rows of the method's terms the rig declares (:mod:`enctools.methods.
+    polygon_terms`: resolution, noise, flatness, pyramidal, alignment, drift)."""
+    return [_declared(declared[q], name, SENSITIVITY[kind])
+            for q, (name, kind) in POLYGON_TERMS.items() if q in declared]
 
 
 #: the declared quantities the polygon step run's model uses
-POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator")
+POLYGON_RUN_QUANTITIES = ("polygon", "autocollimator", *POLYGON_TERMS)
 
 
 # ------------------------------------------ the model of a comparison (seed 000 eq. 10)
@@ -379,21 +431,19 @@ def polygon_runs_budget(declared: dict[str, Declaration], run: PolygonRun, u_a_a
     u of the target's mean over its approaches [arcsec] on ``dof`` in place of the
     readings' repeatability, then the heads' quantisation, the polygon's faces, the
     autocollimator's scale and the alignment (c = -1) as ``declared``."""
-    rows = [type_a_row(u_a_arcsec, dof, "repeatability of the approaches"), quantisation(run)]
+    rows = [type_a_row(u_a_arcsec, dof, f"repeatability over {run.approaches_span()}"),
+            quantisation(run)]
     face = face if face is not None else declared.get("polygon")
     if face is not None:
         rows += polygon_faces(face)
     if "autocollimator" in declared:
         rows.append(autocollimator_scale(declared["autocollimator"], run.span_arcsec))
-    if "alignment" in declared:
-        rows.append(_declared(declared["alignment"],
-                              "alignment of the polygon to the axis", -1.0))
-    return combine(rows, coverage)
+    return combine(rows + polygon_terms(declared), coverage)
 
 
 #: the declared quantities a step run's models use (read on an encoder; on a polygon)
 STEP_RUN_QUANTITIES = ("reference_encoder", "reference_encoder_uncorrected", "alignment")
-POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", "alignment")
+POLYGON_RUNS_QUANTITIES = ("polygon", "autocollimator", *POLYGON_TERMS)
 
 
 # ------------------------------------------- the model of a self-calibration (seed 000)

@@ -199,11 +199,31 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
         dev -= face_correction(certificate, j, settings.first_face)
     points = Points(np.mod(va / DEG, 360.0), dev, vd, vr)
     points.run_meta = _run_meta(heads, ac, keys, (vac, vr), lsb)
+    points.run_meta |= _span_meta(table, keys, vr, vd)
     if np.unique(vr).size == 1 and np.unique(vd).size == 1:
         # one approach: what the budget's model of each point needs (methods/polygon_gum)
         points.run_meta |= {"ac_arcsec": [float(a) for a in vac - vac[0]],
                             "face": [int(f) for f in j]}
+        if dev.size > faces and j[-1] == 0:   # a closing reading on the first face again
+            points.run_meta["closing_arcsec"] = float(dev[-1] - dev[0])
     return points
+
+
+def _span_meta(table: pa.Table, keys: tuple[np.ndarray, ...], vr: np.ndarray,
+               vd: np.ndarray) -> dict[str, Any]:
+    """What a run's Type A spans (``polygon_run`` metadata): ``runs`` and ``directions``
+    [count] and ``interval_s``, the median time between consecutive readings of one stop
+    [s] (absent without a ``t`` column or repeated readings)."""
+    out: dict[str, Any] = {"runs": int(np.unique(vr).size),
+                           "directions": int(np.unique(vd).size)}
+    if "t" not in table.column_names:
+        return out
+    t = table.column("t").to_numpy(zero_copy_only=False).astype(np.float64)
+    key = np.stack(keys).T
+    same = np.all(key[1:] == key[:-1], axis=1) & np.isfinite(t[1:]) & np.isfinite(t[:-1])
+    if np.any(same):
+        out["interval_s"] = float(np.median(np.diff(t)[same]))
+    return out
 
 
 def step_visits(header: Header, table: pa.Table, settings: Settings, source: str

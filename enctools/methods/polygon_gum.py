@@ -4,7 +4,7 @@ The model of point j of one run against its datum, the run's first position (see
 sec. 5.3; :mod:`enctools.methods.budget`):
 
     D_j = x_j + (r_j - r_0) + (1/N) sum_k (Q_jk - Q_0k) - (delta_j - delta_0)
-          - (a_j - a_0) kappa
+          - (a_j - a_0) kappa + z
 
 x_j the measured deviation [arcsec] (the estimate), r_i the repeatability of position
 i's mean of n readings (Type A: the run's pooled s / sqrt(n), one estimate of s for
@@ -13,7 +13,9 @@ head k's mean at position i (u_q, :func:`enctools.methods.budget.quantisation`),
 delta_i the polygon's face angle at position i (its certificate's u, or the rig's
 declaration when the faces are not corrected), kappa the autocollimator's scale error
 and a_i - a_0 the autocollimator's indication at position i against the datum's
-[arcsec]. Every input is a GTC uncertain real labelled with its row's name, so GTC
+[arcsec], z the zero's drift since the datum where a closing reading at 360 deg bounds
+it (:func:`enctools.methods.budget.closing_drift`, one input common to the points).
+Every input is a GTC uncertain real labelled with its row's name, so GTC
 carries what the points share: the datum's r_0, Q_0k and delta_0 and kappa enter every
 point, and any two points correlate (r about 0.5 when the datum's terms are half of a
 point's variance). From the same inputs: each point's u and nu_eff, the covariance
@@ -33,9 +35,10 @@ from typing import Any
 
 import numpy as np
 
-from enctools.data.uncertainty import Declaration
+from enctools.data.uncertainty import UNITS, Declaration
 from enctools.errors import DataError
 from enctools.methods.budget import PolygonRun, coverage_factor, dithered_quantisation
+from enctools.methods.polygon_terms import POLYGON_TERMS
 
 #: the highest harmonic order whose amplitude's U is stated (below F/2: one sample a half
 #: period is no amplitude)
@@ -134,8 +137,31 @@ def inputs(run: PolygonRun, faces: Faces, kappa: Declaration | None, points: int
     return list(rep), quant, face, scale
 
 
+def declared_terms(terms: dict[str, Declaration], n: int) -> list[Any]:
+    """What the rig's declared terms (:mod:`enctools.methods.polygon_terms`) add to each
+    of ``n`` points [arcsec]: a pair's x_j - x_0 (an input a position), a point's x_j, a
+    common one's x (0 at the datum), as GTC uncertain reals labelled with their row."""
+    from GTC import ureal
+
+    add: list[Any] = [0.0] * n
+    for q, (name, kind) in POLYGON_TERMS.items():
+        if q not in terms:
+            continue
+        d = terms[q]
+        u, nu = d.standard * UNITS["angle"][d.unit], d.dof
+        if kind == "common":
+            x = ureal(0.0, u, nu, label=name)
+            xs = [0.0] + [x] * (n - 1)
+        else:
+            xs = [ureal(0.0, u, nu, label=f"{name} ({j})") for j in range(n)]
+            xs = [0.0] + [(x - xs[0]) if kind == "pair" else -x for x in xs[1:]]
+        add = [a + x for a, x in zip(add, xs, strict=True)]
+    return add
+
+
 def deviations(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarray,
-               run: PolygonRun, faces: Faces, kappa: Declaration | None) -> list[Any]:
+               run: PolygonRun, faces: Faces, kappa: Declaration | None,
+               terms: dict[str, Declaration] | None = None) -> list[Any]:
     """The points D_j as GTC uncertain reals (the model above): ``x_arcsec`` the measured
     deviations, the datum first; ``ac_arcsec`` a_j - a_0 at each point [arcsec];
     ``face_index`` the face at each point counted from the datum's (0 at the datum; a
@@ -149,9 +175,18 @@ def deviations(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarr
                f"of {faces.u_arcsec.size})")
         raise DataError(msg)
     rep, quant, face, scale = inputs(run, faces, kappa, n)
+    extra = declared_terms(terms or {}, n)
+    drift = None
+    if run.closing_arcsec is not None:   # a common bound from the closing reading
+        from GTC import ureal
+        drift = ureal(0.0, abs(run.closing_arcsec) / math.sqrt(3.0),
+                      label="drift over the run (closing reading)")
     out = []
     for j in range(n):
         d = float(x_arcsec[j]) + (rep[j] - rep[0]) - (face[f[j]] - face[0])
+        if drift is not None and j > 0:
+            d = d + drift
+        d = d + extra[j]
         for k in range(run.heads):
             d = d + (quant[j][k] - quant[0][k]) / run.heads
         if scale is not None:
@@ -178,7 +213,8 @@ def harmonic_amplitudes(points: list[Any], orders: np.ndarray) -> list[Any]:
 
 def propagate(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarray,
               run: PolygonRun, faces: Faces, kappa: Declaration | None,
-              coverage: float = 0.95) -> PointsModel:
+              coverage: float = 0.95, terms: dict[str, Declaration] | None = None
+              ) -> PointsModel:
     """The model propagated through GTC (:func:`deviations`): per point u and k, the
     covariance and correlation, the U of the difference of two points, of p-p and of
     the harmonics' amplitudes (of points at every face once, one turn at equal steps;
@@ -187,7 +223,7 @@ def propagate(x_arcsec: np.ndarray, ac_arcsec: np.ndarray, face_index: np.ndarra
 
     f = np.asarray(face_index, np.int64)
     d = deviations(np.asarray(x_arcsec, float), np.asarray(ac_arcsec, float), f, run, faces,
-                   kappa)
+                   kappa, terms)
     n = len(d)
     figures = [_figure(y, coverage) for y in d]
     cov = np.zeros((n, n))

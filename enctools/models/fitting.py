@@ -15,6 +15,7 @@ from enctools.data.statistics import figures_or_nan
 from enctools.errors import SettingsError
 from enctools.methods.points import figures_meta
 from enctools.models import gain as gains
+from enctools.models.correction_u import CorrectionU, correction_u
 from enctools.models.fourier import (
     COND_LIMIT,
     DEFAULT_MAX_ORDER,
@@ -110,6 +111,8 @@ class Fit:
     #: each point's position [deg] and the model's prediction there refitted without it
     #: [arcsec] (None: more than HELD_OUT_POINTS points, or no leave-one-out)
     held_out: tuple[np.ndarray, np.ndarray] | None = None
+    #: the model's uncertainty at any angle (held-out and band-limit terms [arcsec])
+    correction_u: CorrectionU | None = None
 
     def residuals(self) -> dict[str, Any]:
         """The ``residuals`` metadata of the model stream."""
@@ -121,6 +124,8 @@ class Fit:
         if self.held_out is not None:
             out["held_out"] = {"position_deg": self.held_out[0].tolist(),
                                "prediction_arcsec": self.held_out[1].tolist()}
+        if self.correction_u is not None:
+            out["correction_u"] = self.correction_u.to_meta()
         return out
 
 
@@ -154,6 +159,7 @@ def fit_points(angle_deg: np.ndarray, error_arcsec: np.ndarray, settings: Settin
                "bessel_std_arcsec": left_out.std}, choice=choice, blocked=blocked)
     if x.size <= HELD_OUT_POINTS and np.all(np.isfinite(loo)):
         fit.held_out = (x.copy(), y - loo)
+    fit.correction_u = correction_u(x, y, loo)
     if holdout is not None:
         hx, hy = (np.asarray(v, dtype=np.float64) for v in holdout)
         r = hy - model(hx)

@@ -37,6 +37,7 @@ from enctools.methods.budget import (
     selfcal_budget,
     step_run_budget,
 )
+from enctools.methods.polygon_terms import not_declared
 from enctools.units import factor
 
 #: polygon_run metadata key -> (least, greatest, whole number, may be null)
@@ -67,7 +68,29 @@ def polygon_run(meta: Any, source: str) -> PolygonRun | None:
         return None
     return PolygonRun(values["s_arcsec"], values["dof"], values["readings"],
                       values["span_arcsec"], values["lsb_arcsec"], values["heads"],
-                      values["head_s_arcsec"])
+                      values["head_s_arcsec"], **_span(meta, source))
+
+
+#: optional polygon_run keys (what the Type A spans) -> (least, greatest, whole number)
+_SPAN_KEYS: dict[str, tuple[float, float, bool]] = {
+    "interval_s": (0.0, 1e6, False), "runs": (1, 1e9, True), "directions": (1, 2, True),
+    "closing_arcsec": (-3600.0, 3600.0, False)}
+
+
+def _span(meta: dict[str, Any], source: str) -> dict[str, Any]:
+    """The optional ``polygon_run`` keys that say what the Type A spans (absent: not
+    stated, as in points made before); DataError naming one out of its range."""
+    out: dict[str, Any] = {}
+    for key, (lo, hi, whole) in _SPAN_KEYS.items():
+        v = meta.get(key)
+        if v is None:
+            continue
+        if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                and lo <= v <= hi and (not whole or float(v).is_integer())):
+            msg = f"{source}: polygon_run.{key} must be a number {lo:g}..{hi:g}, not {v!r}"
+            raise DataError(msg)
+        out[key] = int(v) if whole else float(v)
+    return out
 
 
 def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
@@ -98,7 +121,8 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
     if run is None:
         return None, ["no uncertainty budget: one reading per position gives no Type A"]
     face = face if face is not None else certificate_face(meta)
-    notes = face_notes(face, declared) + [ONE_RUN_TYPE_A]
+    closed = run.closing_arcsec is not None     # the closing reading's row holds the drift
+    notes = face_notes(face, declared, closed) + [ONE_RUN_CLOSED if closed else ONE_RUN_TYPE_A]
     notes += unused(declared, POLYGON_RUN_QUANTITIES, "a polygon run's")
     budget = polygon_run_budget(declared, run, face)
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
@@ -133,28 +157,27 @@ def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declara
     return budget, notes
 
 
-#: what the literature on polygon and autocollimator calibration expects in the model and
-#: neither the rig nor a certificate can declare yet (W. T. Estler, J. Res. NIST 103
-#: (1998) 141-151 for the autocollimator and the air): U leaves them out
-POLYGON_NOT_DECLARED = (
-    "not declared, so not in U: the autocollimator's resolution, non-linearity beyond its "
-    "scale and noise beyond the readings' scatter, air turbulence; the faces' flatness; "
-    "pyramidal error, tilt (cosine error) and eccentricity of the polygon; temperature and "
-    "drift over the run; optical asymmetry (no measurement in the reversed position)")
 #: what the Type A of one run's readings spans
 ONE_RUN_TYPE_A = ("the Type A is the scatter of the readings at each stop: it does not hold "
                   "re-setting, zero drift over the run or a closing reading at 360 deg")
+#: ... and of one run closed by a reading at 360 deg (its drift row)
+ONE_RUN_CLOSED = ("the Type A is the scatter of the readings at each stop: it does not hold "
+                  "re-setting; the drift over the run is bounded by the closing reading at "
+                  "360 deg (its row)")
 
 
-def face_notes(face: Declaration | None, declared: dict[str, Declaration]) -> list[str]:
-    """What the polygon model leaves out, and what its polygon rows are: a certificate's u
-    of corrected faces (no more), the rig's declaration of faces not corrected, or none."""
+def face_notes(face: Declaration | None, declared: dict[str, Declaration],
+               closed: bool = False) -> list[str]:
+    """What the polygon model leaves out (:func:`enctools.methods.polygon_terms.
+    not_declared`; ``closed``: a closing reading bounds the drift), and what its polygon
+    rows are: a certificate's u of corrected faces (no more), the rig's declaration of
+    faces not corrected, or none."""
+    left_out = not_declared(declared, closed)
     if face is not None:
-        return [POLYGON_NOT_DECLARED]
+        return [left_out]
     if "polygon" not in declared:
-        return [POLYGON_NOT_DECLARED,
-                "the rig declares no polygon face uncertainty: U leaves it out"]
-    return [POLYGON_NOT_DECLARED,
+        return [left_out, "the rig declares no polygon face uncertainty: U leaves it out"]
+    return [left_out,
             "the polygon's certified face errors are not applied to these points: its "
             "rows are the declared spread of the uncorrected faces, not a certificate's u "
             "of corrected faces (the GUM: a correction applied leaves its own u)"]

@@ -87,7 +87,7 @@ def statement(meta: dict[str, Any], declared: dict[str, Declaration], run: Polyg
     _check(ac, face, source)
     f = np.asarray(face, np.int64)
     model = propagate(x_arcsec, np.asarray(ac, float), f, run, _faces(meta, declared, f),
-                      declared.get("autocollimator"))
+                      declared.get("autocollimator"), terms=declared)
     return Statement(model, np.asarray(pos_deg, float), np.asarray(x_arcsec, float)), ""
 
 

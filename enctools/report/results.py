@@ -21,11 +21,12 @@ JSON, the HTML and the PDF print the same numbers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
+from enctools.models.correction_u import CorrectionU
 from enctools.report.display import DECIMALS, fmt, label
 from enctools.report.longcurves import MARK_DEG
 from enctools.report.sections import Curve, Section
@@ -65,6 +66,8 @@ class Results:
     sampled: float | None = None       # the step [deg] a dense curve is listed at
     after: np.ndarray | None = None    # the deviation less the correction shipped with it
     held_out: bool = False             # ``after`` of a model refitted without each target
+    #: the uncertainty of the correction at any angle (the model's and its table's)
+    correction: CorrectionU | None = None
 
     def rows(self) -> list[dict[str, Any]]:
         """One dict per row: ``target_deg``, ``deviation_up``, ``deviation_down``,
@@ -122,10 +125,35 @@ class Results:
                "(leave-one-out): a held-out residual." if self.held_out else
                "a model fitted to these points leaves its residuals here, not an "
                "independent check."))
+        after += self.correction_words()
         if self.up is not None and self.down is not None:
             return ("Mean deviation per direction (↑ increasing, ↓ decreasing angle) and "
                     "their mean; U is the mean's." + after)
         return "One row per calibrated position." + after
+
+    def correction_words(self) -> str:
+        """" U of the correction at any angle: …" with its terms ("" without a model or
+        where the model states none)."""
+        if self.after is None:
+            return ""
+        c, u = self.correction, self.unit
+        if c is None or u != "arcsec":
+            return " U of the correction at any angle: – (the model states none)."
+        none = "(not included: no table among the inputs)"
+        terms = "; ".join(f"{name} {none if v is None else fmt(v, u)}" for name, v in c.terms())
+        return (f" U of the correction at any angle: {fmt(c.U, u)} {label(u)} "
+                f"(k = {c.k:g}; standard uncertainties: {terms}).")
+
+    def correction_dict(self) -> dict[str, Any] | None:
+        """For JSON: the correction's U [arcsec], k and each term (None: none stated)."""
+        c = self.correction
+        if self.after is None or c is None or self.unit != "arcsec":
+            return None
+        d = DECIMALS.get(self.unit, 3)
+        return {"expanded_u_arcsec": round(c.U, d), "coverage_k": c.k,
+                "standard_u_arcsec": round(c.u_c, d),
+                "terms": [{"term": n, "standard_u_arcsec": None if v is None else round(v, d)}
+                          for n, v in c.terms()]}
 
     def to_dict(self) -> dict[str, Any]:
         """For JSON: the unit as the keys' suffix."""
@@ -143,8 +171,12 @@ class Results:
             if r["after"] is not None:
                 row[f"deviation_after_correction_{u}"] = r["after"]
             rows.append(row)
-        return {"curve": self.curve, "unit": u, "listed_every_deg": self.sampled,
-                "rows": rows}
+        out: dict[str, Any] = {"curve": self.curve, "unit": u,
+                               "listed_every_deg": self.sampled, "rows": rows}
+        correction = self.correction_dict()
+        if correction is not None:
+            out["correction_at_any_angle"] = correction
+        return out
 
 
 def results(s: Section, model: Curve | None = None) -> list[Results]:
@@ -159,6 +191,7 @@ def results(s: Section, model: Curve | None = None) -> list[Results]:
         if model is not None and c.role == "points" and model.unit == c.unit:
             res.after = res.mean - _correction(model, res.target)
             res.held_out = model.held_out is not None
+            res.correction = model.correction_u
         out.append(res)
     return out
 
@@ -182,8 +215,16 @@ def _correction(model: Curve, target: np.ndarray) -> np.ndarray:
 
 def correction_of(sections: list[Section]) -> Curve | None:
     """The curve of the first error model among ``sections`` (the correction a points
-    section's results are given after), or None."""
-    return next((c for s in sections if s.kind == "model" for c in s.curves), None)
+    section's results are given after), or None; with a correction table among them too
+    (a ``rom``), the model's uncertainty includes that table's quantisation."""
+    model = next((c for s in sections if s.kind == "model" for c in s.curves), None)
+    if model is None or model.correction_u is None:
+        return model
+    lsb = next((s.meta["rom"].get("lsb_arcsec") for s in sections
+                if s.kind == "rom" and isinstance(s.meta.get("rom"), dict)), None)
+    if not isinstance(lsb, (int, float)) or not lsb > 0:
+        return model
+    return replace(model, correction_u=model.correction_u.with_lsb(float(lsb)))
 
 
 def _curve_results(s: Section, c: Curve) -> Results:

@@ -41,6 +41,7 @@ from enctools.methods.budget import Budget, type_a_coverage
 from enctools.methods.interp.screen import screen_notes
 from enctools.methods.points import count_deg
 from enctools.methods.targets import tolerance
+from enctools.models.correction_u import CorrectionU
 from enctools.report import longcurves
 from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty, harmonics
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
@@ -79,6 +80,8 @@ class Curve:
     #: a model's: each point it was fitted to [deg] and its prediction there refitted
     #: without that point [arcsec] (enc fit-rbf's ``residuals.held_out``)
     held_out: tuple[np.ndarray, np.ndarray] | None = None
+    #: a model's uncertainty at any angle (enc fit-rbf's ``residuals.correction_u``)
+    correction_u: CorrectionU | None = None
 
     @property
     def U_max(self) -> float | None:
@@ -443,9 +446,13 @@ def _model(stream: InputStream, s: Section, opts: Options) -> None:
 
     evaluate = from_stream(stream.header, table, s.source)
     grid = np.arange(720) * 0.5
+    cu = CorrectionU.from_meta(residuals.get("correction_u")) \
+        if isinstance(residuals, dict) else None
     s.curves.append(_curve("model", "arcsec", "model", grid * DEG,
                            np.asarray(evaluate(grid), np.float64), opts, s.source,
-                           held_out=_held_out(residuals, s.source)))
+                           held_out=_held_out(residuals, s.source), correction_u=cu,
+                           u=None if cu is None else np.full(grid.size, cu.u_c),
+                           k=K_COVERAGE if cu is None else cu.k))
     s.notes.append("the model curve is evaluated every 0.5 deg; thresholds do not apply to it")
 
 

@@ -101,7 +101,7 @@ def test_a_polygon_step_run_of_several_runs_has_a_budget(tmp_path):
         assert r.returncode == 0, r.stderr.decode()
     sec = _section(points)
     names = [c["name"] for c in sec["budget"]["contributions"]]
-    assert names[0] == "repeatability of the approaches"
+    assert names[0] == "repeatability over 2 runs x 2 directions"
     assert "polygon face angle at the point" in names and "autocollimator scale error" in names
     assert not any("no uncertainty budget" in n for n in sec["notes"])
 
