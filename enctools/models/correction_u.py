@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from enctools.units import DEG
+
 #: the coverage factor of U (a normal combination of three terms; GUM 6.2.1)
 K_CORRECTION = 2.0
 #: fewer points than this resolve no top octave to bound the tail with
@@ -99,7 +101,7 @@ class CorrectionU:
 def top_octave_rms(angle_deg: np.ndarray, error_arcsec: np.ndarray) -> tuple[float, int, int]:
     """The RMS [arcsec] of the points' harmonics of order ceil(m/4)..ceil(m/2)-1 (least
     squares over all orders 0..ceil(m/2)-1), that first order and ceil(m/2)."""
-    x = np.radians(np.asarray(angle_deg, np.float64))
+    x = np.asarray(angle_deg, np.float64) * DEG
     y = np.asarray(error_arcsec, np.float64)
     m = x.size
     top = math.ceil(m / 2)
