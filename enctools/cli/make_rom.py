@@ -193,7 +193,8 @@ def _write_file(path: str, table: Rom, settings: Settings, summary: dict[str, An
     if lash is not None:
         summary["machine_data"] = romformats.backlash_path(path, settings.target)
         if verify:
-            romformats.verify_backlash(path, settings.target, summary["reversal_mean_arcsec"],
+            # the datum is in the deviation's sign, ISO 230-2's B_mean negated
+            romformats.verify_backlash(path, settings.target, -summary["reversal_mean_arcsec"],
                                        summary["backlash_unit_deg"])
     return size
 

@@ -95,12 +95,15 @@ BACKLASH_KEYS = ("direction", "reversal_max_arcsec", "reversal_mean_arcsec", "ba
 
 
 def backlash_summary(reversal_arcsec: np.ndarray, unit_deg: float) -> dict[str, object]:
-    """The mean reversal value B of a step run (B_i = up - down per target [arcsec]) as a
-    backlash machine datum in steps of ``unit_deg`` [deg] (the control's resolution),
-    rounded, and what it stands for [arcsec]."""
+    """The mean reversal value of a step run (``reversal_arcsec``: B_i = deviation up -
+    down per target [arcsec], the deviation's sign) as a backlash machine datum in steps
+    of ``unit_deg`` [deg] (the control's resolution), rounded, and what it stands for
+    [arcsec]; ``reversal_mean_arcsec`` is ISO 230-2's B_mean (x = actual - target =
+    -deviation), the opposite sign."""
     b = float(np.mean(reversal_arcsec)) + 0.0  # never -0.0
     steps = int(np.rint(b / (unit_deg * 3600.0)))
     return {"direction": "positive, backlash apart",
             "reversal_max_arcsec": float(np.max(np.abs(reversal_arcsec))),
-            "reversal_mean_arcsec": b, "backlash_steps": steps, "backlash_unit_deg": unit_deg,
+            "reversal_mean_arcsec": -b + 0.0, "backlash_steps": steps,
+            "backlash_unit_deg": unit_deg,
             "backlash_arcsec": steps * unit_deg * 3600.0 + 0.0}

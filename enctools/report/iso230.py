@@ -198,25 +198,11 @@ def _linear_targets_warning(positions: np.ndarray) -> list[str]:
             f"{span_m * 1000.0:.4g} mm (5 a metre, at least 5); {positions.size} here"]
 
 
-def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
-             tol_deg: float = 0.01, circular: bool = False, run: np.ndarray | None = None,
-             linear: bool = False) -> Iso230:
-    """ISO 230-2 figures from every reading of a step run, one x_ij per approach.
-
-    Parameters
-    ----------
-    position_deg : target position of each reading [deg; mm when ``linear``]
-    deviation : positioning deviation x_ij = actual - target of each reading [arcsec;
-        um when ``linear``] (a points stream's is -deviation, :attr:`Iso230.x_sign`)
-    direction : +1 (approach from below) / -1 (from above) per reading; None: all up.
-    tol_deg : measured positions closer than this [deg] are one target position.
-    circular : group positions modulo 360 deg (rotary axis: 0 and 360 deg are one target).
-    linear : a linear axis: positions [mm] (``tol_deg`` in mm), figures [um], never
-        circular; the targets it asks for are counted per metre.
-    run : the run of each reading; the readings of one run at one target in one
-        direction are averaged into one x_ij. None: every reading is one approach.
-    """
-    p = np.asarray(position_deg, dtype=np.float64)
+def _inputs(position: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
+            run: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, deviations and directions (None: all up) as arrays, checked: one
+    length, finite, directions +-1 (DataError, one line)."""
+    p = np.asarray(position, dtype=np.float64)
     x = np.asarray(deviation, dtype=np.float64)
     d = np.ones(p.shape, np.int64) if direction is None else np.asarray(direction, np.int64)
     if not (p.size == x.size == d.size) or p.size == 0:
@@ -235,6 +221,28 @@ def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndar
     if run is not None and np.asarray(run).size != p.size:
         msg = "ISO 230-2: runs and positions differ in length"
         raise DataError(msg)
+    return p, x, d
+
+
+def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
+             tol_deg: float = 0.01, circular: bool = False, run: np.ndarray | None = None,
+             linear: bool = False) -> Iso230:
+    """ISO 230-2 figures from every reading of a step run, one x_ij per approach.
+
+    Parameters
+    ----------
+    position_deg : target position of each reading [deg; mm when ``linear``]
+    deviation : positioning deviation x_ij = actual - target of each reading [arcsec;
+        um when ``linear``] (a points stream's is -deviation, :attr:`Iso230.x_sign`)
+    direction : +1 (approach from below) / -1 (from above) per reading; None: all up.
+    tol_deg : measured positions closer than this [deg] are one target position.
+    circular : group positions modulo 360 deg (rotary axis: 0 and 360 deg are one target).
+    linear : a linear axis: positions [mm] (``tol_deg`` in mm), figures [um], never
+        circular; the targets it asks for are counted per metre.
+    run : the run of each reading; the readings of one run at one target in one
+        direction are averaged into one x_ij. None: every reading is one approach.
+    """
+    p, x, d = _inputs(position_deg, deviation, direction, run)
     if linear and circular:
         msg = "ISO 230-2: a linear axis has no turn (circular)"
         raise DataError(msg)
