@@ -89,21 +89,28 @@ def interpolation_error(deviation: Callable[[np.ndarray], np.ndarray], spec: Rom
                                - np.asarray(deviation(at), dtype=np.float64))))
 
 
+def backlash_figures(reversal_arcsec: np.ndarray, unit_deg: float) -> dict[str, object]:
+    """:func:`backlash_summary` as the summary prints it: the datum in the deviation's
+    sign (mean up - down of the deviation, what the controls call backlash), and
+    ``reversal_mean_arcsec`` in ISO 230-2's, B_mean = mean(x up - x down) with x =
+    actual - target = -deviation, the opposite sign [arcsec]."""
+    out = backlash_summary(reversal_arcsec, unit_deg)
+    return out | {"reversal_mean_arcsec": -float(np.mean(reversal_arcsec)) + 0.0}
+
+
 #: what a controller table's summary says of a backlash machine datum written beside it
 BACKLASH_KEYS = ("direction", "reversal_max_arcsec", "reversal_mean_arcsec", "backlash_steps",
                  "backlash_unit_deg", "backlash_arcsec", "machine_data")
 
 
 def backlash_summary(reversal_arcsec: np.ndarray, unit_deg: float) -> dict[str, object]:
-    """The mean reversal value of a step run (``reversal_arcsec``: B_i = deviation up -
-    down per target [arcsec], the deviation's sign) as a backlash machine datum in steps
-    of ``unit_deg`` [deg] (the control's resolution), rounded, and what it stands for
-    [arcsec]; ``reversal_mean_arcsec`` is ISO 230-2's B_mean (x = actual - target =
-    -deviation), the opposite sign."""
+    """The mean reversal value B of a step run (B_i = up - down per target [arcsec]) as a
+    backlash machine datum in steps of ``unit_deg`` [deg] (the control's resolution),
+    rounded, and what it stands for [arcsec]."""
     b = float(np.mean(reversal_arcsec)) + 0.0  # never -0.0
     steps = int(np.rint(b / (unit_deg * 3600.0)))
     return {"direction": "positive, backlash apart",
             "reversal_max_arcsec": float(np.max(np.abs(reversal_arcsec))),
-            "reversal_mean_arcsec": -b + 0.0, "backlash_steps": steps,
-            "backlash_unit_deg": unit_deg,
+            "reversal_mean_arcsec": b, "backlash_steps": steps, "backlash_unit_deg": unit_deg,
             "backlash_arcsec": steps * unit_deg * 3600.0 + 0.0}
+
