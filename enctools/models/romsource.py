@@ -113,4 +113,3 @@ def backlash_summary(reversal_arcsec: np.ndarray, unit_deg: float) -> dict[str, 
             "reversal_max_arcsec": float(np.max(np.abs(reversal_arcsec))),
             "reversal_mean_arcsec": b, "backlash_steps": steps, "backlash_unit_deg": unit_deg,
             "backlash_arcsec": steps * unit_deg * 3600.0 + 0.0}
-
