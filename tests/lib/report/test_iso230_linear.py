@@ -105,3 +105,14 @@ def test_a_rotary_points_reversal_has_the_standards_sign(tmp_path):
     iso = json.loads(r.stdout)["sections"][0]["iso230_2"]
     assert np.isclose(iso["axis"]["B_mean"], -2.0) and np.isclose(iso["axis"]["B"], 2.0)
     assert all(np.isclose(row["B"], -2.0) for row in iso["positions"])
+
+
+def test_an_arcsec_limit_is_not_checked_against_a_linear_axis_um(tmp_path):
+    text, _ = _log()
+    (tmp_path / "x-axis.txt").write_text(text, encoding="utf-8")
+    up = ",".join(f"Run {r} ↑ [µm]" for r in range(1, RUNS + 1))
+    down = ",".join(f"Run {r} ↓ [µm]" for r in range(1, RUNS + 1))
+    r = run(f"enc report x-axis.txt --position 1 --forward '{up}' --reverse '{down}' "
+            "--max-iso A:1000", cwd=tmp_path)
+    assert r.returncode == 1
+    assert "a linear axis's figures are in um; --max-iso/--max-vdi" in r.stderr.decode()
