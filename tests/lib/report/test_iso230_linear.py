@@ -57,12 +57,18 @@ def _by_hand(dev: dict[tuple[bool, int], np.ndarray]) -> dict[str, float]:
             "R_up": 4 * s[True].max(), "R_down": 4 * s[False].max()}
 
 
-def test_a_linear_axis_iso230_run_in_um_equals_the_standards_formulas(tmp_path):
+def _wide(tmp_path) -> tuple[str, dict[tuple[bool, int], np.ndarray]]:
+    """The log written to x-axis.txt, and the options that map its columns."""
     text, dev = _log()
     (tmp_path / "x-axis.txt").write_text(text, encoding="utf-8")
     up = ",".join(f"Run {r} ↑ [µm]" for r in range(1, RUNS + 1))
     down = ",".join(f"Run {r} ↓ [µm]" for r in range(1, RUNS + 1))
-    r = run(f"enc points x-axis.txt --position 1 --forward '{up}' --reverse '{down}' -q "
+    return f"--position 1 --forward '{up}' --reverse '{down}'", dev
+
+
+def test_a_linear_axis_iso230_run_in_um_equals_the_standards_formulas(tmp_path):
+    wide, dev = _wide(tmp_path)
+    r = run(f"enc points x-axis.txt {wide} -q "
             "-o p.parquet && enc report p.parquet --json > r.json && enc report p.parquet "
             "> r.txt && enc report p.parquet --standard vdi3441 > v.txt && "
             "enc report p.parquet --html r.html -q > /dev/null && enc info p.parquet > i.txt",
@@ -108,11 +114,7 @@ def test_a_rotary_points_reversal_has_the_standards_sign(tmp_path):
 
 
 def test_an_arcsec_limit_is_not_checked_against_a_linear_axis_um(tmp_path):
-    text, _ = _log()
-    (tmp_path / "x-axis.txt").write_text(text, encoding="utf-8")
-    up = ",".join(f"Run {r} ↑ [µm]" for r in range(1, RUNS + 1))
-    down = ",".join(f"Run {r} ↓ [µm]" for r in range(1, RUNS + 1))
-    r = run(f"enc report x-axis.txt --position 1 --forward '{up}' --reverse '{down}' "
-            "--max-iso A:1000", cwd=tmp_path)
+    wide, _ = _wide(tmp_path)
+    r = run(f"enc report x-axis.txt {wide} --max-iso A:1000", cwd=tmp_path)
     assert r.returncode == 1
     assert "a linear axis's figures are in um; --max-iso/--max-vdi" in r.stderr.decode()
