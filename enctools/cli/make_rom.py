@@ -166,7 +166,7 @@ def command(input: str | None, code_bits: int | None, address_bits: int | None, 
     _guard("rom", table, allow_coarse)
     summary = _rom_summary(table, src.header, curve, evaluate, settings) | extent
     if reversal is not None and settings.resolution_deg is not None:
-        summary |= romsource.backlash_summary(reversal, settings.resolution_deg)
+        summary |= romsource.backlash_figures(reversal, settings.resolution_deg)
     size = None
     if path is None:
         header = src.header.derive("rom", rom.stream_schema(), rom=summary,
@@ -193,7 +193,8 @@ def _write_file(path: str, table: Rom, settings: Settings, summary: dict[str, An
     if lash is not None:
         summary["machine_data"] = romformats.backlash_path(path, settings.target)
         if verify:
-            romformats.verify_backlash(path, settings.target, summary["reversal_mean_arcsec"],
+            # the datum is in the deviation's sign, ISO 230-2's B_mean negated
+            romformats.verify_backlash(path, settings.target, -summary["reversal_mean_arcsec"],
                                        summary["backlash_unit_deg"])
     return size
 

@@ -81,6 +81,11 @@ def command(input: str | None, heads: list[str] | None, autocollimator: str | No
     if "zero_offset_arcsec" in header.meta:
         summary |= {"zero_offset_arcsec": header.meta["zero_offset_arcsec"],
                     "zero_offset_removed": header.meta["zero_offset_removed"]}
+    if header.meta.get("axis") == "linear":     # no turn: no targets over one
+        emit(summary | {"axis": "linear", "zero_offset_um": header.meta["zero_offset_um"],
+                        "zero_offset_removed": header.meta["zero_offset_removed"]},
+             as_json, unit)
+        return
     if "polygon_certificate" in header.meta:
         summary["polygon_face_u_max_arcsec"] = header.meta["polygon_certificate"]["u_max_arcsec"]
     t = header.meta["targets"]

@@ -16,7 +16,7 @@ import pyarrow as pa
 
 from enctools.data.schemas import field_meta
 from enctools.errors import DataError
-from enctools.units import ANGLE_UNITS, factor
+from enctools.units import ANGLE_UNITS, factor, is_length
 
 #: the prefix of an uncertainty column's name
 UNCERTAINTY_PREFIX = "u_"
@@ -47,9 +47,9 @@ def column(table: pa.Table, name: str, unit: str, source: str = "input",
     """Column ``name`` as float64 in ``unit``, converted from the unit of its field metadata.
 
     ``default_unit``: the unit of a column whose field metadata names none (else
-    ``unit``). Angle units convert through :func:`enctools.units.factor`; other units
-    must match. DataError with one line when the column is missing or its unit is not
-    one that converts to ``unit``.
+    ``unit``). Angle units convert through :func:`enctools.units.factor`, and lengths
+    (mm, um) through it too; other units must match. DataError with one line when the
+    column is missing or its unit is not one that converts to ``unit``.
     """
     if name not in table.column_names:
         msg = f"{source}: no column {name!r}"
@@ -58,7 +58,7 @@ def column(table: pa.Table, name: str, unit: str, source: str = "input",
     values = table.column(name).to_numpy(zero_copy_only=False).astype(np.float64)
     if have == unit:
         return values
-    if have in ANGLE_UNITS and unit in ANGLE_UNITS:
+    if (have in ANGLE_UNITS and unit in ANGLE_UNITS) or (is_length(have) and is_length(unit)):
         return values * factor(have, unit)
     msg = f"{source}: column {name!r} is in {have!r}; expected {unit!r}"
     raise DataError(msg)
@@ -67,7 +67,8 @@ def column(table: pa.Table, name: str, unit: str, source: str = "input",
 def declared_unit(kind: str, meta: dict, name: str) -> str | None:
     """The unit the schema version a stream declares (metadata ``schema_version``) gives
     column ``name`` of ``kind``: what a column without ``unit`` in its field metadata
-    is in (None when the kind names no such column or several units)."""
+    is in (None when the kind names no such column; of several units, the first: points
+    v4's position is rad, or mm only where its field metadata says so)."""
     from enctools.data.schemas import kind_spec
 
     try:
@@ -76,4 +77,6 @@ def declared_unit(kind: str, meta: dict, name: str) -> str | None:
         version = 0
     spec = kind_spec(kind, version if version >= 1 else None)
     col = spec.column(name)
-    return col.unit if col is not None and isinstance(col.unit, str) else None
+    if col is None or not col.unit:
+        return None
+    return col.unit if isinstance(col.unit, str) else col.unit[0]

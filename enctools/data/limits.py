@@ -16,7 +16,7 @@ from typing import Any
 
 import pyarrow as pa
 
-from enctools.units import ANGLE_UNITS, DEG, factor
+from enctools.units import ANGLE_UNITS, DEG, LENGTH_UNITS, factor, is_length
 
 # ------------------------------------------------------------------ the header
 
@@ -119,6 +119,8 @@ MAX_ABS_RAD = MAX_ABS_DEG * DEG
 MAX_ABS_SECONDS = 1e9
 #: largest magnitude of a displacement (a probe reading, a radial error) [m]
 MAX_ABS_METRES = 1.0
+#: a linear axis's positions and deviations [m] (a points stream in mm and um)
+MAX_ABS_LENGTH_M = 100.0
 #: largest magnitude of a raw quadrature signal sample (and of an ADC's rail) [V]
 MAX_ABS_VOLTS = 1e12
 
@@ -234,6 +236,10 @@ def value_checks(kind: str, schema: Any) -> list[tuple[str, float, float, str, b
                 # an older schema's angle (points v1: deg): the same bound in its unit
                 k = factor(unit, have)
                 lo, hi, unit = lo * k, hi * k, have
+            elif is_length(have) and unit in ANGLE_UNITS:
+                # a linear axis's position [mm] or deviation [um] (points v4)
+                hi = MAX_ABS_LENGTH_M / LENGTH_UNITS[have]
+                lo, unit = -hi, have
             out.append((f.name, lo, hi, unit, (kind, key) in NAN_ALLOWED))
     return out
 

@@ -12,7 +12,9 @@ each found by its title when no setting names it, with a unit per column. :func:
   constant zero offset (circular mean) is removed by default (``zero_offset="keep"``
   keeps it) and always reported; the positions are the measured angles mod 360 deg;
 - position + deviation, or reference + deviation: the deviations as given (the offset,
-  their mean, is reported and removed only with ``zero_offset="remove"``).
+  their mean, is reported and removed only with ``zero_offset="remove"``);
+- a linear axis (:func:`linear_points`): position and deviation both lengths (mm, um,
+  nm, by option, title or cell), read into mm and um; no reference or measured column.
 
 Bad rows (not a number, NaN, out of range, a unit other than the column's), two points
 at one position, and a reference that steps back where the indicated angle goes on are
@@ -28,10 +30,10 @@ from typing import Any
 import numpy as np
 
 from enctools.data import limits
-from enctools.data.tables import LENGTHS, UNITS, RawTable, cell_unit, title_unit
+from enctools.data.tables import UNITS, RawTable, cell_unit, title_unit
 from enctools.data.text import printable
 from enctools.errors import DataError, SettingsError
-from enctools.units import counts_factor, factor
+from enctools.units import LENGTH_UNITS, counts_factor, factor, is_length
 
 #: the columns a table maps to, in the order they are looked for
 ROLES = ("reference", "measured", "position", "deviation", "direction", "run")
@@ -168,12 +170,15 @@ class TablePoints:
     offset_removed: bool
     columns: dict[str, str]
     units: dict[str, str]
+    #: "rotary"; or "linear": positions (``position_deg``, ``reference_deg``) in mm,
+    #: deviations and the zero offset (``zero_offset_arcsec``) in um
+    axis: str = "rotary"
 
     def meta(self) -> dict[str, Any]:
         """What the points stream's metadata says of the table (enc-streams(5), points)."""
+        offset = "zero_offset_um" if self.axis == "linear" else "zero_offset_arcsec"
         return {"columns": dict(self.columns), "units": dict(self.units),
-                "zero_offset_arcsec": self.zero_offset_arcsec,
-                "zero_offset_removed": self.offset_removed}
+                offset: self.zero_offset_arcsec, "zero_offset_removed": self.offset_removed}
 
 
 def _options_line() -> str:
@@ -256,21 +261,10 @@ def resolve(raw: RawTable, mapping: Mapping) -> dict[str, int]:
 # ------------------------------------------------------------------------- values
 
 
-def _not_a_length(raw: RawTable, k: int, unit: str | None, i: int | None = None) -> None:
-    """Refuse a column (or its row ``i``) in a length: points are angles of a rotary axis."""
-    if unit in LENGTHS.values():
-        where = "" if i is None else f"{raw.where(i)}, "
-        msg = (f"{raw.source}: {where}column {printable(raw.titles[k])!r} is a length "
-               f"({unit}): points are angles of a rotary axis (deg, arcsec); a linear "
-               "axis's table is refused, not read as angles")
-        raise DataError(msg)
-
-
 def _unit(raw: RawTable, k: int, role: str, mapping: Mapping) -> str | None:
     """A column's unit: its option's and its title's, which must agree (None: neither)."""
     given = getattr(mapping, f"{role}_unit")
     said = title_unit(raw.titles[k])[1]
-    _not_a_length(raw, k, said)
     if given is not None and said is not None and given != said:
         msg = (f"{raw.source}: column {printable(raw.titles[k])!r}: its title says {said}, "
                f"`{role}_unit` says {given} (mixed units)")
@@ -298,7 +292,6 @@ def cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | No
                    f"a number{hint}")
             raise DataError(msg)
         out[i], said = parsed
-        _not_a_length(raw, k, said, i)
         if said is not None and unit is not None and said != unit:
             msg = (f"{raw.source}: {raw.where(i)}, column {name!r}: {printable(cell)!r} is in "
                    f"{said}, the column in {unit} (mixed units)")
@@ -308,16 +301,19 @@ def cells(raw: RawTable, k: int, unit: str | None) -> tuple[np.ndarray, str | No
 
 
 def values(raw: RawTable, k: int, role: str, mapping: Mapping) -> tuple[np.ndarray, str]:
-    """Column ``k`` as ``role``: angles [deg], deviations [arcsec], checked finite and
-    within the limits of enc-streams(5); and the unit it was read in."""
-    to = "arcsec" if role == "deviation" else "deg"
+    """Column ``k`` as ``role``: angles [deg], deviations [arcsec] (a length: positions
+    [mm], deviations [um]), checked finite and within the limits of enc-streams(5); and
+    the unit it was read in."""
     raw_values, unit = cells(raw, k, _unit(raw, k, role, mapping))
+    linear = is_length(unit)
+    to = ("um" if linear else "arcsec") if role == "deviation" else ("mm" if linear else "deg")
     unit = unit or to
     scale = (counts_factor(mapping.counts_per_rev or 0, to) if unit == "counts"
              else factor(unit, to))
     with np.errstate(over="ignore", invalid="ignore"):
         out = raw_values * scale
-    bound = limits.MAX_ABS_ARCSEC if role == "deviation" else limits.MAX_ABS_DEG
+    bound = (limits.MAX_ABS_LENGTH_M / LENGTH_UNITS[to] if linear else
+             limits.MAX_ABS_ARCSEC if role == "deviation" else limits.MAX_ABS_DEG)
     bad = np.flatnonzero(~(np.abs(out) <= bound))
     if bad.size:
         i = int(bad[0])
@@ -378,6 +374,11 @@ def map_table(raw: RawTable, mapping: Mapping) -> TablePoints:
     direction = (_whole(raw, cols["direction"], "direction", (-1, 1)) if "direction" in cols
                  else np.ones(n))
     run = (_whole(raw, cols["run"], "run", (0, 2**31 - 1)) if "run" in cols else np.zeros(n))
+    if any(is_length(u) for _, u in got.values()):
+        points = linear_points(raw, mapping, got, (direction, run))
+        points.columns = {r: raw.titles[k] for r, k in cols.items()}
+        check_rows(raw, points, False)
+        return points
     indicated = got.get("position", got.get("measured", (None, "")))[0]
     reference = got["reference"][0] if "reference" in got else None
     if indicated is not None and reference is not None:
@@ -404,6 +405,37 @@ def map_table(raw: RawTable, mapping: Mapping) -> TablePoints:
     return points
 
 
+def linear_points(raw: RawTable, mapping: Mapping, got: dict[str, tuple[np.ndarray, str]],
+                  direction_run: tuple[np.ndarray, np.ndarray]) -> TablePoints:
+    """The points of a linear axis: ``got`` (role -> values, unit read) a position [mm]
+    and a deviation [um], both read from lengths (DataError naming the column that is
+    not, or a reference or measured column, which a linear axis's table does not
+    take). The deviation as given, its mean the offset (removed with ``zero_offset``
+    remove); the reference position - deviation [mm]."""
+    for role, (_, unit) in got.items():
+        if not is_length(unit):
+            msg = (f"{raw.source}: the {role} column is in {unit} and another in a length: a "
+                   "linear axis's position and deviation are both lengths (mm, um, nm)")
+            raise DataError(msg)
+    for role in got:
+        if role not in ("position", "deviation"):
+            msg = (f"{raw.source}: a linear axis's table (lengths) takes its targets as "
+                   f"`column_position` beside a deviation, not a {role} column")
+            raise DataError(msg)
+    if set(got) != {"position", "deviation"}:
+        msg = f"{raw.source}: a linear axis's table needs a position and a deviation column"
+        raise DataError(msg)
+    position, dev = got["position"][0], got["deviation"][0]
+    offset = float(np.mean(dev))
+    removed = mapping.zero_offset == "remove"
+    if removed:
+        dev = dev - offset
+    direction, run = direction_run
+    return TablePoints(position, position - dev * factor("um", "mm"), dev,
+                       direction.astype(np.int8), run.astype(np.int32), offset, removed, {},
+                       {r: u for r, (_, u) in got.items()}, axis="linear")
+
+
 def check_rows(raw: RawTable, p: TablePoints, has_reference: bool) -> None:
     """Two points at one position of one run and direction, and (with a reference column)
     a reference that steps back where the indicated angle goes on, are refused
@@ -415,7 +447,8 @@ def check_rows(raw: RawTable, p: TablePoints, has_reference: bool) -> None:
     if twice.size:
         i, j = int(a[twice[0]]), int(b[twice[0]])
         msg = (f"{raw.source}: {raw.where(j)} repeats the position of {raw.where(i)} "
-               f"({p.position_deg[i]:.10g} deg, run {p.run[i]}, direction "
+               f"({p.position_deg[i]:.10g} {'mm' if p.axis == 'linear' else 'deg'}, "
+               f"run {p.run[i]}, direction "
                f"{p.direction[i]:+d}): duplicate positions")
         raise DataError(msg)
     back = np.flatnonzero(same & (_wrap_deg(p.reference_deg[b] - p.reference_deg[a]) < 0))
@@ -477,10 +510,15 @@ def melt(raw: RawTable, mapping: Mapping) -> tuple[RawTable, Mapping, dict[str, 
                     np.tile(raw.lines, len(picked)), raw.source, raw.row_word,
                     raw.decimal_comma)
     given = {f.name: getattr(mapping, f.name) for f in fields(mapping)}
-    given |= {"columns_forward": None, "columns_reverse": None, "deviation_unit": None,
+    units = sorted({read[k][1] for k in taken})
+    linear = [is_length(u) for u in units]
+    if any(linear) and not all(linear):
+        msg = f"{raw.source}: the deviation columns mix lengths and angles ({', '.join(units)})"
+        raise DataError(msg)
+    given |= {"columns_forward": None, "columns_reverse": None,
+              "deviation_unit": "um" if all(linear) else None,
               "column_deviation": _LONG[0], "column_direction": _LONG[1],
               "column_run": _LONG[2]}
-    units = sorted({read[k][1] for k in taken})
     said = {"columns": {side: ", ".join(raw.titles[k] for d, _, k in picked if d == sign)
                         for sign, side, names in sides if names},
             "unit": ", ".join(units)}

@@ -42,7 +42,7 @@ from enctools.data.usertables import UserTable
 from enctools.data.usertables import is_table_file as is_table_file
 from enctools.errors import DataError, SettingsError
 from enctools.methods import targets
-from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor
+from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor, is_length
 
 if TYPE_CHECKING:
     from enctools.data.readings import HeadInfo
@@ -66,6 +66,8 @@ class Points:
     run: np.ndarray
     reference_deg: np.ndarray | None = None
     run_meta: dict[str, Any] | None = None  # a polygon step run's figures for its budget
+    #: "rotary"; or "linear" (a linear axis): positions [mm], deviations [um]
+    axis: str = "rotary"
 
     def __len__(self) -> int:
         return int(self.position_deg.size)
@@ -74,13 +76,15 @@ class Points:
         """The reference angle of each point [deg]."""
         if self.reference_deg is not None:
             return self.reference_deg
+        if self.axis == "linear":
+            return self.position_deg - self.deviation * factor("um", "mm")
         return self.position_deg - self.deviation * factor("arcsec", "deg")
 
     def table(self) -> pa.Table:
         """The rows of a ``points`` stream: position [rad], deviation [arcsec], direction,
-        run, reference [rad]."""
-        schema = points_schema()
-        rad = factor("deg", "rad")
+        run, reference [rad]; a linear axis's in mm and um."""
+        schema = points_schema(self.axis)
+        rad = 1.0 if self.axis == "linear" else factor("deg", "rad")
         return pa.table([arrow_array(self.position_deg * rad, pa.float64()),
                          arrow_array(self.deviation, pa.float64()),
                          arrow_array(self.direction, pa.int8()),
@@ -89,12 +93,15 @@ class Points:
                         schema=schema)
 
 
-def points_schema() -> pa.Schema:
-    return pa.schema([make_field("position", pa.float64(), "rad"),
-                      make_field("deviation", pa.float64(), "arcsec"),
+def points_schema(axis: str = "rotary") -> pa.Schema:
+    """The points stream's columns: angles in rad and arcsec, a linear axis's
+    (``axis`` linear) lengths in mm and um (points v4)."""
+    position, deviation = ("mm", "um") if axis == "linear" else ("rad", "arcsec")
+    return pa.schema([make_field("position", pa.float64(), position),
+                      make_field("deviation", pa.float64(), deviation),
                       make_field("direction", pa.int8(), ""),
                       make_field("run", pa.int32(), ""),
-                      make_field("reference", pa.float64(), "rad")])
+                      make_field("reference", pa.float64(), position)])
 
 
 @dataclass(frozen=True)
@@ -397,15 +404,20 @@ def points_from_table(table: UserTable, mapping: Mapping | None = None
     from enctools.data.tablemap import map_table
 
     tp = map_table(table.raw, mapping or Mapping())
-    return Points(tp.position_deg, tp.deviation, tp.direction, tp.run, tp.reference_deg), tp
+    return Points(tp.position_deg, tp.deviation, tp.direction, tp.run, tp.reference_deg,
+                  axis=tp.axis), tp
 
 
 def check_points(points: Points, source: str) -> Points:
     """The points, once finite and within :mod:`~enctools.data.limits`' ranges: positions
-    within +-MAX_ABS_DEG deg, deviations within +-MAX_ABS_ARCSEC arcsec, directions +-1."""
-    for what, values, bound, unit in (("position", points.position_deg, limits.MAX_ABS_DEG, "deg"),
-                                      ("deviation", points.deviation, limits.MAX_ABS_ARCSEC,
-                                       "arcsec")):
+    within +-MAX_ABS_DEG deg, deviations within +-MAX_ABS_ARCSEC arcsec (a linear axis's
+    both within +-MAX_ABS_LENGTH_M), directions +-1."""
+    bounds = ((("position", limits.MAX_ABS_LENGTH_M * 1e3, "mm"),
+               ("deviation", limits.MAX_ABS_LENGTH_M * 1e6, "um")) if points.axis == "linear"
+              else (("position", limits.MAX_ABS_DEG, "deg"),
+                    ("deviation", limits.MAX_ABS_ARCSEC, "arcsec")))
+    for (what, bound, unit), values in zip(bounds, (points.position_deg, points.deviation),
+                                           strict=True):
         bad = ~(np.abs(values) <= bound)
         if bad.any():
             msg = (f"{source}: {what} {values[bad][0]} {unit} is not finite within "
@@ -414,18 +426,20 @@ def check_points(points: Points, source: str) -> Points:
     return points
 
 
-def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | None = None
-               ) -> Points:
+def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | None = None,
+               linear: bool = False) -> Points:
     """Points from the rows of a ``points`` stream: position in the unit of its field
     metadata (rad; deg in a v1 stream), deviation [arcsec]. ``meta``: the stream's
-    metadata, whose schema version says the unit of a column that names none."""
+    metadata, whose schema version says the unit of a column that names none.
+    ``linear``: a linear axis's (mm, um) are taken, else refused (:func:`rotary`)."""
     n = table.num_rows
     if n == 0:
         msg = f"{source}: the points stream has no rows"
         raise DataError(msg)
-    pos = column(table, "position", "deg", source,
+    angle, error = ("mm", "um") if is_linear(table.schema) else ("deg", "arcsec")
+    pos = column(table, "position", angle, source,
                  declared_unit("points", meta or {}, "position"))
-    dev = column(table, "deviation", "arcsec", source)
+    dev = column(table, "deviation", error, source)
     if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(dev))):
         msg = f"{source}: position or deviation holds NaN or infinite values"
         raise DataError(msg)
@@ -433,11 +447,31 @@ def from_table(table: pa.Table, source: str = "input", meta: dict[str, Any] | No
     d = table.column("direction").to_numpy(zero_copy_only=False) if "direction" in names \
         else np.ones(n)
     r = table.column("run").to_numpy(zero_copy_only=False) if "run" in names else np.zeros(n)
-    ref = column(table, "reference", "deg", source) if "reference" in names else None
+    ref = column(table, "reference", angle, source) if "reference" in names else None
     if ref is not None and not np.all(np.isfinite(ref)):
         msg = f"{source}: reference holds NaN or infinite values"
         raise DataError(msg)
-    return Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32), ref)
+    points = Points(pos, dev, np.asarray(d, np.int8), np.asarray(r, np.int32), ref,
+                    axis="linear" if is_linear(table.schema) else "rotary")
+    return points if linear else rotary(points, source)
+
+
+def rotary(points: Points, source: str) -> Points:
+    """The points, when a rotary axis's: a linear axis's (mm, um) are refused with one
+    DataError line (the error models and correction tables are of angles over a turn)."""
+    if points.axis == "linear":
+        msg = (f"{source}: a linear axis's points (mm, um): this command takes a rotary "
+               "axis's angles; enc report gives a linear axis's ISO 230-2 figures")
+        raise DataError(msg)
+    return points
+
+
+def is_linear(schema: pa.Schema) -> bool:
+    """Whether a points stream is a linear axis's: its position in a length (field
+    metadata ``unit`` mm, points v4)."""
+    from enctools.data.columns import column_unit
+
+    return "position" in schema.names and is_length(column_unit(schema, "position"))
 
 
 def _table_header(path: str, mapping: Mapping, tp: TablePoints) -> Header:
@@ -447,21 +481,26 @@ def _table_header(path: str, mapping: Mapping, tp: TablePoints) -> Header:
     meta = {"source": f"table {path}", "history": [], "table": tp.meta() | {
         "mapping": mapping.to_meta()}, "zero_offset_arcsec": tp.zero_offset_arcsec,
         "zero_offset_removed": tp.offset_removed}
-    return streams.Header("points", points_schema(), meta)
+    if tp.axis == "linear":
+        meta = {k: v for k, v in meta.items() if k != "zero_offset_arcsec"}
+        meta |= {"axis": "linear", "zero_offset_um": tp.zero_offset_arcsec}
+    return streams.Header("points", points_schema(tp.axis), meta)
 
 
-def read_points(src: UserTable | InputStream, mapping: Mapping | None = None
-                ) -> tuple[Header, Points]:
+def read_points(src: UserTable | InputStream, mapping: Mapping | None = None,
+                linear: bool = False) -> tuple[Header, Points]:
     """Points from a user's table mapped by ``mapping`` (:func:`points_from_table`) or a
     points stream (a mapping's fields are then refused), as opened by
-    :func:`enctools.data.usertables.open_input`."""
+    :func:`enctools.data.usertables.open_input`; a linear axis's only with ``linear``
+    (else refused, :func:`rotary`)."""
     mapping = mapping or Mapping()
     if isinstance(src, UserTable):
         points, tp = points_from_table(src, mapping)
+        points = points if linear else rotary(points, src.source)
         return _table_header(src.source, mapping, tp), check_points(points, src.source)
     _no_mapping(mapping, src.source)
-    return src.header, check_points(from_table(src.read_all(), src.source, src.header.meta),
-                                     src.source)
+    return src.header, check_points(from_table(src.read_all(), src.source, src.header.meta,
+                                               linear), src.source)
 
 
 def open_points(path: str | None, expect: tuple[str, ...], mapping: Mapping | None = None
@@ -519,7 +558,7 @@ def make_points(src: UserTable | InputStream, settings: Settings,
     mapping = mapping or Mapping()
     if isinstance(src, UserTable):
         settings.check_table(src.source)
-        header, points = read_points(src, mapping)
+        header, points = read_points(src, mapping, linear=True)
     else:
         _no_mapping(mapping, src.source)
         cert = certificate
@@ -531,6 +570,8 @@ def make_points(src: UserTable | InputStream, settings: Settings,
                 "first_face": cert.first if settings.first_face is None else settings.first_face}
         header.meta["polygon_run"] = points.run_meta
     header.meta["settings"] = settings.to_meta()
+    if points.axis == "linear":     # targets over a turn and their figures: of angles
+        return header, points
     means = target_means(points, header.meta.get("source", "input"), header.meta)
     header.meta["figures"] = figures_meta(figures_or_nan(means.mean))
     header.meta["targets"] = means.targets.meta()

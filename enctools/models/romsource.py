@@ -93,6 +93,15 @@ def interpolation_error(deviation: Callable[[np.ndarray], np.ndarray], spec: Rom
                                - np.asarray(deviation(at), dtype=np.float64))))
 
 
+def backlash_figures(reversal_arcsec: np.ndarray, unit_deg: float) -> dict[str, object]:
+    """:func:`backlash_summary` as the summary prints it: the datum in the deviation's
+    sign (mean up - down of the deviation, what the controls call backlash), and
+    ``reversal_mean_arcsec`` in ISO 230-2's, B_mean = mean(x up - x down) with x =
+    actual - target = -deviation, the opposite sign [arcsec]."""
+    out = backlash_summary(reversal_arcsec, unit_deg)
+    return out | {"reversal_mean_arcsec": -float(np.mean(reversal_arcsec)) + 0.0}
+
+
 #: what a controller table's summary says of a backlash machine datum written beside it
 BACKLASH_KEYS = ("direction", "reversal_max_arcsec", "reversal_mean_arcsec", "backlash_steps",
                  "backlash_unit_deg", "backlash_arcsec", "machine_data")

@@ -50,6 +50,8 @@ _METHODS = {
     "fit-rbf": ("radial-basis-function error model through the calibration points", "001"),
     "make-rom": ("correction table of the error model", "001"),
     "steps": ("step run over the full turn: positioning deviation at each target", "iso230"),
+    "linear": ("positions of a linear axis against a reference (a laser interferometer's "
+               "positioning test)", "iso230"),
     "acquire": ("recording of the encoder readings", ""),
     "correct": ("readings corrected with a correction table", ""),
 }
@@ -114,6 +116,8 @@ def method_of(meta: dict[str, Any]) -> str:
         command = "esa"
     elif command == "acquire" and meta.get("mode") == "steps":
         command = "steps"
+    if meta.get("axis") == "linear":
+        command = "linear"
     name, key = _METHODS.get(command, ("as the data's history records it", ""))
     return f"{name} {cite(key)}" if key else name
 

@@ -21,7 +21,7 @@ import numpy as np
 from enctools.report.iso230 import DirectionFigures, Iso230
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
-from enctools.units import factor, symbol
+from enctools.units import ANGLE_UNITS, factor, symbol
 
 #: the unit angle errors have in a report as built (that of the streams)
 STORED = "arcsec"
@@ -75,6 +75,8 @@ def in_unit(report: Report, unit: str) -> Report:
 
 
 def _section(s: Section, unit: str, k: float) -> Section:
+    if s.unit != STORED and s.unit not in ANGLE_UNITS:     # a linear axis's um: no angle
+        return s
     new = copy.copy(s)
     new.unit = unit
     new.curves = [_curve(c, unit, k) if c.unit == STORED else c for c in s.curves]

@@ -154,6 +154,8 @@ def _summary(report: Report) -> dict[str, Any] | None:
         rows.append([_name(s.source), c.name, label(u), f.n, fmt(f.pp, u), fmt(f.plus_minus, u),
                      fmt(f.mean, u), fmt(f.std, u), fmt(c.U_max, u),
                      fmt(c.k, decimals=2) if c.u is not None else "–"])
+    if not rows and all(s.info.get("axis") == "linear" for s in report.sections):
+        return None     # a linear axis's section: its figures, no curve (report/linear.py)
     return table(["result" if report.sections[0].source.startswith("Result ") else "input",
                   "curve", "unit", "n", "p-p", "±", "mean", "s", "U max", "k"], rows, left=3)
 
@@ -229,7 +231,8 @@ def _uncertainty(report: Report) -> dict[str, Any] | None:
                                                            for sp in s.spectra):
             type_a.append(_name(s.source))
     none = [_name(s.source) for s in report.sections if s.budget is None
-            and _name(s.source) not in type_a and s.kind in ("deviations", "points", "readings")]
+            and _name(s.source) not in type_a and s.kind in ("deviations", "points", "readings")
+            and s.info.get("axis") != "linear"]
     if not budgets and not type_a and not none:
         return None
     return {"budgets": budgets, "type_a": ", ".join(type_a),
@@ -300,7 +303,7 @@ def _iso(s: Section) -> dict[str, Any] | None:
         return None
     u = iso.unit
     axis = iso.axis()
-    cols, keys = ["position [deg]"], []
+    cols, keys = [f"position [{iso.position_unit}]"], []
     for d, arrow, name in ((iso.up, "↑", "up"), (iso.down, "↓", "down")):
         if d is not None:
             cols += [f"mean {arrow}", f"s {arrow}", f"R {arrow}", f"n {arrow}"]
@@ -308,7 +311,8 @@ def _iso(s: Section) -> dict[str, Any] | None:
     if iso.is_bidirectional:
         cols += ["mean", "B_i", "R_i"]
         keys += ["mean", "B", "R"]
-    rows = [[f"{r['position_deg']:.3f}"] + [str(r[k]) if k.startswith("n_") else fmt(r[k], u)
+    at = f"position_{iso.position_unit}"
+    rows = [[f"{r[at]:.3f}"] + [str(r[k]) if k.startswith("n_") else fmt(r[k], u)
                                              for k in keys] for r in iso.table()]
     return {"title": "ISO 230-2 (2014)",
             "axis": table(list(axis), [[fmt(v, u) for v in axis.values()]], left=0),
@@ -327,15 +331,16 @@ def _vdi(s: Section) -> dict[str, Any] | None:
     u = vdi.unit
     axis = vdi.axis()
     keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
-    rows = [[f"{r['position_deg']:.3f}"] + [fmt(r[k], u) for k in keys]
+    at = f"position_{vdi.position_unit}"
+    rows = [[f"{r[at]:.3f}"] + [fmt(r[k], u) for k in keys]
             + [r["n_up"], r["n_down"]] for r in vdi.table()]
     return {"title": "VDI/DGQ 3441 (1977)",
             "axis": table(list(axis), [[fmt(v, u) for v in axis.values()]], left=0),
             "note": (f"[{label(u)}] x_j = (x↑ + x↓)/2; U_j = |x↑ − x↓|; Ps_j = 6 (s↑ + s↓)/2 "
                      "(±3 s); Pa = range of x_j; "
                      "P = max(x_j + (U_j + Ps_j)/2) − min(x_j − (U_j + Ps_j)/2)."),
-            "table": table(["position [deg]", "x↑", "s↑", "x↓", "s↓", "x_j", "U_j", "Ps_j",
-                            "n↑", "n↓"], rows, left=0),
+            "table": table([f"position [{vdi.position_unit}]", "x↑", "s↑", "x↓", "s↓", "x_j",
+                            "U_j", "Ps_j", "n↑", "n↓"], rows, left=0),
             "warnings": []}
 
 

@@ -1,8 +1,11 @@
-"""ISO 230-2 (2014) positioning figures of a step run, for a rotary axis in arcsec.
+"""ISO 230-2 (2014) positioning figures of a step run: a rotary axis in arcsec, a linear
+axis in um (positions in mm).
 
 Notation of the standard: target positions P_i (i = 1..m), runs j = 1..n, approach
 from below (up, direction +1) and from above (down, direction -1); positioning
-deviation x_ij = actual - target position [arcsec].
+deviation x_ij = actual - target position [arcsec; um on a linear axis]. A points
+stream's deviation is indicated - true, the opposite sign: its x is -deviation
+(:attr:`Iso230.x_sign`), so that the reversal value B_i below has the standard's sign.
 
 Per position (sec. 3.3 of the standard):
 
@@ -68,7 +71,11 @@ class Iso230:
     down: DirectionFigures | None
     bidirectional: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
-    unit: str = "arcsec"          # of the figures (enc report --unit shows another)
+    unit: str = "arcsec"          # of the figures (enc report --unit shows another); um
+    position_unit: str = "deg"    # of the positions: deg, or mm on a linear axis
+    #: x = x_sign * the input's deviation: +1 where it is actual - target (a step run's
+    #: encoder - target), -1 where it is indicated - true (a points stream)
+    x_sign: int = 1
 
     @property
     def is_bidirectional(self) -> bool:
@@ -86,11 +93,11 @@ class Iso230:
         return out
 
     def table(self) -> list[dict[str, float]]:
-        """One row per target position [deg] with the per-position figures [arcsec]
-        (mean, s, R, B) and the number of runs."""
+        """One row per target position (key ``position_deg``, or ``position_mm``) with the
+        per-position figures [unit] (mean, s, R, B) and the number of runs."""
         rows = []
         for i, p in enumerate(self.positions):
-            row: dict[str, float] = {"position_deg": float(p)}
+            row: dict[str, float] = {f"position_{self.position_unit}": float(p)}
             for name, d in (("up", self.up), ("down", self.down)):
                 if d is not None:
                     row |= {f"mean_{name}": float(d.mean[i]), f"s_{name}": float(d.s[i]),
@@ -180,22 +187,22 @@ def _targets_warning(positions: np.ndarray) -> list[str]:
             f"{span:.4g} deg; {p.size} here"]
 
 
-def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
-             tol_deg: float = 0.01, circular: bool = False, run: np.ndarray | None = None
-             ) -> Iso230:
-    """ISO 230-2 figures from every reading of a step run, one x_ij per approach.
+def _linear_targets_warning(positions: np.ndarray) -> list[str]:
+    """One line when a linear axis has fewer targets than the standard asks for: 5 a
+    metre of travel and 5 at least [mm]."""
+    span_m = float(positions.max() - positions.min()) / 1000.0 if positions.size else 0.0
+    need = max(5, int(np.ceil(5.0 * span_m - 1e-9)))
+    if positions.size >= need:
+        return []
+    return [f"ISO 230-2 asks for {need} targets or more over a linear axis's "
+            f"{span_m * 1000.0:.4g} mm (5 a metre, at least 5); {positions.size} here"]
 
-    Parameters
-    ----------
-    position_deg : target position of each reading [deg]
-    deviation : positioning deviation x_ij of each reading [arcsec]
-    direction : +1 (approach from below) / -1 (from above) per reading; None: all up.
-    tol_deg : measured positions closer than this [deg] are one target position.
-    circular : group positions modulo 360 deg (rotary axis: 0 and 360 deg are one target).
-    run : the run of each reading; the readings of one run at one target in one
-        direction are averaged into one x_ij. None: every reading is one approach.
-    """
-    p = np.asarray(position_deg, dtype=np.float64)
+
+def _inputs(position: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
+            run: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, deviations and directions (None: all up) as arrays, checked: one
+    length, finite, directions +-1 (DataError, one line)."""
+    p = np.asarray(position, dtype=np.float64)
     x = np.asarray(deviation, dtype=np.float64)
     d = np.ones(p.shape, np.int64) if direction is None else np.asarray(direction, np.int64)
     if not (p.size == x.size == d.size) or p.size == 0:
@@ -214,6 +221,31 @@ def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndar
     if run is not None and np.asarray(run).size != p.size:
         msg = "ISO 230-2: runs and positions differ in length"
         raise DataError(msg)
+    return p, x, d
+
+
+def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndarray | None,
+             tol_deg: float = 0.01, circular: bool = False, run: np.ndarray | None = None,
+             linear: bool = False) -> Iso230:
+    """ISO 230-2 figures from every reading of a step run, one x_ij per approach.
+
+    Parameters
+    ----------
+    position_deg : target position of each reading [deg; mm when ``linear``]
+    deviation : positioning deviation x_ij = actual - target of each reading [arcsec;
+        um when ``linear``] (a points stream's is -deviation, :attr:`Iso230.x_sign`)
+    direction : +1 (approach from below) / -1 (from above) per reading; None: all up.
+    tol_deg : measured positions closer than this [deg] are one target position.
+    circular : group positions modulo 360 deg (rotary axis: 0 and 360 deg are one target).
+    linear : a linear axis: positions [mm] (``tol_deg`` in mm), figures [um], never
+        circular; the targets it asks for are counted per metre.
+    run : the run of each reading; the readings of one run at one target in one
+        direction are averaged into one x_ij. None: every reading is one approach.
+    """
+    p, x, d = _inputs(position_deg, deviation, direction, run)
+    if linear and circular:
+        msg = "ISO 230-2: a linear axis has no turn (circular)"
+        raise DataError(msg)
     positions, index, _ = target_positions(p, tol_deg, circular)
     m = positions.size
     a_index, a_dir, a_x, per_approach = approaches(index, x, d, run)
@@ -223,7 +255,10 @@ def iso230_2(position_deg: np.ndarray, deviation: np.ndarray, direction: np.ndar
     warnings = _runs_warning(up, down, per_approach)
     if circular:
         warnings += _targets_warning(positions)
-    result = Iso230(positions, up, down, warnings=warnings)
+    if linear:
+        warnings += _linear_targets_warning(positions)
+    result = (Iso230(positions, up, down, warnings=warnings, unit="um", position_unit="mm")
+              if linear else Iso230(positions, up, down, warnings=warnings))
     if up is not None and down is not None:
         mean_i = (up.mean + down.mean) / 2.0
         B_i = up.mean - down.mean

@@ -66,7 +66,7 @@ def spectrum_dict(sp: SpectrumRows, top: int) -> dict[str, Any]:
 
 def vdi_dict(vdi: Vdi3441) -> dict[str, Any]:
     """VDI/DGQ 3441 in the summary vocabulary: every figure's key ends in its unit."""
-    rows = [{k if k == "position_deg" or k.startswith("n_") else f"{k}_{vdi.unit}": v
+    rows = [{k if k.startswith(("position_", "n_")) else f"{k}_{vdi.unit}": v
              for k, v in row.items()} for row in vdi.table()]
     return {"axis": {f"{k}_{vdi.unit}": v for k, v in vdi.axis().items()}, "positions": rows}
 
@@ -81,8 +81,8 @@ def section_dict(s: Section, top: int, model: Curve | None = None) -> dict[str, 
     if s.spectra:
         d["spectra"] = [spectrum_dict(sp, top) for sp in s.spectra]
     if s.iso is not None:
-        d["iso230_2"] = {"axis": s.iso.axis(), "positions": s.iso.table(),
-                         "warnings": s.iso.warnings}
+        d["iso230_2"] = {"unit": s.iso.unit, "axis": s.iso.axis(),
+                         "positions": s.iso.table(), "warnings": s.iso.warnings}
     if s.vdi is not None:
         d["vdi3441"] = vdi_dict(s.vdi)
     if s.budget is not None:

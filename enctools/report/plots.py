@@ -432,7 +432,8 @@ def vdi_plot(vdi: Any, title: str) -> Figure:
     for mean, name, color in ((vdi.mean_up, "up (+)", COLORS[0]),
                               (vdi.mean_down, "down (-)", COLORS[1])):
         ax.plot(vdi.positions, mean, ".", ms=4, color=color, label=f"mean {name}", zorder=3)
-    _finish(ax, "target position [deg]", f"position deviation [{label(vdi.unit)}]", title)
+    _finish(ax, f"target position [{vdi.position_unit}]",
+            f"position deviation [{label(vdi.unit)}]", title)
     return fig
 
 
@@ -448,7 +449,8 @@ def iso_plot(iso: Any, title: str) -> Figure:
         x = iso.positions[o] + (shift if iso.is_bidirectional else 0)
         ax.errorbar(x, d.mean[o], yerr=2 * d.s[o], fmt="o-", ms=3, lw=1, capsize=2, color=color,
                     label=f"mean {name} ± 2s")
-    _finish(ax, "target position [deg]", f"positioning deviation [{label(iso.unit)}]", title)
+    _finish(ax, f"target position [{iso.position_unit}]",
+            f"positioning deviation [{label(iso.unit)}]", title)
     return fig
 
 

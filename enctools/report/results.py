@@ -265,5 +265,6 @@ def _directions(s: Section, res: Results) -> None:
     near = np.argmin(gap, axis=1)
     if pos.size != res.target.size or np.max(gap[np.arange(near.size), near]) > 1e-6:
         return
-    res.up = np.asarray(iso.up.mean, np.float64)[near]
-    res.down = np.asarray(iso.down.mean, np.float64)[near]
+    # ISO 230-2's x is -deviation of a points stream (x_sign): back to the curve's sign
+    res.up = iso.x_sign * np.asarray(iso.up.mean, np.float64)[near]
+    res.down = iso.x_sign * np.asarray(iso.down.mean, np.float64)[near]

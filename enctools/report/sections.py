@@ -39,7 +39,7 @@ from enctools.data.streams import InputStream
 from enctools.errors import DataError, EncError
 from enctools.methods.budget import Budget, type_a_coverage
 from enctools.methods.interp.screen import screen_notes
-from enctools.methods.points import count_deg
+from enctools.methods.points import count_deg, is_linear
 from enctools.methods.targets import tolerance
 from enctools.models.correction_u import CorrectionU
 from enctools.report import longcurves
@@ -292,6 +292,11 @@ def _points(stream: InputStream, s: Section, opts: Options) -> None:
     if table.num_rows == 0:
         msg = f"{s.source}: points stream has no rows"
         raise DataError(msg)
+    if is_linear(table.schema):
+        from enctools.report.linear import linear_points
+
+        linear_points(table, s, opts)
+        return
     pos = column(table, "position", "deg", s.source, declared_unit("points", s.meta, "position"))
     dev = column(table, "deviation", "arcsec", s.source)
     direction, run = (table.column(c).to_numpy(zero_copy_only=False)
@@ -378,8 +383,11 @@ def _repeated(s: Section, pos_deg: np.ndarray, dev: np.ndarray, direction: np.nd
     if no_iso is not None:
         s.notes.append(f"{none}: {no_iso}")
         return curve
+    # the standard's x = actual - target: a points stream's deviation is indicated - true
+    x_sign = -1 if role == "points" else 1
     try:
-        iso = iso230_2(pos_deg, dev, direction, tol_deg, circular=True, run=run)
+        iso = iso230_2(pos_deg, x_sign * dev, direction, tol_deg, circular=True, run=run)
+        iso.x_sign = x_sign
         if opts.standard == "vdi3441":
             s.vdi = from_iso(iso)
         else:

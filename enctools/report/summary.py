@@ -53,5 +53,5 @@ def _open(path: str | None, mapping: Any) -> InputStream:
     if path is None or not usertables.is_table_file(path):
         return open_input(path)
     comma = bool(mapping and mapping.decimal_comma)
-    header, points = read_points(usertables.read(path, comma), mapping)
+    header, points = read_points(usertables.read(path, comma), mapping, linear=True)
     return InputStream(header, iter(points.table().to_batches()), path, "table")

@@ -44,7 +44,7 @@ def iso_lines(s: Section) -> list[str]:
     axis = iso.axis()
     lines = [f"  ISO 230-2 (R = 4s, A with +/-2s) [{iso.unit}]: "
              + "  ".join(f"{k} {fmt(v, iso.unit, missing='-')}" for k, v in axis.items())]
-    head = "    pos [deg]"
+    head = f"    pos [{iso.position_unit}]"
     cols = []
     if iso.up is not None:
         cols += ["mean up", "s up"]
@@ -61,7 +61,7 @@ def iso_lines(s: Section) -> list[str]:
             vals += [row["mean_down"], row["s_down"]]
         if iso.is_bidirectional:
             vals += [row["B"], row["R"]]
-        lines.append(f"    {row['position_deg']:9.3f}"
+        lines.append(f"    {row[f'position_{iso.position_unit}']:9.3f}"
                      + "".join(f"{fmt(v, iso.unit, missing='-'):>9}" for v in vals))
     return lines
 
@@ -74,9 +74,9 @@ def vdi_lines(s: Section) -> list[str]:
              + "  ".join(f"{k} {fmt(v, vdi.unit, missing='-')}" for k, v in vdi.axis().items())]
     keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
     cols = ("mean up", "s up", "mean dn", "s dn", "mean", "U_j", "Ps_j")
-    lines.append("    pos [deg]" + "".join(f"{c:>9}" for c in cols))
+    lines.append(f"    pos [{vdi.position_unit}]" + "".join(f"{c:>9}" for c in cols))
     for row in vdi.table():
-        lines.append(f"    {row['position_deg']:9.3f}"
+        lines.append(f"    {row[f'position_{vdi.position_unit}']:9.3f}"
                      + "".join(f"{fmt(row[k], vdi.unit, missing='-'):>9}" for k in keys))
     return lines
 

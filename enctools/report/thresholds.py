@@ -142,16 +142,27 @@ def check(report: Report, limits: Thresholds) -> list[str]:
                     if hit.size:
                         over(float(sp.amplitude[hit[0]]), lim, f"harmonic {n}",
                              f"{sp.curve} in {s.source}", f"max_harmonic {n}:")
-    if limits.max_iso:
-        for s in report.sections:
-            if s.iso is None:
-                continue
+    return bad + positioning_limits(report, limits)
+
+
+def positioning_limits(report: Report, limits: Thresholds) -> list[str]:
+    """max_iso and max_vdi over the ISO 230-2 / VDI 3441 axis figures [arcsec]; a linear
+    axis's figures are um, against which an arcsec limit is one line, never a check."""
+    bad: list[str] = []
+    for s in report.sections:
+        if s.info.get("axis") == "linear":
+            if limits.max_iso or limits.max_vdi:
+                bad.append(f"{s.source}: a linear axis's figures are in um; `max_iso`/"
+                           "`max_vdi` limits are arcsec and cannot be checked against them")
+            continue
+        if s.iso is not None:
             axis = s.iso.axis()
             for key, lim in limits.max_iso.items():
-                over(axis.get(key), lim, f"ISO 230-2 {key}", s.source, f"max_iso {key}:")
-    for s in report.sections:
+                bad += exceeded(axis.get(key), lim, f"ISO 230-2 {key}", s.source,
+                                f"max_iso {key}:")
         if s.vdi is not None:
             axis = s.vdi.axis()
             for key, lim in limits.max_vdi.items():
-                over(axis[key], lim, f"VDI/DGQ 3441 {key}", s.source, f"max_vdi {key}:")
+                bad += exceeded(axis[key], lim, f"VDI/DGQ 3441 {key}", s.source,
+                                f"max_vdi {key}:")
     return bad

@@ -45,7 +45,8 @@ class Vdi3441:
     mean_down: np.ndarray     # x_j down [arcsec]
     s_down: np.ndarray        # s_j down [arcsec]
     n_down: np.ndarray        # runs per target, down
-    unit: str = "arcsec"
+    unit: str = "arcsec"      # of the figures: arcsec, or um on a linear axis
+    position_unit: str = "deg"    # of the targets: deg, or mm on a linear axis
 
     @property
     def mean(self) -> np.ndarray:
@@ -72,13 +73,13 @@ class Vdi3441:
                 "U_mean": float(self.U.mean())}
 
     def table(self) -> list[dict[str, float]]:
-        """One row per target [deg]: x_j up/down, s_j up/down, x_j, U_j, Ps_j [unit] and
-        the runs per direction."""
+        """One row per target (``position_deg``, or ``position_mm``): x_j up/down, s_j
+        up/down, x_j, U_j, Ps_j [unit] and the runs per direction."""
         cols = {"mean_up": self.mean_up, "s_up": self.s_up, "mean_down": self.mean_down,
                 "s_down": self.s_down, "mean": self.mean, "U": self.U, "Ps": self.Ps}
         rows: list[dict[str, float]] = []
         for j, p in enumerate(self.positions):
-            row: dict[str, float] = {"position_deg": float(p)}
+            row: dict[str, float] = {f"position_{self.position_unit}": float(p)}
             row |= {k: float(v[j]) for k, v in cols.items()}
             row |= {"n_up": int(self.n_up[j]), "n_down": int(self.n_down[j])}
             rows.append(row)
@@ -121,10 +122,11 @@ def vdi3441(positions_deg: np.ndarray, mean_up: np.ndarray, s_up: np.ndarray,
 
 def from_iso(iso: Iso230) -> Vdi3441:
     """VDI/DGQ 3441 from the per-approach means and scatters ISO 230-2 computed of the
-    same run (the two standards share x_j and s_j per direction) [arcsec]."""
+    same run (the two standards share x_j and s_j per direction) [arcsec, or um]."""
     if iso.up is None or iso.down is None:
         msg = ("one approach direction: the reversal span U and P need both "
                "(a bidirectional step run of enc acquire)")
         raise DataError(msg)
-    return vdi3441(iso.positions, iso.up.mean, iso.up.s, iso.down.mean, iso.down.s,
-                   iso.up.runs, iso.down.runs)
+    vdi = vdi3441(iso.positions, iso.up.mean, iso.up.s, iso.down.mean, iso.down.s,
+                  iso.up.runs, iso.down.runs)
+    return dataclasses.replace(vdi, unit=iso.unit, position_unit=iso.position_unit)

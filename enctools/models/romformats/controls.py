@@ -292,8 +292,9 @@ def build(settings: ControlSettings, source: Source) -> ControlTable:
 
 
 def _backlash(table: ControlTable, source: Source) -> None:
-    """The step run's mean reversal value B (mean up - mean down of the deviation, ISO
-    230-2) as the control's backlash value: B is what the control adds to the positive
+    """The step run's mean reversal mean(B_i) in the deviation's sign (mean up - mean
+    down of the deviation, indicated - true: ISO 230-2's B_mean negated) as the control's
+    backlash value: B is what the control adds to the positive
     direction's correction when it moves the other way [steps of the backlash unit];
     DataError (one line) beyond the control's range."""
     s = table.settings
@@ -389,8 +390,10 @@ def _summary(t: ControlTable, source: Source, fwd: np.ndarray, bwd: np.ndarray |
             out["increment_system"] = t.settings.increment_system
     if source.reversal_arcsec is not None:
         b = source.reversal_arcsec
+        # printed in ISO 230-2's sign: its x = actual - target is -deviation, so its
+        # B_mean = mean(x up - x down) = -mean(b); the backlash datum keeps the deviation's
         out |= {"reversal_max_arcsec": float(np.max(np.abs(b))),
-                "reversal_mean_arcsec": float(np.mean(b))}
+                "reversal_mean_arcsec": -float(np.mean(b))}
     if t.backlash is not None:
         unit = t.settings.backlash_unit_deg
         out |= {"direction": "positive, backlash apart", "backlash_steps": t.backlash,

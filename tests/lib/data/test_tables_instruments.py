@@ -221,9 +221,10 @@ def test_a_wide_iso_log_gives_a_point_per_run_and_direction(tmp_path):
         assert got[d, k][1] == pytest.approx(cols[name], abs=1e-9)
     table = header.meta["table"]["columns"]
     assert table["forward"] == "Run 1 ↑, Run 2 ↑" and table["reverse"] == "Run 1 ↓, Run 2 ↓"
-    # ISO 230-2's reversal value at each target: mean up minus mean down
+    # ISO 230-2's reversal value at each target: mean x up minus mean x down, its
+    # x = actual - target = -deviation (read as deviations: indicated - true)
     iso = json.loads((tmp_path / "r.json").read_text())["sections"][0]["iso230_2"]
-    b_i = (cols["up1"] + cols["up2"]) / 2 - (cols["down1"] + cols["down2"]) / 2
+    b_i = (cols["down1"] + cols["down2"]) / 2 - (cols["up1"] + cols["up2"]) / 2
     assert [p["B"] for p in iso["positions"]] == pytest.approx(b_i, abs=1e-9)
     assert iso["axis"]["B"] == pytest.approx(np.abs(b_i).max(), abs=1e-9)
 
@@ -285,13 +286,20 @@ def test_enc_info_labels_a_csv_column_in_the_unit_the_file_holds(tmp_path):
     assert "written_unit" not in cols["position"]
 
 
-def test_a_linear_axis_log_in_um_is_refused_not_read_as_arcsec(tmp_path):
+def test_a_linear_axis_log_in_um_is_read_as_lengths_not_as_arcsec(tmp_path):
     (tmp_path / "lin.txt").write_text("Target [mm]\tRun 1 ↑ [µm]\tRun 1 ↓ [µm]\n"
                                       "0\t0.0\t0.4\n100\t1.3\t1.9\n", encoding="utf-8")
     r = run("enc points lin.txt --reference-column 1 --forward 2 --reverse 3 -o p.parquet",
-            cwd=tmp_path)
-    assert "column 'Run 1 ↑ [µm]' is a length (um)" in one_error_line(r, 2, "enc points")
+            cwd=tmp_path)       # its targets are the axis's positions, not a reference
+    assert "takes its targets as --position" in one_error_line(r, 2, "enc points")
     assert not (tmp_path / "p.parquet").exists()
+    r = run("enc points lin.txt --position 1 --forward 2 --reverse 3 -o p.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    header, rows = read_table(str(tmp_path / "p.parquet"), "points")
+    assert header.meta["axis"] == "linear"
+    assert rows.schema.field("deviation").metadata[b"unit"] == b"um"
+    assert sorted(rows.column("deviation").to_pylist()) == [0.0, 0.4, 1.3, 1.9]
+    assert sorted(rows.column("position").to_pylist()) == [0.0, 0.0, 100.0, 100.0]
 
 
 def test_a_signal_capture_with_decimal_commas(tmp_path):

@@ -77,7 +77,8 @@ def test_step_run_read_back_within_half_resolution(step_run, tmp_path, case):
     summary = json.loads(r.stdout)
     assert summary["points"] == TARGETS + 1 and summary["spacing_deg"] == 15.0
     assert summary["resolution_arcsec"] == pytest.approx(resolution)
-    assert summary["reversal_mean_arcsec"] == pytest.approx(np.mean(known_reversal(
+    # ISO 230-2's B_mean: x = actual - target = -deviation, so -(deviation up - down)
+    assert summary["reversal_mean_arcsec"] == pytest.approx(-np.mean(known_reversal(
         np.arange(TARGETS) * 15.0)), abs=0.05)
     comp_type = 1 if "--comp-type 1" in opts else 0
     sign = "error" if "--sign error" in opts else "correction"

@@ -72,7 +72,7 @@ def test_transfer_file_as_the_cnc_reads_it(step_run, tmp_path):  # noqa: F811
     assert np.max(np.abs(-stored - want)) <= resolution / 2 * (1 + 1e-6)
     reversal = np.mean(known_reversal(np.arange(TARGETS) * 15.0))  # 6 arcsec
     backlash = int(params[1851])
-    assert backlash == s["backlash_steps"] == round(s["reversal_mean_arcsec"] / IS_C_ARCSEC)
+    assert backlash == s["backlash_steps"] == round(-s["reversal_mean_arcsec"] / IS_C_ARCSEC)
     assert backlash * IS_C_ARCSEC == pytest.approx(reversal, abs=IS_C_ARCSEC / 2 + 0.05)
 
 
@@ -104,7 +104,7 @@ def test_enc_correct_closes_the_gap_between_directions(step_run, tmp_path):  # n
     up, down = direction_means(fixed)
     assert np.ptp(up) <= s["resolution_arcsec"] + 0.02
     gap = float(np.mean(up - down))
-    assert abs(gap - (s["reversal_mean_arcsec"] - s["backlash_arcsec"])) < 1e-6
+    assert abs(gap - (-s["reversal_mean_arcsec"] - s["backlash_arcsec"])) < 1e-6
     assert abs(gap) <= IS_C_ARCSEC / 2 + 1e-6
     assert np.max(np.abs(up - down - gap)) <= 2.0 + 0.05
     # named by its content (N.....Q1 / Q0 blocks) when --target is left out

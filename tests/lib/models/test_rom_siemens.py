@@ -59,7 +59,7 @@ def test_machine_data_file_as_the_control_reads_it(step_run, tmp_path):  # noqa:
     assert name == "_N_AX1_TEA_INI" and list(data) == [(0, "AX1")]
     reversal = float(np.mean(known_reversal(np.arange(TARGETS) * 15.0)))  # 6 arcsec
     assert data[(0, "AX1")] == pytest.approx(s["backlash_steps"] * RES, abs=1e-12)
-    assert s["backlash_steps"] == round(s["reversal_mean_arcsec"] / RES_ARCSEC) == 17
+    assert s["backlash_steps"] == round(-s["reversal_mean_arcsec"] / RES_ARCSEC) == 17
     assert data[(0, "AX1")] * 3600.0 == pytest.approx(reversal, abs=RES_ARCSEC / 2 + 0.05)
     # the table: the positive direction's correction at 0, 45, ... deg (every 3rd target)
     table = rf.read_control_table(str(out), "siemens")
@@ -93,7 +93,7 @@ def test_enc_correct_closes_the_gap_between_directions(step_run, tmp_path):  # n
     up, down = direction_means(fixed)
     assert np.max(np.abs(up[::3])) <= RES_ARCSEC / 2 * (1 + 1e-6) + 0.02
     gap = float(np.mean(up - down))
-    assert abs(gap - (s["reversal_mean_arcsec"] - s["backlash_arcsec"])) < 1e-6
+    assert abs(gap - (-s["reversal_mean_arcsec"] - s["backlash_arcsec"])) < 1e-6
     assert abs(gap) <= RES_ARCSEC / 2 + 1e-6
 
 

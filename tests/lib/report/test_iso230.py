@@ -321,7 +321,8 @@ def test_iso230_points_stream_rotary_targets_and_approaches(tmp_path):
     assert [p["position_deg"] for p in iso["positions"]] == pytest.approx(np.arange(m) * 45.0,
                                                                           abs=1e-9)
     target = np.round(np.mod(pos, 2 * np.pi) / (2 * np.pi / m)).astype(int) % m
-    x = {direction: np.array([[dev[(target == i) & (d == direction) & (r == j)].mean()
+    # the standard's x = actual - target: -deviation (a points stream's is indicated - true)
+    x = {direction: np.array([[-dev[(target == i) & (d == direction) & (r == j)].mean()
                                for j in range(runs)] for i in range(m)])
          for direction in (1, -1)}
     want = _standard(x[1], x[-1])

@@ -268,7 +268,7 @@ def test_iso230_from_a_polygon_run_against_truth(iso_run):
     eps = meta_truth.graduation["A"]
     avg = (eps(pos) + eps(pos + np.pi)) / 2
     want = avg - avg[0]
-    got = np.array([p["mean"] for p in iso["positions"]])
+    got = -np.array([p["mean"] for p in iso["positions"]])     # x = -deviation
     resid = (got - got[0]) - want
     assert np.sqrt(np.mean(resid ** 2)) < 0.1 and np.max(np.abs(resid)) < 0.25
     # noise: 0.05" per head -> s of a position about 0.05/sqrt(2) plus positioning

@@ -31,7 +31,8 @@ def points(tmp_path_factory):
 
 def _approaches(path) -> tuple[np.ndarray, np.ndarray]:
     """x_ij per target and run [arcsec] of each direction, arrays (targets, runs), from the
-    points stream's columns: the mean of one run's points at one target in one direction."""
+    points stream's columns: the mean of one run's points at one target in one direction,
+    with the standards' sign x = actual - target = -deviation (indicated - true)."""
     with pa.ipc.open_stream(str(path)) as reader:
         table = reader.read_all()
     col = {c: table.column(c).to_numpy() for c in ("position", "deviation", "direction", "run")}
@@ -39,8 +40,8 @@ def _approaches(path) -> tuple[np.ndarray, np.ndarray]:
     target = target.astype(int) % TARGETS
     x = {}
     for d in (1, -1):
-        x[d] = np.array([[col["deviation"][(target == i) & (col["direction"] == d)
-                                           & (col["run"] == j)].mean()
+        x[d] = np.array([[-col["deviation"][(target == i) & (col["direction"] == d)
+                                            & (col["run"] == j)].mean()
                           for j in np.unique(col["run"])] for i in range(TARGETS)])
     return x[1], x[-1]
 
