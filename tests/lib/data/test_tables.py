@@ -57,7 +57,7 @@ def test_magalpha_positions_are_the_measured_angle_and_the_offset_is_reported(tm
     ref, meas = _columns(MAGALPHA / name)
     offset = _circular_mean_deg([m - f for f, m in zip(ref, meas)])
     meta, cols = _points(out)
-    assert meta["schema_version"] == 3 and meta["zero_offset_removed"] is True
+    assert meta["schema_version"] == 4 and meta["zero_offset_removed"] is True
     assert meta["zero_offset_arcsec"] == pytest.approx(offset * 3600, abs=1e-6)
     assert summary["zero_offset_arcsec"] == pytest.approx(offset * 3600, abs=1e-6)
     assert cols["position"] == pytest.approx([math.radians(m % 360) for m in meas], abs=1e-12)
