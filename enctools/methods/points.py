@@ -22,7 +22,6 @@ metadata of points and models.
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -42,6 +41,7 @@ from enctools.data.usertables import UserTable
 from enctools.data.usertables import is_table_file as is_table_file
 from enctools.errors import DataError, SettingsError
 from enctools.methods import targets
+from enctools.methods.polygon_run import run_meta, span_meta
 from enctools.units import ARCSEC, DEG, TWO_PI, counts_factor, factor, is_length
 
 if TYPE_CHECKING:
@@ -205,8 +205,8 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
     if certificate is not None:
         dev -= face_correction(certificate, j, settings.first_face)
     points = Points(np.mod(va / DEG, 360.0), dev, vd, vr)
-    points.run_meta = _run_meta(heads, ac, keys, (vac, vr), lsb)
-    points.run_meta |= _span_meta(table, keys, vr, vd)
+    points.run_meta = run_meta(heads, ac, keys, (vac, vr), lsb)
+    points.run_meta |= span_meta(table, keys, vr, vd)
     if np.unique(vr).size == 1 and np.unique(vd).size == 1:
         # one approach: what the budget's model of each point needs (methods/polygon_gum)
         points.run_meta |= {"ac_arcsec": [float(a) for a in vac - vac[0]],
@@ -214,23 +214,6 @@ def points_from_steps(header: Header, table: pa.Table, settings: Settings,
         if dev.size > faces and j[-1] == 0:   # a closing reading on the first face again
             points.run_meta["closing_arcsec"] = float(dev[-1] - dev[0])
     return points
-
-
-def _span_meta(table: pa.Table, keys: tuple[np.ndarray, ...], vr: np.ndarray,
-               vd: np.ndarray) -> dict[str, Any]:
-    """What a run's Type A spans (``polygon_run`` metadata): ``runs`` and ``directions``
-    [count] and ``interval_s``, the median time between consecutive readings of one stop
-    [s] (absent without a ``t`` column or repeated readings)."""
-    out: dict[str, Any] = {"runs": int(np.unique(vr).size),
-                           "directions": int(np.unique(vd).size)}
-    if "t" not in table.column_names:
-        return out
-    t = table.column("t").to_numpy(zero_copy_only=False).astype(np.float64)
-    key = np.stack(keys).T
-    same = np.all(key[1:] == key[:-1], axis=1) & np.isfinite(t[1:]) & np.isfinite(t[:-1])
-    if np.any(same):
-        out["interval_s"] = float(np.median(np.diff(t)[same]))
-    return out
 
 
 def step_visits(header: Header, table: pa.Table, settings: Settings, source: str
@@ -261,37 +244,6 @@ def _step_columns(header: Header, table: pa.Table, settings: Settings, source: s
                             for c in ("run", "direction", "step"))
     return faces, heads, ac, (run, direction, step), counts_factor(
         min(i.counts_per_rev for i in infos), "arcsec")
-
-
-def _run_meta(heads: np.ndarray, ac: np.ndarray, keys: tuple[np.ndarray, ...],
-              visits: tuple[np.ndarray, np.ndarray], lsb: float) -> dict[str, Any]:
-    """What a polygon run tells its uncertainty budget (``polygon_run`` metadata, [arcsec]):
-    the pooled standard deviation of one reading's deviation (head mean minus
-    autocollimator) and of one head's reading about their position's mean, its degrees
-    of freedom, the fewest readings of a position, the largest |a_j - a_0| of a run's
-    autocollimator means, one count ``lsb`` [arcsec] and the number of heads averaged.
-    (A run of one approach adds each point's a_j - a_0 [arcsec] and face j from the first,
-    ``ac_arcsec`` and ``face``, in the points' order.)"""
-    key = np.stack(keys).T
-    ok = np.isfinite(ac)
-    visit = np.r_[0, np.cumsum(np.any(key[1:] != key[:-1], axis=1))][ok]
-    n = np.bincount(visit)
-    used = n > 0
-    dof = int(np.sum(n[used] - 1))
-
-    def pooled(x: np.ndarray) -> float:
-        mean = np.bincount(visit, x, n.size)[visit] / n[visit]
-        return float(np.sum((x - mean) ** 2)) / dof
-
-    h = heads[:, ok] / ARCSEC
-    d = h.mean(axis=0) - ac[ok]
-    s = math.sqrt(pooled(d - d[0])) if dof > 0 else None
-    head_s = math.sqrt(np.mean([pooled(x - x[0]) for x in h])) if dof > 0 else None
-    vac, vr = visits
-    span = max(float(np.max(np.abs(vac[vr == r] - vac[vr == r][0]))) for r in np.unique(vr))
-    return {"s_arcsec": s, "dof": dof, "readings": int(n[used].min()),
-            "span_arcsec": span, "lsb_arcsec": lsb,
-            "heads": int(heads.shape[0]), "head_s_arcsec": head_s}
 
 
 def face_correction(cert: Certificate, j: np.ndarray, first_face: int | None) -> np.ndarray:
