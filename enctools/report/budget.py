@@ -514,12 +514,14 @@ def budget_dict(budget: Budget) -> dict[str, Any]:
 def budget_lines(budget: Budget, unit: str = "arcsec") -> list[str]:
     """The budget as text lines: u, u_c and U in ``unit`` (the unit the report is read in), each
     declared value in its own unit."""
+    from enctools.report.display import fmt_u  # u and U as every document prints them
+
     f = factor("arcsec", unit)
-    lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {budget.u_c * f:.4g}  nu_eff "
-             f"{_dof(budget.nu_eff)}  k {budget.k:.3f}  U {budget.U * f:.4g} "
+    lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {fmt_u(budget.u_c * f, unit)}  nu_eff "
+             f"{_dof(budget.nu_eff)}  k {budget.k:.3f}  U {fmt_u(budget.U * f, unit)} "
              f"({budget.coverage:.0%})"]
     for c in budget.contributions:
         lines.append(f"    {c.kind} {c.name}: {c.value:.4g} {c.unit} {c.distribution} "
-                     f"/{c.divisor:.4g} x c {c.sensitivity:.4g} -> u {c.u_arcsec * f:.4g}"
+                     f"/{c.divisor:.4g} x c {c.sensitivity:.4g} -> u {fmt_u(c.u_arcsec * f, unit)}"
                      f" (dof {_dof(c.dof)}){'; ' + c.source if c.source else ''}")
     return lines
