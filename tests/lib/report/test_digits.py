@@ -98,7 +98,7 @@ def _summary_cells(page: str) -> list[str]:
 
 @pytest.mark.skipif(not shutil.which("pdftotext"), reason="poppler-utils not installed")
 def test_the_same_strings_in_text_html_and_pdf(small):
-    out, doc, page, pdf = small
+    out, _, page, pdf = small
     figures = _summary_cells(page)
     assert len(figures) == 5 and all(re.fullmatch(r"-?\d+\.\d+", v) for v in figures)
     pp, pm, mean, s, U = figures
