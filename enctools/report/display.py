@@ -78,6 +78,14 @@ def group(values: Any, unit: str = "arcsec") -> int:
     return decimals(unit, scale=float(arr.max()) if arr.size else None)
 
 
+def table_decimals(table: list[dict[str, Any]], unit: str = "arcsec") -> int:
+    """The decimals of a standard's table (ISO 230-2, VDI/DGQ 3441 per position): :func:`group`
+    of every figure in it (not its positions [deg] nor its counts ``n_*``), so that the
+    text and the documents, which list different columns, round it alike."""
+    return group([v for r in table for k, v in r.items()
+                  if k != "position_deg" and not k.startswith("n_")], unit)
+
+
 def figures(f: Any, unit: str = "arcsec") -> int:
     """The decimals of a curve's figures ``f`` (p-p, +/-, mean, s: shown together wherever
     they are, text line, summary table, comparison): :func:`group` of them."""

@@ -29,7 +29,7 @@ from enctools.data.readings import rig_encoders
 from enctools.data.text import escaped_all
 from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
-from enctools.report.display import figures, fmt, fmt_u, group, label
+from enctools.report.display import figures, fmt, fmt_u, group, label, table_decimals
 from enctools.report.drawings import Drawings
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
@@ -311,9 +311,9 @@ def _iso(s: Section) -> dict[str, Any] | None:
         cols += ["mean", "B_i", "R_i"]
         keys += ["mean", "B", "R"]
     listed = iso.table()
-    d = group([r[k] for r in listed for k in keys if not k.startswith("n_")], u)
-    rows = [[f"{r['position_deg']:.3f}"] + [str(r[k]) if k.startswith("n_") else fmt(r[k], u, d)
-                                             for k in keys] for r in listed]
+    dt = table_decimals(listed, u)
+    cells = [[f"{r['position_deg']:.3f}"] + [str(r[k]) if k.startswith("n_") else fmt(r[k], u, dt)
+                                              for k in keys] for r in listed]
     da = group(list(axis.values()), u)
     return {"title": "ISO 230-2 (2014)",
             "axis": table(list(axis), [[fmt(v, u, da) for v in axis.values()]], left=0),
@@ -322,7 +322,7 @@ def _iso(s: Section) -> dict[str, Any] | None:
                      "directions' mean deviations; M = range of the mean deviations; "
                      "A = max(mean + 2s) − min(mean − 2s) over both directions; "
                      "B = max |B_i|."),
-            "table": table(cols, rows, left=0), "warnings": list(iso.warnings)}
+            "table": table(cols, cells, left=0), "warnings": list(iso.warnings)}
 
 
 def _vdi(s: Section) -> dict[str, Any] | None:
@@ -333,7 +333,7 @@ def _vdi(s: Section) -> dict[str, Any] | None:
     axis = vdi.axis()
     keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
     listed = vdi.table()
-    d, da = group([r[k] for r in listed for k in keys], u), group(list(axis.values()), u)
+    d, da = table_decimals(listed, u), group(list(axis.values()), u)
     rows = [[f"{r['position_deg']:.3f}"] + [fmt(r[k], u, d) for k in keys]
             + [r["n_up"], r["n_down"]] for r in listed]
     return {"title": "VDI/DGQ 3441 (1977)",

@@ -6,7 +6,7 @@ from typing import Any
 
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
-from enctools.report.display import figures, fmt, fmt_u, group, mark
+from enctools.report.display import figures, fmt, fmt_u, group, mark, table_decimals
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -58,8 +58,8 @@ def iso_lines(s: Section) -> list[str]:
     if iso.is_bidirectional:
         cols += ["B_i", "R_i"]
     lines.append(head + "".join(f"{c:>9}" for c in cols))
-    rows = []
-    for row in iso.table():
+    rows, table = [], iso.table()
+    for row in table:
         vals = []
         if iso.up is not None:
             vals += [row["mean_up"], row["s_up"]]
@@ -68,7 +68,7 @@ def iso_lines(s: Section) -> list[str]:
         if iso.is_bidirectional:
             vals += [row["B"], row["R"]]
         rows.append((row["position_deg"], vals))
-    dt = group([v for _, vals in rows for v in vals], iso.unit)
+    dt = table_decimals(table, iso.unit)    # as the documents' table, which lists more
     lines += [f"    {pos:9.3f}" + "".join(f"{fmt(v, iso.unit, dt, missing='-'):>9}" for v in vals)
               for pos, vals in rows]
     return lines
@@ -86,7 +86,7 @@ def vdi_lines(s: Section) -> list[str]:
     cols = ("mean up", "s up", "mean dn", "s dn", "mean", "U_j", "Ps_j")
     lines.append("    pos [deg]" + "".join(f"{c:>9}" for c in cols))
     table = vdi.table()
-    dt = group([row[k] for row in table for k in keys], vdi.unit)
+    dt = table_decimals(table, vdi.unit)
     for row in table:
         lines.append(f"    {row['position_deg']:9.3f}"
                      + "".join(f"{fmt(row[k], vdi.unit, dt, missing='-'):>9}" for k in keys))
