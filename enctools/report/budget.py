@@ -37,6 +37,7 @@ from enctools.methods.budget import (
     selfcal_budget,
     step_run_budget,
 )
+from enctools.report.numbers import fmt_u
 from enctools.units import factor
 
 #: polygon_run metadata key -> (least, greatest, whole number, may be null)
@@ -514,8 +515,6 @@ def budget_dict(budget: Budget) -> dict[str, Any]:
 def budget_lines(budget: Budget, unit: str = "arcsec") -> list[str]:
     """The budget as text lines: u, u_c and U in ``unit`` (the unit the report is read in), each
     declared value in its own unit."""
-    from enctools.report.display import fmt_u  # u and U as every document prints them
-
     f = factor("arcsec", unit)
     lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {fmt_u(budget.u_c * f, unit)}  nu_eff "
              f"{_dof(budget.nu_eff)}  k {budget.k:.3f}  U {fmt_u(budget.U * f, unit)} "

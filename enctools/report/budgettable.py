@@ -13,7 +13,8 @@ from collections.abc import Callable
 from typing import Any
 
 from enctools.methods.budget import Budget
-from enctools.report.display import fmt, fmt_u, label, significant
+from enctools.report.display import label
+from enctools.report.numbers import fmt, fmt_u, significant
 from enctools.units import factor
 
 #: what the results say of their uncertainty when no budget is declared

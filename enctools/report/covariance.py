@@ -22,6 +22,7 @@ from enctools.data.uncertainty import Declaration
 from enctools.errors import DataError
 from enctools.methods.budget import PolygonRun
 from enctools.methods.polygon_gum import Faces, Figure, PointsModel, propagate
+from enctools.report.numbers import fmt_u
 from enctools.units import factor
 
 #: the most points whose covariance matrix GTC forms (n^2/2 covariances of ~6n inputs)
@@ -107,8 +108,6 @@ def lines(st: Statement, unit: str = "arcsec") -> list[str]:
 
 def _u(U: float, unit: str) -> str:
     """An expanded uncertainty as every document prints it (two significant digits)."""
-    from enctools.report.display import fmt_u
-
     return fmt_u(U, unit)
 
 

@@ -29,8 +29,9 @@ from enctools.data.readings import rig_encoders
 from enctools.data.text import escaped_all
 from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
-from enctools.report.display import figures, fmt, fmt_u, group, label, table_decimals
+from enctools.report.display import label
 from enctools.report.drawings import Drawings
+from enctools.report.numbers import figures, fmt, fmt_u, group, table_decimals
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report

@@ -26,8 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from enctools.report.display import decimals, fmt, fmt_u, group, label
+from enctools.report.display import label
 from enctools.report.longcurves import MARK_DEG
+from enctools.report.numbers import decimals, fmt, fmt_u, group
 from enctools.report.sections import Curve, Section
 from enctools.units import DEG
 

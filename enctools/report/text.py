@@ -6,7 +6,8 @@ from typing import Any
 
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
-from enctools.report.display import figures, fmt, fmt_u, group, mark, table_decimals
+from enctools.report.display import mark
+from enctools.report.numbers import figures, fmt, fmt_u, group, table_decimals
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report

@@ -3,7 +3,7 @@
 A curve of a few milliarcseconds (p-p 3.1 mas, a U of 0.24 mas: the graduation of a
 good encoder after compensation, or a nanometre-level error written in arcsec) printed
 with three fixed decimals read "p-p 0.003" and "U max 0.000". The one rule
-(enctools.report.display, enc-report(1) NUMBERS): U to two significant digits, each
+(enctools.report.numbers, enc-report(1) NUMBERS): U to two significant digits, each
 value to U's decade (GUM 7.2.6); figures without a U to four significant digits of the
 largest shown together; the same strings in the text, the HTML and the PDF.
 """
