@@ -38,6 +38,7 @@ from enctools.methods.budget import (
     step_run_budget,
 )
 from enctools.methods.polygon_terms import not_declared
+from enctools.report.numbers import fmt_u
 from enctools.units import factor
 
 #: polygon_run metadata key -> (least, greatest, whole number, may be null)
@@ -538,11 +539,11 @@ def budget_lines(budget: Budget, unit: str = "arcsec") -> list[str]:
     """The budget as text lines: u, u_c and U in ``unit`` (the unit the report is read in), each
     declared value in its own unit."""
     f = factor("arcsec", unit)
-    lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {budget.u_c * f:.4g}  nu_eff "
-             f"{_dof(budget.nu_eff)}  k {budget.k:.3f}  U {budget.U * f:.4g} "
+    lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {fmt_u(budget.u_c * f, unit)}  nu_eff "
+             f"{_dof(budget.nu_eff)}  k {budget.k:.3f}  U {fmt_u(budget.U * f, unit)} "
              f"({budget.coverage:.0%})"]
     for c in budget.contributions:
         lines.append(f"    {c.kind} {c.name}: {c.value:.4g} {c.unit} {c.distribution} "
-                     f"/{c.divisor:.4g} x c {c.sensitivity:.4g} -> u {c.u_arcsec * f:.4g}"
+                     f"/{c.divisor:.4g} x c {c.sensitivity:.4g} -> u {fmt_u(c.u_arcsec * f, unit)}"
                      f" (dof {_dof(c.dof)}){'; ' + c.source if c.source else ''}")
     return lines

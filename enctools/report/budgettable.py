@@ -13,7 +13,8 @@ from collections.abc import Callable
 from typing import Any
 
 from enctools.methods.budget import Budget
-from enctools.report.display import fmt, label, significant
+from enctools.report.display import label
+from enctools.report.numbers import fmt, fmt_u, significant
 from enctools.units import factor
 
 #: what the results say of their uncertainty when no budget is declared
@@ -39,7 +40,7 @@ def budget_table(budget: Budget, unit: str, table: Callable[..., dict[str, Any]]
         rows.append([c.name, c.source, c.kind, c.distribution,
                      f"{significant(c.value)} {c.unit}", fmt(c.divisor),
                      f"{significant(c.sensitivity * k)} {shown}/{c.unit}",
-                     fmt(c.u_arcsec * k, unit), _dof(c.dof)])
+                     fmt_u(c.u_arcsec * k, unit), _dof(c.dof)])
     return table(["quantity", "source", "type", "distribution", "value", "divisor", "c_i",
                   f"u_i [{shown}]", "ν_i"], rows, left=4)
 
@@ -48,7 +49,7 @@ def totals(budget: Budget, unit: str) -> list[list[str]]:
     """Rows (name, value) of u_c, nu_eff, k and U [``unit``]."""
     k = factor("arcsec", unit)
     shown = label(unit)
-    return [["combined standard uncertainty u_c", f"{fmt(budget.u_c * k, unit)} {shown}"],
+    return [["combined standard uncertainty u_c", f"{fmt_u(budget.u_c * k, unit)} {shown}"],
             ["effective degrees of freedom ν_eff (Welch–Satterthwaite)", _dof(budget.nu_eff)],
             [f"coverage factor k ({budget.coverage:.0%} coverage)", fmt(budget.k, decimals=2)],
-            ["expanded uncertainty U = k u_c", f"{fmt(budget.U * k, unit)} {shown}"]]
+            ["expanded uncertainty U = k u_c", f"{fmt_u(budget.U * k, unit)} {shown}"]]

@@ -22,6 +22,7 @@ from enctools.data.uncertainty import Declaration
 from enctools.errors import DataError
 from enctools.methods.budget import PolygonRun
 from enctools.methods.polygon_gum import Faces, Figure, PointsModel, propagate
+from enctools.report.numbers import fmt_u
 from enctools.units import factor
 
 #: the most points whose covariance matrix GTC forms (n^2/2 covariances of ~6n inputs)
@@ -101,8 +102,13 @@ def lines(st: Statement, unit: str = "arcsec") -> list[str]:
     m, f = st.model, factor("arcsec", unit)
     u = m.k[1:] * m.u[1:]
     return [f"  covariance (GTC, the budget's model per point) [{unit}]: U per point "
-            f"{u.min() * f:.4g}..{u.max() * f:.4g}, 0 at the datum {_at(st, 0)}"] + [
-        f"    {x}" for x in sentences(st, unit, lambda v, _: f"{v:.4g} {unit}")]
+            f"{_u(u.min() * f, unit)}..{_u(u.max() * f, unit)}, 0 at the datum {_at(st, 0)}"] + [
+        f"    {x}" for x in sentences(st, unit, lambda v, _: f"{_u(v, unit)} {unit}")]
+
+
+def _u(U: float, unit: str) -> str:
+    """An expanded uncertainty as every document prints it (two significant digits)."""
+    return fmt_u(U, unit)
 
 
 def _range(lo: float, hi: float) -> str:

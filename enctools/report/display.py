@@ -1,4 +1,6 @@
-"""The report in the angle unit a person asked for (enc report's ``unit``).
+"""The report in the angle unit a person asked for (enc report's ``unit``), and the one
+number format of its text, HTML and PDF (:mod:`enctools.report.numbers`, re-exported:
+:func:`fmt`, :func:`decimals`; enc-report(1) NUMBERS).
 
 Streams and the JSON summary keep their documented units (angle errors in arcsec); the
 text, HTML and PDF a person reads show every angle error in the unit chosen (``unit``:
@@ -13,12 +15,12 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import math
 from typing import Any
 
 import numpy as np
 
 from enctools.report.iso230 import DirectionFigures, Iso230
+from enctools.report.numbers import DECIMALS, fmt, significant  # noqa: F401  (re-exported)
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
 from enctools.units import ANGLE_UNITS, factor, symbol
@@ -26,32 +28,6 @@ from enctools.units import ANGLE_UNITS, factor, symbol
 #: the unit angle errors have in a report as built (that of the streams)
 STORED = "arcsec"
 _FIGURES = ("mean", "minimum", "maximum", "pp", "plus_minus", "std", "rms")
-
-
-#: decimals a value is shown with in each unit (its resolution 10**-decimals): 0.001"
-#: and about as fine in the other angle units; any other unit (nm, count) 3
-DECIMALS = {"arcsec": 3, "urad": 3, "mrad": 6, "deg": 7, "rad": 9}
-
-
-def fmt(x: float | None, unit: str = "arcsec", decimals: int | None = None,
-        missing: str = "–") -> str:
-    """A value [``unit``] as text, rounded to the unit's resolution (:data:`DECIMALS`;
-    ``decimals`` instead when given): a value below it prints as 0 at that resolution
-    (``-5.6e-17`` arcsec is ``0.000``, never ``-0.000``). None, NaN and infinity print
-    as ``missing``. The one number format of the text, HTML and PDF reports."""
-    if x is None or not math.isfinite(x):
-        return missing
-    d = DECIMALS.get(unit, 3) if decimals is None else decimals
-    text = f"{x:.{d}f}"
-    return text.lstrip("-") if float(text) == 0.0 else text
-
-
-def significant(x: float, digits: int = 4) -> str:
-    """A declared value (not a measured one) to ``digits`` significant digits, through
-    :func:`fmt`: 0.05 deg is ``0.05000``, 1 is ``1.000``."""
-    if not math.isfinite(x) or x == 0.0:
-        return fmt(x, decimals=digits - 1)
-    return fmt(x, decimals=max(0, digits - 1 - math.floor(math.log10(abs(x)))))
 
 
 def mark(unit: str) -> str:

@@ -29,8 +29,9 @@ from enctools.data.readings import rig_encoders
 from enctools.data.text import escaped_all
 from enctools.report import budgettable, citations
 from enctools.report.certificate import Certificate
-from enctools.report.display import fmt, label
+from enctools.report.display import label
 from enctools.report.drawings import Drawings
+from enctools.report.numbers import figures, fmt, fmt_u, group, table_decimals
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -151,8 +152,10 @@ def _summary(report: Report) -> dict[str, Any] | None:
     rows = []
     for s, c in report.curves():
         f, u = c.figures, c.unit
-        rows.append([_name(s.source), c.name, label(u), f.n, fmt(f.pp, u), fmt(f.plus_minus, u),
-                     fmt(f.mean, u), fmt(f.std, u), fmt(c.U_max, u),
+        d = figures(f, u)     # as the text report's line
+        rows.append([_name(s.source), c.name, label(u), f.n, fmt(f.pp, u, d),
+                     fmt(f.plus_minus, u, d), fmt(f.mean, u, d), fmt(f.std, u, d),
+                     fmt_u(c.U_max, u),
                      fmt(c.k, decimals=2) if c.u is not None else "–"])
     if not rows and all(s.info.get("axis") == "linear" for s in report.sections):
         return None     # a linear axis's section: its figures, no curve (report/linear.py)
@@ -246,7 +249,7 @@ def _covariance(s: Any) -> list[str]:
         return []
     from enctools.report.covariance import sentences
 
-    return sentences(s.covariance, s.unit, lambda v, u: f"{fmt(v, u)} {label(u)}")
+    return sentences(s.covariance, s.unit, lambda v, u: f"{fmt_u(v, u)} {label(u)}")
 
 
 def _name(source: str) -> str:
@@ -286,7 +289,8 @@ def _harmonics(curves: Sequence[Curve], top: int) -> dict[str, Any] | None:
         h = c.harmonics.largest(top)
         if not h.n.size:        # none resolvable: the notes say why
             continue
-        cells = [f"n={int(n)}: {fmt(float(a), c.unit)} @ {float(p) / DEG:.0f}°"
+        d = group(h.amplitude, c.unit)
+        cells = [f"n={int(n)}: {fmt(float(a), c.unit, d)} @ {float(p) / DEG:.0f}°"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         rows.append([c.name, label(c.unit)] + cells)
     if not rows:
@@ -312,16 +316,19 @@ def _iso(s: Section) -> dict[str, Any] | None:
         cols += ["mean", "B_i", "R_i"]
         keys += ["mean", "B", "R"]
     at = f"position_{iso.position_unit}"
-    rows = [[f"{r[at]:.3f}"] + [str(r[k]) if k.startswith("n_") else fmt(r[k], u)
-                                             for k in keys] for r in iso.table()]
+    listed = iso.table()
+    dt = table_decimals(listed, u)
+    cells = [[f"{r[at]:.3f}"] + [str(r[k]) if k.startswith("n_") else fmt(r[k], u, dt)
+                                 for k in keys] for r in listed]
+    da = group(list(axis.values()), u)
     return {"title": "ISO 230-2 (2014)",
-            "axis": table(list(axis), [[fmt(v, u) for v in axis.values()]], left=0),
+            "axis": table(list(axis), [[fmt(v, u, da) for v in axis.values()]], left=0),
             "note": (f"[{label(u)}] R_i = 4 s_i (±2 s); bidirectional R = max R_i with "
                      "R_i = max(2 s_i↑ + 2 s_i↓ + |B_i|, R_i↑, R_i↓); E over both "
                      "directions' mean deviations; M = range of the mean deviations; "
                      "A = max(mean + 2s) − min(mean − 2s) over both directions; "
                      "B = max |B_i|."),
-            "table": table(cols, rows, left=0), "warnings": list(iso.warnings)}
+            "table": table(cols, cells, left=0), "warnings": list(iso.warnings)}
 
 
 def _vdi(s: Section) -> dict[str, Any] | None:
@@ -332,10 +339,12 @@ def _vdi(s: Section) -> dict[str, Any] | None:
     axis = vdi.axis()
     keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
     at = f"position_{vdi.position_unit}"
-    rows = [[f"{r[at]:.3f}"] + [fmt(r[k], u) for k in keys]
-            + [r["n_up"], r["n_down"]] for r in vdi.table()]
+    listed = vdi.table()
+    d, da = table_decimals(listed, u), group(list(axis.values()), u)
+    rows = [[f"{r[at]:.3f}"] + [fmt(r[k], u, d) for k in keys]
+            + [r["n_up"], r["n_down"]] for r in listed]
     return {"title": "VDI/DGQ 3441 (1977)",
-            "axis": table(list(axis), [[fmt(v, u) for v in axis.values()]], left=0),
+            "axis": table(list(axis), [[fmt(v, u, da) for v in axis.values()]], left=0),
             "note": (f"[{label(u)}] x_j = (x↑ + x↓)/2; U_j = |x↑ − x↓|; Ps_j = 6 (s↑ + s↓)/2 "
                      "(±3 s); Pa = range of x_j; "
                      "P = max(x_j + (U_j + Ps_j)/2) − min(x_j − (U_j + Ps_j)/2)."),
@@ -372,7 +381,8 @@ def _comparison(report: Report, drawings: Drawings) -> list[dict[str, Any]]:
     out = []
     for kind, pairs in drawings.comparisons():
         unit = pairs[0][1].unit
-        rows = [[name, fmt(c.figures.pp, unit), fmt(c.figures.std, unit)] for name, c in pairs]
+        rows = [[name, fmt(c.figures.pp, unit, figures(c.figures, unit)),
+                 fmt(c.figures.std, unit, figures(c.figures, unit))] for name, c in pairs]
         first = pairs[0][1].figures.std
         ratios = [f"{name}: s of the first / s of this = {fmt(first / c.figures.std, decimals=2)}"
                   for name, c in pairs[1:] if c.figures.std > 0]

@@ -27,8 +27,9 @@ from typing import Any
 import numpy as np
 
 from enctools.models.correction_u import CorrectionU
-from enctools.report.display import DECIMALS, fmt, label
+from enctools.report.display import DECIMALS, label
 from enctools.report.longcurves import MARK_DEG
+from enctools.report.numbers import decimals, fmt, fmt_u, group
 from enctools.report.sections import Curve, Section
 from enctools.units import DEG
 
@@ -72,17 +73,23 @@ class Results:
     def rows(self) -> list[dict[str, Any]]:
         """One dict per row: ``target_deg``, ``deviation_up``, ``deviation_down``,
         ``deviation``, ``U``, ``k`` (None where the table has no such column), each
-        number rounded to the unit's resolution."""
-        d = DECIMALS.get(self.unit, 3)
+        number rounded by the one rule (:func:`enctools.report.display.decimals`): a row's
+        deviations to the decade of its U given to two significant digits, U to two
+        significant digits; without a U, the curve's deviations to four significant
+        digits of the largest of them."""
+        plain = group([a for a in (self.mean, self.up, self.down, self.after)
+                       if a is not None], self.unit)
         out = []
         for i, t in enumerate(self.target):
+            U = None if self.U is None else float(self.U[i])
+            d = plain if U is None or not U > 0 else decimals(self.unit, u=U)
             out.append({
                 "target_deg": round(float(t), 4),
                 "deviation_up": None if self.up is None else round(float(self.up[i]), d),
                 "deviation_down": None if self.down is None else round(float(self.down[i]), d),
                 "deviation": round(float(self.mean[i]), d),
                 "after": None if self.after is None else round(float(self.after[i]), d),
-                "U": None if self.U is None else round(float(self.U[i]), d),
+                "U": None if U is None else round(U, d), "decimals": d,
                 "k": None if self.k is None else round(self.k, 2)})
         return out
 
@@ -103,12 +110,14 @@ class Results:
         out = []
         for r in self.rows():
             row = [f"{r['target_deg']:.3f}"]
+            d = r["decimals"]
             if both:
-                row += [fmt(r["deviation_up"], self.unit), fmt(r["deviation_down"], self.unit)]
-            row += [fmt(r["deviation"], self.unit), fmt(r["U"], self.unit),
+                row += [fmt(r["deviation_up"], self.unit, d),
+                        fmt(r["deviation_down"], self.unit, d)]
+            row += [fmt(r["deviation"], self.unit, d), fmt_u(r["U"], self.unit),
                     "–" if r["k"] is None else f"{r['k']:.2f}"]
             if self.after is not None:
-                row.append(fmt(r["after"], self.unit))
+                row.append(fmt(r["after"], self.unit, d))
             out.append(row)
         return out
 
@@ -141,7 +150,7 @@ class Results:
             return " U of the correction at any angle: – (the model states none)."
         none = "(not included: no table among the inputs)"
         terms = "; ".join(f"{name} {none if v is None else fmt(v, u)}" for name, v in c.terms())
-        return (f" U of the correction at any angle: {fmt(c.U, u)} {label(u)} "
+        return (f" U of the correction at any angle: {fmt_u(c.U, u)} {label(u)} "
                 f"(k = {c.k:g}; standard uncertainties: {terms}).")
 
     def correction_dict(self) -> dict[str, Any] | None:

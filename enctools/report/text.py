@@ -6,7 +6,8 @@ from typing import Any
 
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
-from enctools.report.display import fmt, mark
+from enctools.report.display import mark
+from enctools.report.numbers import figures, fmt, fmt_u, group, table_decimals
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
@@ -18,18 +19,22 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
     u = c.unit
     sym = mark(u)
 
+    d = figures(f, u)    # shown together: one decade
+
     def g(x: float | None) -> str:
-        return fmt(x, u, missing="-")
+        return fmt(x, u, d, missing="-")
 
     lines = [f"  {c.name} [{u}]{' (head ' + c.head + ')' if c.head else ''}: n={f.n}  "
              f"p-p {g(f.pp)}{sym}  +/-{g(f.plus_minus)}{sym}  mean {g(f.mean)}{sym}  "
              f"s {g(f.std)}{sym} (Bessel n-1)"]
     if c.u is not None:
-        lines.append(f"    expanded uncertainty U (k={c.k:.3g}): max {g(c.U_max)}{sym}")
+        U = fmt_u(c.U_max, u, missing="-")
+        lines.append(f"    expanded uncertainty U (k={c.k:.3g}): max {U}{sym}")
     h = c.harmonics.largest(top) if c.harmonics is not None else None
     if h is not None and h.n.size:
         per = "/period" if c.domain == "period" else "/rev"
-        parts = [f"n={int(n)} {g(a)}{sym} @ {p / DEG:.0f} deg"
+        da = group(h.amplitude, u)
+        parts = [f"n={int(n)} {fmt(a, u, da)}{sym} @ {p / DEG:.0f} deg"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
     if c.harmonics is not None and c.harmonics.note():
@@ -42,8 +47,9 @@ def iso_lines(s: Section) -> list[str]:
     if iso is None:
         return []
     axis = iso.axis()
+    da = group(list(axis.values()), iso.unit)
     lines = [f"  ISO 230-2 (R = 4s, A with +/-2s) [{iso.unit}]: "
-             + "  ".join(f"{k} {fmt(v, iso.unit, missing='-')}" for k, v in axis.items())]
+             + "  ".join(f"{k} {fmt(v, iso.unit, da, missing='-')}" for k, v in axis.items())]
     head = f"    pos [{iso.position_unit}]"
     cols = []
     if iso.up is not None:
@@ -53,7 +59,8 @@ def iso_lines(s: Section) -> list[str]:
     if iso.is_bidirectional:
         cols += ["B_i", "R_i"]
     lines.append(head + "".join(f"{c:>9}" for c in cols))
-    for row in iso.table():
+    rows, table = [], iso.table()
+    for row in table:
         vals = []
         if iso.up is not None:
             vals += [row["mean_up"], row["s_up"]]
@@ -61,8 +68,10 @@ def iso_lines(s: Section) -> list[str]:
             vals += [row["mean_down"], row["s_down"]]
         if iso.is_bidirectional:
             vals += [row["B"], row["R"]]
-        lines.append(f"    {row[f'position_{iso.position_unit}']:9.3f}"
-                     + "".join(f"{fmt(v, iso.unit, missing='-'):>9}" for v in vals))
+        rows.append((row[f"position_{iso.position_unit}"], vals))
+    dt = table_decimals(table, iso.unit)    # as the documents' table, which lists more
+    lines += [f"    {pos:9.3f}" + "".join(f"{fmt(v, iso.unit, dt, missing='-'):>9}" for v in vals)
+              for pos, vals in rows]
     return lines
 
 
@@ -70,14 +79,18 @@ def vdi_lines(s: Section) -> list[str]:
     vdi = s.vdi
     if vdi is None:
         return []
+    da = group(list(vdi.axis().values()), vdi.unit)
     lines = [f"  VDI/DGQ 3441 (Ps = 6s, P with (U + Ps)/2) [{vdi.unit}]: "
-             + "  ".join(f"{k} {fmt(v, vdi.unit, missing='-')}" for k, v in vdi.axis().items())]
+             + "  ".join(f"{k} {fmt(v, vdi.unit, da, missing='-')}"
+                         for k, v in vdi.axis().items())]
     keys = ("mean_up", "s_up", "mean_down", "s_down", "mean", "U", "Ps")
     cols = ("mean up", "s up", "mean dn", "s dn", "mean", "U_j", "Ps_j")
     lines.append(f"    pos [{vdi.position_unit}]" + "".join(f"{c:>9}" for c in cols))
-    for row in vdi.table():
+    table = vdi.table()
+    dt = table_decimals(table, vdi.unit)
+    for row in table:
         lines.append(f"    {row[f'position_{vdi.position_unit}']:9.3f}"
-                     + "".join(f"{fmt(row[k], vdi.unit, missing='-'):>9}" for k in keys))
+                     + "".join(f"{fmt(row[k], vdi.unit, dt, missing='-'):>9}" for k in keys))
     return lines
 
 
@@ -106,9 +119,10 @@ def section_lines(s: Section, top: int, model: Curve | None = None) -> list[str]
     for sp in s.spectra:
         parts = []
         for i in sp.largest(top):
-            p = f"n={int(sp.n[i])} {fmt(float(sp.amplitude[i]), sp.unit)}{mark(sp.unit)}"
-            if sp.u is not None:
-                p += f" (U {fmt(sp.k * float(sp.u[i]), sp.unit)}{mark(sp.unit)})"
+            U = None if sp.u is None else sp.k * float(sp.u[i])
+            p = f"n={int(sp.n[i])} {fmt(float(sp.amplitude[i]), sp.unit, u=U)}{mark(sp.unit)}"
+            if U is not None:
+                p += f" (U {fmt_u(U, sp.unit)}{mark(sp.unit)})"
             if sp.transfer is not None:
                 p += f" |W| {fmt(float(sp.transfer[i]), decimals=2)}"
             parts.append(p)

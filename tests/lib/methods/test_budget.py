@@ -183,7 +183,7 @@ def test_report_prints_every_contribution_and_uses_the_budgets_u(polygon_points)
     assert curve["coverage_k"] == pytest.approx(b["k"])
     text = run(["enc", "report", str(pts), "--unit", "urad"]).stdout.decode()
     assert "uncertainty budget (GUM) [urad]" in text
-    assert f"U {b['U_arcsec'] * ARCSEC * 1e6:.4g}" in text
+    assert f"U {b['U_arcsec'] * ARCSEC * 1e6:.2g}" in text     # two digits (GUM 7.2.6)
 
 
 def test_a_certificate_applied_in_points_is_the_budgets_polygon_row(polygon_points) -> None:

@@ -114,9 +114,10 @@ def test_certificate_pdf_read_by_poppler(campaigns, tmp_path):
     # the covariance statement of the polygon run's points (the model through GTC)
     flat = " ".join(text.split())
     assert re.search(r"two points correlate with r = 0\.5\d? \(propagated through GTC\)", flat)
-    assert re.search(r"difference of two points .* its U is at most 0\.15\d arcsec", flat)
+    # each U to two significant digits (GUM 7.2.6): 0.15x arcsec is 0.15 or 0.16
+    assert re.search(r"difference of two points .* its U is at most 0\.1[56] arcsec", flat)
     assert re.search(r"Peak-to-peak, as the difference of the extreme points \(\d+ deg and "
-                     r"\d+ deg\): U = 0\.15\d arcsec", flat)
+                     r"\d+ deg\): U = 0\.1[56] arcsec", flat)
 
 
 # ------------------------------------------------------- one template, a budget
@@ -179,7 +180,8 @@ def test_budget_table_holds_every_contribution_and_the_totals(documents):
     flat = re.sub(r"\s+", " ", text)                 # a cell's text may wrap
     for c in b.contributions:
         assert c.name in page and c.name in flat
-    assert f"{b.u_c:.3f} arcsec" in flat and f"{b.U:.3f} arcsec" in flat
+    # u_c and U to two significant digits (GUM 7.2.6; 0.0587 and 0.117 here)
+    assert f"{b.u_c:.3f} arcsec" in flat and f"{b.U:.2f} arcsec" in flat
     assert f"{b.nu_eff:.0f}" in flat and f"{b.k:.2f}" in flat
     assert "Welch–Satterthwaite" in flat
     # the input without a budget states its Type A evaluation instead
@@ -203,11 +205,15 @@ def test_report_without_certificate_invents_no_customer_fields(tmp_path):
 
 
 @pytest.mark.parametrize("value, unit, shown", [
-    (-5.6e-17, "arcsec", "0.000"), (2.1e-17, "arcsec", "0.000"), (-0.0004, "arcsec", "0.000"),
-    (-0.0006, "arcsec", "-0.001"), (1.2345, "arcsec", "1.234"), (3e-9, "rad", "0.000000003"),
-    (-1e-12, "rad", "0.000000000"), (1.6e-7, "deg", "0.0000002"), (None, "arcsec", "–"),
-    (math.nan, "nm", "–"), (12.34567, "nm", "12.346")])
+    (-5.6e-17, "arcsec", "0.000"), (2.1e-17, "arcsec", "0.000"),
+    (-0.0004, "arcsec", "-0.0004000"), (-0.0006, "arcsec", "-0.0006000"),
+    (1.2345, "arcsec", "1.234"), (3e-9, "rad", "0.000000003000"),
+    (-1e-12, "rad", "-0.000000000001000"), (-1e-17, "rad", "0.000000000"),
+    (1.6e-7, "deg", "0.0000001600"), (None, "arcsec", "–"),
+    (math.nan, "nm", "–"), (12.34567, "nm", "12.346"), (1234.5, "arcsec", "1234.500")])
 def test_one_number_format_without_rounding_noise(value, unit, shown):
+    """A figure alone: four significant digits, never coarser than the unit's resolution
+    (0.001"), never finer than the floating-point noise (1e-9", 1e-15 rad)."""
     from enctools.report.display import fmt
 
     assert fmt(value, unit) == shown

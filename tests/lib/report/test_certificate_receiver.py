@@ -17,9 +17,10 @@ from test_certificate import CERTS, campaigns  # noqa: F401  (the campaigns' inp
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(
     not shutil.which("pdftotext"), reason="poppler-utils not installed (make poppler)")]
 
-#: a results row as pdftotext -layout prints it: target, deviation(s), U, k (and after)
-ROW = re.compile(r"^\s*(\d+\.\d{3})\s+(?:-?\d+\.\d{3}\s+){1,3}(\d+\.\d{3})\s+(\d\.\d\d)"
-                 r"(?:\s+-?\d+\.\d{3})?\s*$")   # ... and after the correction shipped
+#: a results row as pdftotext -layout prints it: target, deviation(s), U, k (and after);
+#: the deviations to the decade of U, U to two significant digits
+ROW = re.compile(r"^\s*(\d+\.\d{3})\s+(?:-?\d+(?:\.\d+)?\s+){1,3}(\d+(?:\.\d+)?)\s+(\d\.\d\d)"
+                 r"(?:\s+-?\d+(?:\.\d+)?)?\s*$")   # ... and after the correction shipped
 
 
 def _certificate(seed: str, inputs: list[str], folder) -> tuple[str, str]:

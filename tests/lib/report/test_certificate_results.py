@@ -4,6 +4,7 @@ mean, U with k), the same numbers in the text, the JSON, the HTML and the PDF.""
 from __future__ import annotations
 
 import json
+import math
 import re
 
 import pytest
@@ -51,7 +52,13 @@ def test_one_row_per_target_with_both_directions_mean_and_U(rendered):
     for r in rows:
         assert r["expanded_u_arcsec"] > 0 and r["coverage_k"] == pytest.approx(k, abs=6e-3)
         mean = (r["deviation_up_arcsec"] + r["deviation_down_arcsec"]) / 2
-        assert r["deviation_arcsec"] == pytest.approx(mean, abs=1.5e-3)
+        step = 10.0 ** -_decimals(r["expanded_u_arcsec"])     # each rounded to U's decade
+        assert r["deviation_arcsec"] == pytest.approx(mean, abs=1.01 * step)
+
+
+def _decimals(U: float) -> int:
+    """The decimals of U given to two significant digits (GUM 7.2.6): 0.16 is 2."""
+    return 1 - math.floor(math.log10(U))
 
 
 def test_the_same_numbers_in_text_json_html_and_pdf(rendered):
@@ -60,9 +67,10 @@ def test_the_same_numbers_in_text_json_html_and_pdf(rendered):
     flat = re.sub(r"\s+", " ", pdf)
     lines = out.splitlines()
     for r in rows:
+        d = _decimals(r["expanded_u_arcsec"])     # the row's deviations to U's decade
         cells = [f"{r['target_deg']:.3f}"] + [
-            f"{r[k]:.3f}" for k in ("deviation_up_arcsec", "deviation_down_arcsec",
-                                     "deviation_arcsec", "expanded_u_arcsec")
+            f"{r[k]:.{d}f}" for k in ("deviation_up_arcsec", "deviation_down_arcsec",
+                                       "deviation_arcsec", "expanded_u_arcsec")
         ] + [f"{r['coverage_k']:.2f}"]
         cells = [c.lstrip("-") if float(c) == 0 else c for c in cells]
         assert any(line.split() == cells for line in lines), cells
