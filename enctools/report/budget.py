@@ -362,7 +362,9 @@ def selfcal_into(s: Any, curve: Any, dof: float) -> None:
     row = next((c for c in budget.contributions if c.quantity == "head_mounting"), None)
     shape = _mounting_shape(s.meta.get("mounting_coefficients_arcsec_per_rad"), curve.angle,
                             mounting) if row is not None else None
-    if row is not None and shape is not None:   # the mounting's u at each point, not its rms
+    # the mounting's u at each point, not its rms (a long curve's stand-in of two values,
+    # longcurves.budget, takes the rms: its envelope has no points to hold it at)
+    if row is not None and shape is not None and shape.size == curve.u.size:
         curve.u += row.u_arcsec ** 2 * (np.square(shape) - 1.0)
         notes.append("head mounting: each point's U holds the mounting's u at that point "
                      "(the row gives its rms along the curve)")
