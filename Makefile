@@ -109,6 +109,7 @@ bench: $(VENV)/.installed  ## measure speed and memory of every command (table f
 	$(BIN)/python benchmarks/polygon_gum_mc.py --draws 200000
 	$(BIN)/python benchmarks/selfcal_mc.py --runs 2000
 	$(BIN)/python benchmarks/interp_mc.py --runs 4000
+	$(BIN)/python benchmarks/correction_u_mc.py --trials 30
 
 SEEDS ?= 20
 accuracy: $(VENV)/.installed  ## the README's accuracy table over SEEDS noise seeds (minutes)
