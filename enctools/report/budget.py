@@ -184,10 +184,15 @@ def face_notes(face: Declaration | None, declared: dict[str, Declaration],
             "of corrected faces (the GUM: a correction applied leaves its own u)"]
 
 
+#: how the note of :func:`unused` starts: the laboratory's (its rig file's quantities by
+#: their keys), left out of a certificate (report/document.py)
+UNUSED_NOTE = "declared but not in "
+
+
 def unused(declared: dict[str, Declaration], model: tuple[str, ...], what: str) -> list[str]:
     """The note naming the declarations a model does not use (none: no note)."""
     other = sorted(set(declared) - set(model))
-    return [f"declared but not in {what} model: {', '.join(other)}"] if other else []
+    return [f"{UNUSED_NOTE}{what} model: {', '.join(other)}"] if other else []
 
 
 def stop_scatter(pos_deg: np.ndarray, target_rad: np.ndarray) -> float:

@@ -28,6 +28,7 @@ from enctools.data.header import output_time
 from enctools.data.readings import rig_encoders
 from enctools.data.text import escaped_all
 from enctools.report import budgettable, citations
+from enctools.report.budget import UNUSED_NOTE
 from enctools.report.certificate import Certificate
 from enctools.report.display import label
 from enctools.report.drawings import Drawings
@@ -364,7 +365,8 @@ INTERNAL_KINDS = ("model", "rom")
 
 
 def _section(s: Section, top: int, drawings: Drawings, certificate: bool) -> dict[str, Any]:
-    notes = [customer_text(n) for n in s.notes]
+    notes = [customer_text(n) for n in s.notes
+             if not (certificate and n.startswith(UNUSED_NOTE))]  # the rig file's, by key
     notes += [f"{c.name}: {c.harmonics.note()}" for c in s.curves
               if c.harmonics is not None and c.harmonics.note()]
     info = {} if certificate and s.kind in INTERNAL_KINDS else s.info

@@ -66,6 +66,8 @@ def test_the_receiver_reads_every_target_with_U_and_nothing_internal(seed, campa
     assert "sjtu-dual" not in flat and "ciomp-23bit" not in flat
     for internal in ("spread_factor", "bias_arcsec", "kernel=", "as entered", "Made "):
         assert internal not in flat, internal
+    # nor the rig file's keys (the quantities a model leaves unused are the laboratory's)
+    assert not re.search(r"\b(reference_encoder|probe_arm|head_mounting)", flat)
     # ... which the laboratory's record holds: each input by its base name (they lie
     # outside the record's folder), never the machine's path (SOURCE_DATE_EPOCH's rule)
     assert all(inp.rsplit("/", 1)[-1] in record and inp not in record
