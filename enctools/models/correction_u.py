@@ -33,6 +33,10 @@ from enctools.units import DEG
 K_CORRECTION = 2.0
 #: fewer points than this resolve no top octave to bound the tail with
 MIN_POINTS = 8
+#: the most points whose top octave is fitted (a least squares of m x m): a denser table's
+#: is that of an even subset of this many (its orders OCTAVE_POINTS/4 and up, which
+#: bound the higher ones the same way), never an m x m/2 matrix
+OCTAVE_POINTS = 1024
 
 
 @dataclass(frozen=True)
@@ -100,9 +104,14 @@ class CorrectionU:
 
 def top_octave_rms(angle_deg: np.ndarray, error_arcsec: np.ndarray) -> tuple[float, int, int]:
     """The RMS [arcsec] of the points' harmonics of order ceil(m/4)..ceil(m/2)-1 (least
-    squares over all orders 0..ceil(m/2)-1), that first order and ceil(m/2)."""
+    squares over all orders 0..ceil(m/2)-1), that first order and ceil(m/2); of more than
+    :data:`OCTAVE_POINTS` points, those of an even subset of that many (by angle)."""
     x = np.asarray(angle_deg, np.float64) * DEG
     y = np.asarray(error_arcsec, np.float64)
+    if x.size > OCTAVE_POINTS:
+        order = np.argsort(x, kind="stable")
+        pick = order[np.linspace(0, x.size - 1, OCTAVE_POINTS).round().astype(np.int64)]
+        x, y = x[pick], y[pick]
     m = x.size
     top = math.ceil(m / 2)
     low = math.ceil(m / 4)
