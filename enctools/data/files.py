@@ -20,6 +20,7 @@ left as it was (what a rename does).
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import errno
 import io
@@ -208,18 +209,13 @@ def new_temporary(path: str | Path) -> tuple[int, str]:
 #: creation and its writer's own cleanup (the moment a watcher of the folder sends it, in
 #: whichever thread it is delivered) leaves none behind
 _LIVE: set[str] = set()
-_AT_EXIT: list[Callable[[], None]] = []
 
 
 def _live(name: str) -> None:
-    if not _AT_EXIT:  # registered once, by the first temporary
-        import atexit
-
-        atexit.register(_remove_live)
-        _AT_EXIT.append(_remove_live)
     _LIVE.add(name)
 
 
+@atexit.register
 def _remove_live() -> None:
     for name in sorted(_LIVE):
         with contextlib.suppress(OSError):

@@ -17,9 +17,10 @@ from enctools.report.display import label
 from enctools.report.numbers import fmt, fmt_u, significant
 from enctools.units import factor
 
-#: what the results say of their uncertainty when no budget is declared
+#: what the results say of their uncertainty when no budget is declared ("{gum}": the
+#: reference number of the GUM in the document that says it)
 TYPE_A = ("No uncertainty budget is declared for these inputs: the expanded uncertainty "
-          "U = k u is the Type A evaluation the results carry (GUM 4.2 [5]): the "
+          "U = k u is the Type A evaluation the results carry (GUM 4.2 {gum}): the "
           "standard uncertainty u from the scatter of the repeated runs (s/√n per "
           "position) or as the method propagates it from the data, and k Student's t at "
           "95 % for the degrees of freedom the data state (the revolutions averaged), "

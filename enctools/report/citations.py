@@ -3,13 +3,17 @@
 Each input is named by the command that made it (its last history line) with the
 paper or standard it follows as a reference number; the references the document cites
 are listed once in its References section, numbered in the order of their first
-citation (:func:`renumbered`).
+citation: :func:`cite` numbers them as the document is made, inside :func:`collecting`,
+and :func:`listed` gives the list. Nothing in the rendered text is parsed for "[n]", so
+a "[3]" in a laboratory's own text stays as written.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import Any
 
 from enctools.report.summary import Report
@@ -30,7 +34,9 @@ REFERENCES = (
             "uncertainty in measurement (GUM)"),
     ("ilac", "ILAC-G8:09/2019 Guidelines on decision rules and statements of conformity"),
 )
-_NUMBER = {key: i + 1 for i, (key, _) in enumerate(REFERENCES)}
+_TEXT = dict(REFERENCES)
+#: the keys cited so far in the document being made, in the order of first citation
+_CITED: ContextVar[list[str] | None] = ContextVar("cited", default=None)
 
 #: what each stream kind holds, as a heading names it
 KINDS = {"deviations": "deviation curves", "spectrum": "harmonic spectrum",
@@ -57,9 +63,31 @@ _METHODS = {
 }
 
 
+@contextmanager
+def collecting() -> Iterator[list[str]]:
+    """Number the citations made inside, 1, 2, ... in the order first made; yields the
+    keys cited, in that order (for :func:`listed`). The document is made in its reading
+    order, so the numbers run in the order a reader meets them."""
+    cited: list[str] = []
+    token = _CITED.set(cited)
+    try:
+        yield cited
+    finally:
+        _CITED.reset(token)
+
+
 def cite(key: str) -> str:
-    """The reference number of ``key`` (a paper "000", "001" or a standard) as "[n]"."""
-    return f"[{_NUMBER[key]}]"
+    """The reference number of ``key`` (a paper "000", "001" or a standard) as "[n]":
+    its place among the document's citations (inside :func:`collecting` only)."""
+    cited = _CITED.get()
+    if cited is None:
+        msg = "a citation made outside a document (citations.collecting)"
+        raise RuntimeError(msg)
+    if key not in _TEXT:
+        raise KeyError(key)
+    if key not in cited:
+        cited.append(key)
+    return f"[{cited.index(key) + 1}]"
 
 
 def kind_name(kind: str) -> str:
@@ -67,37 +95,9 @@ def kind_name(kind: str) -> str:
     return KINDS.get(kind, kind)
 
 
-def papers() -> list[str]:
-    """The references, in their numbered order."""
-    return [text for _, text in REFERENCES]
-
-
-#: the rendered document's list of references (the template's), with its heading
-_LISTED = re.compile(r'<h2>References</h2>\s*<ol class="references">(.*?)</ol>', re.S)
-_CITED = re.compile(r"\[([1-9])\]")
-_HERE = "\x00references\x00"  # where the list stands while the text is renumbered
-
-
-def renumbered(html: str) -> str:
-    """The rendered document (``html``, whose list holds every one of :data:`REFERENCES`
-    numbered by :func:`cite`) with only the references its text cites listed, numbered in
-    the order of their first citation (the list left out when it cites none)."""
-    m = _LISTED.search(html)
-    if m is None:
-        return html
-    items = re.findall(r"<li>(.*?)</li>", m.group(1), re.S)
-    text = html[:m.start()] + _HERE + html[m.end():]
-    order: list[int] = []
-    for c in _CITED.finditer(text):
-        n = int(c.group(1))
-        if n <= len(items) and n not in order:
-            order.append(n)
-    new = {old: i + 1 for i, old in enumerate(order)}
-    text = _CITED.sub(lambda c: f"[{new[int(c.group(1))]}]" if int(c.group(1)) in new
-                      else c.group(0), text)
-    listing = ("<h2>References</h2>\n<ol>" + "".join(f"<li>{items[n - 1]}</li>" for n in order)
-               + "</ol>") if order else ""
-    return text.replace(_HERE, listing, 1)
+def listed(cited: list[str]) -> list[str]:
+    """The references of the keys ``cited``, in that order (a document's list)."""
+    return [_TEXT[key] for key in cited]
 
 
 def _settings(meta: dict[str, Any]) -> dict[str, Any]:

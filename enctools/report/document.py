@@ -240,7 +240,7 @@ def _uncertainty(report: Report) -> dict[str, Any] | None:
     if not budgets and not type_a and not none:
         return None
     return {"budgets": budgets, "type_a": ", ".join(type_a),
-            "statement": budgettable.TYPE_A if type_a else "",
+            "statement": budgettable.TYPE_A.format(gum=citations.cite("gum")) if type_a else "",
             "none": ", ".join(none)}
 
 
@@ -447,6 +447,8 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         f" — {', '.join(dict.fromkeys(rigs))}" if rigs else "")
     if cert is not None and cert.get("certificate", "title"):
         default = cert.get("certificate", "title")
+    with citations.collecting() as cited:  # numbered as a reader meets them
+        parts = _in_reading_order(report, failures, drawings, cert, now)
     # every text shown as it is: what reads other than it is (a bidi control, a line
     # separator from a file) escaped, in the HTML, the PDF and its page headers alike
     return escaped_all({  # a certificate keeps its title; --title is then its subject line
@@ -456,21 +458,35 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
                                 f"{len(report.sections)} input(s)",
         "laboratory": cert.table("laboratory") if cert else {},
         "statement": cert.get("certificate", "statement") if cert else None,
-        "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
-        "environment": _environment(cert), "references_std": _references(cert),
-        "rigs": _rigs(report, cert is not None),
-        "methods": citations.rows(report, table, settings=cert is None),
-        "summary": _summary(report), "results": _results(report),
-        "conformity": _conformity(report, failures, cert),
-        "uncertainty": _uncertainty(report),
-        "sections": [_section(s, drawings.top, drawings, cert is not None)
-                     for s in report.sections],
-        "comparisons": _comparison(report, drawings), "history": _history(report, drawings),
+        **parts,
         "record": [] if cert else [{"source": s.source, "lines": s.history or ["(none)"]}
                                    for s in report.sections],
-        "unit": label(unit), "papers": citations.papers(),
+        "unit": label(unit), "papers": citations.listed(cited),
         "approval": _approval(cert),
     })
+
+
+def _in_reading_order(report: Report, failures: Sequence[str] | None, drawings: Drawings,
+                      cert: Certificate | None, now: _dt.datetime) -> dict[str, Any]:
+    """The template's parts that may cite a reference, made in the order the template
+    shows them (:func:`citations.cite` numbers the references as they are first made)."""
+    parts: dict[str, Any] = {
+        "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
+        "environment": _environment(cert), "rigs": _rigs(report, cert is not None),
+        "methods": citations.rows(report, table, settings=cert is None),
+        "references_std": _references(cert),
+        "summary": _summary(report), "results": _results(report),
+        "conformity": _conformity(report, failures, cert),
+        # "Per GUM [n]" stands before the first budget's table
+        "gum_budgets": citations.cite("gum") if any(s.budget is not None
+                                                    for s in report.sections) else ""}
+    parts["uncertainty"] = _uncertainty(report)
+    parts["comparisons"] = _comparison(report, drawings)
+    parts["sections"] = [_section(s, drawings.top, drawings, cert is not None)
+                         for s in report.sections]
+    parts["history"] = _history(report, drawings)
+    parts["gum_statement"] = citations.cite("gum") if cert is not None else ""  # after the list
+    return parts
 
 
 @functools.cache
@@ -486,4 +502,4 @@ def _template() -> Any:
 def render(doc: dict[str, Any], page: bool) -> str:
     """The template filled with ``doc``: the whole HTML page (``page``), or its body
     alone for the PDF's renderer. Values are escaped as HTML."""
-    return citations.renumbered(str(_template().render(doc, page=page)))
+    return str(_template().render(doc, page=page))

@@ -188,6 +188,33 @@ def test_budget_table_holds_every_contribution_and_the_totals(documents):
     assert "Type A evaluation" in flat
 
 
+def test_a_laboratory_text_holding_brackets_keeps_them_and_lists_nothing_more(tmp_path):
+    """The references are numbered as the document is made, not by reading "[n]" back out
+    of the rendered page: a statement citing the laboratory's own procedure "[3]" stays
+    "[3]", and ISO 230-2 (third in the project's list) is not listed for it."""
+    from enctools.report.certificate import load_certificate
+    from enctools.report.display import in_unit
+    from enctools.report.document import build, render
+    from enctools.report.drawings import Drawings
+    from enctools.report.summary import build_report
+
+    text = CERTS["001"].read_text(encoding="utf-8")
+    said = "Calibrated to procedure QP-7 [3] and annex [9]."
+    cert = tmp_path / "cert.toml"
+    cert.write_text(re.sub(r'(?m)^statement = .*$', f'statement = "{said}"', text)
+                    if re.search(r"(?m)^statement = ", text)
+                    else text.replace("[certificate]\n", f'[certificate]\nstatement = "{said}"\n',
+                                      1), encoding="utf-8")
+    shown = in_unit(build_report([str(make_points(tmp_path / "t1.parquet", 1))]), "arcsec")
+    doc = build(shown, None, None, Drawings(shown), load_certificate(str(cert)))
+    page = render(doc, page=True)
+    assert said in page
+    listing = page[page.index("<h2>References</h2>"):]
+    assert "ISO 230-2" not in listing and "Jiao Y." not in listing
+    cited = list(dict.fromkeys(re.findall(r"\[(\d)\]", page.replace(said, ""))))
+    assert cited == [str(i + 1) for i in range(len(doc["papers"]))], cited
+
+
 def test_report_without_certificate_invents_no_customer_fields(tmp_path):
     from enctools.report.html import to_html
     from enctools.report.summary import build_report
