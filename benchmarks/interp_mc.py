@@ -36,6 +36,7 @@ import sys
 import time
 
 import numpy as np
+from coverage_band import report_band
 
 from enctools.data.rig import load_rig
 from enctools.data.uncertainty import Declaration, declaration
@@ -106,12 +107,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     start = time.perf_counter()
     p = monte_carlo(args.runs, seed=1)
-    inside = BAND[0] <= p <= BAND[1]
     without = "; ".join(f"without the {q} row {monte_carlo(args.runs, seed=1, leave_out=q):.3f}"
                         for q in PROBE_QUANTITIES)
-    print(f"interpolation budget (probes): coverage {p:.3f} over {args.runs} curves of "
-          f"{BINS} points (band {BAND[0]:.2f}..{BAND[1]:.2f}: {'ok' if inside else 'OUT'}); "
-          f"{without}")
+    inside = report_band("interpolation budget (probes)", p,
+                         f"{args.runs} curves of {BINS} points", BAND, without)
     print(f"{time.perf_counter() - start:.1f} s")
     return 0 if inside else 1
 

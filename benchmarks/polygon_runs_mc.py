@@ -33,6 +33,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from budget_mc import simulated_points, simulated_rig
+from coverage_band import report_band
 
 from enctools.data.rig import Rig, load_rig
 from enctools.report.budget import points_budget, stop_scatter
@@ -96,12 +97,11 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     every, one, se = monte_carlo(args.runs, seed=1)
     without, _, _ = monte_carlo(min(args.runs, 200), seed=1, leave_out=("polygon",))
-    ok = BAND[0] <= every <= BAND[1]
-    print(f"polygon step-run budget (3 runs a direction): coverage {every:.3f} over every "
-          f"target of {args.runs} runs (standard error {se:.3f}), {one:.3f} of one random "
-          f"target a run (band "
-          f"{BAND[0]:.2f}..{BAND[1]:.2f}: {'ok' if ok else 'OUT'}); without the polygon's "
-          f"rows {without:.3f} ({min(args.runs, 200)} runs); {time.perf_counter() - t0:.1f} s")
+    ok = report_band("polygon step-run budget (3 runs a direction)", every,
+                     f"every target of {args.runs} runs (standard error {se:.3f}), "
+                     f"{one:.3f} of one random target a run", BAND,
+                     f"without the polygon's rows {without:.3f} ({min(args.runs, 200)} runs); "
+                     f"{time.perf_counter() - t0:.1f} s")
     return 0 if ok else 1
 
 

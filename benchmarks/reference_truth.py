@@ -16,6 +16,7 @@ from functools import cache
 from typing import Any
 
 import numpy as np
+from coverage_band import report_band
 
 #: the rig, its reference encoder and its measuring heads
 RIG, ENCODER, HEADS = "sjtu-dual", "I", (("P1", 0.0), ("P2", np.pi))
@@ -83,13 +84,9 @@ def report_cases(title: str, size: str, coverage: Callable[[str, str | None], fl
     case is in its band."""
     ok = True
     for case, band in CASES:
-        p = coverage(case, None)
-        inside = band[0] <= p <= band[1]
-        ok &= inside
-        line = (f"{title}, reference {case}: coverage {p:.3f} over {size} (band "
-                f"{band[0]:.2f}..{band[1]:.2f}: {'ok' if inside else 'OUT'}); {without(case)}")
+        rest = without(case)
         if case == "uncorrected":
-            line += (f"; with the calibration's row in its place "
+            rest += (f"; with the calibration's row in its place "
                      f"{coverage(case, 'reference_encoder'):.3f}")
-        print(line)
+        ok &= report_band(f"{title}, reference {case}", coverage(case, None), size, band, rest)
     return ok

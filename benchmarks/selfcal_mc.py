@@ -39,6 +39,7 @@ import sys
 import time
 
 import numpy as np
+from coverage_band import report_band
 
 from enctools.data.rig import load_rig
 from enctools.data.uncertainty import Declaration, declaration
@@ -133,11 +134,10 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     p = monte_carlo(args.runs, args.revolutions, seed=1)
     without = monte_carlo(args.runs, args.revolutions, seed=1, leave_out_mounting=True)
-    ok = BAND[0] <= p <= BAND[1]
-    print(f"self-calibration budget: coverage {p:.3f} over {args.runs} runs of "
-          f"{args.revolutions} revolutions (band {BAND[0]:.2f}..{BAND[1]:.2f}: "
-          f"{'ok' if ok else 'OUT'}); without the head mounting row {without:.3f}; "
-          f"{time.perf_counter() - start:.1f} s")
+    ok = report_band("self-calibration budget", p,
+                     f"{args.runs} runs of {args.revolutions} revolutions", BAND,
+                     f"without the head mounting row {without:.3f}; "
+                     f"{time.perf_counter() - start:.1f} s")
     return 0 if ok else 1
 
 
