@@ -53,11 +53,7 @@ def command(input: str | None, device: list[str], ref: list[str], band: int, poi
     settings = compare.Settings(device=tuple(device), ref=tuple(ref), band=band, points=points,
                                 name=name, ref_curve=ref_curve, ref_column=ref_column,
                                 spectrum=spectrum_path is not None)
-    options.distinct_outputs({"-o": output, "--spectrum": spectrum_path})
-    summary.check_json(as_json, output)
-    streams.check_output(output, force, fmt)
-    if spectrum_path is not None:
-        streams.check_output(spectrum_path, force)
+    options.check_curve_outputs(output, spectrum_path, force, fmt, as_json)
     source = streams.open_input(input, "readings")
     curve = None if ref_curve is None else streams.read_table(ref_curve, "deviations")[1]
     expected = int(float((source.meta.get("settings") or {}).get("revolutions") or 0))

@@ -192,6 +192,21 @@ def distinct_outputs(paths: dict[str, str | None]) -> None:
         seen[key] = flag
 
 
+def check_curve_outputs(output: str | None, spectrum: str | None, force: bool,
+                        fmt: str | None, as_json: bool) -> None:
+    """Before any work, the outputs of a command that writes a deviation curve (``-o``)
+    and, with ``--spectrum``, its spectrum: distinct files, ``--json`` not on the curve's
+    stdout, each writable (UsageError or OutputError)."""
+    from enctools.cli import summary
+    from enctools.data import streams
+
+    distinct_outputs({"-o": output, "--spectrum": spectrum})
+    summary.check_json(as_json, output)
+    streams.check_output(output, force, fmt)
+    if spectrum is not None:
+        streams.check_output(spectrum, force)
+
+
 def heads(help: str, flag: str = "--heads", dest: str | None = None) -> Callable[..., Any]:
     """A comma-separated list of head (or channel) names, e.g. --heads H1,H2."""
     decls = [flag] if dest is None else [flag, dest]

@@ -108,11 +108,7 @@ def command(input: str | None, method: str | None, ref: str | None, heads: list[
                                 angle_from=None if angle_from is None else tuple(angle_from),
                                 band=band, points=points, min_transfer=min_transfer,
                                 strict=strict)
-    options.distinct_outputs({"-o": output, "--spectrum": spectrum_path})
-    summary.check_json(as_json, output)
-    streams.check_output(output, force, fmt)
-    if spectrum_path is not None:
-        streams.check_output(spectrum_path, force)
+    options.check_curve_outputs(output, spectrum_path, force, fmt, as_json)
     source = streams.open_input(input, "readings")
     deviations, spectrum = selfcal.run(source, settings, runner.Progress("revolutions", "rev"))
     with OutputGroup() as outputs:  # both files, or neither
