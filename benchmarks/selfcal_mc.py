@@ -46,7 +46,7 @@ from enctools.data.uncertainty import Declaration, declaration
 from enctools.hw.sim_truth import graduation_truth
 from enctools.methods.budget import selfcal_budget
 from enctools.methods.harmonics import synthesize
-from enctools.methods.selfcal import Method, _parts
+from enctools.methods.selfcal import Method, solution_parts
 from enctools.methods.selfcal_uncertainty import mounting_changes, mounting_sensitivity
 from enctools.units import ARCSEC
 
@@ -93,7 +93,7 @@ def one_run(rng: np.random.Generator, method: Method, enc, decl: dict[str, Decla
     curves = synthesize(np.array(solved), POINTS) / ARCSEC        # (R, points) [arcsec]
     mean = curves.mean(axis=0)
     sem = curves.std(axis=0, ddof=1) / math.sqrt(revolutions)
-    changes = mounting_changes(lambda s: _parts(method.solve(s)), method.all_alphas,
+    changes = mounting_changes(lambda s: solution_parts(method.solve(s)), method.all_alphas,
                                {"graduation": np.mean(solved, axis=0)}, method.radius_m)
     sens = mounting_sensitivity(changes) / ARCSEC                   # [arcsec per rad]
     budget = selfcal_budget(float(np.sqrt(np.mean(sem ** 2))), revolutions, 0.0, None,

@@ -183,15 +183,17 @@ def analyse(angles_deg: list[float], band: int, method: str | None = None,
     ``angles_deg``: head angles [deg], the reference first. ``method``: a method enc
     design offers (esa: 4 heads; fourier: any >= 2; average: the mean of the heads,
     |A(n)|); default the registry's for the number of heads (:func:`arrangement_method`).
-    Sensitivity: first-order RMS relative error of F(n) when each non-reference head is
-    off its nominal angle by 1 rad (iid), as the method figures it
-    (:meth:`~enctools.methods.selfcal_methods.SelfcalMethod.sensitivity`).
+    Sensitivity: first-order RMS relative error of F(n) when every head, the reference
+    included, is off its nominal angle by an independent 1 rad, through the method's own
+    solve (:func:`~enctools.methods.selfcal_uncertainty.relative_mounting_sensitivity`,
+    the figure enc selfcal's budget takes; the curve's argument is the scale angle under
+    the reference head, so the reference's own error moves every other head against it).
     """
     chosen = strategy(arrangement_method(angles_deg, method))
     al = np.asarray(angles_deg, dtype=np.float64) * DEG
     n = np.arange(band + 1)
     transfer, normalised = chosen.transfer(al[0], al[1:], n)
-    sens = chosen.sensitivity(al[0], al[1:], n, transfer)
+    sens = _sensitivity(chosen.name, al, band)
     transfer[0] = normalised[0] = 0.0
     with np.errstate(divide="ignore"):
         gain = np.where(normalised > _BLIND, 1.0 / np.maximum(normalised, 1e-300), np.inf)
@@ -202,6 +204,19 @@ def analyse(angles_deg: list[float], band: int, method: str | None = None,
     radial = [k for k in blind if k >= 2] if chosen.separates_radial else None
     return Analysis(chosen.name, tuple(float(x) for x in angles_deg), band, transfer,
                     normalised, gain, sens, chosen.first, blind, ill, min_transfer, radial)
+
+
+def _sensitivity(method: str, al: np.ndarray, band: int) -> np.ndarray:
+    """:func:`analyse`'s sensitivity [1/rad] at orders 0..band, heads at ``al`` [rad];
+    0 for a method enc selfcal does not solve by (average: the heads' mean, no figure)."""
+    from enctools.methods.selfcal import Method, solution_parts
+    from enctools.methods.selfcal_uncertainty import relative_mounting_sensitivity
+
+    if selfcal_methods.find(method, "selfcal") is None:
+        return np.zeros(band + 1)
+    bound = Method(method, float(al[0]), al[1:], band, radius_m=1.0)
+    return relative_mounting_sensitivity(lambda g: solution_parts(bound.solve(g)),
+                                         bound.all_alphas, band)
 
 
 @dataclass

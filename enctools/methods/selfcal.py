@@ -283,7 +283,7 @@ class Result:
 SCALE = {"graduation": 1.0 / ARCSEC, "x": 1e9, "y": 1e9}
 
 
-def _parts(sol: Solution) -> dict[str, np.ndarray]:
+def solution_parts(sol: Solution) -> dict[str, np.ndarray]:
     """The solution's coefficient arrays by name [rad, m]: graduation, then x, y if solved."""
     out = {"graduation": sol.graduation}
     if sol.x is not None and sol.y is not None:
@@ -307,7 +307,7 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
 
     def model(g: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         sol = method.solve(g)
-        return method.coordinate_error(sol, coordinate_alphas), _parts(sol)
+        return method.coordinate_error(sol, coordinate_alphas), solution_parts(sol)
 
     spectra, samples = RunningMean(), 0
     coef = {name: RunningMean() for name in SCALE}
@@ -323,7 +323,7 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
         g[:, 0] += settled.offsets
         spectra.add(g)
         samples += rev.u.size - 1
-        for name, c in _parts(method.solve(g)).items():
+        for name, c in solution_parts(method.solve(g)).items():
             coef[name].add(c * SCALE[name])
             curves[name].add(synthesize(c * SCALE[name], points))
     if spectra.mean is None or settled is None or spectra.count < 2:
@@ -332,11 +332,11 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
         raise DataError(msg)
     refined = refine(spectra.mean, settled.angle.error_coefficients(method.band), model)
     noise = resolution / np.sqrt(12.0) * np.sqrt(2.0 / (samples / spectra.count))
-    bound = systematic(lambda g: _parts(method.solve(g)), len(method.all_alphas), refined,
+    bound = systematic(lambda g: solution_parts(method.solve(g)), len(method.all_alphas), refined,
                        noise if repeats.repeated else 0.0, SCALE)
     solved = {name: part * SCALE[name] for name, part in refined.parts.items()}
     change = refined.change["graduation"] * SCALE["graduation"]
-    moved = mounting_changes(lambda g: _parts(method.solve(g)), method.all_alphas,
+    moved = mounting_changes(lambda g: solution_parts(method.solve(g)), method.all_alphas,
                              refined.parts, method.radius_m)
     return Result(method.name, list(method.names), coordinate, method.band, spectra.count,
                   method.conditioning, solved,

@@ -180,6 +180,19 @@ def mounting_changes(parts: Callable[[np.ndarray], dict[str, np.ndarray]],
     return out
 
 
+def relative_mounting_sensitivity(parts: Callable[[np.ndarray], dict[str, np.ndarray]],
+                                  alphas: np.ndarray, band: int) -> np.ndarray:
+    """The rms relative error of F(n), n = 0..band, per rad of an independent error of
+    every head's mounting angle, the reference's included [1/rad]: sqrt(sum_k |c_kn|^2)
+    of :func:`mounting_changes` for a flat scale error F(n) = 1 (each order is solved
+    on its own, so the change is proportional to F(n)); 0 at a blind order.
+    ``parts`` and ``alphas`` [rad] as :func:`mounting_changes` takes them."""
+    flat = np.ones(band + 1, dtype=np.complex128)
+    flat[0] = 0.0
+    changes = mounting_changes(parts, alphas, {"graduation": flat}, 1.0)
+    return np.sqrt(np.sum(np.abs(changes) ** 2, axis=0))
+
+
 def mounting_rms(changes: np.ndarray) -> np.ndarray:
     """Each head's rms change of the curve along it [rad per rad] from its coefficients
     (:func:`mounting_changes`, c_0 = 0; Parseval: sqrt(sum_n |c_n|^2 / 2))."""

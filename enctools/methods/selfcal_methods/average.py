@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Average(SelfcalMethod):
-    """|A(n)| of the heads' mean; no sensitivity to mounting errors is figured."""
+    """|A(n)| of the heads' mean: what it passes and cancels of the scale's error."""
 
     def transfer(self, alpha_ref: float, alphas: np.ndarray,
                  n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -29,12 +29,6 @@ class Average(SelfcalMethod):
 
         a = np.abs(average_transfer(np.concatenate([[alpha_ref], alphas]), n))
         return a, a.copy()
-
-    def sensitivity(self, alpha_ref: float, alphas: np.ndarray, n: np.ndarray,
-                    transfer: np.ndarray) -> np.ndarray:
-        import numpy as np
-
-        return np.zeros(n.size)
 
 
 METHOD = register(Average("average", "the mean of the heads: |A(n)|, what it passes and cancels",

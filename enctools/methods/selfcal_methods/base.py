@@ -164,15 +164,6 @@ class SelfcalMethod:
         basic = fourier_transfer(np.concatenate([[alpha_ref], alphas]), n)
         return basic, basic.copy()
 
-    def sensitivity(self, alpha_ref: float, alphas: np.ndarray, n: np.ndarray,
-                    transfer: np.ndarray) -> np.ndarray:
-        """First-order RMS relative error of F(n) per rad of each non-reference head's
-        mounting error (iid)."""
-        import numpy as np
-
-        m = alphas.size + 1
-        return n * np.sqrt(m - 1) / np.maximum(transfer, 1e-300) / np.sqrt(m)
-
     # -- how it combines the heads ----------------------------------------------------
 
     def tables(self, bound: Bound, n: np.ndarray, w: np.ndarray) -> dict[str, np.ndarray]:

@@ -65,18 +65,6 @@ class ErrorSeparation(SelfcalMethod):
         normalised[low] = basic[low]
         return transfer, normalised
 
-    def sensitivity(self, alpha_ref: float, alphas: np.ndarray, n: np.ndarray,
-                    transfer: np.ndarray) -> np.ndarray:
-        """``n sqrt(sum a_j^2) / |W(n)|``; at n = 1 the basic model's ``1 / |W(1)|``."""
-        import numpy as np
-
-        from enctools.methods.transfer import esa_weights
-
-        a = esa_weights(alpha_ref, alphas)
-        sens = n * np.sqrt(np.sum(a**2)) / np.maximum(transfer, 1e-300)
-        sens[n == 1] = 1.0 / np.maximum(transfer[n == 1], 1e-300)
-        return sens
-
     def tables(self, bound: Bound, n: np.ndarray, w: np.ndarray) -> dict[str, np.ndarray]:
         """``inverse`` 1 / W(n) (0 where blind and at n < 2), ``pairs`` exp(i n alpha_j) -
         exp(i n alpha_ref) and ``radial`` the least-squares inverse of eqs. (17), (18)."""

@@ -11,7 +11,6 @@ import pytest
 from conftest import run
 
 from enctools.methods import design
-from enctools.methods.selfcal import esa_transfer, esa_weights
 
 
 def test_paper_arrangement() -> None:
@@ -57,23 +56,36 @@ def test_search_beats_or_matches_the_paper() -> None:
     assert np.all(gaps >= 10 - 1e-9)
 
 
-def test_mounting_sensitivity_first_order() -> None:
-    """Relative error of F(n) from random head-angle errors: Monte Carlo vs first order."""
-    angles = np.radians([0.0, 60.0, 135.0, 228.0])
-    n = np.arange(2, 101)
-    a = esa_weights(0.0, angles[1:])
-    w = esa_transfer(0.0, angles[1:], n)
+@pytest.mark.parametrize("method, angles", [("esa", [0.0, 60.0, 135.0, 228.0]),
+                                           ("fourier", [0.0, 60.0, 135.0, 228.0]),
+                                           ("fourier", [0.0, 90.0, 200.0])])
+def test_mounting_sensitivity_against_heads_moved_at_random(method, angles) -> None:
+    """Relative error of F(n) when every head, the reference too, is mounted off its angle
+    by an independent 0.01 deg: the scale read exactly at the true angles, solved by the
+    method at the nominal ones (no first-order step), against the design's figure. The
+    curve's argument is the scale angle under the reference head, so the truth it is held
+    to is F(n) turned by the reference's own error. The figure of the non-reference heads
+    alone (before) was 1.2 to 2.1 times too small on the fourier rows."""
+    from enctools.methods.selfcal import Method
+
+    band = 100
+    al = np.radians(angles)
+    solve = Method(method, al[0], al[1:], band, 0.1).solve
+    n = np.arange(band + 1)
     rng = np.random.default_rng(5)
+    f = rng.normal(size=n.size) + 1j * rng.normal(size=n.size)
     sigma = np.radians(0.01)
     rel = []
     for _ in range(400):
-        true = angles[1:] + rng.normal(0, sigma, 3)
-        # the data follow the true angles, the method the nominal ones
-        w_true = (a[None, :] * (np.exp(1j * np.outer(n, true)) - 1)).sum(axis=1)
-        rel.append(np.abs(w_true / w - 1))
+        d = rng.normal(0.0, sigma, al.size)
+        got = solve(np.exp(1j * np.outer(al + d, n)) * f).graduation
+        rel.append(np.abs(got / (np.exp(1j * n * d[0]) * f) - 1.0))
     mc = np.sqrt(np.mean(np.square(rel), axis=0))
-    predicted = design.analyse([0, 60, 135, 228], 100).sensitivity[2:] * sigma
-    assert np.all(np.abs(mc / predicted - 1) < 0.25)
+    a = design.analyse(angles, band, method)
+    seen = np.isfinite(a.sensitivity) & (n >= a.first) & (a.sensitivity > 0)
+    assert seen.sum() > band // 2
+    ratio = mc[seen] / (a.sensitivity[seen] * sigma)
+    assert np.all(np.abs(ratio - 1.0) < 0.1), (ratio.min(), ratio.max())
 
 
 @pytest.mark.parametrize("opts,expect", [("", "give --angles"),
