@@ -403,11 +403,37 @@ def pytest_collection_modifyitems(config, items) -> None:
         runners = _command_runners(str(item.path))
         if function in runners or set(item.fixturenames) & (COMMAND_FIXTURES | runners):
             item.add_marker(pytest.mark.command)
-    if config.getoption("dist", "no") == "loadgroup":
+    # a worker's own option says "no": xdist tells it of loadgroup by option.loadgroup
+    if config.getoption("dist", "no") == "loadgroup" or getattr(config.option, "loadgroup",
+                                                                 False):
         _group_for_workers(items)
 
 
 # ------------------------------------------------------------ two workers, no tail
+
+class _GroupsTaken:
+    """Fails the run at collection when ``--dist loadgroup`` would not group: xdist marks a
+    grouped test by a suffix of its node id (``...::test@group``), which pytest 9.2 no
+    longer takes (pytest-dev/pytest-xdist#1386). Without this check the tests of a file
+    that share a fixture spread over both workers and make it twice, silently."""
+
+    @pytest.hookimpl(trylast=True)
+    def pytest_collection_modifyitems(self, config, items) -> None:
+        if not getattr(config.option, "loadgroup", False):
+            return
+        lost = [i.nodeid for i in items if i.get_closest_marker("xdist_group")
+                and "@" not in i.nodeid]
+        if lost:
+            msg = (f"--dist loadgroup does not group {len(lost)} test(s), e.g. {lost[0]}: "
+                   f"pytest {pytest.__version__} with this pytest-xdist drops the group "
+                   "(pytest-dev/pytest-xdist#1386); install the versions pyproject.toml allows")
+            raise pytest.UsageError(msg)
+
+
+def pytest_configure(config) -> None:
+    config.pluginmanager.register(_GroupsTaken(), "enctools-groups-taken")
+
+
 
 #: the scopes of a fixture made once for several tests of one file
 _FILE_SCOPES = {"module", "class", "package"}

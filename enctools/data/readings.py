@@ -94,11 +94,12 @@ class HeadInfo:
 
 def head_info(schema: pa.Schema, name: str, source: str = "input") -> HeadInfo:
     """The :class:`HeadInfo` of head column ``name``; DataError if it is not a head."""
-    if name not in schema.names:
+    index = schema.get_field_index(name)  # a lookup, where schema.names builds every name
+    if index < 0 and name not in schema.names:
         heads = columns_with_role(schema, "head")
         msg = f"{source}: no head {name!r} in the readings (heads: {', '.join(heads) or 'none'})"
         raise DataError(msg)
-    fm = field_meta(schema.field(name))
+    fm = field_meta(schema.field(name if index < 0 else index))  # < 0: a name given twice
     if fm.get("role") != "head":
         msg = f"{source}: column {name!r} is not a head"
         raise DataError(msg)

@@ -8,6 +8,11 @@ import functools
 import re
 from pathlib import Path
 
+import pytest
+
+# one worker reads the code once for both tests (_definitions is cached per process)
+pytestmark = pytest.mark.xdist_group("architecture_doc")
+
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "enctools"
 DOC = ROOT / "docs" / "ARCHITECTURE.md"

@@ -124,6 +124,7 @@ def test_the_mounting_sensitivity_is_what_a_moved_head_does_in_the_simulator(tmp
     assert rms == pytest.approx(sens[head] * math.radians(0.05), rel=0.01)
 
 
+@pytest.mark.slow  # 300 simulated runs, 7-12 s
 def test_the_monte_carlo_coverage_of_U_against_the_truth():
     """300 runs of benchmarks/selfcal_mc.py (make bench: 2000 runs, 0.944..0.956 on 3 to
     20 revolutions): 95 % +- 3.5 binomial standard deviations (0.0126 at 300 runs) for

@@ -82,6 +82,7 @@ def model_of(words: np.ndarray, spec: rom.RomSpec):
 
 
 # 800 examples, about 10 s (pytest --hypothesis-show-statistics gives the count and time)
+@pytest.mark.slow  # 800 examples, 10-17 s: the slow tier
 @settings(max_examples=800, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                  HealthCheck.function_scoped_fixture])
 @given(case=tables())

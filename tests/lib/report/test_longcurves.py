@@ -77,6 +77,7 @@ def _stream(path: Path, theta: np.ndarray, y: np.ndarray) -> Path:
     return path
 
 
+@pytest.mark.slow  # 10 s
 def test_a_long_curve_off_a_uniform_grid_gets_its_harmonics_from_arc_means(
         tmp_path, monkeypatch):
     # random angles in no order: the figures as held, the harmonics from the means of
