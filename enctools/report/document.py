@@ -30,7 +30,7 @@ from enctools.data.text import escaped_all
 from enctools.report import budgettable, citations
 from enctools.report.budget import UNUSED_NOTE
 from enctools.report.certificate import Certificate
-from enctools.report.display import label
+from enctools.report.display import in_length, label, phase_text
 from enctools.report.drawings import Drawings
 from enctools.report.numbers import figures, fmt, fmt_u, group, table_decimals
 from enctools.report.results import correction_of, results
@@ -291,7 +291,7 @@ def _harmonics(curves: Sequence[Curve], top: int) -> dict[str, Any] | None:
         if not h.n.size:        # none resolvable: the notes say why
             continue
         d = group(h.amplitude, c.unit)
-        cells = [f"n={int(n)}: {fmt(float(a), c.unit, d)} @ {float(p) / DEG:.0f}°"
+        cells = [f"n={int(n)}: {fmt(float(a), c.unit, d)} @ {phase_text(c, float(p), '°')}"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         rows.append([c.name, label(c.unit)] + cells)
     if not rows:
@@ -437,6 +437,16 @@ def _approval(cert: Certificate | None) -> dict[str, str] | None:
     return {"name": given.get("name", ""), "function": given.get("function", "")}
 
 
+def _deviation_words(report: Report) -> dict[str, str]:
+    """What the summary's deviation is, and its unit for a report of linear scales'
+    interpolation errors alone [nm] (enc-interp-check(1))."""
+    curves = [c for _, c in report.curves()]
+    if not curves or not all(in_length(c) for c in curves):
+        return {"deviation_is": "indicated − true angle"}
+    return {"unit": "nm", "deviation_is": "a linear scale's interpolation error, read − true "
+                                          "position within its signal period"}
+
+
 def build(report: Report, failures: Sequence[str] | None, title: str | None,
           drawings: Drawings, cert: Certificate | None = None) -> dict[str, Any]:
     """The template's data of the whole document (see the module's docstring)."""
@@ -468,7 +478,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         "comparisons": _comparison(report, drawings), "history": _history(report, drawings),
         "record": [] if cert else [{"source": s.source, "lines": s.history or ["(none)"]}
                                    for s in report.sections],
-        "unit": label(unit), "papers": citations.papers(),
+        "unit": label(unit), "papers": citations.papers(), **_deviation_words(report),
         "approval": _approval(cert),
     })
 
