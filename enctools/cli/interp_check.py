@@ -169,7 +169,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     source = _open(input, signals_mode, heads, table, corrected, signal_period_m)
     ref_stream = None if reference_file is None else streams.open_input(reference_file, "readings")
     checked = check.run(runner.RowsRead(source), settings, ref_stream)
-    curves = _as_lengths(checked.curves, checked.settings, signal_period_m)
+    curves = _as_lengths(checked, signal_period_m, source.header.schema, spectrum_path)
     if not curves:
         msg = "no curve: the heads with signals carry no encoder geometry"
         raise UsageError(msg)
@@ -211,19 +211,30 @@ def _check_length(signal_period_m: float | None, periods_per_rev: int | None,
         raise UsageError(msg)
 
 
-def _as_lengths(curves: list[Any], settings: dict[str, Any],
-                signal_period_m: float | None) -> list:
-    """The curves in nm of a scale of ``signal_period_m`` [m] (enc-interp-check(1),
-    LINEAR SCALES; None: an encoder's, in arcsec, as they are); ``settings`` (the
-    output's) records the period [nm]."""
-    from enctools.methods.interp.lengths import NM_PER_M, to_length
+def _as_lengths(checked: Any, signal_period_m: float | None, schema: Any,
+                spectrum_path: str | None) -> list:
+    """The checked curves in nm of a scale of ``signal_period_m`` [m] (--signal-period),
+    else of the period each head's signal columns declare (``schema``'s field metadata
+    ``signal_period_nm``), else an encoder's in arcsec as they are (enc-interp-check(1),
+    LINEAR SCALES); the output's settings record the period given [nm]."""
+    from enctools.errors import DataError
+    from enctools.methods.interp.lengths import NM_PER_M, declared_periods, to_length
 
-    if signal_period_m is None:
+    curves, settings = checked.curves, checked.settings
+    declared = declared_periods(schema) if signal_period_m is None else {}
+    if signal_period_m is None and not declared:
         return curves
-    settings["signal_period_nm"] = signal_period_m * NM_PER_M
+    missing = [c.name for c in curves if signal_period_m is None and c.name not in declared]
+    if missing:
+        msg = (f"input: head(s) {', '.join(missing)} state no signal_period_nm beside "
+               f"{', '.join(declared)} that do: give the scale's `signal_period`")
+        raise DataError(msg)
+    _check_length(1.0, None, spectrum_path)  # a spectrum stream is in arcsec
+    if signal_period_m is not None:
+        settings["signal_period_nm"] = signal_period_m * NM_PER_M
     # the arc of the phase the samples must cover, as a share of the period, not in deg
     settings["min_arc_percent"] = settings.pop("min_arc_deg") / 3.6
-    return [to_length(c, signal_period_m) for c in curves]
+    return [to_length(c, signal_period_m or declared[c.name]) for c in curves]
 
 
 def _check_outputs(output: str | None, spectrum_path: str | None, corrected: str | None,

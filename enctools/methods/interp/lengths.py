@@ -20,6 +20,8 @@ import math
 from dataclasses import replace
 from typing import Any
 
+import pyarrow as pa
+
 from enctools.methods.interp.curve import Curve
 from enctools.methods.interp.model import PeriodHarmonics
 from enctools.units import ARCSEC, TWO_PI, factor
@@ -46,6 +48,24 @@ def check_period(signal_period_m: float) -> None:
     if not lo <= signal_period_m <= hi:  # also NaN
         msg = f"a signal period must be 1 nm..1 m, not {signal_period_m!r} m"
         raise ValueError(msg)
+
+
+def declared_periods(schema: pa.Schema) -> dict[str, float]:
+    """The signal period [m] each head's signal columns state in their field metadata
+    ``signal_period_nm`` (a readings stream of a linear scale, enc-streams(5)), by head;
+    a head whose columns state none, or two, is left out."""
+    from enctools.data.limits import FIELD_RANGES
+    from enctools.data.schemas import field_meta, parse_field_value
+    from enctools.methods.interp.signals import signal_columns
+
+    rng = FIELD_RANGES["signal"]["signal_period_nm"]
+    out = {}
+    for head, components in signal_columns(schema).items():
+        said = {parse_field_value(field_meta(schema.field(c)).get("signal_period_nm", ""), rng)
+                for c in components.values()}
+        if len(said) == 1 and None not in said:
+            out[head] = float(said.pop() or 0.0) / NM_PER_M
+    return out
 
 
 def to_length(curve: Curve, signal_period_m: float) -> Curve:

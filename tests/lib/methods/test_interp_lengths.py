@@ -139,6 +139,40 @@ def test_the_same_table_as_a_rotary_encoder_still_reports_arcsec(tmp_path):
     assert lin["pp_nm"] == pytest.approx(rot["pp_arcsec"] * k, rel=1e-12)
 
 
+def test_a_readings_stream_of_a_scale_states_its_period_in_its_sidecar(tmp_path):
+    """A readings CSV whose CSVW sidecar gives the signal columns' signal_period_nm: the
+    error in nm without the option, the same as the option gives."""
+    import pyarrow as pa
+
+    from enctools.data.schemas import make_field
+    from enctools.data.streams import Header, write_table
+
+    phi = TWO_PI * 3.2 * np.arange(1500) / 1500 + 0.3
+    ua1, ua2 = _signals(phi)
+    # the head's counter as enc acquire records it (its geometry a turn's: 1000 periods)
+    fields = [make_field("t", pa.float64(), "s"),
+              make_field("H1", pa.int64(), "count", "head", encoder="X", alpha_deg=0,
+                         counts_per_rev=1_024_000, periods_per_rev=1000, radius_m=0.1,
+                         zero_count=0)]
+    fields += [make_field(f"H1_{comp}", pa.float64(), "V", "signal", head="H1", component=comp,
+                          signal_period_nm="20000") for comp in ("cos", "sin")]
+    table = pa.Table.from_arrays([pa.array(np.arange(1500) * 1e-5),
+                                  pa.array(np.floor(phi / TWO_PI * 1024).astype(np.int64)),
+                                  pa.array(np.round(ua1, 3) / 1e3),
+                                  pa.array(np.round(ua2, 3) / 1e3)], schema=pa.schema(fields))
+    write_table(str(tmp_path / "run.csv"), Header("readings", table.schema,
+                                                  {"rig": {}, "settings": {}}), table)
+    _daq_export(tmp_path / "scale.txt")
+    r = run("enc interp-check --signals run.csv -q -o a.parquet && enc interp-check --signals "
+            "scale.txt --signal-period 20um -q -o b.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    _, a = read_table(str(tmp_path / "a.parquet"), "deviations")
+    _, b = read_table(str(tmp_path / "b.parquet"), "deviations")
+    assert a.schema.field("H1").metadata[b"unit"] == b"nm"
+    assert a.schema.field("H1").metadata[b"signal_period_nm"] == b"20000.0"
+    assert np.max(np.abs(a.column("H1").to_numpy() - b.column("H1").to_numpy())) < 1e-6
+
+
 @pytest.mark.parametrize(("args", "words"), [
     ("--signal-period 20um --periods-per-rev 100", "--periods-per-rev and --signal-period"),
     ("--signal-period 20", "is not a length"),
