@@ -437,14 +437,14 @@ def _approval(cert: Certificate | None) -> dict[str, str] | None:
     return {"name": given.get("name", ""), "function": given.get("function", "")}
 
 
-def _deviation_words(report: Report) -> dict[str, str]:
-    """What the summary's deviation is, and its unit for a report of linear scales'
-    interpolation errors alone [nm] (enc-interp-check(1))."""
+def _deviation_words(report: Report, unit: str) -> str:
+    """What the summary's deviation is, in which unit (``unit``, the report's angle's):
+    a report of linear scales' interpolation errors alone is in nm (enc-interp-check(1))."""
     curves = [c for _, c in report.curves()]
     if not curves or not all(in_length(c) for c in curves):
-        return {"deviation_is": "indicated − true angle"}
-    return {"unit": "nm", "deviation_is": "a linear scale's interpolation error, read − true "
-                                          "position within its signal period"}
+        return f"indicated − true angle, in {unit}"
+    return "a linear scale's interpolation error, read − true position within its signal " \
+           "period, in nm"
 
 
 def build(report: Report, failures: Sequence[str] | None, title: str | None,
@@ -465,6 +465,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         "made": "" if cert else f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
                                 f"{len(report.sections)} input(s)",
         "laboratory": cert.table("laboratory") if cert else {},
+        "deviation": _deviation_words(report, label(unit)),  # the summary's, and its unit
         "statement": cert.get("certificate", "statement") if cert else None,
         "identity": table(["", ""], _identity(cert, report, now), left=2, cite=False),
         "environment": _environment(cert), "references_std": _references(cert),
@@ -478,7 +479,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         "comparisons": _comparison(report, drawings), "history": _history(report, drawings),
         "record": [] if cert else [{"source": s.source, "lines": s.history or ["(none)"]}
                                    for s in report.sections],
-        "unit": label(unit), "papers": citations.papers(), **_deviation_words(report),
+        "unit": label(unit), "papers": citations.papers(),
         "approval": _approval(cert),
     })
 
