@@ -68,3 +68,25 @@ def counts_factor(counts_per_rev: float, to_unit: str) -> float:
         msg = f"counts per revolution must be > 0, not {counts_per_rev}"
         raise ValueError(msg)
     return TWO_PI / counts_per_rev / ANGLE_UNITS[to_unit]
+
+
+def length_m(text: str) -> float:
+    """A length as a person writes it, a number and a length unit (``20um``, ``20 µm``,
+    ``0.02mm``, ``316.5nm``, ``1e-3 m``), in metres; ValueError naming what it is not."""
+    t = text.strip().replace("µ", "u").replace("μ", "u")
+    number = t.rstrip("abcdefghijklmnopqrstuvwxyz").rstrip()
+    unit = t[len(number):].strip()
+    if unit not in LENGTH_UNITS:
+        msg = (f"{text!r} is not a length: a number and a unit, one of "
+               f"{', '.join(LENGTH_UNITS)} (20um)")
+        raise ValueError(msg)
+    try:
+        value = float(number)
+    except ValueError:
+        msg = f"{text!r} is not a length: {number!r} is not a number"
+        raise ValueError(msg) from None
+    return value / _PER_METRE[unit]  # 20 / 1e6 is 2e-05; 20 * 1e-6 is not
+
+
+#: the size of a metre in each length unit (exact: a length divided by it is rounded once)
+_PER_METRE = {"m": 1.0, "mm": 1e3, "um": 1e6, "nm": 1e9}

@@ -22,9 +22,24 @@ REFERENCE = "Reference mode (without --signals)"
 MODES = {REFERENCE: ("average", "reference", "reference_file", "probes", "arm_m", "keep",
                      "reference_harmonics", "window_arcsec"),
          SIGNALS: ("min_arc_deg", "allow_excluded_pct", "rails_v", "corrected", "column_cos",
-                   "column_sin", "periods_per_rev", "decimal_comma")}
+                   "column_sin", "periods_per_rev", "decimal_comma", "signal_period_m")}
 usage.FIELD_FLAGS["interp-check"] = {"signals": "--signals",
                                      "interval_s": "enc acquire --interval"}
+
+
+def _length(ctx: click.Context, param: click.Parameter, value: str | None) -> float | None:
+    """--signal-period LENGTH (20um, 0.02mm, 316.5nm) in metres, within 1 nm..1 m."""
+    from enctools.methods.interp.lengths import check_period
+    from enctools.units import length_m
+
+    if value is None:
+        return None
+    try:
+        metres = length_m(value)
+        check_period(metres)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+    return metres
 
 
 def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> list[int] | None:
@@ -102,12 +117,16 @@ def _int_list(ctx: click.Context, param: click.Parameter, value: str | None) -> 
 @click.option("--decimal-comma", is_flag=True, default=False,
               help="A text table's numbers have a decimal comma (1,25); its columns are then "
                    "separated by tabs, semicolons or blanks.")
+@click.option("--signal-period", "signal_period_m", default=None, callback=_length,
+              metavar="LENGTH",
+              help="A linear scale's signal period (20um, 0.02mm, 316.5nm): the error in nm "
+                   "of travel, not arcsec (a table then needs no --periods-per-rev).")
 @click.option("--corrected", default=None, type=click.Path(dir_okay=False),
               help="Also write the readings with each head's counts "
                    "re-interpolated from the corrected phase.")
 @options.spectrum("Also write the harmonics (per signal period) as a spectrum stream.")
 @options.threshold("--max-pm", "Exit 1 when any curve's +/- (half its peak-to-peak) "
-                   "exceeds this [arcsec].", dest="tolerance")
+                   "exceeds this [arcsec; nm with --signal-period].", dest="tolerance")
 @options.json_summary
 @options.unit
 @options.outputs
@@ -118,17 +137,17 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
             trend_degree: int, window_arcsec: float | None, points: int, signals_mode: bool,
             min_arc_deg: float, allow_excluded_pct: float, rails_v: list[float] | None,
             column_cos: str | None, column_sin: str | None, periods_per_rev: int | None,
-            decimal_comma: bool, corrected: str | None, spectrum_path: str | None,
-            tolerance: float | None, as_json: bool, unit: str, output: str | None,
-            force: bool, fmt: str | None) -> None:
+            decimal_comma: bool, signal_period_m: float | None, corrected: str | None,
+            spectrum_path: str | None, tolerance: float | None, as_json: bool, unit: str,
+            output: str | None, force: bool, fmt: str | None) -> None:
     """Interpolation error of heads within their signal period (seed 000 sec. 4).
 
     Reads a readings stream of a small-angle sweep (enc acquire --mode sweep) or a
     continuous run (a trend per --window of angle; read batch by batch, in
     constant memory) and writes a deviations stream: for each head, its error
-    [arcsec] against the phase within its signal period [rad], with its standard
-    uncertainty. Figures (p-p, +/-) and harmonics go to stderr and into the
-    output's metadata.
+    [arcsec; a linear scale's, --signal-period, nm] against the phase within its signal
+    period [rad], with its standard uncertainty. Figures (p-p, +/-) and harmonics go
+    to stderr and into the output's metadata.
     """
     from enctools.cli.summary import emit
     from enctools.cli.usage import UsageError
@@ -137,6 +156,7 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
     from enctools.methods.interp import Settings, check
 
     table = (column_cos, column_sin, periods_per_rev, decimal_comma or None)
+    _check_length(signal_period_m, periods_per_rev, spectrum_path)
 
     settings = Settings(
         heads=heads, average=average, reference=reference, reference_file=reference_file,
@@ -146,10 +166,10 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         min_arc_deg=min_arc_deg, allow_excluded_pct=allow_excluded_pct,
         rails_v=None if rails_v is None else tuple(rails_v), corrected=bool(corrected))
     _check_outputs(output, spectrum_path, corrected, (force, fmt, as_json))
-    source = _open(input, signals_mode, heads, table, corrected)
+    source = _open(input, signals_mode, heads, table, corrected, signal_period_m)
     ref_stream = None if reference_file is None else streams.open_input(reference_file, "readings")
     checked = check.run(runner.RowsRead(source), settings, ref_stream)
-    curves = checked.curves
+    curves = _as_lengths(checked, signal_period_m, source.header.schema, spectrum_path)
     if not curves:
         msg = "no curve: the heads with signals carry no encoder geometry"
         raise UsageError(msg)
@@ -173,6 +193,50 @@ def command(input: str | None, heads: list[str] | None, average: bool, reference
         _check_tolerance(curves, tolerance)
 
 
+def _check_length(signal_period_m: float | None, periods_per_rev: int | None,
+                  spectrum_path: str | None) -> None:
+    """A scale's signal period (a length) refuses an encoder's periods a revolution and a
+    spectrum stream (in arcsec), before any work."""
+    from enctools.cli.usage import UsageError
+
+    if signal_period_m is None:
+        return
+    if periods_per_rev is not None:
+        msg = ("--periods-per-rev and --signal-period: a rotary encoder's periods a "
+               "revolution (arcsec) or a linear scale's signal period (nm), not both")
+        raise UsageError(msg)
+    if spectrum_path is not None:
+        msg = ("--spectrum: a spectrum stream is in arcsec; a scale's harmonics [nm] are in "
+               "the deviations stream's metadata and the --json summary")
+        raise UsageError(msg)
+
+
+def _as_lengths(checked: Any, signal_period_m: float | None, schema: Any,
+                spectrum_path: str | None) -> list:
+    """The checked curves in nm of a scale of ``signal_period_m`` [m] (--signal-period),
+    else of the period each head's signal columns declare (``schema``'s field metadata
+    ``signal_period_nm``), else an encoder's in arcsec as they are (enc-interp-check(1),
+    LINEAR SCALES); the output's settings record the period given [nm]."""
+    from enctools.errors import DataError
+    from enctools.methods.interp.lengths import NM_PER_M, declared_periods, to_length
+
+    curves, settings = checked.curves, checked.settings
+    declared = declared_periods(schema) if signal_period_m is None else {}
+    if signal_period_m is None and not declared:
+        return curves
+    missing = [c.name for c in curves if signal_period_m is None and c.name not in declared]
+    if missing:
+        msg = (f"input: head(s) {', '.join(missing)} state no signal_period_nm beside "
+               f"{', '.join(declared)} that do: give the scale's `signal_period`")
+        raise DataError(msg)
+    _check_length(1.0, None, spectrum_path)  # a spectrum stream is in arcsec
+    if signal_period_m is not None:
+        settings["signal_period_nm"] = signal_period_m * NM_PER_M
+    # the arc of the phase the samples must cover, as a share of the period, not in deg
+    settings["min_arc_percent"] = settings.pop("min_arc_deg") / 3.6
+    return [to_length(c, signal_period_m or declared[c.name]) for c in curves]
+
+
 def _check_outputs(output: str | None, spectrum_path: str | None, corrected: str | None,
                    how: tuple[bool, str | None, bool]) -> None:
     """Refuse outputs that are one file, exist without --force, or a JSON summary where
@@ -189,11 +253,12 @@ def _check_outputs(output: str | None, spectrum_path: str | None, corrected: str
 
 
 def _open(input: str | None, signals_mode: bool, heads: list[str] | None,
-          table: tuple[str | None, str | None, int | None, bool | None], corrected: str | None
-          ) -> Any:
+          table: tuple[str | None, str | None, int | None, bool | None], corrected: str | None,
+          signal_period_m: float | None = None) -> Any:
     """The readings stream, or (--signals) a user's table of one head's sin/cos signals
     read as its signal columns (``table``: --cos, --sin, --periods-per-rev,
-    --decimal-comma)."""
+    --decimal-comma; with ``signal_period_m``, a scale's, its phase read as one period
+    a "revolution" before the curve is put in nm)."""
     from enctools.cli.usage import UsageError
     from enctools.data import signaltable, streams, usertables
 
@@ -213,7 +278,8 @@ def _open(input: str | None, signals_mode: bool, heads: list[str] | None,
     if heads is not None and len(heads) != 1:
         msg = f"--heads: a table of signals holds one head, not {len(heads)}"
         raise UsageError(msg)
-    mapping = signaltable.SignalMapping(*table[:3], head=heads[0] if heads else "H1")
+    ppr = 1 if signal_period_m is not None else table[2]
+    mapping = signaltable.SignalMapping(table[0], table[1], ppr, head=heads[0] if heads else "H1")
     meta, rows = signaltable.signal_readings(usertables.read(input, bool(table[3])).raw,
                                              mapping)
     return streams.InputStream(streams.Header("readings", rows.schema, meta),
@@ -221,18 +287,22 @@ def _open(input: str | None, signals_mode: bool, heads: list[str] | None,
 
 
 def _check_tolerance(curves: list[Any], tolerance: float) -> None:
-    """CheckFailed when the worst curve's +/- exceeds ``tolerance`` [arcsec] (--max-pm)."""
+    """CheckFailed when the worst curve's +/- exceeds ``tolerance`` [arcsec; nm of a
+    scale's] (--max-pm)."""
     from enctools.errors import CheckFailed
 
     worst = max(curves, key=lambda c: c.meta["figures"]["plus_minus"])
     pm = worst.meta["figures"]["plus_minus"]
+    mark = " nm" if worst.meta.get("unit") == "nm" else '"'
     if pm > tolerance:
-        msg = f"{worst.name}: interpolation error +/-{pm:.4f}\" exceeds --max-pm {tolerance:g}\""
+        msg = (f"{worst.name}: interpolation error +/-{pm:.4f}{mark} exceeds --max-pm "
+               f"{tolerance:g}{mark}")
         raise CheckFailed(msg)
 
 
 def _summary(c: Any) -> dict[str, Any]:
-    """A curve's figures [arcsec], largest u, harmonics and reference (enc-streams(5))."""
+    """A curve's figures [arcsec; a scale's nm], largest u, harmonics and reference
+    (enc-streams(5))."""
     import numpy as np
 
     from enctools.data.statistics import curve_figures
@@ -240,16 +310,19 @@ def _summary(c: Any) -> dict[str, Any]:
 
     h = c.harmonics
     u = h.amplitude_u if h.cov.size and np.any(h.cov) else np.full(h.orders.size, np.nan)
+    unit = c.meta.get("unit", "arcsec")
     out: dict[str, Any] = {"name": c.name}
-    out |= figure_dict(curve_figures(c.error), "arcsec", ("pm", "pp", "rms"))
-    out |= {"u_max_arcsec": float(c.u.max()) if c.u.size else None,
-            "period_arcsec": c.meta["period_arcsec"], "reference": c.meta.get("reference", "")}
+    out |= figure_dict(curve_figures(c.error), unit, ("pm", "pp", "rms"))
+    out |= {f"u_max_{unit}": float(c.u.max()) if c.u.size else None,
+            f"period_{unit}": c.meta[f"period_{unit}"], "reference": c.meta.get("reference", "")}
     if "screen" in c.meta:  # --signals: what was left out of the ellipse fit, and why
         out["signal_faults"] = {k: v for k, v in c.meta["screen"].items() if k != "channels"}
+        if unit == "nm":    # a scale's: the arc of the phase covered as a share of the period
+            out["signal_faults"]["arc_percent"] = out["signal_faults"].pop("arc_deg") / 3.6
     if "period_ratio" in c.meta:
         out |= {"period_ratio": c.meta["period_ratio"], "kept": list(c.meta.get("kept", []))}
-    out["harmonics"] = [{"n": int(n), "amplitude_arcsec": float(a), "phase_rad": float(p),
-                         "u_amplitude_arcsec": float(uu)}
+    out["harmonics"] = [{"n": int(n), f"amplitude_{unit}": float(a), "phase_rad": float(p),
+                         f"u_amplitude_{unit}": float(uu)}
                         for n, a, p, uu in zip(h.orders, h.amplitude, h.phase, u, strict=True)]
     return out
 
@@ -264,21 +337,23 @@ def _deviations(header: Any, curves: list, settings: dict, fits: dict | None) ->
     fields = [make_field("theta", pa.float64(), "rad")]
     arrays = [arrow_array(curves[0].phase, pa.float64())]
     for c in curves:
-        fields.append(make_field(c.name, pa.float64(), "arcsec", "deviation",
-                                 encoder=c.encoder, periods_per_rev=c.periods_per_rev,
-                                 period_arcsec=repr(c.meta["period_arcsec"]),
-                                 reference=c.meta.get("reference", "")))
+        unit = c.meta.get("unit", "arcsec")
+        period = ({"periods_per_rev": c.periods_per_rev,
+                   "period_arcsec": repr(c.meta["period_arcsec"])} if unit == "arcsec" else
+                  {"signal_period_nm": repr(c.meta["period_nm"])})
+        fields.append(make_field(c.name, pa.float64(), unit, "deviation", encoder=c.encoder,
+                                 **period, reference=c.meta.get("reference", "")))
         arrays.append(arrow_array(c.error, pa.float64()))
-        fields.append(make_field(uncertainty_name(c.name), pa.float64(), "arcsec",
+        fields.append(make_field(uncertainty_name(c.name), pa.float64(), unit,
                                  "uncertainty", of=c.name))
         arrays.append(arrow_array(c.u, pa.float64()))
     schema = pa.schema(fields)
-    periods = {c.meta["period_arcsec"] for c in curves}
+    periods = {c.meta.get("period_arcsec", c.meta.get("period_nm")) for c in curves}
     meta: dict[str, Any] = {
         "settings": settings, "domain": "signal period: theta is the phase the head reads",
         "curves": {c.name: c.meta for c in curves}}
-    if len(periods) == 1:
-        meta["period"] = periods.pop()
+    if len(periods) == 1:  # a scale's in nm (every curve of a check is in one unit)
+        meta["period" if "period_arcsec" in curves[0].meta else "period_nm"] = periods.pop()
     if fits is not None:
         meta["signals"] = fits
     return header.derive("deviations", schema, **meta), pa.Table.from_arrays(arrays, schema=schema)

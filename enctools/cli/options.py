@@ -311,7 +311,7 @@ TABLE_RENAMED = {"--ref": "--reference-column", "--reference": "--reference-colu
 def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
     """--position/--reference-column/--measured/--deviation/--direction/--run COL, a unit
     per angle column (--position-unit, ...), --counts-per-rev, --zero-offset,
-    --decimal-comma and a wide table's --forward/--reverse COL,...: passed
+    --decimal-comma, --deviation-sign and a wide table's --forward/--reverse COL,...: passed
     to the command as ``mapping`` (a ``Mapping``; its checks are one SettingsError line
     naming these options)."""
     reference = ("--reference-column",)
@@ -327,10 +327,16 @@ def table_columns(f: Callable[..., Any]) -> Callable[..., Any]:
         given = {f"column_{k}": kwargs.pop(f"column_{k}") for k in names}
         given |= {k: kwargs.pop(k) for k in [*units, "counts_per_rev", "zero_offset"]}
         given["decimal_comma"] = kwargs.pop("decimal_comma") or None
-        given |= {k: kwargs.pop(k) or None for k in ("columns_forward", "columns_reverse")}
+        given |= {k: kwargs.pop(k) or None for k in ("columns_forward", "columns_reverse",
+                                                      "deviation_sign")}
         return f(*args, mapping=Mapping(**given), **kwargs)
 
     g: Callable[..., Any] = with_mapping
+    g = click.option("--deviation-sign", "deviation_sign",
+                     type=click.Choice(["indicated-true", "actual-target"]), default=None,
+                     help="The sign the table's deviations are printed in: indicated - true "
+                          "(default), or ISO 230-2's and VDI/DGQ 3441's x = actual - target, "
+                          "read as its negative.")(g)
     for side, sign in reversed((("forward", "+1"), ("reverse", "-1"))):
         g = click.option(f"--{side}", f"columns_{side}", multiple=True, metavar="COL[,COL...]",
                          help=f"A wide table: its deviation columns of the {side} direction "

@@ -212,6 +212,8 @@ FIELD_RANGES: dict[str, dict[str, Range]] = {
         "rail_high_v": Range("float", -MAX_ABS_VOLTS, MAX_ABS_VOLTS, "V"),
         # a head without a counts column (a user's table of signals): its periods a turn
         "periods_per_rev": Range("int", 1, 1 << 32, "period"),
+        # a linear scale's signal period (optional): its error in nm (enc interp-check)
+        "signal_period_nm": Range("float", 1.0, 1e9, "nm"),
     },
 }
 

@@ -107,7 +107,8 @@ def signal_readings(raw: RawTable, mapping: SignalMapping,
 
     if mapping.periods_per_rev is None:
         msg = (f"{raw.source}: a table of signals needs the signal periods a revolution, "
-               "`periods_per_rev`, to give its error as an angle")
+               "`periods_per_rev`, to give its error as an angle (a linear scale's: its "
+               "`signal_period`, as a length)")
         raise SettingsError(msg)
     cols = {role: _column(raw, role, mapping) for role in ("cos", "sin")}
     if cols["cos"] == cols["sin"]:

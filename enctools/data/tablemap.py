@@ -45,9 +45,13 @@ _NAMES = {"position": {"position", "pos", "angle", "theta"},
 _WORDS = {"reference": {"reference", "ref", "true", "stage", "nominal", "target"},
           "measured": {"measured", "indicated", "reading", "encoder", "sensor"}}
 ZERO_OFFSET = ("remove", "keep")
+#: the sign a deviation column is printed in: enctools' indicated - true (the default),
+#: or ISO 230-2's and VDI/DGQ 3441's positional deviation x = actual - target, read as
+#: its negative (enc-points(1), TABLES)
+DEVIATION_SIGNS = ("indicated-true", "actual-target")
 #: fields a points stream's metadata names only when given (streams made before them
 #: read the same)
-_LATER = ("decimal_comma", "columns_forward", "columns_reverse")
+_LATER = ("decimal_comma", "columns_forward", "columns_reverse", "deviation_sign")
 _ARCSEC_PER_DEG = factor("deg", "arcsec")
 
 
@@ -70,6 +74,9 @@ class Mapping:
         the forward (+1) and the reverse (-1) direction (run k: the k-th of each; a name
         may list several separated by commas): in place of a deviation, direction and
         run column.
+    deviation_sign : the sign of the deviation column(s): ``indicated-true`` (None, the
+        default: enctools') or ``actual-target`` (ISO 230-2's x_ij = P_ij - P_i, VDI/DGQ
+        3441's), which is read as its negative.
     """
 
     column_position: str | None = None
@@ -87,6 +94,7 @@ class Mapping:
     decimal_comma: bool | None = None
     columns_forward: tuple[str, ...] | None = None
     columns_reverse: tuple[str, ...] | None = None
+    deviation_sign: str | None = None
 
     def column(self, role: str) -> str | None:
         """The column named for ``role`` (None: found by its title)."""
@@ -117,6 +125,10 @@ class Mapping:
             raise SettingsError(msg)
         if self.zero_offset is not None and self.zero_offset not in ZERO_OFFSET:
             msg = f"`zero_offset` must be remove or keep, not {self.zero_offset!r}"
+            raise SettingsError(msg)
+        if self.deviation_sign is not None and self.deviation_sign not in DEVIATION_SIGNS:
+            msg = (f"`deviation_sign` must be {' or '.join(DEVIATION_SIGNS)}, not "
+                   f"{self.deviation_sign!r}")
             raise SettingsError(msg)
         self._check_wide()
 
@@ -370,6 +382,7 @@ def map_table(raw: RawTable, mapping: Mapping) -> TablePoints:
         return points
     cols = resolve(raw, mapping)
     got = {r: values(raw, k, r, mapping) for r, k in cols.items() if r not in ("direction", "run")}
+    _signed(raw, got, mapping)
     n = len(raw)
     direction = (_whole(raw, cols["direction"], "direction", (-1, 1)) if "direction" in cols
                  else np.ones(n))
@@ -403,6 +416,23 @@ def map_table(raw: RawTable, mapping: Mapping) -> TablePoints:
                          {r: u for r, (_, u) in got.items()})
     check_rows(raw, points, "reference" in cols)
     return points
+
+
+def _signed(raw: RawTable, got: dict[str, tuple[np.ndarray, str]], mapping: Mapping) -> None:
+    """The deviation of ``got`` in enctools' sign: a log printing ISO 230-2's x = actual -
+    target (``deviation_sign`` actual-target) read as -x, indicated - true (the axis
+    stands where its own scale reads the target: the target is the indicated position,
+    the interferometer's reading the true one). SettingsError without a deviation
+    column: a reference and a measured angle give their own sign."""
+    if mapping.deviation_sign != "actual-target":
+        return
+    if "deviation" not in got:
+        msg = (f"{raw.source}: `deviation_sign` is the sign of a deviation column; this table "
+               "gives a reference and a measured angle, whose deviation is measured - "
+               "reference")
+        raise SettingsError(msg)
+    dev, unit = got["deviation"]
+    got["deviation"] = (-dev, unit)
 
 
 def linear_points(raw: RawTable, mapping: Mapping, got: dict[str, tuple[np.ndarray, str]],

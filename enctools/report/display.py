@@ -23,7 +23,7 @@ from enctools.report.iso230 import DirectionFigures, Iso230
 from enctools.report.numbers import DECIMALS, fmt, significant  # noqa: F401  (re-exported)
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
-from enctools.units import ANGLE_UNITS, factor, symbol
+from enctools.units import ANGLE_UNITS, DEG, factor, symbol
 
 #: the unit angle errors have in a report as built (that of the streams)
 STORED = "arcsec"
@@ -34,6 +34,18 @@ def mark(unit: str) -> str:
     """How a value in ``unit`` is followed in plain text: ``"`` for arcsec, else a space
     and the unit's ASCII name (``0.12 urad``)."""
     return '"' if unit == "arcsec" else f" {unit}"
+
+
+def in_length(c: Curve) -> bool:
+    """Whether ``c`` is a linear scale's interpolation error [nm] within its signal period
+    (enc-interp-check(1), LINEAR SCALES), not an angle's."""
+    return c.domain == "period" and c.unit == "nm"
+
+
+def phase_text(c: Curve, phase_rad: float, degree: str = " deg") -> str:
+    """A harmonic's phase [rad] as printed: whole degrees with ``degree`` (" deg", "°"),
+    or a linear scale's (:func:`in_length`) in rad to 2 decimals, never an angle's deg."""
+    return f"{phase_rad:.2f} rad" if in_length(c) else f"{phase_rad / DEG:.0f}{degree}"
 
 
 def label(unit: str) -> str:

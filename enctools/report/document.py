@@ -30,7 +30,7 @@ from enctools.data.text import escaped_all
 from enctools.report import budgettable, citations
 from enctools.report.budget import UNUSED_NOTE
 from enctools.report.certificate import Certificate
-from enctools.report.display import label
+from enctools.report.display import in_length, label, phase_text
 from enctools.report.drawings import Drawings
 from enctools.report.numbers import figures, fmt, fmt_u, group, table_decimals
 from enctools.report.results import correction_of, results
@@ -291,7 +291,7 @@ def _harmonics(curves: Sequence[Curve], top: int) -> dict[str, Any] | None:
         if not h.n.size:        # none resolvable: the notes say why
             continue
         d = group(h.amplitude, c.unit)
-        cells = [f"n={int(n)}: {fmt(float(a), c.unit, d)} @ {float(p) / DEG:.0f}°"
+        cells = [f"n={int(n)}: {fmt(float(a), c.unit, d)} @ {phase_text(c, float(p), '°')}"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         rows.append([c.name, label(c.unit)] + cells)
     if not rows:
@@ -437,6 +437,16 @@ def _approval(cert: Certificate | None) -> dict[str, str] | None:
     return {"name": given.get("name", ""), "function": given.get("function", "")}
 
 
+def _deviation_words(report: Report, unit: str) -> str:
+    """What the summary's deviation is, in which unit (``unit``, the report's angle's):
+    a report of linear scales' interpolation errors alone is in nm (enc-interp-check(1))."""
+    curves = [c for _, c in report.curves()]
+    if not curves or not all(in_length(c) for c in curves):
+        return f"indicated − true angle, in {unit}"
+    return "a linear scale's interpolation error, read − true position within its signal " \
+           "period, in nm"
+
+
 def build(report: Report, failures: Sequence[str] | None, title: str | None,
           drawings: Drawings, cert: Certificate | None = None) -> dict[str, Any]:
     """The template's data of the whole document (see the module's docstring)."""
@@ -457,6 +467,7 @@ def build(report: Report, failures: Sequence[str] | None, title: str | None,
         "made": "" if cert else f"{now:%Y-%m-%d %H:%M} UTC, enctools {__version__}, "
                                 f"{len(report.sections)} input(s)",
         "laboratory": cert.table("laboratory") if cert else {},
+        "deviation": _deviation_words(report, label(unit)),  # the summary's, and its unit
         "statement": cert.get("certificate", "statement") if cert else None,
         **parts,
         "record": [] if cert else [{"source": s.source, "lines": s.history or ["(none)"]}

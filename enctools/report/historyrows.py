@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from enctools.report.numbers import fmt_each
+
 SCHEMA = pa.schema([
     pa.field("run_id", pa.string()),
     pa.field("time", pa.timestamp("us", tz="UTC")),
@@ -30,6 +32,9 @@ SCHEMA = pa.schema([
 ])
 
 
+#: the width of a figure's column in the text (0.003100 and -12.35 fit; a longer one
+#: widens its row)
+_WIDTH = 9
 #: the rows above which a history is read batch by batch rather than whole (when its
 #: files are in time order, each sorted and none overlapping the next: the layout's)
 STREAM_ROWS = 100_000
@@ -112,12 +117,13 @@ class History:
                + (f", {len(self.skipped)} unreadable file(s) skipped" if self.skipped else ""))
         if not self.runs:
             return
-        yield (f"  {'time (UTC)':<20} {'rig':<12} {'status':<11} {'p-p':>7} {'s':>7} "
-               f"{'drift':>7} {'tol':>7}  [{self.unit}]")
+        w = _WIDTH
+        yield (f"  {'time (UTC)':<20} {'rig':<12} {'status':<11} {'p-p':>{w}} {'s':>{w}} "
+               f"{'drift':>{w}} {'tol':>{w}}  [{self.unit}]")
 
         count, last, largest = 0, 0.0, -np.inf
         for b in self.batches(["time", "rig", "status", "pp", "std", "drift_max", "tolerance"]):
-            yield from _text_rows(b)
+            yield from _text_rows(b, self.unit)
             drift = b.column("drift_max").to_numpy(zero_copy_only=False).astype(np.float64)
             drift = drift[np.isfinite(drift)]
             if drift.size:
@@ -125,7 +131,8 @@ class History:
                 largest = max(largest, float(drift.max()))
         if count >= 2:
             mark = '"' if self.unit == "arcsec" else f" {self.unit}"
-            yield (f"  drift: last {last:.3f}{mark}, largest {largest:.3f}{mark} "
+            last_text, largest_text = fmt_each([last, largest], self.unit)
+            yield (f"  drift: last {last_text}{mark}, largest {largest_text}{mark} "
                    f"over {count} runs")
 
 
@@ -153,25 +160,25 @@ def _texts(column: Any) -> list[str]:
     return [v or "-" for v in column.to_pylist()]
 
 
-def _figures(column: Any) -> list[str]:
-    """A column of figures with 3 decimals, "-" for a missing or non-finite one."""
-    v = column.to_numpy(zero_copy_only=False).astype(np.float64)
-    ok = np.isfinite(v)
-    out = np.full(v.size, "-", dtype=object)
-    out[ok] = np.char.mod("%.3f", v[ok]).astype(object)
-    return [str(x) for x in out]
+def _figures(column: Any, unit: str) -> list[str]:
+    """A column of figures [``unit``] by the report's one rule (enc-report(1) NUMBERS: four
+    significant digits of each, a run carrying no U; the HTML's strings), "-" for a
+    missing or non-finite one."""
+    return fmt_each(column.to_numpy(zero_copy_only=False), unit, "-")
 
 
-def _text_rows(b: pa.RecordBatch) -> list[str]:
-    """The text lines of a batch of runs (time, rig, status, p-p, s, drift, tolerance)."""
+def _text_rows(b: pa.RecordBatch, unit: str) -> list[str]:
+    """The text lines of a batch of runs (time, rig, status, p-p, s, drift, tolerance
+    [``unit``])."""
     import pyarrow.compute as pc
 
     seconds = b.column("time").cast(pa.timestamp("s", tz="UTC"), safe=False)
     times = _texts(pc.strftime(seconds, format="%Y-%m-%dT%H:%M:%SZ"))
     cols = zip(times, _texts(b.column("rig")), _texts(b.column("status")),
-               *(_figures(b.column(n)) for n in ("pp", "std", "drift_max", "tolerance")),
+               *(_figures(b.column(n), unit) for n in ("pp", "std", "drift_max", "tolerance")),
                strict=True)
-    return [f"  {t:<20} {r:<12} {s:<11} {pp:>7} {sd:>7} {d:>7} {tol:>7}"
+    w = _WIDTH
+    return [f"  {t:<20} {r:<12} {s:<11} {pp:>{w}} {sd:>{w}} {d:>{w}} {tol:>{w}}"
             for t, r, s, pp, sd, d, tol in cols]
 
 

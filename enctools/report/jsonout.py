@@ -13,6 +13,7 @@ from enctools.data import summaries
 from enctools.data.summaries import clean, figure_dict
 from enctools.report import historydigest
 from enctools.report.budget import budget_dict
+from enctools.report.display import in_length
 from enctools.report.historydigest import LISTED
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section, SpectrumRows
@@ -25,7 +26,8 @@ def curve_dict(c: Curve, top: int = 5) -> dict[str, Any]:
     d: dict[str, Any] = {"name": c.name, "unit": u, "role": c.role}
     d |= figure_dict(c.figures, u)
     d["std_convention"] = ("Bessel, n-1, over the n values, one per position modulo "
-                           "360 deg")
+                           "360 deg") if not in_length(c) else (
+        "Bessel, n-1, over the n values, one per phase within the signal period")
     for k, v in c.extra.items():  # period_arcsec
         if k != "probes":           # a flag of the budget's, not a figure
             d[k] = v

@@ -490,11 +490,13 @@ def _recheck(s: Settings, work: Path, record: dict[str, Any], night: Night) -> N
         return
     if s.html:
         _write_html(s.html, s, rep, d, night.status)
-    night.summary = (f"{night_id}: {status}: p-p {f.pp:.3f}\", "
-                     f"s {f.std:.3f}\", drift max {d.max_abs:.3f}\" "
+    from enctools.report.numbers import fmt_each
+
+    pp, std, most = fmt_each([f.pp, f.std, d.max_abs])  # enc-report(1) NUMBERS
+    night.summary = (f"{night_id}: {status}: p-p {pp}\", s {std}\", drift max {most}\" "
                      f"(tolerance {s.tolerance:g}\")")
     if status != "ok":
-        night.messages.append(("error", night.say(f"drift {d.max_abs:.3f} arcsec > "
+        night.messages.append(("error", night.say(f"drift {most} arcsec > "
                                                   f"`tolerance` {s.tolerance:g} against "
                                                   f"{s.calibration}")))
 
@@ -566,10 +568,12 @@ def _write_html(path: str, s: Settings, rep: Report, d: Drift, status: str) -> N
     from enctools.data.files import write_atomic
     from enctools.report.history import read_history
     from enctools.report.html import to_html
+    from enctools.report.numbers import fmt_each
 
     rep.history = read_history(s.history_dir, rig=history_rig(s.rig))
     rep.settings["thresholds"] = {"drift tolerance": s.tolerance}
-    fails = [] if status == "ok" else [f"drift {d.max_abs:.3f} arcsec > {s.tolerance:g}"]
+    fails = [] if status == "ok" else [f"drift {fmt_each([d.max_abs])[0]} arcsec > "
+                                       f"{s.tolerance:g}"]
     # SIGTERM's Interrupted raised inside matplotlib's drawing may be swallowed there and
     # leave a half-drawn figure that fails later ("Invalid bounding box", exit 2 for 143):
     # a signal is acted on once the page is made

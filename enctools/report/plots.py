@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 import numpy as np
 
 from enctools.report import longcurves
-from enctools.report.display import label
+from enctools.report.display import in_length, label
 from enctools.report.sections import Curve, Section, SpectrumRows
 from enctools.units import ANGLE_UNITS, DEG, TWO_PI
 
@@ -180,15 +180,25 @@ def axes_text(fig: Figure) -> str:
 
 
 def _angle_deg(c: Curve) -> np.ndarray:
+    """The abscissa: angle [deg], phase within the signal period [deg], or a linear scale's
+    position within it [nm] (phase / 2 pi x period)."""
+    if in_length(c):
+        return np.mod(np.asarray(c.angle), TWO_PI) / TWO_PI * c.extra.get("signal_period_nm",
+                                                                          TWO_PI)
     return np.mod(np.asarray(c.angle), TWO_PI) / DEG if c.domain == "period" \
         else np.asarray(c.angle) / DEG
 
 
 def _angle_label(c: Curve) -> str:
+    if in_length(c):
+        return ("position within the signal period [nm]" if "signal_period_nm" in c.extra
+                else "phase within the signal period [rad]")
     return "angle [deg]" if c.domain != "period" else "phase within the signal period [deg]"
 
 
-def _unit_label(unit: str) -> str:
+def _unit_label(unit: str, length: bool = False) -> str:
+    if length:
+        return f"interpolation error [{unit}]"
     if unit in ANGLE_UNITS:
         return f"deviation [{label(unit)}]"
     return {"nm": "radial motion [nm]", "count": "correction [count]"}.get(unit, f"[{unit}]")
@@ -254,7 +264,7 @@ def deviation_plot(curves: Sequence[Curve], title: str) -> Figure:
                             label=f"{c.name} ± U (k={c.k:.3g})")
     ax.axhline(0, color="0.6", lw=0.6)
     ax.set_xlabel(_angle_label(curves[0]))
-    ax.set_ylabel(_unit_label(curves[0].unit))
+    ax.set_ylabel(_unit_label(curves[0].unit, in_length(curves[0])))
     if curves[0].domain != "period":
         ax.set_xlim(0, 360)
         ax.set_xticks(np.arange(0, 361, 45))
@@ -491,8 +501,8 @@ def section_figures(s: Section, top: int = 5) -> list[tuple[str, Figure]]:
     """Every plot of one section, with a caption."""
     out: list[tuple[str, Figure]] = []
     name = s.source.rsplit("/", 1)[-1] or s.source   # the file; the heading has its path
-    dev = [c for c in s.curves if c.unit in ANGLE_UNITS]
-    radial = [c for c in s.curves if c.unit == "nm"]
+    dev = [c for c in s.curves if c.unit in ANGLE_UNITS or in_length(c)]  # a scale's in nm
+    radial = [c for c in s.curves if c.unit == "nm" and not in_length(c)]
     other = [c for c in s.curves if c.unit not in ANGLE_UNITS and c.unit != "nm"]
     if dev:
         if s.domain == "period":

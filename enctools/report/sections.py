@@ -209,7 +209,8 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
     if period_domain(s.meta, schema):
         s.domain = "period"
     unc = uncertainty_columns(schema)
-    named = [(name, role, unit) for role, unit in (("deviation", "arcsec"), ("radial", "nm"))
+    named = [(name, role, "nm" if field_meta(schema.field(name)).get("unit") == "nm" else unit)
+             for role, unit in (("deviation", "arcsec"), ("radial", "nm"))  # a scale's: nm
              for name in columns_with_role(schema, role)]
     got = longcurves.gather(stream, [(n, unit, unc.get(n)) for n, _, unit in named], opts.nmax,
                             longcurves.radial_pair([n for n, r, _ in named if r == "radial"]))
@@ -238,8 +239,8 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
                 dof = stated_dof(field_meta(schema.field(unc[name])))
                 longcurves.budget(s, lambda: curve_budget_into(s, s.curves[-1], dof),  # noqa: B023
                                   longs)  # called at once, in this iteration
-        if in_period and "period_arcsec" in fm:
-            s.curves[-1].extra["period_arcsec"] = float(fm["period_arcsec"])
+        s.curves[-1].extra |= {k: float(fm[k]) for k in ("period_arcsec", "signal_period_nm")
+                               if in_period and k in fm}  # an encoder's, a scale's
         if in_period and fm.get("reference") == "probes":
             s.curves[-1].extra["probes"] = 1.0      # its reference: the probes
     if s.budget is None:
@@ -247,9 +248,10 @@ def _deviations(stream: InputStream, s: Section, opts: Options) -> None:
     s.info["grid points"] = held.num_rows if held is not None else got.rows
     s.notes += screen_notes(s.meta.get("signals"))  # interp-check --signals: faults found
     if s.domain == "period":
-        periods = sorted({f"{c.extra['period_arcsec']:.4g}" for c in s.curves
-                          if "period_arcsec" in c.extra})
-        s.info["signal period"] = (", ".join(periods) + " arcsec") if periods else "-"
+        periods = {k: sorted({f"{c.extra[k]:.{d}g}" for c in s.curves if k in c.extra})
+                   for k, d in (("period_arcsec", 4), ("signal_period_nm", 6))}
+        said = [", ".join(v) + f" {k.rsplit('_', 1)[1]}" for k, v in periods.items() if v]
+        s.info["signal period"] = said[0] if said else "-"
 
 
 # -------------------------------------------------------------------- spectrum

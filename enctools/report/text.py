@@ -6,12 +6,11 @@ from typing import Any
 
 from enctools.data.text import printable_lines
 from enctools.report.budget import budget_lines
-from enctools.report.display import mark
+from enctools.report.display import mark, phase_text
 from enctools.report.numbers import figures, fmt, fmt_u, group, table_decimals
 from enctools.report.results import correction_of, results
 from enctools.report.sections import Curve, Section
 from enctools.report.summary import Report
-from enctools.units import DEG
 
 
 def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
@@ -34,7 +33,7 @@ def curve_lines(c: Curve, s: Section, top: int = 5) -> list[str]:
     if h is not None and h.n.size:
         per = "/period" if c.domain == "period" else "/rev"
         da = group(h.amplitude, u)
-        parts = [f"n={int(n)} {fmt(a, u, da)}{sym} @ {p / DEG:.0f} deg"
+        parts = [f"n={int(n)} {fmt(a, u, da)}{sym} @ {phase_text(c, p)}"
                  for n, a, p in zip(h.n, h.amplitude, h.phase, strict=True)]
         lines.append(f"    largest harmonics ({per[1:]}, A cos(n x + p)): " + "; ".join(parts))
     if c.harmonics is not None and c.harmonics.note():

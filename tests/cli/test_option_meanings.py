@@ -41,6 +41,7 @@ MEANINGS = {
     "--counts-per-rev": "counts a revolution, for a column in counts",
     "--zero-offset": "remove or keep the constant offset of the table's deviations",
     "--decimal-comma": "a text table's numbers have a decimal comma",
+    "--deviation-sign": "the sign a table's deviations are printed in (ISO 230-2's or enctools')",
     "--forward": "a wide table's deviation columns of the forward direction, one a run",
     "--reverse": "a wide table's deviation columns of the reverse direction, one a run",
     # the methods' words

@@ -231,9 +231,9 @@ def test_a_stream_enctools_would_refuse_is_not_written(tmp_path):
     from enctools.errors import DataError
 
     schema = pa.schema([make_field("theta", pa.float64(), "rad"),
-                        make_field("H", pa.float64(), "nm", "deviation")])
+                        make_field("H", pa.float64(), "um", "deviation")])  # nm: a scale's
     h = streams.Header("deviations", schema, {})
-    with pytest.raises(DataError, match=r"output .*column 'H' is in 'nm'"):
+    with pytest.raises(DataError, match=r"output .*column 'H' is in 'um'"):
         streams.write_table(str(tmp_path / "m.parquet"), h,
                             pa.table([[0.0], [0.0]], schema=schema))
     schema = pa.schema([make_field("centre", pa.float64(), "rad"),

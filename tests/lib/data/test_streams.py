@@ -86,14 +86,14 @@ def test_wrong_kind_is_refused(tmp_path):
 
 def test_missing_unit_and_unknown_column_are_named(tmp_path):
     schema = pa.schema([make_field("theta", pa.float64(), "rad"),
-                        make_field("H", pa.float64(), "nm", "deviation")])
+                        make_field("H", pa.float64(), "um", "deviation")])  # nm: a scale's
     table = pa.table([[0.0], [1.0]], schema=schema)
     p = tmp_path / "bad.arrows"
-    with pytest.raises(DataError, match=r"output .*column 'H' is in 'nm'"):
+    with pytest.raises(DataError, match=r"output .*column 'H' is in 'um'"):
         streams.write_table(str(p), streams.Header("deviations", schema, {}), table)
     assert not p.exists()  # enctools writes no stream it would refuse to read
     _write_unchecked(p, streams.Header("deviations", schema, {}), table)
-    with pytest.raises(DataError, match="column 'H' is in 'nm'"):
+    with pytest.raises(DataError, match="column 'H' is in 'um'"):
         streams.open_input(str(p))
     schema = pa.schema([make_field("theta", pa.float64(), "rad"),
                         pa.field("mystery", pa.float64())])
