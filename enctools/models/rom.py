@@ -44,7 +44,12 @@ MAX_ADDRESS_BITS = 28
 LSB_COUNTS = (1e-6, float(1 << 40))
 #: ``zone``: a controller's zone or measuring-system index is a 32-bit integer
 MAX_ZONE = (1 << 31) - 1
-CHUNK = 1 << 20
+#: addresses evaluated, quantised and handed to the writers at once: a few MB of float64
+#: in flight on THREADS threads, whatever the table's size (from 2^20 entries on, every
+#: table runs at this steady state), and a multiple of the Fourier grid's row
+#: (:data:`~enctools.models.fourier.GRID_ROW`), so that each address is evaluated by
+#: the same arithmetic whatever the block (the same words)
+CHUNK = 1 << 18
 #: ``resolution_deg`` [deg]: the controllers' resolutions enctools writes (powers of ten)
 RESOLUTION_DEG = (1e-9, 0.1)
 #: threads quantising chunks at once (at most 2: the evaluation itself may use BLAS threads)
@@ -470,15 +475,17 @@ def _quantise(at: Callable[[int, int], np.ndarray], spec: RomSpec, dtype: np.dty
     """
     stop = min(spec.entries, start + CHUNK)
     corr = np.multiply(at(start, stop), -1.0 / spec.lsb_arcsec, dtype=np.float64)
-    q = np.rint(corr)
-    qmin, qmax = float(q.min()), float(q.max())  # NaN or inf if any value is
+    cmin, cmax = float(corr.min()), float(corr.max())  # NaN or inf if any value is
+    # rint is monotonic: the words' range is the range of the corrections rounded
+    qmin, qmax = float(np.rint(cmin)), float(np.rint(cmax))
     if not (np.isfinite(qmin) and np.isfinite(qmax)):
         msg = "the model gives NaN or infinite values; check the model stream"
         raise DataError(msg)
     lo, hi = spec.word_range
     if qmin < lo or qmax > hi:
         return (qmin, qmax, 0.0, 0.0, 0.0, 0.0), None
-    sum_corr, largest = float(corr @ corr), float(np.max(np.abs(corr)))
+    sum_corr, largest = float(corr @ corr), max(-cmin, cmax) + 0.0
+    q = np.rint(corr)
     corr -= q
     err = max(-float(corr.min()), float(corr.max()))
     return (qmin, qmax, err, sum_corr, float(corr @ corr), largest), q.astype(dtype)
