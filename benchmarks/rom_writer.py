@@ -167,8 +167,8 @@ def _markdown(rows: list[dict], before: dict | None) -> str:
             "peak MB | --verify peak MB | correct peak MB | file as before |\n"
             "|---|---|---|---|---|---|---|---|---|---|")
     lines = [head] + [
-        f"| 2^{r['bits']} | {r['format']} | {r['bytes'] / 1e6:.0f} | {pair(r, 'cpu_seconds', '.2f')} "
-        f"| {pair(r, 'vs_dd_cpu', '.2f')} "
+        f"| 2^{r['bits']} | {r['format']} | {r['bytes'] / 1e6:.0f} "
+        f"| {pair(r, 'cpu_seconds', '.2f')} | {pair(r, 'vs_dd_cpu', '.2f')} "
         f"| {pair(r, 'vs_dd_wall', '.2f')} | {pair(r, 'peak_mb', '.0f')} | "
         f"{pair(r, 'verify_peak_mb', '.0f')} | {pair(r, 'correct_peak_mb', '.0f')} | "
         f"{_as_before(r)} |"
