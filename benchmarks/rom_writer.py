@@ -18,7 +18,8 @@ size and format, this tree's and the ``before`` code's (main by default) run in 
 ``dd`` writing the file's bytes into the same folder (the best of ``repeat`` turns, wall
 and CPU seconds; ratios to dd's), and the peak resident memory [MB] of make-rom, of
 make-rom ``--verify`` and of ``enc correct --table`` on the table, for both codes. Prints
-a Markdown table; writes DIR/rom-command.json.
+a Markdown table and each format's peak at the most entries over that at the fewest;
+writes DIR/rom-command.json.
 """
 
 from __future__ import annotations
@@ -118,10 +119,26 @@ def _command_row(d: Any, bits: int, fmt: str, repeat: int, before: dict | None) 
         row["before_peak_mb"] = bench.timed(bench.with_env(
             before, f"{bench.gnu_time()} {run}{kept}"))["peak_mb"]
         row |= _peaks(run, kept, bits, d, before, "before_")
+        row["as_before"] = _same_table(target, kept)  # both left by their --verify run
     for f in (target, kept, dd_out):
         f.unlink(missing_ok=True)
     print(f"rom_writer: 2^{bits} {fmt} done", file=sys.stderr)
     return row
+
+
+def _same_table(a: Any, b: Any) -> bool:
+    """Whether two table files hold the same bytes after their leading comment lines
+    (MIF's ``--``: the history names the file and the time), read 1 MiB at a time."""
+    with open(a, "rb") as fa, open(b, "rb") as fb:
+        for f in (fa, fb):
+            while f.peek(2)[:2] == b"--":
+                f.readline()
+        while True:
+            x, y = fa.read(1 << 20), fb.read(1 << 20)
+            if x != y:
+                return False
+            if not x:
+                return True
 
 
 def _peaks(run: str, table: Any, bits: int, d: Any, env: dict | None, key: str) -> dict:
@@ -145,16 +162,46 @@ def _markdown(rows: list[dict], before: dict | None) -> str:
         b = r.get(f"before_{k}")
         return format(r[k], fmt) + ("" if b is None else f" ({format(b, fmt)})")
 
-    head = ("| entries | format | MB written | make-rom / dd, CPU | make-rom / dd, wall | "
-            "peak MB | --verify peak MB | correct peak MB |\n|---|---|---|---|---|---|---|---|")
+    head = ("| entries | format | MB written | make-rom CPU s | make-rom / dd, CPU | "
+            "make-rom / dd, wall | "
+            "peak MB | --verify peak MB | correct peak MB | file as before |\n"
+            "|---|---|---|---|---|---|---|---|---|---|")
     lines = [head] + [
-        f"| 2^{r['bits']} | {r['format']} | {r['bytes'] / 1e6:.0f} | {pair(r, 'vs_dd_cpu', '.2f')} "
+        f"| 2^{r['bits']} | {r['format']} | {r['bytes'] / 1e6:.0f} "
+        f"| {pair(r, 'cpu_seconds', '.2f')} | {pair(r, 'vs_dd_cpu', '.2f')} "
         f"| {pair(r, 'vs_dd_wall', '.2f')} | {pair(r, 'peak_mb', '.0f')} | "
-        f"{pair(r, 'verify_peak_mb', '.0f')} | {pair(r, 'correct_peak_mb', '.0f')} |"
+        f"{pair(r, 'verify_peak_mb', '.0f')} | {pair(r, 'correct_peak_mb', '.0f')} | "
+        f"{_as_before(r)} |"
         for r in rows]
     then = "" if before is None else \
         f" (in brackets: the code of {before['rev']}, {before['commit']})"
-    return "\n".join(lines) + f"\n\nThis tree{then}; load {os.getloadavg()[0]:.1f}."
+    return "\n".join(lines) + "\n\n" + _flatness(rows) + \
+        f"\n\nThis tree{then}; load {os.getloadavg()[0]:.1f}."
+
+
+def _as_before(row: dict) -> str:
+    """The file against the before code's: identical, DIFFERENT or blank (no before)."""
+    if "as_before" not in row:
+        return ""
+    return "identical" if row["as_before"] else "DIFFERENT"
+
+
+def _flatness(rows: list[dict]) -> str:
+    """Each format's peak memory at the most entries over that at the fewest (make-rom and
+    make-rom --verify; in brackets the before code's)."""
+    def ratio(a: dict, b: dict, k: str) -> str:
+        out = f"{b[k]:.0f}/{a[k]:.0f} MB = {b[k] / a[k]:.2f}x"
+        if f"before_{k}" in a:
+            out += f" ({b['before_' + k] / a['before_' + k]:.2f}x)"
+        return out
+
+    lo, hi = min(r["bits"] for r in rows), max(r["bits"] for r in rows)
+    parts = []
+    for fmt in dict.fromkeys(r["format"] for r in rows):
+        a, b = (next(r for r in rows if r["format"] == fmt and r["bits"] == bits)
+                for bits in (lo, hi))
+        parts.append(f"{fmt} {ratio(a, b, 'peak_mb')}, --verify {ratio(a, b, 'verify_peak_mb')}")
+    return f"Peak memory at 2^{hi} / at 2^{lo} entries: " + "; ".join(parts)
 
 
 if __name__ == "__main__":

@@ -14,7 +14,6 @@ closed form from one QR.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -66,33 +65,85 @@ class FourierModel:
             out[start:start + chunk] = acc.real
         return out.reshape(x.shape)
 
-    def on_grid(self, first_deg: float, step_deg: float) -> Callable[[int, int], np.ndarray]:
+    def on_grid(self, first_deg: float, step_deg: float) -> GridSeries:
         """The model [arcsec] at the uniform grid ``first_deg + k * step_deg``, k = start..stop-1.
 
-        Returns ``values(start, stop)``. A grid of L = :data:`GRID_ROW` points is a
-        row; row j starts at angle x_j and point i of it lies at x_j + h_i, so
-        ``cos n(x_j + h_i)`` and ``sin n(x_j + h_i)`` split into a (rows x 2K+2)
-        matrix of the rows' phases times a (2K+2 x L) matrix of the coefficients
-        turned by h_i: one BLAS product per chunk, 2 (K+1) multiply-adds a point
-        instead of K complex Horner steps. Phases are reduced in turns, so large
+        Returns ``values(start, stop)`` (a :class:`GridSeries`). A grid of L =
+        :data:`GRID_ROW` points is a row; row j starts at angle x_j and point i of it
+        lies at x_j + h_i, so ``cos n(x_j + h_i)`` and ``sin n(x_j + h_i)`` split into a
+        (rows x 2K+2) matrix of the rows' phases times a (2K+2 x L) matrix of the
+        coefficients turned by h_i: one BLAS product per chunk, 2 (K+1) multiply-adds a
+        point instead of K complex Horner steps. Phases are reduced in turns, so large
         orders keep their accuracy.
         """
-        n = np.asarray(self.n, dtype=np.float64)
-        h = np.arange(GRID_ROW, dtype=np.float64) * (step_deg / 360.0)
-        nh = np.mod(np.multiply.outer(n, h), 1.0) * TWO_PI
+        return GridSeries(self, first_deg, step_deg)
+
+
+#: points of a row that :meth:`GridSeries.near` takes from one cubic (divides GRID_ROW)
+SEGMENT = 64
+#: the unit roundoff of float64
+_U = 2.0 ** -53
+
+
+class GridSeries:
+    """A Fourier series [arcsec] on the grid ``first_deg + k * step_deg``: ``values(start,
+    stop)`` exactly as :meth:`FourierModel.on_grid` describes, or (:meth:`near`) from a
+    cubic a :data:`SEGMENT` of points, within a bound stated with it."""
+
+    def __init__(self, model: FourierModel, first_deg: float, step_deg: float) -> None:
+        self.n = np.asarray(model.n, dtype=np.float64)
+        self.first, self.step = first_deg, step_deg
+        self.turn = self._turned(model, np.arange(GRID_ROW, dtype=np.float64))
+        # Taylor's terms of each segment at its centre c, in t = i - c [point]: the k-th
+        # derivative of a cos(n u) + b sin(n u) in t turns (a, b) by k quarter turns and
+        # scales them by w^k, w = 2 pi n step [rad a point]
+        centre = np.arange(0, GRID_ROW, SEGMENT) + (SEGMENT - 1) / 2.0
+        t0 = self._turned(model, centre)
+        k = t0.shape[0] // 2
+        w = (TWO_PI * (step_deg / 360.0) * self.n)[:, None]
+        a_c, b_c = t0[:k], t0[k:]
+        terms = [t0, np.vstack([w * b_c, -w * a_c]),
+                 np.vstack([-w ** 2 / 2 * a_c, -w ** 2 / 2 * b_c]),
+                 np.vstack([-w ** 3 / 6 * b_c, w ** 3 / 6 * a_c])]
+        # (2K+2, segments * 4): a row's phases times this are each segment's 4 terms
+        self.taylor = np.stack(terms, axis=2).reshape(t0.shape[0], -1)
+        t = np.arange(SEGMENT) - (SEGMENT - 1) / 2.0
+        self.powers = np.vstack([np.ones(SEGMENT), t, t * t, t * t * t])  # (4, SEGMENT)
+        r = np.hypot(model.a, model.b)
+        # the cubic's remainder, w^4 r |t|^4 / 24 summed, and twice the rounding of either
+        # evaluation (the phases' reduction, the products, the sums of 2K+2 terms) [arcsec]
+        rest = float(np.sum(w[:, 0] ** 4 * r)) * (SEGMENT / 2.0) ** 4 / 24.0
+        rounding = 4.0 * _U * float(np.sum(r * (40.0 * self.n + 4.0 * self.n.size + 40.0)))
+        self.bound = rest + 2.0 * rounding
+
+    def _turned(self, model: FourierModel, points: np.ndarray) -> np.ndarray:
+        """The coefficients turned by h = points * step: (2K+2, len(points))."""
+        h = points * (self.step / 360.0)
+        nh = np.mod(np.multiply.outer(self.n, h), 1.0) * TWO_PI
         cos_nh, sin_nh = np.cos(nh), np.sin(nh)
-        a, b = self.a[:, None], self.b[:, None]
-        turn = np.vstack([a * cos_nh + b * sin_nh, b * cos_nh - a * sin_nh])  # (2K+2, L)
+        a, b = model.a[:, None], model.b[:, None]
+        return np.vstack([a * cos_nh + b * sin_nh, b * cos_nh - a * sin_nh])
 
-        def values(start: int, stop: int) -> np.ndarray:
-            rows = -(-(stop - start) // GRID_ROW)
-            k = start + GRID_ROW * np.arange(rows, dtype=np.float64)
-            x0 = (first_deg + k * step_deg) / 360.0
-            phase = np.mod(np.multiply.outer(x0, n), 1.0) * TWO_PI  # (rows, K+1) [rad]
-            out = np.hstack([np.cos(phase), np.sin(phase)]) @ turn
-            return out.reshape(-1)[:stop - start]
+    def _phases(self, start: int, stop: int) -> np.ndarray:
+        """The phases' cosines and sines of the rows from ``start``: (rows, 2K+2)."""
+        rows = -(-(stop - start) // GRID_ROW)
+        k = start + GRID_ROW * np.arange(rows, dtype=np.float64)
+        x0 = (self.first + k * self.step) / 360.0
+        phase = np.mod(np.multiply.outer(x0, self.n), 1.0) * TWO_PI  # (rows, K+1) [rad]
+        return np.hstack([np.cos(phase), np.sin(phase)])
 
-        return values
+    def __call__(self, start: int, stop: int) -> np.ndarray:
+        """The series [arcsec] at points start..stop-1."""
+        out = self._phases(start, stop) @ self.turn
+        return out.reshape(-1)[:stop - start]
+
+    def near(self, start: int, stop: int) -> tuple[np.ndarray, float]:
+        """The series [arcsec] at points start..stop-1 from a cubic a segment of
+        :data:`SEGMENT` points (4 (2K+2) / SEGMENT multiply-adds a point for its terms,
+        then 4 for the cubic: two BLAS products), and the bound [arcsec] of its distance
+        from :meth:`__call__`'s values."""
+        terms = (self._phases(start, stop) @ self.taylor).reshape(-1, 4)
+        return (terms @ self.powers).reshape(-1)[:stop - start], self.bound
 
 
 def design_matrix(x_rad: np.ndarray, harmonics: int) -> np.ndarray:

@@ -33,7 +33,7 @@ from enctools.data.arrays import arrow_array
 from enctools.data.header import Header, history_line
 from enctools.data.schemas import make_field
 from enctools.errors import DataError, SettingsError
-from enctools.models import romformats
+from enctools.models import romformats, romquantise
 from enctools.models.romformats import registry
 from enctools.units import TWO_PI, factor
 
@@ -44,7 +44,12 @@ MAX_ADDRESS_BITS = 28
 LSB_COUNTS = (1e-6, float(1 << 40))
 #: ``zone``: a controller's zone or measuring-system index is a 32-bit integer
 MAX_ZONE = (1 << 31) - 1
-CHUNK = 1 << 20
+#: addresses evaluated, quantised and handed to the writers at once: a few MB of float64
+#: in flight on THREADS threads, whatever the table's size (from 2^20 entries on, every
+#: table runs at this steady state), and a multiple of the Fourier grid's row
+#: (:data:`~enctools.models.fourier.GRID_ROW`), so that each address is evaluated by
+#: the same arithmetic whatever the block (the same words)
+CHUNK = 1 << 18
 #: ``resolution_deg`` [deg]: the controllers' resolutions enctools writes (powers of ten)
 RESOLUTION_DEG = (1e-9, 0.1)
 #: threads quantising chunks at once (at most 2: the evaluation itself may use BLAS threads)
@@ -378,8 +383,10 @@ def scan_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
 
     spec.check()
     dtype = np.dtype({1: np.int8, 2: np.int16, 4: np.int32}[spec.storage_bytes])
-    quantise = partial(_quantise, _on_grid(deviation, spec), spec, dtype)
+    at = _on_grid(deviation, spec)
+    quantise = partial(_block, romquantise.quantise, at, spec, dtype)
     parts, crc, kept = _scan(quantise, spec.entries, dtype, progress)
+    _exact_extremes(parts, partial(_block, romquantise.quantise_exact, at, spec, dtype))
     vmin = min(p[0] for p in parts)
     vmax = max(p[1] for p in parts)
     worst = max(p[2] for p in parts)
@@ -401,6 +408,24 @@ def scan_rom(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec,
 
     values = Words(spec.entries, dtype, CHUNK, chunk, int(vmin), int(vmax))
     return Rom(spec, values, worst, int(vmin), int(vmax), crc, rms_corr, rms_err, largest)
+
+
+def _block(how: Callable[..., Any], at: Callable[[int, int], np.ndarray], spec: RomSpec,
+           dtype: np.dtype, start: int) -> tuple[tuple[float, ...], np.ndarray | None]:
+    """Addresses start..start+CHUNK-1 quantised ``how`` (:mod:`.romquantise`)."""
+    return how(at, spec, dtype, start, min(spec.entries, start + CHUNK))
+
+
+def _exact_extremes(parts: list, exact: Callable[[int], Any]) -> None:
+    """The blocks' summaries (``parts``, in order) made exact where a block quantised from
+    approximate values (its slack > 0) may hold the table's largest quantisation error or
+    largest |correction|: each such block evaluated again exactly (``exact(start)``), so
+    that both figures are those of the exact evaluation (the others' are below them)."""
+    for i in (2, 5):
+        floor = max(p[i] - p[6] for p in parts)  # the table's figure is at least this
+        for k, p in enumerate(parts):
+            if p[6] > 0 and p[i] + p[6] >= floor:
+                parts[k] = exact(k * CHUNK)[0]
 
 
 def _scan(quantise: Callable[[int], Any], n: int, dtype: np.dtype,
@@ -457,31 +482,6 @@ def _on_grid(deviation: Callable[[np.ndarray], np.ndarray], spec: RomSpec
         return np.asarray(deviation(spec.angles_deg(start, stop)), dtype=np.float64)
 
     return at
-
-
-def _quantise(at: Callable[[int, int], np.ndarray], spec: RomSpec, dtype: np.dtype,
-              start: int) -> tuple[tuple[float, float, float, float, float, float],
-                                   np.ndarray | None]:
-    """Addresses start..start+CHUNK-1 quantised: their summary and words (``dtype``).
-
-    The summary is (min, max, largest |quantisation error|, sum of squared corrections,
-    sum of squared quantisation errors, largest |correction|) [LSB, LSB^2]. A chunk beyond
-    the word width has no words, but its range is returned, to name the width needed.
-    """
-    stop = min(spec.entries, start + CHUNK)
-    corr = np.multiply(at(start, stop), -1.0 / spec.lsb_arcsec, dtype=np.float64)
-    q = np.rint(corr)
-    qmin, qmax = float(q.min()), float(q.max())  # NaN or inf if any value is
-    if not (np.isfinite(qmin) and np.isfinite(qmax)):
-        msg = "the model gives NaN or infinite values; check the model stream"
-        raise DataError(msg)
-    lo, hi = spec.word_range
-    if qmin < lo or qmax > hi:
-        return (qmin, qmax, 0.0, 0.0, 0.0, 0.0), None
-    sum_corr, largest = float(corr @ corr), float(np.max(np.abs(corr)))
-    corr -= q
-    err = max(-float(corr.min()), float(corr.max()))
-    return (qmin, qmax, err, sum_corr, float(corr @ corr), largest), q.astype(dtype)
 
 
 def _each_chunk(quantise: Callable[[int], Any], n: int,

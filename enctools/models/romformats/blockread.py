@@ -32,8 +32,10 @@ from enctools.errors import DataError
 from enctools.models.romformats.columns import Rows
 from enctools.models.romformats.words import MAX_TABLE_BITS, Target
 
-#: bytes read at once (a block of lines, whole lines only)
-READ = 1 << 24
+#: bytes read at once (a block of lines, whole lines only): the tables of 2^20 entries
+#: (2 MB a binary image of 16-bit words, 10-16 MB of text) already read in blocks of this
+#: size, so that what a table's reading holds is the same for every larger table
+READ = 1 << 20
 #: bytes of a file's start and end read to find its layout
 HEAD = 1 << 16
 
@@ -443,11 +445,19 @@ def same_words(path: str, t: Target, values: Any) -> bool | None:
     n, words = found
     if n != len(values):
         return False
+    # compared in pieces within one of the table's own blocks: no slice of it is joined
+    step = getattr(values, "block", None) or max(n, 1)
     k = 0
     try:
         for block in words:
-            if k + block.size > n or not np.array_equal(block, values[k:k + block.size]):
+            if k + block.size > n:
                 return False
+            a = 0
+            while a < block.size:
+                b = min(block.size, a + step - (k + a) % step)
+                if not np.array_equal(block[a:b], values[k + a:k + b]):
+                    return False
+                a = b
             k += block.size
     except NotInLayout:
         return None

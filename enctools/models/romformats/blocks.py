@@ -18,7 +18,7 @@ LINES = 1 << 16
 #: the table-1 model's 1680 times in 2^26 addresses, runs of some 40 000 lines)
 RUNS = 64
 #: lines of a span whose changes of value are found at once (CSV, COE, MEM)
-SPAN = 1 << 20
+SPAN = 1 << 17
 #: the mean run [line] from which a span is written run by run
 LONG_RUN = 1024
 #: bytes of text gathered for one write (the kernel takes 256 KiB writes at some 1.5 times
