@@ -56,6 +56,11 @@ from enctools.units import DEG
 SEARCH_POINTS = 2048
 #: points a block: the largest arrays are BLOCK x 258 words (4.2 MB)
 BLOCK = 2048
+#: a unit whose output (at most 1) is below this at every point of a block is left out
+#: of that block's factor, its column there taken as 0: a change of each column 1e6 times
+#: below the rounding of the QR itself (about 1e-14 of its norm); of a 15-deg block at
+#: the spreads chosen on the bench's tables, about half the units
+NEGLIGIBLE = 1e-20
 
 
 class _Units:
@@ -84,10 +89,22 @@ def _r_factor(a: np.ndarray) -> np.ndarray:
     return np.asarray(np.linalg.qr(a, mode="r"))
 
 
+def _r_of_columns(a: np.ndarray, cols: np.ndarray, width: int) -> np.ndarray:
+    """The R of ``a``, the columns ``cols`` (ascending) of a matrix ``width`` wide whose
+    other columns are 0, in those columns' places: R^T R is the matrix's Gram, and R is
+    in row echelon form (each row starts past the one above; row 0 holds column 0)."""
+    r = _r_factor(a)
+    if cols.size == width:
+        return r
+    out = np.zeros((r.shape[0], width))
+    out[:, cols] = r
+    return out
+
+
 @dataclass
 class _Part:
     """What a set of points contributes: the R factor of its columns [1, Phi, y] (at most
-    m + 2 rows), its count and sums."""
+    m + 2 rows, row echelon form), its count and sums."""
 
     r: np.ndarray | None
     n: int
@@ -99,19 +116,25 @@ class _Part:
         return cls(None, 0, np.zeros(m), 0.0)
 
     def add(self, units: _Units, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Points [deg, arcsec] added (a block): the QR of R stacked over their columns.
-        Returns their Phi (a view)."""
-        top = 0 if self.r is None else self.r.shape[0]
+        """Points [deg, arcsec] added (a block): the QR of R stacked over their columns,
+        a unit whose output is below :data:`NEGLIGIBLE` at every point of the block (and
+        0 in R) left out. Returns their Phi."""
         m = units.centres.size
-        a = np.empty((top + x.size, m + 2))
+        phi = units(x)
+        used = np.ones(m + 2, dtype=bool)
+        used[1:m + 1] = phi.max(axis=0, initial=0.0) >= NEGLIGIBLE
         if self.r is not None:
-            a[:top] = self.r
-        phi = units(x, out=a[top:, 1:m + 1])
-        a[top:, 0], a[top:, m + 1] = 1.0, y
+            used |= np.any(self.r, axis=0)
+        cols = np.flatnonzero(used)
+        top = 0 if self.r is None else self.r.shape[0]
+        a = np.empty((top + x.size, cols.size))
+        if self.r is not None:
+            a[:top] = self.r[:, cols]
+        a[top:, 0], a[top:, 1:-1], a[top:, -1] = 1.0, phi[:, cols[1:-1] - 1], y
         self.phi_sum += phi.sum(axis=0)
         self.y_sum += float(y.sum())
         self.n += x.size
-        self.r = _r_factor(a)
+        self.r = _r_of_columns(a, cols, m + 2)
         return phi
 
     def join(self, other: _Part) -> _Part:
@@ -119,7 +142,9 @@ class _Part:
         if self.r is None or other.r is None:
             r = other.r if self.r is None else self.r
         else:
-            r = _r_factor(np.vstack([self.r, other.r]))
+            cols = np.flatnonzero(np.any(self.r, axis=0) | np.any(other.r, axis=0))
+            r = _r_of_columns(np.vstack([self.r[:, cols], other.r[:, cols]]), cols,
+                              self.r.shape[1])
         return _Part(r, self.n + other.n, self.phi_sum + other.phi_sum,
                      self.y_sum + other.y_sum)
 

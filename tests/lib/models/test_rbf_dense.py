@@ -230,3 +230,22 @@ def test_dense_and_whole_searches_agree_where_both_run():
     grid = np.arange(0.0, 360.0, 0.01)
     assert np.max(np.abs(d.model(grid) - whole(grid))) < TOL * np.max(np.abs(y))
     assert np.max(np.abs(d.choice.loo - choice.loo)) < TOL * np.max(np.abs(y))
+
+
+def test_a_block_factor_leaves_out_the_units_negligible_there():
+    """A 15-deg block at a 7.5-deg spread of 24 units 15 deg apart: the units further
+    than about 8 spreads give outputs below 1e-20 at every point and are left out of
+    the block's R (its columns 0); R^T R is still the Gram of the block's columns
+    [1, Phi, y] to rounding, and the R of the ones column comes first (row echelon)."""
+    x = np.sort(np.random.default_rng(6).uniform(-7.5, 7.5, 300)) % 360.0
+    y = np.sin(x * DEG * 3)
+    centres = centres_of(24, UNITS)
+    part = rbfdense._Part.empty(UNITS)
+    phi = part.add(rbfdense._Units(centres, 7.5), x, y)
+    kept = np.any(part.r, axis=0)[1:UNITS + 1]
+    assert 0 < kept.sum() < UNITS // 2
+    assert np.max(phi[:, ~kept]) < rbfdense.NEGLIGIBLE
+    a = np.column_stack([np.ones(x.size), phi, y])
+    gram = a.T @ a
+    assert np.max(np.abs(part.r.T @ part.r - gram)) < 1e-12 * np.max(np.abs(gram))
+    assert np.all(part.r[1:, 0] == 0.0)
