@@ -120,17 +120,19 @@ class _Part:
         a unit whose output is below :data:`NEGLIGIBLE` at every point of the block (and
         0 in R) left out. Returns their Phi."""
         m = units.centres.size
-        phi = units(x)
+        top = 0 if self.r is None else self.r.shape[0]
+        a = np.empty((top + x.size, m + 2))
+        if self.r is not None:
+            a[:top] = self.r
+        phi = units(x, out=a[top:, 1:m + 1])
+        a[top:, 0], a[top:, m + 1] = 1.0, y
         used = np.ones(m + 2, dtype=bool)
         used[1:m + 1] = phi.max(axis=0, initial=0.0) >= NEGLIGIBLE
         if self.r is not None:
             used |= np.any(self.r, axis=0)
         cols = np.flatnonzero(used)
-        top = 0 if self.r is None else self.r.shape[0]
-        a = np.empty((top + x.size, cols.size))
-        if self.r is not None:
-            a[:top] = self.r[:, cols]
-        a[top:, 0], a[top:, 1:-1], a[top:, -1] = 1.0, phi[:, cols[1:-1] - 1], y
+        if cols.size < m + 2:
+            a = a[:, cols]
         self.phi_sum += phi.sum(axis=0)
         self.y_sum += float(y.sum())
         self.n += x.size
