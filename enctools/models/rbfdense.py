@@ -61,6 +61,10 @@ BLOCK = 2048
 #: below the rounding of the QR itself (about 1e-14 of its norm); of a 15-deg block at
 #: the spreads chosen on the bench's tables, about half the units
 NEGLIGIBLE = 1e-20
+#: the most points whose leave-one-out residuals of every smoothing the scoring pass
+#: keeps (points x 25 words, 52 MB at most); above, the last pass computes the chosen
+#: smoothing's again
+KEEP_LOO_POINTS = 1 << 18
 
 
 class _Units:
@@ -209,21 +213,29 @@ def _blocks(n: int, edges: np.ndarray | None = None) -> Iterator[tuple[int, int]
 @dataclass
 class _Scores:
     """Per smoothing: sum of squared leave-one-out residuals, largest |training
-    residual| [arcsec], and whether the weights fit a model stream."""
+    residual| [arcsec]; when kept (``loo`` not None), every point's leave-one-out
+    residual [arcsec] (points x smoothings) and the sum of squared training residuals
+    [arcsec^2]."""
 
     sumsq: np.ndarray
     worst: np.ndarray
     n: int = 0
+    loo: np.ndarray | None = None
+    sse: np.ndarray | None = None
 
     def rms(self) -> np.ndarray:
         return np.sqrt(self.sumsq / max(self.n, 1))
 
 
-def _score(sol: _Solution, phi: np.ndarray, y: np.ndarray, scores: _Scores) -> None:
+def _score(sol: _Solution, phi: np.ndarray, y: np.ndarray, scores: _Scores,
+           rows: slice | None = None) -> None:
     res, one_minus_h = sol.residuals(phi, y, SMOOTHING)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         loo = res / one_minus_h
         scores.sumsq += np.square(loo).sum(axis=0)
+        if scores.loo is not None and scores.sse is not None and rows is not None:
+            scores.loo[rows] = loo
+            scores.sse += np.square(res).sum(axis=0)
     scores.worst = np.maximum(scores.worst, np.abs(res).max(axis=0, initial=0.0))
     scores.n += y.size
 
@@ -331,7 +343,7 @@ def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
         raise DataError(msg)
     key, smoothing = best
     held = _held_out(parts, prefix, units, smoothing)
-    loo, blocked, sse = _final(units, sol, held, smoothing, xs, ys, bs, edges)
+    loo, blocked, sse = _final(units, sol, held, smoothing, xs, ys, bs, edges, scores)
     if progress is not None:
         progress(total, total)
     back = np.empty_like(order)
@@ -350,8 +362,10 @@ def _scored(units: _Units, whole: _Part, xs: np.ndarray, ys: np.ndarray,
     and training figures of every smoothing."""
     sol = _Solution(whole, units.centres.size)
     scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
+    if xs.size <= KEEP_LOO_POINTS:
+        scores.loo, scores.sse = np.empty((xs.size, SMOOTHING.size)), np.zeros(SMOOTHING.size)
     for start, stop in _blocks(xs.size, edges):
-        _score(sol, units(xs[start:stop]), ys[start:stop], scores)
+        _score(sol, units(xs[start:stop]), ys[start:stop], scores, slice(start, stop))
     return sol, scores
 
 
@@ -420,18 +434,26 @@ def _held_out(parts: dict[int, _Part], prefix: list[_Part], units: _Units,
 
 def _final(units: _Units, sol: _Solution, held: dict[int, RBFModel | None],
            smoothing: float, xs: np.ndarray, ys: np.ndarray, bs: np.ndarray,
-           edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+           edges: np.ndarray, scores: _Scores) -> tuple[np.ndarray, np.ndarray, float]:
     """Each point's leave-one-out residual with the chosen smoothing and its residual
     against the network fitted without its block [arcsec] (points sorted by block), and
-    the sum of the squared training residuals [arcsec^2]."""
-    loo, blocked = np.empty(xs.size), np.full(xs.size, np.nan)
+    the sum of the squared training residuals [arcsec^2]: the first and the last from
+    the scoring pass where it kept them."""
+    blocked = np.full(xs.size, np.nan)
     lam, sse = np.array([smoothing]), 0.0
+    if scores.loo is not None and scores.sse is not None:
+        j = int(np.flatnonzero(smoothing == SMOOTHING)[0])
+        loo, sse = scores.loo[:, j].copy(), float(scores.sse[j])
+        scores.loo = None
+    else:
+        loo = np.empty(xs.size)
     for start, stop in _blocks(xs.size, edges):
         phi, y = units(xs[start:stop]), ys[start:stop]
-        res, one_minus_h = sol.residuals(phi, y, lam)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            loo[start:stop] = res[:, 0] / one_minus_h[:, 0]
-        sse += float(res[:, 0] @ res[:, 0])
+        if scores.sse is None:
+            res, one_minus_h = sol.residuals(phi, y, lam)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                loo[start:stop] = res[:, 0] / one_minus_h[:, 0]
+            sse += float(res[:, 0] @ res[:, 0])
         fitted = held[int(bs[start])]
         if fitted is not None:
             blocked[start:stop] = y - (fitted.bias + phi @ fitted.weights)

@@ -249,3 +249,18 @@ def test_a_block_factor_leaves_out_the_units_negligible_there():
     gram = a.T @ a
     assert np.max(np.abs(part.r.T @ part.r - gram)) < 1e-12 * np.max(np.abs(gram))
     assert np.all(part.r[1:, 0] == 0.0)
+
+
+def test_leave_one_out_kept_from_the_scoring_pass_equals_a_last_pass(small_blocks, monkeypatch):
+    """Up to KEEP_LOO_POINTS points the scoring pass keeps every smoothing's leave-one-out
+    residuals and the chosen one's are taken from there; above, the last pass computes
+    them again: the same residuals, blocked hold-out and training sum of squares."""
+    x, y = dense(700)
+    kept = rbfdense.choose_dense(x, y)
+    monkeypatch.setattr(rbfdense, "KEEP_LOO_POINTS", 0)
+    again = rbfdense.choose_dense(x, y)
+    scale = np.max(np.abs(y))
+    assert np.max(np.abs(kept.choice.loo - again.choice.loo)) < 1e-12 * scale
+    assert np.array_equal(kept.blocked, again.blocked)
+    assert kept.model.sse == pytest.approx(again.model.sse, rel=1e-12)
+    assert np.array_equal(kept.model.weights, again.model.weights)
