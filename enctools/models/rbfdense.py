@@ -65,6 +65,9 @@ NEGLIGIBLE = 1e-20
 #: keeps (points x 25 words, 52 MB at most); above, the last pass computes the chosen
 #: smoothing's again
 KEEP_LOO_POINTS = 1 << 18
+#: points of a run of the search's subset factored alone at narrow spreads (256 of
+#: 2048 points sorted by angle: about 45 deg of the turn)
+SEARCH_RUN = 256
 
 
 class _Units:
@@ -119,16 +122,21 @@ class _Part:
     def empty(cls, m: int) -> _Part:
         return cls(None, 0, np.zeros(m), 0.0)
 
-    def add(self, units: _Units, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Points [deg, arcsec] added (a block): the QR of R stacked over their columns,
-        a unit whose output is below :data:`NEGLIGIBLE` at every point of the block (and
-        0 in R) left out. Returns their Phi."""
+    def add(self, units: _Units, x: np.ndarray, y: np.ndarray,
+            phi: np.ndarray | None = None) -> np.ndarray:
+        """Points [deg, arcsec] added (a block; their Phi if known): the QR of R stacked
+        over their columns, a unit whose output is below :data:`NEGLIGIBLE` at every
+        point of the block (and 0 in R) left out. Returns their Phi."""
         m = units.centres.size
         top = 0 if self.r is None else self.r.shape[0]
         a = np.empty((top + x.size, m + 2))
         if self.r is not None:
             a[:top] = self.r
-        phi = units(x, out=a[top:, 1:m + 1])
+        if phi is None:
+            phi = units(x, out=a[top:, 1:m + 1])
+        else:
+            a[top:, 1:m + 1] = phi
+            phi = a[top:, 1:m + 1]
         a[top:, 0], a[top:, m + 1] = 1.0, y
         used = np.ones(m + 2, dtype=bool)
         used[1:m + 1] = phi.max(axis=0, initial=0.0) >= NEGLIGIBLE
@@ -266,6 +274,29 @@ def _even_subset(x: np.ndarray, most: int) -> np.ndarray:
     return order[(np.arange(most) * (x.size / most)).astype(np.int64)]
 
 
+def _subset_part(units: _Units, x: np.ndarray, y: np.ndarray) -> tuple[_Part, np.ndarray]:
+    """The part of points [deg, arcsec] sorted by angle, and their Phi. At a narrow
+    spread each run of :data:`SEARCH_RUN` points uses few units (:data:`NEGLIGIBLE`):
+    where the runs' R, each over the units it uses, stack to under half the points'
+    rows, the part is the QR of that stack; else one QR of every point's columns."""
+    m = units.centres.size
+    phi = units(x)
+    runs = [(i, min(i + SEARCH_RUN, x.size)) for i in range(0, x.size, SEARCH_RUN)]
+    used = [np.flatnonzero(phi[a:b].max(axis=0) >= NEGLIGIBLE) for a, b in runs]
+    if 2 * sum(min(b - a, u.size + 2) for (a, b), u in zip(runs, used, strict=True)) >= x.size:
+        part = _Part.empty(m)
+        return part, part.add(units, x, y, phi)
+    rs = []
+    for (a, b), u in zip(runs, used, strict=True):
+        run = np.empty((b - a, u.size + 2))
+        run[:, 0], run[:, 1:-1], run[:, -1] = 1.0, phi[a:b, u], y[a:b]
+        rs.append(_r_of_columns(run, np.r_[0, u + 1, m + 1], m + 2))
+    stack = np.vstack(rs)
+    cols = np.flatnonzero(np.any(stack, axis=0))
+    return _Part(_r_of_columns(stack[:, cols], cols, m + 2), x.size, phi.sum(axis=0),
+                 float(y.sum())), phi
+
+
 def _search_spread(x: np.ndarray, y: np.ndarray, centres: np.ndarray, spreads: list[float],
                    goal: float | None, progress: Callable[[int, int], object] | None) -> float:
     """The spread [deg] whose best smoothing predicts the subset best (leave-one-out)."""
@@ -275,8 +306,7 @@ def _search_spread(x: np.ndarray, y: np.ndarray, centres: np.ndarray, spreads: l
     chosen = spreads[0]
     for k, spread in enumerate(spreads):
         units = _Units(centres, spread)
-        part = _Part.empty(centres.size)
-        phi = part.add(units, xs, ys)
+        part, phi = _subset_part(units, xs, ys)
         sol = _Solution(part, centres.size)
         scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
         _score(sol, phi, ys, scores)

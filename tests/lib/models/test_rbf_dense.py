@@ -264,3 +264,27 @@ def test_leave_one_out_kept_from_the_scoring_pass_equals_a_last_pass(small_block
     assert np.array_equal(kept.blocked, again.blocked)
     assert kept.model.sse == pytest.approx(again.model.sse, rel=1e-12)
     assert np.array_equal(kept.model.weights, again.model.weights)
+
+
+@pytest.mark.parametrize("spread", [0.703125, 2.8125, 45.0])
+def test_search_factor_by_runs_is_the_one_qr(spread):
+    """The search's subset (2048 points, 256 units) at a narrow spread is factored by
+    runs of 256 points over the units each uses, their R stacked: the centred design's
+    singular values and every smoothing's leave-one-out residuals equal those of one QR
+    of every point's columns (at a wide spread that one QR is taken, bit for bit)."""
+    x, y = dense(20000, seed=7)
+    pick = rbfdense._even_subset(x, 2048)
+    xs, ys = x[pick], y[pick]
+    units = rbfdense._Units(centres_of(256), spread)
+    runs, phi = rbfdense._subset_part(units, xs, ys)
+    one = rbfdense._Part.empty(256)
+    one.add(units, xs, ys)
+    scores = []
+    for part in (runs, one):
+        sol = rbfdense._Solution(part, 256)
+        res, one_minus_h = sol.residuals(phi, ys, rbfdense.SMOOTHING)
+        scores.append((sol.s, res / one_minus_h))
+    (s_runs, loo_runs), (s_one, loo_one) = scores
+    assert np.max(np.abs(s_runs - s_one)) < 1e-12 * s_one[0]
+    assert np.max(np.abs(loo_runs - loo_one)) < 1e-9 * np.max(np.abs(y))
+    assert (spread < 3) == (not np.array_equal(runs.r, one.r))
