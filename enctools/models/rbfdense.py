@@ -7,7 +7,8 @@ comes from a small factor: the R of the QR decomposition of the columns ``[1, Ph
 words whatever the number of points N. That R is accumulated a block of
 :data:`BLOCK` points at a time (the blocks' R stacked and factored again, as a tall
 QR is done out of core), so the memory is a few blocks' worth and Python runs between
-blocks (a signal ends the fit there). From R:
+blocks (a signal ends the fit there); each block's QR is taken over the units whose output
+reaches :data:`NEGLIGIBLE` at one of its points (R in row echelon form). From R:
 
 - the centred design's SVD ``P Phi = U S V^T`` (P removes the mean): ``S`` and ``V``
   from the SVD of R's middle block, ``U^T y`` from its last column, to rounding as the
@@ -21,7 +22,8 @@ blocks (a signal ends the fit there). From R:
   table of many more points than units;
 - the blocked hold-out (:mod:`enctools.models.gain`): the R of each 15-deg block is kept,
   and the network without block k is the QR of the others' R (prefix and suffix
-  products, two merges a block), no refit over the points.
+  products, two merges a block), no refit over the points; its weights at the chosen
+  smoothing by one QR of the ridge system, no SVD.
 
 The spread is chosen on an even subset of :data:`SEARCH_POINTS` points by the same
 closed-form criterion (the smallest RMS leave-one-out residual over spreads x
