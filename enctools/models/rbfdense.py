@@ -22,8 +22,7 @@ reaches :data:`NEGLIGIBLE` at one of its points (R in row echelon form). From R:
   table of many more points than units;
 - the blocked hold-out (:mod:`enctools.models.gain`): the R of each 15-deg block is kept,
   and the network without block k is the QR of the others' R (prefix and suffix
-  products, two merges a block), no refit over the points; its weights at the chosen
-  smoothing by one QR of the ridge system, no SVD.
+  products, two merges a block), no refit over the points.
 
 The spread is chosen on an even subset of :data:`SEARCH_POINTS` points by the same
 closed-form criterion (the smallest RMS leave-one-out residual over spreads x
@@ -420,31 +419,6 @@ def _prefixes(parts: dict[int, _Part], m: int) -> list[_Part]:
     return prefix
 
 
-def _ridge_model(part: _Part, units: _Units, smoothing: float) -> RBFModel:
-    """The network of ``part`` at one smoothing, as ``_Solution(part).model`` gives it
-    but without its SVD: lambda = smoothing x S_0^2, S_0^2 the largest eigenvalue of
-    the centred design's Gram R^T R (to rounding of S_0^2), and the weights [arcsec]
-    from the QR of ``[R, R_y; sqrt(lambda) I, 0]`` (backward stable; the directions
-    below rank that the SVD drops add at most (S_j^2 / lambda) of their share, under
-    1e-20 of the deviations on every table measured)."""
-    m = units.centres.size
-    r = np.zeros((m + 2, m + 2))
-    if part.r is not None:
-        r[:part.r.shape[0]] = part.r
-    mid = r[1:m + 1, 1:m + 1]
-    s0_sq = float(np.linalg.eigvalsh(mid.T @ mid)[-1]) if m else 0.0
-    if not s0_sq > 0.0:
-        w = np.zeros(m)
-    else:
-        a = np.zeros((2 * m, m + 1))
-        a[:m, :m], a[:m, m] = mid, r[1:m + 1, m + 1]
-        a[np.arange(m, 2 * m), np.arange(m)] = np.sqrt(smoothing * s0_sq)
-        t = _r_factor(a)
-        w = np.linalg.solve(t[:m, :m], t[:m, m])
-    mu, ybar = part.phi_sum / max(part.n, 1), part.y_sum / max(part.n, 1)
-    return RBFModel(units.centres.copy(), w, ybar - float(mu @ w), units.spread)
-
-
 def _held_out(parts: dict[int, _Part], prefix: list[_Part], units: _Units,
               smoothing: float) -> dict[int, RBFModel | None]:
     """For each block k, the network fitted with ``smoothing`` to every other block (None
@@ -457,7 +431,7 @@ def _held_out(parts: dict[int, _Part], prefix: list[_Part], units: _Units,
     for k in reversed(keys):
         rest = prefix.pop().join(suffix)
         try:
-            out[k] = _ridge_model(rest, units, smoothing) if rest.n >= 2 else None
+            out[k] = _Solution(rest, m).model(units, smoothing) if rest.n >= 2 else None
         except (ValueError, np.linalg.LinAlgError, ArithmeticError):
             out[k] = None
         suffix = parts.pop(k).join(suffix)
