@@ -20,6 +20,7 @@ from enctools.models.fourier import (
     COND_LIMIT,
     DEFAULT_MAX_ORDER,
     FourierModel,
+    blocked_residuals,
     choose_order,
     fit_with_loo,
 )
@@ -184,6 +185,18 @@ def _refit(model: RBFModel | FourierModel, smoothing: float | None) -> gains.Ref
     return lambda xs, ys: fit_with_loo(xs, ys, order)[0]
 
 
+def _figure(x: np.ndarray, y: np.ndarray, loo: np.ndarray, model: RBFModel | FourierModel,
+            smoothing: float | None, dense: bool) -> gains.Figure:
+    """:func:`gains.figure` of a model refitted by its kind (:func:`_refit`); of a
+    Fourier series on a dense table, the blocked hold-out from each block's R
+    (:func:`fourier.blocked_residuals`: no refit over the points)."""
+    if dense and isinstance(model, FourierModel):
+        order = int(model.n.max(initial=0))
+        held = blocked_residuals(x, y, gains.block_index(x), order)
+        return gains.Figure(gains.rms(loo), gains.rms(held))
+    return gains.figure(x, y, loo, _refit(model, smoothing), dense)
+
+
 def _gain(x: np.ndarray, y: np.ndarray, fit: Fit, settings: Settings, loo: np.ndarray
           ) -> gains.Gain:
     """Whether the model beats no correction (enctools.models.gain), beside a smoother
@@ -193,7 +206,7 @@ def _gain(x: np.ndarray, y: np.ndarray, fit: Fit, settings: Settings, loo: np.nd
     if fit.blocked is not None and dense:
         model = gains.Figure(gains.rms(loo), gains.rms(fit.blocked))
     else:
-        model = gains.figure(x, y, loo, _refit(fit.model, fit.choice.get("smoothing")), dense)
+        model = _figure(x, y, loo, fit.model, fit.choice.get("smoothing"), dense)
     baseline = gains.figure(x, y, (y - y.mean()) * x.size / (x.size - 1),
                             gains.constant_refit, dense)
     g = gains.Gain(model, baseline, int(x.size), edges=_edges(fit, settings))
@@ -203,7 +216,7 @@ def _gain(x: np.ndarray, y: np.ndarray, fit: Fit, settings: Settings, loo: np.nd
     if order is None or order > LOW_ORDER:
         smooth, smooth_loo = choose_order(x, y, most=LOW_ORDER)
         k = int(smooth.n.max(initial=0))
-        alt = gains.figure(x, y, smooth_loo, _refit(smooth, None), dense)
+        alt = _figure(x, y, smooth_loo, smooth, None, dense)
         g.alternative = {"kernel": "fourier", "n_harmonics": k} | alt.to_meta()
     return g
 

@@ -196,8 +196,15 @@ def determined_terms(x_rad: np.ndarray, harmonics: int, cond_limit: float = COND
     """
     a = design_matrix(x_rad, harmonics)
     r = np.asarray(np.linalg.qr(a, mode="r"))   # R alone: no N x (2K+1) Q
-    norms = np.linalg.norm(a, axis=0)
-    diag = np.zeros(a.shape[1])
+    terms = _terms(r, np.linalg.norm(a, axis=0), harmonics, cond_limit)
+    qk, rk = np.linalg.qr(a[:, terms.kept])
+    return terms, qk, rk
+
+
+def _terms(r: np.ndarray, norms: np.ndarray, harmonics: int, cond_limit: float) -> Terms:
+    """:func:`determined_terms`'s choice from the R of the design (any rows beyond
+    min(N, 2K+1) zero) and its columns' norms."""
+    diag = np.zeros(r.shape[1])
     diag[:min(r.shape)] = np.abs(np.diag(r))
     independent = np.flatnonzero(diag > 1e-9 * np.maximum(norms, 1e-300))
     names = term_names(harmonics)
@@ -215,12 +222,10 @@ def determined_terms(x_rad: np.ndarray, harmonics: int, cond_limit: float = COND
             lo, hi = (mid, hi) if cond(mid) <= cond_limit else (lo, mid)
         limit = lo
     kept = independent[_orders(independent) <= limit]
-    dependent = np.setdiff1d(np.arange(a.shape[1]), independent)
+    dependent = np.setdiff1d(np.arange(r.shape[1]), independent)
     ill = independent[_orders(independent) > limit]
-    qk, rk = np.linalg.qr(a[:, kept])
-    terms = Terms(kept, [names[j] for j in dependent], [names[j] for j in ill], limit,
-                  cond(limit))
-    return terms, qk, rk
+    return Terms(kept, [names[j] for j in dependent], [names[j] for j in ill], limit,
+                 cond(limit))
 
 
 def fit_fourier(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int,
@@ -257,6 +262,54 @@ def fit_with_loo(angle_deg: np.ndarray, error_arcsec: np.ndarray, harmonics: int
     with np.errstate(divide="ignore", invalid="ignore"):
         loo = np.where(h < 1.0 - 1e-9, resid / (1.0 - h), np.nan)
     return _model(harmonics, terms, coef), loo
+
+
+def blocked_residuals(angle_deg: np.ndarray, error_arcsec: np.ndarray, block: np.ndarray,
+                      harmonics: int, cond_limit: float = COND_LIMIT) -> np.ndarray:
+    """Each point's residual [arcsec] against :func:`fit_fourier` of order K fitted to
+    the points of the other blocks (``block``: each point's block number); NaN where
+    fewer than 2 points are left or that fit fails.
+
+    One pass over the points: the R of each block's columns [design, deviations]; the
+    others' R as a prefix and a suffix product (the QR of stacked R, (2K+2) words
+    square); their fit by :func:`determined_terms`'s rule and the least squares of the
+    kept terms from that R (a = QR, so a[:, kept] = Q R[:, kept]): to rounding the
+    series a refit over the other points gives, no refit over them.
+    """
+    x = np.asarray(angle_deg, dtype=np.float64)
+    y = np.asarray(error_arcsec, dtype=np.float64)
+    a = np.hstack([design_matrix(x * DEG, harmonics), y[:, None]])
+    keys = np.unique(block)
+    held = [block == k for k in keys]
+    rs = [np.asarray(np.linalg.qr(a[h], mode="r")) for h in held]
+    prefix = [np.zeros((0, a.shape[1]))]
+    for r in rs[:-1]:
+        prefix.append(np.asarray(np.linalg.qr(np.vstack([prefix[-1], r]), mode="r")))
+    out, suffix = np.full(y.shape, np.nan), np.zeros((0, a.shape[1]))
+    for i in reversed(range(len(keys))):
+        rest = np.vstack([prefix.pop(), suffix])
+        rest = np.asarray(np.linalg.qr(rest, mode="r")) if rest.size else rest
+        suffix = np.asarray(np.linalg.qr(np.vstack([rs[i], suffix]), mode="r"))
+        if y.size - np.count_nonzero(held[i]) < 2:
+            continue
+        try:
+            model = _fit_from_r(rest, harmonics, cond_limit)
+        except (ValueError, np.linalg.LinAlgError, ArithmeticError):
+            continue
+        out[held[i]] = y[held[i]] - model(x[held[i]])
+    return out
+
+
+def _fit_from_r(rest: np.ndarray, harmonics: int, cond_limit: float) -> FourierModel:
+    """:func:`fit_fourier` from the R of the points' columns [design, deviations]."""
+    c = 2 * harmonics + 1
+    r = np.zeros((c + 1, c + 1))
+    r[:rest.shape[0]] = rest
+    terms = _terms(r[:c, :c], np.linalg.norm(r[:, :c], axis=0), harmonics, cond_limit)
+    k = terms.kept.size
+    t = np.asarray(np.linalg.qr(r[:, np.r_[terms.kept, c]], mode="r"))
+    coef = np.linalg.solve(t[:k, :k], t[:k, k]) if k else np.zeros(0)
+    return _model(harmonics, terms, coef)
 
 
 def arc_coverage_deg(angle_deg: np.ndarray) -> float:

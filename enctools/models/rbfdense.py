@@ -7,7 +7,8 @@ comes from a small factor: the R of the QR decomposition of the columns ``[1, Ph
 words whatever the number of points N. That R is accumulated a block of
 :data:`BLOCK` points at a time (the blocks' R stacked and factored again, as a tall
 QR is done out of core), so the memory is a few blocks' worth and Python runs between
-blocks (a signal ends the fit there). From R:
+blocks (a signal ends the fit there); each block's QR is taken over the units whose output
+reaches :data:`NEGLIGIBLE` at one of its points (R in row echelon form). From R:
 
 - the centred design's SVD ``P Phi = U S V^T`` (P removes the mean): ``S`` and ``V``
   from the SVD of R's middle block, ``U^T y`` from its last column, to rounding as the
@@ -56,6 +57,18 @@ from enctools.units import DEG
 SEARCH_POINTS = 2048
 #: points a block: the largest arrays are BLOCK x 258 words (4.2 MB)
 BLOCK = 2048
+#: a unit whose output (at most 1) is below this at every point of a block is left out
+#: of that block's factor, its column there taken as 0: a change of each column 1e6 times
+#: below the rounding of the QR itself (about 1e-14 of its norm); of a 15-deg block at
+#: the spreads chosen on the bench's tables, about half the units
+NEGLIGIBLE = 1e-20
+#: the most points whose leave-one-out residuals of every smoothing the scoring pass
+#: keeps (points x 25 words, 52 MB at most); above, the last pass computes the chosen
+#: smoothing's again
+KEEP_LOO_POINTS = 1 << 18
+#: points of a run of the search's subset factored alone at narrow spreads (256 of
+#: 2048 points sorted by angle: about 45 deg of the turn)
+SEARCH_RUN = 256
 
 
 class _Units:
@@ -84,10 +97,22 @@ def _r_factor(a: np.ndarray) -> np.ndarray:
     return np.asarray(np.linalg.qr(a, mode="r"))
 
 
+def _r_of_columns(a: np.ndarray, cols: np.ndarray, width: int) -> np.ndarray:
+    """The R of ``a``, the columns ``cols`` (ascending) of a matrix ``width`` wide whose
+    other columns are 0, in those columns' places: R^T R is the matrix's Gram, and R is
+    in row echelon form (each row starts past the one above; row 0 holds column 0)."""
+    r = _r_factor(a)
+    if cols.size == width:
+        return r
+    out = np.zeros((r.shape[0], width))
+    out[:, cols] = r
+    return out
+
+
 @dataclass
 class _Part:
     """What a set of points contributes: the R factor of its columns [1, Phi, y] (at most
-    m + 2 rows), its count and sums."""
+    m + 2 rows, row echelon form), its count and sums."""
 
     r: np.ndarray | None
     n: int
@@ -98,20 +123,33 @@ class _Part:
     def empty(cls, m: int) -> _Part:
         return cls(None, 0, np.zeros(m), 0.0)
 
-    def add(self, units: _Units, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Points [deg, arcsec] added (a block): the QR of R stacked over their columns.
-        Returns their Phi (a view)."""
-        top = 0 if self.r is None else self.r.shape[0]
+    def add(self, units: _Units, x: np.ndarray, y: np.ndarray,
+            phi: np.ndarray | None = None) -> np.ndarray:
+        """Points [deg, arcsec] added (a block; their Phi if known): the QR of R stacked
+        over their columns, a unit whose output is below :data:`NEGLIGIBLE` at every
+        point of the block (and 0 in R) left out. Returns their Phi."""
         m = units.centres.size
+        top = 0 if self.r is None else self.r.shape[0]
         a = np.empty((top + x.size, m + 2))
         if self.r is not None:
             a[:top] = self.r
-        phi = units(x, out=a[top:, 1:m + 1])
+        if phi is None:
+            phi = units(x, out=a[top:, 1:m + 1])
+        else:
+            a[top:, 1:m + 1] = phi
+            phi = a[top:, 1:m + 1]
         a[top:, 0], a[top:, m + 1] = 1.0, y
+        used = np.ones(m + 2, dtype=bool)
+        used[1:m + 1] = phi.max(axis=0, initial=0.0) >= NEGLIGIBLE
+        if self.r is not None:
+            used |= np.any(self.r, axis=0)
+        cols = np.flatnonzero(used)
+        if cols.size < m + 2:
+            a = a[:, cols]
         self.phi_sum += phi.sum(axis=0)
         self.y_sum += float(y.sum())
         self.n += x.size
-        self.r = _r_factor(a)
+        self.r = _r_of_columns(a, cols, m + 2)
         return phi
 
     def join(self, other: _Part) -> _Part:
@@ -119,7 +157,9 @@ class _Part:
         if self.r is None or other.r is None:
             r = other.r if self.r is None else self.r
         else:
-            r = _r_factor(np.vstack([self.r, other.r]))
+            cols = np.flatnonzero(np.any(self.r, axis=0) | np.any(other.r, axis=0))
+            r = _r_of_columns(np.vstack([self.r[:, cols], other.r[:, cols]]), cols,
+                              self.r.shape[1])
         return _Part(r, self.n + other.n, self.phi_sum + other.phi_sum,
                      self.y_sum + other.y_sum)
 
@@ -182,21 +222,29 @@ def _blocks(n: int, edges: np.ndarray | None = None) -> Iterator[tuple[int, int]
 @dataclass
 class _Scores:
     """Per smoothing: sum of squared leave-one-out residuals, largest |training
-    residual| [arcsec], and whether the weights fit a model stream."""
+    residual| [arcsec]; when kept (``loo`` not None), every point's leave-one-out
+    residual [arcsec] (points x smoothings) and the sum of squared training residuals
+    [arcsec^2]."""
 
     sumsq: np.ndarray
     worst: np.ndarray
     n: int = 0
+    loo: np.ndarray | None = None
+    sse: np.ndarray | None = None
 
     def rms(self) -> np.ndarray:
         return np.sqrt(self.sumsq / max(self.n, 1))
 
 
-def _score(sol: _Solution, phi: np.ndarray, y: np.ndarray, scores: _Scores) -> None:
+def _score(sol: _Solution, phi: np.ndarray, y: np.ndarray, scores: _Scores,
+           rows: slice | None = None) -> None:
     res, one_minus_h = sol.residuals(phi, y, SMOOTHING)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         loo = res / one_minus_h
         scores.sumsq += np.square(loo).sum(axis=0)
+        if scores.loo is not None and scores.sse is not None and rows is not None:
+            scores.loo[rows] = loo
+            scores.sse += np.square(res).sum(axis=0)
     scores.worst = np.maximum(scores.worst, np.abs(res).max(axis=0, initial=0.0))
     scores.n += y.size
 
@@ -227,6 +275,29 @@ def _even_subset(x: np.ndarray, most: int) -> np.ndarray:
     return order[(np.arange(most) * (x.size / most)).astype(np.int64)]
 
 
+def _subset_part(units: _Units, x: np.ndarray, y: np.ndarray) -> tuple[_Part, np.ndarray]:
+    """The part of points [deg, arcsec] sorted by angle, and their Phi. At a narrow
+    spread each run of :data:`SEARCH_RUN` points uses few units (:data:`NEGLIGIBLE`):
+    where the runs' R, each over the units it uses, stack to under half the points'
+    rows, the part is the QR of that stack; else one QR of every point's columns."""
+    m = units.centres.size
+    phi = units(x)
+    runs = [(i, min(i + SEARCH_RUN, x.size)) for i in range(0, x.size, SEARCH_RUN)]
+    used = [np.flatnonzero(phi[a:b].max(axis=0) >= NEGLIGIBLE) for a, b in runs]
+    if 2 * sum(min(b - a, u.size + 2) for (a, b), u in zip(runs, used, strict=True)) >= x.size:
+        part = _Part.empty(m)
+        return part, part.add(units, x, y, phi)
+    rs = []
+    for (a, b), u in zip(runs, used, strict=True):
+        run = np.empty((b - a, u.size + 2))
+        run[:, 0], run[:, 1:-1], run[:, -1] = 1.0, phi[a:b, u], y[a:b]
+        rs.append(_r_of_columns(run, np.r_[0, u + 1, m + 1], m + 2))
+    stack = np.vstack(rs)
+    cols = np.flatnonzero(np.any(stack, axis=0))
+    return _Part(_r_of_columns(stack[:, cols], cols, m + 2), x.size, phi.sum(axis=0),
+                 float(y.sum())), phi
+
+
 def _search_spread(x: np.ndarray, y: np.ndarray, centres: np.ndarray, spreads: list[float],
                    goal: float | None, progress: Callable[[int, int], object] | None) -> float:
     """The spread [deg] whose best smoothing predicts the subset best (leave-one-out)."""
@@ -236,8 +307,7 @@ def _search_spread(x: np.ndarray, y: np.ndarray, centres: np.ndarray, spreads: l
     chosen = spreads[0]
     for k, spread in enumerate(spreads):
         units = _Units(centres, spread)
-        part = _Part.empty(centres.size)
-        phi = part.add(units, xs, ys)
+        part, phi = _subset_part(units, xs, ys)
         sol = _Solution(part, centres.size)
         scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
         _score(sol, phi, ys, scores)
@@ -294,7 +364,8 @@ def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     edges = np.flatnonzero(np.diff(bs)) + 1
     units = _Units(centres, spread)
     parts = _factor(units, xs, ys, bs, edges)
-    sol, scores = _scored(units, parts, xs, ys, edges)
+    prefix = _prefixes(parts, centres.size)
+    sol, scores = _scored(units, prefix[-1], xs, ys, edges)
     if progress is not None:
         progress(total - 1, total)
     best, best_rms = _best(sol, scores, goal)
@@ -302,8 +373,8 @@ def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
         msg = "no spread gives finite leave-one-out residuals"
         raise DataError(msg)
     key, smoothing = best
-    held = _held_out(parts, units, smoothing)
-    loo, blocked, sse = _final(units, sol, held, smoothing, xs, ys, bs, edges)
+    held = _held_out(parts, prefix, units, smoothing)
+    loo, blocked, sse = _final(units, sol, held, smoothing, xs, ys, bs, edges, scores)
     if progress is not None:
         progress(total, total)
     back = np.empty_like(order)
@@ -316,17 +387,16 @@ def choose_dense(angle_deg: np.ndarray, error_arcsec: np.ndarray,
     return DenseFit(model, choice, blocked[back])
 
 
-def _scored(units: _Units, parts: dict[int, _Part], xs: np.ndarray, ys: np.ndarray,
+def _scored(units: _Units, whole: _Part, xs: np.ndarray, ys: np.ndarray,
             edges: np.ndarray) -> tuple[_Solution, _Scores]:
     """The network of every point and, from a pass over the blocks, the leave-one-out
     and training figures of every smoothing."""
-    whole = _Part.empty(units.centres.size)
-    for p in parts.values():
-        whole = whole.join(p)
     sol = _Solution(whole, units.centres.size)
     scores = _Scores(np.zeros(SMOOTHING.size), np.zeros(SMOOTHING.size))
+    if xs.size <= KEEP_LOO_POINTS:
+        scores.loo, scores.sse = np.empty((xs.size, SMOOTHING.size)), np.zeros(SMOOTHING.size)
     for start, stop in _blocks(xs.size, edges):
-        _score(sol, units(xs[start:stop]), ys[start:stop], scores)
+        _score(sol, units(xs[start:stop]), ys[start:stop], scores, slice(start, stop))
     return sol, scores
 
 
@@ -340,16 +410,23 @@ def _factor(units: _Units, xs: np.ndarray, ys: np.ndarray, bs: np.ndarray,
     return parts
 
 
-def _held_out(parts: dict[int, _Part], units: _Units, smoothing: float
-              ) -> dict[int, RBFModel | None]:
+def _prefixes(parts: dict[int, _Part], m: int) -> list[_Part]:
+    """The parts of the blocks before each block in key order (the first empty), and last
+    the part of every point: one merge a block, the whole network's factor among them."""
+    prefix = [_Part.empty(m)]
+    for k in sorted(parts):
+        prefix.append(prefix[-1].join(parts[k]))
+    return prefix
+
+
+def _held_out(parts: dict[int, _Part], prefix: list[_Part], units: _Units,
+              smoothing: float) -> dict[int, RBFModel | None]:
     """For each block k, the network fitted with ``smoothing`` to every other block (None
-    where that is not possible): the part of the others as prefix and suffix products,
-    three merges a block. Empties ``parts``."""
+    where that is not possible): the part of the others as the prefix before k and the
+    suffix after it, two merges a block. Empties ``parts`` and ``prefix``."""
     m = units.centres.size
     keys = sorted(parts)
-    prefix = [_Part.empty(m)]
-    for k in keys[:-1]:
-        prefix.append(prefix[-1].join(parts[k]))
+    prefix.pop()        # every block's
     suffix, out = _Part.empty(m), {}
     for k in reversed(keys):
         rest = prefix.pop().join(suffix)
@@ -363,18 +440,26 @@ def _held_out(parts: dict[int, _Part], units: _Units, smoothing: float
 
 def _final(units: _Units, sol: _Solution, held: dict[int, RBFModel | None],
            smoothing: float, xs: np.ndarray, ys: np.ndarray, bs: np.ndarray,
-           edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+           edges: np.ndarray, scores: _Scores) -> tuple[np.ndarray, np.ndarray, float]:
     """Each point's leave-one-out residual with the chosen smoothing and its residual
     against the network fitted without its block [arcsec] (points sorted by block), and
-    the sum of the squared training residuals [arcsec^2]."""
-    loo, blocked = np.empty(xs.size), np.full(xs.size, np.nan)
+    the sum of the squared training residuals [arcsec^2]: the first and the last from
+    the scoring pass where it kept them."""
+    blocked = np.full(xs.size, np.nan)
     lam, sse = np.array([smoothing]), 0.0
+    if scores.loo is not None and scores.sse is not None:
+        j = int(np.flatnonzero(smoothing == SMOOTHING)[0])
+        loo, sse = scores.loo[:, j].copy(), float(scores.sse[j])
+        scores.loo = None
+    else:
+        loo = np.empty(xs.size)
     for start, stop in _blocks(xs.size, edges):
         phi, y = units(xs[start:stop]), ys[start:stop]
-        res, one_minus_h = sol.residuals(phi, y, lam)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            loo[start:stop] = res[:, 0] / one_minus_h[:, 0]
-        sse += float(res[:, 0] @ res[:, 0])
+        if scores.sse is None:
+            res, one_minus_h = sol.residuals(phi, y, lam)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                loo[start:stop] = res[:, 0] / one_minus_h[:, 0]
+            sse += float(res[:, 0] @ res[:, 0])
         fitted = held[int(bs[start])]
         if fitted is not None:
             blocked[start:stop] = y - (fitted.bias + phi @ fitted.weights)

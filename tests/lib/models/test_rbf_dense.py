@@ -230,3 +230,61 @@ def test_dense_and_whole_searches_agree_where_both_run():
     grid = np.arange(0.0, 360.0, 0.01)
     assert np.max(np.abs(d.model(grid) - whole(grid))) < TOL * np.max(np.abs(y))
     assert np.max(np.abs(d.choice.loo - choice.loo)) < TOL * np.max(np.abs(y))
+
+
+def test_a_block_factor_leaves_out_the_units_negligible_there():
+    """A 15-deg block at a 7.5-deg spread of 24 units 15 deg apart: the units further
+    than about 8 spreads give outputs below 1e-20 at every point and are left out of
+    the block's R (its columns 0); R^T R is still the Gram of the block's columns
+    [1, Phi, y] to rounding, and the R of the ones column comes first (row echelon)."""
+    x = np.sort(np.random.default_rng(6).uniform(-7.5, 7.5, 300)) % 360.0
+    y = np.sin(x * DEG * 3)
+    centres = centres_of(24, UNITS)
+    part = rbfdense._Part.empty(UNITS)
+    phi = part.add(rbfdense._Units(centres, 7.5), x, y)
+    kept = np.any(part.r, axis=0)[1:UNITS + 1]
+    assert 0 < kept.sum() < UNITS // 2
+    assert np.max(phi[:, ~kept]) < rbfdense.NEGLIGIBLE
+    a = np.column_stack([np.ones(x.size), phi, y])
+    gram = a.T @ a
+    assert np.max(np.abs(part.r.T @ part.r - gram)) < 1e-12 * np.max(np.abs(gram))
+    assert np.all(part.r[1:, 0] == 0.0)
+
+
+def test_leave_one_out_kept_from_the_scoring_pass_equals_a_last_pass(small_blocks, monkeypatch):
+    """Up to KEEP_LOO_POINTS points the scoring pass keeps every smoothing's leave-one-out
+    residuals and the chosen one's are taken from there; above, the last pass computes
+    them again: the same residuals, blocked hold-out and training sum of squares."""
+    x, y = dense(700)
+    kept = rbfdense.choose_dense(x, y)
+    monkeypatch.setattr(rbfdense, "KEEP_LOO_POINTS", 0)
+    again = rbfdense.choose_dense(x, y)
+    scale = np.max(np.abs(y))
+    assert np.max(np.abs(kept.choice.loo - again.choice.loo)) < 1e-12 * scale
+    assert np.array_equal(kept.blocked, again.blocked)
+    assert kept.model.sse == pytest.approx(again.model.sse, rel=1e-12)
+    assert np.array_equal(kept.model.weights, again.model.weights)
+
+
+@pytest.mark.parametrize("spread", [0.703125, 2.8125, 45.0])
+def test_search_factor_by_runs_is_the_one_qr(spread):
+    """The search's subset (2048 points, 256 units) at a narrow spread is factored by
+    runs of 256 points over the units each uses, their R stacked: the centred design's
+    singular values and every smoothing's leave-one-out residuals equal those of one QR
+    of every point's columns (at a wide spread that one QR is taken, bit for bit)."""
+    x, y = dense(20000, seed=7)
+    pick = rbfdense._even_subset(x, 2048)
+    xs, ys = x[pick], y[pick]
+    units = rbfdense._Units(centres_of(256), spread)
+    runs, phi = rbfdense._subset_part(units, xs, ys)
+    one = rbfdense._Part.empty(256)
+    one.add(units, xs, ys)
+    scores = []
+    for part in (runs, one):
+        sol = rbfdense._Solution(part, 256)
+        res, one_minus_h = sol.residuals(phi, ys, rbfdense.SMOOTHING)
+        scores.append((sol.s, res / one_minus_h))
+    (s_runs, loo_runs), (s_one, loo_one) = scores
+    assert np.max(np.abs(s_runs - s_one)) < 1e-12 * s_one[0]
+    assert np.max(np.abs(loo_runs - loo_one)) < 1e-9 * np.max(np.abs(y))
+    assert (spread < 3) == (not np.array_equal(runs.r, one.r))
