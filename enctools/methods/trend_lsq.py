@@ -250,25 +250,9 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
     count = 0
     for q, item in enumerate(rows):
         y0 = new.y0[q]
-        if isinstance(item, FusedRows):
-            assert g.order is None, "fused sums: groups in order"
-            y0[:] = item.first_y(g.first)
-            y0[where] = state.y0[q, old]
-            item.sums(g, tz, y0, new.txy[:, q], new.seen[q], members[q])
-            count += 1
-            continue
-        xy, labels, xtx = item
-        y0[:] = xy[p, g.first]
+        y0[:] = item.first_y(g.first) if isinstance(item, FusedRows) else item[0][p, g.first]
         y0[where] = state.y0[q, old]
-        np.subtract(xy[p], y0[g.inv] if g.order is not None or not g.sorted
-                    else np.repeat(y0, g.counts), out=xy[p])
-        if g.order is not None:  # a sweep's runs interleaved: sorted by group once
-            xy = xy[:, g.order]
-            labels = None if labels is None else labels[g.order]
-        _moments(xy, tz, g, new.txy[:, q])
-        if labels is not None:
-            np.bitwise_or.reduceat(labels, g.starts, out=new.seen[q])
-        _cross(members[q], xy, xtx)
+        _member_sums(members[q], item, g, tz, y0, new.txy[:, q], new.seen[q])
         count += 1
     assert count == n_members, "rows for every member"
     new.gram[..., where] += state.gram[..., old]
@@ -289,6 +273,28 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
     last = both.keys == g.last
     close_groups(members, both.select(~last))
     return both.select(last)
+
+
+def _member_sums(member: TrendProjectedLSQ, item: MemberRows, g: Grouping,
+                 tz: list[np.ndarray], y0: np.ndarray, txy: np.ndarray,
+                 seen: np.ndarray) -> None:
+    """One member's batch ``item`` into ``txy`` (d, p + 1, groups), ``seen`` (groups) and
+    its sums, y less its group's ``y0``."""
+    if isinstance(item, FusedRows):
+        assert g.order is None, "fused sums: groups in order"
+        item.sums(g, tz, y0, txy, seen, member)
+        return
+    xy, labels, xtx = item
+    p = member.p
+    np.subtract(xy[p], y0[g.inv] if g.order is not None or not g.sorted
+                else np.repeat(y0, g.counts), out=xy[p])
+    if g.order is not None:  # a sweep's runs interleaved: sorted by group once
+        xy = xy[:, g.order]
+        labels = None if labels is None else labels[g.order]
+    _moments(xy, tz, g, txy)
+    if labels is not None:
+        np.bitwise_or.reduceat(labels, g.starts, out=seen)
+    _cross(member, xy, xtx)
 
 
 def _cross(member: TrendProjectedLSQ, xy: np.ndarray, xtx: np.ndarray | None) -> None:
