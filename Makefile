@@ -99,7 +99,7 @@ bench: $(VENV)/.installed  ## measure speed and memory of every command (table f
 	$(BIN)/python benchmarks/bench.py --out bench-out
 	$(BIN)/python benchmarks/rom_writer.py command --out bench-out
 	$(BIN)/python benchmarks/fleet.py --out bench-out
-	$(BIN)/python benchmarks/interp_fit.py --out bench-out
+	$(BIN)/python benchmarks/interp_fit.py --revolutions 300,2000 --out bench-out
 	$(BIN)/python benchmarks/acquire_steps.py --out bench-out
 	$(BIN)/python benchmarks/fit_rbf.py --signal --out bench-out
 	$(BIN)/python benchmarks/budget_mc.py --runs 2000
