@@ -29,7 +29,7 @@ typedef struct {
 static inline __attribute__((always_inline)) void pass(
     int64_t m, const int64_t *counts, double scale, int64_t shift, int64_t steps,
     const double *ref, double arcsec, const double *dev_table, const int64_t nd,
-    const int64_t *ref_step, const double *ref_table, const int64_t nr,
+    const int64_t *ref_step, const double *ref_table, const int64_t nr, int64_t ref_steps,
     int64_t k, const int64_t *starts, const double *y0, const double *tz, const int64_t d1,
     const uint8_t *sectors, double *txy, uint8_t *seen, int64_t *per_step, Tally *tl)
 {
@@ -58,6 +58,8 @@ static inline __attribute__((always_inline)) void pass(
             int64_t r = 0;
             if (nr) {
                 r = ref_step[i];
+                if (r < 0 || r >= ref_steps)        /* as numpy's take, mode "clip" */
+                    r = r < 0 ? 0 : ref_steps - 1;
                 const double *rr = ref_table + r * nr;
                 for (int64_t a = 0; a < nr; a++) v[nd + a] = rr[a];
             }
@@ -128,7 +130,7 @@ int64_t enc_interp_member(
         return -1;
     }
 #define PASS(ND, NR, D1) pass(m, counts, scale, shift, steps, ref, arcsec, dev_table, ND, \
-        ref_step, ref_table, NR, k, starts, y0, tz, D1, sectors, txy, seen, per_step, &tl)
+        ref_step, ref_table, NR, ref_steps, k, starts, y0, tz, D1, sectors, txy, seen, per_step, &tl)
     if (n_dev == 4 && n_ref == 4 && d1 == 2) PASS(4, 4, 2);
     else if (n_dev == 8 && n_ref == 0 && d1 == 2) PASS(8, 0, 2);
     else if (n_dev == 4 && n_ref == 0 && d1 == 2) PASS(4, 0, 2);

@@ -105,7 +105,8 @@ class FitBank:
         integer, a reference not finite, groups not in order): then :meth:`add`."""
         if reference_rad.size == 0:
             return True
-        if not fused.usable(self.fits, counts, reference_rad, reference_step):
+        if not fused.usable(self.fits, counts, infos, reference_rad, reference_step,
+                            reference_steps):
             return False
         grouping, scale = self._grouping(reference_rad, groups)
         if grouping.order is not None:

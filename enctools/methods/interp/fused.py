@@ -88,7 +88,9 @@ class CountsRows(FusedRows):
             k, _ptr(starts), _ptr(y0c), _ptr(z), d1 - 1,
             _ptr(_sector_bits_table(self.steps)), _ptr(out), _ptr(bits), _ptr(cross),
             int(full), _ptr(per_step))
-        assert rc == 0, "sizes within the kernel's limits (checked by usable)"
+        if rc != 0:    # usable() keeps the sizes within its limits: not met
+            msg = f"the compiled kernel refused a batch ({rc}): run with ENCTOOLS_KERNEL=numpy"
+            raise RuntimeError(msg)
         txy[...] = out
         seen[...] = bits
         p = member.p
@@ -100,10 +102,12 @@ class CountsRows(FusedRows):
 
 
 def usable(fits: Sequence[InterpolationFit], counts: Sequence[np.ndarray],
-           reference_rad: np.ndarray, reference_step: np.ndarray | None) -> bool:
-    """Whether the kernel can take this batch of these fits: installed, integer counts,
-    a finite reference (its step when its harmonics are fitted), sizes within its limits."""
-    if kernel.library() is None:
+           infos: Sequence[HeadInfo], reference_rad: np.ndarray,
+           reference_step: np.ndarray | None, reference_steps: int) -> bool:
+    """Whether the kernel can take this batch of these fits: installed, integer counts of
+    heads with steps per period, a finite reference (its step when its harmonics are
+    fitted), sizes within its limits."""
+    if kernel.library() is None or any(i.interpolation <= 0 for i in infos):
         return False
     if any(c.dtype.kind not in "iu" or c.dtype.itemsize > 8 or c.dtype == np.uint64
            for c in counts):
@@ -111,6 +115,6 @@ def usable(fits: Sequence[InterpolationFit], counts: Sequence[np.ndarray],
     for f in fits:
         if f.lsq.p + 1 > MAX_P1 or f.lsq.d1 > MAX_D1:
             return False
-        if f.ref_orders.size and reference_step is None:
+        if f.ref_orders.size and (reference_step is None or reference_steps <= 0):
             return False
     return bool(np.isfinite(np.sum(reference_rad)))
