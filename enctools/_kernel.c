@@ -25,7 +25,15 @@ typedef struct {
     double yty;
 } Tally;
 
-/* The pass over the samples, inlined with n_dev, n_ref and d1 constant where it is called. */
+/* Two doubles side by side (GCC's and Clang's vector extension: SSE2 on x86-64, NEON on
+ * arm64, plain pairs elsewhere); each lane is rounded as its scalar would be. */
+typedef double v2d __attribute__((vector_size(16)));
+
+static inline v2d load2(const double *p) { v2d x; memcpy(&x, p, sizeof x); return x; }
+
+/* The pass over the samples, inlined with n_dev, n_ref and d1 constant where it is called.
+ * n_dev and n_ref are even (cos and sin of each order): v is held as pairs, the last pair
+ * (y, 0). */
 static inline __attribute__((always_inline)) void pass(
     int64_t m, const int64_t *counts, double scale, int64_t shift, int64_t steps,
     const double *ref, double arcsec, const double *dev_table, const int64_t nd,
@@ -33,16 +41,18 @@ static inline __attribute__((always_inline)) void pass(
     int64_t k, const int64_t *starts, const double *y0, const double *tz, const int64_t d1,
     const uint8_t *sectors, double *txy, uint8_t *seen, int64_t *per_step, Tally *tl)
 {
-    const int64_t p1 = nd + nr + 1;
+    const int64_t p1 = nd + nr + 1, hd = nd / 2, hr = nr / 2, nv = hd + hr + 1;
     const int pow2 = (steps & (steps - 1)) == 0;
+    double *const ysum = tl->ysum, *const rysum = tl->rysum, *const rsum = tl->rsum;
+    int64_t *const rhist = tl->rhist;
     double yty = 0.0;
     for (int64_t g = 0; g < k; g++) {
         const int64_t lo = starts[g], hi = g + 1 < k ? starts[g + 1] : m;
         const double yg = y0[g];
         uint8_t bits = 0;
-        double acc[MAX_D1][MAX_P1];
+        v2d acc[MAX_D1][MAX_P1 / 2 + 1];
         for (int64_t t = 0; t < d1; t++)
-            for (int64_t a = 0; a < p1; a++) acc[t][a] = 0.0;
+            for (int64_t a = 0; a < nv; a++) acc[t][a] = (v2d){0.0, 0.0};
         for (int64_t i = lo; i < hi; i++) {
             const int64_t c = counts[i];
             int64_t s;
@@ -52,40 +62,45 @@ static inline __attribute__((always_inline)) void pass(
                 s = (c + shift) % steps;
                 if (s < 0) s += steps;
             }
-            double v[MAX_P1];
+            v2d v[MAX_P1 / 2 + 1];
             const double *row = dev_table + s * nd;
-            for (int64_t a = 0; a < nd; a++) v[a] = row[a];
+            for (int64_t a = 0; a < hd; a++) v[a] = load2(row + 2 * a);
             int64_t r = 0;
             if (nr) {
                 r = ref_step[i];
                 if (r < 0 || r >= ref_steps)        /* as numpy's take, mode "clip" */
                     r = r < 0 ? 0 : ref_steps - 1;
                 const double *rr = ref_table + r * nr;
-                for (int64_t a = 0; a < nr; a++) v[nd + a] = rr[a];
+                for (int64_t a = 0; a < hr; a++) v[hd + a] = load2(rr + 2 * a);
             }
             const double angle = (double)c * scale;
             double y = angle - ref[i];
             y = y / arcsec;
             y = y - yg;
-            v[p1 - 1] = y;
-            for (int64_t a = 0; a < p1; a++) acc[0][a] += v[a];
+            v[nv - 1] = (v2d){y, 0.0};
+            for (int64_t a = 0; a < nv; a++) acc[0][a] += v[a];
             for (int64_t t = 1; t < d1; t++) {
                 const double w = tz[(t - 1) * m + i];
-                for (int64_t a = 0; a < p1; a++) acc[t][a] += w * v[a];
+                const v2d ww = {w, w};
+                for (int64_t a = 0; a < nv; a++) acc[t][a] += ww * v[a];
             }
             bits |= sectors[s];
             per_step[s] += 1;
-            tl->ysum[s] += y;
+            ysum[s] += y;
             yty += y * y;
             if (nr) {
-                double *rs = tl->rsum + s * nr;
-                for (int64_t a = 0; a < nr; a++) rs[a] += v[nd + a];
-                tl->rysum[r] += y;
-                tl->rhist[r] += 1;
+                double *rs = rsum + s * nr;
+                for (int64_t a = 0; a < hr; a++) {
+                    const v2d x = load2(rs + 2 * a) + v[hd + a];
+                    memcpy(rs + 2 * a, &x, sizeof x);
+                }
+                rysum[r] += y;
+                rhist[r] += 1;
             }
         }
         for (int64_t t = 0; t < d1; t++)
-            for (int64_t a = 0; a < p1; a++) txy[(t * p1 + a) * k + g] = acc[t][a];
+            for (int64_t a = 0; a < p1; a++)
+                txy[(t * p1 + a) * k + g] = acc[t][a / 2][a % 2];
         seen[g] = bits;
     }
     tl->yty = yty;
@@ -115,8 +130,8 @@ int64_t enc_interp_member(
     double *txy, uint8_t *seen, double *cross, int64_t full, int64_t *per_step)
 {
     const int64_t p1 = n_dev + n_ref + 1, d1 = n_tz + 1, p = p1 - 1;
-    if (p1 > MAX_P1 || d1 > MAX_D1 || steps <= 0 || (n_ref > 0 && (ref_step == NULL
-            || ref_steps <= 0)))
+    if (p1 > MAX_P1 || d1 > MAX_D1 || steps <= 0 || n_dev % 2 || n_ref % 2
+            || (n_ref > 0 && (ref_step == NULL || ref_steps <= 0)))
         return -1;
     Tally tl = {0};
     tl.ysum = calloc((size_t)steps, sizeof(double));
