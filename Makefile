@@ -27,7 +27,10 @@ $(BIN)/python:
 # the man pages are installed as copies (share/man of the venv): a changed page reinstalls
 MAN_PAGES := $(wildcard man/*.[15])
 
-$(VENV)/.installed: pyproject.toml $(MAN_PAGES) | $(BIN)/python
+# the optional compiled kernel is built by the install (hatch_build.py): a changed source rebuilds
+KERNEL := enctools/_kernel.c hatch_build.py enctools/kernel_build.py
+
+$(VENV)/.installed: pyproject.toml $(MAN_PAGES) $(KERNEL) | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
 	@touch $@
 
@@ -41,7 +44,7 @@ $(VENV)/.installed-lint: $(VENV)/.installed
 	@touch $@
 
 # compiled packages as wheels only: a floor without a wheel for this Python fails at once
-$(VENV_MIN)/.installed: pyproject.toml $(MIN_PINS) $(MAN_PAGES)
+$(VENV_MIN)/.installed: pyproject.toml $(MIN_PINS) $(MAN_PAGES) $(KERNEL)
 	rm -rf $(VENV_MIN)
 	$(PYTHON) -m venv $(VENV_MIN)
 	$(VENV_MIN)/bin/python -m pip install -q --only-binary numpy,scipy,pyarrow,h5py,matplotlib \
@@ -99,7 +102,7 @@ bench: $(VENV)/.installed  ## measure speed and memory of every command (table f
 	$(BIN)/python benchmarks/bench.py --out bench-out
 	$(BIN)/python benchmarks/rom_writer.py command --out bench-out
 	$(BIN)/python benchmarks/fleet.py --out bench-out
-	$(BIN)/python benchmarks/interp_fit.py --out bench-out
+	$(BIN)/python benchmarks/interp_fit.py --revolutions 300,2000 --out bench-out
 	$(BIN)/python benchmarks/acquire_steps.py --out bench-out
 	$(BIN)/python benchmarks/fit_rbf.py --signal --out bench-out
 	$(BIN)/python benchmarks/budget_mc.py --runs 2000

@@ -88,6 +88,23 @@ def enc() -> str:
     return enc_exe()
 
 
+@pytest.fixture(params=["compiled", "numpy"])
+def kernel_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Run the test with the compiled kernel (skipped where it is not built) and with the
+    numpy passes (ENCTOOLS_KERNEL=numpy, for this process and the commands it starts)."""
+    from enctools import kernel
+
+    kernel.library.cache_clear()
+    if request.param == "numpy":
+        monkeypatch.setenv(kernel.ENV, "numpy")
+    else:
+        monkeypatch.delenv(kernel.ENV, raising=False)
+        if kernel.library() is None:
+            pytest.skip("the compiled kernel is not built here")
+    request.addfinalizer(kernel.library.cache_clear)
+    return str(request.param)
+
+
 def run(cmd: str | list[str], cwd: Path | None = None, input: bytes | None = None,
         env: dict[str, str] | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
     """Run a command (a shell pipeline when given a string) with enc on PATH.

@@ -88,8 +88,19 @@ class LazyGroup(click.Group):
                 formatter.write_dl(rows)
 
 
+def _version(ctx: click.Context, _param: click.Parameter, value: bool) -> None:
+    """``--version``: enctools' version and which per-sample passes run (enctools.kernel)."""
+    if not value or ctx.resilient_parsing:
+        return
+    from enctools import kernel
+
+    click.echo(f"enctools, version {__version__}\nkernel: {kernel.name()}")
+    ctx.exit()
+
+
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="enctools")
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=_version,
+              help="Show the version and the kernel in use, and exit.")
 @click.option("--debug", is_flag=True, default=False, envvar="ENC_DEBUG",
               help="Show a traceback on errors.")
 def cli(debug: bool) -> None:

@@ -13,6 +13,7 @@ Used by :mod:`enctools.methods.interp.fit` (seed 000 eqs. (19), (20)).
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
@@ -21,9 +22,29 @@ import numpy as np
 #: ``on_close(counts, seen, lo, hi)``: of each group that closes, its samples, the bitmask
 #: of the labels its samples carried (bits OR-ed), its least and greatest abscissa
 OnClose = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None]
+
+
+class FusedRows(ABC):
+    """One member's batch summed in one pass over its samples (a compiled kernel) rather
+    than from its rows X and y: only for groups met in order (a grouping without
+    ``order``)."""
+
+    @abstractmethod
+    def first_y(self, first: np.ndarray) -> np.ndarray:
+        """y at the samples ``first`` (the first of each group)."""
+
+    @abstractmethod
+    def sums(self, g: Grouping, tz: list[np.ndarray], y0: np.ndarray, txy: np.ndarray,
+             seen: np.ndarray, member: TrendProjectedLSQ) -> None:
+        """Of y less its group's ``y0``: the sums T^T [X y] per group into ``txy``
+        (d, p + 1, groups), the label bits OR-ed into ``seen`` (groups), and X^T X,
+        X^T y, y^T y and the count into ``member`` (:func:`add_cross`)."""
+
+
 #: one member's batch: its columns X transposed with y as the last row (p + 1, m; y is
-#: changed in place), its label bits (m) or None, and X^T X when known (else None)
-MemberRows = tuple[np.ndarray, "np.ndarray | None", "np.ndarray | None"]
+#: changed in place), its label bits (m) or None, and X^T X when known (else None); or
+#: its sums made in one pass (:class:`FusedRows`)
+MemberRows = tuple[np.ndarray, np.ndarray | None, np.ndarray | None] | FusedRows
 
 
 class TrendProjectedLSQ:
@@ -94,6 +115,13 @@ class TrendProjectedLSQ:
         if not np.may_share_memory(y, xy[self.p]):
             xy[self.p] = y
         self._open = add_batch([self], self._open, x, scale, grouping, [(xy, labels, xtx)])
+
+    def add_fused(self, x: np.ndarray, scale: float, grouping: Grouping,
+                  rows: FusedRows) -> None:
+        """Add a batch summed in one pass (``rows``); ``x``, ``scale`` and ``grouping`` as
+        :meth:`add` (the grouping required, its groups in order)."""
+        if x.size:
+            self._open = add_batch([self], self._open, x, scale, grouping, [rows])
 
     def add_gram(self, xtx: np.ndarray) -> None:
         """Add X^T X (p, p) of samples added with X^T X given as zeros (the caller sums it
@@ -220,19 +248,11 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
                      np.zeros((n_members, k), np.uint8), gram.copy(),
                      np.empty((d1, n_members, p + 1, k)))
     count = 0
-    for q, (xy, labels, xtx) in enumerate(rows):
+    for q, item in enumerate(rows):
         y0 = new.y0[q]
-        y0[:] = xy[p, g.first]
+        y0[:] = item.first_y(g.first) if isinstance(item, FusedRows) else item[0][p, g.first]
         y0[where] = state.y0[q, old]
-        np.subtract(xy[p], y0[g.inv] if g.order is not None or not g.sorted
-                    else np.repeat(y0, g.counts), out=xy[p])
-        if g.order is not None:  # a sweep's runs interleaved: sorted by group once
-            xy = xy[:, g.order]
-            labels = None if labels is None else labels[g.order]
-        _moments(xy, tz, g, new.txy[:, q])
-        if labels is not None:
-            np.bitwise_or.reduceat(labels, g.starts, out=new.seen[q])
-        _cross(members[q], xy, xtx)
+        _member_sums(members[q], item, g, tz, y0, new.txy[:, q], new.seen[q])
         count += 1
     assert count == n_members, "rows for every member"
     new.gram[..., where] += state.gram[..., old]
@@ -255,6 +275,28 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
     return both.select(last)
 
 
+def _member_sums(member: TrendProjectedLSQ, item: MemberRows, g: Grouping,
+                 tz: list[np.ndarray], y0: np.ndarray, txy: np.ndarray,
+                 seen: np.ndarray) -> None:
+    """One member's batch ``item`` into ``txy`` (d, p + 1, groups), ``seen`` (groups) and
+    its sums, y less its group's ``y0``."""
+    if isinstance(item, FusedRows):
+        assert g.order is None, "fused sums: groups in order"
+        item.sums(g, tz, y0, txy, seen, member)
+        return
+    xy, labels, xtx = item
+    p = member.p
+    np.subtract(xy[p], y0[g.inv] if g.order is not None or not g.sorted
+                else np.repeat(y0, g.counts), out=xy[p])
+    if g.order is not None:  # a sweep's runs interleaved: sorted by group once
+        xy = xy[:, g.order]
+        labels = None if labels is None else labels[g.order]
+    _moments(xy, tz, g, txy)
+    if labels is not None:
+        np.bitwise_or.reduceat(labels, g.starts, out=seen)
+    _cross(member, xy, xtx)
+
+
 def _cross(member: TrendProjectedLSQ, xy: np.ndarray, xtx: np.ndarray | None) -> None:
     """Add X^T X (``xtx`` when given), X^T y, y^T y of one member's batch ``xy`` (p + 1, m)."""
     p = member.p
@@ -264,11 +306,17 @@ def _cross(member: TrendProjectedLSQ, xy: np.ndarray, xtx: np.ndarray | None) ->
     else:
         xty = xy @ xy[p]                               # X^T y and y^T y: one pass
         xty, yty = xty[:p], xty[p]
+    add_cross(member, xtx, xty, float(yty), xy.shape[1])
+
+
+def add_cross(member: TrendProjectedLSQ, xtx: np.ndarray, xty: np.ndarray, yty: float,
+              m: int) -> None:
+    """Add X^T X (p, p), X^T y (p), y^T y and the count ``m`` of a batch to ``member``."""
     member.xtx += xtx
     member.raw_ss += np.diagonal(xtx)
     member.xty += xty
-    member.yty += float(yty)
-    member.n += xy.shape[1]
+    member.yty += yty
+    member.n += m
 
 
 def _moments(xy: np.ndarray, tz: list[np.ndarray], g: Grouping, out: np.ndarray) -> None:

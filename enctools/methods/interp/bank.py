@@ -17,8 +17,10 @@ from collections.abc import Iterator, Sequence
 
 import numpy as np
 
+from enctools.data.readings import HeadInfo
+from enctools.methods.interp import fused
 from enctools.methods.interp.fit import InterpolationFit, Samples, Steps, reference_sum
-from enctools.methods.trend_lsq import MemberRows, StackedTrendLSQ, group_batch
+from enctools.methods.trend_lsq import Grouping, MemberRows, StackedTrendLSQ, group_batch
 
 
 class FitBank:
@@ -69,15 +71,7 @@ class FitBank:
         m = ref.size
         if m == 0:
             return
-        if first.window is None:
-            groups = samples[0].groups
-            keys = np.zeros(m, np.int64) if groups is None \
-                else np.asarray(groups).astype(np.int64)
-            grouping, scale = group_batch(keys, ref, first.lsq.d1 - 1, first.period), first.period
-        else:
-            grouping, scale = first.grouping(ref, samples[0].groups), first.window / 2
-            for f in self.fits[1:]:
-                f.origin = first.origin       # the same windows if the bank parts later
+        grouping, scale = self._grouping(ref, samples[0].groups)
         xy = np.empty((first.lsq.p + 1, m))   # one buffer: each fit's rows summed in turn
         bits = np.empty(m, np.uint8)
 
@@ -87,6 +81,44 @@ class FitBank:
                 yield xy, bits, xtx
 
         self.stack.add(ref, scale, grouping, rows())
+
+    def _grouping(self, ref: np.ndarray, groups: np.ndarray | None) -> tuple[Grouping, float]:
+        """The batch's groups (the runs, or the windows of the reference angle ``ref``
+        [rad]) and the trend's scale [rad], shared by every fit of the bank."""
+        first = self.fits[0]
+        if first.window is None:
+            keys = np.zeros(ref.size, np.int64) if groups is None \
+                else np.asarray(groups).astype(np.int64)
+            return group_batch(keys, ref, first.lsq.d1 - 1, first.period), first.period
+        grouping = first.grouping(ref, groups)
+        for f in self.fits[1:]:
+            f.origin = first.origin       # the same windows if the bank parts later
+        return grouping, first.window / 2
+
+    def add_counts(self, counts: Sequence[np.ndarray], infos: Sequence[HeadInfo],
+                   reference_rad: np.ndarray, reference_step: np.ndarray | None,
+                   reference_steps: int, groups: np.ndarray | None = None) -> bool:
+        """One batch of every fit from its head's ``counts`` [count] (``infos``, in order),
+        summed by the compiled kernel (:mod:`.fused`); the reference's angle [rad] and,
+        for the fits that take its harmonics, its step [count] of ``reference_steps``.
+        False, and nothing added, when the kernel cannot take it (absent, counts not
+        integer, a reference not finite, groups not in order): then :meth:`add`."""
+        if reference_rad.size == 0:
+            return True
+        if not fused.usable(self.fits, counts, infos, reference_rad, reference_step,
+                            reference_steps):
+            return False
+        grouping, scale = self._grouping(reference_rad, groups)
+        if grouping.order is not None:
+            return False
+        rows = [fused.CountsRows(f, c, i, reference_rad, reference_step, reference_steps)
+                for f, c, i in zip(self.fits, counts, infos, strict=True)]
+        if self.stack is not None:
+            self.stack.add(reference_rad, scale, grouping, rows)
+        else:
+            for f, r in zip(self.fits, rows, strict=True):
+                f.lsq.add_fused(reference_rad, scale, grouping, r)
+        return True
 
     def close(self) -> None:
         """Close the groups still open (at the end of the input), before the results."""

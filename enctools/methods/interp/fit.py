@@ -268,16 +268,24 @@ class InterpolationFit:
         if dev_step is not None and s.positions is None and n_dev == self.lsq.p:
             # every column looked up by the step: X^T X and the phases sampled come from
             # the count of samples at each step, summed over the batches (_flush_steps)
-            per_step = np.bincount(dev_step, minlength=dev_steps)
-            if self._per_step is not None and self._per_step.size != per_step.size:
-                self._flush_steps()
-            if self._per_step is None:
-                self._per_step = per_step
-            else:
-                self._per_step += per_step
+            self.add_steps(np.bincount(dev_step, minlength=dev_steps), gram=True)
             return np.zeros((self.lsq.p, self.lsq.p))
         self.cover.add(s.device_phase, s.positions, dev_step, dev_steps)
         return None
+
+    def add_steps(self, per_step: np.ndarray, gram: bool) -> None:
+        """Samples counted at each step of the period (``per_step`` [1]) into the coverage;
+        with ``gram`` (every column looked up by the step) kept to make X^T X and the
+        coverage of when the fit is solved (:meth:`_flush_steps`)."""
+        if not gram:
+            self.cover.add_steps(per_step)
+            return
+        if self._per_step is not None and self._per_step.size != per_step.size:
+            self._flush_steps()
+        if self._per_step is None:
+            self._per_step = per_step
+        else:
+            self._per_step += per_step
 
     def _flush_steps(self) -> None:
         """The samples counted per step so far into the coverage and X^T X."""

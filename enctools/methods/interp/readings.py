@@ -213,17 +213,26 @@ def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema,
             continue
         ref = reference.read(batch)
         ref_rad, ref_step = ref.angle_rad, ref.step
-        ref_phase = ref.phase() if fits_reference else None
         groups = column(batch, "run") if has_run else None
         targets = column(batch, "target") if has_target else None
         sel = None if ref.rows is None else np.flatnonzero(ref.rows)
         if sel is not None:
             ref_rad = ref_rad[sel]
-            ref_phase = ref_phase[sel] if ref_phase is not None else None
             ref_step = ref_step[sel] if ref_step is not None else None
             groups = groups[sel] if groups is not None else None
             targets = targets[sel] if targets is not None else None
+        ref_phase = None
         for bank, devices in banks:
+            if targets is None and all(len(d.heads) == 1 for d in devices):
+                counts = [column(batch, d.heads[0]) for d in devices]
+                if bank.add_counts([c if sel is None else c[sel] for c in counts],
+                                   [d.infos[0] for d in devices], ref_rad, ref_step,
+                                   ref.steps if ref_step is not None else 0, groups):
+                    continue      # summed by the compiled kernel
+            if ref_phase is None and fits_reference:
+                ref_phase = ref.phase()
+                ref_phase = ref_phase[sel] if ref_phase is not None and sel is not None \
+                    else ref_phase
             angles, steps, finite = [], [], []
             for d in devices:
                 counts = [column(batch, n) for n in d.heads]

@@ -31,6 +31,9 @@ from enctools.methods.interp.reference import probe_rotation
 from enctools.methods.interp.settings import DEFAULT_WINDOW_ARCSEC
 from enctools.units import ARCSEC, DEG, TWO_PI
 
+#: every test with the compiled kernel and with the numpy passes (conftest.kernel_path)
+pytestmark = pytest.mark.usefixtures("kernel_path")
+
 HEADS = ["P1", "P2", "H1", "H2", "H3", "H4", "H5", "H6", "H7"]
 
 

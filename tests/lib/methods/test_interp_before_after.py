@@ -23,6 +23,9 @@ from conftest import ROOT, run
 
 from enctools.data.streams import read_table
 
+#: every test with the compiled kernel and with the numpy passes (conftest.kernel_path)
+pytestmark = pytest.mark.usefixtures("kernel_path")
+
 #: the revision before the fit's speed-ups (benchmarks/interp_fit.py's default)
 BEFORE = "ec875cc~1"
 ENC = "import sys; sys.argv[0] = 'enc'; from enctools.cli.main import main; main()"

@@ -28,6 +28,9 @@ from enctools.methods.interp.settings import DEFAULT_WINDOW_ARCSEC
 from enctools.methods.trend_lsq import StackedTrendLSQ, TrendProjectedLSQ, group_batch
 from enctools.units import TWO_PI
 
+#: every test with the compiled kernel and with the numpy passes (conftest.kernel_path)
+pytestmark = pytest.mark.usefixtures("kernel_path")
+
 ACQUIRE = "enc acquire --rig sjtu-dual --interval 0.00505 --heads H1,P1"
 
 
