@@ -54,6 +54,8 @@ def declared_periods(schema: pa.Schema) -> dict[str, float]:
     """The signal period [m] each head's signal columns state in their field metadata
     ``signal_period_nm`` (a readings stream of a linear scale, enc-streams(5)), by head;
     a head whose columns state none, or two, is left out."""
+    if not any(b"signal_period_nm" in (f.metadata or {}) for f in schema):
+        return {}  # a rotary encoder's readings: no need of the signal columns' module (scipy)
     from enctools.data.limits import FIELD_RANGES
     from enctools.data.schemas import field_meta, parse_field_value
     from enctools.methods.interp.signals import signal_columns
