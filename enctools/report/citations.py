@@ -51,6 +51,9 @@ _METHODS = {
     "average-heads": ("averaging of the reading heads of each encoder", "000"),
     "interp-check": ("interpolation error within one signal period against a reference "
                      "(capacitive probes or a second encoder)", "000"),
+    "interp-check-signals": ("interpolation error within one signal period from the "
+                             "encoder's own sine and cosine signals (Heydemann's ellipse fit)",
+                             ""),
     "points": ("angular positions against a reference (polygon and autocollimator, or a "
                "reference encoder)", "001"),
     "fit-rbf": ("radial-basis-function error model through the calibration points", "001"),
@@ -114,6 +117,8 @@ def method_of(meta: dict[str, Any]) -> str:
     settings = _settings(meta)
     if command == "selfcal" and settings.get("method") == "esa":
         command = "esa"
+    elif command == "interp-check" and settings.get("mode") == "signals":
+        command = "interp-check-signals"
     elif command == "acquire" and meta.get("mode") == "steps":
         command = "steps"
     if meta.get("axis") == "linear":

@@ -301,3 +301,19 @@ def test_demo_makefiles_use_the_certificates():
     for name in ("sjtu-dual", "ciomp-23bit"):
         mk = (EXAMPLES / f"{name}.mk").read_text()
         assert "--certificate" in mk and f"{name}-certificate.toml" in mk, name
+
+
+@pytest.mark.parametrize("settings, says, cites", [
+    ({"mode": "signals"}, "sine and cosine signals (Heydemann's ellipse fit)", False),
+    ({"mode": "reference"}, "capacitive probes or a second encoder) [1]", True)])
+def test_an_interpolation_check_is_named_by_its_mode(settings, says, cites):
+    """A signals run fits the encoder's own sin/cos (seed 000's probes are not its
+    reference): it is named so, and cites no paper; a reference run cites seed 000."""
+    from enctools.report import citations
+
+    meta = {"history": ["2026-12-07T10:00:00Z: enc interp-check x.arrows"],
+            "settings": settings}
+    with citations.collecting() as cited:
+        said = citations.method_of(meta)
+    assert says in said
+    assert cited == (["000"] if cites else [])
