@@ -14,6 +14,7 @@ PYTEST   = -m pytest -q -n 2 --dist loadgroup
 
 .DEFAULT_GOAL := help
 .PHONY: help install demo screenshot nightly chromium poppler test test-slow check test-min bench \
+        durations \
         accuracy fuzz man \
         lint typecheck clean
 
@@ -88,15 +89,23 @@ test: $(VENV)/.installed-test chromium poppler  ## install what the tests need, 
 test-slow: $(VENV)/.installed-test chromium poppler  ## the slow tier (the catalogue, the examples...)
 	$(BIN)/python $(PYTEST) -m slow
 
-check: $(VENV)/.installed-test  ## the fast tier: the library's own tests, no command run (under 30 s)
+check: $(VENV)/.installed-test  ## the fast tier: the library's quick tests, no command run (under 30 s)
 	@$(BIN)/python -c "import os; print('load average (1, 5, 15 min): %.2f %.2f %.2f' % os.getloadavg())"
-	$(BIN)/python $(PYTEST) -m 'not slow and not command' --durations=5
+	$(BIN)/python $(PYTEST) -m 'not slow and not command and not heavy' --durations=5
 
 # both tiers in one run: the oldest versions have failed in the slow tier's cases alone (pyarrow
 # 14 started a thread that hung every forked catalogue command; a signal during enc-nightly's
 # imports gave a traceback), so test-min does not keep to the fast tier
 test-min: $(VENV_MIN)/.installed  ## the whole suite, both tiers, on the oldest declared versions (.venv-min)
 	$(VENV_MIN)/bin/python $(PYTEST)
+
+# every test's wall and CPU seconds (tests/conftest.py, ENCTOOLS_TEST_TIMES), both tiers in turn
+durations: $(VENV)/.installed-test chromium poppler  ## the 25 slowest tests of make test and make test-slow (README)
+	@rm -f durations.jsonl
+	@$(BIN)/python -c "import os; print('load average (1, 5, 15 min): %.2f %.2f %.2f' % os.getloadavg())"
+	ENCTOOLS_TEST_TIMES=$(CURDIR)/durations.jsonl $(BIN)/python $(PYTEST) -m 'not slow'
+	ENCTOOLS_TEST_TIMES=$(CURDIR)/durations.jsonl $(BIN)/python $(PYTEST) -m slow
+	$(BIN)/python benchmarks/slowest_tests.py durations.jsonl --top 25
 
 bench: $(VENV)/.installed  ## measure speed and memory of every command (table for the README)
 	$(BIN)/python benchmarks/bench.py --out bench-out
@@ -142,4 +151,4 @@ typecheck: $(VENV)/.installed-lint  ## mypy (pinned; settings in pyproject.toml)
 	$(BIN)/mypy
 
 clean:  ## remove outputs (keeps .venv)
-	rm -rf $(OUT) bench-out fuzz-out nightly .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(OUT) bench-out fuzz-out nightly durations.jsonl .pytest_cache .mypy_cache .ruff_cache

@@ -2,12 +2,14 @@
 in-process runner for usage errors and small cases, and the simulator runs that several
 files read, made once per test session (once across xdist workers too).
 
-Tiers: ``make check`` runs the library's own tests: neither ``slow`` nor ``command``
-(under 30 s on two loaded cores, the load printed first); ``make test`` runs every test
-but the ``slow`` ones, ``make test-slow`` those (CI runs both). A test is marked
-``command`` here, at collection, when it runs a command or the simulator (itself,
+Tiers: ``make check`` runs the library's quick tests: neither ``slow`` nor ``command``
+nor ``heavy`` (about 10 s on two quiet cores, the load printed first); ``make test`` runs
+every test but the ``slow`` ones, ``make test-slow`` those (CI runs both). A test is
+marked ``command`` here, at collection, when it runs a command or the simulator (itself,
 through its module's helpers or a fixture); it is marked ``slow`` by hand when it runs a
-full-size simulation, many subprocesses or a long in-process computation.
+full-size simulation, many subprocesses or a long in-process computation, ``heavy`` by
+hand when it runs in process but takes over a tenth of a second on a quiet core (or is
+the first of its file to pay for a scan or a render the others share).
 """
 
 from __future__ import annotations
@@ -373,6 +375,44 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
             f"children: {seconds:.0f} s, {cpu:.0f} s of CPU")
 
 
+# ------------------------------------------------------------ where the time goes
+
+#: ENCTOOLS_TEST_TIMES=FILE: every test's wall and CPU seconds appended to FILE, a JSON line
+#: each (``make durations`` reads them into the README's table of the slowest tests)
+_TIMES = os.environ.get("ENCTOOLS_TEST_TIMES")
+
+
+def _cpu_seconds() -> tuple[float, float]:
+    """CPU seconds (user + system) of this process and of the children it has waited for."""
+    import resource
+
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), \
+        resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime, kids.ru_utime + kids.ru_stime
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """With ENCTOOLS_TEST_TIMES, one line per test: its node id, tier, wall seconds and
+    CPU seconds (setup, call and teardown; the commands it waited for included)."""
+    if not _TIMES:
+        yield
+        return
+    import json
+    import time
+
+    wall, (own, kids) = time.perf_counter(), _cpu_seconds()
+    yield
+    wall, (own2, kids2) = time.perf_counter() - wall, _cpu_seconds()
+    tier = "slow" if item.get_closest_marker("slow") else \
+        "heavy" if item.get_closest_marker("heavy") else "test"
+    line = json.dumps({"test": item.nodeid, "tier": tier, "wall_s": round(wall, 4),
+                       "cpu_s": round(own2 - own, 4), "children_cpu_s": round(kids2 - kids, 4),
+                       "load": round(os.getloadavg()[0], 2)})
+    with open(_TIMES, "a", encoding="utf-8") as f:  # one short write: whole in O_APPEND
+        f.write(line + "\n")
+
+
 # ------------------------------------------------------------ the tiers
 
 #: calls that run a command (a subprocess, or enc in this process) or the simulator
@@ -412,10 +452,12 @@ def _command_runners(path: str) -> set[str]:
 @pytest.hookimpl(tryfirst=True)  # before xdist reads the groups (its hook names them)
 def pytest_collection_modifyitems(config, items) -> None:
     """Mark ``command`` each test that runs a command or the simulator (itself, through
-    its module's helpers, or through a fixture that does): ``make check`` leaves them
-    out with the ``slow`` ones, keeping the library's own tests. Then group the tests
+    its module's helpers, or through a fixture that does), when the marker expression
+    names ``command``: ``make check`` leaves them out with the ``slow`` and ``heavy``
+    ones, keeping the library's quick tests. Then group the tests
     for the two workers (:func:`_group_for_workers`)."""
-    for item in items:
+    # read by the marker expression alone (make check's): 0.6 s of CPU a worker otherwise
+    for item in items if "command" in (config.getoption("markexpr", "") or "") else ():
         function = getattr(item, "originalname", None) or item.name.split("[")[0]
         runners = _command_runners(str(item.path))
         if function in runners or set(item.fixturenames) & (COMMAND_FIXTURES | runners):

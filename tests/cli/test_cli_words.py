@@ -52,6 +52,7 @@ def usage_errors(layer: str) -> list[str]:
     return found
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("layer", LAYERS)
 def test_no_flag_text_below_cli(layer: str) -> None:
     found = flag_strings(layer)

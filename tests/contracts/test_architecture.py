@@ -81,6 +81,7 @@ def graph() -> dict[str, set[str]]:
     return {_module_name(p): _imports(p) for p in FILES}
 
 
+@pytest.mark.heavy
 def test_every_import_points_down_the_layers():
     wrong = [f"{src} ({_layer(src)}) imports {dst} ({_layer(dst)})"
              for src, targets in graph().items() for dst in sorted(targets)
@@ -88,6 +89,7 @@ def test_every_import_points_down_the_layers():
     assert not wrong, "\n".join(wrong)
 
 
+@pytest.mark.heavy
 def test_the_layer_test_can_fail():
     # the rules themselves: a method may not reach the instruments nor the commands
     assert "hw" not in ALLOWED["methods"] and "cli" not in ALLOWED["report"]
@@ -96,6 +98,7 @@ def test_the_layer_test_can_fail():
     assert "enctools.data.streams" in graph()["enctools.methods.heads"]
 
 
+@pytest.mark.heavy
 def test_no_import_cycles():
     # Package __init__ modules are left out: importing enctools.hw.sim runs
     # enctools/hw/__init__.py first, which is not an edge of the design.

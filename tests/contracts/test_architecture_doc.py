@@ -118,12 +118,14 @@ def test_the_page_cites_names_at_all():
     assert len(cited()) > 100
 
 
+@pytest.mark.heavy
 def test_every_name_the_page_cites_exists():
     missing = [f"line {n}: `{t}`" for n, t in cited() if not _exists(t)]
     assert not missing, "docs/ARCHITECTURE.md cites what the code does not have:\n" + \
         "\n".join(missing)
 
 
+@pytest.mark.heavy
 def test_what_the_page_says_is_gone_is_gone():
     back = sorted(t for t in GONE if t in _definitions()[1])
     assert not back, f"the page cites as gone what the code still defines: {back}"

@@ -90,6 +90,7 @@ def warnings_in(stderr: bytes) -> list[str]:
     return [line for line in stderr.decode().splitlines() if WARNING.search(line)]
 
 
+@pytest.mark.heavy
 def test_the_sections_and_campaigns_are_found():
     """Renaming a section or a campaign must fail here, not silently test nothing; a new
     section with commands must be run or listed as skipped."""

@@ -121,6 +121,7 @@ CASES = [(kind, rows, fmt) for kind in KINDS for rows in (0, 1, 37) for fmt in (
 CASES += [("deviations", 70_000, "csv"), ("spectrum", 70_000, "tsv")]
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize(("kind", "rows", "fmt"), CASES)
 def test_every_kind_reads_back_to_the_same_stream(tmp_path, kind, rows, fmt):
     header, table = kind_table(kind, rows)
@@ -439,6 +440,7 @@ def _read_pair(tmp_path, table: bytes, sidecar: bytes) -> None:
         assert "\n" not in str(exc)
 
 
+@pytest.mark.heavy
 @settings(max_examples=80, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(cut=st.floats(min_value=0.0, max_value=1.0), flip=st.integers(0, 10**9),

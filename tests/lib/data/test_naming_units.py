@@ -221,6 +221,7 @@ _LITERALS = re.compile(
     r"np\.radians|np\.degrees|math\.radians|math\.degrees")
 
 
+@pytest.mark.heavy
 def test_no_literal_angle_conversion_left_in_the_library():
     found = []
     for path in sorted((ROOT / "enctools").rglob("*.py")):

@@ -28,6 +28,7 @@ def exact_sums(x: np.ndarray, v: np.ndarray, band: int) -> np.ndarray:
     return v @ e.T
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("samples,band,direction,wobble", [
     (11881, 100, 1, 1e-4),     # the sjtu-dual default: 11 881 samples (5.05 ms), 100 harmonics
     (20000, 100, 1, 1e-4),     # the paper's 3 ms: 20 000 samples

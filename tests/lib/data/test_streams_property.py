@@ -74,6 +74,7 @@ def _read_bytes(data: bytes) -> None:
         assert "\n" not in str(exc)
 
 
+@pytest.mark.heavy
 @settings(max_examples=300, deadline=None)
 @given(st.binary(max_size=2048))
 def test_any_bytes_read_or_fail_with_one_line(data):

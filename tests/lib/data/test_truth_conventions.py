@@ -90,6 +90,7 @@ class _Forgetful(VirtualRig):
         return super().settled(angle)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("rig", ["ciomp-23bit", "sjtu-dual"])
 def test_what_the_simulator_remembers_is_what_it_would_work_out(rig: str) -> None:
     """A held position's truth and the angle settled at for a target are remembered; the

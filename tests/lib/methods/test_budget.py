@@ -14,7 +14,6 @@ import sys
 import numpy as np
 import pytest
 from conftest import ROOT, one_error_line, run, simulate
-from scipy import stats
 
 from enctools.data.uncertainty import Declaration, declaration
 from enctools.errors import DataError
@@ -30,6 +29,7 @@ import budget_mc
 def _bias_rms(q: float, sigma: float, grid: int = 400) -> float:
     """rms over x in one count of E[round((x + n)/q) q] - x, n ~ N(0, sigma): summed
     over the quantiser's levels with the normal distribution, not by the Fourier series."""
+    from scipy import stats  # 0.5 s of CPU to import: not at collection
     x = (np.arange(grid) + 0.5) / grid * q
     levels = np.arange(-60, 61) * q
     if sigma == 0.0:
@@ -69,6 +69,7 @@ def test_probe_sensitivities_are_the_derivatives_of_psi_h_over_l() -> None:
 
 
 def test_polygon_run_budget_by_hand() -> None:
+    from scipy import stats  # 0.5 s of CPU to import: not at collection
     run_ = B.PolygonRun(s_arcsec=0.05, dof=96, readings=5, span_arcsec=4.0, lsb_arcsec=0.1545,
                         heads=2, head_s_arcsec=0.06)
     face = Declaration("polygon", 0.1, "arcsec", "rectangular", source="cert P-1")
@@ -253,6 +254,7 @@ BAND = (179, 198)
 
 
 def test_the_band_holds_a_correct_u_with_probability_0_999() -> None:
+    from scipy import stats  # 0.5 s of CPU to import: not at collection
     b = stats.binom(RUNS, 0.95)
     assert b.cdf(BAND[1]) - b.cdf(BAND[0] - 1) >= 0.999
 
@@ -274,6 +276,7 @@ def test_monte_carlo_coverage_of_the_budgets_u() -> None:
     assert not BAND[0] <= covered_wrong <= BAND[1], covered_wrong
 
 
+@pytest.mark.heavy
 def test_draw_follows_each_distribution() -> None:
     rng = np.random.default_rng(5)
     for dist, k in (("normal", 2.0), ("rectangular", 1.0), ("triangular", 1.0),

@@ -48,6 +48,7 @@ def test_monte_carlo_coverage_of_U_and_without_the_reference_row():
     assert comparison_mc.monte_carlo(800, seed=3, leave_out_reference=True) < 0.88
 
 
+@pytest.mark.heavy
 def test_monte_carlo_of_an_uncorrected_reference_draws_its_truth():
     """The reference used as it reads: its error is the simulator's encoder I at a random
     angle, not a draw from a declaration. Its bound covers all of it (a bound's U covers

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 
+import pytest
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -17,6 +18,7 @@ import interp_mc
 CURVES = 800
 
 
+@pytest.mark.heavy
 def test_the_probe_budget_covers_95_percent_of_the_true_interpolation_error():
     """At 800 curves the binomial standard error at 0.95 is sqrt(0.95 0.05 / 800) = 0.0077,
     so 0.92..0.98 is +-3.9 of it (the seed is fixed: the test is deterministic; make bench

@@ -110,6 +110,7 @@ def test_a_polygon_step_run_of_several_runs_has_a_budget(tmp_path):
 TARGETS = 800
 
 
+@pytest.mark.heavy
 def test_monte_carlo_coverage_of_U_and_without_the_reference_row():
     """800 independent targets: at a true coverage of 0.95 the count's standard deviation
     is sqrt(0.95 0.05 / 800) = 0.0077, so 0.92..0.98 is +-3.9 of it (a false alarm about

@@ -23,7 +23,6 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from conftest import ROOT, one_error_line, run, run_in_process
-from scipy import stats
 
 from enctools.data.streams import read_table
 from enctools.data.truth import Truth
@@ -68,6 +67,7 @@ def test_repeats_dof(repeats: int, parts: int, dof: int) -> None:
 
 def test_type_a_coverage_is_students_k() -> None:
     """Type A alone: k is the t quantile at its dof (12.71 at 1, 2.09 at 19)."""
+    from scipy import stats  # 0.5 s of CPU to import: not at collection
     u = np.array([0.1, 0.3, 0.2])
     for dof in (1.0, 2.0, 19.0):
         cov = type_a_coverage(u, dof)
@@ -80,6 +80,7 @@ def test_type_a_coverage_is_students_k() -> None:
 def test_type_a_coverage_with_a_bound_by_welch_satterthwaite() -> None:
     """u_a 0.3 on 4 dof, u_b 0.4 exact: nu = (0.09 + 0.16)^2 / (0.09^2 / 4) = 30.86, over
     the column's mean variances (the points' own u_a, 0.2 and sqrt(0.14), mean 0.09)."""
+    from scipy import stats  # 0.5 s of CPU to import: not at collection
     u_a = np.array([0.2, math.sqrt(0.14)])
     cov = type_a_coverage(u_a, 4.0, 0.4)
     assert cov is not None
@@ -239,6 +240,7 @@ def test_repeated_rounding_stays_in_u_and_is_covered(tmp_path: Path) -> None:
 # ------------------------------------------------ repeated step runs in enc report
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("runs, directions", [(3, 1), (5, 1), (5, 2), (10, 2)])
 def test_repeated_step_run_points_u_covers_at_students_k(runs, directions):
     """The U of a point of a repeated step run (enc report's per-target mean, u from the

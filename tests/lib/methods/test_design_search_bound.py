@@ -93,6 +93,7 @@ def test_a_signal_ends_a_long_search_within_a_second(sig: str) -> None:
     assert out == b"" and err.decode().splitlines()[-1].startswith("enc design: error:")
 
 
+@pytest.mark.heavy
 def test_search_results_are_the_same_as_before() -> None:
     """The grid built slot by slot scores the same candidates as the former filtered
     product: the seed's search finds the same arrangement."""

@@ -49,6 +49,7 @@ def test_predicted_error_follows_the_truth_convention():
     assert np.abs(signal_phase_error(faults, phi) - e).max() < 1e-12
 
 
+@pytest.mark.heavy
 def test_noisy_estimates_within_stated_uncertainty():
     rng = np.random.default_rng(11)
     z = []

@@ -219,6 +219,7 @@ def test_esa_with_radial_motion_and_offsets(tmp_path: Path) -> None:
         assert np.sqrt(np.mean(e**2)) <= 1e-3  # nm, of about 40 nm
 
 
+@pytest.mark.heavy
 def test_exact_to_rounding_from_readings_in_rad() -> None:
     """Without counts the floor is float64's rounding at the size of the angle: 1e-11 of
     the profile, whatever the offsets and the coordinate."""

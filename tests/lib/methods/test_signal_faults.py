@@ -309,6 +309,7 @@ def test_a_gap_in_the_phase_over_several_periods(tmp_path, gap_deg, refused):
         assert worst_difference(out) < TOLERANCE_ARCSEC
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("seed", [0, 4, 11])
 def test_gaussian_noise_of_a_long_record_is_no_outlier(seed):
     """A million samples of 0.3 % radius noise: a fixed 5 sigma flags 3, 2 and 3 of them

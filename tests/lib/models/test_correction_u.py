@@ -44,6 +44,7 @@ def _eval(n: np.ndarray, c: np.ndarray, x_deg: np.ndarray) -> np.ndarray:
     return np.real(np.exp(1j * np.outer(np.radians(x_deg), n)) @ c)
 
 
+@pytest.mark.heavy
 def test_u_covers_the_true_residual_between_the_points():
     """24 points every 15 deg (noise 0.02") of 24 truths with orders up to 48: the model's
     true residual at 3600 angles (about its mean: the datum is the encoder's zero) lies

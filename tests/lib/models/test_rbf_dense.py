@@ -184,6 +184,7 @@ def even_subset(x: np.ndarray, most: int) -> np.ndarray:
     return order[np.floor(np.arange(most) * (x.size / most)).astype(int)]
 
 
+@pytest.mark.heavy
 def test_dense_table_by_blocks_is_the_reference(small_blocks):
     """The spread by the reference search on the even subset, the smoothing by the
     reference over every point at that spread; the model, its leave-one-out residuals

@@ -50,6 +50,7 @@ def _peaks(tmp_path: Path, bits: int, fmt: str) -> tuple[int, int, int]:
     return scan, write, verify
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("fmt", ["bin", "mif", "csv"])
 def test_peak_memory_does_not_grow_with_the_table(tmp_path: Path, fmt: str,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:

@@ -98,6 +98,7 @@ def digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("kept", [rom.KEPT_BYTES, 20_000, 0])
 def test_tables_written_by_block_are_the_bytes_written_whole(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kept: int) -> None:

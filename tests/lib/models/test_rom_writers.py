@@ -109,6 +109,7 @@ def test_text_tables_line_for_line(fmt, n):
             _check(fmt, _values(n, width, n + width, runs), rf.Target(fmt, width))
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("n", _sizes(8 * 65536 + 1, 32768 + 3))
 @pytest.mark.parametrize("endian", ("little", "big"))
 def test_intel_hex_record_for_record(n, endian):
@@ -126,6 +127,7 @@ def test_the_block_boundary_is_where_the_writers_change_block():
     assert max(SIZES) > 2 * writers.LINES
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("d", (5, 6, 7, 8, 9))
 def test_csv_lines_of_every_address_length(d):
     """Addresses of 5 to 9 digits (2^28 entries reach 9), in blocks of few runs of one value
@@ -146,6 +148,7 @@ def test_csv_lines_of_every_address_length(d):
     assert smooth.size <= writers.LINES and 10 ** d - smooth.size > 10 ** (d - 1)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("d", (5, 6, 7, 8, 9))
 def test_csv_runs_of_every_address_length(d):
     """Run by run (a table's seldom changing values): runs longer than a buffer of lines,
@@ -173,6 +176,7 @@ def test_csv_runs_of_every_address_length(d):
             assert len(parts) >= (len(want) // lines.out.size + 1 if size else 1)
 
 
+@pytest.mark.heavy
 def test_csv_spans_run_by_run_and_block_by_block(monkeypatch):
     """A table whose stretches alternate between seldom and often changing values is written
     a span at a time, each span by the way its values suit: the same lines either way."""
@@ -195,6 +199,7 @@ def test_csv_spans_run_by_run_and_block_by_block(monkeypatch):
     assert runs == [10_000, 100_000]
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("fmt", ("coe", "mem"))
 def test_word_lines_span_by_span(fmt, monkeypatch):
     """COE and MEM take a table a span at a time: a span of seldom changing values as its
@@ -213,6 +218,7 @@ def test_word_lines_span_by_span(fmt, monkeypatch):
         _check(fmt, values.astype(dtype), rf.Target(fmt, width))
 
 
+@pytest.mark.heavy
 def test_csv_of_wide_words_holding_small_values():
     """A 24-bit table whose values fit 16 bits is written from the table of 16-bit values'
     text, one whose values do not by Arrow's writer: the same lines either way."""

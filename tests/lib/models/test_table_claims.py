@@ -69,6 +69,7 @@ def test_a_binary_image_longer_than_the_code_is_refused_unread(tmp_path: Path) -
     assert f"{table}: 536870912 entries do not address a 23-bit code" in line
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("fmt", ["bin", "mif", "coe", "mem", "csv", "ihex"])
 @pytest.mark.parametrize("width", [8, 12, 16, 24, 32])
 def test_block_reading_equals_the_whole_read(tmp_path: Path, fmt: str, width: int,

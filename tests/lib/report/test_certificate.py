@@ -157,6 +157,7 @@ def documents(tmp_path_factory):
     return render(doc, page=True), text, doc
 
 
+@pytest.mark.heavy
 def test_html_and_pdf_from_one_template_say_the_same(documents):
     page, text, doc = documents
     assert NUMBERS["001"] in page and NUMBERS["001"] in text
@@ -174,6 +175,7 @@ def test_html_and_pdf_from_one_template_say_the_same(documents):
         assert header in page and header in flat, header
 
 
+@pytest.mark.heavy
 def test_budget_table_holds_every_contribution_and_the_totals(documents):
     page, text, _ = documents
     b = _budget()

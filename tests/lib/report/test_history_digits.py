@@ -32,6 +32,7 @@ def _history(root) -> None:
                           "pp": pp, "std": std, "drift_max": drift, "tolerance": tol})
 
 
+@pytest.mark.heavy
 def test_a_history_of_milliarcsecond_curves_prints_four_significant_digits(tmp_path):
     _history(tmp_path)
     lines = read_history(tmp_path).text_lines()

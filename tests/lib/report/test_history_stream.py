@@ -8,6 +8,7 @@ import datetime as dt
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
+import pytest
 
 from enctools.report import historyrows
 from enctools.report.display import _history
@@ -34,6 +35,7 @@ def _write(folder, start, count, seed, reverse=False):
                    row_group_size=7)
 
 
+@pytest.mark.heavy
 def test_a_large_history_reads_as_the_whole(tmp_path, monkeypatch):
     _write(tmp_path, 0, 40, 1)
     _write(tmp_path, 40, 30, 2)

@@ -35,6 +35,7 @@ def fleet(root) -> None:
                               "pp": float(when.month), "drift_max": float(k)})
 
 
+@pytest.mark.heavy
 def test_a_night_is_one_commit_in_its_rig_partition_with_the_schema_version(tmp_path):
     from deltalake import DeltaTable
 
@@ -52,6 +53,7 @@ def test_a_night_is_one_commit_in_its_rig_partition_with_the_schema_version(tmp_
     assert read_history(tmp_path).table.schema == SCHEMA
 
 
+@pytest.mark.heavy
 def test_a_retried_night_adds_nothing(tmp_path):
     from deltalake import DeltaTable
 
@@ -64,6 +66,7 @@ def test_a_retried_night_adds_nothing(tmp_path):
     assert read_history(tmp_path).column("pp").tolist() == [1.0]
 
 
+@pytest.mark.heavy
 def test_the_rig_names_come_back_as_the_same_strings_in_every_reader(tmp_path):
     """pyarrow.dataset, polars and DuckDB: "0042" a string, not 42; non-ASCII intact."""
     import duckdb
@@ -86,6 +89,7 @@ def test_the_rig_names_come_back_as_the_same_strings_in_every_reader(tmp_path):
         assert read_history(tmp_path, rig=name).column("rig").tolist() == [name, name]
 
 
+@pytest.mark.heavy
 def test_duckdb_reads_the_table_with_the_same_rig_strings(tmp_path):
     """enc-history(1)'s DuckDB recipe where its delta extension cannot be fetched: the
     table as an Arrow dataset, the rig from the log's partition values (never from the
@@ -105,6 +109,7 @@ def test_duckdb_reads_the_table_with_the_same_rig_strings(tmp_path):
     assert got.fetchall() == [("0042", 2)]
 
 
+@pytest.mark.heavy
 def test_a_night_compacts_its_rig_when_its_files_pass_the_count(tmp_path, monkeypatch):
     """Nothing else compacts a table that enc-nightly appends to: the night that leaves
     more than CROWDED_FILES files in its rig's partition rewrites them into one, every
@@ -126,6 +131,7 @@ def test_a_night_compacts_its_rig_when_its_files_pass_the_count(tmp_path, monkey
     assert append_run(tmp_path, {"rig": "0042", "status": "ok", "run_id": "n3"}) == 0
 
 
+@pytest.mark.heavy
 def test_a_compaction_that_fails_leaves_the_night_recorded(tmp_path, monkeypatch):
     """The night is committed before its rig is compacted: a compaction that fails (a full
     disk, another writer's compaction first) is told and loses nothing."""
@@ -161,6 +167,7 @@ def test_a_compaction_that_fails_leaves_the_night_recorded(tmp_path, monkeypatch
     assert sorted(read_history(tmp_path).column("run_id").tolist()) == ["n0", "n1", "n2"]
 
 
+@pytest.mark.heavy
 def test_since_skips_the_files_before_it_by_the_log_alone(tmp_path):
     """--since is pushed down to the log's statistics: a file whose runs all precede it
     is not opened (here: removed from the disk, and the read does not notice)."""
@@ -181,6 +188,7 @@ def read_one_time(path) -> dt.datetime:
     return pq.read_table(path, columns=["time"]).column("time")[0].as_py()
 
 
+@pytest.mark.heavy
 def test_compact_leaves_a_checkpoint_of_the_version_it_made(tmp_path):
     """A reader opens a compacted table from one checkpoint, not by replaying each night's
     commit since the last (36,500 nights: 1.2 s to open, 0.1 s)."""
@@ -191,6 +199,7 @@ def test_compact_leaves_a_checkpoint_of_the_version_it_made(tmp_path):
     assert read_history(tmp_path).runs == 2 * len(NAMES)
 
 
+@pytest.mark.heavy
 def test_the_readme_query_runs_in_duckdb(tmp_path):
     """The README's fleet query, word for word, on the table read through Arrow."""
     import duckdb
@@ -216,6 +225,7 @@ def test_report_reads_the_table_one_rig_since_a_date(tmp_path):
                                                                1.0)]
 
 
+@pytest.mark.heavy
 def test_a_new_column_is_a_schema_evolution_of_the_same_table(tmp_path):
     """A later version's column is added to the table; this version reads on."""
     from deltalake import DeltaTable, write_deltalake

@@ -10,7 +10,6 @@ import numpy as np
 import pyarrow as pa
 import pytest
 from conftest import run
-from scipy import stats
 
 from enctools.data.schemas import field_meta
 from enctools.data.streams import Header, write_table
@@ -208,6 +207,7 @@ def _report_json(path) -> dict:
 
 
 def test_iso230_of_a_step_run_is_computed_per_approach(step_runs):
+    from scipy import stats  # 0.5 s of CPU to import: not at collection
     path = step_runs / "runs5.arrows"
     sec = _report_json(path)
     cols, dev = _raw_positioning(path)

@@ -44,6 +44,7 @@ def _same(held: object, long: object, rtol: float, where: str = "") -> None:
         assert held == long, where
 
 
+@pytest.mark.heavy
 def test_a_long_stream_reports_what_the_held_one_does(tmp_path, monkeypatch):
     # a grid of 20,000 points, an interpolation error within a period and a comparison
     # (u and the rig's budget): held whole, then read in blocks of 20,000 / 3 rows
@@ -96,6 +97,7 @@ def test_a_long_curve_off_a_uniform_grid_gets_its_harmonics_from_arc_means(
         assert found[n] == pytest.approx(amplitude, rel=2e-3), n
 
 
+@pytest.mark.heavy
 def test_a_long_stream_is_not_held(tmp_path):
     # 1,000,000 grid points (two curves: 24 MB of columns): the report's own arrays
     # stay within a few blocks, whatever the rows (before: every curve held, 100 MB)

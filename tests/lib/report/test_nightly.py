@@ -191,6 +191,7 @@ def pa_table(rows, schema):
     return pa.Table.from_pylist(rows, schema=schema)
 
 
+@pytest.mark.heavy
 def test_history_rows_have_the_schema(tmp_path):
     assert append_run(tmp_path, {"rig": "x", "status": "ok", "drift_max": 0.1}) == 1
     assert (tmp_path / "_delta_log").is_dir()
@@ -419,6 +420,7 @@ def test_stale_work_folders_only_of_dead_processes(tmp_path):
     assert sorted(f.name for f in tmp_path.iterdir()) == sorted(names[1:])
 
 
+@pytest.mark.heavy
 def test_no_file_of_another_writer_is_removed_by_a_night(tmp_path):
     """A file another writer is writing (or left) in the history stays: an append
     removes nothing (compaction's VACUUM alone does, past its retention)."""
@@ -545,6 +547,7 @@ def test_a_night_does_not_import_pandas(tmp_path):
 
 # ------------------------------------------------ the campaign: in-process or a script
 
+@pytest.mark.heavy
 def test_the_default_campaign_runs_in_process_without_a_shell(tmp_path, monkeypatch):
     """The default campaign (a step run of the polygon and its points) is run through the
     library: no process is started, and the history records it as the pipeline it stands
@@ -573,6 +576,7 @@ def test_the_default_campaign_runs_in_process_without_a_shell(tmp_path, monkeypa
         "enc acquire --rig ciomp-23bit --mode steps", "enc points -o result.parquet"]
 
 
+@pytest.mark.heavy
 def test_a_library_campaign_is_a_callable(tmp_path):
     """report.nightly takes the campaign as a callable: its failure is the night's."""
     from enctools.errors import DeviceError

@@ -425,6 +425,7 @@ def _titled_plot(values, title: str):
     return fig
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("values", [np.sin, lambda x: 1000 + np.sin(x),
                                     lambda x: 1e-9 * np.sin(x), lambda x: 1e-6 + 1e-9 * np.sin(x)],
                          ids=["plain", "offset", "power of ten", "both"])
@@ -439,6 +440,7 @@ def test_plot_title_where_matplotlib_would_put_it(values, monkeypatch):
     assert ours == [plots.to_png(_titled_plot(values, t)) for t in ("short", long)]
 
 
+@pytest.mark.heavy
 def test_plot_title_clears_the_power_of_ten(monkeypatch):
     """The case above can fail: at the top edge, a long title would cover the y axis's
     power of ten."""
