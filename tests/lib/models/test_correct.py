@@ -333,6 +333,7 @@ def fourier_residual(x_deg: np.ndarray, y: np.ndarray, order: int) -> np.ndarray
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(not MAGALPHA.is_dir(), reason="../shared/data/magalpha is not beside the clone")
 @pytest.mark.parametrize("name", ["calibration_data_input_example.csv",
                                   "calibration_data_input_example_add_75.csv",
                                   "calibration_data_input_example_add_260.csv"])
