@@ -22,7 +22,7 @@ from typing import Any
 from enctools.data.files import read_small_text
 from enctools.data.riglimits import MAX_BYTES, MAX_DEPTH, check_value, depth
 from enctools.data.text import check_identifier
-from enctools.data.uncertainty import declarations
+from enctools.data.uncertainty import Declaration, declarations
 from enctools.errors import DataError
 from enctools.units import DEG
 
@@ -276,13 +276,25 @@ def parse_rig(raw: dict[str, Any], source: str = "<rig>") -> Rig:
     backend = dict(raw.get("backend", {"kind": "sim"}))
     backend.setdefault("kind", "sim")
     _check_open_keys(raw, backend, source)
-    declarations(raw.get("uncertainty"), f"rig file {source}: uncertainty")
+    _check_declared_encoders(declarations(raw.get("uncertainty"),
+                                          f"rig file {source}: uncertainty"), encoders, source)
     return Rig(name=name, encoders=encoders, description=raw.get("description", ""),
                probes=_parse_probes(raw, source), polygon=dict(raw.get("polygon", {})),
                autocollimator=dict(raw.get("autocollimator", {})),
                motion=dict(raw.get("motion", {})), acquire=dict(raw.get("acquire", {})),
                backend=backend, source=source,
                uncertainty={k: dict(v) for k, v in raw.get("uncertainty", {}).items()})
+
+
+def _check_declared_encoders(declared: dict[str, Declaration], encoders: tuple[Encoder, ...],
+                             source: str) -> None:
+    """A declaration's ``encoder`` names one of the rig's encoders."""
+    names = [e.name for e in encoders]
+    for quantity, d in declared.items():
+        if d.encoder and d.encoder not in names:
+            msg = (f"rig file {source}: uncertainty.{quantity}.encoder {d.encoder!r} is not "
+                   f"an encoder of the rig ({', '.join(names)})")
+            raise DataError(msg)
 
 
 def _check_open_keys(raw: dict[str, Any], backend: dict[str, Any], source: str) -> None:

@@ -66,7 +66,9 @@ DIVISORS: dict[str, float] = {
 #: the keys of one declaration and their types (rig.py checks a rig file's tables by it)
 KEYS: dict[str, tuple[type, ...]] = {
     "value": (int, float), "unit": (str,), "distribution": (str,), "k": (int, float),
-    "dof": (int, float), "source": (str,), "expansion_per_k": (int, float)}
+    "dof": (int, float), "source": (str,), "expansion_per_k": (int, float), "encoder": (str,)}
+#: the quantities a declaration may tie to one of the rig's encoders (``encoder = "I"``)
+ENCODER_QUANTITIES = ("reference_encoder", "reference_encoder_uncorrected")
 
 
 @dataclass(frozen=True)
@@ -78,6 +80,7 @@ class Declaration:
     ``expansion_per_k`` [1/K]: the arm's expansion coefficient (temperature only).
     ``kind``: the evaluation, "B" (a rig's declarations) or "A" (a certificate's u that
     a Type A evaluation gave, as enc closure's face errors).
+    ``encoder``: the rig's encoder a reference encoder's row is of ("": not said, any).
     """
 
     quantity: str
@@ -89,6 +92,7 @@ class Declaration:
     source: str = ""
     expansion_per_k: float = 0.0
     kind: str = "B"
+    encoder: str = ""
 
     @property
     def dimension(self) -> str:
@@ -174,7 +178,20 @@ def declaration(quantity: str, table: Any, where: str) -> Declaration:
     if not isinstance(source, str):
         msg = f"{where}.source must be a string, not {source!r}"
         raise DataError(msg)
-    return Declaration(quantity, value, unit, distribution, k, dof, source, expansion)
+    return Declaration(quantity, value, unit, distribution, k, dof, source, expansion,
+                       encoder=_encoder(table, quantity, where))
+
+
+def _encoder(table: dict[str, Any], quantity: str, where: str) -> str:
+    """The encoder a reference encoder's declaration is of ("" when it names none)."""
+    encoder = table.get("encoder", "")
+    if encoder and quantity not in ENCODER_QUANTITIES:
+        msg = f"{where}.encoder is for {' and '.join(ENCODER_QUANTITIES)} only"
+        raise DataError(msg)
+    if not isinstance(encoder, str) or ("encoder" in table and not encoder.strip()):
+        msg = f"{where}.encoder must name one of the rig's encoders, not {encoder!r}"
+        raise DataError(msg)
+    return encoder
 
 
 def declarations(tables: Any, where: str) -> dict[str, Declaration]:

@@ -230,12 +230,15 @@ def run(source: InputStream, settings: Settings, progress: Callable[[int], Any] 
     spec = ChannelSpec(dev, refs, mean=True)  # the device is their mean
     revs = revolution_spectra(source, spec, band, progress,
                               grid_points=0 if band > 0 else points)
-    return _outputs(source.header, settings, compare(revs, band, points, correction))
+    return _outputs(source.header, settings, compare(revs, band, points, correction),
+                    ",".join(sorted({r.encoder for r in refs})))
 
 
-def _outputs(header: Header, settings: Settings, res: Comparison
+def _outputs(header: Header, settings: Settings, res: Comparison, ref_encoder: str
              ) -> tuple[tuple[Header, pa.Table], tuple[Header, pa.Table] | None]:
-    """The deviations (curve on the grid) and, band-limited, spectrum of a comparison."""
+    """The deviations (curve on the grid) and, band-limited, spectrum of a comparison;
+    ``ref_encoder``: the encoder(s) of the reference's heads, recorded with the settings
+    (the budget takes the row the rig declares for that encoder, enc-rig(5))."""
     from enctools.data.curves import Column, deviations_table, spectrum_table, uncertainty
 
     label = settings.label
@@ -246,7 +249,7 @@ def _outputs(header: Header, settings: Settings, res: Comparison
             uncertainty(label, res.curve_uncertainty, "arcsec",
                         None if curve_cov is None else curve_cov.field_meta())]
     table = deviations_table(grid(settings.points), cols)
-    recorded = settings.to_dict() | {"revolutions": res.revolutions}
+    recorded = settings.to_dict() | {"revolutions": res.revolutions, "ref_encoder": ref_encoder}
     deviations = header.derive("deviations", table.schema, settings=recorded,
                                domain="revolution")
     if res.coefficients is None:

@@ -276,9 +276,10 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
         return
     declared = rig_declarations(s.meta, s.source)
     quantity = reference_quantity(corrected=False)
-    if reference and quantity not in declared:
+    if reference and (quantity not in declared or declared[quantity].encoder not in
+                      ("", encoder)):
         refuse(s, [curve], quantity, f"encoder {encoder} is read without its calibrated "
-                                     "curve")
+                                     "curve", declared.get(quantity))
         return
     u_a = float(np.sqrt(np.mean(np.square(curve.u))))
     budget = step_run_budget(u_a, float(curve.dof),
@@ -297,18 +298,21 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
                    f"{_dof(budget.nu_eff)})")
 
 
-def refuse(s: Any, curves: list[Any], quantity: str, how: str) -> None:
+def refuse(s: Any, curves: list[Any], quantity: str, how: str,
+           other: Declaration | None = None) -> None:
     """No expanded uncertainty for ``curves`` of section ``s`` (their u dropped, no
-    budget) when the reference encoder's row, ``quantity``, is not declared: a U without
-    it would leave the reference's error out, and its other declaration (the smaller
-    calibration's U for an uncorrected reference) never stands in for it. One note says
-    why (enc-report(1), UNCERTAINTY BUDGET)."""
+    budget) when the reference encoder's row, ``quantity``, is not declared, or is
+    declared for another encoder (``other``): a U without it would leave the reference's
+    error out, and another declaration (the smaller calibration's U for an uncorrected
+    reference, another encoder's row) never stands in for it. One note says why
+    (enc-report(1), UNCERTAINTY BUDGET)."""
     for c in curves:
         c.u = None
     s.budget = None
-    s.notes.append(f"no expanded uncertainty U is stated: {how}, and the rig declares no "
-                   f"[uncertainty.{quantity}] (enc-rig(5)), without which U would leave "
-                   f"the reference's error out")
+    declares = f"declares [uncertainty.{quantity}] for encoder {other.encoder} only" \
+        if other is not None else f"declares no [uncertainty.{quantity}]"
+    s.notes.append(f"no expanded uncertainty U is stated: {how}, and the rig {declares} "
+                   f"(enc-rig(5)), without which U would leave the reference's error out")
 
 
 def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
@@ -318,8 +322,9 @@ def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
     degrees of freedom and the reference encoder's row as the rig declares it
     (enc-rig(5)): ``reference_encoder`` when the comparison applied the reference's
     calibrated curve (its settings record ``ref_curve``), else
-    ``reference_encoder_uncorrected``. (None, None) for a curve not of enc compare;
-    (None, quantity) when that quantity is not declared."""
+    ``reference_encoder_uncorrected``, of the reference's encoder (``ref_encoder``) when the
+    declaration names one. (None, None) for a curve not of enc compare; (None, quantity)
+    when that quantity is not declared, or declared for another encoder."""
     history = meta.get("history") or []
     settings = meta.get("settings")
     if not history or ": enc compare " not in str(history[-1]) \
@@ -327,9 +332,17 @@ def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
         return None, None
     quantity = reference_quantity(corrected=settings.get("ref_curve") is not None)
     declared = rig_declarations(meta, source)
-    if quantity not in declared:
+    if quantity not in declared or not _of_encoder(declared[quantity], settings):
         return None, quantity
     return comparison_budget(u_a_arcsec, dof, declared[quantity]), quantity
+
+
+def _of_encoder(declared: Declaration, settings: dict[str, Any]) -> bool:
+    """Whether a reference encoder's row is of the comparison's reference: the row names no
+    encoder, or the one the comparison records (a curve made before enctools recorded
+    its reference's encoder, ``ref_encoder``, takes the row as declared)."""
+    made = settings.get("ref_encoder")
+    return not declared.encoder or not isinstance(made, str) or made == declared.encoder
 
 
 def curve_budget_into(s: Any, curve: Any, dof: float) -> None:
@@ -453,10 +466,13 @@ def comparison_into(s: Any, curve: Any, dof: float) -> None:
     if quantity is None:
         return
     if budget is None:
+        settings = s.meta["settings"]
         how = ("the reference encoder's calibrated curve was applied" if quantity ==
                "reference_encoder" else "the reference encoder is used without its "
                "calibrated curve")
-        refuse(s, [curve], quantity, how)
+        if settings.get("ref_encoder"):
+            how = f"{how} (the reference's heads are of encoder {settings['ref_encoder']})"
+        refuse(s, [curve], quantity, how, rig_declarations(s.meta, s.source).get(quantity))
         return
     u_ref = budget.contributions[1].u_arcsec
     s.budget = budget

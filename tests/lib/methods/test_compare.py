@@ -198,7 +198,8 @@ def test_settings_name_and_unfiltered_grid() -> None:
 
 
 def test_settings_recorded_as_before(short_run: tuple, tmp_path: Path) -> None:
-    """The outputs' settings: the options, the column's name filled in, then revolutions."""
+    """The outputs' settings: the options, the column's name filled in, then revolutions and
+    the encoder of the reference's heads (P1, P2: encoder I)."""
     from enctools.data.streams import InputStream, write_table
     from enctools.methods import compare, selfcal
 
@@ -207,7 +208,8 @@ def test_settings_recorded_as_before(short_run: tuple, tmp_path: Path) -> None:
                                     compare.Settings(("H1", "H2"), ("P1", "P2"), band=20,
                                                      points=64, spectrum=True))
     want = {"device": ["H1", "H2"], "ref": ["P1", "P2"], "band": 20, "points": 64,
-            "name": "H1+H2-P1+P2", "ref_curve": None, "ref_column": None, "revolutions": 2}
+            "name": "H1+H2-P1+P2", "ref_curve": None, "ref_column": None, "revolutions": 2,
+            "ref_encoder": "I"}
     assert spectrum is not None
     for h in (dh, spectrum[0]):
         assert json.dumps(h.meta["settings"]) == json.dumps(want)  # keys in this order
@@ -222,4 +224,5 @@ def test_settings_recorded_as_before(short_run: tuple, tmp_path: Path) -> None:
     assert spectrum is None
     assert json.dumps(dh.meta["settings"]) == json.dumps(
         {"device": ["H1"], "ref": ["H2", "H3"], "band": 0, "points": 60, "name": "d",
-         "ref_curve": curve, "ref_column": "graduation", "revolutions": 2})
+         "ref_curve": curve, "ref_column": "graduation", "revolutions": 2,
+         "ref_encoder": "II"})
