@@ -54,6 +54,11 @@ $(OUT)/correction.mif: $(OUT)/model.parquet
 $(OUT)/correction.bin: $(OUT)/model.parquet
 	$(ENC) make-rom $< --width 16 --verify -o $@ --force
 
+# 5b. The same words as a correction-table stream, for the certificate: its quantisation
+#     (half an LSB) is a term of the U of the correction the item ships with
+$(OUT)/rom.parquet: $(OUT)/model.parquet
+	$(ENC) make-rom $< --width 16 -o $@ --force
+
 # 6. A 256-point table for a SINUMERIK rotary axis (0..360 deg, both ends present) at the
 #    control's resolution (1 / MD10210 INT_INCR_PER_DEG), and a LinuxCNC joint
 #    compensation file from the points themselves (one point per polygon face)
@@ -75,9 +80,10 @@ $(OUT)/residual.parquet: $(OUT)/correction.mif $(OUT)/correction.bin
 
 # 7. The calibration certificate: text on stdout, HTML and A4 PDF for the customer (its
 #    conformity to the specification the certificate file names: p-p at most 5"), and
-#    the laboratory's record of how it was made (inputs, commands, versions)
-$(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet $(CERT)
-	$(ENC) report $(OUT)/points.parquet $(OUT)/model.parquet --certificate $(CERT) \
+#    the laboratory's record of how it was made (inputs, commands, versions); the
+#    correction table among its inputs (the ROM's words: 2^23 of them, read a block at a time)
+$(OUT)/report.html: $(OUT)/points.parquet $(OUT)/model.parquet $(OUT)/rom.parquet $(CERT)
+	$(ENC) report $(OUT)/points.parquet $(OUT)/model.parquet $(OUT)/rom.parquet --certificate $(CERT) \
 	    --title "Encoder $(RIG): polygon calibration and RBF model" --max-pp 5 \
 	    --html $@ --pdf $(OUT)/report.pdf --record $(OUT)/report-record.txt \
 	    --force > $(OUT)/report.txt

@@ -374,11 +374,17 @@ def radial_pair(names: list[str]) -> tuple[str, str] | None:
 
 
 def gather(stream: Any, curves: list[tuple[str, str, str | None]], nmax: int,
-           polar: tuple[str, str] | None) -> pa.Table | Gatherer:
+           polar: tuple[str, str] | None,
+           angle: Callable[[pa.RecordBatch], np.ndarray] | None = None) -> pa.Table | Gatherer:
     """A deviations stream of at most :data:`HOLD_ROWS` rows as one table; a longer one
     summed by a :class:`Gatherer`, block by block. ``curves``: (column, unit, uncertainty
-    column or None); theta is read in rad."""
+    column or None); ``angle``: a block's angles [rad] (default its theta column, read
+    in rad; a correction table's: its addresses over the table's size)."""
     from enctools.data.columns import column
+
+    if angle is None:
+        def angle(b: pa.RecordBatch) -> np.ndarray:
+            return column(b, "theta", "rad", stream.source)
 
     held: list[pa.RecordBatch] = []
     rows = 0
@@ -396,7 +402,7 @@ def gather(stream: Any, curves: list[tuple[str, str, str | None]], nmax: int,
 
     def add(b: pa.RecordBatch) -> None:
         if b.num_rows:
-            g.add(column(b, "theta", "rad", stream.source),
+            g.add(angle(b),
                   {name: column(b, name, unit, stream.source) for name, unit in units.items()})
 
     while held:

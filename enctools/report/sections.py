@@ -486,21 +486,43 @@ def _held_out(residuals: Any, source: str) -> tuple[np.ndarray, np.ndarray] | No
 
 
 def _rom(stream: InputStream, s: Section, opts: Options) -> None:
-    table = stream.read_all()
-    if table.num_rows == 0:
-        msg = f"{s.source}: rom stream has no rows"
-        raise DataError(msg)
+    """A correction table's corrections [count] against its addresses over a turn: a
+    table of at most ``longcurves.HOLD_ROWS`` addresses held whole, a longer one (a
+    23-bit ROM: 2^23 words) summed block by block, its size from its metadata
+    (``rom.entries``, enc-streams(5))."""
     rom = s.meta.get("rom", {})
     if isinstance(rom, dict):
         for k, v in rom.items():
             if isinstance(v, (str, int, float, bool)):
                 s.info[str(k)] = v
-    address = _col(table, "address")
-    corr = _col(table, "correction")
-    size = float(rom.get("size", address.max() + 1)) if isinstance(rom, dict) else address.max() + 1
-    s.curves.append(_curve("correction", "count", "correction", address * TWO_PI / size, corr,
-                           opts, s.source))
-    s.info["addresses"] = table.num_rows
+    size = rom.get("entries") if isinstance(rom, dict) else None
+    if size is not None and not (isinstance(size, int) and not isinstance(size, bool)
+                                 and size > 0):
+        msg = f"{s.source}: rom.entries must be a whole number of addresses > 0, not {size!r}"
+        raise DataError(msg)
+
+    def angle(b: pa.RecordBatch) -> np.ndarray:
+        if size is None:
+            msg = (f"{s.source}: a correction table of over {longcurves.HOLD_ROWS} addresses "
+                   "must state its size (rom.entries)")
+            raise DataError(msg)
+        return _col(b, "address") * (TWO_PI / size)
+
+    got = longcurves.gather(stream, [("correction", "count", None)], opts.nmax, None, angle)
+    if isinstance(got, pa.Table):
+        if got.num_rows == 0:
+            msg = f"{s.source}: rom stream has no rows"
+            raise DataError(msg)
+        address = _col(got, "address")
+        turn = float(size) if size is not None else address.max() + 1
+        s.curves.append(_curve("correction", "count", "correction", address * TWO_PI / turn,
+                               _col(got, "correction"), opts, s.source))
+        s.info["addresses"] = got.num_rows
+        return
+    r = got.results(s.source)["correction"]
+    s.curves.append(Curve("correction", "count", "correction", r.angle, r.values, r.figures,
+                          r.harmonics, digest=r.digest))
+    s.info["addresses"] = got.rows
 
 
 # -------------------------------------------------------------------- readings

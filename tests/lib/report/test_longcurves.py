@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pytest
-from conftest import run
+from conftest import DATA, run
 from test_report import make_deviations, make_interp
 
 from enctools.data.schemas import make_field
 from enctools.data.streams import Header, write_table
+from enctools.errors import DataError
 from enctools.report import longcurves
 from enctools.report.jsonout import to_json
 from enctools.report.sections import Options
@@ -115,3 +116,74 @@ def test_a_long_stream_is_not_held(tmp_path):
     assert curve.harmonics is not None
     assert curve.harmonics.amplitude_of(3) == pytest.approx(1.0, rel=1e-12)
     assert peak < 40e6, f"{peak / 1e6:.0f} MB"
+
+
+#: enc make-rom's options for seed 001's 23-bit code in 16-bit words
+ROM = "--bits 23 --allow-no-gain --width 16 -q"
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory) -> Path:
+    """An RBF model of seed 001's table 1 (enc fit-rbf; its tables are written with
+    --allow-no-gain: its 24 published points do not pass make-rom's gain guard)."""
+    d = tmp_path_factory.mktemp("rom")
+    r = run(f"enc fit-rbf {DATA / 'seed001_table1.csv'} -q -o model.parquet", cwd=d)
+    assert r.returncode == 0, r.stderr
+    return d / "model.parquet"
+
+
+def test_a_long_correction_table_reports_what_the_held_one_does(model, tmp_path, monkeypatch):
+    # 2^16 words read in blocks of 1,000: its figures and harmonics as held (the sums over
+    # the table's uniform grid of addresses are its FFT to rounding)
+    r = run(f"enc make-rom {model} {ROM} --address-bits 16 -o rom.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    held = _json([tmp_path / "rom.parquet"], 1 << 30, monkeypatch)
+    long = _json([tmp_path / "rom.parquet"], 1_000, monkeypatch)
+    _same(held, long, 1e-9)
+    curve = long["sections"][0]["curves"][0]
+    assert curve["n_points"] == 1 << 16 and curve["unit"] == "count"
+
+
+@pytest.mark.heavy
+def test_a_23_bit_table_is_reported_without_holding_it(model, tmp_path):
+    # seed 001's ROM: 2^23 words, over the 5,000,000 rows a command holds (before: refused
+    # with "this command holds at most 5000000 rows"); the report's arrays stay within a few
+    # blocks (the table's two columns as float64 would be 134 MB)
+    r = run(f"enc make-rom {model} {ROM} -o rom.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    tracemalloc.start()
+    try:
+        report = build_report([str(tmp_path / "rom.parquet")], Options(), lambda done: None)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    curve = report.sections[0].curves[0]
+    words = np.fromfile(_image(model, tmp_path), dtype="<i2").astype(np.float64)
+    assert curve.figures.n == words.size == 1 << 23
+    assert curve.figures.mean == pytest.approx(words.mean(), rel=1e-12)
+    assert curve.figures.pp == words.max() - words.min()
+    assert curve.harmonics is not None
+    fft = np.abs(np.fft.rfft(words)[1:6]) * 2 / words.size
+    assert [curve.harmonics.amplitude_of(n) for n in range(1, 6)] == pytest.approx(fft,
+                                                                                  rel=1e-9)
+    assert peak < 60e6, f"{peak / 1e6:.0f} MB"
+
+
+def _image(model: Path, folder: Path) -> Path:
+    """The same table as a raw little-endian image (enc make-rom, .bin)."""
+    r = run(f"enc make-rom {model} {ROM} -o rom.bin", cwd=folder)
+    assert r.returncode == 0, r.stderr
+    return folder / "rom.bin"
+
+
+def test_a_long_correction_table_without_its_size_is_one_line(tmp_path, monkeypatch):
+    schema = pa.schema([make_field("address", pa.int64(), ""),
+                        make_field("correction", pa.int64(), "count", "correction")])
+    n = 5_000
+    header = Header("rom", schema, {"history": [], "rom": {"width_bits": 16}})
+    table = pa.table([np.arange(n), np.zeros(n, np.int64)], schema=schema)
+    write_table(str(tmp_path / "rom.parquet"), header, table, force=True)
+    monkeypatch.setattr(longcurves, "HOLD_ROWS", 1_000)
+    with pytest.raises(DataError, match=r"rom.parquet: a correction table of over 1000 "
+                                        r"addresses must state its size \(rom.entries\)$"):
+        build_report([str(tmp_path / "rom.parquet")], Options(), lambda done: None)
