@@ -26,6 +26,16 @@ class RomSpec(Protocol):
     @property
     def word_range(self) -> tuple[int, int]: ...
 
+class SegmentGrid(Protocol):
+    """A model's cubic a segment of a uniform grid (:class:`~enctools.models.fourier.
+    GridSeries`): each segment's terms [arcsec], their powers of t, the bound [arcsec]."""
+
+    powers: np.ndarray
+    bound: float
+
+    def terms(self, start: int, stop: int) -> np.ndarray: ...
+
+
 #: the largest distance [LSB] of an approximate evaluation from the exact one that a block
 #: is quantised from (:func:`quantise_near`); a coarser one: the block evaluated exactly
 NEAR_LSB = 1e-6
@@ -44,7 +54,8 @@ def quantise(at: Callable[[int, int], np.ndarray], spec: RomSpec, dtype: np.dtyp
     sums to the bound.
     """
     near = getattr(at, "near", None)
-    got = None if near is None else quantise_near(near, spec, dtype, start, stop)
+    grid: SegmentGrid | None = at if hasattr(at, "terms") else None  # type: ignore[assignment]
+    got = None if near is None else quantise_near(near, spec, dtype, start, stop, grid)
     return got if got is not None else quantise_exact(at, spec, dtype, start, stop)
 
 
@@ -56,7 +67,8 @@ def quantise_exact(at: Callable[[int, int], np.ndarray], spec: RomSpec, dtype: n
 
 
 def quantise_near(near: Callable[[int, int], tuple[np.ndarray, float]], spec: RomSpec,
-                  dtype: np.dtype, start: int, stop: int
+                  dtype: np.dtype, start: int, stop: int,
+                  grid: SegmentGrid | None = None
                   ) -> tuple[tuple[float, ...], np.ndarray | None] | None:
     """:func:`quantise` from the model's approximate values, or None where they may not
     give every word (a correction within their bound of a half LSB, a bound over
@@ -64,7 +76,15 @@ def quantise_near(near: Callable[[int, int], tuple[np.ndarray, float]], spec: Ro
 
     With |approximate - exact| <= d and |approximate - word| < 1/2 - d, the exact
     correction rounds to the same word; ``d`` adds to the model's bound [arcsec] in LSB
-    the rounding of the products by 1/LSB."""
+    the rounding of the products by 1/LSB. A model whose approximation is a cubic a
+    segment (``grid``: a :class:`~enctools.models.fourier.GridSeries`) is quantised a
+    segment at a time where it can be (:mod:`.romsegments`)."""
+    if grid is not None:
+        from enctools.models import romsegments
+
+        got = romsegments.quantise(grid, spec, dtype, start, stop)
+        if got is not romsegments.UNSUITED:
+            return got
     values, bound = near(start, stop)
     corr = np.multiply(values, -1.0 / spec.lsb_arcsec, dtype=np.float64)
     cmin, cmax = float(corr.min()), float(corr.max())

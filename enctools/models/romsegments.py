@@ -1,0 +1,124 @@
+"""A block of a correction table quantised a segment at a time from a model's cubic (a
+Fourier series' :class:`~enctools.models.fourier.GridSeries`), for
+:func:`~enctools.models.romquantise.quantise_near`.
+
+The cubic of a segment of S points is P(t) = a0 + a1 t + a2 t^2 + a3 t^3 [LSB] at its
+points t = i - h (h = (S - 1) / 2), within d [LSB] of the exact corrections (the model's
+bound and the rounding). Over the segment P stays within r = |a1| h + |a2| h^2 + |a3| h^3
+of a0, so a segment whose a0 lies farther than r + d from every half LSB has one word at
+every point, the word of a0: the word of every exact correction there. Its sums of
+squares come from the coefficients in closed form (the sums of t^2, t^4 and t^6 over its
+points), once for the segment. A table's corrections change slowly (the table-1 model's
+1680 times in 2^26 addresses), so all but a few segments of a block are such: the block
+costs the cubics' terms and a few passes over its segments instead of a dozen over its
+points.
+
+The other segments are evaluated point by point, as :func:`quantise_near` evaluates a
+whole block: those near a half LSB, and those whose upper bound (|a0 - word| + r, |a0| +
+r) reaches the largest lower bound of a segment of one word (its ends' values, points of
+the grid), which hold the block's largest quantisation error and largest correction. The
+words are therefore those of the exact corrections, the largest figures known within the
+same slack as :func:`quantise_near`'s, and the sums to the bound.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from enctools.models.romquantise import NEAR_LSB
+
+if TYPE_CHECKING:
+    from enctools.models.romquantise import RomSpec, SegmentGrid
+
+#: what :func:`quantise` returns for a block it does not take (not whole segments, or
+#: more than :data:`DENSE` of them to evaluate point by point): the caller's whole-block
+#: evaluation then runs
+UNSUITED = (float("nan"),), None
+#: the share of a block's segments evaluated point by point past which the whole block is
+DENSE = 0.25
+#: the unit roundoff of float64
+_U = 2.0 ** -53
+
+
+def quantise(grid: SegmentGrid, spec: RomSpec, dtype: np.dtype, start: int, stop: int
+             ) -> tuple[tuple[float, ...], np.ndarray | None] | None:
+    """Addresses start..stop-1 quantised from ``grid``'s cubics (:func:`quantise_near`'s
+    summary and words), None where a word is in doubt, the bound too coarse, a value not
+    finite or beyond the word width (the block is then evaluated exactly), or
+    :data:`UNSUITED`."""
+    size = grid.powers.shape[1]
+    n = stop - start
+    if n % size:
+        return UNSUITED
+    arcsec = grid.terms(start, stop)[:n // size]
+    scale = -1.0 / spec.lsb_arcsec
+    a = arcsec * scale  # (segments, 4) [LSB]
+    h = (size - 1) / 2.0
+    reach = np.abs(a[:, 1]) * h + np.abs(a[:, 2]) * (h * h) + np.abs(a[:, 3]) * (h * h * h)
+    centre = a[:, 0]
+    top = float(np.max(np.abs(centre) + reach))
+    if not np.isfinite(top):
+        return None
+    slack = grid.bound / spec.lsb_arcsec + 4.0 * _U * (top + 1.0)
+    if slack > NEAR_LSB:
+        return None
+    margin = slack + 16.0 * _U * (top + 1.0)  # and the rounding of these figures
+    q = np.rint(centre)
+    off = np.abs(centre - q)
+    flag = _evaluated(a, q, off, reach, h, margin)
+    idx = np.flatnonzero(flag)
+    if idx.size > DENSE * flag.size:
+        return UNSUITED
+    values = np.multiply(arcsec[idx] @ grid.powers, scale)  # (evaluated, S) [LSB]
+    words_e = np.rint(values)
+    err_e = values - words_e
+    err = float(np.max(np.abs(err_e)))
+    if err >= 0.5 - slack:  # a word in doubt
+        return None
+    keep = ~flag
+    qmin = min(float(q[keep].min(initial=np.inf)), float(words_e.min()))
+    qmax = max(float(q[keep].max(initial=-np.inf)), float(words_e.max()))
+    lo, hi = spec.word_range
+    if qmin < lo or qmax > hi:  # the exact evaluation names the range
+        return None
+    sums = _sums(a[keep], q[keep], grid.powers[1])
+    part = (qmin, qmax, err, sums[0] + float(np.vdot(values, values)),
+            sums[1] + float(np.vdot(err_e, err_e)), float(np.max(np.abs(values))), slack)
+    words = np.repeat(np.clip(q, lo, hi).astype(dtype), size)
+    words.reshape(-1, size)[idx] = words_e
+    return part, words
+
+
+def _evaluated(a: np.ndarray, q: np.ndarray, off: np.ndarray, reach: np.ndarray, h: float,
+               margin: float) -> np.ndarray:
+    """Which segments are evaluated point by point: those within ``margin`` of a half LSB,
+    and those whose bound of |error| or |correction| comes within twice ``margin`` of the
+    largest value at an end of a segment of one word (or, for |correction|, any)."""
+    even = a[:, 0] + a[:, 2] * (h * h)
+    odd = a[:, 1] * h + a[:, 3] * (h * h * h)
+    flag = off + reach + margin >= 0.5
+    ends_c = np.maximum(np.abs(even + odd), np.abs(even - odd))
+    ends_e = np.maximum(np.abs(even + odd - q), np.abs(even - odd - q))
+    one = ~flag
+    if one.any():
+        flag |= off + reach + 2.0 * margin >= float(ends_e[one].max())
+    flag |= np.abs(a[:, 0]) + reach + 2.0 * margin >= float(ends_c.max())
+    return flag
+
+
+def _sums(a: np.ndarray, q: np.ndarray, t: np.ndarray) -> tuple[float, float]:
+    """The sums of squared corrections and of squared quantisation errors [LSB^2] over
+    segments of one word each (``a``: their cubics, ``q``: their words; ``t``: a
+    segment's points about its centre, symmetric, so odd powers sum to 0)."""
+    t2 = t * t
+    s0, s2, s4, s6 = float(t.size), float(t2.sum()), float((t2 * t2).sum()), \
+        float((t2 * t2 * t2).sum())
+    higher = (a[:, 1] * a[:, 1]) * s2 + (a[:, 2] * a[:, 2] + 2.0 * a[:, 1] * a[:, 3]) * s4 \
+        + (a[:, 3] * a[:, 3]) * s6
+
+    def total(c0: np.ndarray) -> float:
+        return float(np.sum(c0 * c0 * s0 + 2.0 * c0 * a[:, 2] * s2 + higher))
+
+    return total(a[:, 0]), total(a[:, 0] - q)
