@@ -54,10 +54,10 @@ def quantise(grid: SegmentGrid, spec: RomSpec, dtype: np.dtype, start: int, stop
         return UNSUITED
     arcsec = grid.terms(start, stop)[:n // size]
     scale = -1.0 / spec.lsb_arcsec
-    a = arcsec * scale  # (segments, 4) [LSB]
+    a = np.multiply(arcsec.T, scale, order="C")  # (4, segments) [LSB]
     h = (size - 1) / 2.0
-    reach = np.abs(a[:, 1]) * h + np.abs(a[:, 2]) * (h * h) + np.abs(a[:, 3]) * (h * h * h)
-    centre = a[:, 0]
+    reach = np.abs(a[1]) * h + np.abs(a[2]) * (h * h) + np.abs(a[3]) * (h * h * h)
+    centre = a[0]
     top = float(np.max(np.abs(centre) + reach))
     if not np.isfinite(top):
         return None
@@ -83,7 +83,7 @@ def quantise(grid: SegmentGrid, spec: RomSpec, dtype: np.dtype, start: int, stop
     lo, hi = spec.word_range
     if qmin < lo or qmax > hi:  # the exact evaluation names the range
         return None
-    sums = _sums(a[keep], q[keep], grid.powers[1])
+    sums = _sums(a[:, keep], q[keep], grid.powers[1])
     part = (qmin, qmax, err, sums[0] + float(np.vdot(values, values)),
             sums[1] + float(np.vdot(err_e, err_e)), float(np.max(np.abs(values))), slack)
     words = np.repeat(np.clip(q, lo, hi).astype(dtype), size)
@@ -93,32 +93,32 @@ def quantise(grid: SegmentGrid, spec: RomSpec, dtype: np.dtype, start: int, stop
 
 def _evaluated(a: np.ndarray, q: np.ndarray, off: np.ndarray, reach: np.ndarray, h: float,
                margin: float) -> np.ndarray:
-    """Which segments are evaluated point by point: those within ``margin`` of a half LSB,
-    and those whose bound of |error| or |correction| comes within twice ``margin`` of the
-    largest value at an end of a segment of one word (or, for |correction|, any)."""
-    even = a[:, 0] + a[:, 2] * (h * h)
-    odd = a[:, 1] * h + a[:, 3] * (h * h * h)
+    """Which segments (``a``: their cubics' terms by degree) are evaluated point by point:
+    those within ``margin`` of a half LSB, and those whose bound of |error| or |correction|
+    comes within twice ``margin`` of the largest value at an end of a segment of one word
+    (or, for |correction|, of any)."""
+    even = a[0] + a[2] * (h * h)
+    odd = a[1] * h + a[3] * (h * h * h)
     flag = off + reach + margin >= 0.5
     ends_c = np.maximum(np.abs(even + odd), np.abs(even - odd))
     ends_e = np.maximum(np.abs(even + odd - q), np.abs(even - odd - q))
     one = ~flag
     if one.any():
         flag |= off + reach + 2.0 * margin >= float(ends_e[one].max())
-    flag |= np.abs(a[:, 0]) + reach + 2.0 * margin >= float(ends_c.max())
+    flag |= np.abs(a[0]) + reach + 2.0 * margin >= float(ends_c.max())
     return flag
 
 
 def _sums(a: np.ndarray, q: np.ndarray, t: np.ndarray) -> tuple[float, float]:
     """The sums of squared corrections and of squared quantisation errors [LSB^2] over
-    segments of one word each (``a``: their cubics, ``q``: their words; ``t``: a
+    segments of one word each (``a``: their cubics' terms by degree, ``q``: their words; ``t``: a
     segment's points about its centre, symmetric, so odd powers sum to 0)."""
     t2 = t * t
     s0, s2, s4, s6 = float(t.size), float(t2.sum()), float((t2 * t2).sum()), \
         float((t2 * t2 * t2).sum())
-    higher = (a[:, 1] * a[:, 1]) * s2 + (a[:, 2] * a[:, 2] + 2.0 * a[:, 1] * a[:, 3]) * s4 \
-        + (a[:, 3] * a[:, 3]) * s6
+    higher = (a[1] * a[1]) * s2 + (a[2] * a[2] + 2.0 * a[1] * a[3]) * s4 + (a[3] * a[3]) * s6
 
     def total(c0: np.ndarray) -> float:
-        return float(np.sum(c0 * c0 * s0 + 2.0 * c0 * a[:, 2] * s2 + higher))
+        return float(np.sum(c0 * c0 * s0 + 2.0 * c0 * a[2] * s2 + higher))
 
-    return total(a[:, 0]), total(a[:, 0] - q)
+    return total(a[0]), total(a[0] - q)
