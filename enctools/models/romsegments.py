@@ -78,12 +78,12 @@ def quantise(grid: SegmentGrid, spec: RomSpec, dtype: np.dtype, start: int, stop
     if err >= 0.5 - slack:  # a word in doubt
         return None
     keep = ~flag
-    qmin = min(float(q[keep].min(initial=np.inf)), float(words_e.min()))
-    qmax = max(float(q[keep].max(initial=-np.inf)), float(words_e.max()))
+    qmin = min(float(np.min(q, where=keep, initial=np.inf)), float(words_e.min()))
+    qmax = max(float(np.max(q, where=keep, initial=-np.inf)), float(words_e.max()))
     lo, hi = spec.word_range
     if qmin < lo or qmax > hi:  # the exact evaluation names the range
         return None
-    sums = _sums(a[:, keep], q[keep], grid.powers[1])
+    sums = _sums(a, q, keep, grid.powers)
     part = (qmin, qmax, err, sums[0] + float(np.vdot(values, values)),
             sums[1] + float(np.vdot(err_e, err_e)), float(np.max(np.abs(values))), slack)
     words = np.repeat(np.clip(q, lo, hi).astype(dtype), size)
@@ -109,16 +109,15 @@ def _evaluated(a: np.ndarray, q: np.ndarray, off: np.ndarray, reach: np.ndarray,
     return flag
 
 
-def _sums(a: np.ndarray, q: np.ndarray, t: np.ndarray) -> tuple[float, float]:
-    """The sums of squared corrections and of squared quantisation errors [LSB^2] over
-    segments of one word each (``a``: their cubics' terms by degree, ``q``: their words; ``t``: a
-    segment's points about its centre, symmetric, so odd powers sum to 0)."""
-    t2 = t * t
-    s0, s2, s4, s6 = float(t.size), float(t2.sum()), float((t2 * t2).sum()), \
-        float((t2 * t2 * t2).sum())
-    higher = (a[1] * a[1]) * s2 + (a[2] * a[2] + 2.0 * a[1] * a[3]) * s4 + (a[3] * a[3]) * s6
-
-    def total(c0: np.ndarray) -> float:
-        return float(np.sum(c0 * c0 * s0 + 2.0 * c0 * a[2] * s2 + higher))
-
-    return total(a[0]), total(a[0] - q)
+def _sums(a: np.ndarray, q: np.ndarray, keep: np.ndarray, powers: np.ndarray
+          ) -> tuple[float, float]:
+    """The sums of squared corrections and of squared quantisation errors [LSB^2] over the
+    segments ``keep`` (``a``: the cubics' terms by degree, ``q``: the segments' words,
+    ``powers``: 1, t, t^2, t^3 at a segment's points): a cubic's squares summed over its
+    points are a^T G a, G = powers powers^T, so the sum over segments is that of G times
+    the (4 x 4) sum of each segment's a a^T, one product."""
+    gram = powers @ powers.T
+    corr = float(np.sum(gram * ((a * keep) @ a.T)))
+    b = a.copy()
+    b[0] -= q
+    return corr, float(np.sum(gram * ((b * keep) @ b.T)))
