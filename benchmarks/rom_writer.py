@@ -17,9 +17,10 @@ Usage: rom_writer.py IMAGE FORMAT OUTPUT [--verify]
 size and format, this tree's and the ``before`` code's (main by default) run in turn with
 ``dd`` writing the file's bytes into the same folder (the best of ``repeat`` turns, wall
 and CPU seconds; ratios to dd's), and the peak resident memory [MB] of make-rom, of
-make-rom ``--verify`` and of ``enc correct --table`` on the table, for both codes. Prints
-a Markdown table and each format's peak at the most entries over that at the fewest;
-writes DIR/rom-command.json.
+make-rom ``--verify`` and of ``enc correct --table`` on the table, for both codes. Every
+command runs with its bytecode cached (PYTHONPYCACHEPREFIX under DIR), as bench.py's do.
+Prints a Markdown table and each format's peak at the most entries over that at the
+fewest; writes DIR/rom-command.json.
 """
 
 from __future__ import annotations
@@ -79,6 +80,11 @@ def command(argv: list[str]) -> None:
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
     out = Path(args.out)
+    # bytecode cached, as an installed enctools has it and as bench.py runs every command
+    # (with PYTHONDONTWRITEBYTECODE=1 every run would compile enctools again: some 0.1 s)
+    bytecode_env = os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    load0 = os.getloadavg()[0]
+    os.environ.setdefault("PYTHONPYCACHEPREFIX", str(out.resolve() / "pycache"))
     d = out / "rom-command"
     d.mkdir(parents=True, exist_ok=True)
     before = bench.before_tree(args.before, out) if args.before else None
@@ -90,6 +96,8 @@ def command(argv: list[str]) -> None:
         {"before": None if before is None else {k: before[k] for k in ("rev", "commit")},
          "load": os.getloadavg(), "rows": rows}, indent=2))
     print(_markdown(rows, before))
+    print(f"Load {load0:.1f} at the start. Bytecode cached (PYTHONPYCACHEPREFIX); the caller "
+          f"had PYTHONDONTWRITEBYTECODE={bytecode_env or '(unset)'}.")
 
 
 def _command_row(d: Any, bits: int, fmt: str, repeat: int, before: dict | None) -> dict:

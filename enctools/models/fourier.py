@@ -142,8 +142,14 @@ class GridSeries:
         :data:`SEGMENT` points (4 (2K+2) / SEGMENT multiply-adds a point for its terms,
         then 4 for the cubic: two BLAS products), and the bound [arcsec] of its distance
         from :meth:`__call__`'s values."""
-        terms = (self._phases(start, stop) @ self.taylor).reshape(-1, 4)
-        return (terms @ self.powers).reshape(-1)[:stop - start], self.bound
+        return (self.terms(start, stop) @ self.powers).reshape(-1)[:stop - start], self.bound
+
+    def terms(self, start: int, stop: int) -> np.ndarray:
+        """Each segment's cubic from point ``start`` on, (segments, 4) [arcsec]: its value at
+        the segment's centre and the Taylor terms of degree 1, 2, 3 in t = i - c [point]
+        (the rows of :attr:`powers`: 1, t, t^2, t^3 at the segment's points); whole rows
+        of :data:`GRID_ROW` points, past ``stop`` if it ends within one."""
+        return (self._phases(start, stop) @ self.taylor).reshape(-1, 4)
 
 
 def design_matrix(x_rad: np.ndarray, harmonics: int) -> np.ndarray:

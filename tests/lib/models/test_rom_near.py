@@ -90,3 +90,62 @@ def test_corrections_on_a_half_lsb_are_quantised_from_the_exact_series(
     _same(cheap, exact)
     assert count["near"] == 0
     assert count["doubt"] == spec.entries // rom.CHUNK
+
+
+def _by_segments(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
+    """Count how quantise_segments went: blocks taken, left (UNSUITED) or in doubt."""
+    count = {"taken": 0, "left": 0, "doubt": 0}
+    inner = romquantise.quantise_segments
+
+    def counted(*a: object) -> object:
+        got = inner(*a)  # type: ignore[arg-type]
+        key = "left" if got is romquantise.UNSUITED else "doubt" if got is None else "taken"
+        count[key] += 1
+        return got
+
+    monkeypatch.setattr(romquantise, "quantise_segments", counted)
+    return count
+
+
+@pytest.mark.parametrize(("orders", "scale", "lsb", "bits"),
+                         [(54, 40.0, 1.0, 22), (54, 40.0, 0.37, 21), (200, 5.0, 4.0, 22),
+                          (3, 400.0, 1.0, 20)])
+def test_a_table_quantised_a_segment_at_a_time_is_the_exact_table(
+        orders: int, scale: float, lsb: float, bits: int,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Words, CRC-32, range, largest figures equal to the exact table's, the blocks taken
+    a segment at a time (the segments of one word summed in closed form)."""
+    spec = rom.RomSpec(bits, lsb=lsb, width=24)
+    count = _by_segments(monkeypatch)
+    cheap, exact, _ = _tables(_series(orders, scale), spec, monkeypatch)
+    _same(cheap, exact)
+    assert count["taken"] >= spec.entries // rom.CHUNK // 2
+
+
+def test_a_flat_table_is_left_to_the_whole_block() -> None:
+    """A constant deviation of 3.2 LSB: every segment holds the largest correction, so
+    every one would be evaluated point by point; the block is left to quantise_near's
+    whole-block evaluation, which gives the same words."""
+    spec = rom.RomSpec(20)
+    model = FourierModel(np.arange(2), np.array([-3.2 * spec.lsb_arcsec, 0.0]), np.zeros(2))
+    grid = model.on_grid(*spec.grid_deg())
+    assert romquantise.quantise_segments(grid, spec, np.dtype(np.int16), 0, rom.CHUNK) \
+        is romquantise.UNSUITED
+    part, words = romquantise.quantise(grid, spec, np.dtype(np.int16), 0, rom.CHUNK)
+    assert words is not None and np.all(words == 3)
+    assert part[5] == pytest.approx(3.2, abs=1e-9)
+
+
+def test_a_segment_near_a_half_lsb_is_evaluated_point_by_point() -> None:
+    """A slope crossing half LSBs within segments: those segments' words change inside
+    them, and come from each point's value, the others' from the segment's centre."""
+    spec = rom.RomSpec(20)
+    model = _series(54, 40.0)
+    grid = model.on_grid(*spec.grid_deg())
+    for start in (0, 5 * rom.CHUNK // 2):
+        got = romquantise.quantise_segments(grid, spec, np.dtype(np.int32), start,
+                                            start + rom.CHUNK)
+        assert got is not None and got is not romquantise.UNSUITED
+        exact = np.rint(-grid(start, start + rom.CHUNK) / spec.lsb_arcsec)
+        assert np.array_equal(got[1], exact.astype(np.int32))
+        assert np.any(np.diff(got[1]) != 0)
