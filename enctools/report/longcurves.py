@@ -373,6 +373,27 @@ def radial_pair(names: list[str]) -> tuple[str, str] | None:
     return (xs[0], ys[0]) if xs and ys else None
 
 
+def address_angle(entries: Any, source: str
+                  ) -> Callable[[pa.RecordBatch | pa.Table], np.ndarray]:
+    """A correction table's block of rows to angles [rad]: its addresses over its size,
+    ``entries`` (metadata ``rom.entries``, enc-streams(5)); DataError when the size is not
+    a whole number > 0, or, for a table read in blocks, not stated."""
+    if entries is not None and not (isinstance(entries, int) and not isinstance(entries, bool)
+                                    and entries > 0):
+        msg = f"{source}: rom.entries must be a whole number of addresses > 0, not {entries!r}"
+        raise DataError(msg)
+
+    def angle(b: pa.RecordBatch | pa.Table) -> np.ndarray:
+        if entries is None:
+            msg = (f"{source}: a correction table of over {HOLD_ROWS} addresses must state "
+                   "its size (rom.entries)")
+            raise DataError(msg)
+        address = b.column("address").to_numpy(zero_copy_only=False).astype(np.float64)
+        return address * (TWO_PI / entries)
+
+    return angle
+
+
 def gather(stream: Any, curves: list[tuple[str, str, str | None]], nmax: int,
            polar: tuple[str, str] | None,
            angle: Callable[[pa.RecordBatch], np.ndarray] | None = None) -> pa.Table | Gatherer:

@@ -47,9 +47,10 @@ from enctools.report.figures import K_COVERAGE, Harmonics, expanded_uncertainty,
 from enctools.report.iso230 import Iso230, approaches, iso230_2, target_positions
 from enctools.report.longcurves import Digest, period_domain, stated_k
 from enctools.report.positioning import positioning_heads
+from enctools.report.readingsscan import ReadingsScan, scan_batch, signal_columns
 from enctools.report.steprun import positioning
 from enctools.report.vdi3441 import Vdi3441, from_iso
-from enctools.units import DEG, TWO_PI
+from enctools.units import DEG
 
 #: Lissajous plots keep at most this many samples per head
 LISSAJOUS_POINTS = 4000
@@ -488,75 +489,41 @@ def _held_out(residuals: Any, source: str) -> tuple[np.ndarray, np.ndarray] | No
 def _rom(stream: InputStream, s: Section, opts: Options) -> None:
     """A correction table's corrections [count] against its addresses over a turn: a
     table of at most ``longcurves.HOLD_ROWS`` addresses held whole, a longer one (a
-    23-bit ROM: 2^23 words) summed block by block, its size from its metadata
-    (``rom.entries``, enc-streams(5))."""
-    rom = s.meta.get("rom", {})
-    if isinstance(rom, dict):
-        for k, v in rom.items():
-            if isinstance(v, (str, int, float, bool)):
-                s.info[str(k)] = v
-    size = rom.get("entries") if isinstance(rom, dict) else None
-    if size is not None and not (isinstance(size, int) and not isinstance(size, bool)
-                                 and size > 0):
-        msg = f"{s.source}: rom.entries must be a whole number of addresses > 0, not {size!r}"
-        raise DataError(msg)
-
-    def angle(b: pa.RecordBatch) -> np.ndarray:
-        if size is None:
-            msg = (f"{s.source}: a correction table of over {longcurves.HOLD_ROWS} addresses "
-                   "must state its size (rom.entries)")
-            raise DataError(msg)
-        return _col(b, "address") * (TWO_PI / size)
-
-    got = longcurves.gather(stream, [("correction", "count", None)], opts.nmax, None, angle)
+    23-bit ROM: 2^23 words) summed block by block (:func:`longcurves.address_angle`)."""
+    meta = s.meta.get("rom")
+    rom: dict[str, Any] = meta if isinstance(meta, dict) else {}
+    s.info |= {str(k): v for k, v in rom.items() if isinstance(v, (str, int, float, bool))}
+    got = longcurves.gather(stream, [("correction", "count", None)], opts.nmax, None,
+                            longcurves.address_angle(rom.get("entries"), s.source))
     if isinstance(got, pa.Table):
         if got.num_rows == 0:
             msg = f"{s.source}: rom stream has no rows"
             raise DataError(msg)
-        address = _col(got, "address")
-        turn = float(size) if size is not None else address.max() + 1
-        s.curves.append(_curve("correction", "count", "correction", address * TWO_PI / turn,
+        turn = rom.get("entries") or int(_col(got, "address").max()) + 1
+        s.curves.append(_curve("correction", "count", "correction",
+                               longcurves.address_angle(turn, s.source)(got),
                                _col(got, "correction"), opts, s.source))
-        s.info["addresses"] = got.num_rows
-        return
-    r = got.results(s.source)["correction"]
-    s.curves.append(Curve("correction", "count", "correction", r.angle, r.values, r.figures,
-                          r.harmonics, digest=r.digest))
-    s.info["addresses"] = got.rows
+    else:
+        r = got.results(s.source)["correction"]
+        s.curves.append(Curve("correction", "count", "correction", r.angle, r.values,
+                              r.figures, r.harmonics, digest=r.digest))
+    s.info["addresses"] = got.num_rows if isinstance(got, pa.Table) else got.rows
 
 
 # -------------------------------------------------------------------- readings
 
 
-@dataclass
-class _ReadingsScan:
-    """What one pass over a readings stream gathers: extent, signals, step positions."""
-
-    rows: int = 0
-    t_first: float | None = None
-    t_last: float | None = None
-    first: dict[str, int] = field(default_factory=dict)    # head -> first count
-    last: dict[str, int] = field(default_factory=dict)     # head -> last count
-    signals: dict[str, list[np.ndarray]] = field(default_factory=dict)  # "H1.cos" -> parts
-    stride: int = 0                                         # signal samples kept: every n-th
-    target: list[np.ndarray] = field(default_factory=list)      # rad
-    direction: list[np.ndarray] = field(default_factory=list)
-    run: list[np.ndarray] = field(default_factory=list)
-    angle: list[np.ndarray] = field(default_factory=list)       # encoder angle [rad]
-    autocollimator: bool = False                            # an autocollimator column
-
-
 def _readings(stream: InputStream, s: Section, opts: Options) -> None:
     schema = stream.schema
     infos = readings.heads(schema)
-    signal_cols = _signal_columns(schema)
+    signal_cols = signal_columns(schema)
     stepped = "target" in schema.names
     # the positioning deviation is read on an encoder the axis does not position on
     encoder, where = positioning_heads(infos, s.meta)
-    scan = _ReadingsScan(autocollimator=bool(columns_with_role(schema, "autocollimator")))
+    scan = ReadingsScan(autocollimator=bool(columns_with_role(schema, "autocollimator")))
     for batch in stream.batches():
         if batch.num_rows:
-            _scan_batch(scan, batch, infos, signal_cols, encoder if stepped else [])
+            scan_batch(scan, batch, infos, signal_cols, encoder if stepped else [])
     s.info["mode"] = s.meta.get("mode", "steps" if stepped else "continuous")
     s.info["rows"] = scan.rows
     s.info["heads"] = ", ".join(f"{i.name} ({i.encoder} at {i.alpha / DEG:g} deg)"
@@ -579,42 +546,3 @@ def _readings(stream: InputStream, s: Section, opts: Options) -> None:
     elif scan.rows and not stepped:
         s.notes.append(f"no {opts.standard_name} figures: a continuous run has no target "
                        "positions to approach (a step run of enc acquire has them)")
-
-
-def _signal_columns(schema: pa.Schema) -> dict[str, dict[str, str]]:
-    """Raw signal columns: head -> component (cos, sin) -> column."""
-    out: dict[str, dict[str, str]] = {}
-    for name in columns_with_role(schema, "signal"):
-        fm = field_meta(schema.field(name))
-        out.setdefault(fm.get("head", name), {})[fm.get("component", "")] = name
-    return out
-
-
-def _scan_batch(scan: _ReadingsScan, batch: pa.RecordBatch, infos: list[readings.HeadInfo],
-                signal_cols: dict[str, dict[str, str]],
-                encoder: list[readings.HeadInfo]) -> None:
-    """Add one batch to the scan; ``encoder``: the heads whose mean angle is recorded
-    with the targets (step runs only)."""
-    if not scan.rows:
-        scan.t_first = float(batch.column("t")[0].as_py())
-    scan.rows += batch.num_rows
-    scan.t_last = float(batch.column("t")[-1].as_py())
-    for i in infos:
-        c = batch.column(i.name)
-        scan.first.setdefault(i.name, int(c[0].as_py()))
-        scan.last[i.name] = int(c[-1].as_py())
-    if signal_cols:
-        scan.stride = scan.stride or max(1, batch.num_rows // 500)  # set by the first batch
-        for h, comp in signal_cols.items():
-            if "cos" in comp and "sin" in comp:
-                for part in ("cos", "sin"):
-                    scan.signals.setdefault(f"{h}.{part}", []).append(
-                        batch.column(comp[part]).to_numpy(zero_copy_only=False)[::scan.stride])
-    if encoder:
-        scan.target.append(batch.column("target").to_numpy(zero_copy_only=False))
-        if "direction" in batch.schema.names:
-            scan.direction.append(batch.column("direction").to_numpy(zero_copy_only=False))
-        if "run" in batch.schema.names:
-            scan.run.append(batch.column("run").to_numpy(zero_copy_only=False))
-        scan.angle.append(readings.mean_head_angle([batch.column(i.name) for i in encoder],
-                                                   encoder))

@@ -26,7 +26,7 @@ def positioning(s: Any, scan: Any, encoder: list[HeadInfo], opts: Any, where: Po
                 points_into: Callable[..., None]) -> None:
     """Positioning deviation of a step run into section ``s`` (a ``sections.Section``):
     mean angle of the encoder's heads - target, from the ``scan`` of its batches
-    (``sections._ReadingsScan``: targets and angles [rad], directions, runs); read on the
+    (``readingsscan.ReadingsScan``: targets and angles [rad], directions, runs); read on the
     axis' feedback encoder, no figures unless ``opts.servo_loop``. ``points_into``: the
     section's curve of targets (``sections._points_into``)."""
     target = np.concatenate(scan.target)
