@@ -13,6 +13,11 @@ unpacked into the output folder and run with the same Python and libraries, time
 turn with the code of this tree: the ratio after / before is of one run.
 
 Usage: bench.py [--revolutions 20,200,2000] [--out bench-out] [--quick] [--before REV]
+                [--only filters] [--filters selfcal,interp-check] [--variants]
+
+``--only filters`` measures start-up and the filter rows alone; ``--filters`` chooses which
+filters; ``--variants`` adds each chosen filter run with ``ENCTOOLS_KERNEL=numpy`` and, with
+``--before``, run by the before code, timed in turn with the rest.
 """
 
 from __future__ import annotations
@@ -43,6 +48,8 @@ FILTERS: dict[str, list[str]] = {
     # (at the 3 ms of RUN, P2 is stroboscopic: skipped with a warning)
     "interp-check": ["interp-check", "-q", "--reference", "P1"],
 }
+#: a filter row's command prefix (``env VAR=value``), for the variants of --variants
+PREFIX: dict[str, str] = {}
 #: exit statuses that count as a measured run (besides 0)
 ACCEPT: dict[str, tuple[int, ...]] = {}
 #: the pipe buffer the filters ask for (enctools.data.pipes.PIPE_BUFFER) and the default
@@ -145,9 +152,30 @@ def before_tree(rev: str, out: Path) -> dict[str, str] | None:
         print(f"bench: no before figures ({rev}: {r.stderr.decode().strip()[:200]})",
               file=sys.stderr)
         return None
+    _build_kernel(d / "enctools")
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", rev],
                             capture_output=True, text=True).stdout.strip()
     return {"PYTHONPATH": str(d), "rev": rev, "commit": commit}
+
+
+def _build_kernel(package: Path) -> None:
+    """The before code's compiled kernel, built as its install would (when it has one): its
+    filters then run as installed, not on the numpy passes."""
+    source = package / "_kernel.c"
+    if not source.exists():
+        return
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("before_kernel_build",
+                                                  package / "kernel_build.py")
+    if spec is None or spec.loader is None:
+        return
+    how = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(how)
+    ok, _, message = how.build(source, package / "_enckernel.so")
+    if not ok:
+        print(f"bench: the before code's kernel was not built ({message[:200]})",
+              file=sys.stderr)
 
 
 def with_env(env: dict[str, str] | None, shell: str) -> str:
@@ -524,7 +552,8 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
     # best of each: a machine busy for a while slows references and filters alike
     shells = {f"cat {label}": f"cat {data} | {pipe_cat(buf)} > /dev/null"
               for label, buf in PIPE_BUFFERS.items()}
-    shells |= {name: f"cat {data} | {gnu_time()} {ENC} {' '.join(argv)} > /dev/null"
+    shells |= {name: f"cat {data} | {gnu_time()} {PREFIX.get(name, '')}{ENC} {' '.join(argv)} "
+                     "> /dev/null"
                for name, argv in filters.items()}
     best: dict[str, dict[str, float]] = {}
     for _ in range(max(repeat, 3) if repeat > 1 else 1):
@@ -557,6 +586,21 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
     return row
 
 
+def variants(filters: dict[str, list[str]],
+             before: dict[str, str] | None) -> dict[str, list[str]]:
+    """Each filter, then it with the numpy passes (ENCTOOLS_KERNEL=numpy) and, given the
+    before code, by that code: rows named "NAME, numpy passes" and "NAME, before"."""
+    out: dict[str, list[str]] = {}
+    for name, argv in filters.items():
+        out[name] = argv
+        out[f"{name}, numpy passes"] = argv
+        PREFIX[f"{name}, numpy passes"] = "env ENCTOOLS_KERNEL=numpy "
+        if before is not None:
+            out[f"{name}, before"] = argv
+            PREFIX[f"{name}, before"] = f"env PYTHONPATH={before['PYTHONPATH']} "
+    return out
+
+
 def done(results: dict, out: Path, part: str) -> None:
     """Keep what is measured so far (bench.json), say so on stderr."""
     (out / "bench.json").write_text(json.dumps(results, indent=2))
@@ -570,6 +614,12 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="20 and 200 revolutions, one repeat")
     ap.add_argument("--before", default="main",
                     help="the commit whose code gives the before figures ('' for none)")
+    ap.add_argument("--only", choices=("all", "filters"), default="all",
+                    help="filters: start-up and the filter rows alone")
+    ap.add_argument("--filters", default=",".join(FILTERS),
+                    help="the filters measured (comma-separated)")
+    ap.add_argument("--variants", action="store_true",
+                    help="each filter also with ENCTOOLS_KERNEL=numpy and by the before code")
     args = ap.parse_args()
     revs = [20, 200] if args.quick else [int(r) for r in args.revolutions.split(",")]
     repeat = 1 if args.quick else 3
@@ -586,20 +636,25 @@ def main() -> None:
         "startup": startup(5),
         "runs": [],
     }
-    results["commands"] = command_startup(out, 7, before)
-    done(results, out, "start-up")
-    results["report"] = report_rows(out, 1 if args.quick else 3, before)
-    done(results, out, "report")
-    results["make_rom"] = make_rom_rows(out, repeat, args.quick, before)
-    done(results, out, "make-rom")
-    results["fit_rbf"] = fit_rbf_rows()
-    done(results, out, "fit-rbf")
-    filters = {k: v for k, v in FILTERS.items() if available(v[0])}
+    if args.only == "all":
+        results["commands"] = command_startup(out, 7, before)
+        done(results, out, "start-up")
+        results["report"] = report_rows(out, 1 if args.quick else 3, before)
+        done(results, out, "report")
+        results["make_rom"] = make_rom_rows(out, repeat, args.quick, before)
+        done(results, out, "make-rom")
+        results["fit_rbf"] = fit_rbf_rows()
+        done(results, out, "fit-rbf")
+    chosen = args.filters.split(",")
+    filters = {k: v for k, v in FILTERS.items() if k in chosen and available(v[0])}
+    if args.variants:
+        filters = variants(filters, before)
     tiny = out / "raw-tiny.arrows"
     timed(f"{ENC} {RUN} --revolutions 2 -o {tiny} --force")
     # start-up and the work on two revolutions: subtracted to give the steady pass-through rate
     results["filters_tiny_input"] = {
-        name: timed(f"cat {tiny} | {ENC} {' '.join(argv)} > /dev/null", max(repeat, 3))["seconds"]
+        name: timed(f"cat {tiny} | {PREFIX.get(name, '')}{ENC} {' '.join(argv)} > /dev/null",
+                    max(repeat, 3))["seconds"]
         for name, argv in filters.items()}
     tiny.unlink()
     for n in revs:

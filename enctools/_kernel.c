@@ -206,7 +206,8 @@ int64_t enc_interp_member(
  * SampleRepeats). The same doubles as the numpy passes up to the order of the sums. */
 
 /* theta = u - delta_hat(u) of the angle map (harmonics.FourierSeries: in each of mbins
- * bins a polynomial of mp terms in s, rows p of map, Horner from the last row). */
+ * bins a polynomial of mp terms in s, map[bin][p] (its table transposed: one bin's terms
+ * side by side), Horner from the last term). */
 static inline double mapped(double u, const double *map, int64_t mp, int64_t mbins,
                             double per_rad)
 {
@@ -219,10 +220,11 @@ static inline double mapped(double u, const double *map, int64_t mp, int64_t mbi
     s *= 2.0;
     s -= 1.0;
     const int64_t idx = f & (mbins - 1);
-    double out = map[(mp - 1) * mbins + idx];
+    const double *q = map + idx * mp;
+    double out = q[mp - 1];
     for (int64_t p = mp - 2; p >= 0; p--) {
         out *= s;
-        out += map[p * mbins + idx];
+        out += q[p];
     }
     return u - out;
 }
@@ -253,6 +255,33 @@ static void block_powers(const double *x, int64_t s1, int64_t j0, int64_t n, dou
     for (int64_t p = 2; p < terms; p++)   /* independent across samples: no latency chain */
         for (int64_t i = 0; i < n; i++)
             power[i * terms + p] = power[i * terms + p - 1] * power[i * terms + 1];
+}
+
+/* Add a block's samples to their bins' sums: loc holds the current bin's (c x terms) and is
+ * added into by_bin when the bin changes; inlined with c and terms constant where called. */
+static inline __attribute__((always_inline)) void accumulate(
+    const double *values, int64_t stride, int64_t n, const int64_t *bin, const double *w,
+    const double *power, const int64_t c, const int64_t terms, double *by_bin, double *loc,
+    int64_t *cur, int64_t *count, int64_t *width)
+{
+    const int64_t ct = c * terms;
+    for (int64_t i = 0; i < n; i++) {
+        if (bin[i] != *cur) {
+            if (*cur >= 0)
+                for (int64_t a = 0; a < ct; a++) by_bin[*cur * ct + a] += loc[a];
+            for (int64_t a = 0; a < ct; a++) loc[a] = 0.0;
+            if (*count > *width) *width = *count;
+            *cur = bin[i];
+            *count = 0;
+        }
+        ++*count;
+        const double *sp = power + i * terms;
+        for (int64_t k = 0; k < c; k++) {
+            const double wv = values[k * stride + i] * w[i];
+            double *l = loc + k * terms;
+            for (int64_t p = 0; p < terms; p++) l[p] += wv * sp[p];
+        }
+    }
 }
 
 /* Moments M_pcb = sum_(j in bin b) w_j v_cj s_j^p (out: terms x c x nb) of c channels
@@ -286,23 +315,12 @@ int64_t enc_rev_moments(
     for (int64_t j0 = 0; j0 < s1; j0 += BLOCK) {
         const int64_t n = s1 - j0 < BLOCK ? s1 - j0 : BLOCK;
         block_powers(x, s1, j0, n, (double)nb / 6.283185307179586, nb, terms, bin, w, power);
-        for (int64_t i = 0; i < n; i++) {
-            if (bin[i] != cur) {
-                if (cur >= 0)
-                    for (int64_t a = 0; a < ct; a++) by_bin[cur * ct + a] += loc[a];
-                for (int64_t a = 0; a < ct; a++) loc[a] = 0.0;
-                if (count > width) width = count;
-                cur = bin[i];
-                count = 0;
-            }
-            count++;
-            const double *sp = power + i * terms;
-            for (int64_t k = 0; k < c; k++) {
-                const double wv = values[k * stride + j0 + i] * w[i];
-                double *l = loc + k * terms;
-                for (int64_t p = 0; p < terms; p++) l[p] += wv * sp[p];
-            }
-        }
+        if (c == 4 && terms == 12)   /* selfcal's four heads at the default band */
+            accumulate(values + j0, stride, n, bin, w, power, 4, 12, by_bin, loc, &cur, &count,
+                       &width);
+        else
+            accumulate(values + j0, stride, n, bin, w, power, c, terms, by_bin, loc, &cur,
+                       &count, &width);
     }
     for (int64_t a = 0; a < ct; a++) by_bin[cur * ct + a] += loc[a];
     if (count > width) width = count;
@@ -338,4 +356,40 @@ int64_t enc_repeat_count(int64_t n, const double *u, double start, double quantu
         if (i < m && ordered[i] == q) found++;
     }
     return found;
+}
+
+/* A readings batch's angle coordinate and channels (revolutions.batch_channels): u_j the
+ * mean of the nu coordinate columns' counts, (sum_k counts) * u_scale + u_offset, and row r
+ * of values (nv rows of n) counts_r * v_scale[r] + v_offset[r] - u_j, each in numpy's order
+ * of operations. Returns the sense of u: 1 rising, -1 falling (strictly), else 0. */
+int64_t enc_head_channels(int64_t n, int64_t nu, const int64_t *const *coordinate,
+                          double u_scale, double u_offset, int64_t nv,
+                          const int64_t *const *channel, const double *v_scale,
+                          const double *v_offset, double *u, double *values)
+{
+    int rising = 1, falling = 1;
+    for (int64_t j = 0; j < n; j++) {
+        double a = (double)coordinate[0][j];
+        for (int64_t k = 1; k < nu; k++) a += (double)coordinate[k][j];
+        a *= u_scale;
+        a += u_offset;
+        u[j] = a;
+        if (j > 0) {
+            rising &= a > u[j - 1];
+            falling &= a < u[j - 1];
+        }
+    }
+    for (int64_t r = 0; r < nv; r++) {
+        const int64_t *counts = channel[r];
+        double *row = values + r * n;
+        const double scale = v_scale[r], offset = v_offset[r];
+        for (int64_t j = 0; j < n; j++) {
+            double v = (double)counts[j];
+            v *= scale;
+            v += offset;
+            v -= u[j];
+            row[j] = v;
+        }
+    }
+    return rising ? 1 : falling ? -1 : 0;
 }

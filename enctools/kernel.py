@@ -1,5 +1,6 @@
 """The optional compiled kernel: per-sample passes in one loop each (interp-check's fit;
-selfcal's binned moments of a revolution and its repeated sample positions).
+selfcal's readings to channels, binned moments of a revolution and repeated sample
+positions).
 
 ``enctools/_kernel.c`` is compiled at install time (``hatch_build.py``) into a shared
 library beside this module and called through ctypes: plain C over the arrays' buffers,
@@ -54,6 +55,8 @@ def library() -> Any | None:
                                     ptr, ptr]
     lib.enc_repeat_count.restype = i64
     lib.enc_repeat_count.argtypes = [i64, ptr, f64, f64, i64, ptr]
+    lib.enc_head_channels.restype = i64
+    lib.enc_head_channels.argtypes = [i64, i64, ptr, f64, f64, i64, ptr, ptr, ptr, ptr, ptr]
     return lib
 
 

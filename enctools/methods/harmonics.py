@@ -204,12 +204,12 @@ def _kernel_sums(u: np.ndarray, v: np.ndarray, start: float, band: int,
     if nb > 16 * size or channels > kernel.MAX_CHANNELS or terms > kernel.MAX_TERMS:
         return None
     u = np.ascontiguousarray(u, dtype=np.float64)
-    table = None if shift is None else np.ascontiguousarray(shift.table)
+    table = None if shift is None else shift.by_bin
     moments, angles = np.zeros((terms, channels, nb)), np.empty(size)
     rc = lib.enc_rev_moments(
         size, u.ctypes.data, channels, v.ctypes.data, v.strides[0] // v.itemsize,
-        None if table is None else table.ctypes.data, 0 if table is None else table.shape[0],
-        0 if table is None else table.shape[1], start, nb, terms, angles.ctypes.data,
+        None if table is None else table.ctypes.data, 0 if table is None else table.shape[1],
+        0 if table is None else table.shape[0], start, nb, terms, angles.ctypes.data,
         moments.ctypes.data)
     return _combined(moments, band, h) if rc == 0 else None
 
@@ -324,6 +324,12 @@ class FourierSeries:
             table[p] = synthesize(shift, self.bins)
             shift = shift * (1j * n * h) / (p + 1)
         self.table = table
+
+    @functools.cached_property
+    def by_bin(self) -> np.ndarray:
+        """The table transposed, (bins, terms): one bin's terms side by side, as the
+        compiled kernel reads them."""
+        return np.ascontiguousarray(self.table.T)
 
     def slope(self) -> FourierSeries:
         """The curve's derivative [its unit/rad] from the same table: in bin b the
