@@ -205,7 +205,7 @@ def _kernel_sums(u: np.ndarray, v: np.ndarray, start: float, band: int,
         return None
     u = np.ascontiguousarray(u, dtype=np.float64)
     table = None if shift is None else shift.by_bin
-    moments, angles = np.zeros((terms, channels, nb)), np.empty(size)
+    moments, angles = np.empty((terms, channels, nb)), np.empty(size)  # all written
     rc = lib.enc_rev_moments(
         size, u.ctypes.data, channels, v.ctypes.data, v.strides[0] // v.itemsize,
         None if table is None else table.ctypes.data, 0 if table is None else table.shape[1],

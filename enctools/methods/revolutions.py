@@ -185,6 +185,18 @@ class RunningMean:
         self._m2_re += d.real * d2.real
         self._m2_im += np.imag(d) * np.imag(d2)
 
+    def rows(self) -> list[RunningMean]:
+        """The running mean of each row of the arrays taken in (views, not copies): what
+        one RunningMean per row would hold, the arithmetic being elementwise."""
+        if self.mean is None or self._m2_re is None or self._m2_im is None:
+            return []
+        out = []
+        for mean, re, im in zip(self.mean, self._m2_re, self._m2_im, strict=True):
+            row = RunningMean()
+            row.count, row.mean, row._m2_re, row._m2_im = self.count, mean, re, im
+            out.append(row)
+        return out
+
     def variance(self) -> tuple[np.ndarray, np.ndarray]:
         """Sample variances (re, im) between revolutions; NaN with fewer than 2."""
         if self.count < 2 or self._m2_re is None or self._m2_im is None:
