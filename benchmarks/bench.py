@@ -75,13 +75,18 @@ def available(command: str) -> bool:
 
 def timed(shell: str, repeat: int = 1, accept: tuple[int, ...] = (0,)) -> dict[str, float]:
     """Run a bash pipeline; the last stage's peak RSS comes from GNU time in the pipeline."""
-    times = []
+    import resource
+
+    times, cpus = [], []
     peak = 0.0
     status = 0
     for _ in range(repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         r = subprocess.run(["bash", "-c", shell], capture_output=True)
         times.append(time.perf_counter() - t0)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
         if r.returncode not in accept:
             raise RuntimeError(f"{shell}: {r.stderr.decode()[-500:]}")
         status = r.returncode
@@ -89,7 +94,7 @@ def timed(shell: str, repeat: int = 1, accept: tuple[int, ...] = (0,)) -> dict[s
             if line.startswith("PEAK_KB "):
                 peak = max(peak, float(line.split()[1]))
     return {"seconds": min(times), "median": statistics.median(times), "peak_mb": peak / 1024,
-            "status": status}
+            "status": status, "cpu_seconds": min(cpus)}
 
 
 def gnu_time() -> str:
@@ -560,11 +565,16 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
         for key, shell in shells.items():
             t = timed(shell, 1, ACCEPT.get(key, (0,)))
             if key not in best or t["seconds"] < best[key]["seconds"]:
-                best[key] = t | {"peak_mb": max(t["peak_mb"], best.get(key, t)["peak_mb"])}
+                best[key] = t | {"peak_mb": max(t["peak_mb"], best.get(key, t)["peak_mb"]),
+                                 "cpu_seconds": min(t["cpu_seconds"],
+                                                    best.get(key, t)["cpu_seconds"])}
+            else:
+                best[key]["cpu_seconds"] = min(best[key]["cpu_seconds"], t["cpu_seconds"])
     cat: dict[str, dict[str, float]] = {}
     for label in PIPE_BUFFERS:
         c = best[f"cat {label}"]
-        cat[label] = {"seconds": c["seconds"], "bytes_per_s": size / c["seconds"],
+        cat[label] = {"seconds": c["seconds"], "cpu_seconds": c["cpu_seconds"],
+                      "bytes_per_s": size / c["seconds"],
                       "head_samples_per_s": head_samples / c["seconds"]}
     row["cat"] = cat
     ref = cat["1 MiB"]  # the buffer the filters use
@@ -575,6 +585,9 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
             "seconds": m["seconds"], "head_samples_per_s": head_samples / m["seconds"],
             "ratio_to_cat": ref["seconds"] / m["seconds"],
             "ratio_to_cat_64k": cat["64 KiB"]["seconds"] / m["seconds"],
+            # CPU of the whole pipeline (cat and the filter) against that of cat's: what a
+            # loaded machine changes least
+            "cpu_seconds": m["cpu_seconds"], "cpu_ratio_to_cat": ref["cpu_seconds"] / m["cpu_seconds"],
             "peak_mb": m["peak_mb"]}
         if m["status"] != 0:
             r["refused"] = True
@@ -680,13 +693,13 @@ def machine_line(res: dict) -> str:
 def markdown(res: dict) -> str:
     lines = [machine_line(res), ""]
     lines += ["| command | revolutions | head-samples/s | vs `cat` | vs `cat`, after start-up "
-              "| peak memory |",
-              "|---|---:|---:|---:|---:|---:|"]
+              "| vs `cat`, CPU | peak memory |",
+              "|---|---:|---:|---:|---:|---:|---:|"]
     for run in res["runs"]:
         n = run["revolutions"]
         for label, c in run.get("cat", {}).items():
             lines.append(f"| `cat` ({label} pipe) | {n} | {c['head_samples_per_s']:.3g} | "
-                         f"{c['bytes_per_s'] / 1e9:.2f} GB/s | | |")
+                         f"{c['bytes_per_s'] / 1e9:.2f} GB/s | | | |")
         for name, m in run.items():
             if not isinstance(m, dict) or name == "cat":
                 continue
@@ -697,7 +710,9 @@ def markdown(res: dict) -> str:
                 rate, ratio, steady = "refused (a sweep is fitted whole)", "", ""
             elif name == "acquire":
                 rate += f" ({m['samples_per_s']:.3g} samples/s)"
-            lines.append(f"| {name} | {n} | {rate} | {ratio} | {steady} | "
+            cpu = (f"{m['cpu_ratio_to_cat']:.2f}" if "cpu_ratio_to_cat" in m and not m.get("refused")
+                   else "")
+            lines.append(f"| {name} | {n} | {rate} | {ratio} | {steady} | {cpu} | "
                          f"{m['peak_mb']:.0f} MB |")
     memory = _memory_growth(res)
     if memory:
