@@ -13,6 +13,11 @@ unpacked into the output folder and run with the same Python and libraries, time
 turn with the code of this tree: the ratio after / before is of one run.
 
 Usage: bench.py [--revolutions 20,200,2000] [--out bench-out] [--quick] [--before REV]
+                [--only filters] [--filters selfcal,interp-check] [--variants]
+
+``--only filters`` measures start-up and the filter rows alone; ``--filters`` chooses which
+filters; ``--variants`` adds each chosen filter run with ``ENCTOOLS_KERNEL=numpy`` and, with
+``--before``, run by the before code, timed in turn with the rest.
 """
 
 from __future__ import annotations
@@ -43,6 +48,8 @@ FILTERS: dict[str, list[str]] = {
     # (at the 3 ms of RUN, P2 is stroboscopic: skipped with a warning)
     "interp-check": ["interp-check", "-q", "--reference", "P1"],
 }
+#: a filter row's command prefix (``env VAR=value``), for the variants of --variants
+PREFIX: dict[str, str] = {}
 #: exit statuses that count as a measured run (besides 0)
 ACCEPT: dict[str, tuple[int, ...]] = {}
 #: the pipe buffer the filters ask for (enctools.data.pipes.PIPE_BUFFER) and the default
@@ -68,13 +75,18 @@ def available(command: str) -> bool:
 
 def timed(shell: str, repeat: int = 1, accept: tuple[int, ...] = (0,)) -> dict[str, float]:
     """Run a bash pipeline; the last stage's peak RSS comes from GNU time in the pipeline."""
-    times = []
+    import resource
+
+    times, cpus = [], []
     peak = 0.0
     status = 0
     for _ in range(repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         r = subprocess.run(["bash", "-c", shell], capture_output=True)
         times.append(time.perf_counter() - t0)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
         if r.returncode not in accept:
             raise RuntimeError(f"{shell}: {r.stderr.decode()[-500:]}")
         status = r.returncode
@@ -82,7 +94,7 @@ def timed(shell: str, repeat: int = 1, accept: tuple[int, ...] = (0,)) -> dict[s
             if line.startswith("PEAK_KB "):
                 peak = max(peak, float(line.split()[1]))
     return {"seconds": min(times), "median": statistics.median(times), "peak_mb": peak / 1024,
-            "status": status}
+            "status": status, "cpu_seconds": min(cpus)}
 
 
 def gnu_time() -> str:
@@ -145,9 +157,30 @@ def before_tree(rev: str, out: Path) -> dict[str, str] | None:
         print(f"bench: no before figures ({rev}: {r.stderr.decode().strip()[:200]})",
               file=sys.stderr)
         return None
+    _build_kernel(d / "enctools")
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", rev],
                             capture_output=True, text=True).stdout.strip()
     return {"PYTHONPATH": str(d), "rev": rev, "commit": commit}
+
+
+def _build_kernel(package: Path) -> None:
+    """The before code's compiled kernel, built as its install would (when it has one): its
+    filters then run as installed, not on the numpy passes."""
+    source = package / "_kernel.c"
+    if not source.exists():
+        return
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("before_kernel_build",
+                                                  package / "kernel_build.py")
+    if spec is None or spec.loader is None:
+        return
+    how = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(how)
+    ok, _, message = how.build(source, package / "_enckernel.so")
+    if not ok:
+        print(f"bench: the before code's kernel was not built ({message[:200]})",
+              file=sys.stderr)
 
 
 def with_env(env: dict[str, str] | None, shell: str) -> str:
@@ -524,18 +557,24 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
     # best of each: a machine busy for a while slows references and filters alike
     shells = {f"cat {label}": f"cat {data} | {pipe_cat(buf)} > /dev/null"
               for label, buf in PIPE_BUFFERS.items()}
-    shells |= {name: f"cat {data} | {gnu_time()} {ENC} {' '.join(argv)} > /dev/null"
+    shells |= {name: f"cat {data} | {gnu_time()} {PREFIX.get(name, '')}{ENC} {' '.join(argv)} "
+                     "> /dev/null"
                for name, argv in filters.items()}
     best: dict[str, dict[str, float]] = {}
     for _ in range(max(repeat, 3) if repeat > 1 else 1):
         for key, shell in shells.items():
             t = timed(shell, 1, ACCEPT.get(key, (0,)))
             if key not in best or t["seconds"] < best[key]["seconds"]:
-                best[key] = t | {"peak_mb": max(t["peak_mb"], best.get(key, t)["peak_mb"])}
+                best[key] = t | {"peak_mb": max(t["peak_mb"], best.get(key, t)["peak_mb"]),
+                                 "cpu_seconds": min(t["cpu_seconds"],
+                                                    best.get(key, t)["cpu_seconds"])}
+            else:
+                best[key]["cpu_seconds"] = min(best[key]["cpu_seconds"], t["cpu_seconds"])
     cat: dict[str, dict[str, float]] = {}
     for label in PIPE_BUFFERS:
         c = best[f"cat {label}"]
-        cat[label] = {"seconds": c["seconds"], "bytes_per_s": size / c["seconds"],
+        cat[label] = {"seconds": c["seconds"], "cpu_seconds": c["cpu_seconds"],
+                      "bytes_per_s": size / c["seconds"],
                       "head_samples_per_s": head_samples / c["seconds"]}
     row["cat"] = cat
     ref = cat["1 MiB"]  # the buffer the filters use
@@ -546,6 +585,9 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
             "seconds": m["seconds"], "head_samples_per_s": head_samples / m["seconds"],
             "ratio_to_cat": ref["seconds"] / m["seconds"],
             "ratio_to_cat_64k": cat["64 KiB"]["seconds"] / m["seconds"],
+            # CPU of the whole pipeline (cat and the filter) against that of cat's: what a
+            # loaded machine changes least
+            "cpu_seconds": m["cpu_seconds"], "cpu_ratio_to_cat": ref["cpu_seconds"] / m["cpu_seconds"],
             "peak_mb": m["peak_mb"]}
         if m["status"] != 0:
             r["refused"] = True
@@ -555,6 +597,21 @@ def measure(n: int, out: Path, filters: dict[str, list[str]], repeat: int,
         row[name] = r
     data.unlink()
     return row
+
+
+def variants(filters: dict[str, list[str]],
+             before: dict[str, str] | None) -> dict[str, list[str]]:
+    """Each filter, then it with the numpy passes (ENCTOOLS_KERNEL=numpy) and, given the
+    before code, by that code: rows named "NAME, numpy passes" and "NAME, before"."""
+    out: dict[str, list[str]] = {}
+    for name, argv in filters.items():
+        out[name] = argv
+        out[f"{name}, numpy passes"] = argv
+        PREFIX[f"{name}, numpy passes"] = "env ENCTOOLS_KERNEL=numpy "
+        if before is not None:
+            out[f"{name}, before"] = argv
+            PREFIX[f"{name}, before"] = f"env PYTHONPATH={before['PYTHONPATH']} "
+    return out
 
 
 def done(results: dict, out: Path, part: str) -> None:
@@ -570,6 +627,12 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="20 and 200 revolutions, one repeat")
     ap.add_argument("--before", default="main",
                     help="the commit whose code gives the before figures ('' for none)")
+    ap.add_argument("--only", choices=("all", "filters"), default="all",
+                    help="filters: start-up and the filter rows alone")
+    ap.add_argument("--filters", default=",".join(FILTERS),
+                    help="the filters measured (comma-separated)")
+    ap.add_argument("--variants", action="store_true",
+                    help="each filter also with ENCTOOLS_KERNEL=numpy and by the before code")
     args = ap.parse_args()
     revs = [20, 200] if args.quick else [int(r) for r in args.revolutions.split(",")]
     repeat = 1 if args.quick else 3
@@ -586,20 +649,25 @@ def main() -> None:
         "startup": startup(5),
         "runs": [],
     }
-    results["commands"] = command_startup(out, 7, before)
-    done(results, out, "start-up")
-    results["report"] = report_rows(out, 1 if args.quick else 3, before)
-    done(results, out, "report")
-    results["make_rom"] = make_rom_rows(out, repeat, args.quick, before)
-    done(results, out, "make-rom")
-    results["fit_rbf"] = fit_rbf_rows()
-    done(results, out, "fit-rbf")
-    filters = {k: v for k, v in FILTERS.items() if available(v[0])}
+    if args.only == "all":
+        results["commands"] = command_startup(out, 7, before)
+        done(results, out, "start-up")
+        results["report"] = report_rows(out, 1 if args.quick else 3, before)
+        done(results, out, "report")
+        results["make_rom"] = make_rom_rows(out, repeat, args.quick, before)
+        done(results, out, "make-rom")
+        results["fit_rbf"] = fit_rbf_rows()
+        done(results, out, "fit-rbf")
+    chosen = args.filters.split(",")
+    filters = {k: v for k, v in FILTERS.items() if k in chosen and available(v[0])}
+    if args.variants:
+        filters = variants(filters, before)
     tiny = out / "raw-tiny.arrows"
     timed(f"{ENC} {RUN} --revolutions 2 -o {tiny} --force")
     # start-up and the work on two revolutions: subtracted to give the steady pass-through rate
     results["filters_tiny_input"] = {
-        name: timed(f"cat {tiny} | {ENC} {' '.join(argv)} > /dev/null", max(repeat, 3))["seconds"]
+        name: timed(f"cat {tiny} | {PREFIX.get(name, '')}{ENC} {' '.join(argv)} > /dev/null",
+                    max(repeat, 3))["seconds"]
         for name, argv in filters.items()}
     tiny.unlink()
     for n in revs:
@@ -625,13 +693,13 @@ def machine_line(res: dict) -> str:
 def markdown(res: dict) -> str:
     lines = [machine_line(res), ""]
     lines += ["| command | revolutions | head-samples/s | vs `cat` | vs `cat`, after start-up "
-              "| peak memory |",
-              "|---|---:|---:|---:|---:|---:|"]
+              "| vs `cat`, CPU | peak memory |",
+              "|---|---:|---:|---:|---:|---:|---:|"]
     for run in res["runs"]:
         n = run["revolutions"]
         for label, c in run.get("cat", {}).items():
             lines.append(f"| `cat` ({label} pipe) | {n} | {c['head_samples_per_s']:.3g} | "
-                         f"{c['bytes_per_s'] / 1e9:.2f} GB/s | | |")
+                         f"{c['bytes_per_s'] / 1e9:.2f} GB/s | | | |")
         for name, m in run.items():
             if not isinstance(m, dict) or name == "cat":
                 continue
@@ -642,7 +710,9 @@ def markdown(res: dict) -> str:
                 rate, ratio, steady = "refused (a sweep is fitted whole)", "", ""
             elif name == "acquire":
                 rate += f" ({m['samples_per_s']:.3g} samples/s)"
-            lines.append(f"| {name} | {n} | {rate} | {ratio} | {steady} | "
+            cpu = (f"{m['cpu_ratio_to_cat']:.2f}" if "cpu_ratio_to_cat" in m and not m.get("refused")
+                   else "")
+            lines.append(f"| {name} | {n} | {rate} | {ratio} | {steady} | {cpu} | "
                          f"{m['peak_mb']:.0f} MB |")
     memory = _memory_growth(res)
     if memory:

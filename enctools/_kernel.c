@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define ENC_KERNEL_ABI 1
+#define ENC_KERNEL_ABI 2
 #define MAX_P1 64     /* columns + 1 (y): 2 * 64 device harmonics would not fit; the caller checks */
 #define MAX_D1 8      /* trend terms */
 
@@ -199,4 +199,197 @@ int64_t enc_interp_member(
     }
     free(tl.ysum); free(tl.rhist); free(tl.rysum); free(tl.rsum);
     return 0;
+}
+
+/* ---- selfcal: one revolution's binned moments and its repeated sample positions ----
+ * (enctools/methods/harmonics.py, _bin_moments and FourierSeries; selfcal_uncertainty.py,
+ * SampleRepeats). The same doubles as the numpy passes up to the order of the sums. */
+
+/* theta = u - delta_hat(u) of the angle map (harmonics.FourierSeries: in each of mbins
+ * bins a polynomial of mp terms in s, map[bin][p] (its table transposed: one bin's terms
+ * side by side), Horner from the last term). */
+static inline double mapped(double u, const double *map, int64_t mp, int64_t mbins,
+                            double per_rad)
+{
+    if (mp == 0) return u;
+    const double pos = u * per_rad;
+    int64_t f = (int64_t)pos;                 /* floor, without the maths library */
+    if ((double)f > pos) f--;
+    const double b = (double)f;
+    double s = pos - b;
+    s *= 2.0;
+    s -= 1.0;
+    const int64_t idx = f & (mbins - 1);
+    const double *q = map + idx * mp;
+    double out = q[mp - 1];
+    for (int64_t p = mp - 2; p >= 0; p--) {
+        out *= s;
+        out += q[p];
+    }
+    return u - out;
+}
+
+#define MAX_CHANNELS 16
+#define MAX_TERMS 32
+#define BLOCK 256     /* samples whose powers of s are made in one pass */
+
+/* The bin b, offset s and trapezoid weight w of samples j0..j0+n-1 of x (s1 samples), and
+ * the powers s^p, p < terms, of each (power[j][p], s^p = s^(p-1) s as numpy makes them). */
+static void block_powers(const double *x, int64_t s1, int64_t j0, int64_t n, double per_rad,
+                         int64_t nb, int64_t terms, int64_t *bin, double *w, double *power)
+{
+    for (int64_t i = 0; i < n; i++) {
+        const int64_t j = j0 + i;
+        w[i] = (j == 0 ? x[1] - x[0] : j == s1 - 1 ? x[j] - x[j - 1] : x[j + 1] - x[j - 1])
+               * 0.5;
+        const double pos = x[j] * per_rad;
+        int64_t b = (int64_t)pos;       /* a first sample rounded below 0 truncates to 0 */
+        if (b >= nb) b = nb - 1;
+        double s = pos - (double)b;
+        s *= 2.0;
+        s -= 1.0;
+        bin[i] = b;
+        power[i * terms] = 1.0;
+        power[i * terms + 1] = s;
+    }
+    for (int64_t p = 2; p < terms; p++)   /* independent across samples: no latency chain */
+        for (int64_t i = 0; i < n; i++)
+            power[i * terms + p] = power[i * terms + p - 1] * power[i * terms + 1];
+}
+
+/* Add a block's samples to their bins' sums: loc holds the current bin's (c x terms) and is
+ * added into by_bin when the bin changes; inlined with c and terms constant where called. */
+static inline __attribute__((always_inline)) void accumulate(
+    const double *values, int64_t stride, int64_t n, const int64_t *bin, const double *w,
+    const double *power, const int64_t c, const int64_t terms, double *by_bin, double *loc,
+    int64_t *cur, int64_t *count, int64_t *width)
+{
+    const int64_t ct = c * terms;
+    for (int64_t i = 0; i < n; i++) {
+        if (bin[i] != *cur) {
+            if (*cur >= 0)
+                for (int64_t a = 0; a < ct; a++) by_bin[*cur * ct + a] += loc[a];
+            for (int64_t a = 0; a < ct; a++) loc[a] = 0.0;
+            if (*count > *width) *width = *count;
+            *cur = bin[i];
+            *count = 0;
+        }
+        ++*count;
+        const double *sp = power + i * terms;
+        for (int64_t k = 0; k < c; k++) {
+            const double wv = values[k * stride + i] * w[i];
+            double *l = loc + k * terms;
+            for (int64_t p = 0; p < terms; p++) l[p] += wv * sp[p];
+        }
+    }
+}
+
+/* Moments M_pcb = sum_(j in bin b) w_j v_cj s_j^p (out: terms x c x nb) of c channels
+ * (values: c rows of s1, row stride `stride`) over one revolution of x_j = theta(u_j) - start
+ * (written into x), theta the angle map (mp = 0: theta = u); w the trapezoid weights of x,
+ * b = floor(x nb / 2 pi) (the last bin takes what rounds past 2 pi), s the offset from the
+ * bin's centre in half-widths. Each bin's sums run over its samples in order, as numpy's.
+ * Returns 0; -1 for sizes beyond the limits; -2 when x falls (the numpy pass turns it
+ * round); -3 when a bin holds more samples than the numpy layout pads (its None: the
+ * direct sums run), so that both choose alike. */
+int64_t enc_rev_moments(
+    int64_t s1, const double *u, int64_t c, const double *values, int64_t stride,
+    const double *map, int64_t mp, int64_t mbins, double start, int64_t nb, int64_t terms,
+    double *x, double *out)
+{
+    if (c < 1 || c > MAX_CHANNELS || terms < 2 || terms > MAX_TERMS || s1 < 3 || nb < 1)
+        return -1;
+    const double map_per_rad = (double)mbins / 6.283185307179586;
+    for (int64_t j = 0; j < s1; j++) x[j] = mapped(u[j], map, mp, mbins, map_per_rad) - start;
+    if (x[s1 - 1] < x[0]) return -2;
+    const int64_t ct = c * terms;
+    double *by_bin = calloc((size_t)(nb * ct), sizeof(double));  /* a bin's sums side by side */
+    double *power = malloc(sizeof(double) * BLOCK * (size_t)terms);
+    if (!by_bin || !power) {
+        free(by_bin);
+        free(power);
+        return -1;
+    }
+    double loc[MAX_CHANNELS * MAX_TERMS] = {0}, w[BLOCK];
+    int64_t bin[BLOCK], cur = -1, count = 0, width = 0;
+    for (int64_t j0 = 0; j0 < s1; j0 += BLOCK) {
+        const int64_t n = s1 - j0 < BLOCK ? s1 - j0 : BLOCK;
+        block_powers(x, s1, j0, n, (double)nb / 6.283185307179586, nb, terms, bin, w, power);
+        if (c == 4 && terms == 12)   /* selfcal's four heads at the default band */
+            accumulate(values + j0, stride, n, bin, w, power, 4, 12, by_bin, loc, &cur, &count,
+                       &width);
+        else
+            accumulate(values + j0, stride, n, bin, w, power, c, terms, by_bin, loc, &cur,
+                       &count, &width);
+    }
+    for (int64_t a = 0; a < ct; a++) by_bin[cur * ct + a] += loc[a];
+    if (count > width) width = count;
+    for (int64_t b0 = 0; b0 < nb; b0 += 64)  /* bins, channels, terms -> terms, channels, bins */
+        for (int64_t a = 0; a < ct; a++) {
+            const int64_t k = a / terms, p = a % terms;
+            for (int64_t b = b0; b < nb && b < b0 + 64; b++)
+                out[(p * c + k) * nb + b] = by_bin[b * ct + a];
+        }
+    free(by_bin);
+    free(power);
+    return nb * width > 4 * s1 + 4096 ? -3 : 0;
+}
+
+/* How many of n sample positions rint((u_j - start) / quantum) are among the m ascending,
+ * distinct `ordered` (selfcal_uncertainty.SampleRepeats): one merge when the positions do
+ * not fall (u rising), else -1 (the numpy binary search runs). */
+#define ROUND_SHIFT 6755399441055744.0   /* 1.5 * 2^52 */
+#define ROUND_LIMIT 2251799813685248.0   /* 2^51 */
+
+int64_t enc_repeat_count(int64_t n, const double *u, double start, double quantum,
+                         int64_t m, const int64_t *ordered)
+{
+    int64_t found = 0, i = 0, last = INT64_MIN;
+    for (int64_t j = 0; j < n; j++) {
+        const double r = (u[j] - start) / quantum;
+        if (!(r > -ROUND_LIMIT && r < ROUND_LIMIT)) return -1;
+        /* rint (to nearest, ties to even) without the maths library: exact below 2^51 */
+        const int64_t q = (int64_t)((r + ROUND_SHIFT) - ROUND_SHIFT);
+        if (q < last) return -1;
+        last = q;
+        while (i < m && ordered[i] < q) i++;
+        if (i < m && ordered[i] == q) found++;
+    }
+    return found;
+}
+
+/* A readings batch's angle coordinate and channels (revolutions.batch_channels): u_j the
+ * mean of the nu coordinate columns' counts, (sum_k counts) * u_scale + u_offset, and row r
+ * of values (nv rows of n) counts_r * v_scale[r] + v_offset[r] - u_j, each in numpy's order
+ * of operations. Returns the sense of u: 1 rising, -1 falling (strictly), else 0. */
+int64_t enc_head_channels(int64_t n, int64_t nu, const int64_t *const *coordinate,
+                          double u_scale, double u_offset, int64_t nv,
+                          const int64_t *const *channel, const double *v_scale,
+                          const double *v_offset, double *u, double *values)
+{
+    int rising = 1, falling = 1;
+    for (int64_t j = 0; j < n; j++) {
+        double a = (double)coordinate[0][j];
+        for (int64_t k = 1; k < nu; k++) a += (double)coordinate[k][j];
+        a *= u_scale;
+        a += u_offset;
+        u[j] = a;
+        if (j > 0) {
+            rising &= a > u[j - 1];
+            falling &= a < u[j - 1];
+        }
+    }
+    for (int64_t r = 0; r < nv; r++) {
+        const int64_t *counts = channel[r];
+        double *row = values + r * n;
+        const double scale = v_scale[r], offset = v_offset[r];
+        for (int64_t j = 0; j < n; j++) {
+            double v = (double)counts[j];
+            v *= scale;
+            v += offset;
+            v -= u[j];
+            row[j] = v;
+        }
+    }
+    return rising ? 1 : falling ? -1 : 0;
 }

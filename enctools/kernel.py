@@ -1,4 +1,6 @@
-"""The optional compiled kernel: the per-sample passes of interp-check's fit in one loop.
+"""The optional compiled kernel: per-sample passes in one loop each (interp-check's fit;
+selfcal's readings to channels, binned moments of a revolution and repeated sample
+positions).
 
 ``enctools/_kernel.c`` is compiled at install time (``hatch_build.py``) into a shared
 library beside this module and called through ctypes: plain C over the arrays' buffers,
@@ -17,7 +19,10 @@ from typing import Any
 #: the library's file name beside this module (hatch_build.py writes it)
 LIBRARY = "_enckernel.so"
 #: the interface version the loader expects of the library (enc_kernel_abi)
-ABI = 1
+ABI = 2
+#: the most channels and series terms enc_rev_moments takes (_kernel.c)
+MAX_CHANNELS = 16
+MAX_TERMS = 32
 #: the environment variable that forces the numpy passes ("numpy") or asks for the kernel
 ENV = "ENCTOOLS_KERNEL"
 
@@ -45,6 +50,13 @@ def library() -> Any | None:
     lib.enc_interp_member.argtypes = [
         i64, ptr, f64, i64, i64, ptr, f64, ptr, i64, ptr, ptr, i64, i64,
         i64, ptr, ptr, ptr, i64, ptr, ptr, ptr, ptr, i64, ptr]
+    lib.enc_rev_moments.restype = i64
+    lib.enc_rev_moments.argtypes = [i64, ptr, i64, ptr, i64, ptr, i64, i64, f64, i64, i64,
+                                    ptr, ptr]
+    lib.enc_repeat_count.restype = i64
+    lib.enc_repeat_count.argtypes = [i64, ptr, f64, f64, i64, ptr]
+    lib.enc_head_channels.restype = i64
+    lib.enc_head_channels.argtypes = [i64, i64, ptr, f64, f64, i64, ptr, ptr, ptr, ptr, ptr]
     return lib
 
 

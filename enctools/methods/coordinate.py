@@ -133,6 +133,11 @@ class AngleMap:
     def __post_init__(self) -> None:
         self._series = None if self.error is None else FourierSeries(invert(self.error))
 
+    @property
+    def shift(self) -> FourierSeries | None:
+        """delta_hat, theta = u - delta_hat(u) [rad]; None for theta = u."""
+        return self._series
+
     def __call__(self, u: np.ndarray) -> np.ndarray:
         """theta [rad] at coordinate values ``u`` [rad]."""
         if self._series is None:
@@ -152,9 +157,8 @@ def spectra_against(rev: Revolution, values: np.ndarray, angle: AngleMap,
                     band: int) -> np.ndarray:
     """Coefficients c_0..c_band (rad) of ``values`` (C, S) [rad] of revolution ``rev``
     against theta = ``angle(u)``: the revolution's ends map to theta0 and theta0 +/- 2 pi."""
-    theta = angle(rev.u)
     start = float(angle(np.array([rev.start]))[0])
-    return revolution_coefficients(theta, values, start, band)
+    return revolution_coefficients(rev.u, values, start, band, angle.shift)
 
 
 def coordinate_error(model: Model, spectra: np.ndarray

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from enctools import kernel
 from enctools.errors import SettingsError
 from enctools.units import TWO_PI
 
@@ -55,7 +56,7 @@ def trapezoid_weights(x: np.ndarray) -> np.ndarray:
 
 
 def revolution_coefficients(u: np.ndarray, values: np.ndarray, start: float,
-                            band: int) -> np.ndarray:
+                            band: int, shift: FourierSeries | None = None) -> np.ndarray:
     """Fourier coefficients c_0..c_band of channels over one revolution of ``u``.
 
     Parameters
@@ -65,6 +66,8 @@ def revolution_coefficients(u: np.ndarray, values: np.ndarray, start: float,
     values : (C, S) channel values (any unit) at ``u``.
     start : where the revolution starts [rad].
     band : highest harmonic K.
+    shift : the samples' angles are ``u - shift(u)`` [rad] (an angle map's correction,
+        ``start`` then being that angle's start); None: ``u`` itself.
 
     Returns
     -------
@@ -72,14 +75,18 @@ def revolution_coefficients(u: np.ndarray, values: np.ndarray, start: float,
 
     The trapezoid sum ``sum_j w_j f(u_j) exp(-i n x_j)`` is evaluated bin by bin of
     angle (:func:`_binned_sums`): exact to rounding, a few passes over the samples
-    and FFTs instead of the (K + 1) x S exponentials of the direct sum.
+    and FFTs instead of the (K + 1) x S exponentials of the direct sum. The compiled
+    kernel (:mod:`enctools.kernel`) makes the angles and the bins' moments in one pass.
     """
-    x = np.asarray(u, dtype=np.float64) - start
     v = np.atleast_2d(np.asarray(values, dtype=np.float64))
-    w = trapezoid_weights(x)
-    c = _binned_sums(x, v, w, band)
+    c = _kernel_sums(u, v, start, band, shift)
     if c is None:
-        c = _direct_sums(x, v, w, band)
+        theta = np.asarray(u, dtype=np.float64) if shift is None else u - shift(u)
+        x = theta - start
+        w = trapezoid_weights(x)
+        c = _binned_sums(x, v, w, band)
+        if c is None:
+            c = _direct_sums(x, v, w, band)
     c /= np.pi
     c[:, 0] /= 2.0
     # the integral ran over x = u - start: move the origin back to u = 0
@@ -156,8 +163,7 @@ def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     """
     if band == 0:
         return (v @ w)[:, None].astype(np.complex128)
-    nb = 1 << max(3, math.ceil(math.log2(band * BINS_PER_HARMONIC)),
-                  math.ceil(math.log2(x.size / SAMPLES_PER_BIN)))
+    nb = _bins(band, x.size)
     if x.size < 256 or nb > 16 * x.size:
         return None
     if x[-1] < x[0]:  # turning backwards: the same sums over x + 2 pi, increasing
@@ -167,9 +173,45 @@ def _binned_sums(x: np.ndarray, v: np.ndarray, w: np.ndarray,
     if layout is None:
         return None
     terms = _taylor_terms(band * h)
-    moments = _bin_moments(v * w, layout, terms)  # (P, C, B)
+    return _combined(_bin_moments(v * w, layout, terms), band, h)  # moments: (P, C, B)
+
+
+def _bins(band: int, samples: int) -> int:
+    """B, the bins of :func:`_binned_sums` for harmonics 0..``band`` over ``samples``."""
+    return 1 << max(3, math.ceil(math.log2(band * BINS_PER_HARMONIC)),
+                    math.ceil(math.log2(samples / SAMPLES_PER_BIN)))
+
+
+def _combined(moments: np.ndarray, band: int, h: float) -> np.ndarray:
+    """``sum_b M_pcb exp(-i n x_b)`` of moments (P, C, B) summed over p: (C, K + 1)."""
     f = np.fft.rfft(moments, axis=-1)[..., : band + 1]  # sum_b M exp(-2 pi i n b / B)
-    return np.einsum("pcn,pn->cn", f, _expansion(band, h, terms))
+    return np.einsum("pcn,pn->cn", f, _expansion(band, h, moments.shape[0]))
+
+
+def _kernel_sums(u: np.ndarray, v: np.ndarray, start: float, band: int,
+                 shift: FourierSeries | None) -> np.ndarray | None:
+    """:func:`_binned_sums` of the samples at ``u - shift(u) - start`` [rad], the angles,
+    weights and moments made in one pass of the compiled kernel; None where it is not
+    installed or leaves the choice to the numpy passes (falling angles, few samples,
+    bins too unevenly filled)."""
+    lib = kernel.library()
+    size, channels = u.size, v.shape[0]
+    if lib is None or band == 0 or size < 256 or v.strides[1] != v.itemsize:
+        return None
+    nb = _bins(band, size)
+    h = math.pi / nb
+    terms = _taylor_terms(band * h)
+    if nb > 16 * size or channels > kernel.MAX_CHANNELS or terms > kernel.MAX_TERMS:
+        return None
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    table = None if shift is None else shift.by_bin
+    moments, angles = np.empty((terms, channels, nb)), np.empty(size)  # all written
+    rc = lib.enc_rev_moments(
+        size, u.ctypes.data, channels, v.ctypes.data, v.strides[0] // v.itemsize,
+        None if table is None else table.ctypes.data, 0 if table is None else table.shape[1],
+        0 if table is None else table.shape[0], start, nb, terms, angles.ctypes.data,
+        moments.ctypes.data)
+    return _combined(moments, band, h) if rc == 0 else None
 
 
 @dataclass
@@ -282,6 +324,12 @@ class FourierSeries:
             table[p] = synthesize(shift, self.bins)
             shift = shift * (1j * n * h) / (p + 1)
         self.table = table
+
+    @functools.cached_property
+    def by_bin(self) -> np.ndarray:
+        """The table transposed, (bins, terms): one bin's terms side by side, as the
+        compiled kernel reads them."""
+        return np.ascontiguousarray(self.table.T)
 
     def slope(self) -> FourierSeries:
         """The curve's derivative [its unit/rad] from the same table: in bin b the

@@ -37,6 +37,9 @@ if TYPE_CHECKING:
 #: (index, coefficients (C, K + 1), bin averages (C, points) or None) of one revolution
 Spectra = tuple[int, np.ndarray, np.ndarray | None]
 
+#: Arrow's type id of int64, the counts the compiled kernel reads
+_INT64_ID = 9
+
 #: values (channels x samples) of one revolution held at once: 32 MB of float64 a copy,
 #: so that the few copies its analysis makes stay well under 500 MB. A batch is cut
 #: into slices of at most half of it; a revolution beyond it is refused [values]
@@ -182,6 +185,18 @@ class RunningMean:
         self._m2_re += d.real * d2.real
         self._m2_im += np.imag(d) * np.imag(d2)
 
+    def rows(self) -> list[RunningMean]:
+        """The running mean of each row of the arrays taken in (views, not copies): what
+        one RunningMean per row would hold, the arithmetic being elementwise."""
+        if self.mean is None or self._m2_re is None or self._m2_im is None:
+            return []
+        out = []
+        for mean, re, im in zip(self.mean, self._m2_re, self._m2_im, strict=True):
+            row = RunningMean()
+            row.count, row.mean, row._m2_re, row._m2_im = self.count, mean, re, im
+            out.append(row)
+        return out
+
     def variance(self) -> tuple[np.ndarray, np.ndarray]:
         """Sample variances (re, im) between revolutions; NaN with fewer than 2."""
         if self.count < 2 or self._m2_re is None or self._m2_im is None:
@@ -303,6 +318,10 @@ def batch_channels(batch: pa.RecordBatch, spec: ChannelSpec,
     if n == 0:
         return None
     t, rising = _times(batch, source)
+    fused = None if spec.mean else _kernel_channels(batch, spec)
+    if fused is not None:
+        u, values, sense = fused
+        return BatchChannels(t, u, values, rising, sense if n > 1 else 0)
     u = mean_reading(batch, spec.coordinate, source)
     if spec.mean:
         values = mean_reading(batch, spec.channels, source, minus=u)[None, :]
@@ -312,6 +331,39 @@ def batch_channels(batch: pa.RecordBatch, spec: ChannelSpec,
             values[i] = mean_reading(batch, (h,), source, minus=u)
     sense = 1 if bool(np.all(u[1:] > u[:-1])) else -1 if bool(np.all(u[1:] < u[:-1])) else 0
     return BatchChannels(t, u, values, rising, sense if n > 1 else 0)
+
+
+def _kernel_channels(batch: pa.RecordBatch, spec: ChannelSpec
+                     ) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """u [rad], the channels minus u [rad] and u's sense (:func:`batch_channels`) in one
+    pass of the compiled kernel (:mod:`enctools.kernel`), the same doubles as
+    :func:`mean_reading`'s; None where it does not apply (no kernel, counts not int64 or
+    with nulls, coordinate heads of different counts per revolution)."""
+    from enctools import kernel
+
+    lib = kernel.library()
+    coordinate = spec.coordinate
+    if lib is None or len({h.counts_per_rev for h in coordinate}) != 1:
+        return None
+    columns = []
+    for h in coordinate + spec.channels:
+        col = batch.column(h.name)
+        if col.null_count or col.type.id != _INT64_ID:
+            return None
+        columns.append(col.to_numpy())
+    m, cpr = len(coordinate), coordinate[0].counts_per_rev
+    u_offset = 0.0 + sum(h.zero_count * (TWO_PI / cpr) - h.alpha for h in coordinate) / m
+    scales = np.array([TWO_PI / h.counts_per_rev for h in spec.channels])
+    offsets = np.array([0.0 + (h.zero_count * (TWO_PI / h.counts_per_rev) - h.alpha)
+                        for h in spec.channels])
+    pointers = np.array([c.ctypes.data for c in columns], dtype=np.uintp)
+    n = batch.num_rows
+    u, values = np.empty(n), np.empty((len(spec.channels), n))
+    sense = lib.enc_head_channels(n, m, pointers.ctypes.data, TWO_PI / (cpr * m), u_offset,
+                                  len(spec.channels), pointers[m:].ctypes.data,
+                                  scales.ctypes.data, offsets.ctypes.data, u.ctypes.data,
+                                  values.ctypes.data)
+    return u, values, int(sense)
 
 
 def _check_steps(u: np.ndarray, before: float, spec: ChannelSpec, source: str) -> None:

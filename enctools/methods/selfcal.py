@@ -310,8 +310,9 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
         return method.coordinate_error(sol, coordinate_alphas), solution_parts(sol)
 
     spectra, samples = RunningMean(), 0
-    coef = {name: RunningMean() for name in SCALE}
-    curves = {name: RunningMean() for name in SCALE}
+    # the solution's arrays stacked (graduation, then x, y): one mean and one synthesis of
+    # them all a revolution, each row as its own would be
+    coef, curves, names = RunningMean(), RunningMean(), list(SCALE)
     settled: Settled | None = None
     repeats = SampleRepeats(resolution / max(len(coordinate_alphas), 1))
     for rev in revolutions:
@@ -323,9 +324,11 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
         g[:, 0] += settled.offsets
         spectra.add(g)
         samples += rev.u.size - 1
-        for name, c in solution_parts(method.solve(g)).items():
-            coef[name].add(c * SCALE[name])
-            curves[name].add(synthesize(c * SCALE[name], points))
+        parts = solution_parts(method.solve(g))
+        names = list(parts)
+        scaled = np.array([c * SCALE[name] for name, c in parts.items()])
+        coef.add(scaled)
+        curves.add(synthesize(scaled, points))
     if spectra.mean is None or settled is None or spectra.count < 2:
         msg = (f"input: {spectra.count} complete revolution(s) of the angle coordinate; "
                "self-calibration needs at least 2 (record more revolutions with enc acquire)")
@@ -340,7 +343,9 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
                              refined.parts, method.radius_m)
     return Result(method.name, list(method.names), coordinate, method.band, spectra.count,
                   method.conditioning, solved,
-                  uncertainties(coef, curves, bound, repeats.repeated),
+                  uncertainties(dict(zip(names, coef.rows(), strict=True)),
+                                dict(zip(names, curves.rows(), strict=True)), bound,
+                                repeats.repeated),
                   {name: synthesize(part, points) for name, part in solved.items()},
                   (settled.iterations, refined.iterations),
                   float(np.sqrt(np.sum(np.abs(change[1:]) ** 2) / 2)),

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from enctools import kernel
 from enctools.methods.budget import Coverage, repeats_dof, type_a_coverage
 
 if TYPE_CHECKING:
@@ -62,11 +63,22 @@ class SampleRepeats:
         """Take in one revolution (its coordinate ``u`` [rad] from ``start``)."""
         if self.quantum <= 0.0:
             return
-        q = self._positions(rev)
         if self._first is None:
-            self._first = np.unique(q)
+            self._first = np.unique(self._positions(rev))
             return
-        self._shares.append(float(np.mean(_among(q, self._first))))
+        self._shares.append(self._share(rev, self._first))
+
+    def _share(self, rev: Revolution, first: np.ndarray) -> float:
+        """The share of the revolution's positions among the first one's: by one merge in
+        the compiled kernel (:mod:`enctools.kernel`) when it can, else a binary search."""
+        lib = kernel.library()
+        u = rev.u[:-1]
+        if lib is not None and u.size and u.strides[0] == u.itemsize and u.dtype == np.float64:
+            found = lib.enc_repeat_count(u.size, u.ctypes.data, rev.start, self.quantum,
+                                         first.size, first.ctypes.data)
+            if found >= 0:
+                return found / u.size
+        return float(np.mean(_among(self._positions(rev), first)))
 
     @property
     def repeated(self) -> bool:
