@@ -33,7 +33,7 @@ def table(rows: list[dict], top: int) -> list[str]:
     lines = ["| wall s | CPU s | of which commands | tier | test |", "|---:|---:|---:|---|---|"]
     for r in sorted(rows, key=lambda r: -r["wall_s"])[:top]:
         cpu = r["cpu_s"] + r["children_cpu_s"]
-        test = r["test"].removeprefix("tests/")
+        test = r["test"].removeprefix("tests/").split("@")[0]  # xdist's group suffix
         lines.append(f"| {r['wall_s']:.1f} | {cpu:.1f} | {r['children_cpu_s']:.1f} | "
                      f"{r['tier']} | `{test}` |")
     return lines

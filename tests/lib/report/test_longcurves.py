@@ -144,7 +144,7 @@ def test_a_long_correction_table_reports_what_the_held_one_does(model, tmp_path,
     assert curve["n_points"] == 1 << 16 and curve["unit"] == "count"
 
 
-@pytest.mark.heavy
+@pytest.mark.slow  # 6 s of CPU: the whole 2^23-word table, twice written and once read
 def test_a_23_bit_table_is_reported_without_holding_it(model, tmp_path):
     # seed 001's ROM: 2^23 words, over the 5,000,000 rows a command holds (before: refused
     # with "this command holds at most 5000000 rows"); the report's arrays stay within a few
