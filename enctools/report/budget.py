@@ -38,7 +38,7 @@ from enctools.methods.budget import (
     step_run_budget,
 )
 from enctools.methods.polygon_terms import not_declared
-from enctools.report.numbers import fmt_u
+from enctools.report.numbers import fmt_dof, fmt_u
 from enctools.units import factor
 
 #: polygon_run metadata key -> (least, greatest, whole number, may be null)
@@ -127,7 +127,7 @@ def points_budget(meta: dict[str, Any], source: str, one_approach: bool,
     notes += unused(declared, POLYGON_RUN_QUANTITIES, "a polygon run's")
     budget = polygon_run_budget(declared, run, face)
     notes.append(f"U per point: the budget's U = {budget.k:.3g} u_c (nu_eff "
-                 f"{_dof(budget.nu_eff)}), of each point against the run's first position")
+                 f"{fmt_dof(budget.nu_eff)}), of each point against the run's first position")
     return budget, notes
 
 
@@ -154,7 +154,7 @@ def _polygon_runs(meta: dict[str, Any], source: str, declared: dict[str, Declara
     budget = polygon_runs_budget(declared, run, type_a[0], type_a[1], face)
     notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
                  f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
-                 f"{_dof(budget.nu_eff)})")
+                 f"{fmt_dof(budget.nu_eff)})")
     return budget, notes
 
 
@@ -295,7 +295,7 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
                        "circular scale and of the axis unchanged")
     s.notes.append(f"U per target: k sqrt(u_A(target)^2 + u_B^2), u_A over the approaches, "
                    f"u_B the budget's Type B rows, k = {budget.k:.3g} (nu_eff "
-                   f"{_dof(budget.nu_eff)})")
+                   f"{fmt_dof(budget.nu_eff)})")
 
 
 def refuse(s: Any, curves: list[Any], quantity: str, how: str,
@@ -479,7 +479,7 @@ def comparison_into(s: Any, curve: Any, dof: float) -> None:
     curve.u = np.sqrt(np.square(curve.u) + u_ref * u_ref)
     curve.k = budget.k
     s.notes.append(f"U per point: sqrt(u_A(point)^2 + u_ref^2) with the budget's k = "
-                   f"{budget.k:.3g} (nu_eff {_dof(budget.nu_eff)})")
+                   f"{budget.k:.3g} (nu_eff {fmt_dof(budget.nu_eff)})")
 
 
 def interpolation_into(s: Any) -> None:
@@ -543,10 +543,6 @@ def certificate_face(meta: dict[str, Any]) -> Declaration | None:
                        kind=kind)
 
 
-def _dof(nu: float) -> str:
-    return "inf" if math.isinf(nu) else f"{nu:.0f}"
-
-
 def budget_dict(budget: Budget) -> dict[str, Any]:
     """The budget for JSON: each uncertainty's key ends in _arcsec; a value in its unit."""
     rows = [{"name": c.name, "source": c.source, "type": c.kind, "distribution": c.distribution,
@@ -563,10 +559,10 @@ def budget_lines(budget: Budget, unit: str = "arcsec") -> list[str]:
     declared value in its own unit."""
     f = factor("arcsec", unit)
     lines = [f"  uncertainty budget (GUM) [{unit}]: u_c {fmt_u(budget.u_c * f, unit)}  nu_eff "
-             f"{_dof(budget.nu_eff)}  k {budget.k:.3f}  U {fmt_u(budget.U * f, unit)} "
+             f"{fmt_dof(budget.nu_eff)}  k {budget.k:.3f}  U {fmt_u(budget.U * f, unit)} "
              f"({budget.coverage:.0%})"]
     for c in budget.contributions:
         lines.append(f"    {c.kind} {c.name}: {c.value:.4g} {c.unit} {c.distribution} "
                      f"/{c.divisor:.4g} x c {c.sensitivity:.4g} -> u {fmt_u(c.u_arcsec * f, unit)}"
-                     f" (dof {_dof(c.dof)}){'; ' + c.source if c.source else ''}")
+                     f" (dof {fmt_dof(c.dof)}){'; ' + c.source if c.source else ''}")
     return lines

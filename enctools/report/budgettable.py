@@ -8,13 +8,12 @@ the unit the report is read in (c_i in that unit per the value's unit).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
 from enctools.methods.budget import Budget
 from enctools.report.display import label
-from enctools.report.numbers import fmt, fmt_u, significant
+from enctools.report.numbers import fmt, fmt_dof, fmt_u, significant
 from enctools.units import factor
 
 #: what the results say of their uncertainty when no budget is declared ("{gum}": the
@@ -27,10 +26,6 @@ TYPE_A = ("No uncertainty budget is declared for these inputs: the expanded unce
           "else 2 (about 95 % coverage for a normal distribution).")
 
 
-def _dof(nu: float) -> str:
-    return "∞" if math.isinf(nu) else f"{nu:.0f}"
-
-
 def budget_table(budget: Budget, unit: str, table: Callable[..., dict[str, Any]]
                  ) -> dict[str, Any]:
     """The rows of ``budget`` with u_i [``unit``] (``table`` builds the table)."""
@@ -41,7 +36,7 @@ def budget_table(budget: Budget, unit: str, table: Callable[..., dict[str, Any]]
         rows.append([c.name, c.source, c.kind, c.distribution,
                      f"{significant(c.value)} {c.unit}", fmt(c.divisor),
                      f"{significant(c.sensitivity * k)} {shown}/{c.unit}",
-                     fmt_u(c.u_arcsec * k, unit), _dof(c.dof)])
+                     fmt_u(c.u_arcsec * k, unit), fmt_dof(c.dof, "∞")])
     return table(["quantity", "source", "type", "distribution", "value", "divisor", "c_i",
                   f"u_i [{shown}]", "ν_i"], rows, left=4)
 
@@ -51,6 +46,7 @@ def totals(budget: Budget, unit: str) -> list[list[str]]:
     k = factor("arcsec", unit)
     shown = label(unit)
     return [["combined standard uncertainty u_c", f"{fmt_u(budget.u_c * k, unit)} {shown}"],
-            ["effective degrees of freedom ν_eff (Welch–Satterthwaite)", _dof(budget.nu_eff)],
+            ["effective degrees of freedom ν_eff (Welch–Satterthwaite)",
+             fmt_dof(budget.nu_eff, "∞")],
             [f"coverage factor k ({budget.coverage:.0%} coverage)", fmt(budget.k, decimals=2)],
             ["expanded uncertainty U = k u_c", f"{fmt_u(budget.U * k, unit)} {shown}"]]

@@ -26,6 +26,10 @@ NOISE = {"arcsec": 9, "urad": 9, "mrad": 12, "deg": 13, "rad": 15}
 SIGNIFICANT = 4
 #: significant digits of an expanded uncertainty U (GUM 7.2.6: at most two)
 U_DIGITS = 2
+#: degrees of freedom above this print as "> 10000": Student's k at 95 % is then the
+#: normal quantile's to four digits (1.960), and Welch-Satterthwaite's ten digits of a
+#: Type A of few repeats beside an exact Type B (6446655606) say nothing more
+LARGE_DOF = 10_000
 
 
 def decimals(unit: str = "arcsec", u: float | None = None,
@@ -154,3 +158,11 @@ def fmt_each(values: Any, unit: str = "arcsec", missing: str = "–") -> list[st
         text[zero] = _fixed(0.0, floor)
         out[idx] = text
     return [str(x) for x in out]
+
+
+def fmt_dof(nu: float, infinite: str = "inf") -> str:
+    """Degrees of freedom as the documents print them: a whole number, ``infinite`` for
+    an exact input, "> 10000" above :data:`LARGE_DOF` (the JSON keeps the number)."""
+    if math.isinf(nu):
+        return infinite
+    return f"> {LARGE_DOF}" if nu > LARGE_DOF else f"{nu:.0f}"

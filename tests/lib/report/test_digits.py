@@ -143,3 +143,24 @@ def test_a_budget_prints_the_same_u_and_U_in_text_html_and_pdf(tmp_path):
     cells = re.findall(r'<td align="right" class="r">([^<]*)</td><td align="right" '
                        r'class="r">(?:\d+|∞)</td></tr>', page)    # u_i, then nu_i
     assert sorted(cells) == sorted(shown[2:])
+
+
+@pytest.mark.parametrize("nu, text, doc", [
+    (math.inf, "inf", "∞"), (2.0, "2", "2"), (96.4, "96", "96"), (10_000.0, "10000", "10000"),
+    (6446655606.0, "> 10000", "> 10000")])
+def test_degrees_of_freedom_print_whole_and_a_huge_one_as_more_than_10000(nu, text, doc):
+    """H - P on 3 revolutions: a Type A on 2 dof beside the reference's exact bound gives
+    nu_eff 6446655606 by Welch-Satterthwaite (its k 1.960); the documents print "> 10000"
+    (the JSON keeps the number)."""
+    from enctools.report.numbers import fmt_dof
+
+    assert fmt_dof(nu) == text and fmt_dof(nu, "∞") == doc
+
+
+def test_a_comparison_budget_says_its_huge_nu_eff_as_more_than_10000(tmp_path):
+    r = run("enc acquire --rig sjtu-dual --revolutions 3 --interval 0.012 -q -o raw.arrows "
+            "&& enc average-heads raw.arrows -q | enc compare --device H --reference P -q "
+            "-o hp.parquet && enc report hp.parquet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr.decode()
+    line = next(x for x in r.stdout.decode().splitlines() if "uncertainty budget (GUM)" in x)
+    assert "nu_eff > 10000  k 1.960" in line, line
