@@ -37,9 +37,6 @@ if TYPE_CHECKING:
 #: (index, coefficients (C, K + 1), bin averages (C, points) or None) of one revolution
 Spectra = tuple[int, np.ndarray, np.ndarray | None]
 
-#: Arrow's type id of int64, the counts the compiled kernel reads
-_INT64_ID = 9
-
 #: values (channels x samples) of one revolution held at once: 32 MB of float64 a copy,
 #: so that the few copies its analysis makes stay well under 500 MB. A batch is cut
 #: into slices of at most half of it; a revolution beyond it is refused [values]
@@ -339,6 +336,8 @@ def _kernel_channels(batch: pa.RecordBatch, spec: ChannelSpec
     pass of the compiled kernel (:mod:`enctools.kernel`), the same doubles as
     :func:`mean_reading`'s; None where it does not apply (no kernel, counts not int64 or
     with nulls, coordinate heads of different counts per revolution)."""
+    import pyarrow as pa  # a batch's own library: imported already
+
     from enctools import kernel
 
     lib = kernel.library()
@@ -348,7 +347,7 @@ def _kernel_channels(batch: pa.RecordBatch, spec: ChannelSpec
     columns = []
     for h in coordinate + spec.channels:
         col = batch.column(h.name)
-        if col.null_count or col.type.id != _INT64_ID:
+        if col.null_count or not pa.types.is_int64(col.type):
             return None
         columns.append(col.to_numpy())
     m, cpr = len(coordinate), coordinate[0].counts_per_rev

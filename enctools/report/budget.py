@@ -276,8 +276,8 @@ def step_run_into(s: Any, lsb_arcsec: float, heads: int, encoder: str,
         return
     declared = rig_declarations(s.meta, s.source)
     quantity = reference_quantity(corrected=False)
-    if reference and (quantity not in declared or declared[quantity].encoder not in
-                      ("", encoder)):
+    if reference and (quantity not in declared or not _of_encoder(declared[quantity],
+                                                                   encoder)):
         refuse(s, [curve], quantity, f"encoder {encoder} is read without its calibrated "
                                      "curve", declared.get(quantity))
         return
@@ -316,33 +316,34 @@ def refuse(s: Any, curves: list[Any], quantity: str, how: str,
 
 
 def comparison(meta: dict[str, Any], source: str, u_a_arcsec: float, dof: float
-               ) -> tuple[Budget | None, str | None]:
+               ) -> tuple[Budget | None, str | None, Declaration | None]:
     """The budget of a comparison's curve (enc compare against a reference encoder's
     heads): ``u_a_arcsec`` the curve's Type A u (its rms along the curve) on ``dof``
     degrees of freedom and the reference encoder's row as the rig declares it
     (enc-rig(5)): ``reference_encoder`` when the comparison applied the reference's
     calibrated curve (its settings record ``ref_curve``), else
     ``reference_encoder_uncorrected``, of the reference's encoder (``ref_encoder``) when the
-    declaration names one. (None, None) for a curve not of enc compare; (None, quantity)
-    when that quantity is not declared, or declared for another encoder."""
+    declaration names one. (budget, quantity, the quantity's declaration); (None, None,
+    None) for a curve not of enc compare; (None, quantity, its declaration or None) when
+    that quantity is not declared, or declared for another encoder."""
     history = meta.get("history") or []
     settings = meta.get("settings")
     if not history or ": enc compare " not in str(history[-1]) \
             or not isinstance(settings, dict):
-        return None, None
+        return None, None, None
     quantity = reference_quantity(corrected=settings.get("ref_curve") is not None)
-    declared = rig_declarations(meta, source)
-    if quantity not in declared or not _of_encoder(declared[quantity], settings):
-        return None, quantity
-    return comparison_budget(u_a_arcsec, dof, declared[quantity]), quantity
+    row = rig_declarations(meta, source).get(quantity)
+    if row is None or not _of_encoder(row, settings.get("ref_encoder")):
+        return None, quantity, row
+    return comparison_budget(u_a_arcsec, dof, row), quantity, row
 
 
-def _of_encoder(declared: Declaration, settings: dict[str, Any]) -> bool:
-    """Whether a reference encoder's row is of the comparison's reference: the row names no
-    encoder, or the one the comparison records (a curve made before enctools recorded
-    its reference's encoder, ``ref_encoder``, takes the row as declared)."""
-    made = settings.get("ref_encoder")
-    return not declared.encoder or not isinstance(made, str) or made == declared.encoder
+def _of_encoder(declared: Declaration, reference: Any) -> bool:
+    """Whether a reference encoder's row is of the reference encoder named ``reference``:
+    the row names no encoder, or that one (a curve made before enctools recorded its
+    reference's encoder, ``settings.ref_encoder``, takes the row as declared)."""
+    return not declared.encoder or not isinstance(reference, str) or \
+        reference == declared.encoder
 
 
 def curve_budget_into(s: Any, curve: Any, dof: float) -> None:
@@ -462,7 +463,7 @@ def comparison_into(s: Any, curve: Any, dof: float) -> None:
     if curve.u is None or not np.all(np.isfinite(curve.u)) or dof <= 0:
         return
     u_a = float(np.sqrt(np.mean(np.square(curve.u))))
-    budget, quantity = comparison(s.meta, s.source, u_a, dof)
+    budget, quantity, row = comparison(s.meta, s.source, u_a, dof)
     if quantity is None:
         return
     if budget is None:
@@ -472,7 +473,7 @@ def comparison_into(s: Any, curve: Any, dof: float) -> None:
                "calibrated curve")
         if settings.get("ref_encoder"):
             how = f"{how} (the reference's heads are of encoder {settings['ref_encoder']})"
-        refuse(s, [curve], quantity, how, rig_declarations(s.meta, s.source).get(quantity))
+        refuse(s, [curve], quantity, how, row)
         return
     u_ref = budget.contributions[1].u_arcsec
     s.budget = budget
