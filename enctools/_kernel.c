@@ -249,38 +249,51 @@ static void block_powers(const double *x, int64_t s1, int64_t j0, int64_t n, dou
         s *= 2.0;
         s -= 1.0;
         bin[i] = b;
-        power[i * terms] = 1.0;
-        power[i * terms + 1] = s;
+        double *q = power + i * terms;   /* a sample's powers side by side: accumulate's order */
+        q[0] = 1.0;
+        q[1] = s;
+        for (int64_t p = 2; p < terms; p++) q[p] = q[p - 1] * s;
     }
-    for (int64_t p = 2; p < terms; p++)   /* independent across samples: no latency chain */
-        for (int64_t i = 0; i < n; i++)
-            power[i * terms + p] = power[i * terms + p - 1] * power[i * terms + 1];
 }
 
 /* Add a block's samples to their bins' sums: loc holds the current bin's (c x terms) and is
- * added into by_bin when the bin changes; inlined with c and terms constant where called. */
+ * added into by_bin when the bin changes; inlined with c and terms constant where called.
+ * A run of samples in one bin is summed a channel at a time, its terms held in registers
+ * (all c x terms at once spill: 48 doubles at selfcal's default); each sum still runs over
+ * the bin's samples in order. */
 static inline __attribute__((always_inline)) void accumulate(
-    const double *values, int64_t stride, int64_t n, const int64_t *bin, const double *w,
-    const double *power, const int64_t c, const int64_t terms, double *by_bin, double *loc,
-    int64_t *cur, int64_t *count, int64_t *width)
+    const double *restrict values, int64_t stride, int64_t n, const int64_t *restrict bin,
+    const double *restrict w, const double *restrict power, const int64_t c,
+    const int64_t terms, double *restrict by_bin, double *restrict loc, int64_t *cur,
+    int64_t *count, int64_t *width)
 {
     const int64_t ct = c * terms;
-    for (int64_t i = 0; i < n; i++) {
-        if (bin[i] != *cur) {
+    int64_t i0 = 0;
+    while (i0 < n) {
+        if (bin[i0] != *cur) {
             if (*cur >= 0)
                 for (int64_t a = 0; a < ct; a++) by_bin[*cur * ct + a] += loc[a];
             for (int64_t a = 0; a < ct; a++) loc[a] = 0.0;
             if (*count > *width) *width = *count;
-            *cur = bin[i];
+            *cur = bin[i0];
             *count = 0;
         }
-        ++*count;
-        const double *sp = power + i * terms;
+        int64_t i1 = i0 + 1;
+        while (i1 < n && bin[i1] == bin[i0]) i1++;
+        *count += i1 - i0;
         for (int64_t k = 0; k < c; k++) {
-            const double wv = values[k * stride + i] * w[i];
+            double acc[MAX_TERMS];
             double *l = loc + k * terms;
-            for (int64_t p = 0; p < terms; p++) l[p] += wv * sp[p];
+            for (int64_t p = 0; p < terms; p++) acc[p] = l[p];
+            const double *vk = values + k * stride;
+            for (int64_t i = i0; i < i1; i++) {
+                const double wv = vk[i] * w[i];
+                const double *sp = power + i * terms;
+                for (int64_t p = 0; p < terms; p++) acc[p] += wv * sp[p];
+            }
+            for (int64_t p = 0; p < terms; p++) l[p] = acc[p];
         }
+        i0 = i1;
     }
 }
 
