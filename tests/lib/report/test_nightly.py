@@ -778,7 +778,11 @@ def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
     killed.kill()
     killed.wait(timeout=30)
     left = [f.name for f in tmp.iterdir()]
-    slow = night(f'touch "$OUT/slow"; sleep 5; {csv_campaign(1)}')  # outlasts the next
+    # outlasts the next night: it waits for the test's word (at most 60 s), not a guess of
+    # how long the next night takes on a loaded machine
+    go = tmp_path / "go"
+    slow = night(f'touch "$OUT/slow"; for i in $(seq 1200); do [ -e {go} ] && break; '
+                 f'sleep 0.05; done; {csv_campaign(1)}')
     while len(list(tmp.glob("*/slow"))) < 1 and time.monotonic() < deadline:
         time.sleep(0.02)
     r = subprocess.run([NIGHTLY, "--rig", "r", "--history", str(hist), "--calibration",
@@ -790,5 +794,6 @@ def test_kill_9_of_the_night_alone_and_a_night_that_runs(tmp_path, enc):
         time.sleep(0.02)                                      # reaped by process 1
     assert _group_gone(pgid)                                  # and its campaign stopped
     assert list(tmp.glob("*/slow"))                           # the running night's: kept
+    go.touch()
     assert slow.wait(timeout=60) == 0
     assert list(tmp.iterdir()) == []
