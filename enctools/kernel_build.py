@@ -18,7 +18,8 @@ from pathlib import Path
 SOURCE = Path(__file__).with_name("_kernel.c")
 #: the flags: optimised, position independent, no fused multiply-add (the same doubles as
 #: numpy's for an angle and a deviation), and no CPU-specific instructions (a wheel runs on
-#: another machine of its platform)
+#: another machine of its platform; the one loop built for AVX2 and AVX-512 as well, a
+#: revolution's moments, is chosen at load by the CPU: _kernel.c, MOMENT_CLONES)
 FLAGS = ["-O3", "-std=c99", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno"]
 
 
