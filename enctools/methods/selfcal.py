@@ -27,6 +27,7 @@ it is reported as part of the graduation error (the simulator's truth does the s
 
 from __future__ import annotations
 
+import itertools
 import logging
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
@@ -39,6 +40,7 @@ from enctools.methods import selfcal_methods
 from enctools.methods.coordinate import Settled, refine, settle, spectra_against
 from enctools.methods.harmonics import check_grid, grid, synthesize
 from enctools.methods.heads import format_orders
+from enctools.methods.overlap import ahead
 from enctools.methods.revolutions import (
     ChannelSpec,
     Revolution,
@@ -313,15 +315,11 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
     # the solution's arrays stacked (graduation, then x, y): one mean and one synthesis of
     # them all a revolution, each row as its own would be
     coef, curves, names = RunningMean(), RunningMean(), list(SCALE)
-    settled: Settled | None = None
     repeats = SampleRepeats(resolution / max(len(coordinate_alphas), 1))
-    for rev in revolutions:
+    first = next(revolutions, None)
+    settled = None if first is None else settle(first, method.band, model)
+    for rev, g in _against_theta(first, revolutions, settled, method.band):
         repeats.add(rev)
-        if settled is None:
-            settled = settle(rev, method.band, model)
-        rev.values -= settled.offsets[:, None]
-        g = spectra_against(rev, rev.values, settled.angle, method.band)
-        g[:, 0] += settled.offsets
         spectra.add(g)
         samples += rev.u.size - 1
         parts = solution_parts(method.solve(g))
@@ -351,6 +349,25 @@ def calibrate(revolutions: Iterator[Revolution], method: Method,
                   float(np.sqrt(np.sum(np.abs(change[1:]) ** 2) / 2)),
                   spectra.mean[:, 0].real - spectra.mean[0, 0].real,
                   mounting_rms(moved) * SCALE["graduation"], moved * SCALE["graduation"])
+
+
+def _against_theta(first: Revolution | None, rest: Iterator[Revolution],
+                   settled: Settled | None, band: int) -> Iterator[tuple[Revolution, np.ndarray]]:
+    """Each revolution (``first``, then ``rest``) with its heads' coefficients c_0..c_band
+    against theta [rad], as ``settled`` on the first (:func:`settle`): its offsets taken
+    out of the revolution's ``values`` [rad] and its coefficients made on a worker thread
+    ahead of the caller (:func:`enctools.methods.overlap.ahead`), which folds them meanwhile.
+    """
+    if first is None or settled is None:
+        return
+
+    def against(rev: Revolution) -> np.ndarray:
+        rev.values -= settled.offsets[:, None]
+        g = spectra_against(rev, rev.values, settled.angle, band)
+        g[:, 0] += settled.offsets
+        return g
+
+    yield from ahead(itertools.chain([first], rest), against)
 
 
 @dataclass
