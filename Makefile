@@ -89,9 +89,17 @@ test: $(VENV)/.installed-test chromium poppler  ## install what the tests need, 
 test-slow: $(VENV)/.installed-test chromium poppler  ## the slow tier (the catalogue, the examples...)
 	$(BIN)/python $(PYTEST) -m slow
 
-check: $(VENV)/.installed-test  ## the fast tier: the library's quick tests, no command run (under 30 s)
+# make check's xdist workers: two, quiet or loaded, though each collects the suite again
+# (1.8 s of CPU): the cores are shared per runnable process, and serial it took 101 s
+# beside four spinning processes where two workers took 35 s (README, Development).
+# About 13 s on two quiet cores; 30-32 s beside one or two spinning processes per core
+# and other work (benchmarks/check_loaded.py)
+CHECK_WORKERS ?= 2
+check: $(VENV)/.installed-test  ## the fast tier: the library's quick tests, no command run (13 s quiet, ~30 s loaded)
 	@$(BIN)/python -c "import os; print('load average (1, 5, 15 min): %.2f %.2f %.2f' % os.getloadavg())"
-	$(BIN)/python $(PYTEST) -m 'not slow and not command and not heavy' --durations=5
+	@echo "workers: $(CHECK_WORKERS)"
+	$(BIN)/python -m pytest -q -n $(CHECK_WORKERS) --dist loadgroup \
+	    -m 'not slow and not command and not heavy' --durations=5
 
 # both tiers in one run: the oldest versions have failed in the slow tier's cases alone (pyarrow
 # 14 started a thread that hung every forked catalogue command; a signal during enc-nightly's
