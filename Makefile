@@ -92,10 +92,10 @@ test-slow: $(VENV)/.installed-test chromium poppler  ## the slow tier (the catal
 # make check's xdist workers: two, quiet or loaded, though each collects the suite again
 # (1.8 s of CPU): the cores are shared per runnable process, and serial it took 101 s
 # beside four spinning processes where two workers took 35 s (README, Development).
-# About 13 s on two quiet cores; 30-32 s beside one or two spinning processes per core
-# and other work (benchmarks/check_loaded.py)
+# 12-15 s on two cores at load average 3; 15-28 s beside one or two spinning processes
+# per core at load average 6 (benchmarks/check_loaded.py; README)
 CHECK_WORKERS ?= 2
-check: $(VENV)/.installed-test  ## the fast tier: the library's quick tests, no command run (13 s quiet, ~30 s loaded)
+check: $(VENV)/.installed-test  ## the fast tier: the library's quick tests, no command run (12-15 s; 22-28 s beside 2 busy processes a core)
 	@$(BIN)/python -c "import os; print('load average (1, 5, 15 min): %.2f %.2f %.2f' % os.getloadavg())"
 	@echo "workers: $(CHECK_WORKERS)"
 	$(BIN)/python -m pytest -q -n $(CHECK_WORKERS) --dist loadgroup \

@@ -3,12 +3,14 @@
 
 "Loaded" here means: competitors this script starts itself, each a Python process
 spinning in a loop (CPU-bound, no memory, no I/O, the same scheduling priority as the
-tests), ``--per-core`` of them per core: by default one per core and two per core. On
-two cores with two per core, four competitors share the machine with ``make check``'s
-processes; Linux shares the CPU among runnable processes, so each of the suite's
-processes gets about two cores / (4 + its running processes). Whatever else runs on the
-machine adds to that: the load average is printed at the start and the end of every
-condition (the one-minute average lags a change of load by about a minute).
+tests, in this script's session), ``--per-core`` of them per core: by default one per
+core and two per core. On two cores with two per core, four competitors share the
+machine with ``make check``'s processes; Linux shares the CPU among the runnable
+processes of a session (autogroup scheduling puts a session's processes in one group),
+so each of the suite's processes gets about two cores / (4 + its running processes).
+Work in other sessions or containers takes its own share beside that: the load average
+is printed at the start and the end of every condition (the one-minute average lags a
+change of load by about a minute).
 
 Each condition times ``make check`` (the Makefile's own command, its choice of workers
 included) ``--repeat`` times, quiet first then loaded, and keeps the run of least wall
