@@ -89,9 +89,17 @@ test: $(VENV)/.installed-test chromium poppler  ## install what the tests need, 
 test-slow: $(VENV)/.installed-test chromium poppler  ## the slow tier (the catalogue, the examples...)
 	$(BIN)/python $(PYTEST) -m slow
 
-check: $(VENV)/.installed-test  ## the fast tier: the library's quick tests, no command run (under 30 s)
+# make check's xdist workers: two, quiet or loaded, though each collects the suite again
+# (1.8 s of CPU): the cores are shared per runnable process, and serial it took 101 s
+# beside four spinning processes where two workers took 35 s (README, Development).
+# 12-15 s on two cores at load average 3; 15-28 s beside one or two spinning processes
+# per core at load average 6 (benchmarks/check_loaded.py; README)
+CHECK_WORKERS ?= 2
+check: $(VENV)/.installed-test  ## the fast tier: the library's quick tests, no command run (12-15 s; 22-28 s beside 2 busy processes a core)
 	@$(BIN)/python -c "import os; print('load average (1, 5, 15 min): %.2f %.2f %.2f' % os.getloadavg())"
-	$(BIN)/python $(PYTEST) -m 'not slow and not command and not heavy' --durations=5
+	@echo "workers: $(CHECK_WORKERS)"
+	$(BIN)/python -m pytest -q -n $(CHECK_WORKERS) --dist loadgroup \
+	    -m 'not slow and not command and not heavy' --durations=5
 
 # both tiers in one run: the oldest versions have failed in the slow tier's cases alone (pyarrow
 # 14 started a thread that hung every forked catalogue command; a signal during enc-nightly's

@@ -23,6 +23,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from conftest import ROOT, one_error_line, run, run_in_process
+from test_budget import t_quantile
 
 from enctools.data.streams import read_table
 from enctools.data.truth import Truth
@@ -67,12 +68,11 @@ def test_repeats_dof(repeats: int, parts: int, dof: int) -> None:
 
 def test_type_a_coverage_is_students_k() -> None:
     """Type A alone: k is the t quantile at its dof (12.71 at 1, 2.09 at 19)."""
-    from scipy import stats  # 0.5 s of CPU to import: not at collection
     u = np.array([0.1, 0.3, 0.2])
     for dof in (1.0, 2.0, 19.0):
         cov = type_a_coverage(u, dof)
         assert cov is not None and cov.dof == dof
-        assert cov.k == pytest.approx(stats.t.ppf(0.975, dof), rel=1e-12)
+        assert cov.k == pytest.approx(t_quantile(0.975, dof), rel=1e-12)
     assert type_a_coverage(u, 1.0).k == pytest.approx(12.706, abs=1e-3)
     assert type_a_coverage(u, math.inf).k == pytest.approx(1.95996, abs=1e-5)
 
@@ -80,12 +80,11 @@ def test_type_a_coverage_is_students_k() -> None:
 def test_type_a_coverage_with_a_bound_by_welch_satterthwaite() -> None:
     """u_a 0.3 on 4 dof, u_b 0.4 exact: nu = (0.09 + 0.16)^2 / (0.09^2 / 4) = 30.86, over
     the column's mean variances (the points' own u_a, 0.2 and sqrt(0.14), mean 0.09)."""
-    from scipy import stats  # 0.5 s of CPU to import: not at collection
     u_a = np.array([0.2, math.sqrt(0.14)])
     cov = type_a_coverage(u_a, 4.0, 0.4)
     assert cov is not None
     assert cov.dof == pytest.approx(0.25 ** 2 / (0.09 ** 2 / 4), rel=1e-12)
-    assert cov.k == pytest.approx(stats.t.ppf(0.975, cov.dof), rel=1e-12)
+    assert cov.k == pytest.approx(t_quantile(0.975, cov.dof), rel=1e-12)
     assert type_a_coverage(u_a, 4.0, 0.0).dof == 4.0
 
 

@@ -190,6 +190,7 @@ def test_budget_table_holds_every_contribution_and_the_totals(documents):
     assert "Type A evaluation" in flat
 
 
+@pytest.mark.heavy  # a whole certificate with its figures: 0.5 s, 1.5 s with matplotlib's import
 def test_a_laboratory_text_holding_brackets_keeps_them_and_lists_nothing_more(tmp_path):
     """The references are numbered as the document is made, not by reading "[n]" back out
     of the rendered page: a statement citing the laboratory's own procedure "[3]" stays
