@@ -244,9 +244,10 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
         z = (x - x0[g.inv]) / scale
         tz = _trend_rows(z if g.order is None else z[g.order], d1)
         gram = _gram(tz, g)
+    # each member's T^T [X y] contiguous (a kernel writes it in place): stored by member
+    txy = np.empty((n_members, d1, p + 1, k)).transpose(1, 0, 2, 3)
     new = OpenGroups(g.keys, x0, lo, hi, np.empty((n_members, k)),
-                     np.zeros((n_members, k), np.uint8), gram.copy(),
-                     np.empty((d1, n_members, p + 1, k)))
+                     np.zeros((n_members, k), np.uint8), gram.copy(), txy)
     count = 0
     for q, item in enumerate(rows):
         y0 = new.y0[q]

@@ -74,8 +74,9 @@ class CountsRows(FusedRows):
         dev_table = _by_step(self.steps, tuple(fit.orders.tolist()))
         ref_table = _by_step(self.ref_steps, tuple(fit.ref_orders.tolist())) if n_ref else None
         full = n_dev != member.p                       # X^T X not from the steps alone
-        out = np.empty((d1, p1, k))
-        bits = np.empty(k, np.uint8)
+        # written in place when the buffers are the kernel's layout (trend_lsq.add_batch's)
+        out = txy if txy.flags.c_contiguous else np.empty((d1, p1, k))
+        bits = seen if seen.flags.c_contiguous else np.empty(k, np.uint8)
         cross = np.zeros((p1, p1) if full else p1)
         per_step = np.zeros(self.steps, np.int64)
         z = np.ascontiguousarray(np.array(tz, dtype=np.float64)) if len(tz) > 1 \
@@ -91,8 +92,10 @@ class CountsRows(FusedRows):
         if rc != 0:    # usable() keeps the sizes within its limits: not met
             msg = f"the compiled kernel refused a batch ({rc}): run with ENCTOOLS_KERNEL=numpy"
             raise RuntimeError(msg)
-        txy[...] = out
-        seen[...] = bits
+        if out is not txy:
+            txy[...] = out
+        if bits is not seen:
+            seen[...] = bits
         p = member.p
         if full:
             add_cross(member, cross[:p, :p], cross[:p, p], float(cross[p, p]), m)
