@@ -303,14 +303,9 @@ class InterpolationFit:
                                lambda: self._windows(ref, groups))
 
     def _windows(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
-        """The batch's trend windows: keys (group, window) and the centre of each window."""
+        """The batch's trend windows (:func:`window_grouping`)."""
         assert self.window is not None and self.origin is not None
-        w = np.floor((ref - self.origin) / self.window)
-        centre = self.origin + (w + 0.5) * self.window
-        keys = w.astype(np.int64)
-        if groups is not None:
-            keys += np.asarray(groups).astype(np.int64) << 40
-        return group_batch(keys, ref, self.lsq.d1 - 1, self.window / 2, centre)
+        return window_grouping(ref, groups, self.origin, self.window, self.lsq.d1 - 1)
 
     def _checked(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
                  reference_rad: np.ndarray, groups: np.ndarray | None,
@@ -422,6 +417,19 @@ class InterpolationFit:
                 f"the reference's harmonic {j} lands at {at:.3g} harmonics of the device "
                 f"period, on kept harmonic {k}: the filter cannot remove it "
                 f"over {result.periods:.3g} periods swept")
+
+
+def window_grouping(ref: np.ndarray, groups: np.ndarray | None, origin: float, window: float,
+                    degree: int) -> Grouping:
+    """The trend windows of a batch of reference angles ``ref`` [rad]: keys (group, window
+    of ``window`` [rad] counted from ``origin`` [rad]) and the centre of each window, with
+    the trend of ``degree`` (:func:`~enctools.methods.trend_lsq.group_batch`)."""
+    w = np.floor((ref - origin) / window)
+    centre = origin + (w + 0.5) * window
+    keys = w.astype(np.int64)
+    if groups is not None:
+        keys += np.asarray(groups).astype(np.int64) << 40
+    return group_batch(keys, ref, degree, window / 2, centre)
 
 
 def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,
