@@ -85,6 +85,7 @@ class TrendProjectedLSQ:
         self.n_trend = 0
         self.groups = 0
         self._open = OpenGroups.empty(1, n_cols + 1, self.d1)
+        self._scratch = np.zeros(0)
 
     def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray | None,
             scale: float, centre: np.ndarray | None = None,
@@ -133,6 +134,15 @@ class TrendProjectedLSQ:
         """Close every open group (at the end of the input)."""
         close_groups([self], self._open)
         self._open = OpenGroups.empty(1, self.p + 1, self.d1)
+
+    def scratch(self, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Two buffers of ``shape`` for the products of :func:`close_groups`, kept from one
+        batch to the next (a fresh buffer of a batch's size costs more than its products
+        to the memory's first touch); grown when too small."""
+        size = int(np.prod(shape))
+        if self._scratch.size < 2 * size:
+            self._scratch = np.empty(2 * size)
+        return (self._scratch[:size].reshape(shape), self._scratch[size:2 * size].reshape(shape))
 
 
 class StackedTrendLSQ:
@@ -345,11 +355,11 @@ def close_groups(members: list[TrendProjectedLSQ], state: OpenGroups) -> None:
     # [X y] projected on each basis vector j of each group, for each member: the Gram
     # matrix of those is what the trends take from X^T X, X^T y and y^T y
     taken = np.zeros((len(members), p + 1, p + 1))
-    proj = np.empty(state.txy.shape[1:])
+    proj, term = members[0].scratch(state.txy.shape[1:])
     for j in range(d1):        # the closed-form basis (d <= 2) is upper triangular
         np.multiply(state.txy[0], basis[0, j], out=proj)
         for i in range(1, j + 1 if d1 <= 2 else d1):
-            proj += state.txy[i] * basis[i, j]
+            proj += np.multiply(state.txy[i], basis[i, j], out=term)
         taken += proj @ proj.transpose(0, 2, 1)
     n_ok = int(np.count_nonzero(ok))
     counts = state.gram[0, 0]
