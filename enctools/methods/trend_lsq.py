@@ -86,6 +86,7 @@ class TrendProjectedLSQ:
         self.groups = 0
         self._open = OpenGroups.empty(1, n_cols + 1, self.d1)
         self._scratch = np.zeros(0)
+        self._buffers = [np.zeros(0), np.zeros(0)]   # group_buffer's
 
     def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray | None,
             scale: float, centre: np.ndarray | None = None,
@@ -135,6 +136,17 @@ class TrendProjectedLSQ:
         close_groups([self], self._open)
         self._open = OpenGroups.empty(1, self.p + 1, self.d1)
 
+    def group_buffer(self, held: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        """A buffer of ``shape`` for a batch's sums per group (:func:`add_batch`): one of
+        two kept from batch to batch, the one that does not hold the groups left open
+        (``held``, a view of the other), which these sums add to."""
+        size = int(np.prod(shape))
+        pair = self._buffers
+        i = 1 if np.may_share_memory(pair[0], held) else 0
+        if pair[i].size < size:
+            pair[i] = np.empty(size)
+        return pair[i][:size].reshape(shape)
+
     def scratch(self, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
         """Two buffers of ``shape`` for the products of :func:`close_groups`, kept from one
         batch to the next (a fresh buffer of a batch's size costs more than its products
@@ -177,7 +189,7 @@ class StackedTrendLSQ:
     def release(self) -> None:
         """Give every member its own open groups; the stack holds none after."""
         for q, member in enumerate(self.members):
-            member._open = self._open.member(q)
+            member._open = self._open.member(q).copy()  # not views of the stack's buffers
         self._open = OpenGroups.empty(len(self.members), self.members[0].p + 1,
                                       self.members[0].d1)
 
@@ -218,6 +230,11 @@ class OpenGroups:
                           self.y0[:, which], self.seen[:, which], self.gram[..., which],
                           self.txy[..., which])
 
+    def copy(self) -> OpenGroups:
+        """The same groups in arrays of their own."""
+        return OpenGroups(*(np.array(a) for a in (self.keys, self.x0, self.lo, self.hi,
+                                                  self.y0, self.seen, self.gram, self.txy)))
+
     def member(self, q: int) -> OpenGroups:
         """Member ``q``'s open groups alone (one member)."""
         return OpenGroups(self.keys, self.x0, self.lo, self.hi, self.y0[q:q + 1],
@@ -255,7 +272,7 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
         tz = _trend_rows(z if g.order is None else z[g.order], d1)
         gram = _gram(tz, g)
     # each member's T^T [X y] contiguous (a kernel writes it in place): stored by member
-    txy = np.empty((n_members, d1, p + 1, k)).transpose(1, 0, 2, 3)
+    txy = members[0].group_buffer(state.txy, (n_members, d1, p + 1, k)).transpose(1, 0, 2, 3)
     new = OpenGroups(g.keys, x0, lo, hi, np.empty((n_members, k)),
                      np.zeros((n_members, k), np.uint8), gram.copy(), txy)
     count = 0
