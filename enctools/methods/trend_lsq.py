@@ -486,7 +486,8 @@ def group_batch(keys: np.ndarray, x: np.ndarray, degree: int, scale: float,
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         g = Grouping(uk, keys[-1], first, counts, inv, lo, hi, False, order, starts)
     if centre is not None:
-        z = (x - centre) / scale
+        z = np.subtract(x, centre)            # (x - centre) / scale, in place
+        z /= scale
         g.z = z if g.order is None else z[g.order]
         g.tz = _trend_rows(g.z, degree + 1)
         g.gram = _gram(g.tz, g)

@@ -424,8 +424,12 @@ def window_grouping(ref: np.ndarray, groups: np.ndarray | None, origin: float, w
     """The trend windows of a batch of reference angles ``ref`` [rad]: keys (group, window
     of ``window`` [rad] counted from ``origin`` [rad]) and the centre of each window, with
     the trend of ``degree`` (:func:`~enctools.methods.trend_lsq.group_batch`)."""
-    w = np.floor((ref - origin) / window)
-    centre = origin + (w + 0.5) * window
+    w = np.subtract(ref, origin)              # floor((ref - origin) / window), in place
+    w /= window
+    np.floor(w, out=w)
+    centre = w + 0.5                          # origin + (w + 0.5) window, in place
+    centre *= window
+    centre += origin
     keys = w.astype(np.int64)
     if groups is not None:
         keys += np.asarray(groups).astype(np.int64) << 40
