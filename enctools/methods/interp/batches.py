@@ -1,13 +1,14 @@
-"""A readings batch made ready for the fits on the stream's reader thread.
+"""A readings batch made ready for the fits, most of it on the stream's reader thread.
 
-What a batch needs that depends on it alone, worked out while the caller's thread sums
-the one before (``InputStream.batches(prepare=...)``, see
+What a batch needs that depends on it alone is worked out on the reader thread while the
+caller's thread sums the one before (``InputStream.batches(prepare=...)``, see
 :meth:`enctools.data.streams.InputStream.batches`): the reference's angle and step and
-the rows it covers, the heads' counts, the runs and targets, and for a continuous run
-the trend windows of its reference angle (counted from the first batch's first angle,
-the one state kept from batch to batch) with, per head, zeta at each window's first
-sample. The fits then take it on the caller's thread (:func:`.readings.check_readings`):
-the same arrays as when it was all done there, so the same results bit for bit.
+the rows it covers, the heads' counts, the runs and targets. For a continuous run the
+trend windows of its reference angle (counted from the first batch's first angle, the
+one state kept from batch to batch) with, per head, zeta at each window's first sample
+are made on the caller's thread (:meth:`Preparer.finish`), which keeps the two threads
+even. The fits then take it (:func:`.readings.check_readings`): the same arrays as when
+it was all done on one thread, so the same results bit for bit.
 """
 
 from __future__ import annotations
@@ -74,7 +75,8 @@ def _integer(c: np.ndarray) -> bool:
 
 
 class Preparer:
-    """Called on each batch in order (on the reader thread), gives its :class:`Ready`.
+    """Called on each batch in order (on the reader thread), gives its :class:`Ready`;
+    :meth:`finish` on each chunk in order (on the caller's thread) adds its windows.
 
     ``heads``: the heads whose counts are taken; ``reference``; ``window`` [rad] the trend
     window of a continuous run (None: none) and ``degree`` the trend's.
@@ -112,10 +114,15 @@ class Preparer:
         counts = {h: np.ascontiguousarray(c, dtype=np.int64) if _integer(c) else c
                   for h, c in counts.items()}
         finite = bool(np.isfinite(np.sum(ref_rad)))
-        out = Chunk(batch, ref, sel, ref_rad, ref_step, groups, targets, counts, finite)
-        if self._windows and ref_rad.size:
-            out.windows = self._windows_of(out)
-        return out
+        return Chunk(batch, ref, sel, ref_rad, ref_step, groups, targets, counts, finite)
+
+    def finish(self, c: Chunk) -> Chunk:
+        """The chunk with its trend windows, on the caller's thread (made on the reader
+        thread they left it the longer of the two: measured, 3.1 s against 2.85 s at
+        2000 revolutions on two cores)."""
+        if self._windows and c.ref_rad.size:
+            c.windows = self._windows_of(c)
+        return c
 
     def _windows_of(self, c: Chunk) -> Windows | None:
         """The chunk's trend windows and first zeta of each head (None: not all finite)."""
@@ -153,7 +160,9 @@ def ready_batches(source: Any, prepare: Preparer) -> Iterator[Chunk]:
     """The chunks of ``source`` (a Table, or a stream whose reader thread prepares them)."""
     if hasattr(source, "to_batches"):
         for b in source.to_batches():
-            yield from prepare(b).chunks
+            for c in prepare(b).chunks:
+                yield prepare.finish(c)
         return
     for ready in source.batches(prepare=prepare):
-        yield from ready.chunks
+        for c in ready.chunks:
+            yield prepare.finish(c)

@@ -356,10 +356,10 @@ def test_peak_memory_does_not_grow_with_revolutions(run20, tmp_path):
 
 
 def test_batches_are_made_ready_on_the_reader_thread(tmp_path, monkeypatch):
-    """A stream's batches are made ready (the reference's angle and step, the windows, y
-    at their first samples: interp/batches.py) on the stream's reader thread while the
-    fits sum the batch before; the same readings as one table give the same curves and
-    u, bit for bit, and every batch of a table is made on the caller's thread."""
+    """A stream's batches are made ready (the reference's angle and step, the heads'
+    counts: interp/batches.py) on the stream's reader thread while the fits sum the
+    batch before; the same readings as one table give the same curves and u, bit for
+    bit, and every batch of a table is made on the caller's thread."""
     import threading
 
     from enctools.data.streams import open_input
