@@ -85,6 +85,8 @@ class TrendProjectedLSQ:
         self.n_trend = 0
         self.groups = 0
         self._open = OpenGroups.empty(1, n_cols + 1, self.d1)
+        self._scratch = np.zeros(0)
+        self._buffers = [np.zeros(0), np.zeros(0)]   # group_buffer's
 
     def add(self, x_rows: np.ndarray, y: np.ndarray, x: np.ndarray, keys: np.ndarray | None,
             scale: float, centre: np.ndarray | None = None,
@@ -134,6 +136,26 @@ class TrendProjectedLSQ:
         close_groups([self], self._open)
         self._open = OpenGroups.empty(1, self.p + 1, self.d1)
 
+    def group_buffer(self, held: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        """A buffer of ``shape`` for a batch's sums per group (:func:`add_batch`): one of
+        two kept from batch to batch, the one that does not hold the groups left open
+        (``held``, a view of the other), which these sums add to."""
+        size = int(np.prod(shape))
+        pair = self._buffers
+        i = 1 if np.may_share_memory(pair[0], held) else 0
+        if pair[i].size < size:
+            pair[i] = np.empty(size)
+        return pair[i][:size].reshape(shape)
+
+    def scratch(self, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Two buffers of ``shape`` for the products of :func:`close_groups`, kept from one
+        batch to the next (a fresh buffer of a batch's size costs more than its products
+        to the memory's first touch); grown when too small."""
+        size = int(np.prod(shape))
+        if self._scratch.size < 2 * size:
+            self._scratch = np.empty(2 * size)
+        return (self._scratch[:size].reshape(shape), self._scratch[size:2 * size].reshape(shape))
+
 
 class StackedTrendLSQ:
     """Several :class:`TrendProjectedLSQ` (``members``, alike in columns, degree and
@@ -167,7 +189,7 @@ class StackedTrendLSQ:
     def release(self) -> None:
         """Give every member its own open groups; the stack holds none after."""
         for q, member in enumerate(self.members):
-            member._open = self._open.member(q)
+            member._open = self._open.member(q).copy()  # not views of the stack's buffers
         self._open = OpenGroups.empty(len(self.members), self.members[0].p + 1,
                                       self.members[0].d1)
 
@@ -208,6 +230,11 @@ class OpenGroups:
                           self.y0[:, which], self.seen[:, which], self.gram[..., which],
                           self.txy[..., which])
 
+    def copy(self) -> OpenGroups:
+        """The same groups in arrays of their own."""
+        return OpenGroups(*(np.array(a) for a in (self.keys, self.x0, self.lo, self.hi,
+                                                  self.y0, self.seen, self.gram, self.txy)))
+
     def member(self, q: int) -> OpenGroups:
         """Member ``q``'s open groups alone (one member)."""
         return OpenGroups(self.keys, self.x0, self.lo, self.hi, self.y0[q:q + 1],
@@ -244,9 +271,10 @@ def add_batch(members: list[TrendProjectedLSQ], state: OpenGroups, x: np.ndarray
         z = (x - x0[g.inv]) / scale
         tz = _trend_rows(z if g.order is None else z[g.order], d1)
         gram = _gram(tz, g)
+    # each member's T^T [X y] contiguous (a kernel writes it in place): stored by member
+    txy = members[0].group_buffer(state.txy, (n_members, d1, p + 1, k)).transpose(1, 0, 2, 3)
     new = OpenGroups(g.keys, x0, lo, hi, np.empty((n_members, k)),
-                     np.zeros((n_members, k), np.uint8), gram.copy(),
-                     np.empty((d1, n_members, p + 1, k)))
+                     np.zeros((n_members, k), np.uint8), gram.copy(), txy)
     count = 0
     for q, item in enumerate(rows):
         y0 = new.y0[q]
@@ -344,11 +372,11 @@ def close_groups(members: list[TrendProjectedLSQ], state: OpenGroups) -> None:
     # [X y] projected on each basis vector j of each group, for each member: the Gram
     # matrix of those is what the trends take from X^T X, X^T y and y^T y
     taken = np.zeros((len(members), p + 1, p + 1))
-    proj = np.empty(state.txy.shape[1:])
+    proj, term = members[0].scratch(state.txy.shape[1:])
     for j in range(d1):        # the closed-form basis (d <= 2) is upper triangular
         np.multiply(state.txy[0], basis[0, j], out=proj)
         for i in range(1, j + 1 if d1 <= 2 else d1):
-            proj += state.txy[i] * basis[i, j]
+            proj += np.multiply(state.txy[i], basis[i, j], out=term)
         taken += proj @ proj.transpose(0, 2, 1)
     n_ok = int(np.count_nonzero(ok))
     counts = state.gram[0, 0]
@@ -458,7 +486,8 @@ def group_batch(keys: np.ndarray, x: np.ndarray, degree: int, scale: float,
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         g = Grouping(uk, keys[-1], first, counts, inv, lo, hi, False, order, starts)
     if centre is not None:
-        z = (x - centre) / scale
+        z = np.subtract(x, centre)            # (x - centre) / scale, in place
+        z /= scale
         g.z = z if g.order is None else z[g.order]
         g.tz = _trend_rows(g.z, degree + 1)
         g.gram = _gram(g.tz, g)

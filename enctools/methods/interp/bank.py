@@ -22,6 +22,10 @@ from enctools.methods.interp import fused
 from enctools.methods.interp.fit import InterpolationFit, Samples, Steps, reference_sum
 from enctools.methods.trend_lsq import Grouping, MemberRows, StackedTrendLSQ, group_batch
 
+#: a batch's trend windows made ahead: their grouping, their origin [rad] and per fit zeta
+#: [arcsec] at each window's first sample (None: made here)
+MadeAhead = tuple[Grouping, float, Sequence[np.ndarray | None]]
+
 
 class FitBank:
     """The fits ``fits`` (alike: see :meth:`of`) fed batch by batch as one."""
@@ -82,37 +86,50 @@ class FitBank:
 
         self.stack.add(ref, scale, grouping, rows())
 
-    def _grouping(self, ref: np.ndarray, groups: np.ndarray | None) -> tuple[Grouping, float]:
+    def _grouping(self, ref: np.ndarray, groups: np.ndarray | None,
+                  windows: MadeAhead | None = None) -> tuple[Grouping, float]:
         """The batch's groups (the runs, or the windows of the reference angle ``ref``
-        [rad]) and the trend's scale [rad], shared by every fit of the bank."""
+        [rad]) and the trend's scale [rad], shared by every fit of the bank. ``windows``:
+        the windows made ahead (grouping, origin [rad]), taken when the fits count theirs
+        from that origin (or from none yet)."""
         first = self.fits[0]
         if first.window is None:
             keys = np.zeros(ref.size, np.int64) if groups is None \
                 else np.asarray(groups).astype(np.int64)
             return group_batch(keys, ref, first.lsq.d1 - 1, first.period), first.period
-        grouping = first.grouping(ref, groups)
+        if windows is not None and first.origin in (None, windows[1]):
+            first.origin = windows[1]
+            grouping = windows[0]
+        else:
+            grouping = first.grouping(ref, groups)
         for f in self.fits[1:]:
             f.origin = first.origin       # the same windows if the bank parts later
         return grouping, first.window / 2
 
     def add_counts(self, counts: Sequence[np.ndarray], infos: Sequence[HeadInfo],
                    reference_rad: np.ndarray, reference_step: np.ndarray | None,
-                   reference_steps: int, groups: np.ndarray | None = None) -> bool:
+                   reference_steps: int, groups: np.ndarray | None = None,
+                   finite: bool | None = None, windows: MadeAhead | None = None) -> bool:
         """One batch of every fit from its head's ``counts`` [count] (``infos``, in order),
         summed by the compiled kernel (:mod:`.fused`); the reference's angle [rad] and,
         for the fits that take its harmonics, its step [count] of ``reference_steps``.
         False, and nothing added, when the kernel cannot take it (absent, counts not
-        integer, a reference not finite, groups not in order): then :meth:`add`."""
+        integer, a reference not finite, groups not in order): then :meth:`add`.
+        Made ahead (:mod:`.batches`): ``finite``, whether every reference angle is;
+        ``windows``, the trend windows (grouping, origin [rad]) and each fit's zeta
+        [arcsec] at their first samples (or None)."""
         if reference_rad.size == 0:
             return True
         if not fused.usable(self.fits, counts, infos, reference_rad, reference_step,
-                            reference_steps):
+                            reference_steps, finite):
             return False
-        grouping, scale = self._grouping(reference_rad, groups)
+        grouping, scale = self._grouping(reference_rad, groups, windows)
         if grouping.order is not None:
             return False
-        rows = [fused.CountsRows(f, c, i, reference_rad, reference_step, reference_steps)
-                for f, c, i in zip(self.fits, counts, infos, strict=True)]
+        first_y = windows[2] if windows is not None and grouping is windows[0] \
+            else [None] * len(self.fits)
+        rows = [fused.CountsRows(f, c, i, reference_rad, reference_step, reference_steps, y)
+                for f, c, i, y in zip(self.fits, counts, infos, first_y, strict=True)]
         if self.stack is not None:
             self.stack.add(reference_rad, scale, grouping, rows)
         else:

@@ -201,6 +201,7 @@ class InterpolationFit:
         self.shared = shared if shared is not None else SharedGrouping()
         self.skipped = 0  # samples with a NaN or infinite reading, probe or phase
         self._per_step: np.ndarray | None = None  # samples per step of the period, not yet summed
+        self._gram_steps = False                   # ... and X^T X to be made of them
 
     def add(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
             reference_rad: np.ndarray, groups: np.ndarray | None = None,
@@ -274,16 +275,14 @@ class InterpolationFit:
         return None
 
     def add_steps(self, per_step: np.ndarray, gram: bool) -> None:
-        """Samples counted at each step of the period (``per_step`` [1]) into the coverage;
-        with ``gram`` (every column looked up by the step) kept to make X^T X and the
-        coverage of when the fit is solved (:meth:`_flush_steps`)."""
-        if not gram:
-            self.cover.add_steps(per_step)
-            return
-        if self._per_step is not None and self._per_step.size != per_step.size:
+        """Samples counted at each step of the period (``per_step`` [1]), kept (summed over
+        the batches) to add to the coverage and, with ``gram`` (every column looked up by
+        the step), to make X^T X of when the fit is solved (:meth:`_flush_steps`)."""
+        if self._per_step is not None and (self._per_step.size != per_step.size
+                                           or self._gram_steps != gram):
             self._flush_steps()
         if self._per_step is None:
-            self._per_step = per_step
+            self._per_step, self._gram_steps = per_step, gram
         else:
             self._per_step += per_step
 
@@ -291,7 +290,8 @@ class InterpolationFit:
         """The samples counted per step so far into the coverage and X^T X."""
         if self._per_step is not None:
             self.cover.add_steps(self._per_step)
-            self.lsq.add_gram(lookup_gram(self._per_step.size, self.orders, self._per_step))
+            if self._gram_steps:
+                self.lsq.add_gram(lookup_gram(self._per_step.size, self.orders, self._per_step))
             self._per_step = None
 
     def grouping(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
@@ -303,14 +303,9 @@ class InterpolationFit:
                                lambda: self._windows(ref, groups))
 
     def _windows(self, ref: np.ndarray, groups: np.ndarray | None) -> Grouping:
-        """The batch's trend windows: keys (group, window) and the centre of each window."""
+        """The batch's trend windows (:func:`window_grouping`)."""
         assert self.window is not None and self.origin is not None
-        w = np.floor((ref - self.origin) / self.window)
-        centre = self.origin + (w + 0.5) * self.window
-        keys = w.astype(np.int64)
-        if groups is not None:
-            keys += np.asarray(groups).astype(np.int64) << 40
-        return group_batch(keys, ref, self.lsq.d1 - 1, self.window / 2, centre)
+        return window_grouping(ref, groups, self.origin, self.window, self.lsq.d1 - 1)
 
     def _checked(self, device_rad: np.ndarray, device_phase: np.ndarray | None,
                  reference_rad: np.ndarray, groups: np.ndarray | None,
@@ -422,6 +417,23 @@ class InterpolationFit:
                 f"the reference's harmonic {j} lands at {at:.3g} harmonics of the device "
                 f"period, on kept harmonic {k}: the filter cannot remove it "
                 f"over {result.periods:.3g} periods swept")
+
+
+def window_grouping(ref: np.ndarray, groups: np.ndarray | None, origin: float, window: float,
+                    degree: int) -> Grouping:
+    """The trend windows of a batch of reference angles ``ref`` [rad]: keys (group, window
+    of ``window`` [rad] counted from ``origin`` [rad]) and the centre of each window, with
+    the trend of ``degree`` (:func:`~enctools.methods.trend_lsq.group_batch`)."""
+    w = np.subtract(ref, origin)              # floor((ref - origin) / window), in place
+    w /= window
+    np.floor(w, out=w)
+    centre = w + 0.5                          # origin + (w + 0.5) window, in place
+    centre *= window
+    centre += origin
+    keys = w.astype(np.int64)
+    if groups is not None:
+        keys += np.asarray(groups).astype(np.int64) << 40
+    return group_batch(keys, ref, degree, window / 2, centre)
 
 
 def fit_interpolation_error(device_rad: np.ndarray, device_phase: np.ndarray,

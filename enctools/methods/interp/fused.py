@@ -41,11 +41,13 @@ def _ptr(a: np.ndarray | None) -> int | None:
 class CountsRows(FusedRows):
     """One head's batch for its fit: its ``counts`` [count], the reference angle
     ``reference_rad`` [rad] and, when the fit takes the reference's harmonics, its step
-    ``reference_step`` [count] of ``reference_steps`` per period."""
+    ``reference_step`` [count] of ``reference_steps`` per period; ``first_y``: zeta
+    [arcsec] at the first sample of each group of the grouping it is summed with, when
+    made ahead (:mod:`.batches`)."""
 
     def __init__(self, fit: InterpolationFit, counts: np.ndarray, info: HeadInfo,
                  reference_rad: np.ndarray, reference_step: np.ndarray | None,
-                 reference_steps: int) -> None:
+                 reference_steps: int, first_y: np.ndarray | None = None) -> None:
         self.fit = fit
         self.counts = np.ascontiguousarray(counts, dtype=np.int64)
         self.scale = TWO_PI / info.counts_per_rev      # as head_angle
@@ -56,9 +58,13 @@ class CountsRows(FusedRows):
         self.ref_step = np.ascontiguousarray(reference_step, dtype=np.int64) \
             if fits_ref and reference_step is not None else None
         self.ref_steps = reference_steps
+        self._first_y = first_y
 
     def first_y(self, first: np.ndarray) -> np.ndarray:
-        """zeta [arcsec] at the samples ``first``, as :meth:`InterpolationFit.rows` makes it."""
+        """zeta [arcsec] at the samples ``first``, as :meth:`InterpolationFit.rows` makes it
+        (made ahead, at the first samples of the grouping given, when given)."""
+        if self._first_y is not None:
+            return self._first_y
         zeta = np.subtract(np.multiply(self.counts[first], self.scale, dtype=np.float64),
                            self.ref[first])
         zeta /= ARCSEC
@@ -74,8 +80,9 @@ class CountsRows(FusedRows):
         dev_table = _by_step(self.steps, tuple(fit.orders.tolist()))
         ref_table = _by_step(self.ref_steps, tuple(fit.ref_orders.tolist())) if n_ref else None
         full = n_dev != member.p                       # X^T X not from the steps alone
-        out = np.empty((d1, p1, k))
-        bits = np.empty(k, np.uint8)
+        # written in place when the buffers are the kernel's layout (trend_lsq.add_batch's)
+        out = txy if txy.flags.c_contiguous else np.empty((d1, p1, k))
+        bits = seen if seen.flags.c_contiguous else np.empty(k, np.uint8)
         cross = np.zeros((p1, p1) if full else p1)
         per_step = np.zeros(self.steps, np.int64)
         z = np.ascontiguousarray(np.array(tz, dtype=np.float64)) if len(tz) > 1 \
@@ -91,8 +98,10 @@ class CountsRows(FusedRows):
         if rc != 0:    # usable() keeps the sizes within its limits: not met
             msg = f"the compiled kernel refused a batch ({rc}): run with ENCTOOLS_KERNEL=numpy"
             raise RuntimeError(msg)
-        txy[...] = out
-        seen[...] = bits
+        if out is not txy:
+            txy[...] = out
+        if bits is not seen:
+            seen[...] = bits
         p = member.p
         if full:
             add_cross(member, cross[:p, :p], cross[:p, p], float(cross[p, p]), m)
@@ -103,10 +112,11 @@ class CountsRows(FusedRows):
 
 def usable(fits: Sequence[InterpolationFit], counts: Sequence[np.ndarray],
            infos: Sequence[HeadInfo], reference_rad: np.ndarray,
-           reference_step: np.ndarray | None, reference_steps: int) -> bool:
+           reference_step: np.ndarray | None, reference_steps: int,
+           finite: bool | None = None) -> bool:
     """Whether the kernel can take this batch of these fits: installed, integer counts of
     heads with steps per period, a finite reference (its step when its harmonics are
-    fitted), sizes within its limits."""
+    fitted), sizes within its limits. ``finite``: whether the reference is, when known."""
     if kernel.library() is None or any(i.interpolation <= 0 for i in infos):
         return False
     if any(c.dtype.kind not in "iu" or c.dtype.itemsize > 8 or c.dtype == np.uint64
@@ -117,4 +127,4 @@ def usable(fits: Sequence[InterpolationFit], counts: Sequence[np.ndarray],
             return False
         if f.ref_orders.size and (reference_step is None or reference_steps <= 0):
             return False
-    return bool(np.isfinite(np.sum(reference_rad)))
+    return finite if finite is not None else bool(np.isfinite(np.sum(reference_rad)))

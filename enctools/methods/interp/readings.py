@@ -28,11 +28,12 @@ from enctools.data.schemas import columns_with_role
 from enctools.data.statistics import median
 from enctools.errors import DataError
 from enctools.methods.interp.bank import FitBank
+from enctools.methods.interp.batches import Chunk, Preparer, ready_batches
 from enctools.methods.interp.curve import Curve, harmonics_meta
 from enctools.methods.interp.fit import InterpolationFit, SharedGrouping
 from enctools.methods.interp.reference import Reference, open_reference
 from enctools.methods.interp.settings import Settings
-from enctools.methods.interp.tables import chunks, column
+from enctools.methods.interp.tables import column
 from enctools.units import ARCSEC, TWO_PI
 
 
@@ -83,15 +84,17 @@ def check_readings(source: Any, settings: Settings, reference_table: pa.Table | 
     reference = open_reference(schema, settings, reference_table)
     names = _device_heads(schema, settings, reference)
     window_arcsec = settings.trend_window_arcsec(continuous)
-    batches = chunks(source)
-    first = next(batches, None)
+    # each batch made ready on the stream's reader thread while this one sums the last
+    chunks = ready_batches(source, Preparer(
+        schema, names, reference, window_arcsec * ARCSEC if window_arcsec is not None else None,
+        settings.trend_degree))
+    first = next(chunks, None)
     strobe = _stroboscopic(first, schema, names, reference) \
         if window_arcsec is not None and first is not None and reference.in_stream else {}
     devices, skipped = _plan(schema, names, settings, reference, strobe, window_arcsec)
     banks = FitBank.of([d.fit for d in devices])
-    _stream(itertools.chain([first] if first is not None else [], batches), schema,
-            [(b, [next(d for d in devices if d.fit is f) for f in b.fits]) for b in banks],
-            reference)
+    _stream(itertools.chain([first] if first is not None else [], chunks),
+            [(b, [next(d for d in devices if d.fit is f) for f in b.fits]) for b in banks])
     for b in banks:
         b.close()
     reference.finish()
@@ -113,19 +116,19 @@ def _device_heads(schema: pa.Schema, settings: Settings, reference: Reference) -
     return names
 
 
-def _stroboscopic(batch: pa.RecordBatch, schema: pa.Schema, names: Sequence[str],
+def _stroboscopic(first: Chunk, schema: pa.Schema, names: Sequence[str],
                   reference: Reference) -> dict[str, float]:
     """Heads (devices and reference) sampled nearly synchronously with their signal period.
 
-    The angle between samples is the median step of the reference over the first
-    batch; :func:`enctools.methods.revolutions.stroboscopic_heads` judges. Returns
+    The angle between samples is the median step of the reference over the ``first``
+    chunk; :func:`enctools.methods.revolutions.stroboscopic_heads` judges. Returns
     {head: signal periods per sample}.
     """
     from enctools.methods.revolutions import stroboscopic_heads
 
-    if batch.num_rows < 3:
+    if first.batch.num_rows < 3:
         return {}
-    d = np.abs(np.diff(reference.read(batch).angle_rad))
+    d = np.abs(np.diff(first.ref.angle_rad))
     d = d[np.isfinite(d)]
     if not d.size:
         return {}
@@ -202,50 +205,52 @@ def _device(heads: list[str], infos: list[HeadInfo], name: str, settings: Settin
     return Device(heads, infos, name, fits_reference, warnings, fit)
 
 
-def _stream(batches: Iterable[pa.RecordBatch], schema: pa.Schema,
-            banks: list[tuple[FitBank, list[Device]]], reference: Reference) -> None:
-    """Feed every batch's readings of every device, with the reference, to the fits: the
-    devices of a bank at once."""
-    has_run, has_target = "run" in schema.names, "target" in schema.names
+def _stream(chunks: Iterable[Chunk], banks: list[tuple[FitBank, list[Device]]]) -> None:
+    """Feed every chunk's readings of every device, with the reference, to the fits: the
+    devices of a bank at once (by the compiled kernel from the counts where it can)."""
     fits_reference = any(devices[0].fits_reference for _, devices in banks)
-    for batch in batches:
-        if batch.num_rows == 0:
+    for c in chunks:
+        if c.batch.num_rows == 0:
             continue
-        ref = reference.read(batch)
-        ref_rad, ref_step = ref.angle_rad, ref.step
-        groups = column(batch, "run") if has_run else None
-        targets = column(batch, "target") if has_target else None
-        sel = None if ref.rows is None else np.flatnonzero(ref.rows)
-        if sel is not None:
-            ref_rad = ref_rad[sel]
-            ref_step = ref_step[sel] if ref_step is not None else None
-            groups = groups[sel] if groups is not None else None
-            targets = targets[sel] if targets is not None else None
         ref_phase = None
         for bank, devices in banks:
-            if targets is None and all(len(d.heads) == 1 for d in devices):
-                counts = [column(batch, d.heads[0]) for d in devices]
-                if bank.add_counts([c if sel is None else c[sel] for c in counts],
-                                   [d.infos[0] for d in devices], ref_rad, ref_step,
-                                   ref.steps if ref_step is not None else 0, groups):
-                    continue      # summed by the compiled kernel
+            if c.targets is None and all(len(d.heads) == 1 for d in devices) \
+                    and _fused(bank, devices, c):
+                continue      # summed by the compiled kernel
             if ref_phase is None and fits_reference:
-                ref_phase = ref.phase()
-                ref_phase = ref_phase[sel] if ref_phase is not None and sel is not None \
+                ref_phase = c.ref.phase()
+                ref_phase = ref_phase[c.sel] if ref_phase is not None and c.sel is not None \
                     else ref_phase
-            angles, steps, finite = [], [], []
-            for d in devices:
-                counts = [column(batch, n) for n in d.heads]
-                finite.append(all(c.dtype.kind in "iu" for c in counts))  # no null count
-                dev_rad, dev_step = device_reading(counts, d.infos)
-                if sel is not None:
-                    dev_rad, dev_step = dev_rad[sel], dev_step[sel]
-                # the phase is 2 pi dev_step / interpolation: the fit takes it from the steps
-                angles.append(dev_rad)
-                steps.append((dev_step, d.infos[0].interpolation, ref_step,
-                              ref.steps if ref_step is not None else 0))
-            bank.add(angles, ref_rad, steps, groups,
-                     ref_phase if devices[0].fits_reference else None, targets, finite)
+            _numpy(bank, devices, c, ref_phase)
+
+
+def _fused(bank: FitBank, devices: list[Device], c: Chunk) -> bool:
+    """One chunk of a bank's devices (a head each) by the compiled kernel; False, and
+    nothing added, when it cannot take it."""
+    w = c.windows
+    ahead = None if w is None else \
+        (w.grouping, w.origin, [w.first_y.get(d.heads[0]) for d in devices])
+    return bank.add_counts([c.counts[d.heads[0]] for d in devices],
+                           [d.infos[0] for d in devices], c.ref_rad, c.ref_step,
+                           c.ref.steps if c.ref_step is not None else 0, c.groups,
+                           finite=c.finite, windows=ahead)
+
+
+def _numpy(bank: FitBank, devices: list[Device], c: Chunk, ref_phase: np.ndarray | None) -> None:
+    """One chunk of a bank's devices by the numpy passes."""
+    angles, steps, finite = [], [], []
+    for d in devices:
+        counts = [column(c.batch, n) for n in d.heads]
+        finite.append(all(x.dtype.kind in "iu" for x in counts))  # no null count
+        dev_rad, dev_step = device_reading(counts, d.infos)
+        if c.sel is not None:
+            dev_rad, dev_step = dev_rad[c.sel], dev_step[c.sel]
+        # the phase is 2 pi dev_step / interpolation: the fit takes it from the steps
+        angles.append(dev_rad)
+        steps.append((dev_step, d.infos[0].interpolation, c.ref_step,
+                      c.ref.steps if c.ref_step is not None else 0))
+    bank.add(angles, c.ref_rad, steps, c.groups,
+             ref_phase if devices[0].fits_reference else None, c.targets, finite)
 
 
 def _curve(device: Device, grid: np.ndarray, reference_meta: dict[str, Any],

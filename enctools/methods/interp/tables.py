@@ -7,7 +7,6 @@ most :data:`MAX_SWEEP_SAMPLES` rows.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -51,11 +50,3 @@ def column(table: pa.Table | pa.RecordBatch, name: str) -> np.ndarray:
     if pa.types.is_integer(col.type) and col.null_count == 0:
         return col.to_numpy()
     return col.cast(pa.float64()).to_numpy(zero_copy_only=False)
-
-
-def chunks(source: Any) -> Iterator[pa.RecordBatch]:
-    """Record batches of ``source`` (a Table or a stream with .batches()), cut to CHUNK_ROWS."""
-    batches = source.to_batches() if hasattr(source, "to_batches") else source.batches()
-    for b in batches:
-        for start in range(0, b.num_rows, CHUNK_ROWS):
-            yield b.slice(start, CHUNK_ROWS)

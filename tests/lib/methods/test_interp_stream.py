@@ -353,3 +353,41 @@ def test_peak_memory_does_not_grow_with_revolutions(run20, tmp_path):
         assert r.returncode == 0, r.stderr.decode()
         peaks.append(int(r.stderr.decode().split()[-1]))
     assert peaks[1] < 1.2 * peaks[0], peaks
+
+
+def test_batches_are_made_ready_on_the_reader_thread(tmp_path, monkeypatch):
+    """A stream's batches are made ready (the reference's angle and step, the heads'
+    counts: interp/batches.py) on the stream's reader thread while the fits sum the
+    batch before; the same readings as one table give the same curves and u, bit for
+    bit, and every batch of a table is made on the caller's thread."""
+    import threading
+
+    from enctools.data.streams import open_input
+    from enctools.methods.interp.readings import check_readings
+    from enctools.methods.interp.reference import HeadReference
+    from enctools.methods.interp.settings import Settings
+
+    out = tmp_path / "c3.arrows"
+    r = run(f"{ACQUIRE} --revolutions 3 -o {out}")
+    assert r.returncode == 0, r.stderr.decode()
+    threads: list[str] = []
+    read = HeadReference.read
+
+    def on_thread(self, batch):
+        threads.append(threading.current_thread().name)
+        return read(self, batch)
+
+    monkeypatch.setattr(HeadReference, "read", on_thread)
+    settings = Settings(heads=["H1"], reference="P1")
+    with open_input(out, "readings") as source:
+        streamed = check_readings(source, settings, continuous=True)
+    assert threads and set(threads) == {"enc-read-ahead"}, threads
+    threads.clear()
+    with open_input(out, "readings") as source:
+        table = source.read_all()
+    whole = check_readings(table, settings, continuous=True)
+    assert set(threads) == {threading.current_thread().name}
+    assert [c.name for c in streamed] == [c.name for c in whole] == ["H1"]
+    for s, w in zip(streamed, whole, strict=True):
+        assert np.array_equal(s.error, w.error) and np.array_equal(s.u, w.u)
+        assert s.meta["windows"] == w.meta["windows"] > 1
