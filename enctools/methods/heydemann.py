@@ -29,7 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from enctools.errors import DataError
 from enctools.units import ARCSEC, DEG, TWO_PI
@@ -291,6 +290,8 @@ def _refine(p0: np.ndarray, i: np.ndarray, q: np.ndarray
 
     The covariance is that of the Jacobian scaled by the residual rms (the noise).
     """
+    from scipy.optimize import least_squares  # 0.28 s to import: not for every importer
+
     scale = max(abs(p0[2]), 1e-300)
     x_scale = np.array([scale, scale, scale, 1.0, 1.0])
     res = least_squares(_sampson, p0, args=(i, q), method="lm", x_scale=x_scale,
