@@ -1,8 +1,8 @@
 """What enc selfcal pays per revolution and at start-up, with the same answers (issue 35).
 
-- methods.budget.coverage_factor: Student's k and the normal quantile scipy.stats's t and
-  norm return (to 1e-12), without importing scipy.stats or scipy.special (0.5 s and
-  0.14-0.35 s of CPU at every start of a command that states a coverage).
+- methods.budget.coverage_factor: Student's k and the normal quantile (to 1e-12), without
+  importing scipy.stats or scipy.special (0.5 s and 0.14-0.35 s of CPU at every start of a
+  command that states a coverage).
 - methods.selfcal_uncertainty.SampleRepeats: the share of a revolution's positions
   sampled in the first revolution, by a binary search in the first's sorted positions,
   equal to np.isin's (which sorted or hashed both arrays at every revolution).
@@ -29,14 +29,17 @@ PROBE = ("import json, math, sys\n"
          "                                        if m in ('scipy.stats', 'scipy.special'))}))")
 
 
-def test_coverage_factor_is_scipy_stats_quantile_without_importing_it() -> None:
-    """k is scipy.stats.t.ppf (norm.ppf at infinite dof) to 1e-12, and a process that
-    asks for it has imported neither scipy.stats nor scipy.special."""
-    from scipy import stats  # 0.5 s of CPU to import: not at collection
+def test_coverage_factor_is_students_quantile_without_importing_scipy_stats() -> None:
+    """k is Student's quantile (norm's at infinite dof) to 1e-12, by the inverse incomplete
+    beta function (test_budget.t_quantile), and a process that asks for it has imported
+    neither scipy.stats nor scipy.special."""
+    from scipy.special import ndtri
+    from test_budget import t_quantile
+
     r = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True,
                        check=True)
     got = json.loads(r.stdout)
-    want = [float(stats.norm.ppf(0.5 + p / 2) if math.isinf(nu) else stats.t.ppf(0.5 + p / 2, nu))
+    want = [float(ndtri(0.5 + p / 2)) if math.isinf(nu) else t_quantile(0.5 + p / 2, nu)
             for nu in (1.0, 2.5, 5.0, 299.0, math.inf) for p in (0.6827, 0.95, 0.9973)]
     np.testing.assert_allclose(got["k"], want, rtol=1e-12, atol=0)
     assert got["scipy"] == []
