@@ -112,7 +112,7 @@ def _send_signal(case: Case, pid: int, folder: Path) -> None:
     deadline = time.monotonic() + case.timeout / 2
     when = case.signal.get("when")
     while when and not list(folder.glob(when)) and time.monotonic() < deadline:
-        time.sleep(0.02)
+        time.sleep(0.005)
     time.sleep(float(case.signal.get("delay", 0.0)))
     with contextlib.suppress(ProcessLookupError):  # not send_signal: it reaps an ended child
         os.kill(pid, signal_number(case.signal["sig"]))
