@@ -125,3 +125,84 @@ def test_a_real_full_disk_for_one_output(raw, tmp_path, full_tmpfs, cmd, args, n
     assert sorted(p.name for p in out.iterdir()) == ["d.parquet", "r.html"]
     assert {p.read_bytes() for p in out.iterdir()} == {b"an earlier run's"}
     assert sorted(p.name for p in full_tmpfs.iterdir()) == ["fill", "h"]
+
+
+class _Ended(Exception):
+    pass
+
+
+def _renames_signalled(monkeypatch: pytest.MonkeyPatch, sig: int) -> list[str]:
+    """os.replace sends ``sig`` to this process at the group's first rename; the names
+    it renamed are listed in the returned list."""
+    import os
+    import signal
+
+    done: list[str] = []
+    replace = os.replace
+
+    def signalled(src, dst):
+        if not done:
+            signal.raise_signal(sig)       # lands between the first and the second rename
+        replace(src, dst)
+        done.append(Path(dst).name)
+    monkeypatch.setattr(files.os, "replace", signalled)
+    return done
+
+
+@pytest.mark.parametrize("name", ["SIGTERM", "SIGINT", "SIGHUP"])
+def test_a_signal_during_the_renames_comes_after_all_of_them(tmp_path, monkeypatch, name):
+    """A signal that lands between two renames of a group is delivered once every output
+    is in place, through the handler the command had: never one output new, one old."""
+    import signal
+
+    sig = getattr(signal, name)
+
+    def ended(signum, frame):
+        raise _Ended(signum)
+
+    previous = signal.signal(sig, ended)
+    try:
+        done = _renames_signalled(monkeypatch, sig)
+        a, b = tmp_path / "a", tmp_path / "b"
+        a.write_text("old a")
+        b.write_text("old b")
+        with pytest.raises(_Ended) as caught, files.OutputGroup() as g:
+            g.write(a, b"new a")
+            g.write(b, b"new b")
+        assert caught.value.args == (sig,)
+        assert done == ["a", "b"]
+        assert a.read_bytes() == b"new a" and b.read_bytes() == b"new b"
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "b"]
+        assert signal.getsignal(sig) is ended    # the handler given back
+    finally:
+        signal.signal(sig, previous)
+
+
+def test_a_signal_with_its_default_action_ends_the_process_after_the_renames(tmp_path):
+    """Where nothing catches the signal (a library user), it still ends the process, only
+    once both outputs are in place."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent(f"""
+        import os, signal, sys
+        from pathlib import Path
+        from enctools.data import files
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        replace = os.replace
+        def signalled(src, dst):
+            if not Path(dst).name.endswith("b"):
+                os.kill(os.getpid(), signal.SIGTERM)
+            replace(src, dst)
+        files.os.replace = signalled
+        with files.OutputGroup() as g:
+            g.write({str(tmp_path / "a")!r}, b"new a")
+            g.write({str(tmp_path / "b")!r}, b"new b")
+        print("not reached", flush=True)
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=60)
+    assert r.returncode == -15, r.stderr.decode()
+    assert r.stdout == b""
+    assert (tmp_path / "a").read_bytes() == b"new a"
+    assert (tmp_path / "b").read_bytes() == b"new b"
