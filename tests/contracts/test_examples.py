@@ -111,6 +111,16 @@ def test_no_example_reaches_outside_the_repository():
             assert not re.search(r"(^|\s)/(var|etc|home|tmp)/", b.text), f"{b.page}: {b.text}"
 
 
+def test_no_python_example_ends_the_session_early():
+    """A page's Python blocks run as one session, each after the ones before it: a block
+    that exits (os._exit, sys.exit) would end the session before the later blocks run,
+    and their test would pass without running them."""
+    ending = re.compile(r"\b(os\._exit|sys\.exit|exit|quit)\s*\(")
+    for b in all_blocks():
+        if b.kind == "python":
+            assert not ending.search(b.text), f"{b.page}: {b.text}"
+
+
 def _stage(folder: Path) -> None:
     """A fresh folder as a reader has it: the repository's tests/ and examples/."""
     (folder / "tests").symlink_to(ROOT / "tests")
