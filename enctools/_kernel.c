@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define ENC_KERNEL_ABI 2
+#define ENC_KERNEL_ABI 3
 #define MAX_P1 64     /* columns + 1 (y): 2 * 64 device harmonics would not fit; the caller checks */
 #define MAX_D1 8      /* trend terms */
 
@@ -310,43 +310,85 @@ static inline __attribute__((always_inline)) void accumulate(
 #define MOMENT_CLONES
 #endif
 
-/* Moments M_pcb = sum_(j in bin b) w_j v_cj s_j^p (out: terms x c x nb) of c channels
- * (values: c rows of s1, row stride `stride`) over one revolution of x_j = theta(u_j) - start
- * (written into x), theta the angle map (mp = 0: theta = u); w the trapezoid weights of x,
- * b = floor(x nb / 2 pi) (the last bin takes what rounds past 2 pi), s the offset from the
- * bin's centre in half-widths. Each bin's sums run over its samples in order, as numpy's.
- * Returns 0; -1 for sizes beyond the limits; -2 when x falls (the numpy pass turns it
- * round); -3 when a bin holds more samples than the numpy layout pads (its None: the
- * direct sums run), so that both choose alike. */
-MOMENT_CLONES int64_t enc_rev_moments(
-    int64_t s1, const double *u, int64_t c, const double *values, int64_t stride,
-    const double *map, int64_t mp, int64_t mbins, double start, int64_t nb, int64_t terms,
-    double *x, double *out)
+/* Samples i0..i0+n-1 of c channels held in pieces (piece q: lengths[q] samples, channel k's
+ * row at rows[q * c + k]; *piece and *off: where sample i0 is) copied into buf (c rows of
+ * BLOCK), minus[k] taken off each value when minus is given: the doubles of numpy's
+ * `values - minus[:, None]` of the pieces joined. Advances *piece and *off past the block. */
+static inline __attribute__((always_inline)) void gather(
+    int64_t n, int64_t c, const int64_t *lengths, const double *const *rows,
+    const double *minus, int64_t *piece, int64_t *off, double *restrict buf)
 {
-    if (c < 1 || c > MAX_CHANNELS || terms < 2 || terms > MAX_TERMS || s1 < 3 || nb < 1)
+    int64_t i = 0;
+    while (i < n) {
+        while (*off == lengths[*piece]) {
+            (*piece)++;
+            *off = 0;
+        }
+        int64_t take = lengths[*piece] - *off;
+        if (take > n - i) take = n - i;
+        for (int64_t k = 0; k < c; k++) {
+            const double *src = rows[*piece * c + k] + *off;
+            double *dst = buf + k * BLOCK + i;
+            if (minus) {
+                const double m = minus[k];
+                for (int64_t t = 0; t < take; t++) dst[t] = src[t] - m;
+            } else {
+                memcpy(dst, src, sizeof(double) * (size_t)take);
+            }
+        }
+        i += take;
+        *off += take;
+    }
+}
+
+/* Moments M_pcb = sum_(j in bin b) w_j v_cj s_j^p (out: terms x c x nb) of c channels over
+ * one revolution of x_j = theta(u_j) - start (written into x), theta the angle map (mp = 0:
+ * theta = u); w the trapezoid weights of x, b = floor(x nb / 2 pi) (the last bin takes what
+ * rounds past 2 pi), s the offset from the bin's centre in half-widths. The channels' s1
+ * samples come in `pieces` pieces (the batches a revolution was cut from, not joined:
+ * lengths[q] samples each, channel k's row of piece q at rows[q * c + k]), v = value -
+ * minus[k] (minus NULL: the value). Each bin's sums run over its samples in order, as
+ * numpy's. Returns 0; -1 for sizes beyond the limits or pieces that do not add up to s1;
+ * -2 when x falls (the numpy pass turns it round); -3 when a bin holds more samples than the
+ * numpy layout pads (its None: the direct sums run), so that both choose alike. */
+MOMENT_CLONES int64_t enc_rev_moments(
+    int64_t s1, const double *u, int64_t c, int64_t pieces, const int64_t *lengths,
+    const double *const *rows, const double *minus, const double *map, int64_t mp,
+    int64_t mbins, double start, int64_t nb, int64_t terms, double *x, double *out)
+{
+    if (c < 1 || c > MAX_CHANNELS || terms < 2 || terms > MAX_TERMS || s1 < 3 || nb < 1
+            || pieces < 1)
         return -1;
+    int64_t total = 0;
+    for (int64_t q = 0; q < pieces; q++) {
+        if (lengths[q] < 0) return -1;
+        total += lengths[q];
+    }
+    if (total != s1) return -1;
     const double map_per_rad = (double)mbins / 6.283185307179586;
     for (int64_t j = 0; j < s1; j++) x[j] = mapped(u[j], map, mp, mbins, map_per_rad) - start;
     if (x[s1 - 1] < x[0]) return -2;
     const int64_t ct = c * terms;
     double *by_bin = calloc((size_t)(nb * ct), sizeof(double));  /* a bin's sums side by side */
     double *power = malloc(sizeof(double) * BLOCK * (size_t)terms);
-    if (!by_bin || !power) {
+    double *buf = malloc(sizeof(double) * BLOCK * (size_t)c);     /* a block's values */
+    if (!by_bin || !power || !buf) {
         free(by_bin);
         free(power);
+        free(buf);
         return -1;
     }
     double loc[MAX_CHANNELS * MAX_TERMS] = {0}, w[BLOCK];
-    int64_t bin[BLOCK], cur = -1, count = 0, width = 0;
+    int64_t bin[BLOCK], cur = -1, count = 0, width = 0, piece = 0, off = 0;
     for (int64_t j0 = 0; j0 < s1; j0 += BLOCK) {
         const int64_t n = s1 - j0 < BLOCK ? s1 - j0 : BLOCK;
         block_powers(x, s1, j0, n, (double)nb / 6.283185307179586, nb, terms, bin, w, power);
+        gather(n, c, lengths, rows, minus, &piece, &off, buf);
         if (c == 4 && terms == 12)   /* selfcal's four heads at the default band */
-            accumulate(values + j0, stride, n, bin, w, power, 4, 12, by_bin, loc, &cur, &count,
-                       &width);
+            accumulate(buf, BLOCK, n, bin, w, power, 4, 12, by_bin, loc, &cur, &count, &width);
         else
-            accumulate(values + j0, stride, n, bin, w, power, c, terms, by_bin, loc, &cur,
-                       &count, &width);
+            accumulate(buf, BLOCK, n, bin, w, power, c, terms, by_bin, loc, &cur, &count,
+                       &width);
     }
     for (int64_t a = 0; a < ct; a++) by_bin[cur * ct + a] += loc[a];
     if (count > width) width = count;
@@ -358,6 +400,7 @@ MOMENT_CLONES int64_t enc_rev_moments(
         }
     free(by_bin);
     free(power);
+    free(buf);
     return nb * width > 4 * s1 + 4096 ? -3 : 0;
 }
 
@@ -387,13 +430,15 @@ int64_t enc_repeat_count(int64_t n, const double *u, double start, double quantu
 /* A readings batch's angle coordinate and channels (revolutions.batch_channels): u_j the
  * mean of the nu coordinate columns' counts, (sum_k counts) * u_scale + u_offset, and row r
  * of values (nv rows of n) counts_r * v_scale[r] + v_offset[r] - u_j, each in numpy's order
- * of operations. Returns the sense of u: 1 rising, -1 falling (strictly), else 0. */
+ * of operations; *step the largest |u_j - u_(j-1)| (0 for one sample). Returns the sense of
+ * u: 1 rising, -1 falling (strictly), else 0. */
 int64_t enc_head_channels(int64_t n, int64_t nu, const int64_t *const *coordinate,
                           double u_scale, double u_offset, int64_t nv,
                           const int64_t *const *channel, const double *v_scale,
-                          const double *v_offset, double *u, double *values)
+                          const double *v_offset, double *u, double *values, double *step)
 {
     int rising = 1, falling = 1;
+    double largest = 0.0;
     for (int64_t j = 0; j < n; j++) {
         double a = (double)coordinate[0][j];
         for (int64_t k = 1; k < nu; k++) a += (double)coordinate[k][j];
@@ -403,8 +448,12 @@ int64_t enc_head_channels(int64_t n, int64_t nu, const int64_t *const *coordinat
         if (j > 0) {
             rising &= a > u[j - 1];
             falling &= a < u[j - 1];
+            const double d = a - u[j - 1];
+            const double m = d < 0.0 ? -d : d;
+            if (m > largest) largest = m;
         }
     }
+    *step = largest;
     for (int64_t r = 0; r < nv; r++) {
         const int64_t *counts = channel[r];
         double *row = values + r * n;

@@ -19,7 +19,7 @@ from typing import Any
 #: the library's file name beside this module (hatch_build.py writes it)
 LIBRARY = "_enckernel.so"
 #: the interface version the loader expects of the library (enc_kernel_abi)
-ABI = 2
+ABI = 3
 #: the most channels and series terms enc_rev_moments takes (_kernel.c)
 MAX_CHANNELS = 16
 MAX_TERMS = 32
@@ -51,12 +51,13 @@ def library() -> Any | None:
         i64, ptr, f64, i64, i64, ptr, f64, ptr, i64, ptr, ptr, i64, i64,
         i64, ptr, ptr, ptr, i64, ptr, ptr, ptr, ptr, i64, ptr]
     lib.enc_rev_moments.restype = i64
-    lib.enc_rev_moments.argtypes = [i64, ptr, i64, ptr, i64, ptr, i64, i64, f64, i64, i64,
-                                    ptr, ptr]
+    lib.enc_rev_moments.argtypes = [i64, ptr, i64, i64, ptr, ptr, ptr, ptr, i64, i64, f64,
+                                    i64, i64, ptr, ptr]
     lib.enc_repeat_count.restype = i64
     lib.enc_repeat_count.argtypes = [i64, ptr, f64, f64, i64, ptr]
     lib.enc_head_channels.restype = i64
-    lib.enc_head_channels.argtypes = [i64, i64, ptr, f64, f64, i64, ptr, ptr, ptr, ptr, ptr]
+    lib.enc_head_channels.argtypes = [i64, i64, ptr, f64, f64, i64, ptr, ptr, ptr, ptr, ptr,
+                                      ptr]
     return lib
 
 

@@ -153,12 +153,13 @@ class AngleMap:
         return out
 
 
-def spectra_against(rev: Revolution, values: np.ndarray, angle: AngleMap,
-                    band: int) -> np.ndarray:
-    """Coefficients c_0..c_band (rad) of ``values`` (C, S) [rad] of revolution ``rev``
+def spectra_against(rev: Revolution, values: np.ndarray | tuple[np.ndarray, ...],
+                    angle: AngleMap, band: int, minus: np.ndarray | None = None) -> np.ndarray:
+    """Coefficients c_0..c_band (rad) of ``values`` (C, S) [rad] of revolution ``rev`` (or
+    its pieces, :attr:`Revolution.parts`), ``minus`` (C,) [rad] taken off each channel,
     against theta = ``angle(u)``: the revolution's ends map to theta0 and theta0 +/- 2 pi."""
     start = float(angle(np.array([rev.start]))[0])
-    return revolution_coefficients(rev.u, values, start, band, angle.shift)
+    return revolution_coefficients(rev.u, values, start, band, angle.shift, minus)
 
 
 def coordinate_error(model: Model, spectra: np.ndarray

@@ -55,19 +55,23 @@ def trapezoid_weights(x: np.ndarray) -> np.ndarray:
     return w
 
 
-def revolution_coefficients(u: np.ndarray, values: np.ndarray, start: float,
-                            band: int, shift: FourierSeries | None = None) -> np.ndarray:
+def revolution_coefficients(u: np.ndarray, values: np.ndarray | tuple[np.ndarray, ...],
+                            start: float, band: int, shift: FourierSeries | None = None,
+                            minus: np.ndarray | None = None) -> np.ndarray:
     """Fourier coefficients c_0..c_band of channels over one revolution of ``u``.
 
     Parameters
     ----------
     u : (S,) angle coordinate [rad], monotonic, covering ``[start, start + 2 pi]``
         with its first and last samples exactly on the ends.
-    values : (C, S) channel values (any unit) at ``u``.
+    values : (C, S) channel values (any unit) at ``u``, or a tuple of (C, S_i) pieces
+        whose join along the samples they are (the compiled kernel reads them in place).
     start : where the revolution starts [rad].
     band : highest harmonic K.
     shift : the samples' angles are ``u - shift(u)`` [rad] (an angle map's correction,
         ``start`` then being that angle's start); None: ``u`` itself.
+    minus : (C,) taken off each channel's values first (their unit), without changing
+        ``values``; None: nothing.
 
     Returns
     -------
@@ -78,9 +82,13 @@ def revolution_coefficients(u: np.ndarray, values: np.ndarray, start: float,
     and FFTs instead of the (K + 1) x S exponentials of the direct sum. The compiled
     kernel (:mod:`enctools.kernel`) makes the angles and the bins' moments in one pass.
     """
-    v = np.atleast_2d(np.asarray(values, dtype=np.float64))
-    c = _kernel_sums(u, v, start, band, shift)
+    parts = values if isinstance(values, tuple) else (values,)
+    parts = tuple(np.atleast_2d(np.asarray(p, dtype=np.float64)) for p in parts)
+    c = _kernel_sums(u, parts, start, band, shift, minus)
     if c is None:
+        v = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
+        if minus is not None:
+            v = v - np.asarray(minus, dtype=np.float64)[:, None]
         theta = np.asarray(u, dtype=np.float64) if shift is None else u - shift(u)
         x = theta - start
         w = trapezoid_weights(x)
@@ -188,15 +196,19 @@ def _combined(moments: np.ndarray, band: int, h: float) -> np.ndarray:
     return np.einsum("pcn,pn->cn", f, _expansion(band, h, moments.shape[0]))
 
 
-def _kernel_sums(u: np.ndarray, v: np.ndarray, start: float, band: int,
-                 shift: FourierSeries | None) -> np.ndarray | None:
-    """:func:`_binned_sums` of the samples at ``u - shift(u) - start`` [rad], the angles,
-    weights and moments made in one pass of the compiled kernel; None where it is not
-    installed or leaves the choice to the numpy passes (falling angles, few samples,
-    bins too unevenly filled)."""
+def _kernel_sums(u: np.ndarray, parts: tuple[np.ndarray, ...], start: float, band: int,
+                 shift: FourierSeries | None, minus: np.ndarray | None = None
+                 ) -> np.ndarray | None:
+    """:func:`_binned_sums` of the samples at ``u - shift(u) - start`` [rad] of the channels
+    held in ``parts`` ((C, S_i) pieces, joined along the samples; ``minus`` (C,) taken off
+    each), the angles, weights and moments made in one pass of the compiled kernel; None
+    where it is not installed or leaves the choice to the numpy passes (falling angles, few
+    samples, bins too unevenly filled)."""
     lib = kernel.library()
-    size, channels = u.size, v.shape[0]
-    if lib is None or band == 0 or size < 256 or v.strides[1] != v.itemsize:
+    size, channels = u.size, parts[0].shape[0]
+    if (lib is None or band == 0 or size < 256
+            or any(p.shape[0] != channels or (p.shape[1] > 1 and p.strides[1] != p.itemsize)
+                   for p in parts)):
         return None
     nb = _bins(band, size)
     h = math.pi / nb
@@ -204,10 +216,16 @@ def _kernel_sums(u: np.ndarray, v: np.ndarray, start: float, band: int,
     if nb > 16 * size or channels > kernel.MAX_CHANNELS or terms > kernel.MAX_TERMS:
         return None
     u = np.ascontiguousarray(u, dtype=np.float64)
+    lengths = np.array([p.shape[1] for p in parts], dtype=np.int64)
+    rows = np.array([p.ctypes.data + k * p.strides[0] for p in parts for k in range(channels)],
+                    dtype=np.uintp)
+    if minus is not None:
+        minus = np.ascontiguousarray(minus, dtype=np.float64)
     table = None if shift is None else shift.by_bin
     moments, angles = np.empty((terms, channels, nb)), np.empty(size)  # all written
     rc = lib.enc_rev_moments(
-        size, u.ctypes.data, channels, v.ctypes.data, v.strides[0] // v.itemsize,
+        size, u.ctypes.data, channels, len(parts), lengths.ctypes.data, rows.ctypes.data,
+        None if minus is None else minus.ctypes.data,
         None if table is None else table.ctypes.data, 0 if table is None else table.shape[1],
         0 if table is None else table.shape[0], start, nb, terms, angles.ctypes.data,
         moments.ctypes.data)

@@ -16,7 +16,6 @@ Units: angles in rad, times in s; a channel's coefficients carry the channel's u
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -24,9 +23,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from enctools.data.readings import HeadInfo
-from enctools.data.statistics import median
 from enctools.errors import DataError
 from enctools.methods.harmonics import bin_average, revolution_coefficients
+from enctools.methods.stroboscopic import warn_stroboscopic
 from enctools.units import TWO_PI
 
 if TYPE_CHECKING:
@@ -51,18 +50,38 @@ def require_continuous(source: InputStream, needs: str) -> None:
         raise DataError(msg)
 
 
-@dataclass
 class Revolution:
     """One revolution of channels against the angle coordinate.
 
     ``u``: coordinate samples [rad], the ends on ``start`` and ``start +/- 2 pi``;
-    ``values``: (C, S) channels.
+    ``values``: (C, S) channels, given whole or as ``parts``: the (C, S_i) pieces of the
+    batches the revolution was cut from, in order. The pieces are joined (copied) the first
+    time :attr:`values` is read; what reads :attr:`parts` instead (the moments' kernel)
+    needs no copy. A piece may be shared with the next revolution (its interpolated end):
+    it is never written to.
     """
 
-    index: int
-    start: float
-    u: np.ndarray
-    values: np.ndarray
+    __slots__ = ("_values", "index", "parts", "start", "u")
+
+    def __init__(self, index: int, start: float, u: np.ndarray,
+                 values: np.ndarray | tuple[np.ndarray, ...]) -> None:
+        self.index = index
+        self.start = start
+        self.u = u
+        self.parts = values if isinstance(values, tuple) else (values,)
+        self._values = values if isinstance(values, np.ndarray) else None
+
+    @property
+    def values(self) -> np.ndarray:
+        """(C, S) channels, the parts joined."""
+        if self._values is None:
+            self._values = np.concatenate(self.parts, axis=1)
+        return self._values
+
+    @values.setter
+    def values(self, values: np.ndarray) -> None:
+        self._values = values
+        self.parts = (values,)
 
 
 class RevolutionSplitter:
@@ -72,8 +91,9 @@ class RevolutionSplitter:
     complete revolution is yielded with its end interpolated linearly onto the
     boundary, which also starts the next one. The first revolution starts at the
     first sample. What is left at the end (less than a revolution) is not yielded;
-    ``pending`` says how much of a revolution it was. Blocks are held as views and
-    copied once, into the revolution they complete.
+    ``pending`` says how much of a revolution it was. Blocks are held as views: a
+    revolution's u is copied out of them, its values are handed on as the pieces
+    (:class:`Revolution`).
     """
 
     def __init__(self) -> None:
@@ -128,8 +148,7 @@ class RevolutionSplitter:
                 ev = (pv * (1.0 - f) + values[:, k] * f)[:, None]
                 nxt_u, nxt_v = [eu], [ev]
             ru = np.concatenate([*self._u, u[lo:k], eu])
-            rv = np.concatenate([*self._v, values[:, lo:k], ev], axis=1)
-            yield Revolution(self.index, self.start, ru, rv)
+            yield Revolution(self.index, self.start, ru, (*self._v, values[:, lo:k], ev))
             self.index += 1
             self.start = end
             self._u, self._v, lo = nxt_u, nxt_v, k
@@ -147,8 +166,7 @@ class RevolutionSplitter:
         if abs(end - self._u[-1][-1]) > max_gap:
             return None
         ru = np.concatenate([*self._u, np.array([end])])
-        rv = np.concatenate([*self._v, self._v[0][:, :1]], axis=1)
-        rev = Revolution(self.index, self.start, ru, rv)
+        rev = Revolution(self.index, self.start, ru, (*self._v, self._v[0][:, :1]))
         self.index += 1
         self._u, self._v = [], []
         return rev
@@ -294,7 +312,8 @@ class BatchChannels:
 
     ``t`` [s]; ``u``: the angle coordinate [rad]; ``values``: (C, S) channels minus u
     [rad]; ``t_rising``: t increases strictly within the batch; ``u_sense``: +1 or -1
-    when u rises or falls strictly within the batch, else 0.
+    when u rises or falls strictly within the batch, else 0; ``u_step``: the largest
+    |step| of u within the batch [rad], when the kernel found it (else None).
     """
 
     t: np.ndarray
@@ -302,6 +321,7 @@ class BatchChannels:
     values: np.ndarray
     t_rising: bool
     u_sense: int
+    u_step: float | None = None
 
 
 def batch_channels(batch: pa.RecordBatch, spec: ChannelSpec,
@@ -317,8 +337,8 @@ def batch_channels(batch: pa.RecordBatch, spec: ChannelSpec,
     t, rising = _times(batch, source)
     fused = None if spec.mean else _kernel_channels(batch, spec)
     if fused is not None:
-        u, values, sense = fused
-        return BatchChannels(t, u, values, rising, sense if n > 1 else 0)
+        u, values, sense, step = fused
+        return BatchChannels(t, u, values, rising, sense if n > 1 else 0, step)
     u = mean_reading(batch, spec.coordinate, source)
     if spec.mean:
         values = mean_reading(batch, spec.channels, source, minus=u)[None, :]
@@ -331,11 +351,11 @@ def batch_channels(batch: pa.RecordBatch, spec: ChannelSpec,
 
 
 def _kernel_channels(batch: pa.RecordBatch, spec: ChannelSpec
-                     ) -> tuple[np.ndarray, np.ndarray, int] | None:
-    """u [rad], the channels minus u [rad] and u's sense (:func:`batch_channels`) in one
-    pass of the compiled kernel (:mod:`enctools.kernel`), the same doubles as
-    :func:`mean_reading`'s; None where it does not apply (no kernel, counts not int64 or
-    with nulls, coordinate heads of different counts per revolution)."""
+                     ) -> tuple[np.ndarray, np.ndarray, int, float] | None:
+    """u [rad], the channels minus u [rad], u's sense and its largest step [rad]
+    (:func:`batch_channels`) in one pass of the compiled kernel (:mod:`enctools.kernel`),
+    the same doubles as :func:`mean_reading`'s; None where it does not apply (no kernel,
+    counts not int64 or with nulls, coordinate heads of different counts per revolution)."""
     import pyarrow as pa  # a batch's own library: imported already
 
     from enctools import kernel
@@ -357,18 +377,23 @@ def _kernel_channels(batch: pa.RecordBatch, spec: ChannelSpec
                         for h in spec.channels])
     pointers = np.array([c.ctypes.data for c in columns], dtype=np.uintp)
     n = batch.num_rows
-    u, values = np.empty(n), np.empty((len(spec.channels), n))
+    u, values, step = np.empty(n), np.empty((len(spec.channels), n)), np.zeros(1)
     sense = lib.enc_head_channels(n, m, pointers.ctypes.data, TWO_PI / (cpr * m), u_offset,
                                   len(spec.channels), pointers[m:].ctypes.data,
                                   scales.ctypes.data, offsets.ctypes.data, u.ctypes.data,
-                                  values.ctypes.data)
-    return u, values, int(sense)
+                                  values.ctypes.data, step.ctypes.data)
+    return u, values, int(sense), float(step[0])
 
 
-def _check_steps(u: np.ndarray, before: float, spec: ChannelSpec, source: str) -> None:
+def _check_steps(u: np.ndarray, before: float, spec: ChannelSpec, source: str,
+                 largest: float | None = None) -> None:
     """No step of the coordinate ``u`` [rad] (from ``before``, the last of the batch before)
     of half a turn or more: such samples cannot be cut into revolutions, and a few rows
-    would make millions of them (a counts_per_rev far below the counts recorded)."""
+    would make millions of them (a counts_per_rev far below the counts recorded).
+    ``largest``: the largest step within ``u`` [rad] when known (the kernel's), so that
+    only a batch that fails is looked at again."""
+    if largest is not None and max(largest, abs(float(u[0]) - before)) < np.pi:
+        return
     steps = np.abs(np.diff(u, prepend=before))
     if steps.size and float(steps.max()) >= np.pi:
         k = int(np.argmax(steps))
@@ -437,7 +462,7 @@ class RevolutionCutter:
                    "turns back; self-calibration and comparison need a continuous run in "
                    "one direction")
             raise DataError(msg)
-        _check_steps(u, first, self.spec, self.source)
+        _check_steps(u, first, self.spec, self.source, b.u_step)
         if n > 1:  # the mean step over the batch
             self._spacing = abs(float(u[-1] - u[0])) / (n - 1)
         self._last_u = float(u[-1])
@@ -486,100 +511,19 @@ def revolutions(source: InputStream, spec: ChannelSpec,
     for cut in source.batches(prepare=cutter):
         for rev in cut:
             if rev.index == 0 and resolved > 0:
-                warn_stroboscopic(rev, spec, resolved)
+                warn_stroboscopic(rev.u, rev.start, spec.channels + spec.coordinate, resolved)
             yield rev
             if progress is not None:
                 progress(rev.index + 1)
     for rev in cutter.finish():
         if rev.index == 0 and resolved > 0:
-            warn_stroboscopic(rev, spec, resolved)
+            warn_stroboscopic(rev.u, rev.start, spec.channels + spec.coordinate, resolved)
         yield rev
-
-
-#: a sample step within this many signal periods of a whole number is "stroboscopic"
-STROBOSCOPIC = 0.05
-
-
-def stroboscopic_heads(step: float, heads: tuple[HeadInfo, ...]) -> list[tuple[str, float]]:
-    """Heads whose signal phase barely moves from one sample to the next.
-
-    ``step``: angle between samples [rad]. When it is within :data:`STROBOSCOPIC` of
-    a whole number of signal periods, every sample meets the head's interpolation
-    error at nearly the same phase, so a short stretch of samples (enc interp-check's
-    window) does not go through the period. Returns (head, periods per sample).
-    Whole revolutions are judged by :func:`aliased_interpolation` instead.
-    """
-    out = []
-    for h in heads:
-        periods = step * h.periods_per_rev / TWO_PI
-        if abs(periods - round(periods)) < STROBOSCOPIC and periods > 0.5:
-            out.append((h.name, periods))
-    return out
-
-
-#: a unit interpolation error that puts more than this fraction of its amplitude into one
-#: harmonic the result resolves is aliased (sampled synchronously) ...
-ALIASED = 0.05
-#: ... or more than this many times the 1/sqrt(samples) of an evenly spread phase
-ALIASED_OVER_SPREAD = 6.0
-
-
-def aliased_interpolation(rev: Revolution, periods_per_rev: int,
-                          band: int) -> tuple[float, int, int]:
-    """Where one revolution's sampling aliases a head's interpolation error.
-
-    The interpolation error of a head with ``periods_per_rev`` signal periods per
-    revolution repeats at its 1st and 2nd harmonics of the signal period. Sampled at
-    the angles ``rev.u`` [rad] the run actually reached (its measured speed, speed
-    error and jitter included), a unit phasor ``exp(i m periods_per_rev u)`` has
-    Fourier coefficients over the revolution; an evenly advancing phase leaves about
-    1/sqrt(samples) in each, a phase that barely moves from sample to sample (a whole
-    number of signal periods per sample) puts up to all of it into low harmonics,
-    which no averaging of revolutions removes. Returns (largest coefficient's
-    magnitude of harmonics 1..``band`` over m = 1, 2; that harmonic; m).
-    """
-    rows = []
-    for m in (1, 2):
-        phase = np.mod(rev.u * (m * periods_per_rev), TWO_PI)
-        rows += [np.cos(phase), np.sin(phase)]
-    c = revolution_coefficients(rev.u, np.array(rows), rev.start, band)[:, 1:]
-    best = (0.0, 0, 0)
-    for k, m in enumerate((1, 2)):
-        cos, sin = c[2 * k], c[2 * k + 1]
-        # the phasor's coefficients at +n and -n (f = Re(sum c_n exp(i n u)))
-        leak = np.maximum(np.abs(cos + 1j * sin), np.abs(np.conj(cos) + 1j * np.conj(sin))) / 2
-        n = int(np.argmax(leak))
-        if leak[n] > best[0]:
-            best = (float(leak[n]), n + 1, m)
-    return best
-
-
-def warn_stroboscopic(rev: Revolution, spec: ChannelSpec, band: int) -> None:
-    """Warn when the first revolution's sampling aliases a head's interpolation error into
-    the harmonics 1..``band`` the result resolves (:func:`aliased_interpolation`)."""
-    limit = max(ALIASED, ALIASED_OVER_SPREAD / np.sqrt(max(rev.u.size, 1)))
-    by_period: dict[int, list[str]] = {}
-    for h in spec.channels + spec.coordinate:
-        names = by_period.setdefault(h.periods_per_rev, [])
-        if h.name not in names:
-            names.append(h.name)
-    bad = []
-    for ppr, names in by_period.items():
-        leak, n, m = aliased_interpolation(rev, ppr, band)
-        if leak > limit:
-            periods = abs(median(np.diff(rev.u))) * ppr / TWO_PI
-            bad.append(f"{', '.join(names)} ({periods:.4f} signal periods per sample: "
-                       f"harmonic {m} of the period lands at n = {n} with {leak:.2f} "
-                       f"of its amplitude)")
-    if bad:
-        logging.getLogger("enctools").warning(
-            "sampling is nearly synchronous with the signal period of %s: their "
-            "interpolation error aliases into low harmonics; record with another "
-            "sample interval (`interval_s`)", "; ".join(bad))
 
 
 def _analyse(rev: Revolution, band: int, grid_points: int) -> Spectra:
     """The coefficients (and with ``grid_points`` the bin averages) of one revolution."""
-    coef = revolution_coefficients(rev.u, rev.values, rev.start, band)
+    coef = revolution_coefficients(rev.u, rev.values if grid_points else rev.parts,
+                                   rev.start, band)
     binned = bin_average(rev.u[:-1], rev.values[:, :-1], grid_points) if grid_points else None
     return rev.index, coef, binned

@@ -355,15 +355,15 @@ def _against_theta(first: Revolution | None, rest: Iterator[Revolution],
                    settled: Settled | None, band: int) -> Iterator[tuple[Revolution, np.ndarray]]:
     """Each revolution (``first``, then ``rest``) with its heads' coefficients c_0..c_band
     against theta [rad], as ``settled`` on the first (:func:`settle`): its offsets taken
-    out of the revolution's ``values`` [rad] and its coefficients made on a worker thread
-    ahead of the caller (:func:`enctools.methods.overlap.ahead`), which folds them meanwhile.
+    off the revolution's values [rad] as they are summed (read from its pieces, not
+    joined) and its coefficients made on a worker thread ahead of the caller
+    (:func:`enctools.methods.overlap.ahead`), which folds them meanwhile.
     """
     if first is None or settled is None:
         return
 
     def against(rev: Revolution) -> np.ndarray:
-        rev.values -= settled.offsets[:, None]
-        g = spectra_against(rev, rev.values, settled.angle, band)
+        g = spectra_against(rev, rev.parts, settled.angle, band, minus=settled.offsets)
         g[:, 0] += settled.offsets
         return g
 

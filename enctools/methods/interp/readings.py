@@ -121,10 +121,10 @@ def _stroboscopic(first: Chunk, schema: pa.Schema, names: Sequence[str],
     """Heads (devices and reference) sampled nearly synchronously with their signal period.
 
     The angle between samples is the median step of the reference over the ``first``
-    chunk; :func:`enctools.methods.revolutions.stroboscopic_heads` judges. Returns
+    chunk; :func:`enctools.methods.stroboscopic.stroboscopic_heads` judges. Returns
     {head: signal periods per sample}.
     """
-    from enctools.methods.revolutions import stroboscopic_heads
+    from enctools.methods.stroboscopic import stroboscopic_heads
 
     if first.batch.num_rows < 3:
         return {}

@@ -12,7 +12,8 @@ from enctools.methods.harmonics import (
     revolution_coefficients,
     synthesize,
 )
-from enctools.methods.revolutions import RevolutionSplitter, stroboscopic_heads
+from enctools.methods.revolutions import RevolutionSplitter
+from enctools.methods.stroboscopic import stroboscopic_heads
 
 TWO_PI = 2 * np.pi
 

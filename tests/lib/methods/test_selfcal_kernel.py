@@ -12,6 +12,7 @@ leaves it to them.
 
 from __future__ import annotations
 
+import itertools
 import json
 
 import numpy as np
@@ -74,10 +75,57 @@ def test_moments_are_numpy_s(compiled: None, channels: int, band: int, mapped: b
         error = 1e-5 * (rng.normal(size=band + 1) + 1j * rng.normal(size=band + 1))
         shift = FourierSeries(error / (1 + np.arange(band + 1)))
     theta_start = 0.7 if shift is None else 0.7 - float(shift(np.array([0.7]))[0])
-    got = harmonics._kernel_sums(u, v, theta_start, band, shift)
+    got = harmonics._kernel_sums(u, (v,), theta_start, band, shift)
     want = _numpy_sums(u, v, theta_start, band, shift)
     assert got is not None and want is not None
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("cuts", [[7000], [1, 2, 2, 9000, 20000], [0, 255, 256, 257, 513]])
+def test_moments_of_pieces_minus_offsets_are_numpy_s(compiled: None, cuts: list[int]) -> None:
+    """A revolution's values as the pieces of the batches it was cut from (the splitter's
+    views: one-sample and empty pieces, pieces ending inside and on a block of 256, a row
+    stride of the whole batch), an offset taken off each channel: the sums of the joined
+    values minus the offsets, equal; the pieces are not written to."""
+    rng = np.random.default_rng(len(cuts))
+    u, v = _revolution(rng, 20000, 0.3, 4)
+    batch = np.empty((4, u.size + 100))          # the pieces' rows lie in a wider batch
+    batch[:, 50:50 + u.size] = v
+    whole = batch[:, 50:50 + u.size]
+    edges = [0, *cuts, u.size]
+    parts = tuple(whole[:, a:b] for a, b in itertools.pairwise(edges))
+    offsets = np.array([3e-4, -2e-4, 1e-6, 0.0])
+    kept = batch.copy()
+    got = harmonics._kernel_sums(u, parts, 0.3, 100, None, offsets)
+    want = _numpy_sums(u, v - offsets[:, None], 0.3, 100, None)
+    assert got is not None and want is not None
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(batch, kept)
+    np.testing.assert_array_equal(harmonics._kernel_sums(u, parts, 0.3, 100, None),
+                                  _numpy_sums(u, v, 0.3, 100, None))
+
+
+def test_pieces_that_do_not_make_the_revolution_are_left_to_numpy(compiled: None) -> None:
+    """Pieces one sample short of u, or of another channel count: the kernel declines."""
+    rng = np.random.default_rng(3)
+    u, v = _revolution(rng, 4000, 0.0, 2)
+    assert harmonics._kernel_sums(u, (v[:, :100], v[:, 100:-1]), 0.0, 50, None) is None
+    assert harmonics._kernel_sums(u, (v[:, :100], v[:1, 100:]), 0.0, 50, None) is None
+
+
+def test_a_revolution_joins_its_pieces_once_and_never_into_them() -> None:
+    """Revolution.values: the pieces joined into a new array, made once; writing to it
+    leaves the pieces (shared with the next revolution) as they were."""
+    a, b = np.arange(6.0).reshape(2, 3), np.arange(6.0, 8.0).reshape(2, 1)
+    rev = Revolution(0, 0.0, np.arange(4.0), (a, b))
+    assert rev.parts == (a, b)
+    np.testing.assert_array_equal(rev.values, [[0, 1, 2, 6], [3, 4, 5, 7]])
+    assert rev.values is rev.values
+    rev.values -= 1.0
+    np.testing.assert_array_equal(a, np.arange(6.0).reshape(2, 3))
+    np.testing.assert_array_equal(b, [[6.0], [7.0]])
+    whole = np.ones((1, 3))
+    assert Revolution(0, 0.0, np.arange(3.0), whole).values is whole
 
 
 def test_a_last_sample_past_the_turn_goes_to_the_last_bin(compiled: None) -> None:
@@ -86,7 +134,7 @@ def test_a_last_sample_past_the_turn_goes_to_the_last_bin(compiled: None) -> Non
     u, v = _revolution(rng, 5000, 0.0, 4)
     u[-1] = np.nextafter(TWO_PI, 10.0)
     u[0] = -1e-17
-    np.testing.assert_array_equal(harmonics._kernel_sums(u, v, 0.0, 60, None),
+    np.testing.assert_array_equal(harmonics._kernel_sums(u, (v,), 0.0, 60, None),
                                   _numpy_sums(u, v, 0.0, 60, None))
 
 
@@ -100,7 +148,7 @@ def test_what_the_kernel_leaves_to_numpy(compiled: None) -> None:
                            np.linspace(0, 1e-9, 30000), np.linspace(1.0, TWO_PI, 1000)[1:]])
     for uu in (falling, stop, u[:200]):
         vv = np.ascontiguousarray(1e-5 * np.sin(3 * uu)[None, :])
-        assert harmonics._kernel_sums(uu, vv, float(uu[0]), 50, None) is None
+        assert harmonics._kernel_sums(uu, (vv,), float(uu[0]), 50, None) is None
     np.testing.assert_array_equal(
         harmonics.revolution_coefficients(falling, v[:, ::-1], 0.0, 50),
         _reference(falling, v[:, ::-1], 0.0, 50))
@@ -148,12 +196,29 @@ def test_channels_are_mean_reading_s(compiled: None) -> None:
     batch, spec = _batch(np.random.default_rng(4), 70000)
     fused = _kernel_channels(batch, spec)
     assert fused is not None
-    u, values, sense = fused
+    u, values, sense, step = fused
     want_u = mean_reading(batch, spec.coordinate)
     np.testing.assert_array_equal(u, want_u)
     for row, h in zip(values, spec.channels, strict=True):
         np.testing.assert_array_equal(row, mean_reading(batch, (h,), minus=want_u))
     assert sense == 1
+    assert step == float(np.abs(np.diff(want_u)).max())
+
+
+@pytest.mark.parametrize("where", [1, 35000, 69999])
+def test_a_step_of_half_a_turn_within_a_batch_is_refused(compiled: None, where: int) -> None:
+    """A batch whose coordinate jumps half a turn between two samples (the kernel finds
+    the largest step): the one-line DataError of the numpy check, naming the jump."""
+    from enctools.methods.revolutions import RevolutionCutter
+
+    batch, spec = _batch(np.random.default_rng(6), 70000)
+    cols = {n: batch.column(n).to_numpy().copy() for n in batch.schema.names}
+    for h in spec.coordinate:     # the mean of the coordinate heads moves on by 0.6 turn
+        cols[h.name][where:] += int(0.6 * h.counts_per_rev)
+    jumped = pa.RecordBatch.from_pydict({k: pa.array(v, pa.int64()) for k, v in cols.items()})
+    with_time = jumped.append_column("t", pa.array(np.arange(70000) * 0.003))
+    with pytest.raises(DataError, match=r"moves 0\.6 turns between two samples"):
+        RevolutionCutter(spec, "x")(with_time)
 
 
 def test_running_mean_rows_are_their_own() -> None:
