@@ -6,8 +6,10 @@ Every error a user can cause or meet is one of these; the command layer prints
 
 from __future__ import annotations
 
+import contextlib
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from typing import Any
 
 #: a setting named in a message: a field of a settings object between backticks,
 #: ``band`` or ``target.lsb`` (dotted: a field of a field)
@@ -120,6 +122,38 @@ def ending_signals(sigint: bool = True) -> tuple[int, ...]:
 
     return tuple(sig for sig in ending_signal_numbers(sigint)
                  if signal.getsignal(sig) != signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and the signals that end a command (:func:`ending_signals`: not the
+    ignored ones) while the block runs, then deliver the first that came through the
+    handler it had (a default one ends the process): a rename of outputs, a history row or
+    an import is never cut short where a signal lands. Outside the main thread, where
+    Python's handlers cannot be changed, the block runs as it is; a handler set from C is
+    left alone."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list[int] = []
+
+    def hold(signum: int, frame: Any) -> None:
+        came.append(signum)
+
+    kept = {sig: signal.getsignal(sig) for sig in ending_signals()}
+    kept = {sig: handler for sig, handler in kept.items() if handler is not None}
+    for sig in kept:
+        signal.signal(sig, hold)
+    try:
+        yield
+    finally:
+        for sig, handler in kept.items():
+            signal.signal(sig, handler)
+        if came:
+            signal.raise_signal(came[0])
 
 
 def signal_name(signum: int) -> str:

@@ -8,13 +8,13 @@ import os
 import subprocess
 from pathlib import Path
 
+from enctools.errors import signals_held
 from enctools.report.nightly import (
     RESULT,
     WORK_LOCK,
     Campaign,
     CampaignFailed,
     record_campaign,
-    signals_held,
 )
 
 #: what the default campaign does, said as the pipeline it stands for (the history's

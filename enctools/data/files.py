@@ -7,7 +7,8 @@ same folder (:func:`new_temporary`), renamed over the target only once complete
 (:func:`rename_into_place`), as NCO does. An interrupted or failed write leaves the old
 file (or none) in place. A command with several outputs writes them as one
 :class:`OutputGroup`: all are renamed into place once all are written, or none is (a
-signal arriving during the renames is held until they are done: :func:`signals_held`). A
+signal arriving during the renames is held until they are done:
+``errors.signals_held``). A
 temporary left by a killed run is removed by the next run that writes the same NAME
 (:func:`remove_stale_temporaries`).
 
@@ -31,11 +32,11 @@ import re
 import socket
 import stat
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import BinaryIO
 
-from enctools.errors import DataError, OutputError, SettingsError, ending_signals
+from enctools.errors import DataError, OutputError, SettingsError, signals_held
 
 STALE_AGE_S = 3600.0
 """A temporary of a dead writer is removed once its last write is this old [s]."""
@@ -380,37 +381,6 @@ def _sync_folder(p: Path) -> None:
             os.close(dfd)
     except OSError:
         pass
-
-
-@contextlib.contextmanager
-def signals_held() -> Iterator[None]:
-    """Hold the signals that end a command (SIGINT, SIGTERM, SIGHUP, ...; not the ignored
-    ones) while the block runs, then deliver the first that came through the handler it
-    had (a default one ends the process): the renames of an :class:`OutputGroup` all
-    happen, or stop at an error, never where a signal lands. Outside the main thread,
-    where Python's handlers cannot be changed, the block runs as it is."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    came: list[int] = []
-
-    def hold(signum: int, frame: Any) -> None:
-        came.append(signum)
-
-    kept = {sig: signal.getsignal(sig) for sig in ending_signals(sigint=True)}
-    kept = {sig: handler for sig, handler in kept.items() if handler is not None}  # not C's
-    for sig in kept:
-        signal.signal(sig, hold)
-    try:
-        yield
-    finally:
-        for sig, handler in kept.items():
-            signal.signal(sig, handler)
-        if came:
-            signal.raise_signal(came[0])
 
 
 class OutputGroup:

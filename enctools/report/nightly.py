@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from enctools.errors import DataError, EncError, Interrupted, SettingsError
+from enctools.errors import DataError, EncError, Interrupted, SettingsError, signals_held
 
 if TYPE_CHECKING:  # numpy, pyarrow and the report are imported when a night runs
     import numpy as np
@@ -427,35 +427,6 @@ def _night_over(path: str, pid: int, host: str) -> bool:
     finally:
         os.close(fd)
     return True
-
-
-@contextlib.contextmanager
-def signals_held() -> Iterator[None]:
-    """Hold SIGINT and the signals that end a process (``errors.ENDING_SIGNALS``: SIGTERM,
-    SIGHUP...) until the block is done, then act on the first one held as its handler
-    would have (from the main thread; elsewhere nothing is held)."""
-    import signal
-    import threading
-
-    from enctools.errors import ending_signals
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held: list[int] = []
-
-    def hold(signum: int, frame: Any) -> None:
-        held.append(signum)
-
-    before = {sig: signal.signal(sig, hold)
-              for sig in ending_signals()}  # an ignored one (nohup's SIGHUP) stays ignored
-    try:
-        yield
-    finally:
-        for sig, handler in before.items():
-            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
-        if held:
-            signal.raise_signal(held[0])
 
 
 def _recheck(s: Settings, work: Path, record: dict[str, Any], night: Night) -> None:
