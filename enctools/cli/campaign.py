@@ -80,6 +80,36 @@ GRACE_S = 5.0
 STDERR_TAIL = 1 << 16
 
 
+def _started(command: str, env: dict[str, str], lock: Path | None
+             ) -> tuple[subprocess.Popen[bytes], StderrTail]:
+    """The campaign's shell, started in a process group of its own and its stderr read;
+    the group told to ``lock`` before the shell is let go to run ``command`` (it waits for
+    the word on a pipe, then becomes ``bash -o pipefail -c command``, the same process).
+    A night killed before the word leaves a shell that ends without running anything."""
+    go_r, go_w = os.pipe()
+    try:
+        waited = (f"read -r -u {go_r} _ || exit 1; exec {go_r}<&-; "
+                  'exec /bin/bash -o pipefail -c "$1"')
+        proc = subprocess.Popen(["/bin/bash", "-c", waited, "/bin/bash", command], env=env,
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, start_new_session=True,
+                                pass_fds=(go_r,))
+    except BaseException:
+        os.close(go_w)
+        raise
+    finally:
+        os.close(go_r)
+    try:                 # on an error here the shell, given no word, ends on its own
+        tail = StderrTail(proc)
+        if lock is not None:
+            record_campaign(lock, proc.pid)
+        with contextlib.suppress(BrokenPipeError):  # a shell already ended (bad syntax)
+            os.write(go_w, b"\n")
+    finally:
+        os.close(go_w)
+    return proc, tail
+
+
 def run_script(command: str, env: dict[str, str], timeout_s: float | None = None,
                lock: Path | None = None) -> tuple[int, bytes]:
     """Run a shell command in a process group of its own; its status and (the end of) its
@@ -92,18 +122,14 @@ def run_script(command: str, env: dict[str, str], timeout_s: float | None = None
     SIGKILL for those still there after :data:`GRACE_S`. A timeout is a
     :class:`CampaignFailed` of exit 3 (a device that no longer answers, most often).
     ``lock``: the night's lock file, told the group (a ``kill -9`` of the night leaves it
-    for the next night to stop).
+    for the next night to stop). The command starts only once the group is told
+    (:func:`_started`).
     """
     proc: subprocess.Popen[bytes] | None = None
     tail: StderrTail | None = None
     try:
         with signals_held():  # a signal is acted on once ``proc`` is known
-            proc = subprocess.Popen(["/bin/bash", "-o", "pipefail", "-c", command], env=env,
-                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                    stderr=subprocess.PIPE, start_new_session=True)
-            tail = StderrTail(proc)
-            if lock is not None:
-                record_campaign(lock, proc.pid)
+            proc, tail = _started(command, env, lock)
         code: int | None = proc.wait(timeout=timeout_s)
     except subprocess.TimeoutExpired:
         code = None

@@ -666,6 +666,32 @@ def _group_gone(pgid: int) -> bool:
 
 
 @pytest.mark.slow
+def test_a_night_killed_before_it_tells_the_lock_its_campaign_runs_none(tmp_path):
+    """kill -9 of the night after its campaign's shell started and before the group was
+    written into the lock: the shell, still waiting for the night's word, ends without
+    running the campaign (which nobody could have stopped). Before, a loaded machine let the
+    campaign start first (stop 51's CI)."""
+    import time
+
+    lock, started = tmp_path / "lock", tmp_path / "started"
+    lock.write_text("")
+    code = textwrap.dedent(f"""
+        import os, signal
+        from enctools.cli import campaign
+        def killed(lock, pid):
+            os.kill(os.getpid(), signal.SIGKILL)
+        campaign.record_campaign = killed
+        campaign.run_script("touch {started}; sleep 30", dict(os.environ), None,
+                            campaign.Path({str(lock)!r}))
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=60)
+    assert r.returncode == -signal.SIGKILL, r.stderr.decode()
+    time.sleep(1.0)
+    assert not started.exists()
+    assert lock.read_text() == ""
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("ending", ["success", "SIGTERM", "SIGHUP", "deadline"])
 def test_no_process_of_the_campaign_outlives_the_night(tmp_path, enc, ending):
     """A campaign that ignores SIGTERM and leaves a process of its own running, itself
